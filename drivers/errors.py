@@ -1,0 +1,92 @@
+"""The toolkit's exception tree.
+
+It lives in the lowest layer that raises it (``drivers``), so that ``drivers``,
+``plant_emulator`` and ``rig`` share one root without importing upwards.
+``controllers`` stays pure and raises plain ``ValueError``; ``rig`` translates.
+
+::
+
+    RigError
+     +-- ConfigError (ValueError)          bad configuration or argument
+     +-- CommunicationError                 the bus or the line failed
+     |    +-- CommunicationTimeout (TimeoutError)
+     |    +-- SdoAbort                      SDO abort, ``.code`` (CiA 301)
+     |    +-- ModbusExceptionResponse       ``.code`` (Modbus exception code)
+     +-- DeviceFault                        the device reports a fault (EMCY, ...)
+     +-- SafetyStop                         the host stopped the drive on purpose
+
+Library exceptions are translated at the driver boundary with
+``raise ... from exc``.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "CommunicationError",
+    "CommunicationTimeout",
+    "ConfigError",
+    "DeviceFault",
+    "ModbusExceptionResponse",
+    "RigError",
+    "SafetyStop",
+    "SdoAbort",
+]
+
+
+class RigError(Exception):
+    """Root of every error the toolkit raises on purpose."""
+
+
+class ConfigError(RigError, ValueError):
+    """A configuration value or command-line argument is wrong.
+
+    The message names the value and where it came from (file, key, option).
+    """
+
+
+class CommunicationError(RigError):
+    """A bus, line or device did not communicate as the protocol requires."""
+
+
+class CommunicationTimeout(CommunicationError, TimeoutError):
+    """No answer within the timeout (seconds)."""
+
+
+class SdoAbort(CommunicationError):
+    """An SDO transfer was aborted; ``code`` is the 32-bit CiA 301 abort code."""
+
+    def __init__(self, message: str, *, code: int, node_id: int, index: int, subindex: int):
+        super().__init__(
+            f"{message} (node {node_id}, 0x{index:04X}:{subindex:02X}, abort code 0x{code:08X})"
+        )
+        self.code = code
+        self.node_id = node_id
+        self.index = index
+        self.subindex = subindex
+
+
+class ModbusExceptionResponse(CommunicationError):
+    """A Modbus device answered with an exception; ``code`` is the exception code."""
+
+    def __init__(self, message: str, *, code: int, unit: int, register: int):
+        super().__init__(f"{message} (unit {unit}, register {register}, exception code {code})")
+        self.code = code
+        self.unit = unit
+        self.register = register
+
+
+class DeviceFault(RigError):
+    """The device reports a fault; ``device`` names it and ``code`` is its error code."""
+
+    def __init__(self, message: str, *, device: str, code: int = 0):
+        super().__init__(f"{device}: {message}" + (f" (error code 0x{code:04X})" if code else ""))
+        self.device = device
+        self.code = code
+
+
+class SafetyStop(RigError):
+    """The host loop stopped the drive through the safe-stop path; ``reason`` says why."""
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason

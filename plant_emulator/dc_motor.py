@@ -1,0 +1,141 @@
+"""Separately excited / permanent-magnet DC motor, eqs. (3.4)-(3.7) of the drives paper.
+
+Two models, both stepped exactly by ZOH over ``dt`` (inputs held):
+
+- ``DCMotor``: the full model (3.4) with armature current and position (3.6),
+  state [theta, omega, i_r], inputs [u_r, T_L];
+- ``ReducedDCMotor``: the reduced model (3.5) with position, i.e. (3.7),
+  state [theta, omega], inputs [u_r, T_L]; dw/dt = -(a_m + B/J) w + b_m u - T_L/J.
+
+A matched disturbance f (in volts, acting as u + f, eq. (6.1)) is the same as a
+load T_L = -J b_m f; ``ReducedDCMotor.step`` takes it directly as ``f``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from plant_emulator.zoh import LinearZOH
+
+__all__ = ["DCMotor", "DCMotorParams", "ReducedDCMotor"]
+
+
+@dataclass(frozen=True, slots=True)
+class DCMotorParams:
+    """Parameters of (3.4); SI units."""
+
+    r: float  #: armature resistance R_r [Ohm]
+    l: float  #: armature inductance L_r [H]
+    k_e: float  #: back-EMF constant k_e [V s/rad]
+    k_t: float  #: torque constant k_t [N m/A]
+    j: float  #: total inertia J [kg m^2]
+    b: float = 0.0  #: viscous friction B [N m s/rad]
+
+    def __post_init__(self) -> None:
+        for name in ("r", "l", "j"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"DC motor parameter {name} must be > 0, got {value!r}")
+        for name in ("k_e", "k_t", "b"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"DC motor parameter {name} must be >= 0, got {value!r}")
+        if self.k_t == 0.0:
+            raise ValueError("DC motor parameter k_t must be > 0")
+
+    @property
+    def a_m(self) -> float:
+        """a_m = k_t k_e / (J R_r) of (3.5) [1/s]."""
+        return self.k_t * self.k_e / (self.j * self.r)
+
+    @property
+    def b_m(self) -> float:
+        """b_m = k_t / (J R_r) of (3.5) [rad/(V s^2)]."""
+        return self.k_t / (self.j * self.r)
+
+    @classmethod
+    def from_am_bm(
+        cls, *, a_m: float, b_m: float, r: float = 1.0, tau_e: float = 1e-4, b: float = 0.0
+    ) -> DCMotorParams:
+        """A motor whose reduced model (3.5) has the given a_m [1/s] and b_m.
+
+        k_e = k_t = a_m / b_m (SI), J = k_t / (R b_m), L = tau_e R with the
+        electrical time constant tau_e [s].
+        """
+        if not (a_m > 0.0 and b_m > 0.0):
+            raise ValueError(f"a_m and b_m must be > 0, got a_m={a_m!r}, b_m={b_m!r}")
+        k = a_m / b_m
+        return cls(r=r, l=tau_e * r, k_e=k, k_t=k, j=k / (r * b_m), b=b)
+
+
+class DCMotor:
+    """Full DC motor (3.4) with position (3.6): state [theta, omega, i_r]."""
+
+    __slots__ = ("_zoh", "params")
+
+    def __init__(self, params: DCMotorParams, *, dt: float) -> None:
+        p = params
+        A = [
+            [0.0, 1.0, 0.0],
+            [0.0, -p.b / p.j, p.k_t / p.j],
+            [0.0, -p.k_e / p.l, -p.r / p.l],
+        ]
+        B = [[0.0, 0.0], [0.0, -1.0 / p.j], [1.0 / p.l, 0.0]]
+        self.params = p
+        self._zoh = LinearZOH(A, B, dt)
+
+    @property
+    def theta(self) -> float:
+        """Shaft angle [rad]."""
+        return self._zoh.x[0]
+
+    @property
+    def omega(self) -> float:
+        """Shaft speed [rad/s]."""
+        return self._zoh.x[1]
+
+    @property
+    def current(self) -> float:
+        """Armature current i_r [A]."""
+        return self._zoh.x[2]
+
+    def set_state(self, theta: float = 0.0, omega: float = 0.0, current: float = 0.0) -> None:
+        """Set the state [rad, rad/s, A]."""
+        self._zoh.x[:] = [theta, omega, current]
+
+    def step(self, u: float, t_load: float = 0.0) -> None:
+        """Advance dt with armature voltage u [V] and load torque t_load [N m] held."""
+        self._zoh.step((u, t_load))
+
+
+class ReducedDCMotor:
+    """Reduced DC motor (3.5) with position, i.e. (3.7): state [theta, omega]."""
+
+    __slots__ = ("_zoh", "a_m", "b_m", "j")
+
+    def __init__(self, *, a_m: float, b_m: float, dt: float, j: float = 1.0) -> None:
+        if not (math.isfinite(a_m) and math.isfinite(b_m) and b_m != 0.0 and j > 0.0):
+            raise ValueError(f"need finite a_m, b_m != 0, j > 0; got {a_m!r}, {b_m!r}, {j!r}")
+        self.a_m, self.b_m, self.j = a_m, b_m, j
+        A = [[0.0, 1.0], [0.0, -a_m]]
+        B = [[0.0, 0.0, 0.0], [b_m, -1.0 / j, b_m]]
+        self._zoh = LinearZOH(A, B, dt)
+
+    @property
+    def theta(self) -> float:
+        """Shaft angle [rad]."""
+        return self._zoh.x[0]
+
+    @property
+    def omega(self) -> float:
+        """Shaft speed [rad/s]."""
+        return self._zoh.x[1]
+
+    def set_state(self, theta: float = 0.0, omega: float = 0.0) -> None:
+        """Set the state [rad, rad/s]."""
+        self._zoh.x[:] = [theta, omega]
+
+    def step(self, u: float, t_load: float = 0.0, f: float = 0.0) -> None:
+        """Advance dt with u [V], load torque [N m] and matched disturbance f [V] held."""
+        self._zoh.step((u, t_load, f))

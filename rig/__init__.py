@@ -1,0 +1,3 @@
+"""Composition: configuration, host loop, safety, recorder, identification and the CLI."""
+
+__all__: list[str] = []

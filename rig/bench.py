@@ -1,0 +1,90 @@
+"""Benchmarks: microseconds per controller step and per plant step.
+
+Each figure is the best of several repeats of N calls with changing inputs,
+timed with ``time.perf_counter``; the loop's own overhead is included, so the
+figures are what a host loop pays.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from controllers.cascade import TABLE_V_CURRENT, TABLE_V_POSITION, TABLE_V_SPEED, Cascade, CascadeLoop
+from controllers.compensators import FirstOrderCompensator, SecondOrderCompensator
+from controllers.design import design_dtsm
+from controllers.dtsm import DTSM, DTSMParams
+from controllers.idtsm import IDTSM, IDTSMParams
+from controllers.pi import PI, PIParams
+from controllers.position_servo import PositionServo, PositionServoParams
+from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
+
+__all__ = ["BENCHMARKS", "Figure", "bench_controllers", "bench_plant"]
+
+Figure = dict[str, object]
+
+
+def _time_per_call(fn: Callable[[float], object], n: int, repeats: int) -> float:
+    """Best time per call [us] of ``fn(x)`` over ``repeats`` runs of ``n`` calls."""
+    xs = [((i % 97) - 48) * 1e-3 for i in range(n)]
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for x in xs:
+            fn(x)
+        best = min(best, time.perf_counter() - t0)
+    return best / n * 1e6
+
+
+def _controllers() -> dict[str, Callable[[float], object]]:
+    servo = design_dtsm(A=[[0.0, 1.0], [0.0, -16.0]], b=[0.0, -680.0], dt=0.4e-3, lam=-15.0)
+    speed = design_dtsm(A=[[-16.0]], b=[680.0], dt=1e-3, lam=-1.0)
+    dtsm2 = DTSM(DTSMParams(design=servo, law="bounded", sigma=10.0))
+    dtsm1c = DTSM(DTSMParams(design=speed, law="deadbeat"), FirstOrderCompensator(0.5, 1e-3))
+    dtsm1c2 = DTSM(DTSMParams(design=speed, law="deadbeat"), SecondOrderCompensator(1e-3))
+    idtsm = IDTSM(IDTSMParams(a=-16.0, b=680.0, dt=1e-3, lam=-50.0))
+    ps = PositionServo(PositionServoParams(design=servo))
+    loop1, loop2 = CascadeLoop(TABLE_V_CURRENT), CascadeLoop(TABLE_V_POSITION)
+    casc = Cascade(CascadeLoop(TABLE_V_POSITION), CascadeLoop(TABLE_V_SPEED), CascadeLoop(TABLE_V_CURRENT))
+    pi = PI(PIParams(kp=0.4443, ki=39.6, dt=5e-4, u_max=5.02, u_min=-5.02))
+    return {
+        "dtsm_6.15a_2state": lambda x: dtsm2.step(x, -x),
+        "dtsm_6.14_comp_6.30b": dtsm1c.step,
+        "dtsm_6.14_comp_6.35": dtsm1c2.step,
+        "idtsm_6.21": idtsm.step,
+        "position_servo_7.30": lambda x: ps.step(x, 0.3 * x),
+        "cascade_loop_current": lambda x: loop1.step(1.0, x),
+        "cascade_loop_position": lambda x: loop2.step(1.0, x, -x),
+        "cascade_3_loops": lambda x: casc.step(1.0, x, -x, 0.1 * x),
+        "pi_antiwindup": pi.step,
+    }
+
+
+def _plants() -> dict[str, Callable[[float], object]]:
+    full = DCMotor(DCMotorParams.from_am_bm(a_m=16.0, b_m=680.0), dt=1e-4)
+    reduced = ReducedDCMotor(a_m=16.0, b_m=680.0, dt=1e-3)
+    return {"dc_motor_3.4_step": full.step, "dc_motor_3.7_step": reduced.step}
+
+
+def _run(table: dict[str, Callable[[float], object]], n: int, repeats: int) -> list[Figure]:
+    return [
+        {"name": name, "value": round(_time_per_call(fn, n, repeats), 3), "unit": "us/step"}
+        for name, fn in table.items()
+    ]
+
+
+def bench_controllers(*, n: int = 100_000, repeats: int = 5) -> list[Figure]:
+    """Microseconds per ``step`` of each controller (target <= 5 us)."""
+    return _run(_controllers(), n, repeats)
+
+
+def bench_plant(*, n: int = 100_000, repeats: int = 5) -> list[Figure]:
+    """Microseconds per exact ZOH step of the plant models."""
+    return _run(_plants(), n, repeats)
+
+
+#: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}.
+BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
+    "controllers": bench_controllers,
+    "plant": bench_plant,
+}

@@ -1,0 +1,146 @@
+"""The ``rig`` command line: ``main(argv=None) -> int``.
+
+Conventions: ``--help`` on every level; ``--json`` prints one JSON document on
+stdout and nothing else there; bad arguments give one line on stderr and exit
+code 2. Only this module configures logging.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+from collections.abc import Sequence
+from typing import NoReturn
+
+from controllers.design import DTSMDesign, design_dtsm
+from rig.bench import BENCHMARKS
+from rig.demo import run_demo
+
+__all__ = ["main"]
+
+EXIT_USAGE = 2
+
+
+class _UsageError(Exception):
+    """A command-line argument is wrong; the message names it."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line, raised instead of exiting."""
+
+    def error(self, message: str) -> NoReturn:
+        raise _UsageError(f"{self.prog}: {message}")
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
+
+
+def _build_parser() -> _Parser:
+    parser = _Parser(prog="rig", description="drive-rig: electrical-drive lab rig toolkit.")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages to stderr")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    sub.add_parser("demo", help="design and simulate the DC position servo (section VII.B)")
+
+    design = sub.add_parser("design", help="design a controller")
+    dsub = design.add_subparsers(dest="kind", required=True, parser_class=_Parser)
+    dtsm = dsub.add_parser(
+        "dtsm",
+        help="DTSM sliding vector, eqs. (6.9), (6.16)-(6.19)",
+        description="Design the delta-domain DTSM for dw/dt = -a_m w + b_m u with position "
+        "(3.7), or the error-space model (7.28) with --error-space.",
+    )
+    dtsm.add_argument("--a-m", type=_finite, required=True, help="a_m [1/s]")
+    dtsm.add_argument("--b-m", type=_finite, required=True, help="b_m [rad/(V s^2)]")
+    dtsm.add_argument("--dt", type=_finite, required=True, help="sample period T [s], > 0")
+    dtsm.add_argument("--lam", type=_finite, required=True, help="sliding eigenvalue lambda [1/s], < 0")
+    dtsm.add_argument(
+        "--error-space", action="store_true", help="use (7.28): e = [theta_r - theta, de/dt], b = [0, -b_m]"
+    )
+    dtsm.add_argument("--json", action="store_true", help="print one JSON object")
+
+    bench = sub.add_parser("bench", help="measure and print figures")
+    bench.add_argument("name", choices=sorted(BENCHMARKS), help="what to measure")
+    bench.add_argument("--json", action="store_true", help='print a list of {"name", "value", "unit"}')
+    return parser
+
+
+def _design_dtsm(args: argparse.Namespace) -> DTSMDesign:
+    if args.dt <= 0.0:
+        raise _UsageError(f"rig design dtsm: argument --dt: must be > 0 s, got {args.dt:g}")
+    if args.lam >= 0.0:
+        raise _UsageError(f"rig design dtsm: argument --lam: must be < 0 1/s, got {args.lam:g}")
+    b = -args.b_m if args.error_space else args.b_m
+    try:
+        return design_dtsm(A=[[0.0, 1.0], [0.0, -args.a_m]], b=[0.0, b], dt=args.dt, lam=args.lam)
+    except ValueError as exc:
+        raise _UsageError(
+            f"rig design dtsm: --a-m {args.a_m:g} --b-m {args.b_m:g} --dt {args.dt:g}: {exc}"
+        ) from exc
+
+
+def _print_design(d: DTSMDesign, out: object) -> None:
+    lines = [
+        f"DTSM design, T = {d.dt:g} s (eqs. 6.9, 6.16-6.19)",
+        f"  A_delta         = {[list(r) for r in d.A_delta]}",
+        f"  b_delta         = {list(d.b_delta)}",
+        f"  lambda_delta    = {d.lambda_delta:.10g} 1/s",
+        f"  k_delta         = {list(d.k_delta)}",
+        f"  c_delta         = {list(d.c_delta)}",
+        f"  c_delta A_delta = {list(d.c_delta_A_delta)}",
+    ]
+    print("\n".join(lines), file=out)  # type: ignore[call-overload]
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.command == "demo":
+        return run_demo(sys.stdout)
+    if args.command == "design":
+        d = _design_dtsm(args)
+        if args.json:
+            print(json.dumps(d.as_dict()))
+        else:
+            _print_design(d, sys.stdout)
+        return 0
+    if args.command == "bench":
+        figures = BENCHMARKS[args.name]()
+        if args.json:
+            print(json.dumps(figures))
+        else:
+            for f in figures:
+                print(f"{f['name']:28s} {f['value']:>10} {f['unit']}")
+        return 0
+    raise _UsageError(f"rig: unknown command {args.command!r}")  # pragma: no cover
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``rig`` command line; returns the process exit code."""
+    parser = _build_parser()
+    try:
+        args = parser.parse_args(argv)
+        logging.basicConfig(
+            level=logging.DEBUG if args.verbose else logging.WARNING,
+            stream=sys.stderr,
+            format="%(levelname)s %(name)s: %(message)s",
+        )
+        return _run(args)
+    except _UsageError as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("rig: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

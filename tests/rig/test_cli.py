@@ -1,0 +1,74 @@
+"""The ``rig`` command line, called through ``main(argv)``."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from rig.cli import main
+
+
+def test_design_dtsm_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
+    rc = main(["design", "dtsm", "--a-m", "16", "--b-m", "680", "--dt", "0.4e-3", "--lam", "-15",
+               "--error-space", "--json"])
+    out = capsys.readouterr()
+    assert rc == 0 and out.err == ""
+    doc = json.loads(out.out)
+    assert set(doc) == {"A_delta", "b_delta", "lambda_delta", "k_delta", "c_delta", "c_delta_A_delta"}
+    assert [round(v, 4) for v in doc["A_delta"][1]] == [0.0, -15.9489]
+    assert round(doc["b_delta"][1], 6) == -677.828635
+    assert [round(c, 4) for c in doc["c_delta"]] == [-0.0221, -0.0015]
+    assert [round(c, 4) for c in doc["c_delta_A_delta"]] == [0.0, 0.0015]
+    assert isinstance(doc["lambda_delta"], float)
+
+
+def test_design_dtsm_table(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["design", "dtsm", "--a-m", "16", "--b-m", "680", "--dt", "1e-3", "--lam", "-15"]) == 0
+    assert "c_delta A_delta" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["--dt", "0"], "--dt"),
+        (["--dt", "-1e-3"], "--dt"),
+        (["--dt", "abc"], "--dt"),
+        (["--a-m", "nan"], "--a-m"),
+        (["--lam", "3"], "--lam"),
+        (["--b-m", "0"], "not controllable"),
+    ],
+)
+def test_design_dtsm_bad_arguments_one_line_exit_2(
+    argv: list[str], needle: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = {"--a-m": "16", "--b-m": "680", "--dt": "1e-3", "--lam": "-15"}
+    base.update(dict(zip(argv[::2], argv[1::2])))
+    args = ["design", "dtsm", *[x for kv in base.items() for x in kv], "--json"]
+    assert main(args) == 2
+    out = capsys.readouterr()
+    assert out.out == ""
+    lines = out.err.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0]
+
+
+def test_unknown_command_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fly"]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_bench_json_contract(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    import rig.bench as bench
+
+    monkeypatch.setitem(bench.BENCHMARKS, "controllers", lambda: bench.bench_controllers(n=200, repeats=1))
+    assert main(["bench", "controllers", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert isinstance(doc, list) and doc
+    for fig in doc:
+        assert set(fig) == {"name", "value", "unit"} and fig["unit"] == "us/step" and fig["value"] > 0
+
+
+def test_demo_runs_and_reports(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["demo"]) == 0
+    out = capsys.readouterr().out
+    assert "dtsm-7.30 h=16" in out and "sign law" in out and "cascade" in out
