@@ -41,12 +41,12 @@ from dataclasses import dataclass, field
 from controllers.design import DTSMDesign
 
 __all__ = [
-    "Cascade",
-    "CascadeLoop",
-    "CascadeLoopParams",
     "TABLE_V_CURRENT",
     "TABLE_V_POSITION",
     "TABLE_V_SPEED",
+    "Cascade",
+    "CascadeLoop",
+    "CascadeLoopParams",
 ]
 
 
@@ -72,9 +72,14 @@ class CascadeLoopParams:
             raise ValueError(f"dt must be > 0 s, got {self.dt!r}")
         if not (0.0 < self.k_r1 <= 1.0):
             raise ValueError(f"k_r1 must be in (0, 1], got {self.k_r1!r}")
-        checks = {"k_r2": self.k_r2 >= 0.0, "k_int": self.k_int >= 0.0, "u0": self.u0 > 0.0,
-                  "beta": self.beta > 0.0, "alpha": 0.0 <= self.alpha <= 1.0,
-                  "c_s[0]": self.c_s[0] != 0.0}
+        checks = {
+            "k_r2": self.k_r2 >= 0.0,
+            "k_int": self.k_int >= 0.0,
+            "u0": self.u0 > 0.0,
+            "beta": self.beta > 0.0,
+            "alpha": 0.0 <= self.alpha <= 1.0,
+            "c_s[0]": self.c_s[0] != 0.0,
+        }
         for name, ok in checks.items():
             if not ok:
                 raise ValueError(f"{name} is out of range in {self!r}")
@@ -92,17 +97,37 @@ class CascadeLoopParams:
 
 #: Table V, q-axis current loop (T = 0.1 ms); k_eq printed truncated from -5.45217.
 TABLE_V_CURRENT = CascadeLoopParams(
-    dt=1e-4, k_s=(-5.4521,), c_s=(0.0236,), k_r1=0.25, k_r2=0.3, k_int=1000.0,
-    u0=math.sqrt(2.0) * 230.0, beta=0.001,
+    dt=1e-4,
+    k_s=(-5.4521,),
+    c_s=(0.0236,),
+    k_r1=0.25,
+    k_r2=0.3,
+    k_int=1000.0,
+    u0=math.sqrt(2.0) * 230.0,
+    beta=0.001,
 )
 #: Table V, speed loop (T = 0.5 ms).
 TABLE_V_SPEED = CascadeLoopParams(
-    dt=5e-4, k_s=(-0.0015,), c_s=(0.0025,), k_r1=0.12, k_r2=0.8, k_int=100.0, u0=5.02, beta=0.5,
+    dt=5e-4,
+    k_s=(-0.0015,),
+    c_s=(0.0025,),
+    k_r1=0.12,
+    k_r2=0.8,
+    k_int=100.0,
+    u0=5.02,
+    beta=0.5,
 )
 #: Table V, position loop (T = 1 ms); reproduced by design_dtsm with lambda = -25 1/s.
 TABLE_V_POSITION = CascadeLoopParams(
-    dt=1e-3, k_s=(0.0, -0.9373), c_s=(0.0627, 0.0025), k_r1=0.9, k_r2=0.1, k_int=40.0, u0=30.0,
-    beta=0.001, alpha=1.0,
+    dt=1e-3,
+    k_s=(0.0, -0.9373),
+    c_s=(0.0627, 0.0025),
+    k_r1=0.9,
+    k_r2=0.1,
+    k_int=40.0,
+    u0=30.0,
+    beta=0.001,
+    alpha=1.0,
 )
 
 
@@ -152,8 +177,7 @@ class CascadeLoop:
             u = -self._k1 * y1
         self.g = g
         reach = self._kr1 * abs(g) * self._inv_dt
-        if reach > self._kr2u0:
-            reach = self._kr2u0
+        reach = min(reach, self._kr2u0)
         u += reach if g >= 0.0 else -reach
         psi = g * self._inv_layer
         psi = 1.0 if psi > 1.0 else (-1.0 if psi < -1.0 else psi)

@@ -13,7 +13,7 @@ from typing import Literal, Protocol
 
 from controllers.design import DTSMDesign
 
-__all__ = ["DTSM", "DTSMParams", "Compensator"]
+__all__ = ["DTSM", "Compensator", "DTSMParams"]
 
 Law = Literal["deadbeat", "bounded", "saturated", "relay"]
 _LAWS = ("deadbeat", "bounded", "saturated", "relay")
@@ -103,8 +103,7 @@ class DTSM:
             u = u_eq - g * self._inv_dt
         elif law == 1:  # (6.15a)
             reach = abs(g) * self._inv_dt
-            if reach > self._sigma:
-                reach = self._sigma
+            reach = min(reach, self._sigma)
             u = u_eq - reach if g > 0.0 else u_eq + reach
         elif law == 2:  # (6.15b), saturated below after compensation
             u = u_eq - g * self._inv_dt

@@ -81,7 +81,7 @@ class IDTSM:
     def step(self, e: float) -> float:
         """One control update from the tracking error e_k = r_k - y_k."""
         e_prev = self._e_prev
-        if e_prev == e_prev:  # not NaN: integrate (6.20)
+        if e_prev == e_prev:  # noqa: PLR0124 (not NaN: integrate (6.20))
             g = self.g + self._inv_b * (e - e_prev - self._t_lam * e_prev)
             lim = self.params.g_limit
             self.g = lim if g > lim else (-lim if g < -lim else g)

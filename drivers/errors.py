@@ -56,9 +56,7 @@ class SdoAbort(CommunicationError):
     """An SDO transfer was aborted; ``code`` is the 32-bit CiA 301 abort code."""
 
     def __init__(self, message: str, *, code: int, node_id: int, index: int, subindex: int):
-        super().__init__(
-            f"{message} (node {node_id}, 0x{index:04X}:{subindex:02X}, abort code 0x{code:08X})"
-        )
+        super().__init__(f"{message} (node {node_id}, 0x{index:04X}:{subindex:02X}, abort code 0x{code:08X})")
         self.code = code
         self.node_id = node_id
         self.index = index

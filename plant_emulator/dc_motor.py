@@ -25,15 +25,15 @@ __all__ = ["DCMotor", "DCMotorParams", "ReducedDCMotor"]
 class DCMotorParams:
     """Parameters of (3.4); SI units."""
 
-    r: float  #: armature resistance R_r [Ohm]
-    l: float  #: armature inductance L_r [H]
+    r_r: float  #: armature resistance R_r [Ohm]
+    l_r: float  #: armature inductance L_r [H]
     k_e: float  #: back-EMF constant k_e [V s/rad]
     k_t: float  #: torque constant k_t [N m/A]
     j: float  #: total inertia J [kg m^2]
     b: float = 0.0  #: viscous friction B [N m s/rad]
 
     def __post_init__(self) -> None:
-        for name in ("r", "l", "j"):
+        for name in ("r_r", "l_r", "j"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"DC motor parameter {name} must be > 0, got {value!r}")
@@ -47,26 +47,26 @@ class DCMotorParams:
     @property
     def a_m(self) -> float:
         """a_m = k_t k_e / (J R_r) of (3.5) [1/s]."""
-        return self.k_t * self.k_e / (self.j * self.r)
+        return self.k_t * self.k_e / (self.j * self.r_r)
 
     @property
     def b_m(self) -> float:
         """b_m = k_t / (J R_r) of (3.5) [rad/(V s^2)]."""
-        return self.k_t / (self.j * self.r)
+        return self.k_t / (self.j * self.r_r)
 
     @classmethod
     def from_am_bm(
-        cls, *, a_m: float, b_m: float, r: float = 1.0, tau_e: float = 1e-4, b: float = 0.0
+        cls, *, a_m: float, b_m: float, r_r: float = 1.0, tau_e: float = 1e-4, b: float = 0.0
     ) -> DCMotorParams:
         """A motor whose reduced model (3.5) has the given a_m [1/s] and b_m.
 
-        k_e = k_t = a_m / b_m (SI), J = k_t / (R b_m), L = tau_e R with the
+        k_e = k_t = a_m / b_m (SI), J = k_t / (R_r b_m), L_r = tau_e R_r with the
         electrical time constant tau_e [s].
         """
         if not (a_m > 0.0 and b_m > 0.0):
             raise ValueError(f"a_m and b_m must be > 0, got a_m={a_m!r}, b_m={b_m!r}")
         k = a_m / b_m
-        return cls(r=r, l=tau_e * r, k_e=k, k_t=k, j=k / (r * b_m), b=b)
+        return cls(r_r=r_r, l_r=tau_e * r_r, k_e=k, k_t=k, j=k / (r_r * b_m), b=b)
 
 
 class DCMotor:
@@ -79,9 +79,9 @@ class DCMotor:
         A = [
             [0.0, 1.0, 0.0],
             [0.0, -p.b / p.j, p.k_t / p.j],
-            [0.0, -p.k_e / p.l, -p.r / p.l],
+            [0.0, -p.k_e / p.l_r, -p.r_r / p.l_r],
         ]
-        B = [[0.0, 0.0], [0.0, -1.0 / p.j], [1.0 / p.l, 0.0]]
+        B = [[0.0, 0.0], [0.0, -1.0 / p.j], [1.0 / p.l_r, 0.0]]
         self.params = p
         self._zoh = LinearZOH(A, B, dt)
 

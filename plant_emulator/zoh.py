@@ -27,7 +27,7 @@ class LinearZOH:
         Step [s], > 0; the inputs are held constant over it.
     """
 
-    __slots__ = ("A_d", "B_d", "_tmp", "dt", "n", "m", "x")
+    __slots__ = ("A_d", "B_d", "_tmp", "dt", "m", "n", "x")
 
     def __init__(self, A: object, B: object, dt: float) -> None:
         A_ = np.atleast_2d(np.asarray(A, dtype=float))

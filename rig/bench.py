@@ -10,7 +10,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-from controllers.cascade import TABLE_V_CURRENT, TABLE_V_POSITION, TABLE_V_SPEED, Cascade, CascadeLoop
+from controllers.cascade import (
+    TABLE_V_CURRENT,
+    TABLE_V_POSITION,
+    TABLE_V_SPEED,
+    Cascade,
+    CascadeLoop,
+)
 from controllers.compensators import FirstOrderCompensator, SecondOrderCompensator
 from controllers.design import design_dtsm
 from controllers.dtsm import DTSM, DTSMParams

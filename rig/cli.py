@@ -65,7 +65,9 @@ def _build_parser() -> _Parser:
     dtsm.add_argument("--dt", type=_finite, required=True, help="sample period T [s], > 0")
     dtsm.add_argument("--lam", type=_finite, required=True, help="sliding eigenvalue lambda [1/s], < 0")
     dtsm.add_argument(
-        "--error-space", action="store_true", help="use (7.28): e = [theta_r - theta, de/dt], b = [0, -b_m]"
+        "--error-space",
+        action="store_true",
+        help="use (7.28): e = [theta_r - theta, de/dt], b = [0, -b_m]",
     )
     dtsm.add_argument("--json", action="store_true", help="print one JSON object")
 

@@ -73,7 +73,8 @@ def run_demo(out: TextIO) -> int:
     out.write(f"  design (7.31): c_delta = {list(d.c_delta)}, c_delta A_delta = {list(d.c_delta_A_delta)}\n")
     out.write("  move 0 -> 10 rad in 1 s, load step f = T_L/J = 1000 rad/s^2 at 1.5 s\n")
     out.write(f"  theory, h = 0: e_1 = T c_2 f / c_1 = {s.load_error_theory_rad:.6f} rad\n\n")
-    head = f"  {'controller':24s} {'max|e| rad':>11s} {'rms e rad':>11s} {'e_ss rad':>12s} {'max|u|':>8s} {'chatter':>8s}\n"
+    head = f"  {'controller':24s} {'max|e| rad':>11s} {'rms e rad':>11s} {'e_ss rad':>12s}"
+    head += f" {'max|u|':>8s} {'chatter':>8s}\n"
     out.write(head)
     for r in s.rows:
         out.write(

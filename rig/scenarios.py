@@ -58,7 +58,9 @@ class Trajectory:
         return (self.t >= t0) & (self.t < t1)
 
 
-def smooth_move(distance: float, duration: float, start: float = 0.0) -> Callable[[float], tuple[float, float]]:
+def smooth_move(
+    distance: float, duration: float, start: float = 0.0
+) -> Callable[[float], tuple[float, float]]:
     """Reference theta_r(t) moving by ``distance`` [rad] in ``duration`` [s] from ``start`` [s].
 
     A quintic (minimum-jerk) profile; returns (theta_r, omega_r) at time t.
@@ -121,7 +123,7 @@ def position_servo_run(
         motor = ReducedDCMotor(a_m=a_m, b_m=b_m, dt=dt, j=j)
     encoder = Encoder(counts_per_rev, dt=dt) if counts_per_rev else None
     ref = smooth_move(distance, move_time)
-    n = int(round(t_end / dt))
+    n = round(t_end / dt)
     t = np.arange(n) * dt
     out = {k: np.empty(n) for k in ("ref", "y", "u", "g", "u_i")}
     for k in range(n):
@@ -173,7 +175,7 @@ def speed_loop_run(
     ctl = DTSM(DTSMParams(design=design, law="deadbeat"), compensator=comp)
     sub = 1 if held_disturbance else substeps
     motor = ReducedDCMotor(a_m=a_m, b_m=b_m, dt=dt / sub)
-    n = int(round(t_end / dt))
+    n = round(t_end / dt)
     t = np.arange(n) * dt
     y, u_out, g, d = (np.empty(n) for _ in range(4))
     for k in range(n):
@@ -216,20 +218,18 @@ def cascade_run(
     """
     dt = current.dt
     k_t = b_w * j
-    motor = DCMotor(
-        DCMotorParams(r=-a_i / b_i, l=1.0 / b_i, k_e=0.0, k_t=k_t, j=j, b=-a_w * j), dt=dt
-    )
+    motor = DCMotor(DCMotorParams(r_r=-a_i / b_i, l_r=1.0 / b_i, k_e=0.0, k_t=k_t, j=j, b=-a_w * j), dt=dt)
     ctl = Cascade(
         CascadeLoop(position),
         CascadeLoop(speed),
         CascadeLoop(current),
-        speed_every=int(round(speed.dt / dt)),
-        position_every=int(round(position.dt / dt)),
+        speed_every=round(speed.dt / dt),
+        position_every=round(position.dt / dt),
     )
     encoder = Encoder(counts_per_rev, dt=speed.dt) if counts_per_rev else None
     ref = smooth_move(distance, move_time)
     load = load or (lambda t: 0.0)
-    n = int(round(t_end / dt))
+    n = round(t_end / dt)
     t = np.arange(n) * dt
     names = ("ref", "y", "u", "g", "omega_ref", "omega", "i_ref", "i_q")
     out = {k: np.empty(n) for k in names}
@@ -241,10 +241,17 @@ def cascade_run(
         elif k % ctl.speed_every == 0:
             theta_m, omega_m = encoder.sample(motor.theta)
         u = ctl.step(ref(tk)[0], theta_m, omega_m, motor.current)
-        row = (ref(tk)[0], motor.theta, u, ctl.position.g, ctl.omega_ref, motor.omega,
-               ctl.i_ref, motor.current)
+        row = (
+            ref(tk)[0],
+            motor.theta,
+            u,
+            ctl.position.g,
+            ctl.omega_ref,
+            motor.omega,
+            ctl.i_ref,
+            motor.current,
+        )
         for name, value in zip(names, row):
             out[name][k] = value
         motor.step(u, load(tk))
-    return Trajectory(t, out["ref"], out["y"], out["u"], out["g"],
-                      {k: out[k] for k in names[4:]})
+    return Trajectory(t, out["ref"], out["y"], out["u"], out["g"], {k: out[k] for k in names[4:]})

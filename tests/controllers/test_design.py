@@ -28,7 +28,12 @@ def test_delta_model_tends_to_continuous_model() -> None:
 def test_error_space_design_reproduces_7_31_to_every_printed_digit() -> None:
     d = design_dtsm(A=[[0.0, 1.0], [0.0, -16.0]], b=[0.0, -680.0], dt=0.4e-3, lam=-15.0)
     (a11, a12), (a21, a22) = d.A_delta
-    assert (round(a11, 4), round(a12, 4), round(a21, 4), round(a22, 4)) == (0.0, 0.9968, 0.0, -15.9489)
+    assert (round(a11, 4), round(a12, 4), round(a21, 4), round(a22, 4)) == (
+        0.0,
+        0.9968,
+        0.0,
+        -15.9489,
+    )
     assert round(d.b_delta[0], 5) == -0.13571
     assert round(d.b_delta[1], 6) == -677.828635
     assert [round(c, 4) for c in d.c_delta] == [-0.0221, -0.0015]
@@ -87,7 +92,12 @@ def test_ackermann_handles_repeated_poles() -> None:
     ],
 )
 def test_bad_design_input_names_the_problem(kwargs: dict[str, object], match: str) -> None:
-    args: dict[str, object] = {"A": [[0.0, 1.0], [0.0, -16.0]], "b": [0.0, 680.0], "dt": 1e-3, "lam": -15.0}
+    args: dict[str, object] = {
+        "A": [[0.0, 1.0], [0.0, -16.0]],
+        "b": [0.0, 680.0],
+        "dt": 1e-3,
+        "lam": -15.0,
+    }
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         design_dtsm(**args)  # type: ignore[arg-type]

@@ -35,7 +35,7 @@ def test_6_14_is_deadbeat_on_the_delta_model() -> None:
 def test_6_15a_bounds_the_reaching_control_and_is_6_14_near_the_line() -> None:
     bounded = DTSM(DTSMParams(design=SERVO, law="bounded", sigma=10.0))
     deadbeat = DTSM(DTSMParams(design=SERVO, law="deadbeat"))
-    k1, k2 = SERVO.c_delta_A_delta
+    k1, _k2 = SERVO.c_delta_A_delta
     u = bounded.step(1.0, 0.0)  # far from the line: |g|/T = 55 > sigma
     assert u == pytest.approx(-(k1 * 1.0) + 10.0)
     assert bounded.step(1e-5, 0.0) == pytest.approx(deadbeat.step(1e-5, 0.0), rel=1e-12)
@@ -110,7 +110,7 @@ def test_idtsm_6_21_error_decays_at_lambda_delta_on_the_line() -> None:
 
 
 def test_idtsm_has_no_steady_state_error_under_constant_disturbance() -> None:
-    errors, ctl = _idtsm_run(-2.0)
+    errors, _ctl = _idtsm_run(-2.0)
     assert abs(errors[-1]) < 1e-9
     assert max(abs(e) for e in errors[1000:]) > 1e-3  # the disturbance did act
 

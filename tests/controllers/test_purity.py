@@ -12,7 +12,16 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 ALLOWED = {
     "controllers": {"numpy", "scipy", "controllers"},
     "drivers": {"can", "canopen", "pymodbus", "serial", "drivers"},
-    "plant_emulator": {"numpy", "scipy", "can", "canopen", "pymodbus", "serial", "drivers", "plant_emulator"},
+    "plant_emulator": {
+        "numpy",
+        "scipy",
+        "can",
+        "canopen",
+        "pymodbus",
+        "serial",
+        "drivers",
+        "plant_emulator",
+    },
 }
 STDLIB_IO = {"logging", "time", "socket", "os", "subprocess", "threading"}
 
@@ -43,9 +52,12 @@ def test_controllers_do_no_io() -> None:
 
 @pytest.mark.parametrize(
     "module",
-    [p.relative_to(ROOT).with_suffix("").as_posix().replace("/", ".")
-     for pkg in ("rig", "drivers", "controllers", "plant_emulator")
-     for p in sorted((ROOT / pkg).glob("*.py")) if p.name not in ("__init__.py", "__main__.py")],
+    [
+        p.relative_to(ROOT).with_suffix("").as_posix().replace("/", ".")
+        for pkg in ("rig", "drivers", "controllers", "plant_emulator")
+        for p in sorted((ROOT / pkg).glob("*.py"))
+        if p.name not in ("__init__.py", "__main__.py")
+    ],
 )
 def test_every_module_declares_all_and_it_resolves(module: str) -> None:
     mod = importlib.import_module(module)

@@ -23,8 +23,11 @@ def test_reduced_motor_matches_closed_form_speed_and_angle() -> None:
 
 
 def test_step_size_does_not_change_the_exact_solution() -> None:
-    coarse, fine = ReducedDCMotor(a_m=16.0, b_m=680.0, dt=1e-3), ReducedDCMotor(a_m=16.0, b_m=680.0, dt=1e-4)
-    for k in range(100):
+    coarse, fine = (
+        ReducedDCMotor(a_m=16.0, b_m=680.0, dt=1e-3),
+        ReducedDCMotor(a_m=16.0, b_m=680.0, dt=1e-4),
+    )
+    for _k in range(100):
         coarse.step(1.0, t_load=0.5)
         for _ in range(10):
             fine.step(1.0, t_load=0.5)
@@ -32,7 +35,7 @@ def test_step_size_does_not_change_the_exact_solution() -> None:
 
 
 def test_full_motor_steady_state_and_reduced_parameters() -> None:
-    p = DCMotorParams(r=2.0, l=5e-3, k_e=0.1, k_t=0.1, j=1e-4, b=1e-5)
+    p = DCMotorParams(r_r=2.0, l_r=5e-3, k_e=0.1, k_t=0.1, j=1e-4, b=1e-5)
     assert p.a_m == pytest.approx(0.1 * 0.1 / (1e-4 * 2.0))
     assert p.b_m == pytest.approx(0.1 / (1e-4 * 2.0))
     m = DCMotor(p, dt=1e-4)
@@ -40,8 +43,8 @@ def test_full_motor_steady_state_and_reduced_parameters() -> None:
     for _ in range(40_000):
         m.step(u, t_load)
     # steady state of (3.4): k_t i = B w + T_L and u = R i + k_e w
-    i = (p.b * u / p.k_e + t_load) / (p.k_t + p.b * p.r / p.k_e)
-    w = (u - p.r * i) / p.k_e
+    i = (p.b * u / p.k_e + t_load) / (p.k_t + p.b * p.r_r / p.k_e)
+    w = (u - p.r_r * i) / p.k_e
     assert m.current == pytest.approx(i, rel=1e-9)
     assert m.omega == pytest.approx(w, rel=1e-9)
 
@@ -51,9 +54,9 @@ def test_from_am_bm_gives_those_parameters() -> None:
     assert (p.a_m, p.b_m) == pytest.approx((23.5, 412.0))
 
 
-@pytest.mark.parametrize("field", ["r", "l", "j", "k_t"])
+@pytest.mark.parametrize("field", ["r_r", "l_r", "j", "k_t"])
 def test_bad_motor_parameters_named(field: str) -> None:
-    kwargs = {"r": 1.0, "l": 1e-3, "k_e": 0.1, "k_t": 0.1, "j": 1e-4}
+    kwargs = {"r_r": 1.0, "l_r": 1e-3, "k_e": 0.1, "k_t": 0.1, "j": 1e-4}
     kwargs[field] = 0.0 if field != "k_t" else -1.0
     with pytest.raises(ValueError, match=field):
         DCMotorParams(**kwargs)

@@ -10,12 +10,33 @@ from rig.cli import main
 
 
 def test_design_dtsm_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
-    rc = main(["design", "dtsm", "--a-m", "16", "--b-m", "680", "--dt", "0.4e-3", "--lam", "-15",
-               "--error-space", "--json"])
+    rc = main(
+        [
+            "design",
+            "dtsm",
+            "--a-m",
+            "16",
+            "--b-m",
+            "680",
+            "--dt",
+            "0.4e-3",
+            "--lam",
+            "-15",
+            "--error-space",
+            "--json",
+        ]
+    )
     out = capsys.readouterr()
     assert rc == 0 and out.err == ""
     doc = json.loads(out.out)
-    assert set(doc) == {"A_delta", "b_delta", "lambda_delta", "k_delta", "c_delta", "c_delta_A_delta"}
+    assert set(doc) == {
+        "A_delta",
+        "b_delta",
+        "lambda_delta",
+        "k_delta",
+        "c_delta",
+        "c_delta_A_delta",
+    }
     assert [round(v, 4) for v in doc["A_delta"][1]] == [0.0, -15.9489]
     assert round(doc["b_delta"][1], 6) == -677.828635
     assert [round(c, 4) for c in doc["c_delta"]] == [-0.0221, -0.0015]
@@ -58,7 +79,7 @@ def test_unknown_command_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_bench_json_contract(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    import rig.bench as bench
+    from rig import bench
 
     monkeypatch.setitem(bench.BENCHMARKS, "controllers", lambda: bench.bench_controllers(n=200, repeats=1))
     assert main(["bench", "controllers", "--json"]) == 0

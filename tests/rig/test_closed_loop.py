@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -98,7 +97,9 @@ def test_cascade_outputs_bounded_by_u0(cascade: object) -> None:
     assert np.max(np.abs(tr.extra["i_ref"])) == TABLE_V_SPEED.u0  # type: ignore[attr-defined]
 
 
-def test_cascade_zero_steady_state_error_under_constant_load_and_no_chattering(cascade: object) -> None:
+def test_cascade_zero_steady_state_error_under_constant_load_and_no_chattering(
+    cascade: object,
+) -> None:
     tr = cascade
     steady = tr.window(3.5)  # type: ignore[attr-defined]
     assert np.max(np.abs(tr.error[steady])) < 1e-9  # type: ignore[attr-defined]
