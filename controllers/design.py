@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from controllers.discretize import delta_model
 
@@ -90,7 +91,7 @@ def acker(A: np.ndarray, b: np.ndarray, poles: list[float]) -> np.ndarray:
     return np.asarray(np.linalg.solve(ctrb.T, e_n) @ phi)
 
 
-def design_dtsm(*, A: object, b: object, dt: float, lam: float) -> DTSMDesign:
+def design_dtsm(*, A: npt.ArrayLike, b: npt.ArrayLike, dt: float, lam: float) -> DTSMDesign:
     """Design the DTSM sliding vector, eqs. (6.9), (6.16)-(6.19).
 
     Parameters

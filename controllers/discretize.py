@@ -6,6 +6,7 @@ Pure functions: matrices in, matrices out. ``dt`` is the sample period T in seco
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 import scipy.linalg
 
 __all__ = ["delta_model", "zoh"]
@@ -18,21 +19,22 @@ def _check_dt(dt: float) -> float:
     return dt
 
 
-def _as_system(A: object, B: object) -> tuple[np.ndarray, np.ndarray]:
+def _as_system(A: npt.ArrayLike, B: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     A_ = np.atleast_2d(np.asarray(A, dtype=float))
-    B_ = np.asarray(B, dtype=float)
     n = A_.shape[0]
-    if A_.shape != (n, n):
+    if A_.ndim != 2 or A_.shape != (n, n):
         raise ValueError(f"A must be square, got shape {A_.shape}")
-    B_ = B_.reshape(n, -1) if B_.size % n == 0 and B_.size else B_
+    B_ = np.asarray(B, dtype=float)
+    if B_.ndim == 1 and B_.shape[0] == n:
+        B_ = B_.reshape(n, 1)
     if B_.ndim != 2 or B_.shape[0] != n:
-        raise ValueError(f"B must have {n} rows to match A, got shape {np.shape(B)}")
+        raise ValueError(f"B must have {n} rows to match A, got shape {B_.shape}")
     if not (np.all(np.isfinite(A_)) and np.all(np.isfinite(B_))):
         raise ValueError("A and B must be finite")
     return A_, B_
 
 
-def zoh(A: object, B: object, *, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def zoh(A: npt.ArrayLike, B: npt.ArrayLike, *, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact ZOH discretisation: x_{k+1} = A_d x_k + B_d u_k.
 
     Parameters
@@ -58,11 +60,10 @@ def zoh(A: object, B: object, *, dt: float) -> tuple[np.ndarray, np.ndarray]:
     M[:n, :n] = A_
     M[:n, n:] = B_
     E = scipy.linalg.expm(M * dt)
-    B_d = E[:n, n:]
-    return E[:n, :n], B_d.reshape(np.shape(B)) if np.ndim(B) == 1 else B_d
+    return E[:n, :n], E[:n, n:]
 
 
-def delta_model(A: object, b: object, *, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def delta_model(A: npt.ArrayLike, b: npt.ArrayLike, *, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Delta-operator model, eq. (6.9): A_delta = (A_d - I)/T, b_delta = b_d/T.
 
     Parameters
@@ -81,4 +82,4 @@ def delta_model(A: object, b: object, *, dt: float) -> tuple[np.ndarray, np.ndar
     """
     A_d, b_d = zoh(A, np.ravel(np.asarray(b, dtype=float)), dt=dt)
     n = A_d.shape[0]
-    return (A_d - np.eye(n)) / dt, b_d / dt
+    return (A_d - np.eye(n)) / dt, b_d[:, 0] / dt

@@ -49,11 +49,14 @@ class DemoSummary:
 def demo_summary() -> DemoSummary:
     """Run the demo scenarios and return the design and one metrics row per controller."""
     design = design_dtsm(A=[[0.0, 1.0], [0.0, -16.0]], b=[0.0, -680.0], dt=0.4e-3, lam=-15.0)
-    common = {"load": DEMO_LOAD, "full_motor": True, "t_end": 3.0}
+
+    def servo(**kw: Any) -> Trajectory:
+        return position_servo_run(load=DEMO_LOAD, full_motor=True, t_end=3.0, **kw)
+
     rows = [
-        _row("dtsm-7.30 h=16", position_servo_run(h=16.0, **common), 2.5),
-        _row("dtsm-7.30 h=0", position_servo_run(h=0.0, **common), 2.5),
-        _row("sign law (6.8)", position_servo_run(law="relay", **common), 2.5),
+        _row("dtsm-7.30 h=16", servo(h=16.0), 2.5),
+        _row("dtsm-7.30 h=0", servo(h=0.0), 2.5),
+        _row("sign law (6.8)", servo(law="relay"), 2.5),
         _row(
             "cascade VII.D (6.36*)",
             cascade_run(t_end=4.0, load=lambda t: 5.0 if t >= 2.0 else 0.0),

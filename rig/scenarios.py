@@ -55,7 +55,8 @@ class Trajectory:
 
     def window(self, t0: float, t1: float = math.inf) -> np.ndarray:
         """Boolean mask of the samples with t0 <= t < t1."""
-        return (self.t >= t0) & (self.t < t1)
+        mask: np.ndarray = (self.t >= t0) & (self.t < t1)
+        return mask
 
 
 def smooth_move(

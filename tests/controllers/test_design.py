@@ -15,7 +15,7 @@ def test_zoh_matches_closed_form_first_order() -> None:
     a, b, T = -3.0, 2.0, 0.1
     A_d, b_d = zoh([[a]], [b], dt=T)
     assert A_d[0, 0] == pytest.approx(math.exp(a * T), rel=1e-13)
-    assert b_d[0] == pytest.approx(b * math.expm1(a * T) / a, rel=1e-13)
+    assert b_d[0, 0] == pytest.approx(b * math.expm1(a * T) / a, rel=1e-13)
 
 
 def test_delta_model_tends_to_continuous_model() -> None:
