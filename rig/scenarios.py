@@ -51,7 +51,8 @@ class Trajectory:
     @property
     def error(self) -> np.ndarray:
         """Tracking error ref - y."""
-        return self.ref - self.y
+        err: np.ndarray = self.ref - self.y
+        return err
 
     def window(self, t0: float, t1: float = math.inf) -> np.ndarray:
         """Boolean mask of the samples with t0 <= t < t1."""
