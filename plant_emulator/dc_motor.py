@@ -69,10 +69,27 @@ class DCMotorParams:
         return cls(r_r=r_r, l_r=tau_e * r_r, k_e=k, k_t=k, j=k / (r_r * b_m), b=b)
 
 
-class DCMotor:
+class _ShaftModel:
+    """A linear motor model stepped by ZOH whose first two states are [theta, omega]."""
+
+    __slots__ = ("_zoh",)
+    _zoh: LinearZOH
+
+    @property
+    def theta(self) -> float:
+        """Shaft angle [rad]."""
+        return self._zoh.x[0]
+
+    @property
+    def omega(self) -> float:
+        """Shaft speed [rad/s]."""
+        return self._zoh.x[1]
+
+
+class DCMotor(_ShaftModel):
     """Full DC motor (3.4) with position (3.6): state [theta, omega, i_r]."""
 
-    __slots__ = ("_zoh", "params")
+    __slots__ = ("params",)
 
     def __init__(self, params: DCMotorParams, *, dt: float) -> None:
         p = params
@@ -84,16 +101,6 @@ class DCMotor:
         B = [[0.0, 0.0], [0.0, -1.0 / p.j], [1.0 / p.l_r, 0.0]]
         self.params = p
         self._zoh = LinearZOH(A, B, dt)
-
-    @property
-    def theta(self) -> float:
-        """Shaft angle [rad]."""
-        return self._zoh.x[0]
-
-    @property
-    def omega(self) -> float:
-        """Shaft speed [rad/s]."""
-        return self._zoh.x[1]
 
     @property
     def current(self) -> float:
@@ -109,10 +116,10 @@ class DCMotor:
         self._zoh.step((u, t_load))
 
 
-class ReducedDCMotor:
+class ReducedDCMotor(_ShaftModel):
     """Reduced DC motor (3.5) with position, i.e. (3.7): state [theta, omega]."""
 
-    __slots__ = ("_zoh", "a_m", "b_m", "j")
+    __slots__ = ("a_m", "b_m", "j")
 
     def __init__(self, *, a_m: float, b_m: float, dt: float, j: float = 1.0) -> None:
         if not (math.isfinite(a_m) and math.isfinite(b_m) and b_m != 0.0 and j > 0.0):
@@ -121,16 +128,6 @@ class ReducedDCMotor:
         A = [[0.0, 1.0], [0.0, -a_m]]
         B = [[0.0, 0.0, 0.0], [b_m, -1.0 / j, b_m]]
         self._zoh = LinearZOH(A, B, dt)
-
-    @property
-    def theta(self) -> float:
-        """Shaft angle [rad]."""
-        return self._zoh.x[0]
-
-    @property
-    def omega(self) -> float:
-        """Shaft speed [rad/s]."""
-        return self._zoh.x[1]
 
     def set_state(self, theta: float = 0.0, omega: float = 0.0) -> None:
         """Set the state [rad, rad/s]."""
