@@ -19,11 +19,14 @@ from controllers.cascade import (
 )
 from controllers.compensators import FirstOrderCompensator, SecondOrderCompensator
 from controllers.design import design_dtsm
+from controllers.dismc import DISMC, DISMCParams
 from controllers.dtsm import DTSM, DTSMParams
 from controllers.idtsm import IDTSM, IDTSMParams
+from controllers.model_following import solve_model_following
 from controllers.pi import PI, PIParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
+from rig.reproduce import K_LMI, DismcExample
 
 __all__ = ["BENCHMARKS", "Figure", "bench_controllers", "bench_plant"]
 
@@ -53,6 +56,13 @@ def _controllers() -> dict[str, Callable[[float], object]]:
     loop1, loop2 = CascadeLoop(TABLE_V_CURRENT), CascadeLoop(TABLE_V_POSITION)
     casc = Cascade(CascadeLoop(TABLE_V_POSITION), CascadeLoop(TABLE_V_SPEED), CascadeLoop(TABLE_V_CURRENT))
     pi = PI(PIParams(kp=0.4443, ki=39.6, dt=5e-4, u_max=5.02, u_min=-5.02))
+    ex = DismcExample()
+    G, H = solve_model_following(A=ex.A, B=ex.B, C=ex.C, A_m=ex.A_m, C_m=ex.C_m)
+    common = dict(A=ex.A, B=ex.B, A_m=ex.A_m, G=G, H=H, S=ex.S, phi=ex.phi, eta=ex.eta, varphi=ex.varphi)
+    dsmc = DISMC(DISMCParams.build(variant="dsmc", **common))  # type: ignore[arg-type]
+    dismc = DISMC(DISMCParams.build(variant="dismc", K=K_LMI, **common))  # type: ignore[arg-type]
+    dismc_aw = DISMC(DISMCParams.build(variant="dismc-aw", K=K_LMI, **common))  # type: ignore[arg-type]
+    xm = (0.0, 1.0)
     return {
         "dtsm_6.15a_2state": lambda x: dtsm2.step(x, -x),
         "dtsm_6.14_comp_6.30b": dtsm1c.step,
@@ -63,6 +73,9 @@ def _controllers() -> dict[str, Callable[[float], object]]:
         "cascade_loop_position": lambda x: loop2.step(1.0, x, -x),
         "cascade_3_loops": lambda x: casc.step(1.0, x, -x, 0.1 * x),
         "pi_antiwindup": pi.step,
+        "dsmc_12": lambda x: dsmc.step((x, -x), xm),
+        "dismc_34": lambda x: dismc.step((x, -x), xm),
+        "dismc_aw_45": lambda x: dismc_aw.step((x, -x), xm),
     }
 
 

@@ -15,9 +15,14 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
+import numpy as np
+
 from controllers.design import DTSMDesign, design_dtsm
+from drivers.errors import RigError
 from rig.bench import BENCHMARKS
 from rig.demo import run_demo
+from rig.plots import plot_dismc
+from rig.reproduce import PARAM_NAMES, DismcExample, apply_params, run_dismc
 
 __all__ = ["main"]
 
@@ -71,6 +76,24 @@ def _build_parser() -> _Parser:
     )
     dtsm.add_argument("--json", action="store_true", help="print one JSON object")
 
+    reproduce = sub.add_parser("reproduce", help="reproduce a paper's numerical study")
+    rsub = reproduce.add_subparsers(dest="study", required=True, parser_class=_Parser)
+    dismc = rsub.add_parser(
+        "dismc",
+        help="section 4 of the DISMC paper: Table 1 for DSMC, DISMC-LMI, DISMC-LQR, DISMC-AW-LQR",
+        description="Runs (47)-(53) with K of (55) and (57). Uses the printed H of (50) unless "
+        "--param H=solved. Parameters: " + ", ".join(PARAM_NAMES) + ".",
+    )
+    dismc.add_argument("--json", action="store_true", help="print a list of JSON objects")
+    dismc.add_argument("--plot", metavar="FILE", help="write Fig. 3-like plots to FILE")
+    dismc.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="override an example parameter by the paper's symbol (repeatable)",
+    )
+
     bench = sub.add_parser("bench", help="measure and print figures")
     bench.add_argument("name", choices=sorted(BENCHMARKS), help="what to measure")
     bench.add_argument("--json", action="store_true", help='print a list of {"name", "value", "unit"}')
@@ -104,6 +127,34 @@ def _print_design(d: DTSMDesign, out: object) -> None:
     print("\n".join(lines), file=out)  # type: ignore[call-overload]
 
 
+def _json_number(v: float) -> float | None:
+    return v if math.isfinite(v) else None
+
+
+def _reproduce_dismc(args: argparse.Namespace) -> int:
+    try:
+        example = apply_params(DismcExample(), args.param)
+        runs = run_dismc(example)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise _UsageError(f"rig reproduce dismc: {exc}") from exc
+    if args.plot:
+        plot_dismc(runs, args.plot, dt=example.Ts)
+    rows = [{"controller": r.controller, **{k: _json_number(v) for k, v in r.metrics.items()}} for r in runs]
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(f"DISMC paper, section 4 (H {example.H}; Ts = {example.Ts} s); Table 1 metrics:")
+    print(f"  {'controller':14s} {'rise s':>8s} {'settling s':>11s} {'u_min':>9s} {'u_max':>9s}")
+    for r in rows:
+        cells = [f"{v:.2f}" if isinstance(v, float) else "-" for v in list(r.values())[1:]]
+        print(f"  {r['controller']:14s} {cells[0]:>8s} {cells[1]:>11s} {cells[2]:>9s} {cells[3]:>9s}")
+    print(
+        "  paper: DISMC-LMI 1.82 2.88 -60.6 135.8; DISMC-LQR 0.44 0.72 -32.7 175.1;"
+        " DISMC-AW-LQR 0.32 0.38 -11.1 104.5"
+    )
+    return 0
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.command == "demo":
         return run_demo(sys.stdout)
@@ -114,6 +165,8 @@ def _run(args: argparse.Namespace) -> int:
         else:
             _print_design(d, sys.stdout)
         return 0
+    if args.command == "reproduce":
+        return _reproduce_dismc(args)
     if args.command == "bench":
         figures = BENCHMARKS[args.name]()
         if args.json:
@@ -139,6 +192,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _UsageError as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_USAGE
+    except RigError as exc:
+        print(f"rig: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("rig: interrupted", file=sys.stderr)
         return 130

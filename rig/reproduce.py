@@ -1,0 +1,154 @@
+"""``rig reproduce dismc``: section 4 of the DISMC paper, eqs. (47)-(57) and Table 1.
+
+The plant (47) is simulated exactly as printed (already discrete, Ts = 0.02 s),
+with d(k) = B * amplitude * sin(k). The printed H of (50) is used for the
+reproduction (``H = "printed"``); it does not satisfy (3), whose solution is
+H = [-1.0011 -0.1102] (``--param H=solved``). Metrics follow ``rig.metrics``:
+rise time 5 % -> 95 % of the error transition, settling into 1 % of |e(0)|,
+u_min and u_max over the run (u_max is u(0)).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from controllers.dismc import DISMC, DISMCParams, dismc_lqr_gain
+from controllers.model_following import solve_model_following
+from rig.metrics import rise_time, settling_time
+
+__all__ = ["DismcExample", "DismcRun", "apply_params", "run_dismc"]
+
+PRINTED_H = (-1.0011, 0.1102)  #: H of (50) as printed
+K_LMI = (-153.6018, -97.1424)  #: K of (55), from the LMI (28)-(29)
+
+
+@dataclass(frozen=True)
+class DismcExample:
+    """Section 4's example; field names are the paper's symbols (``--param``)."""
+
+    A: tuple[tuple[float, ...], ...] = ((0.9802, 0.04), (0.0, 1.0202))  #: (47)
+    B: tuple[float, ...] = (0.0004, 0.0202)  #: (47)
+    C: tuple[float, ...] = (1.0, 0.0)  #: (47)
+    A_m: tuple[tuple[float, ...], ...] = ((0.9998, 0.02), (-0.02, 0.9958))  #: (48)
+    C_m: tuple[float, ...] = (1.0, 0.0)  #: (48)
+    x0: tuple[float, ...] = (-1.0, 0.0)  #: (49)
+    xm0: tuple[float, ...] = (0.0, 1.0)  #: (49)
+    S: tuple[float, ...] = (3.0, 1.0)  #: (51)
+    phi: float = 0.9  #: (52)
+    eta: float = 0.5  #: (52)
+    varphi: float = 0.5  #: (52)
+    beta: float = 0.9  #: (53)
+    mu: float = 1.13  #: (53)
+    Q: tuple[tuple[float, ...], ...] = ((1.0, 0.0), (0.0, 1.0))  #: (56)
+    R: float = 1.0  #: (56)
+    Ts: float = 0.02  #: sampling period [s]
+    amplitude: float = 0.1  #: disturbance amplitude of d(k) = B amplitude sin(k)
+    H: str = "printed"  #: "printed" (50) or "solved" (3)
+    steps: int = 300  #: samples simulated (6 s)
+
+
+@dataclass
+class DismcRun:
+    """One controller's run: signals and Table 1 metrics."""
+
+    controller: str
+    u: np.ndarray
+    e: np.ndarray
+    sigma: np.ndarray
+    metrics: dict[str, float] = field(default_factory=dict)
+
+
+_SCALARS = ("phi", "eta", "varphi", "beta", "mu", "R", "Ts", "amplitude")
+_VECTORS = ("S", "x0", "xm0")
+_MATRICES = ("Q",)
+PARAM_NAMES = (*_SCALARS, *_VECTORS, *_MATRICES, "H", "disturbance_amplitude")
+
+
+def _numbers(name: str, text: str) -> list[float]:
+    try:
+        return [
+            float(v) for v in text.replace(";", ",").replace("[", "").replace("]", "").split(",") if v.strip()
+        ]
+    except ValueError:
+        raise ValueError(f"--param {name}={text}: not a list of numbers") from None
+
+
+def apply_params(example: DismcExample, overrides: list[str]) -> DismcExample:
+    """Apply ``NAME=VALUE`` overrides; vectors as ``1,2``, matrices row-major ``1,0;0,1``."""
+    changes: dict[str, Any] = {}
+    for item in overrides:
+        name, sep, text = item.partition("=")
+        name = "amplitude" if name == "disturbance_amplitude" else name.strip()
+        if not sep or name not in PARAM_NAMES:
+            raise ValueError(f"--param {item!r}: unknown name; known: {', '.join(PARAM_NAMES)}")
+        if name in _SCALARS:
+            (value,) = _numbers(name, text) or [math.nan]
+            if not math.isfinite(value):
+                raise ValueError(f"--param {item!r}: not a finite number")
+            changes[name] = value
+        elif name in _VECTORS:
+            changes[name] = tuple(_numbers(name, text))
+            if len(changes[name]) != 2:
+                raise ValueError(f"--param {item!r}: needs 2 numbers")
+        elif name == "Q":
+            flat = _numbers(name, text)
+            if len(flat) != 4:
+                raise ValueError(f"--param {item!r}: Q needs 4 numbers (2x2, row-major)")
+            changes[name] = ((flat[0], flat[1]), (flat[2], flat[3]))
+        else:
+            if text not in ("printed", "solved"):
+                raise ValueError(f"--param {item!r}: H is 'printed' or 'solved'")
+            changes[name] = text
+    return replace(example, **changes)
+
+
+def run_dismc(example: DismcExample | None = None) -> list[DismcRun]:
+    """Simulate DSMC, DISMC-LMI, DISMC-LQR and DISMC-AW-LQR on (47)-(53)."""
+    ex = example or DismcExample()
+    G, H_solved = solve_model_following(A=ex.A, B=ex.B, C=ex.C, A_m=ex.A_m, C_m=ex.C_m)
+    H = PRINTED_H if ex.H == "printed" else tuple(H_solved)
+    K_lqr = dismc_lqr_gain(A=ex.A, B=ex.B, S=ex.S, Q=ex.Q, R=ex.R)
+    common = dict(
+        A=ex.A,
+        B=ex.B,
+        A_m=ex.A_m,
+        G=G,
+        H=H,
+        S=ex.S,
+        phi=ex.phi,
+        eta=ex.eta,
+        varphi=ex.varphi,
+        beta=ex.beta,
+        mu=ex.mu,
+    )
+    laws = {
+        "DSMC": DISMCParams.build(variant="dsmc", **common),  # type: ignore[arg-type]
+        "DISMC-LMI": DISMCParams.build(variant="dismc", K=K_LMI, **common),  # type: ignore[arg-type]
+        "DISMC-LQR": DISMCParams.build(variant="dismc", K=K_lqr, **common),  # type: ignore[arg-type]
+        "DISMC-AW-LQR": DISMCParams.build(variant="dismc-aw", K=K_lqr, **common),  # type: ignore[arg-type]
+    }
+    A, B, C, Am, Cm = (np.array(v) for v in (ex.A, ex.B, ex.C, ex.A_m, ex.C_m))
+    runs = []
+    for name, params in laws.items():
+        ctl = DISMC(params)
+        x, xm = np.array(ex.x0, dtype=float), np.array(ex.xm0, dtype=float)
+        u, e, s = (np.empty(ex.steps) for _ in range(3))
+        for k in range(ex.steps):
+            u[k] = ctl.step(tuple(x), tuple(xm))
+            e[k] = C @ x - Cm @ xm
+            s[k] = ctl.sigma
+            x = A @ x + B * (u[k] + ex.amplitude * math.sin(k))
+            xm = Am @ xm
+        run = DismcRun(name, u, e, s)
+        run.metrics = {
+            "rise_time_s": rise_time(e, dt=ex.Ts),
+            "settling_time_s": settling_time(e, dt=ex.Ts, band=0.01),
+            "u_min": float(u.min()),
+            "u_max": float(u.max()),
+        }
+        runs.append(run)
+    return runs
