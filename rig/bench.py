@@ -19,14 +19,13 @@ from controllers.cascade import (
 )
 from controllers.compensators import FirstOrderCompensator, SecondOrderCompensator
 from controllers.design import design_dtsm
-from controllers.dismc import DISMC, DISMCParams
+from controllers.dismc import DISMC
 from controllers.dtsm import DTSM, DTSMParams
 from controllers.idtsm import IDTSM, IDTSMParams
-from controllers.model_following import solve_model_following
 from controllers.pi import PI, PIParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
-from rig.reproduce import K_LMI, DismcExample
+from rig.reproduce import dismc_laws
 
 __all__ = ["BENCHMARKS", "Figure", "bench_controllers", "bench_plant"]
 
@@ -56,12 +55,8 @@ def _controllers() -> dict[str, Callable[[float], object]]:
     loop1, loop2 = CascadeLoop(TABLE_V_CURRENT), CascadeLoop(TABLE_V_POSITION)
     casc = Cascade(CascadeLoop(TABLE_V_POSITION), CascadeLoop(TABLE_V_SPEED), CascadeLoop(TABLE_V_CURRENT))
     pi = PI(PIParams(kp=0.4443, ki=39.6, dt=5e-4, u_max=5.02, u_min=-5.02))
-    ex = DismcExample()
-    G, H = solve_model_following(A=ex.A, B=ex.B, C=ex.C, A_m=ex.A_m, C_m=ex.C_m)
-    common = dict(A=ex.A, B=ex.B, A_m=ex.A_m, G=G, H=H, S=ex.S, phi=ex.phi, eta=ex.eta, varphi=ex.varphi)
-    dsmc = DISMC(DISMCParams.build(variant="dsmc", **common))  # type: ignore[arg-type]
-    dismc = DISMC(DISMCParams.build(variant="dismc", K=K_LMI, **common))  # type: ignore[arg-type]
-    dismc_aw = DISMC(DISMCParams.build(variant="dismc-aw", K=K_LMI, **common))  # type: ignore[arg-type]
+    laws = dismc_laws()
+    dsmc, dismc, dismc_aw = (DISMC(laws[k]) for k in ("DSMC", "DISMC-LQR", "DISMC-AW-LQR"))
     xm = (0.0, 1.0)
     return {
         "dtsm_6.15a_2state": lambda x: dtsm2.step(x, -x),

@@ -20,7 +20,7 @@ from controllers.dismc import DISMC, DISMCParams, dismc_lqr_gain
 from controllers.model_following import solve_model_following
 from rig.metrics import rise_time, settling_time
 
-__all__ = ["DismcExample", "DismcRun", "apply_params", "run_dismc"]
+__all__ = ["DismcExample", "DismcRun", "apply_params", "dismc_laws", "run_dismc"]
 
 PRINTED_H = (-1.0011, 0.1102)  #: H of (50) as printed
 K_LMI = (-153.6018, -97.1424)  #: K of (55), from the LMI (28)-(29)
@@ -106,31 +106,42 @@ def apply_params(example: DismcExample, overrides: list[str]) -> DismcExample:
     return replace(example, **changes)
 
 
-def run_dismc(example: DismcExample | None = None) -> list[DismcRun]:
-    """Simulate DSMC, DISMC-LMI, DISMC-LQR and DISMC-AW-LQR on (47)-(53)."""
+def dismc_laws(example: DismcExample | None = None) -> dict[str, DISMCParams]:
+    """The four controllers of Table 1 for ``example``, by Table 1's names."""
     ex = example or DismcExample()
     G, H_solved = solve_model_following(A=ex.A, B=ex.B, C=ex.C, A_m=ex.A_m, C_m=ex.C_m)
     H = PRINTED_H if ex.H == "printed" else tuple(H_solved)
     K_lqr = dismc_lqr_gain(A=ex.A, B=ex.B, S=ex.S, Q=ex.Q, R=ex.R)
-    common = dict(
-        A=ex.A,
-        B=ex.B,
-        A_m=ex.A_m,
-        G=G,
-        H=H,
-        S=ex.S,
-        phi=ex.phi,
-        eta=ex.eta,
-        varphi=ex.varphi,
-        beta=ex.beta,
-        mu=ex.mu,
-    )
-    laws = {
-        "DSMC": DISMCParams.build(variant="dsmc", **common),  # type: ignore[arg-type]
-        "DISMC-LMI": DISMCParams.build(variant="dismc", K=K_LMI, **common),  # type: ignore[arg-type]
-        "DISMC-LQR": DISMCParams.build(variant="dismc", K=K_lqr, **common),  # type: ignore[arg-type]
-        "DISMC-AW-LQR": DISMCParams.build(variant="dismc-aw", K=K_lqr, **common),  # type: ignore[arg-type]
+
+    def law(variant: str, K: tuple[float, ...] | np.ndarray = ()) -> DISMCParams:
+        return DISMCParams.build(
+            A=ex.A,
+            B=ex.B,
+            A_m=ex.A_m,
+            G=G,
+            H=H,
+            S=ex.S,
+            K=K,
+            phi=ex.phi,
+            eta=ex.eta,
+            varphi=ex.varphi,
+            beta=ex.beta,
+            mu=ex.mu,
+            variant=variant,
+        )
+
+    return {
+        "DSMC": law("dsmc"),
+        "DISMC-LMI": law("dismc", K_LMI),
+        "DISMC-LQR": law("dismc", K_lqr),
+        "DISMC-AW-LQR": law("dismc-aw", K_lqr),
     }
+
+
+def run_dismc(example: DismcExample | None = None) -> list[DismcRun]:
+    """Simulate DSMC, DISMC-LMI, DISMC-LQR and DISMC-AW-LQR on (47)-(53)."""
+    ex = example or DismcExample()
+    laws = dismc_laws(ex)
     A, B, C, Am, Cm = (np.array(v) for v in (ex.A, ex.B, ex.C, ex.A_m, ex.C_m))
     runs = []
     for name, params in laws.items():
