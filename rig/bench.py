@@ -20,11 +20,13 @@ from controllers.cascade import (
 from controllers.compensators import FirstOrderCompensator, SecondOrderCompensator
 from controllers.design import design_dtsm
 from controllers.dismc import DISMC
+from controllers.dq_current import ComplexVectorCurrentController, DqCurrentParams, DqPI, DqPIParams
 from controllers.dtsm import DTSM, DTSMParams
 from controllers.idtsm import IDTSM, IDTSMParams
 from controllers.pi import PI, PIParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
+from plant_emulator.rl_dq import ExactDqPlant, RLParams, StationaryRLConverter
 from rig.reproduce import dismc_laws
 
 __all__ = ["BENCHMARKS", "Figure", "bench_controllers", "bench_plant"]
@@ -58,6 +60,12 @@ def _controllers() -> dict[str, Callable[[float], object]]:
     laws = dismc_laws()
     dsmc, dismc, dismc_aw = (DISMC(laws[k]) for k in ("DSMC", "DISMC-LQR", "DISMC-AW-LQR"))
     xm = (0.0, 1.0)
+    ts, w = 1.0 / 1350.0, 314.159
+    cvc = ComplexVectorCurrentController(DqCurrentParams(r1=0.36, l1=6e-3, ts=ts, gamma=0.35))
+    cvc_mid = ComplexVectorCurrentController(
+        DqCurrentParams(r1=0.36, l1=6e-3, ts=ts, gamma=0.25, strategy="s-pwm-middle", u_max=400.0)
+    )
+    dq_pi = DqPI(DqPIParams(k_p=7.7, k_i=0.126, l1=6e-3, decouple=True, u_max=400.0))
     return {
         "dtsm_6.15a_2state": lambda x: dtsm2.step(x, -x),
         "dtsm_6.14_comp_6.30b": dtsm1c.step,
@@ -71,13 +79,24 @@ def _controllers() -> dict[str, Callable[[float], object]]:
         "dsmc_12": lambda x: dsmc.step((x, -x), xm),
         "dismc_34": lambda x: dismc.step((x, -x), xm),
         "dismc_aw_45": lambda x: dismc_aw.step((x, -x), xm),
+        "dq_current_32_34": lambda x: cvc.step(1j, complex(x, -x), w * (1.0 + x)),
+        "dq_current_32_37_limited": lambda x: cvc_mid.step(1j, complex(x, -x), w * (1.0 + x)),
+        "dq_pi_decoupled": lambda x: dq_pi.step(1j, complex(x, -x), w * (1.0 + x)),
     }
 
 
 def _plants() -> dict[str, Callable[[float], object]]:
     full = DCMotor(DCMotorParams.from_am_bm(a_m=16.0, b_m=680.0), dt=1e-4)
     reduced = ReducedDCMotor(a_m=16.0, b_m=680.0, dt=1e-3)
-    return {"dc_motor_3.4_step": full.step, "dc_motor_3.7_step": reduced.step}
+    exact = ExactDqPlant(RLParams(r1=0.36, l1=6e-3, ts=1.0 / 2700.0, m=0.5))
+    fine = StationaryRLConverter(RLParams(r1=0.36, l1=6e-3, ts=1.0 / 2700.0, m=0.5), u_max=400.0)
+    return {
+        "dc_motor_3.4_step": full.step,
+        "dc_motor_3.7_step": reduced.step,
+        "rl_dq_29_step": lambda x: exact.step(complex(x, 1.0), 314.159),
+        "rl_dq_29_step_varying_omega": lambda x: exact.step(complex(x, 1.0), 314.159 * (1.0 + x)),
+        "rl_stationary_fine_step": lambda x: fine.step(complex(x, 1.0), 314.159, 300.0),
+    }
 
 
 def _run(table: dict[str, Callable[[float], object]], n: int, repeats: int) -> list[Figure]:

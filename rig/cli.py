@@ -21,8 +21,9 @@ from controllers.design import DTSMDesign, design_dtsm
 from drivers.errors import RigError
 from rig.bench import BENCHMARKS
 from rig.demo import run_demo
-from rig.plots import plot_dismc
+from rig.plots import plot_dismc, plot_dq_steps
 from rig.reproduce import PARAM_NAMES, DismcExample, apply_params, run_dismc
+from rig.reproduce_dq import DQ_PARAM_NAMES, PRINTED_TABLES, DqStudy, apply_dq_params, dq_study
 
 __all__ = ["main"]
 
@@ -94,6 +95,24 @@ def _build_parser() -> _Parser:
         help="override an example parameter by the paper's symbol (repeatable)",
     )
 
+    dq = rsub.add_parser(
+        "dq-current",
+        help="dq-current paper: Tables II-III and the cross-coupling of a q step (proposed vs PI)",
+        description="Runs the controller (32)-(34)/(37) on the plant (29) (or the fine stationary-frame "
+        "model) with the Table IV parameters. Parameters: " + ", ".join(DQ_PARAM_NAMES) + ".",
+    )
+    dq.add_argument(
+        "--json", action="store_true", help='print one object {"tables": [...], "cross_coupling": [...]}'
+    )
+    dq.add_argument("--plot", metavar="FILE", help="write q-step responses in dq (Fig. 9(b)-like) to FILE")
+    dq.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="override: ratio (e.g. 1/27), L1 [H], R1 [Ohm], gamma, strategy, plant (exact|fine)",
+    )
+
     bench = sub.add_parser("bench", help="measure and print figures")
     bench.add_argument("name", choices=sorted(BENCHMARKS), help="what to measure")
     bench.add_argument("--json", action="store_true", help='print a list of {"name", "value", "unit"}')
@@ -155,6 +174,56 @@ def _reproduce_dismc(args: argparse.Namespace) -> int:
     return 0
 
 
+def _reproduce_dq(args: argparse.Namespace) -> int:
+    try:
+        study = apply_dq_params(DqStudy(), args.param)
+        rows, runs = dq_study(study)
+    except ValueError as exc:
+        raise _UsageError(f"rig reproduce dq-current: {exc}") from exc
+    if args.plot:
+        plot_dq_steps(runs, args.plot)
+    cross = [
+        {
+            "strategy": r.strategy,
+            "ratio": r.ratio,
+            "controller": r.controller,
+            "gamma": r.gamma,
+            "peak_id": r.peak_id,
+        }
+        for r in runs
+    ]
+    if args.json:
+        tables = [{k: _json_number(v) if isinstance(v, float) else v for k, v in row.items()} for row in rows]
+        print(json.dumps({"tables": tables, "cross_coupling": cross}))
+        return 0
+    print(
+        f"dq-current paper, Tables II-III (plant {study.plant}, L1 = {study.L1:g} H, R1 = {study.R1:g} Ohm)"
+    )
+    print(
+        f"  {'strategy':13s} {'variant':8s} {'gamma':>5s} {'bw/fs':>6s} {'GM dB':>6s} {'PM deg':>6s} "
+        f"{'OS %':>5s} {'rise':>4s} {'settle':>6s}   printed: bw GM PM OS rise settle"
+    )
+    for row in rows:
+        printed = PRINTED_TABLES[row["strategy"]].get(row["gamma"])
+        cells = [
+            row[k] for k in ("bandwidth_ratio", "gain_margin_db", "phase_margin_deg", "overshoot_percent")
+        ]
+        head = f"  {row['strategy']:13s} {row['variant']:8s} {row['gamma']:5.2f} "
+        print(
+            f"{head}{cells[0]:6.3f} {cells[1]:6.2f} {cells[2]:6.1f} {cells[3]:5.1f} "
+            f"{row['rise_samples']:4.0f} {row['settling_samples']:6.0f}   "
+            + (" ".join(f"{v:g}" for v in printed) if printed else "-")
+        )
+    print("Cross-coupling: peak |i_d| per unit q-reference step")
+    for c in cross:
+        ratio = float(c["ratio"])  # type: ignore[arg-type]
+        print(
+            f"  {c['strategy']:13s} w_k/w_s = 1/{1 / ratio:<5.4g} gamma {c['gamma']:.2f} "
+            f"{c['controller']:13s} {c['peak_id']:.4f}"
+        )
+    return 0
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.command == "demo":
         return run_demo(sys.stdout)
@@ -166,7 +235,7 @@ def _run(args: argparse.Namespace) -> int:
             _print_design(d, sys.stdout)
         return 0
     if args.command == "reproduce":
-        return _reproduce_dismc(args)
+        return _reproduce_dismc(args) if args.study == "dismc" else _reproduce_dq(args)
     if args.command == "bench":
         figures = BENCHMARKS[args.name]()
         if args.json:

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 from drivers.errors import ConfigError
 from rig.reproduce import DismcRun
+from rig.reproduce_dq import StepRun
 
-__all__ = ["plot_dismc"]
+__all__ = ["plot_dismc", "plot_dq_steps"]
 
 
-def plot_dismc(runs: Sequence[DismcRun], path: str, *, dt: float) -> None:
-    """Write Fig. 3-like plots (sliding functions, tracking errors, control inputs) to ``path``."""
+def _pyplot() -> Any:
     try:
         import matplotlib
 
@@ -19,6 +20,12 @@ def plot_dismc(runs: Sequence[DismcRun], path: str, *, dt: float) -> None:
         import matplotlib.pyplot as plt
     except ImportError as exc:
         raise ConfigError("--plot needs matplotlib: pip install 'drive-rig[plot]'") from exc
+    return plt
+
+
+def plot_dismc(runs: Sequence[DismcRun], path: str, *, dt: float) -> None:
+    """Write Fig. 3-like plots (sliding functions, tracking errors, control inputs) to ``path``."""
+    plt = _pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     for run in runs:
         t = [k * dt for k in range(len(run.u))]
@@ -29,6 +36,28 @@ def plot_dismc(runs: Sequence[DismcRun], path: str, *, dt: float) -> None:
         ax.grid(True)
     axes[0].legend()
     axes[-1].set_xlabel("time [s]")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def plot_dq_steps(runs: Sequence[StepRun], path: str) -> None:
+    """Write Fig. 9(b)-like plots: i_q and i_d after a unit q step, one panel per strategy and ratio."""
+    plt = _pyplot()
+    panels = sorted({(r.strategy, r.ratio) for r in runs}, key=lambda p: (p[0], -p[1]))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.6 * len(panels)), squeeze=False)
+    for ax, (strategy, ratio) in zip(axes[:, 0], panels):
+        for run in (r for r in runs if (r.strategy, r.ratio) == (strategy, ratio)):
+            k = range(len(run.i))
+            line = ax.step(k, run.i.imag, where="post", label=f"{run.controller} i_q")[0]
+            ax.step(
+                k, run.i.real, where="post", ls="--", color=line.get_color(), label=f"{run.controller} i_d"
+            )
+        ax.set_title(f"{strategy}, omega_k/omega_s = 1/{1 / ratio:.4g}")
+        ax.set_xlim(0, 20)
+        ax.grid(True)
+    axes[0, 0].legend(fontsize="small", ncol=3)
+    axes[-1, 0].set_xlabel("samples after the step")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
