@@ -159,9 +159,13 @@ class StationaryRLConverter:
         """dq current at the present sample, i_ab e^{-j theta_k} (4) [A]."""
         return self.i_ab * cmath.exp(-1j * self.theta)
 
-    def _advance(self, u_ab: complex, src: complex, omega: float, h: float) -> complex:
-        """Integrate over h [s] with u_ab held and source src e^{j omega t}; return the source at h."""
+    def advance(self, u_ab: complex, omega: float, h: float, u_i: complex = 0j) -> None:
+        """Integrate h [s] with the alpha-beta voltage u_ab [V] held (limited to u_max), the
+        source u_i (dq) [V] rotating at omega [rad/s]; the frame angle advances by omega h."""
         p = self.params
+        mag = abs(u_ab)
+        if mag > self.u_max:
+            u_ab *= self.u_max / mag
         a = p.r1 / p.l1
         h_sub = h / self.n_sub
         decay = math.exp(-a * h_sub)
@@ -171,6 +175,7 @@ class StationaryRLConverter:
         # rotating source: int_0^h e^{-a(h-t)} e^{j omega t} dt / L
         #                  = (e^{j omega h} - e^{-a h}) / (L (a + j omega))
         g_src = (rot - decay) / (p.l1 * s_src) if s_src != 0 else complex(h_sub / p.l1)
+        src = u_i * cmath.exp(1j * self.theta)
         i = self.i_ab
         peak = self.peak
         for _ in range(self.n_sub):
@@ -179,22 +184,21 @@ class StationaryRLConverter:
             peak = max(peak, abs(i))
         self.i_ab = i
         self.peak = peak
-        return src
+        self.theta = math.remainder(self.theta + omega * h, math.tau)
+
+    def modulate(self, u_ref: complex, omega_k: float) -> complex:
+        """The alpha-beta voltage the modulator holds for dq reference u_ref computed now (``hold_angle``)."""
+        turn = self.theta + (0.5 * omega_k * self.params.ts if self.hold_angle == "middle" else 0.0)
+        return u_ref * cmath.exp(1j * turn)
 
     def step(self, u_ref: complex, omega_k: float, u_i: complex = 0j) -> complex:
         """Apply u_ref [V] (dq, computed at this sample); return the dq current at the next sample [A]."""
         p = self.params
-        turn = self.theta + (0.5 * omega_k * p.ts if self.hold_angle == "middle" else 0.0)
-        u_new = u_ref * cmath.exp(1j * turn)
-        mag = abs(u_new)
-        if mag > self.u_max:
-            u_new *= self.u_max / mag
-        src = u_i * cmath.exp(1j * self.theta)
+        u_new = self.modulate(u_ref, omega_k)
         t_d = (1.0 - p.m) * p.ts
         if t_d > 0.0:
-            src = self._advance(self._u_held, src, omega_k, t_d)
+            self.advance(self._u_held, omega_k, t_d, u_i)
         if t_d < p.ts:
-            self._advance(u_new, src, omega_k, p.ts - t_d)
+            self.advance(u_new, omega_k, p.ts - t_d, u_i)
         self._u_held = u_new
-        self.theta = math.remainder(self.theta + omega_k * p.ts, math.tau)
         return self.i

@@ -1,0 +1,96 @@
+"""A synchronous in-process CAN bus for lock-step runs: no threads in the data path.
+
+``SyncHub`` is the wire; each ``SyncBus`` on it is a python-can ``BusABC``.
+``send`` delivers the frame, before it returns, to every other bus on the hub:
+to its ``listeners`` (plain callables, called in order) and, unless the bus was
+made with ``queue=False``, to a queue that ``recv`` reads. A device that answers
+a frame from inside its listener therefore answers within the sender's
+``send``: after the host sends SYNC, every synchronous TPDO has arrived.
+
+Timestamps come from ``hub.clock`` (seconds of emulated time), so traces are
+identical run to run. ``attach_network`` joins a canopen ``Network`` to a bus
+without canopen's Notifier thread.
+"""
+
+from __future__ import annotations
+
+import collections
+from collections.abc import Callable
+from typing import Any
+
+import can
+
+__all__ = ["SyncBus", "SyncHub", "attach_network"]
+
+Listener = Callable[[can.Message], None]
+
+
+class SyncHub:
+    """The shared wire of ``SyncBus`` instances; ``clock`` is emulated time [s]."""
+
+    def __init__(self) -> None:
+        self.buses: list[SyncBus] = []
+        self.clock = 0.0
+        self.frames = 0  #: frames carried so far
+
+    def bus(self, *, queue: bool = True, channel: str = "sync0") -> SyncBus:
+        """A new bus on this hub."""
+        return SyncBus(self, queue=queue, channel=channel)
+
+    def deliver(self, sender: SyncBus, msg: can.Message) -> None:
+        frame = can.Message(
+            arbitration_id=msg.arbitration_id,
+            data=bytes(msg.data),
+            is_extended_id=msg.is_extended_id,
+            is_remote_frame=msg.is_remote_frame,
+            dlc=msg.dlc,
+            timestamp=self.clock,
+            channel=sender.channel_info,
+        )
+        self.frames += 1
+        for bus in list(self.buses):
+            if bus is not sender:
+                bus._receive(frame)
+
+
+class SyncBus(can.BusABC):
+    """One node's connection to a ``SyncHub`` (see the module docstring)."""
+
+    def __init__(self, hub: SyncHub, *, queue: bool = True, channel: str = "sync0", **kwargs: Any) -> None:
+        self.hub = hub
+        self.listeners: list[Listener] = []
+        self._queue: collections.deque[can.Message] | None = collections.deque() if queue else None
+        self.channel_info = channel
+        super().__init__(channel=channel, **kwargs)
+        hub.buses.append(self)
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        """Deliver ``msg`` to every other bus on the hub, synchronously."""
+        self.hub.deliver(self, msg)
+
+    def _receive(self, msg: can.Message) -> None:
+        if self._queue is not None:
+            self._queue.append(msg)
+        for listener in self.listeners:
+            listener(msg)
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        if self._queue:
+            return self._queue.popleft(), False
+        return None, False
+
+    def shutdown(self) -> None:
+        if self in self.hub.buses:
+            self.hub.buses.remove(self)
+        super().shutdown()
+
+
+def attach_network(network: Any, bus: SyncBus) -> None:
+    """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify``."""
+    network.bus = bus
+
+    def _to_network(msg: can.Message) -> None:
+        if not msg.is_error_frame and not msg.is_remote_frame:
+            network.notify(msg.arbitration_id, msg.data, msg.timestamp)
+
+    bus.listeners.append(_to_network)

@@ -1,0 +1,228 @@
+"""The physics behind an emulated drive: what a command does to the motor over h seconds.
+
+An axis takes the command of the active mode in SI (``set_command``) and is
+advanced by ``advance(h, t)`` with that command held; the drive splits a SYNC
+period at the instant a command takes effect. Modes (CiA 402 0x6060):
+-1 voltage [V] (the u of the DC-motor papers), -2 dq voltage [V, complex],
+10 CST torque [N m], 9 CSV and 3 PV velocity [rad/s], 8 CSP position [rad].
+
+``DcServoAxis``: the DC motor (3.4) stepped exactly (ZOH per distinct h),
+with the drive's own loops for the other modes: a deadbeat armature-current
+loop, a speed PI and a position P, running at ``inner_dt``.
+``GridAxis``: the RL load with source voltage of the dq-current paper, in the
+stationary frame (``StationaryRLConverter`` with no internal delay: the CAN
+timing provides T_d).
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from plant_emulator.dc_motor import DCMotorParams
+from plant_emulator.rl_dq import RLParams, StationaryRLConverter
+from plant_emulator.zoh import LinearZOH
+
+__all__ = ["VOLTAGE_MODE", "DQ_VOLTAGE_MODE", "Axis", "DcServoAxis", "GridAxis", "ServoLoops"]
+
+VOLTAGE_MODE, DQ_VOLTAGE_MODE, PV, CSP, CSV, CST = -1, -2, 3, 8, 9, 10
+
+LoadProfile = Callable[[float], float]
+
+
+class Axis:
+    """Interface of the physics behind a drive (see the module docstring)."""
+
+    modes: tuple[int, ...] = ()
+    position = 0.0  #: [rad]
+    velocity = 0.0  #: [rad/s]
+    current = 0.0  #: [A] (magnitude for the grid axis)
+    torque = 0.0  #: [N m]
+
+    def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
+        """Take a command; ``computed_one_sync_ago`` marks a synchronous RPDO applied one SYNC
+        after the host computed it from the previous sample."""
+        raise NotImplementedError
+
+    def latch(self) -> None:
+        """A SYNC: the feedback of this instant is being sampled."""
+
+    def advance(self, h: float, t: float) -> None:
+        raise NotImplementedError
+
+    def coast(self) -> None:
+        """Power stage off: no voltage, no torque."""
+        raise NotImplementedError
+
+    def reset(self) -> None:
+        """Back to rest (state zero)."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class ServoLoops:
+    """The drive's inner loops: speed PI (kp [N m s/rad], ki [N m/rad]), position P (kp [1/s])."""
+
+    speed_kp: float
+    speed_ki: float
+    position_kp: float
+    max_torque: float  #: [N m]
+    max_voltage: float  #: [V], the power stage limit
+
+
+class DcServoAxis(Axis):
+    """DC motor (3.4) behind a servo drive; state [theta, omega, i_r]."""
+
+    modes = (VOLTAGE_MODE, CST, CSV, PV, CSP)
+
+    def __init__(self, motor: DCMotorParams, loops: ServoLoops, *, inner_dt: float,
+                 load: LoadProfile | None = None) -> None:  # fmt: skip
+        self.motor = motor
+        self.loops = loops
+        self.inner_dt = inner_dt
+        self.load = load or (lambda t: 0.0)
+        p = motor
+        self._A = [[0.0, 1.0, 0.0], [0.0, -p.b / p.j, p.k_t / p.j], [0.0, -p.k_e / p.l_r, -p.r_r / p.l_r]]
+        self._B = [[0.0, 0.0], [0.0, -1.0 / p.j], [1.0 / p.l_r, 0.0]]
+        self._zoh: dict[float, LinearZOH] = {}
+        self.x = [0.0, 0.0, 0.0]
+        self.mode = VOLTAGE_MODE
+        self.command = 0.0
+        self._integral = 0.0
+        self._enabled = True
+
+    def _step(self, u: float, t_load: float, h: float) -> None:
+        zoh = self._zoh.get(h)
+        if zoh is None:
+            zoh = self._zoh[h] = LinearZOH(self._A, self._B, h)
+        zoh.x[:] = self.x
+        self.x[:] = zoh.step((u, t_load))
+
+    def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
+        if mode not in self.modes:
+            raise ValueError(f"DC servo axis has no mode {mode}")
+        if mode != self.mode:
+            self._integral = 0.0
+        self.mode, self.command = mode, float(value.real if isinstance(value, complex) else value)
+        self._enabled = True
+
+    def coast(self) -> None:
+        self._enabled = False
+
+    def reset(self) -> None:
+        self.x[:] = [0.0, 0.0, 0.0]
+        self._integral = 0.0
+
+    def _torque_to_voltage(self, torque: float, h: float) -> float:
+        """Deadbeat armature-current loop: u that takes i_r to torque/k_t over h (omega held)."""
+        p, lim = self.motor, self.loops
+        i_ref = max(-lim.max_torque, min(lim.max_torque, torque)) / p.k_t
+        decay = math.exp(-h * p.r_r / p.l_r)
+        u = p.k_e * self.x[1] + p.r_r * (i_ref - decay * self.x[2]) / (1.0 - decay)
+        return max(-lim.max_voltage, min(lim.max_voltage, u))
+
+    def _speed_loop(self, w_ref: float, h: float) -> float:
+        lim = self.loops
+        e = w_ref - self.x[1]
+        torque = lim.speed_kp * e + self._integral
+        if abs(torque) < lim.max_torque:  # conditional integration (anti-windup)
+            self._integral += lim.speed_ki * e * h
+        return torque
+
+    def advance(self, h: float, t: float) -> None:
+        if h <= 0.0:
+            return
+        if not self._enabled:
+            # power stage off: armature open, the current decays through the freewheel path
+            self._step(self.motor.k_e * self.x[1], self.load(t), h)
+            self.x[2] = 0.0
+            return
+        if self.mode == VOLTAGE_MODE:
+            self._step(max(-self.loops.max_voltage, min(self.loops.max_voltage, self.command)), self.load(t), h)
+            return
+        n = max(1, math.ceil(h / self.inner_dt - 1e-9))
+        hs = h / n
+        for k in range(n):
+            if self.mode == CST:
+                torque = self.command
+            elif self.mode in (CSV, PV):
+                torque = self._speed_loop(self.command, hs)
+            else:  # CSP
+                torque = self._speed_loop(self.loops.position_kp * (self.command - self.x[0]), hs)
+            self._step(self._torque_to_voltage(torque, hs), self.load(t + k * hs), hs)
+
+    @property  # type: ignore[override]
+    def position(self) -> float:
+        return self.x[0]
+
+    @property  # type: ignore[override]
+    def velocity(self) -> float:
+        return self.x[1]
+
+    @property  # type: ignore[override]
+    def current(self) -> float:
+        return self.x[2]
+
+    @property  # type: ignore[override]
+    def torque(self) -> float:
+        return self.motor.k_t * self.x[2]
+
+
+class GridAxis(Axis):
+    """RL load with a rotating source (Table IV) behind the converter; mode -2 (dq voltage)."""
+
+    modes = (DQ_VOLTAGE_MODE,)
+
+    def __init__(self, rl: RLParams, *, omega_k: float, source: complex = 0j, u_max: float = math.inf,
+                 hold_angle: str = "middle") -> None:  # fmt: skip
+        self.rl = RLParams(rl.r1, rl.l1, rl.ts, 1.0)  # the CAN timing makes the delay
+        self.converter = StationaryRLConverter(self.rl, u_max=u_max, hold_angle=hold_angle)
+        self.omega_k = omega_k
+        self.source = source
+        self._u_ab = 0j
+        self._theta_samples = (0.0, 0.0)  # frame angle at the previous and the latest SYNC
+
+    def latch(self) -> None:
+        self._theta_samples = (self._theta_samples[1], self.converter.theta)
+
+    def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
+        """dq voltage reference [V]: turned to alpha-beta with the angle of the sample it was
+        computed from (plus half a period with ``hold_angle="middle"``), as the modulator would."""
+        if mode != DQ_VOLTAGE_MODE:
+            raise ValueError(f"grid axis has only mode {DQ_VOLTAGE_MODE}, got {mode}")
+        theta = self._theta_samples[0 if computed_one_sync_ago else 1]
+        now = self.converter.theta
+        self.converter.theta = theta
+        self._u_ab = self.converter.modulate(complex(value), self.omega_k)
+        self.converter.theta = now
+
+    def coast(self) -> None:
+        self._u_ab = 0j
+
+    def reset(self) -> None:
+        self.converter.i_ab = 0j
+        self.converter.theta = 0.0
+        self._u_ab = 0j
+
+    def advance(self, h: float, t: float) -> None:
+        if h > 0.0:
+            self.converter.advance(self._u_ab, self.omega_k, h, self.source)
+
+    @property
+    def i_dq(self) -> complex:
+        """dq current at the present instant [A]."""
+        return self.converter.i_ab * cmath.exp(-1j * self.converter.theta)
+
+    @property  # type: ignore[override]
+    def position(self) -> float:
+        return self.converter.theta
+
+    @property  # type: ignore[override]
+    def velocity(self) -> float:
+        return self.omega_k
+
+    @property  # type: ignore[override]
+    def current(self) -> float:
+        return abs(self.converter.i_ab)

@@ -1,0 +1,281 @@
+"""An emulated CANopen device (CiA 301) on canopen's ``LocalNode``.
+
+canopen's LocalNode gives the SDO server, the NMT state variable and the EMCY
+producer. What a real device also does, and LocalNode does not, is written
+here once: boot-up and the two NMT resets, gating of SDO/PDO/SYNC/EMCY by the
+NMT state, a heartbeat producer driven by the device's clock (emulated time
+in lock-step, so traces repeat), a SYNC consumer, TPDOs packed from the object
+dictionary (synchronous every n-th SYNC, or event-driven on change and on the
+event timer), and RPDOs unpacked into the object dictionary (at the next SYNC
+for synchronous types 0-240, on receipt for 254/255). PDO communication and
+mapping parameters (0x1400-0x1BFF) are read from the object dictionary, so a
+remap written through SDO takes effect at the next use.
+
+NMT gating (CiA 301, 7.3.2): PRE-OPERATIONAL: SDO, SYNC, EMCY, heartbeat;
+OPERATIONAL: all; STOPPED: NMT and heartbeat only.
+"""
+
+from __future__ import annotations
+
+import logging
+import struct
+from dataclasses import dataclass
+from typing import Any
+
+import canopen
+from canopen.sdo import SdoAbortedError
+
+__all__ = ["EmulatedNode", "PdoConfig"]
+
+log = logging.getLogger(__name__)
+
+PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = 127, 5, 4, 0
+
+
+@dataclass(frozen=True)
+class PdoConfig:
+    """One PDO as configured in the object dictionary."""
+
+    number: int  #: 0-based
+    cob_id: int
+    valid: bool
+    ttype: int  #: transmission type
+    event_timer_ms: int
+    mapping: tuple[tuple[int, int, int], ...]  #: (index, subindex, bits)
+
+
+class EmulatedNode:
+    """A CiA 301 slave on ``network`` built from the EDS at ``eds``.
+
+    Subclasses override ``on_sync_latch`` (update the process data before the
+    synchronous TPDOs go out), ``on_rpdo`` and ``on_reset``.
+    """
+
+    def __init__(self, node_id: int, eds: str, network: canopen.Network) -> None:
+        if not 1 <= node_id <= 127:
+            raise ValueError(f"node id must be 1..127, got {node_id!r}")
+        self.node_id = node_id
+        self.network = network
+        self.node = canopen.LocalNode(node_id, canopen.import_od(eds, node_id))
+        network.add_node(self.node)
+        # SDO and NMT through our gates; heartbeat on our clock, not canopen's thread
+        network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
+        network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
+        network.subscribe(0, self._after_nmt)
+        nmt: Any = self.node.nmt
+        nmt.start_heartbeat = lambda ms: None
+        nmt.stop_heartbeat = lambda: None
+        nmt.update_heartbeat = lambda: None
+        self.node.add_write_callback(self._on_write)
+        self.clock = 0.0  #: device time [s]
+        self._last_heartbeat = -1e9
+        self._sync_count = 0
+        self._tpdos: list[PdoConfig] = []
+        self._rpdos: list[PdoConfig] = []
+        self._rpdo_subscribed: list[int] = []
+        self._sync_cob: int | None = None
+        self._pending_sync_rpdo: dict[int, bytes] = {}
+        self._last_event: dict[int, bytes] = {}
+        self._last_event_time: dict[int, float] = {}
+        self._dirty = True
+        self.rx_time = 0.0  #: timestamp [s] of the RPDO being handled
+
+    # --- NMT -----------------------------------------------------------
+    @property
+    def nmt_state(self) -> int:
+        return int(self.node.nmt._state)
+
+    def boot(self) -> None:
+        """Power on: INITIALISING, boot-up message, PRE-OPERATIONAL."""
+        self.node.nmt._state = INITIALISING
+        self.on_reset(application=True)
+        self.network.send_message(0x700 + self.node_id, bytes([0]))
+        self.node.nmt._state = PRE_OPERATIONAL
+        self._dirty = True
+        self._configure()
+        self._last_heartbeat = self.clock
+
+    def _after_nmt(self, can_id: int, data: bytes, timestamp: float) -> None:
+        cmd, target = struct.unpack_from("BB", data)
+        if target not in (0, self.node_id):
+            return
+        if cmd in (0x81, 0x82):  # reset node / reset communication
+            comm_only = cmd == 0x82
+            for index in list(self.node.data_store):
+                if not comm_only or 0x1000 <= index < 0x2000:
+                    del self.node.data_store[index]
+            log.info("node %d: NMT %s", self.node_id, "reset communication" if comm_only else "reset node")
+            self.node.nmt._state = INITIALISING
+            if not comm_only:
+                self.on_reset(application=True)
+            self.network.send_message(0x700 + self.node_id, bytes([0]))
+            self.node.nmt._state = PRE_OPERATIONAL
+            self._dirty = True
+        self._configure()
+
+    def tick(self, now: float) -> None:
+        """Advance the device clock to ``now`` [s]: heartbeat and event timers."""
+        self.clock = now
+        period = self._u(0x1017, 0) / 1000.0
+        if period > 0.0 and now - self._last_heartbeat >= period - 1e-9:
+            self._last_heartbeat = now
+            self.network.send_message(0x700 + self.node_id, bytes([self.nmt_state]))
+        if self.nmt_state == OPERATIONAL:
+            for pdo in self._tpdos:
+                if pdo.valid and pdo.ttype >= 254:
+                    self._event_tpdo(pdo, now)
+
+    # --- SDO -------------------------------------------------------------
+    def _on_sdo(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self.nmt_state in (PRE_OPERATIONAL, OPERATIONAL):
+            self.node.sdo.on_request(can_id, data, timestamp)
+
+    def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
+        if 0x1400 <= index <= 0x1BFF:
+            self._check_pdo_write(index, subindex, data)
+            self._dirty = True
+        if index == 0x1005:
+            self._dirty = True
+
+    def _check_pdo_write(self, index: int, subindex: int, data: bytes) -> None:
+        """CiA 301 rules: mapping only while the PDO is invalid and sub 0 is 0; mapped objects must exist."""
+        is_map = (0x1600 <= index <= 0x17FF) or (0x1A00 <= index <= 0x1BFF)
+        if not is_map:
+            return
+        comm = index - 0x200
+        valid = not (self._u(comm, 1) & 0x80000000)
+        if valid:
+            raise SdoAbortedError(0x08000022)  # data cannot be stored: device state
+        if subindex == 0:
+            count = data[0]
+            if count > 8:
+                raise SdoAbortedError(0x06090031)  # value too high
+            bits = 0
+            for s in range(1, count + 1):
+                bits += self._u(index, s) & 0xFF
+            if bits > 64:
+                raise SdoAbortedError(0x06040042)  # PDO length exceeded
+            return
+        if self._u(index, 0) != 0:
+            raise SdoAbortedError(0x08000022)
+        entry = int.from_bytes(data, "little")
+        if entry == 0:
+            return
+        obj_index, obj_sub, bits = entry >> 16, (entry >> 8) & 0xFF, entry & 0xFF
+        try:
+            obj = self.node._find_object(obj_index, obj_sub)
+        except SdoAbortedError:
+            raise SdoAbortedError(0x06040041) from None  # object cannot be mapped
+        if not obj.pdo_mappable or len(obj) != bits:
+            raise SdoAbortedError(0x06040041)
+
+    # --- object dictionary access ----------------------------------------
+    def _u(self, index: int, subindex: int) -> int:
+        return int.from_bytes(self.node.get_data(index, subindex), "little")
+
+    def read(self, index: int, subindex: int = 0) -> Any:
+        """Decoded value of an object (through the read callbacks)."""
+        obj = self.node._find_object(index, subindex)
+        return obj.decode_raw(self.node.get_data(index, subindex))
+
+    def write(self, index: int, subindex: int, value: Any) -> None:
+        """Set an object's value from the device side (no access check, no callbacks)."""
+        obj = self.node._find_object(index, subindex)
+        self.node.data_store.setdefault(index, {})[subindex] = obj.encode_raw(value)
+
+    # --- PDO -------------------------------------------------------------
+    def _pdo(self, comm: int, mapping: int, number: int) -> PdoConfig:
+        cob = self._u(comm, 1)
+        count = self._u(mapping, 0)
+        entries = []
+        for s in range(1, count + 1):
+            m = self._u(mapping, s)
+            entries.append((m >> 16, (m >> 8) & 0xFF, m & 0xFF))
+        return PdoConfig(
+            number, cob & 0x7FF, not (cob & 0x80000000), self._u(comm, 2), self._u(comm, 5), tuple(entries)
+        )
+
+    def _configure(self) -> None:
+        if not self._dirty:
+            return
+        self._dirty = False
+        self._tpdos = [self._pdo(0x1800 + n, 0x1A00 + n, n) for n in range(4)]
+        self._rpdos = [self._pdo(0x1400 + n, 0x1600 + n, n) for n in range(4)]
+        for cob in self._rpdo_subscribed:
+            self.network.unsubscribe(cob, self._on_rpdo_frame)
+        self._rpdo_subscribed = [p.cob_id for p in self._rpdos if p.valid and p.mapping]
+        for cob in self._rpdo_subscribed:
+            self.network.subscribe(cob, self._on_rpdo_frame)
+        sync_cob = self._u(0x1005, 0) & 0x7FF
+        if sync_cob != self._sync_cob:
+            if self._sync_cob is not None:
+                self.network.unsubscribe(self._sync_cob, self._on_sync)
+            self.network.subscribe(sync_cob, self._on_sync)
+            self._sync_cob = sync_cob
+
+    def _pack(self, pdo: PdoConfig) -> bytes:
+        return b"".join(self.node.get_data(i, s)[: bits // 8] for i, s, bits in pdo.mapping)
+
+    def _on_rpdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self.nmt_state != OPERATIONAL:
+            return
+        self.rx_time = timestamp
+        for pdo in self._rpdos:
+            if pdo.valid and pdo.cob_id == can_id:
+                if pdo.ttype <= 240:
+                    self._pending_sync_rpdo[pdo.number] = bytes(data)
+                else:
+                    self._unpack(pdo, bytes(data))
+                    self.on_rpdo(pdo.number, synchronous=False)
+
+    def _unpack(self, pdo: PdoConfig, data: bytes) -> None:
+        offset = 0
+        for index, sub, bits in pdo.mapping:
+            n = bits // 8
+            if offset + n > len(data):
+                log.warning("node %d: RPDO%d shorter than its mapping", self.node_id, pdo.number + 1)
+                return
+            self.node.set_data(index, sub, data[offset : offset + n])
+            offset += n
+
+    def _event_tpdo(self, pdo: PdoConfig, now: float) -> None:
+        payload = self._pack(pdo)
+        last = self._last_event.get(pdo.number)
+        timer = pdo.event_timer_ms / 1000.0
+        due = timer > 0.0 and now - self._last_event_time.get(pdo.number, -1e9) >= timer - 1e-9
+        if payload != last or due:
+            self._last_event[pdo.number] = payload
+            self._last_event_time[pdo.number] = now
+            self.network.send_message(pdo.cob_id, payload)
+
+    def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self.nmt_state not in (PRE_OPERATIONAL, OPERATIONAL):
+            return
+        self._configure()
+        self._sync_count += 1
+        self.on_sync_latch(timestamp)
+        if self.nmt_state == OPERATIONAL:
+            for pdo in self._tpdos:
+                if pdo.valid and pdo.mapping and 1 <= pdo.ttype <= 240 and self._sync_count % pdo.ttype == 0:
+                    self.network.send_message(pdo.cob_id, self._pack(pdo))
+            pending, self._pending_sync_rpdo = self._pending_sync_rpdo, {}
+            for number, payload in sorted(pending.items()):
+                self._unpack(self._rpdos[number], payload)
+                self.on_rpdo(number, synchronous=True)
+        self.tick(timestamp)
+
+    def emcy(self, code: int, register: int, data: bytes = b"") -> None:
+        """Send an EMCY (not in STOPPED) and set 0x1001."""
+        self.write(0x1001, 0, register)
+        if self.nmt_state != STOPPED:
+            self.node.emcy.send(code, register, data)
+
+    # --- hooks -------------------------------------------------------------
+    def on_sync_latch(self, timestamp: float) -> None:
+        """SYNC arrived at ``timestamp`` [s]: advance and latch process data."""
+
+    def on_rpdo(self, number: int, *, synchronous: bool) -> None:
+        """RPDO ``number`` (0-based) was written into the object dictionary."""
+
+    def on_reset(self, *, application: bool) -> None:
+        """NMT reset node (application) or power-on."""

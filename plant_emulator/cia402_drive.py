@@ -1,0 +1,263 @@
+"""An emulated CiA 402 servo drive / converter on the bus, with an ``Axis`` behind it.
+
+Per SYNC (period ``period`` [s]): the physics advances one period with the
+commands in force, the drive checks its limits, latches the feedback into the
+object dictionary and sends its synchronous TPDOs. Command timing is the two
+delay cases of the dq-current paper: a synchronous RPDO (type 0-240) is
+applied at the next SYNC (one period of delay: s-PWM-start); an event RPDO
+(type 254/255) is applied ``0x2001`` microseconds after receipt (a fraction
+of a period: s-PWM-middle with T_s/2). SDO writes of a target act at the next SYNC.
+
+Units on the wire (device units, converted here and in the driver from the
+same EDS objects): position [increments, 0x608F], velocity [increments/s],
+torque and current [per mille of 0x6076 / 0x6075], voltage [mV], dq current
+[mA], angle [urad].
+
+Faults (EMCY with 0x603F and 0x1001): over-current 0x2310 (|i| above 0x6073),
+over-speed 0x8400 (|omega| above 0x6080 rpm), following error 0x8611 (CSP,
+|error| above 0x6065 increments). The fault reaction (0x605E) and quick stop
+(0x605A) brake with the speed loop where the axis has one, or coast (option 0).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import canopen
+from canopen.sdo import SdoAbortedError
+
+from drivers.maps import CIA402_EDS
+from plant_emulator.axes import CSP, CST, CSV, DQ_VOLTAGE_MODE, PV, VOLTAGE_MODE, Axis
+from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
+from plant_emulator.cia402_state import PowerState, PowerStateMachine
+
+__all__ = ["EmulatedDrive", "FAULT_CODES"]
+
+log = logging.getLogger(__name__)
+
+FAULT_CODES = {0x2310: "over-current", 0x8400: "over-speed", 0x8611: "following error"}
+_MODE_BITS = {PV: 1 << 2, CSP: 1 << 7, CSV: 1 << 8, CST: 1 << 9, VOLTAGE_MODE: 1 << 16, DQ_VOLTAGE_MODE: 1 << 17}
+_TARGETS = {0x2100, 0x2200, 0x6071, 0x607A, 0x60FF}
+S = PowerState
+
+
+class EmulatedDrive(EmulatedNode):
+    """A CiA 402 drive node; see the module docstring."""
+
+    def __init__(self, node_id: int, network: canopen.Network, axis: Axis, *, period: float,
+                 eds: str = CIA402_EDS) -> None:  # fmt: skip
+        if not (math.isfinite(period) and period > 0.0):
+            raise ValueError(f"period must be > 0 s, got {period!r}")
+        self.axis = axis
+        self.period = period
+        self.sm = PowerStateMachine()
+        self._pending: list[tuple[float, int, complex, bool]] = []  # (offset s, mode, value, one_sync_ago)
+        self._t_sync = 0.0
+        self._first_sync = True
+        self._sdo_target = False
+        self._in_rpdo = False
+        self.fault_code = 0
+        self._pending_cw: int | None = None
+        super().__init__(node_id, eds, network)
+        supported = sum(_MODE_BITS[m] for m in axis.modes)
+        self.write(0x6502, 0, supported)
+        self.node.add_write_callback(self._on_drive_write)
+
+    # --- units ----------------------------------------------------------------
+    @property
+    def counts_per_rad(self) -> float:
+        return self._u(0x608F, 1) / (self._u(0x608F, 2) * 2.0 * math.pi)
+
+    def _rated_torque(self) -> float:
+        return self._u(0x6076, 0) / 1000.0  # mN m -> N m
+
+    def _rated_current(self) -> float:
+        return self._u(0x6075, 0) / 1000.0  # mA -> A
+
+    def _command(self, mode: int) -> complex:
+        """The present target of ``mode`` from the object dictionary, in SI."""
+        if mode == VOLTAGE_MODE:
+            return complex(self.read(0x2100) / 1000.0)
+        if mode == DQ_VOLTAGE_MODE:
+            return complex(self.read(0x2200, 1), self.read(0x2200, 2)) / 1000.0
+        if mode == CST:
+            return complex(self.read(0x6071) / 1000.0 * self._rated_torque())
+        if mode in (CSV, PV):
+            return complex(self.read(0x60FF) / self.counts_per_rad)
+        if mode == CSP:
+            return complex(self.read(0x607A) / self.counts_per_rad)
+        return 0j
+
+    # --- object writes -----------------------------------------------------
+    def _on_drive_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
+        value = int.from_bytes(data, "little", signed=index in (0x6060, 0x605A, 0x605E))
+        if index == 0x6060:
+            if value not in self.axis.modes:
+                raise SdoAbortedError(0x06090030)  # value range of parameter exceeded
+            self.write(0x6061, 0, value)
+        elif index == 0x605A:
+            if not 0 <= value <= 8:
+                raise SdoAbortedError(0x06090030)
+            self.sm.quick_stop_option = value
+        elif index == 0x6040:
+            self._pending_cw = value
+            if not self._in_rpdo:
+                self._apply_controlword(value)
+        elif index in _TARGETS and not self._in_rpdo:
+            self._sdo_target = True
+
+    def _unpack(self, pdo, data):  # type: ignore[no-untyped-def]
+        self._in_rpdo = True
+        try:
+            super()._unpack(pdo, data)
+        finally:
+            self._in_rpdo = False
+
+    def _apply_controlword(self, cw: int) -> None:
+        before = self.sm.state
+        after = self.sm.command(cw)
+        if after is not before:
+            log.info("node %d: %s -> %s (controlword 0x%04X)", self.node_id, before.value, after.value, cw)
+            if before is S.FAULT:
+                self.fault_code = 0
+                self.write(0x603F, 0, 0)
+                self.write(0x1001, 0, 0)
+                if self.nmt_state == OPERATIONAL:
+                    self.node.emcy.reset()
+            if after is S.OPERATION_ENABLED:
+                mode = self.read(0x6061)
+                self.axis.set_command(mode, self._hold_command(mode))
+        self._latch_status()
+
+    def _hold_command(self, mode: int) -> complex:
+        """On enable: hold the present position/speed rather than jump to a stale target."""
+        if mode == CSP:
+            return complex(self.axis.position)
+        if mode in (CSV, PV, CST, VOLTAGE_MODE, DQ_VOLTAGE_MODE):
+            return 0j
+        return 0j
+
+    def on_rpdo(self, number: int, *, synchronous: bool) -> None:
+        if self._pending_cw is not None:
+            cw, self._pending_cw = self._pending_cw, None
+            self._apply_controlword(cw)
+        if self.sm.state is not S.OPERATION_ENABLED:
+            return
+        mode = self.read(0x6061)
+        value = self._command(mode)
+        if synchronous:
+            self._pending.append((0.0, mode, value, True))
+        else:
+            latency = self._u(0x2001, 0) * 1e-6
+            offset = min(max(self.rx_time - self._t_sync, 0.0) + latency, self.period)
+            self._pending.append((offset, mode, value, False))
+
+    def on_reset(self, *, application: bool) -> None:
+        self.axis.reset()
+        self.sm = PowerStateMachine()
+        self.sm.power_on()
+        self.sm.quick_stop_option = 2
+        self._pending.clear()
+        self.fault_code = 0
+        self._first_sync = True
+        self._latch_status()
+
+    # --- the cycle ----------------------------------------------------------
+    def _advance(self, t: float) -> None:
+        """One period of physics, switching commands at their offsets."""
+        if not self.sm.power_stage_on:
+            self._pending.clear()
+            self.axis.coast()
+            self.axis.advance(self.period, t)
+            return
+        done = 0.0
+        for offset, mode, value, one_ago in sorted(self._pending, key=lambda p: p[0]):
+            self.axis.advance(offset - done, t + done)
+            self.axis.set_command(mode, value, computed_one_sync_ago=one_ago)
+            done = offset
+        self._pending.clear()
+        self.axis.advance(self.period - done, t + done)
+
+    def _stop_reaction(self) -> None:
+        st = self.sm.state
+        if st not in (S.QUICK_STOP_ACTIVE, S.FAULT_REACTION_ACTIVE):
+            return
+        option = self.sm.quick_stop_option if st is S.QUICK_STOP_ACTIVE else self.read(0x605E)
+        if option == 0 or CSV not in self.axis.modes:
+            self.axis.coast()
+            self.sm.reaction_done()
+            return
+        self.axis.set_command(CSV, 0.0)
+        if abs(self.axis.velocity) < 1e-2:
+            self.sm.reaction_done()
+            if self.sm.state in (S.FAULT, S.SWITCH_ON_DISABLED):
+                self.axis.coast()
+
+    def _check_limits(self) -> None:
+        if self.sm.state in (S.FAULT, S.FAULT_REACTION_ACTIVE):
+            return
+        code = 0
+        i_max = self.read(0x6073) / 1000.0 * self._rated_current()
+        w_max = self._u(0x6080, 0) * 2.0 * math.pi / 60.0
+        if abs(self.axis.current) > i_max:
+            code = 0x2310
+        elif DQ_VOLTAGE_MODE not in self.axis.modes and abs(self.axis.velocity) > w_max:
+            code = 0x8400
+        elif self.read(0x6061) == CSP and self.sm.state is S.OPERATION_ENABLED:
+            error = self.read(0x607A) - self.read(0x6064)
+            if abs(error) > self._u(0x6065, 0):
+                code = 0x8611
+        if code:
+            self.raise_fault(code)
+
+    def raise_fault(self, code: int) -> None:
+        """A device fault: state machine transition 13, 0x603F, 0x1001 and EMCY."""
+        log.warning("node %d: fault 0x%04X %s", self.node_id, code, FAULT_CODES.get(code, ""))
+        self.fault_code = code
+        self.sm.fault()
+        self.write(0x603F, 0, code)
+        register = 0x01 | (0x02 if code >> 12 == 2 else 0) | (0x20 if code >> 12 == 8 else 0)
+        self.emcy(code, register)
+
+    def on_sync_latch(self, timestamp: float) -> None:
+        if self._first_sync:
+            self._first_sync = False
+        else:
+            self._advance(self._t_sync)
+        self._t_sync = timestamp
+        if self._sdo_target and self.sm.state is S.OPERATION_ENABLED:
+            mode = self.read(0x6061)
+            self._pending.append((0.0, mode, self._command(mode), False))
+        self._sdo_target = False
+        self._check_limits()
+        self._stop_reaction()
+        self._latch()
+
+    def _latch_status(self) -> None:
+        word = self.sm.statusword() | 0x0200  # bit 9 remote
+        if self.sm.state is S.OPERATION_ENABLED and self.read(0x6061) in (CSP, CSV, CST):
+            word |= 0x1000  # bit 12: drive follows the command value
+        if self.fault_code == 0x8611:
+            word |= 0x2000  # bit 13: following error
+        self.write(0x6041, 0, word)
+
+    def _latch(self) -> None:
+        ax = self.axis
+        cpr = self.counts_per_rad
+        pos = math.floor(ax.position * cpr)
+        self.write(0x6064, 0, max(-(2**31), min(2**31 - 1, pos)))
+        self.write(0x606C, 0, max(-(2**31), min(2**31 - 1, round(ax.velocity * cpr))))
+        rated_t, rated_i = self._rated_torque(), self._rated_current()
+        self.write(0x6077, 0, max(-32768, min(32767, round(ax.torque / rated_t * 1000.0))))
+        self.write(0x6078, 0, max(-32768, min(32767, round(ax.current / rated_i * 1000.0))))
+        if self.read(0x6061) == CSP:
+            self.write(0x60F4, 0, self.read(0x607A) - pos)
+        i_dq = getattr(ax, "i_dq", None)
+        if i_dq is not None:
+            self.write(0x2210, 1, round(i_dq.real * 1000.0))
+            self.write(0x2210, 2, round(i_dq.imag * 1000.0))
+            self.write(0x2220, 0, round(ax.position * 1e6))
+            self.write(0x2221, 0, round(ax.velocity * 1000.0))
+        ax.latch()
+        self._latch_status()
