@@ -79,6 +79,7 @@ class EmulatedNode:
         self._last_event_time: dict[int, float] = {}
         self._dirty = True
         self.rx_time = 0.0  #: timestamp [s] of the RPDO being handled
+        self._power_on: dict[int, dict[int, bytes]] | None = None
 
     # --- NMT -----------------------------------------------------------
     @property
@@ -86,7 +87,13 @@ class EmulatedNode:
         return int(self.node.nmt._state)
 
     def boot(self) -> None:
-        """Power on: INITIALISING, boot-up message, PRE-OPERATIONAL."""
+        """Power on: INITIALISING, boot-up message, PRE-OPERATIONAL.
+
+        The object dictionary as it is now (defaults plus the preset's device-side
+        writes) is what the NMT resets restore, like parameters stored in 0x1010.
+        """
+        if self._power_on is None:
+            self._power_on = {i: dict(subs) for i, subs in self.node.data_store.items()}
         self.node.nmt._state = INITIALISING
         self.on_reset(application=True)
         self.network.send_message(0x700 + self.node_id, bytes([0]))
@@ -101,9 +108,13 @@ class EmulatedNode:
             return
         if cmd in (0x81, 0x82):  # reset node / reset communication
             comm_only = cmd == 0x82
+            stored = self._power_on or {}
             for index in list(self.node.data_store):
                 if not comm_only or 0x1000 <= index < 0x2000:
                     del self.node.data_store[index]
+            for index, subs in stored.items():
+                if not comm_only or 0x1000 <= index < 0x2000:
+                    self.node.data_store[index] = dict(subs)
             log.info("node %d: NMT %s", self.node_id, "reset communication" if comm_only else "reset node")
             self.node.nmt._state = INITIALISING
             if not comm_only:
@@ -121,9 +132,13 @@ class EmulatedNode:
             self._last_heartbeat = now
             self.network.send_message(0x700 + self.node_id, bytes([self.nmt_state]))
         if self.nmt_state == OPERATIONAL:
-            for pdo in self._tpdos:
-                if pdo.valid and pdo.ttype >= 254:
-                    self._event_tpdo(pdo, now)
+            self.event_tpdos(now)
+
+    def event_tpdos(self, now: float) -> None:
+        """TPDOs of type 254/255: sent when their data change or their event timer (sub 5) expires."""
+        for pdo in self._tpdos:
+            if pdo.valid and pdo.mapping and pdo.ttype >= 254:
+                self._event_tpdo(pdo, now)
 
     # --- SDO -------------------------------------------------------------
     def _on_sdo(self, can_id: int, data: bytes, timestamp: float) -> None:

@@ -127,7 +127,10 @@ class EmulatedDrive(EmulatedNode):
                     self.node.emcy.reset()
             if after is S.OPERATION_ENABLED:
                 mode = self.read(0x6061)
-                self.axis.set_command(mode, self._hold_command(mode))
+                if mode in self.axis.modes:
+                    self.axis.set_command(mode, self._hold_command(mode))
+                else:  # no mode selected: enabled, but no torque
+                    self.axis.coast()
         self._latch_status()
 
     def _hold_command(self, mode: int) -> complex:
@@ -145,6 +148,8 @@ class EmulatedDrive(EmulatedNode):
         if self.sm.state is not S.OPERATION_ENABLED:
             return
         mode = self.read(0x6061)
+        if mode not in self.axis.modes:
+            return
         value = self._command(mode)
         if synchronous:
             self._pending.append((0.0, mode, value, True))
@@ -226,8 +231,8 @@ class EmulatedDrive(EmulatedNode):
         else:
             self._advance(self._t_sync)
         self._t_sync = timestamp
-        if self._sdo_target and self.sm.state is S.OPERATION_ENABLED:
-            mode = self.read(0x6061)
+        mode = self.read(0x6061)
+        if self._sdo_target and self.sm.state is S.OPERATION_ENABLED and mode in self.axis.modes:
             self._pending.append((0.0, mode, self._command(mode), False))
         self._sdo_target = False
         self._check_limits()

@@ -1,0 +1,218 @@
+"""An emulated Modbus inverter: pymodbus server, register map from ``drivers/maps``, motor behind it.
+
+The register semantics follow the shipped map (``abb-drives-profile`` or
+``delta-vfd-b``): control word (run, stop, fault reset), speed reference,
+status word, actual speed, current and fault code. Reads and writes go
+through ``InverterContext``: an unknown register, or a write to a read-only
+one, is answered with exception 02 (illegal data address); a reference out of
+the map's range with 03 (illegal data value).
+
+Behind the registers: a V/f drive with a linear speed ramp (``accel`` rad/s^2)
+feeding an induction motor whose speed follows the ramp with the slip of the
+load torque: omega = omega_ramp - slip * T_L / T_rated, smoothed with ``tau``
+[s]; the current is I_0 + (I_rated - I_0) |T_L| / T_rated. ``step(dt)`` advances it;
+``serve_tcp`` / ``serve_rtu`` run it on the wall clock.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from pymodbus.constants import ExcCodes
+from pymodbus.datastore import ModbusServerContext
+from pymodbus.datastore.context import ModbusBaseDeviceContext
+
+from drivers.maps import ModbusMap, modbus_map
+
+__all__ = ["InverterContext", "InverterModel", "serve_rtu", "serve_tcp"]
+
+log = logging.getLogger(__name__)
+OVERSPEED = 0x7310  # fault code used by the emulator for over-speed (ABB 7310 'overspeed')
+
+
+@dataclass
+class InverterModel:
+    """The drive and motor behind the registers (SI units)."""
+
+    regmap: ModbusMap
+    accel: float = 100.0  #: ramp [rad/s^2]
+    slip: float = 5.0  #: speed drop at rated torque [rad/s]
+    tau: float = 0.05  #: mechanical lag [s]
+    rated_torque: float = 10.0  #: [N m]
+    rated_current: float = 8.0  #: [A]
+    no_load_current: float = 2.5  #: [A]
+    max_speed: float = 200.0  #: over-speed trip [rad/s]
+    load: Callable[[float], float] = lambda t: 0.0
+    running: bool = False
+    fault: int = 0
+    reference: float = 0.0
+    ramp: float = 0.0
+    speed: float = 0.0
+    current: float = 0.0
+    t: float = 0.0
+
+    def step(self, dt: float) -> None:
+        """Advance dt [s]."""
+        self.t += dt
+        target = self.reference if (self.running and not self.fault) else 0.0
+        delta = max(-self.accel * dt, min(self.accel * dt, target - self.ramp))
+        self.ramp += delta
+        t_load = self.load(self.t)
+        goal = self.ramp - math.copysign(self.slip * abs(t_load) / self.rated_torque, self.ramp) if self.ramp else 0.0
+        self.speed += (goal - self.speed) * (1.0 - math.exp(-dt / self.tau))
+        excitation = self.no_load_current if (self.running or abs(self.ramp) > 0) and not self.fault else 0.0
+        self.current = excitation + (self.rated_current - self.no_load_current) * abs(t_load) / self.rated_torque
+        if abs(self.speed) > self.max_speed and not self.fault:
+            log.warning("inverter: over-speed %.1f rad/s, trip", self.speed)
+            self.fault = OVERSPEED
+            self.running = False
+
+
+class InverterContext(ModbusBaseDeviceContext):
+    """Holding registers of ``model.regmap`` with the family's control semantics."""
+
+    def __init__(self, model: InverterModel) -> None:
+        self.model = model
+        self.map = model.regmap
+        self.by_address = self.map.by_address()
+        self.control_word = int(self.map.control["stop"])
+        self.writes = 0
+
+    def reset(self) -> None:
+        self.control_word = int(self.map.control["stop"])
+
+    def _read(self, role: str) -> int:
+        m = self.model
+        if role == "control_word":
+            return self.control_word
+        if role == "status_word":
+            return self._status()
+        if role == "fault_code":
+            return m.fault
+        value = {
+            "speed_reference": m.reference,
+            "frequency_command": m.reference,
+            "actual_speed": m.speed,
+            "current": m.current,
+            "torque_reference": 0.0,
+            "actual_torque": 100.0 * m.load(m.t) / m.rated_torque,
+            "dc_bus_voltage": 540.0,
+            "fault_control": 0.0,
+        }[role]
+        reg = self.map[role]
+        try:
+            return reg.to_raw(abs(value) if not reg.signed else value)
+        except ValueError:
+            return 0xFFFF if not reg.signed else 0x7FFF
+
+    def _status(self) -> int:
+        m, st = self.model, self.map.status
+        if "running_value" in st:  # Delta: bits 0-1 state
+            return int(st["running_value"]) if m.running else 0
+        word = (1 << st["remote_bit"]) | 0x30  # OFF2, OFF3 inactive
+        if m.fault:
+            return word | (1 << st["fault_bit"])
+        word |= 1 << st["ready_bit"]
+        if m.running:
+            word |= (1 << st["running_bit"]) | 0x02
+            if abs(m.speed - m.reference) < 0.01 * max(1.0, abs(m.reference)):
+                word |= 1 << st["at_setpoint_bit"]
+        return word
+
+    def getValues(self, func_code: int, address: int, count: int = 1) -> list[int] | ExcCodes:  # noqa: N802
+        if func_code not in (3, 4, 6, 16, 22, 23):  # holding/input registers (6, 16: read-back after write)
+            return ExcCodes.ILLEGAL_FUNCTION
+        out = []
+        for a in range(address, address + count):
+            reg = self.by_address.get(a)
+            if reg is None:
+                return ExcCodes.ILLEGAL_ADDRESS
+            out.append(self._read(reg.role))
+        return out
+
+    def setValues(self, func_code: int, address: int, values: list[int] | list[bool]) -> None | ExcCodes:  # noqa: N802
+        if func_code not in (6, 16):
+            return ExcCodes.ILLEGAL_FUNCTION
+        regs = [self.by_address.get(a) for a in range(address, address + len(values))]
+        if any(r is None or r.access != "rw" for r in regs):
+            return ExcCodes.ILLEGAL_ADDRESS
+        for reg, raw in zip(regs, values):
+            assert reg is not None
+            err = self._write(reg.role, int(raw))
+            if err is not None:
+                return err
+        self.writes += 1
+        return None
+
+    def _write(self, role: str, raw: int) -> ExcCodes | None:
+        m, ctl = self.model, self.map.control
+        if role == "speed_reference":
+            value = self.map[role].to_si(raw)
+            if abs(value) > m.max_speed:
+                return ExcCodes.ILLEGAL_VALUE
+            m.reference = value
+        elif role == "control_word":
+            reset_bit = ctl.get("reset_bit")
+            if reset_bit is not None and raw & (1 << reset_bit) and not self.control_word & (1 << reset_bit):
+                m.fault = 0
+            self.control_word = raw
+            mask = int(ctl["run_mask"])
+            m.running = (raw & mask) == (int(ctl["run"]) & mask) and not m.fault
+        elif role == "fault_control":
+            if raw & 0x2:
+                m.fault = 0
+            if raw & 0x1:
+                m.fault = 0x0002  # external fault
+                m.running = False
+        return None
+
+
+def _context(model: InverterModel, unit: int) -> ModbusServerContext:
+    return ModbusServerContext(devices={unit: InverterContext(model)}, single=False)
+
+
+async def _physics(model: InverterModel, dt: float) -> None:
+    loop = asyncio.get_running_loop()
+    t_next = loop.time()
+    while True:
+        t_next += dt
+        model.step(dt)
+        await asyncio.sleep(max(0.0, t_next - loop.time()))
+
+
+async def serve_tcp(model: InverterModel, *, host: str = "127.0.0.1", port: int = 5020, unit: int = 1,
+                    dt: float = 0.01) -> None:  # fmt: skip
+    """Serve the inverter on Modbus TCP until cancelled."""
+    from pymodbus.server import ModbusTcpServer
+
+    server = ModbusTcpServer(_context(model, unit), address=(host, port))
+    task = asyncio.create_task(_physics(model, dt))
+    log.info("Modbus TCP inverter (%s) on %s:%d unit %d", model.regmap.name, host, port, unit)
+    try:
+        await server.serve_forever()
+    finally:
+        task.cancel()
+
+
+async def serve_rtu(model: InverterModel, *, port: str, baudrate: int = 19200, unit: int = 1,
+                    dt: float = 0.01, **serial: Any) -> None:  # fmt: skip
+    """Serve the inverter on Modbus RTU over the serial device ``port`` until cancelled."""
+    from pymodbus.server import ModbusSerialServer
+
+    server = ModbusSerialServer(_context(model, unit), port=port, baudrate=baudrate, **serial)
+    task = asyncio.create_task(_physics(model, dt))
+    log.info("Modbus RTU inverter (%s) on %s unit %d", model.regmap.name, port, unit)
+    try:
+        await server.serve_forever()
+    finally:
+        task.cancel()
+
+
+def default_model(name: str, **overrides: Any) -> InverterModel:
+    """An inverter of map ``name`` with parameters overridden by keyword."""
+    return InverterModel(modbus_map(name), **overrides)
