@@ -25,7 +25,7 @@ from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.rl_dq import RLParams, StationaryRLConverter
 from plant_emulator.zoh import LinearZOH
 
-__all__ = ["VOLTAGE_MODE", "DQ_VOLTAGE_MODE", "Axis", "DcServoAxis", "GridAxis", "ServoLoops"]
+__all__ = ["DQ_VOLTAGE_MODE", "VOLTAGE_MODE", "Axis", "DcServoAxis", "GridAxis", "ServoLoops"]
 
 VOLTAGE_MODE, DQ_VOLTAGE_MODE, PV, CSP, CSV, CST = -1, -2, 3, 8, 9, 10
 
@@ -36,10 +36,26 @@ class Axis:
     """Interface of the physics behind a drive (see the module docstring)."""
 
     modes: tuple[int, ...] = ()
-    position = 0.0  #: [rad]
-    velocity = 0.0  #: [rad/s]
-    current = 0.0  #: [A] (magnitude for the grid axis)
-    torque = 0.0  #: [N m]
+
+    @property
+    def position(self) -> float:
+        """[rad] (the frame angle for the grid axis)"""
+        raise NotImplementedError
+
+    @property
+    def velocity(self) -> float:
+        """[rad/s]"""
+        raise NotImplementedError
+
+    @property
+    def current(self) -> float:
+        """[A] (|i| for the grid axis)"""
+        raise NotImplementedError
+
+    @property
+    def torque(self) -> float:
+        """[N m]"""
+        return 0.0
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         """Take a command; ``computed_one_sync_ago`` marks a synchronous RPDO applied one SYNC
@@ -77,8 +93,9 @@ class DcServoAxis(Axis):
 
     modes = (VOLTAGE_MODE, CST, CSV, PV, CSP)
 
-    def __init__(self, motor: DCMotorParams, loops: ServoLoops, *, inner_dt: float,
-                 load: LoadProfile | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, motor: DCMotorParams, loops: ServoLoops, *, inner_dt: float, load: LoadProfile | None = None
+    ) -> None:
         self.motor = motor
         self.loops = loops
         self.inner_dt = inner_dt
@@ -140,7 +157,9 @@ class DcServoAxis(Axis):
             self.x[2] = 0.0
             return
         if self.mode == VOLTAGE_MODE:
-            self._step(max(-self.loops.max_voltage, min(self.loops.max_voltage, self.command)), self.load(t), h)
+            self._step(
+                max(-self.loops.max_voltage, min(self.loops.max_voltage, self.command)), self.load(t), h
+            )
             return
         n = max(1, math.ceil(h / self.inner_dt - 1e-9))
         hs = h / n
@@ -153,19 +172,19 @@ class DcServoAxis(Axis):
                 torque = self._speed_loop(self.loops.position_kp * (self.command - self.x[0]), hs)
             self._step(self._torque_to_voltage(torque, hs), self.load(t + k * hs), hs)
 
-    @property  # type: ignore[override]
+    @property
     def position(self) -> float:
         return self.x[0]
 
-    @property  # type: ignore[override]
+    @property
     def velocity(self) -> float:
         return self.x[1]
 
-    @property  # type: ignore[override]
+    @property
     def current(self) -> float:
         return self.x[2]
 
-    @property  # type: ignore[override]
+    @property
     def torque(self) -> float:
         return self.motor.k_t * self.x[2]
 
@@ -175,8 +194,15 @@ class GridAxis(Axis):
 
     modes = (DQ_VOLTAGE_MODE,)
 
-    def __init__(self, rl: RLParams, *, omega_k: float, source: complex = 0j, u_max: float = math.inf,
-                 hold_angle: str = "middle") -> None:  # fmt: skip
+    def __init__(
+        self,
+        rl: RLParams,
+        *,
+        omega_k: float,
+        source: complex = 0j,
+        u_max: float = math.inf,
+        hold_angle: str = "middle",
+    ) -> None:
         self.rl = RLParams(rl.r1, rl.l1, rl.ts, 1.0)  # the CAN timing makes the delay
         self.converter = StationaryRLConverter(self.rl, u_max=u_max, hold_angle=hold_angle)
         self.omega_k = omega_k
@@ -215,14 +241,14 @@ class GridAxis(Axis):
         """dq current at the present instant [A]."""
         return self.converter.i_ab * cmath.exp(-1j * self.converter.theta)
 
-    @property  # type: ignore[override]
+    @property
     def position(self) -> float:
         return self.converter.theta
 
-    @property  # type: ignore[override]
+    @property
     def velocity(self) -> float:
         return self.omega_k
 
-    @property  # type: ignore[override]
+    @property
     def current(self) -> float:
         return abs(self.converter.i_ab)

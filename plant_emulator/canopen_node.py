@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import canopen
-from canopen.sdo import SdoAbortedError
+from canopen.sdo.exceptions import SdoAbortedError
 
 __all__ = ["EmulatedNode", "PdoConfig"]
 
@@ -55,13 +55,13 @@ class EmulatedNode:
         if not 1 <= node_id <= 127:
             raise ValueError(f"node id must be 1..127, got {node_id!r}")
         self.node_id = node_id
-        self.network = network
-        self.node = canopen.LocalNode(node_id, canopen.import_od(eds, node_id))
-        network.add_node(self.node)
+        self.network: Any = network  # canopen's callback types say bytearray; frames are bytes
+        self.node: Any = canopen.LocalNode(node_id, canopen.import_od(eds, node_id))
+        self.network.add_node(self.node)
         # SDO and NMT through our gates; heartbeat on our clock, not canopen's thread
-        network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
-        network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
-        network.subscribe(0, self._after_nmt)
+        self.network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
+        self.network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
+        self.network.subscribe(0, self._after_nmt)
         nmt: Any = self.node.nmt
         nmt.start_heartbeat = lambda ms: None
         nmt.stop_heartbeat = lambda: None

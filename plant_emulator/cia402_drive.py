@@ -25,19 +25,26 @@ import logging
 import math
 
 import canopen
-from canopen.sdo import SdoAbortedError
+from canopen.sdo.exceptions import SdoAbortedError
 
 from drivers.maps import CIA402_EDS
 from plant_emulator.axes import CSP, CST, CSV, DQ_VOLTAGE_MODE, PV, VOLTAGE_MODE, Axis
 from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
 from plant_emulator.cia402_state import PowerState, PowerStateMachine
 
-__all__ = ["EmulatedDrive", "FAULT_CODES"]
+__all__ = ["FAULT_CODES", "EmulatedDrive"]
 
 log = logging.getLogger(__name__)
 
 FAULT_CODES = {0x2310: "over-current", 0x8400: "over-speed", 0x8611: "following error"}
-_MODE_BITS = {PV: 1 << 2, CSP: 1 << 7, CSV: 1 << 8, CST: 1 << 9, VOLTAGE_MODE: 1 << 16, DQ_VOLTAGE_MODE: 1 << 17}
+_MODE_BITS = {
+    PV: 1 << 2,
+    CSP: 1 << 7,
+    CSV: 1 << 8,
+    CST: 1 << 9,
+    VOLTAGE_MODE: 1 << 16,
+    DQ_VOLTAGE_MODE: 1 << 17,
+}
 _TARGETS = {0x2100, 0x2200, 0x6071, 0x607A, 0x60FF}
 S = PowerState
 
@@ -45,8 +52,9 @@ S = PowerState
 class EmulatedDrive(EmulatedNode):
     """A CiA 402 drive node; see the module docstring."""
 
-    def __init__(self, node_id: int, network: canopen.Network, axis: Axis, *, period: float,
-                 eds: str = CIA402_EDS) -> None:  # fmt: skip
+    def __init__(
+        self, node_id: int, network: canopen.Network, axis: Axis, *, period: float, eds: str = CIA402_EDS
+    ) -> None:
         if not (math.isfinite(period) and period > 0.0):
             raise ValueError(f"period must be > 0 s, got {period!r}")
         self.axis = axis

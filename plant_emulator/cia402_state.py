@@ -26,7 +26,7 @@ class PowerState(enum.Enum):
 
 
 S = PowerState
-#: statusword bits 0-6 (ready, switched on, op enabled, fault, voltage enabled, quick stop, switch on disabled)
+#: statusword bits 0-6: ready, switched on, op enabled, fault, voltage on, quick stop, switch on disabled
 _STATUS = {
     S.NOT_READY_TO_SWITCH_ON: 0x0000,
     S.SWITCH_ON_DISABLED: 0x0040,
@@ -37,9 +37,16 @@ _STATUS = {
     S.FAULT_REACTION_ACTIVE: 0x000F,
     S.FAULT: 0x0008,
 }
-_MASKS = [(0x4F, 0x00, S.NOT_READY_TO_SWITCH_ON), (0x4F, 0x40, S.SWITCH_ON_DISABLED),
-          (0x6F, 0x21, S.READY_TO_SWITCH_ON), (0x6F, 0x23, S.SWITCHED_ON), (0x6F, 0x27, S.OPERATION_ENABLED),
-          (0x6F, 0x07, S.QUICK_STOP_ACTIVE), (0x4F, 0x0F, S.FAULT_REACTION_ACTIVE), (0x4F, 0x08, S.FAULT)]  # fmt: skip
+_MASKS = [
+    (0x4F, 0x00, S.NOT_READY_TO_SWITCH_ON),
+    (0x4F, 0x40, S.SWITCH_ON_DISABLED),
+    (0x6F, 0x21, S.READY_TO_SWITCH_ON),
+    (0x6F, 0x23, S.SWITCHED_ON),
+    (0x6F, 0x27, S.OPERATION_ENABLED),
+    (0x6F, 0x07, S.QUICK_STOP_ACTIVE),
+    (0x4F, 0x0F, S.FAULT_REACTION_ACTIVE),
+    (0x4F, 0x08, S.FAULT),
+]
 
 
 def statusword_state(statusword: int) -> PowerState:

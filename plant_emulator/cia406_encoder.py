@@ -22,8 +22,15 @@ __all__ = ["EmulatedEncoder"]
 class EmulatedEncoder(EmulatedNode):
     """CiA 406 encoder node; ``shaft`` returns the true angle [rad] when called."""
 
-    def __init__(self, node_id: int, network: canopen.Network, shaft: Callable[[], float], *,
-                 period: float, eds: str = CIA406_EDS) -> None:  # fmt: skip
+    def __init__(
+        self,
+        node_id: int,
+        network: canopen.Network,
+        shaft: Callable[[], float],
+        *,
+        period: float,
+        eds: str = CIA406_EDS,
+    ) -> None:
         super().__init__(node_id, eds, network)
         self.shaft = shaft
         self.period = period

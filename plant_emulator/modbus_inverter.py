@@ -9,7 +9,7 @@ the map's range with 03 (illegal data value).
 
 Behind the registers: a V/f drive with a linear speed ramp (``accel`` rad/s^2)
 feeding an induction motor whose speed follows the ramp with the slip of the
-load torque: omega = omega_ramp - slip * T_L / T_rated, smoothed with ``tau``
+load torque: omega = omega_ramp - sgn(omega_ramp) slip T_L / T_rated, smoothed with ``tau``
 [s]; the current is I_0 + (I_rated - I_0) |T_L| / T_rated. ``step(dt)`` advances it;
 ``serve_tcp`` / ``serve_rtu`` run it on the wall clock.
 """
@@ -63,10 +63,17 @@ class InverterModel:
         delta = max(-self.accel * dt, min(self.accel * dt, target - self.ramp))
         self.ramp += delta
         t_load = self.load(self.t)
-        goal = self.ramp - math.copysign(self.slip * abs(t_load) / self.rated_torque, self.ramp) if self.ramp else 0.0
+        # a braking load (same sign as the speed) slows the motor by the slip; a driving one speeds it up
+        goal = (
+            self.ramp - math.copysign(1.0, self.ramp) * self.slip * t_load / self.rated_torque
+            if self.ramp
+            else 0.0
+        )
         self.speed += (goal - self.speed) * (1.0 - math.exp(-dt / self.tau))
         excitation = self.no_load_current if (self.running or abs(self.ramp) > 0) and not self.fault else 0.0
-        self.current = excitation + (self.rated_current - self.no_load_current) * abs(t_load) / self.rated_torque
+        self.current = (
+            excitation + (self.rated_current - self.no_load_current) * abs(t_load) / self.rated_torque
+        )
         if abs(self.speed) > self.max_speed and not self.fault:
             log.warning("inverter: over-speed %.1f rad/s, trip", self.speed)
             self.fault = OVERSPEED
@@ -89,11 +96,11 @@ class InverterContext(ModbusBaseDeviceContext):
     def _read(self, role: str) -> int:
         m = self.model
         if role == "control_word":
-            return self.control_word
+            return int(self.control_word)
         if role == "status_word":
             return self._status()
         if role == "fault_code":
-            return m.fault
+            return int(m.fault)
         value = {
             "speed_reference": m.reference,
             "frequency_command": m.reference,
@@ -111,10 +118,11 @@ class InverterContext(ModbusBaseDeviceContext):
             return 0xFFFF if not reg.signed else 0x7FFF
 
     def _status(self) -> int:
-        m, st = self.model, self.map.status
+        m = self.model
+        st = {k: int(v) for k, v in self.map.status.items()}
         if "running_value" in st:  # Delta: bits 0-1 state
             return int(st["running_value"]) if m.running else 0
-        word = (1 << st["remote_bit"]) | 0x30  # OFF2, OFF3 inactive
+        word = (1 << int(st["remote_bit"])) | 0x30  # OFF2, OFF3 inactive
         if m.fault:
             return word | (1 << st["fault_bit"])
         word |= 1 << st["ready_bit"]
@@ -124,7 +132,7 @@ class InverterContext(ModbusBaseDeviceContext):
                 word |= 1 << st["at_setpoint_bit"]
         return word
 
-    def getValues(self, func_code: int, address: int, count: int = 1) -> list[int] | ExcCodes:  # noqa: N802
+    def getValues(self, func_code: int, address: int, count: int = 1) -> list[int] | ExcCodes:
         if func_code not in (3, 4, 6, 16, 22, 23):  # holding/input registers (6, 16: read-back after write)
             return ExcCodes.ILLEGAL_FUNCTION
         out = []
@@ -135,7 +143,7 @@ class InverterContext(ModbusBaseDeviceContext):
             out.append(self._read(reg.role))
         return out
 
-    def setValues(self, func_code: int, address: int, values: list[int] | list[bool]) -> None | ExcCodes:  # noqa: N802
+    def setValues(self, func_code: int, address: int, values: list[int] | list[bool]) -> ExcCodes | None:
         if func_code not in (6, 16):
             return ExcCodes.ILLEGAL_FUNCTION
         regs = [self.by_address.get(a) for a in range(address, address + len(values))]
@@ -172,8 +180,9 @@ class InverterContext(ModbusBaseDeviceContext):
         return None
 
 
-def _context(model: InverterModel, unit: int) -> ModbusServerContext:
-    return ModbusServerContext(devices={unit: InverterContext(model)}, single=False)
+def _context(model: InverterModel, unit: int) -> Any:
+    make: Any = ModbusServerContext
+    return make(devices={unit: InverterContext(model)}, single=False)
 
 
 async def _physics(model: InverterModel, dt: float) -> None:
@@ -185,32 +194,36 @@ async def _physics(model: InverterModel, dt: float) -> None:
         await asyncio.sleep(max(0.0, t_next - loop.time()))
 
 
-async def serve_tcp(model: InverterModel, *, host: str = "127.0.0.1", port: int = 5020, unit: int = 1,
-                    dt: float = 0.01) -> None:  # fmt: skip
+async def serve_tcp(
+    model: InverterModel, *, host: str = "127.0.0.1", port: int = 5020, unit: int = 1, dt: float = 0.01
+) -> None:
     """Serve the inverter on Modbus TCP until cancelled."""
     from pymodbus.server import ModbusTcpServer
 
-    server = ModbusTcpServer(_context(model, unit), address=(host, port))
+    server: Any = ModbusTcpServer(_context(model, unit), address=(host, port))
     task = asyncio.create_task(_physics(model, dt))
     log.info("Modbus TCP inverter (%s) on %s:%d unit %d", model.regmap.name, host, port, unit)
     try:
         await server.serve_forever()
     finally:
         task.cancel()
+        await server.shutdown()
 
 
-async def serve_rtu(model: InverterModel, *, port: str, baudrate: int = 19200, unit: int = 1,
-                    dt: float = 0.01, **serial: Any) -> None:  # fmt: skip
+async def serve_rtu(
+    model: InverterModel, *, port: str, baudrate: int = 19200, unit: int = 1, dt: float = 0.01, **serial: Any
+) -> None:
     """Serve the inverter on Modbus RTU over the serial device ``port`` until cancelled."""
     from pymodbus.server import ModbusSerialServer
 
-    server = ModbusSerialServer(_context(model, unit), port=port, baudrate=baudrate, **serial)
+    server: Any = ModbusSerialServer(_context(model, unit), port=port, baudrate=baudrate, **serial)
     task = asyncio.create_task(_physics(model, dt))
     log.info("Modbus RTU inverter (%s) on %s unit %d", model.regmap.name, port, unit)
     try:
         await server.serve_forever()
     finally:
         task.cancel()
+        await server.shutdown()
 
 
 def default_model(name: str, **overrides: Any) -> InverterModel:

@@ -118,8 +118,11 @@ def _apply(preset: Any, overrides: dict[str, str]) -> Any:
     return replace(preset, **changes)
 
 
-def build_preset(name: str, network: canopen.Network, overrides: dict[str, str] | None = None,
-                 ) -> tuple[list[EmulatedNode], float]:  # fmt: skip
+def build_preset(
+    name: str,
+    network: canopen.Network,
+    overrides: dict[str, str] | None = None,
+) -> tuple[list[EmulatedNode], float]:
     """Create the devices of preset ``name`` on ``network``: (devices, SYNC period [s])."""
     if name not in PRESETS:
         raise ValueError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
@@ -136,9 +139,10 @@ def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
     loops = ServoLoops(motor.j * w_c, motor.j * w_c * w_c / 5.0, w_c / 5.0, max_torque, p.u_max)
     axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load_profile(p.load))
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    for index, value in ((0x6075, round(p.rated_current * 1000)), (0x6076, round(motor.k_t * p.rated_current * 1000)),
-                         (0x6073, p.max_current_permille), (0x6080, p.max_speed_rpm)):  # fmt: skip
-        drive.write(index, 0, value)
+    drive.write(0x6075, 0, round(p.rated_current * 1000))  # mA
+    drive.write(0x6076, 0, round(motor.k_t * p.rated_current * 1000))  # mN m
+    drive.write(0x6073, 0, p.max_current_permille)
+    drive.write(0x6080, 0, p.max_speed_rpm)
     drive.write(0x608F, 1, p.counts_per_rev)
     encoder = EmulatedEncoder(p.encoder_node, network, lambda: axis.position, period=p.period)
     encoder.write(0x6001, 0, p.counts_per_rev)
@@ -150,7 +154,9 @@ def _grid(p: GridConverterPreset, network: canopen.Network) -> list[EmulatedNode
         raise ValueError(f"preset parameter strategy={p.strategy!r}: use s-pwm-start or s-pwm-middle")
     omega = 2.0 * math.pi * p.f_line
     source = complex(p.u_line_rms * math.sqrt(2.0 / 3.0), 0.0)  # phase peak, d-aligned
-    axis = GridAxis(RLParams(p.R1, p.L1, p.period), omega_k=omega, source=source, u_max=p.u_dc / math.sqrt(3.0))
+    axis = GridAxis(
+        RLParams(p.R1, p.L1, p.period), omega_k=omega, source=source, u_max=p.u_dc / math.sqrt(3.0)
+    )
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
     drive.write(0x6075, 0, round(p.rated_current * 1000))
     drive.write(0x6073, 0, p.max_current_permille)
@@ -192,4 +198,5 @@ class LockstepBench:
 
     def close(self) -> None:
         for net in (self.host, self.device_network):
-            net.bus.shutdown()
+            if net.bus is not None:
+                net.bus.shutdown()

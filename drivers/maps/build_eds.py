@@ -57,7 +57,9 @@ def var(index: int, v: Var) -> Obj:
 
 def record(index: int, name: str, entries: list[tuple[int, Var]], *, kind: int = 0x9) -> Obj:
     highest = max(s for s, _ in entries)
-    return Obj(index, name, ((0, Var("Highest sub-index supported", UINT8, "ro", str(highest))), *entries), kind)
+    return Obj(
+        index, name, ((0, Var("Highest sub-index supported", UINT8, "ro", str(highest))), *entries), kind
+    )
 
 
 def _pdo_comm(index: int, kind: str, n: int, *, enabled: bool, ttype: int) -> Obj:
@@ -75,8 +77,12 @@ def _pdo_comm(index: int, kind: str, n: int, *, enabled: bool, ttype: int) -> Ob
 
 
 def _pdo_map(index: int, kind: str, n: int, mapped: list[int]) -> Obj:
-    entries = [(s + 1, Var(f"Mapped object {s + 1}", UINT32, "rw", f"0x{m:08X}")) for s, m in enumerate(mapped)]
-    entries += [(s + 1, Var(f"Mapped object {s + 1}", UINT32, "rw", "0x00000000")) for s in range(len(mapped), 8)]
+    entries = [
+        (s + 1, Var(f"Mapped object {s + 1}", UINT32, "rw", f"0x{m:08X}")) for s, m in enumerate(mapped)
+    ]
+    entries += [
+        (s + 1, Var(f"Mapped object {s + 1}", UINT32, "rw", "0x00000000")) for s in range(len(mapped), 8)
+    ]
     obj = record(index, f"{kind}PDO{n + 1} mapping parameter", entries)
     head = (0, Var("Number of mapped objects", UINT8, "rw", str(len(mapped))))
     return Obj(obj.index, obj.name, (head, *obj.subs[1:]), obj.kind)
@@ -86,8 +92,17 @@ def _m(index: int, sub: int, bits: int) -> int:
     return (index << 16) | (sub << 8) | bits
 
 
-def _comm_objects(device_type: int, name: str, product: int, rpdo: list[list[int]], tpdo: list[list[int]],
-                  tpdo_types: list[int], rpdo_types: list[int], tpdo_enabled: list[bool]) -> list[Obj]:  # fmt: skip
+def _comm_objects(
+    device_type: int,
+    name: str,
+    product: int,
+    *,
+    rpdo: list[list[int]],
+    tpdo: list[list[int]],
+    tpdo_types: list[int],
+    rpdo_types: list[int],
+    tpdo_enabled: list[bool],
+) -> list[Obj]:
     objs = [
         var(0x1000, Var("Device type", UINT32, "ro", f"0x{device_type:08X}")),
         var(0x1001, Var("Error register", UINT8, "ro", "0", pdo=True)),
@@ -176,7 +191,10 @@ CIA402_DRIVE: list[Obj] = [
     record(
         0x608F,
         "Position encoder resolution",
-        [(1, Var("Encoder increments", UINT32, "rw", "4096")), (2, Var("Motor revolutions", UINT32, "rw", "1"))],
+        [
+            (1, Var("Encoder increments", UINT32, "rw", "4096")),
+            (2, Var("Motor revolutions", UINT32, "rw", "1")),
+        ],
     ),
     var(0x60F4, Var("Following error actual value", INT32, "ro", "0", pdo=True)),
     var(0x60FF, Var("Target velocity", INT32, "rw", "0", pdo=True)),
@@ -228,11 +246,12 @@ def eds_text(objs: list[Obj], name: str) -> str:
         "LSS_Supported=0",
         "",
     ]
+    mandatory = (0x1000, 0x1001, 0x1018)
     groups = {
-        "MandatoryObjects": [o for o in objs if o.index in (0x1000, 0x1001, 0x1018)],
-        "OptionalObjects": [o for o in objs if o.index not in (0x1000, 0x1001, 0x1018) and (o.index < 0x2000 or o.index >= 0x6000)],
+        "MandatoryObjects": [o for o in objs if o.index in mandatory],
+        "OptionalObjects": [o for o in objs if o.index not in mandatory and not 0x2000 <= o.index < 0x6000],
         "ManufacturerObjects": [o for o in objs if 0x2000 <= o.index < 0x6000],
-    }  # fmt: skip
+    }
     for section, members in groups.items():
         out.append(f"[{section}]")
         out.append(f"SupportedObjects={len(members)}")

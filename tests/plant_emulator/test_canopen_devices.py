@@ -143,7 +143,9 @@ def test_pdo_remap_round_trip_takes_effect(rig) -> None:  # type: ignore[no-unty
     tp.save()
     node.tpdo.read()
     assert [v.index for v in node.tpdo[3].map] == [0x6078, 0x6064]
-    with pytest.raises(SdoAbortedError) as exc:  # 0x6040 is RPDO-mappable only by data size rules: unknown bits
+    with pytest.raises(
+        SdoAbortedError
+    ) as exc:  # 0x6040 is RPDO-mappable only by data size rules: unknown bits
         node.sdo[0x1A03][0].raw = 0
         node.sdo[0x1A03][1].raw = 0x60400020  # wrong length
     assert exc.value.code in (0x06040041, 0x08000022)
@@ -226,3 +228,12 @@ def test_lockstep_runs_repeat_exactly() -> None:
         return out
 
     assert run() == run()
+
+
+def test_committed_eds_files_are_what_the_generator_writes() -> None:
+    from drivers.maps import build_eds
+
+    for name, objs in build_eds.FILES.items():
+        assert (build_eds.HERE / f"{name}.eds").read_text() == build_eds.eds_text(objs, name), name
+        od = canopen.import_od(str(build_eds.HERE / f"{name}.eds"), 5)
+        assert od[0x1018][1].default == 0xDB1
