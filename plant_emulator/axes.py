@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.rl_dq import RLParams, StationaryRLConverter
-from plant_emulator.zoh import LinearZOH
+from plant_emulator.zoh import LinearZOH, unrolled_step3
 
 __all__ = ["DQ_VOLTAGE_MODE", "VOLTAGE_MODE", "Axis", "DcServoAxis", "GridAxis", "ServoLoops"]
 
@@ -99,11 +99,11 @@ class DcServoAxis(Axis):
         self.motor = motor
         self.loops = loops
         self.inner_dt = inner_dt
-        self.load = load or (lambda t: 0.0)
+        self.load = load  #: load torque profile [N m] of time [s]; None: no load
         p = motor
         self._A = [[0.0, 1.0, 0.0], [0.0, -p.b / p.j, p.k_t / p.j], [0.0, -p.k_e / p.l_r, -p.r_r / p.l_r]]
         self._B = [[0.0, 0.0], [0.0, -1.0 / p.j], [1.0 / p.l_r, 0.0]]
-        self._zoh: dict[float, LinearZOH] = {}
+        self._zoh: dict[float, Callable[[list[float], float, float], None]] = {}
         self.x = [0.0, 0.0, 0.0]
         self.mode = VOLTAGE_MODE
         self.command = 0.0
@@ -111,18 +111,21 @@ class DcServoAxis(Axis):
         self._enabled = True
 
     def _step(self, u: float, t_load: float, h: float) -> None:
-        zoh = self._zoh.get(h)
-        if zoh is None:
-            zoh = self._zoh[h] = LinearZOH(self._A, self._B, h)
-        zoh.x[:] = self.x
-        self.x[:] = zoh.step((u, t_load))
+        """Exact ZOH step of (3.4) over h [s]; one precomputed step per distinct h."""
+        step = self._zoh.get(h)
+        if step is None:
+            step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
+        step(self.x, u, t_load)
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         if mode not in self.modes:
             raise ValueError(f"DC servo axis has no mode {mode}")
         if mode != self.mode:
             self._integral = 0.0
-        self.mode, self.command = mode, float(value.real if isinstance(value, complex) else value)
+        command = float(value.real if isinstance(value, complex) else value)
+        if mode == VOLTAGE_MODE:
+            command = max(-self.loops.max_voltage, min(self.loops.max_voltage, command))
+        self.mode, self.command = mode, command
         self._enabled = True
 
     def coast(self) -> None:
@@ -151,15 +154,17 @@ class DcServoAxis(Axis):
     def advance(self, h: float, t: float) -> None:
         if h <= 0.0:
             return
+        load = self.load
+        if self._enabled and self.mode == VOLTAGE_MODE:  # the hot path: one unrolled ZOH step
+            step = self._zoh.get(h)
+            if step is None:
+                step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
+            step(self.x, self.command, 0.0 if load is None else load(t))
+            return
         if not self._enabled:
             # power stage off: armature open, the current decays through the freewheel path
-            self._step(self.motor.k_e * self.x[1], self.load(t), h)
+            self._step(self.motor.k_e * self.x[1], 0.0 if load is None else load(t), h)
             self.x[2] = 0.0
-            return
-        if self.mode == VOLTAGE_MODE:
-            self._step(
-                max(-self.loops.max_voltage, min(self.loops.max_voltage, self.command)), self.load(t), h
-            )
             return
         n = max(1, math.ceil(h / self.inner_dt - 1e-9))
         hs = h / n
@@ -170,7 +175,7 @@ class DcServoAxis(Axis):
                 torque = self._speed_loop(self.command, hs)
             else:  # CSP
                 torque = self._speed_loop(self.loops.position_kp * (self.command - self.x[0]), hs)
-            self._step(self._torque_to_voltage(torque, hs), self.load(t + k * hs), hs)
+            self._step(self._torque_to_voltage(torque, hs), 0.0 if load is None else load(t + k * hs), hs)
 
     @property
     def position(self) -> float:

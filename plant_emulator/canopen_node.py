@@ -55,8 +55,10 @@ class EmulatedNode:
         if not 1 <= node_id <= 127:
             raise ValueError(f"node id must be 1..127, got {node_id!r}")
         self.node_id = node_id
-        self.network: Any = network  # canopen's callback types say bytearray; frames are bytes
-        self.node: Any = canopen.LocalNode(node_id, canopen.import_od(eds, node_id))
+        net: Any = network  # canopen's callback types say bytearray; frames are bytes
+        local: Any = canopen.LocalNode(node_id, canopen.import_od(eds, node_id))
+        self.network: Any = net
+        self.node: Any = local
         self.network.add_node(self.node)
         # SDO and NMT through our gates; heartbeat on our clock, not canopen's thread
         self.network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)

@@ -137,7 +137,9 @@ def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
     w_c = 2.0 * math.pi * p.speed_bandwidth_hz
     max_torque = motor.k_t * p.rated_current * p.max_current_permille / 1000.0
     loops = ServoLoops(motor.j * w_c, motor.j * w_c * w_c / 5.0, w_c / 5.0, max_torque, p.u_max)
-    axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load_profile(p.load))
+    axis = DcServoAxis(
+        motor, loops, inner_dt=p.period / 4, load=load_profile(p.load) if p.load != "none" else None
+    )
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
     drive.write(0x6075, 0, round(p.rated_current * 1000))  # mA
     drive.write(0x6076, 0, round(motor.k_t * p.rated_current * 1000))  # mN m

@@ -7,11 +7,12 @@ multiply-adds on preallocated lists, with no allocation.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import scipy.linalg
 
-__all__ = ["LinearZOH"]
+__all__ = ["LinearZOH", "unrolled_step3"]
 
 
 class LinearZOH:
@@ -58,3 +59,21 @@ class LinearZOH:
             tmp[i] = acc
         x[:] = tmp
         return x
+
+
+def unrolled_step3(zoh: LinearZOH) -> Callable[[list[float], float, float], None]:
+    """A step for a 3-state, 2-input ``LinearZOH`` with its 15 coefficients as closure
+    constants: x <- A_d x + B_d [u0, u1] in place, no loops, no allocation beyond floats.
+    About three times faster than ``LinearZOH.step`` (``rig bench physics``)."""
+    if (zoh.n, zoh.m) != (3, 2):
+        raise ValueError(f"unrolled_step3 needs n = 3, m = 2, got n = {zoh.n}, m = {zoh.m}")
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = zoh.A_d
+    (b00, b01), (b10, b11), (b20, b21) = zoh.B_d
+
+    def step(x: list[float], u0: float, u1: float) -> None:
+        x0, x1, x2 = x
+        x[0] = a00 * x0 + a01 * x1 + a02 * x2 + b00 * u0 + b01 * u1
+        x[1] = a10 * x0 + a11 * x1 + a12 * x2 + b10 * u0 + b11 * u1
+        x[2] = a20 * x0 + a21 * x1 + a22 * x2 + b20 * u0 + b21 * u1
+
+    return step

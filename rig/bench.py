@@ -7,6 +7,7 @@ figures are what a host loop pays.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable
 
@@ -29,7 +30,7 @@ from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.rl_dq import ExactDqPlant, RLParams, StationaryRLConverter
 from rig.reproduce import dismc_laws
 
-__all__ = ["BENCHMARKS", "Figure", "bench_controllers", "bench_plant"]
+__all__ = ["BENCHMARKS", "Figure", "bench_controllers", "bench_physics", "bench_plant"]
 
 Figure = dict[str, object]
 
@@ -116,8 +117,48 @@ def bench_plant(*, n: int = 100_000, repeats: int = 5) -> list[Figure]:
     return _run(_plants(), n, repeats)
 
 
+def _rate(fn: Callable[[], object], n: int, repeats: int) -> float:
+    """Best calls per second of ``fn()`` over ``repeats`` runs of ``n`` calls."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(n):
+            fn()
+        best = min(best, time.perf_counter() - t0)
+    return n / best
+
+
+def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) -> list[Figure]:
+    """Physics steps per second of each preset's axis (one SYNC period each), and lock-step
+    emulator cycles per second (SYNC -> drive physics, limits, latch, TPDOs over the in-process bus)."""
+    import canopen
+
+    from plant_emulator.presets import PRESETS, LockstepBench, build_preset
+
+    figures: list[Figure] = []
+    for name in PRESETS:
+        devices, period = build_preset(name, canopen.Network())
+        advance = functools.partial(devices[0].axis.advance, period, 0.0)  # type: ignore[attr-defined]
+        rate = _rate(advance, n // (1 if name == "dc-servo" else 4), repeats)
+        figures.append({"name": f"{name}_physics_steps_per_s", "value": round(rate), "unit": "steps/s"})
+    for name in PRESETS:
+        bench = LockstepBench(name, {"u_line_rms": "0"} if name == "grid-converter" else None)
+        for node_id in {d.node_id for d in bench.devices}:
+            bench.host.send_message(0, bytes([1, node_id]))  # NMT start
+        figures.append(
+            {
+                "name": f"{name}_lockstep_cycles_per_s",
+                "value": round(_rate(bench.sync, cycles, repeats)),
+                "unit": "cycles/s",
+            }
+        )
+        bench.close()
+    return figures
+
+
 #: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}.
 BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "controllers": bench_controllers,
     "plant": bench_plant,
+    "physics": bench_physics,
 }

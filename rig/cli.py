@@ -113,6 +113,21 @@ def _build_parser() -> _Parser:
         help="override: ratio (e.g. 1/27), L1 [H], R1 [Ohm], gamma, strategy, plant (exact|fine)",
     )
 
+    emulate = sub.add_parser(
+        "emulate",
+        help="run the plant emulator as its own process (a python-can bus, or socketcand on 127.0.0.1)",
+    )
+    emulate.add_argument("--preset", required=True, help="dc-servo or grid-converter")
+    emulate.add_argument("--node-id", type=int, help="node id of the drive (the encoder takes the next one)")
+    emulate.add_argument(
+        "--interface", help="python-can interface, e.g. socketcan (default: serve socketcand)"
+    )
+    emulate.add_argument("--channel", help="python-can channel, e.g. vcan0")
+    emulate.add_argument("--socketcand-port", type=int, default=29536, help="TCP port on 127.0.0.1 (0: any)")
+    emulate.add_argument(
+        "--param", action="append", default=[], metavar="NAME=VALUE", help="override a preset parameter"
+    )
+
     bench = sub.add_parser("bench", help="measure and print figures")
     bench.add_argument("name", choices=sorted(BENCHMARKS), help="what to measure")
     bench.add_argument("--json", action="store_true", help='print a list of {"name", "value", "unit"}')
@@ -224,6 +239,31 @@ def _reproduce_dq(args: argparse.Namespace) -> int:
     return 0
 
 
+def _emulate(args: argparse.Namespace) -> int:
+    from rig.emulate import run_emulator
+
+    overrides = {}
+    for item in args.param:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise _UsageError(f"rig emulate: --param {item!r}: expected NAME=VALUE")
+        overrides[name.strip()] = value.strip()
+    if args.node_id is not None:
+        if not 1 <= args.node_id <= 126:
+            raise _UsageError(f"rig emulate: --node-id {args.node_id}: must be 1..126")
+        overrides["drive_node"] = str(args.node_id)
+        if args.preset == "dc-servo":
+            overrides["encoder_node"] = str(args.node_id + 1)
+    if args.interface and not args.channel:
+        raise _UsageError("rig emulate: --interface needs --channel")
+    try:
+        return run_emulator(
+            args.preset, overrides, interface=args.interface, channel=args.channel, port=args.socketcand_port
+        )
+    except ValueError as exc:
+        raise _UsageError(f"rig emulate: {exc}") from exc
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.command == "demo":
         return run_demo(sys.stdout)
@@ -236,6 +276,8 @@ def _run(args: argparse.Namespace) -> int:
         return 0
     if args.command == "reproduce":
         return _reproduce_dismc(args) if args.study == "dismc" else _reproduce_dq(args)
+    if args.command == "emulate":
+        return _emulate(args)
     if args.command == "bench":
         figures = BENCHMARKS[args.name]()
         if args.json:

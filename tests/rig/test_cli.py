@@ -93,3 +93,13 @@ def test_demo_runs_and_reports(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo"]) == 0
     out = capsys.readouterr().out
     assert "dtsm-7.30 h=16" in out and "sign law" in out and "cascade" in out
+
+
+def test_bench_physics_json_contract(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    from rig import bench
+
+    monkeypatch.setitem(bench.BENCHMARKS, "physics", lambda: bench.bench_physics(n=400, cycles=20, repeats=1))
+    assert main(["bench", "physics", "--json"]) == 0
+    figures = {f["name"]: f for f in json.loads(capsys.readouterr().out)}
+    assert {"dc-servo_physics_steps_per_s", "dc-servo_lockstep_cycles_per_s"} <= set(figures)
+    assert all(f["value"] > 0 for f in figures.values())

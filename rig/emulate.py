@@ -1,0 +1,111 @@
+"""``rig emulate``: the plant emulator as its own process.
+
+On a python-can bus (``--interface socketcan --channel vcan0``, or any other
+interface) the devices answer real frames; without kernel CAN, the emulator
+serves socketcand's rawmode on 127.0.0.1 (``--socketcand-port``), which
+python-can's ``socketcand`` interface speaks as a client. Time is real: the
+devices step their physics one period per SYNC the host sends, and send
+heartbeats on the wall clock. Ctrl-C stops it cleanly.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import threading
+import time
+from typing import Any
+
+import can
+import canopen
+
+from drivers.errors import ConfigError
+from drivers.transport import SyncHub, attach_network
+from plant_emulator.canopen_node import EmulatedNode
+from plant_emulator.presets import build_preset
+from plant_emulator.socketcand_server import SocketcandServer
+
+__all__ = ["run_emulator"]
+
+log = logging.getLogger(__name__)
+
+
+def _locked_notify(network: Any, lock: threading.RLock) -> None:
+    notify = network.notify
+
+    def locked(can_id: int, data: bytearray, timestamp: float) -> None:
+        with lock:
+            notify(can_id, data, timestamp)
+
+    network.notify = locked
+
+
+def run_emulator(
+    preset: str,
+    overrides: dict[str, str],
+    *,
+    interface: str | None = None,
+    channel: str | None = None,
+    host: str = "127.0.0.1",
+    port: int = 29536,
+    stop: threading.Event | None = None,
+    ready: Any = None,
+) -> int:
+    """Run until Ctrl-C (or ``stop`` is set); ``ready(port)`` is called once serving."""
+    stop = stop or threading.Event()
+    lock = threading.RLock()
+    network = canopen.Network()
+    server: SocketcandServer | None = None
+    bus: can.BusABC | None = None
+    if interface:
+        try:
+            bus = can.Bus(interface=interface, channel=channel, ignore_config=True)
+        except (can.CanError, OSError, ValueError) as exc:
+            raise ConfigError(
+                f"--interface {interface} --channel {channel}: cannot open the bus: {exc}"
+            ) from exc
+        network.bus = bus
+        _locked_notify(network, lock)
+        network.notifier = can.Notifier(bus, network.listeners, 0.5)
+        where = f"{interface}:{channel}"
+    else:
+        hub = SyncHub()
+        attach_network(network, hub.bus(queue=False, channel="emulator"))
+        try:
+            server = SocketcandServer(hub, lock, host=host, port=port)
+        except OSError as exc:
+            raise ConfigError(f"--socketcand-port {port}: cannot listen on {host}: {exc}") from exc
+        where = f"socketcand://{host}:{server.port}"
+    try:
+        with lock:
+            devices: list[EmulatedNode]
+            devices, period = build_preset(preset, network, overrides)
+            for d in devices:
+                d.boot()
+        if server is not None:
+            server.start()
+        log.info(
+            "emulating %s (nodes %s, period %g s) on %s", preset, [d.node_id for d in devices], period, where
+        )
+        print(f"rig emulate: {preset} on {where}; Ctrl-C stops", flush=True)
+        if ready is not None:
+            ready(server.port if server else 0)
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+        while not stop.is_set():
+            with lock:
+                now = time.time()
+                for d in devices:
+                    d.tick(now)
+            stop.wait(0.01)
+    except KeyboardInterrupt:
+        log.info("interrupted")
+    finally:
+        if server is not None:
+            server.stop()
+        if bus is not None:
+            if network.notifier is not None:
+                network.notifier.stop()
+            bus.shutdown()
+        print("rig emulate: stopped", flush=True)
+    return 0

@@ -1,0 +1,64 @@
+"""The emulator in its own process (``rig emulate``), reached through python-can's socketcand client."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+
+import can
+import canopen
+
+from drivers.maps import CIA402_EDS
+
+
+def test_emulator_in_a_separate_process() -> None:
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rig.cli",
+            "emulate",
+            "--preset",
+            "dc-servo",
+            "--node-id",
+            "5",
+            "--socketcand-port",
+            "0",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
+        assert match, line
+        bus = can.Bus(
+            interface="socketcand",
+            host="127.0.0.1",
+            port=int(match.group(1)),
+            channel="can0",
+            ignore_config=True,
+        )
+        network = canopen.Network(bus)
+        network.connect()
+        try:
+            node = canopen.RemoteNode(5, CIA402_EDS)
+            network.add_node(node)
+            assert node.sdo[0x1000].raw == 0x00020192
+            assert node.sdo[0x1018][2].raw == 0x402
+            node.sdo[0x6060].raw = -1
+            node.sdo[0x6040].raw = 0x06
+            assert node.sdo[0x6041].raw & 0x6F == 0x21  # READY TO SWITCH ON
+        finally:
+            network.disconnect()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=10)
+    assert proc.returncode == 0, err
+    assert "stopped" in out
