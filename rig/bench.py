@@ -133,18 +133,24 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
     emulator cycles per second (SYNC -> drive physics, limits, latch, TPDOs over the in-process bus)."""
     import canopen
 
+    from drivers.maps import CIA402_EDS
     from plant_emulator.presets import PRESETS, LockstepBench, build_preset
 
     figures: list[Figure] = []
     for name in PRESETS:
         devices, period = build_preset(name, canopen.Network())
         advance = functools.partial(devices[0].axis.advance, period, 0.0)  # type: ignore[attr-defined]
-        rate = _rate(advance, n // (1 if name == "dc-servo" else 4), repeats)
+        rate = _rate(advance, n // {"dc-servo": 1, "grid-converter": 4}.get(name, 100), repeats)
         figures.append({"name": f"{name}_physics_steps_per_s", "value": round(rate), "unit": "steps/s"})
     for name in PRESETS:
         bench = LockstepBench(name, {"u_line_rms": "0"} if name == "grid-converter" else None)
-        for node_id in {d.node_id for d in bench.devices}:
-            bench.host.send_message(0, bytes([1, node_id]))  # NMT start
+        drive = canopen.RemoteNode(bench.devices[0].node_id, CIA402_EDS)
+        bench.host.add_node(drive)
+        if name == "dc-servo":
+            drive.sdo[0x6060].raw = -1  # voltage mode, 0 V
+        for cw in (0x06, 0x0F):  # enabled, so the physics runs as in a real run
+            drive.sdo[0x6040].raw = cw
+        bench.host.send_message(0, bytes([1, 0]))  # NMT start all
         figures.append(
             {
                 "name": f"{name}_lockstep_cycles_per_s",

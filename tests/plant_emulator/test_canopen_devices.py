@@ -13,6 +13,7 @@ from canopen.sdo import SdoAbortedError
 from drivers.maps import CIA402_EDS, CIA406_EDS
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.cia402_state import PowerState, statusword_state
+from plant_emulator.induction_motor import ImParams
 from plant_emulator.presets import LockstepBench
 
 S = PowerState
@@ -237,3 +238,32 @@ def test_committed_eds_files_are_what_the_generator_writes() -> None:
         assert (build_eds.HERE / f"{name}.eds").read_text() == build_eds.eds_text(objs, name), name
         od = canopen.import_od(str(build_eds.HERE / f"{name}.eds"), 5)
         assert od[0x1018][1].default == 0xDB1
+
+
+def test_im_drive_speed_through_cst_over_the_bus() -> None:
+    """im-drive: the host closes a speed loop (Table III PI at 0.5 ms) through CST over the bus."""
+    bench = LockstepBench("im-drive", {"load": "step:2:0.6"})
+    node = canopen.RemoteNode(1, CIA402_EDS)
+    bench.host.add_node(node)
+    node.tpdo.read()
+    node.rpdo.read()
+    node.nmt.state = "OPERATIONAL"
+    for cw in (0x06, 0x0F):
+        node.sdo[0x6040].raw = cw
+    torque = node.rpdo[4]["Target torque"]
+    node.rpdo[4]["Controlword"].raw = 0x0F
+    node.rpdo[4]["Modes of operation"].raw = 10
+    speed = node.tpdo[2]["Velocity actual value"]
+    counts_per_rad = 4096 / (2 * math.pi)
+    integral, w_ref, k_t, rated = 0.0, 100.0, ImParams().k_t, 5.0
+    for k in range(2400):  # 1.2 s: 0.2 s magnetising, then 100 rad/s, load step at 0.6 s
+        bench.sync()
+        e = (w_ref if k >= 400 else 0.0) - speed.raw / counts_per_rad
+        integral += 0.0198 * e
+        i_q = 0.4443 * e + integral  # Table III speed PI -> i_q* [A], torque = k_t i_q
+        torque.raw = max(-1000, min(1000, round(i_q * k_t / rated * 1000)))  # per mille of 5 N m
+        node.rpdo[4].transmit()
+    drive = _drive(bench)
+    assert drive.axis.velocity == pytest.approx(100.0, abs=1.0)
+    assert drive.axis.torque == pytest.approx(2.0 + 0.0022 * 100, abs=0.1)
+    bench.close()

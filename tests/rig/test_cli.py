@@ -95,7 +95,9 @@ def test_demo_runs_and_reports(capsys: pytest.CaptureFixture[str]) -> None:
     assert "dtsm-7.30 h=16" in out and "sign law" in out and "cascade" in out
 
 
-def test_bench_physics_json_contract(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+def test_bench_physics_json_contract(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     from rig import bench
 
     monkeypatch.setitem(bench.BENCHMARKS, "physics", lambda: bench.bench_physics(n=400, cycles=20, repeats=1))

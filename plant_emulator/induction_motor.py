@@ -1,0 +1,183 @@
+"""Induction motor under indirect rotor-flux FOC, inside an emulated drive (drives paper, section IV).
+
+Model: the two-axis IM of (4.1)-(4.3) with the mechanics (4.2) and (3.6),
+written with complex space vectors in the stationary frame (x = x_alpha + j x_beta):
+
+    sigma L_s di_s/dt = u_s - R_sigma i_s + (L_m/L_r)(1/T_r - j p_p omega_m) psi_r
+    dpsi_r/dt = (L_m/T_r) i_s - (1/T_r - j p_p omega_m) psi_r
+    T_e = (3/2) p_p (L_m/L_r) Im(conj(psi_r) i_s)                          (4.3)
+    J domega_m/dt = T_e - B omega_m - T_L                                    (4.2)
+
+with sigma = 1 - L_m^2/(L_s L_r), T_r = L_r/R_r, R_sigma = R_s + R_r L_m^2/L_r^2.
+The printed A of (4.1) has misprints (its first row lacks 1/(sigma L_s), several
+signs differ), so the standard model above is used; in the flux frame it is (4.1).
+
+The drive: indirect FOC with slip (4.5) and the flux set-point (4.7), PI
+current controllers of Table III at 0.1 ms (u = K_p e + K_i sum e, per axis,
+limited to the converter's U_DC/sqrt(3)), integrated with RK4 on 4 sub-steps
+per control step. Modes: CST (torque -> i_qs* = T*/k_t, (4.8)), CSV/PV (the
+speed PI of Table III at the SYNC period), CSP (position P on top).
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from dataclasses import dataclass
+
+from plant_emulator.axes import CSP, CST, CSV, PV, Axis, LoadProfile
+
+__all__ = ["ImAxis", "ImParams"]
+
+
+@dataclass(frozen=True)
+class ImParams:
+    """Table II (IM1) and Table III; SI units."""
+
+    r_s: float = 5.45
+    r_r: float = 3.1852
+    l_s: float = 0.4531
+    l_r: float = 0.4531
+    l_m: float = 0.4413
+    j: float = 0.0035
+    b: float = 0.0022
+    p_p: int = 1  #: 2860 rpm at 50 Hz
+    i_ds_ref: float = 2.35  #: flux current [A]: psi_r = L_m i_ds* = 1.04 Wb, about U_n sqrt(2)/omega_n
+    current_kp: float = 22.3977  #: Table III
+    current_ki: float = 0.87466  #: Table III, per 0.1 ms sample
+    speed_kp: float = 0.4443  #: Table III [A s/rad]
+    speed_ki: float = 0.0198  #: Table III [A/rad per sample]
+    position_kp: float = 20.0  #: [1/s]
+    u_dc: float = 560.0  #: [V]
+    i_max: float = 3.25 * math.sqrt(2.0) * 2.0  #: |i_s| limit of the current references [A]
+    foc_dt: float = 1e-4  #: [s]
+
+    @property
+    def k_t(self) -> float:
+        """(4.8): k_t = (3 p_p/2)(L_m^2/L_r) i_ds* [N m/A]."""
+        return 1.5 * self.p_p * self.l_m**2 / self.l_r * self.i_ds_ref
+
+
+class ImAxis(Axis):
+    """The IM and its FOC drive; see the module docstring."""
+
+    modes = (CST, CSV, PV, CSP)
+
+    def __init__(self, p: ImParams, *, load: LoadProfile | None = None) -> None:
+        self.p = p
+        self.load = load
+        self.sigma = 1.0 - p.l_m**2 / (p.l_s * p.l_r)
+        self.t_r = p.l_r / p.r_r
+        self.r_sigma = p.r_s + p.r_r * p.l_m**2 / p.l_r**2
+        self.reset()
+
+    def reset(self) -> None:
+        self.i_s = 0j
+        self.psi_r = 0j
+        self.omega = 0.0
+        self.theta = 0.0
+        self.theta_e = 0.0  # FOC angle
+        self.mode = CST
+        self.command = 0.0
+        self._int_d = self._int_q = 0.0
+        self._int_w = 0.0
+        self._enabled = False
+        self._u = 0j
+
+    def coast(self) -> None:
+        self._enabled = False
+
+    def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
+        if mode not in self.modes:
+            raise ValueError(f"IM axis has no mode {mode}")
+        self.mode, self.command = mode, float(value.real if isinstance(value, complex) else value)
+        self._enabled = True
+
+    def _derivatives(self, i_s: complex, psi: complex, w: float, u: complex, t_load: float):  # type: ignore[no-untyped-def]
+        p = self.p
+        k = complex(1.0 / self.t_r, -p.p_p * w)
+        di = (u - self.r_sigma * i_s + p.l_m / p.l_r * k * psi) / (self.sigma * p.l_s)
+        dpsi = p.l_m / self.t_r * i_s - k * psi
+        torque = 1.5 * p.p_p * p.l_m / p.l_r * (psi.real * i_s.imag - psi.imag * i_s.real)
+        dw = (torque - p.b * w - t_load) / p.j
+        return di, dpsi, dw
+
+    def _integrate(self, u: complex, t_load: float, h: float) -> None:
+        """RK4 over h with u (stationary frame) held."""
+        i, psi, w = self.i_s, self.psi_r, self.omega
+        k1 = self._derivatives(i, psi, w, u, t_load)
+        k2 = self._derivatives(i + h / 2 * k1[0], psi + h / 2 * k1[1], w + h / 2 * k1[2], u, t_load)
+        k3 = self._derivatives(i + h / 2 * k2[0], psi + h / 2 * k2[1], w + h / 2 * k2[2], u, t_load)
+        k4 = self._derivatives(i + h * k3[0], psi + h * k3[1], w + h * k3[2], u, t_load)
+        self.i_s = i + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+        self.psi_r = psi + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        self.omega = w + h / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
+        self.theta += h / 6 * (w + 2 * (w + h / 2 * k1[2]) + 2 * (w + h / 2 * k2[2]) + w + h * k3[2])
+
+    def _foc_step(self, i_q_ref: float) -> complex:
+        """One 0.1 ms FOC step: slip (4.5), PI current loops (Table III) -> stationary voltage."""
+        p = self.p
+        limit = p.i_max * 0.9
+        i_q_ref = max(-limit, min(limit, i_q_ref))
+        rot = cmath.exp(-1j * self.theta_e)
+        i_dq = self.i_s * rot
+        e_d, e_q = p.i_ds_ref - i_dq.real, i_q_ref - i_dq.imag
+        u_max = p.u_dc / math.sqrt(3.0)
+        u_d = p.current_kp * e_d + self._int_d + p.current_ki * e_d
+        u_q = p.current_kp * e_q + self._int_q + p.current_ki * e_q
+        mag = math.hypot(u_d, u_q)
+        if mag <= u_max:  # conditional integration (anti-windup)
+            self._int_d += p.current_ki * e_d
+            self._int_q += p.current_ki * e_q
+        else:
+            u_d, u_q = u_d * u_max / mag, u_q * u_max / mag
+        slip = p.l_m * i_q_ref / (self.t_r * p.l_m * p.i_ds_ref)  # (4.5) with psi_r = L_m i_ds* (4.7)
+        omega_e = p.p_p * self.omega + slip
+        u = complex(u_d, u_q) * cmath.exp(1j * self.theta_e)
+        self.theta_e = math.remainder(self.theta_e + omega_e * p.foc_dt, math.tau)
+        return u
+
+    def _i_q_ref(self, h: float) -> float:
+        p = self.p
+        if self.mode == CST:
+            return self.command / p.k_t
+        w_ref = self.command if self.mode in (CSV, PV) else p.position_kp * (self.command - self.theta)
+        e = w_ref - self.omega
+        i_q = p.speed_kp * e + self._int_w + p.speed_ki * e
+        if abs(i_q) < p.i_max:
+            self._int_w += p.speed_ki * e
+        return i_q
+
+    def advance(self, h: float, t: float) -> None:
+        if h <= 0.0:
+            return
+        p = self.p
+        n = max(1, round(h / p.foc_dt))
+        hs = h / n
+        i_q_ref = self._i_q_ref(h) if self._enabled else 0.0
+        for k in range(n):
+            t_load = 0.0 if self.load is None else self.load(t + k * hs)
+            u = self._foc_step(i_q_ref) if self._enabled else 0j
+            if not self._enabled:
+                self.i_s = 0j  # inverter off: no stator current
+            for _ in range(4):
+                self._integrate(u, t_load, hs / 4)
+
+    @property
+    def position(self) -> float:
+        return self.theta
+
+    @property
+    def velocity(self) -> float:
+        return self.omega
+
+    @property
+    def current(self) -> float:
+        return abs(self.i_s)
+
+    @property
+    def torque(self) -> float:
+        p = self.p
+        return (
+            1.5 * p.p_p * p.l_m / p.l_r * (self.psi_r.real * self.i_s.imag - self.psi_r.imag * self.i_s.real)
+        )
