@@ -267,3 +267,35 @@ def test_im_drive_speed_through_cst_over_the_bus() -> None:
     assert drive.axis.velocity == pytest.approx(100.0, abs=1.0)
     assert drive.axis.torque == pytest.approx(2.0 + 0.0022 * 100, abs=0.1)
     bench.close()
+
+
+def test_emcy_on_following_error_and_over_current() -> None:
+    bench = LockstepBench("dc-servo")
+    frames: list[tuple[int, bytes]] = []
+    bench.host.bus.listeners.append(lambda m: frames.append((m.arbitration_id, bytes(m.data))))
+    node = canopen.RemoteNode(1, CIA402_EDS)
+    bench.host.add_node(node)
+    node.nmt.state = "OPERATIONAL"
+    node.sdo[0x6060].raw = 8  # CSP
+    node.sdo[0x6065].raw = 100  # following error window [increments]
+    for cw in (0x06, 0x0F):
+        node.sdo[0x6040].raw = cw
+    node.sdo[0x607A].raw = 40960  # 10 rev away at once
+    bench.sync()
+    assert node.sdo[0x603F].raw == 0x8611
+    assert node.sdo[0x6041].raw & 0x2000  # statusword bit 13
+    assert (0x81, struct.pack("<HB5x", 0x8611, node.sdo[0x1001].raw)) in frames
+    bench.close()
+    # grid converter switched on with no voltage against a 400 V grid: over-current
+    grid = LockstepBench("grid-converter")
+    node = canopen.RemoteNode(1, CIA402_EDS)
+    grid.host.add_node(node)
+    node.nmt.state = "OPERATIONAL"
+    for cw in (0x06, 0x0F):
+        node.sdo[0x6040].raw = cw
+    for _ in range(5):
+        grid.sync()
+    assert node.sdo[0x603F].raw == 0x2310
+    assert node.sdo[0x1001].raw & 0x02  # current bit of the error register
+    assert statusword_state(node.sdo[0x6041].raw) is S.FAULT
+    grid.close()
