@@ -99,3 +99,10 @@ def test_bad_param_is_a_usage_error(param: str, capsys: pytest.CaptureFixture[st
     name, _, value = param.partition("=")
     assert value in err or name in err
     assert err.count("\n") == 1
+
+
+def test_plot_writes_a_file(tmp_path: pytest.TempPathFactory, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("matplotlib")
+    path = tmp_path / "dq.png"  # type: ignore[operator]
+    assert main(["reproduce", "dq-current", "--param", "strategy=s-pwm-start", "--plot", str(path)]) == 0
+    assert path.stat().st_size > 1000
