@@ -32,6 +32,7 @@ class SyncHub:
         self.buses: list[SyncBus] = []
         self.clock = 0.0
         self.frames = 0  #: frames carried so far
+        self.taps: list[Listener] = []  #: see every frame (a CAN trace)
 
     def bus(self, *, queue: bool = True, channel: str = "sync0") -> SyncBus:
         """A new bus on this hub."""
@@ -48,6 +49,8 @@ class SyncHub:
             channel=sender.channel_info,
         )
         self.frames += 1
+        for tap in self.taps:
+            tap(frame)
         for bus in list(self.buses):
             if bus is not sender:
                 bus._receive(frame)

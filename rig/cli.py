@@ -113,6 +113,12 @@ def _build_parser() -> _Parser:
         help="override: ratio (e.g. 1/27), L1 [H], R1 [Ohm], gamma, strategy, plant (exact|fine)",
     )
 
+    run = sub.add_parser("run", help="run a configured control law over the wire (see examples/)")
+    run.add_argument("--config", required=True, metavar="FILE", help="the rig configuration (TOML)")
+    run.add_argument("--emulate", action="store_true", help="run the configured emulator preset in-process")
+    run.add_argument("--duration", type=_finite, help="override [run] duration [s]")
+    run.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+
     emulate = sub.add_parser(
         "emulate",
         help="run the plant emulator as its own process (a python-can bus, or socketcand on 127.0.0.1)",
@@ -264,6 +270,29 @@ def _emulate(args: argparse.Namespace) -> int:
         raise _UsageError(f"rig emulate: {exc}") from exc
 
 
+def _rig_run(args: argparse.Namespace) -> int:
+    from rig.config import load_config
+    from rig.run import run_config
+
+    if args.duration is not None and args.duration <= 0.0:
+        raise _UsageError(f"rig run: argument --duration: must be > 0 s, got {args.duration:g}")
+    summary = run_config(load_config(args.config), emulate=args.emulate, duration=args.duration)
+    if args.json:
+        print(json.dumps({k: _json_number(v) if isinstance(v, float) else v for k, v in summary.items()}))
+    else:
+        for key in (
+            "cycles",
+            "rms_error",
+            "max_error",
+            "chattering_count",
+            "overruns",
+            "safe_stop_reason",
+            "run_dir",
+        ):
+            print(f"{key:18s} {summary[key]}")
+    return 0 if summary["safe_stop_reason"] is None else 3
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.command == "demo":
         return run_demo(sys.stdout)
@@ -276,6 +305,8 @@ def _run(args: argparse.Namespace) -> int:
         return 0
     if args.command == "reproduce":
         return _reproduce_dismc(args) if args.study == "dismc" else _reproduce_dq(args)
+    if args.command == "run":
+        return _rig_run(args)
     if args.command == "emulate":
         return _emulate(args)
     if args.command == "bench":

@@ -1,0 +1,208 @@
+"""The SYNC-driven host loop of ARCHITECTURE.md, with one safe-stop path.
+
+Each cycle: produce SYNC (lock-step: the emulator steps and its TPDOs arrive
+before ``sync()`` returns; on a real bus: canopen's SYNC producer), read the
+feedback in SI, run the control law, check the limits, send the command in
+RPDO1, record the sample. Two time modes, same code path: lock-step (as fast
+as possible, deterministic) and real time (absolute deadlines on the
+monotonic clock, a short spin before each deadline, garbage collection frozen
+after setup, missed cycles skipped and counted as overruns).
+
+Every way out - a limit, the TPDO watchdog, a lost heartbeat, an EMCY, a NaN
+or exception from the controller, Ctrl-C - goes through ``safe_stop``: zero
+command, quick stop, disable, flush the recorder, report. The recorder keeps
+every sample up to the stop.
+"""
+
+from __future__ import annotations
+
+import gc
+import logging
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from drivers.errors import DeviceFault, RigError, SafetyStop
+from rig.metrics import chattering_count, max_abs, rms
+from rig.recorder import Recorder
+from rig.safety import Limits
+
+__all__ = ["Feedback", "HostLoop", "Law", "StageTimes"]
+
+log = logging.getLogger(__name__)
+
+#: (position [rad], velocity [rad/s], torque [N m], current [A], statusword)
+Feedback = tuple[float, float, float, float, int]
+#: law(t, feedback) -> (command, reference, measurement, internals)
+Law = Callable[[float, Feedback], tuple[float, float, float, Sequence[float]]]
+
+
+@dataclass
+class StageTimes:
+    """Per-stage durations [s] of each cycle (read, update, write) and period errors."""
+
+    read: list[float] = field(default_factory=list)
+    update: list[float] = field(default_factory=list)
+    write: list[float] = field(default_factory=list)
+    period_error: list[float] = field(default_factory=list)
+
+    def stats(self) -> dict[str, float]:
+        out: dict[str, float] = {}
+        for name in ("read", "update", "write", "period_error"):
+            a = np.abs(np.array(getattr(self, name))) * 1e6
+            if a.size:
+                out[f"{name}_median_us"] = float(np.median(a))
+                out[f"{name}_p99_us"] = float(np.percentile(a, 99))
+                out[f"{name}_max_us"] = float(a.max())
+        return out
+
+
+class HostLoop:
+    """Run ``law`` against ``drive`` for ``cycles`` periods of ``period`` [s]."""
+
+    def __init__(
+        self,
+        drive: Any,
+        law: Law,
+        limits: Limits,
+        recorder: Recorder,
+        sync: Callable[[], None],
+        *,
+        period: float,
+        cycles: int,
+        internals: Sequence[str] = (),
+        realtime: bool = False,
+        tpdo_stamp: Callable[[], float | None] = lambda: None,
+        bus_time: Callable[[], float] = time.time,
+    ) -> None:
+        self.drive = drive
+        self.law = law
+        self.limits = limits
+        self.recorder = recorder
+        self.sync = sync
+        self.period = period
+        self.cycles = cycles
+        self.internals = list(internals)
+        self.realtime = realtime
+        self.tpdo_stamp = tpdo_stamp
+        self.bus_time = bus_time  #: the clock of frame timestamps (the hub's in lock-step)
+        self.times = StageTimes()
+        self.overruns = 0
+        self.safe_stop_reason: str | None = None
+        self.done = 0
+        self._errors: list[float] = []
+        self._commands: list[float] = []
+
+    @staticmethod
+    def columns(internals: Sequence[str]) -> list[str]:
+        return ["t", "reference", "measurement", "command", *internals, "read_us", "update_us", "write_us"]
+
+    def _wait(self, deadline: float) -> None:
+        """Sleep until shortly before ``deadline`` (monotonic s), then spin."""
+        while True:
+            left = deadline - time.perf_counter()
+            if left <= 0.0:
+                return
+            if left > 0.0005:
+                time.sleep(left - 0.0004)
+
+    def run(self) -> dict[str, Any]:
+        """Run the cycles; returns the summary (also written by the recorder)."""
+        frozen = False
+        if self.realtime:
+            gc.collect()
+            gc.freeze()
+            gc.disable()
+            frozen = True
+        start = time.perf_counter()
+        deadline = start
+        k = 0
+        try:
+            while k < self.cycles:
+                if self.realtime:
+                    self._wait(deadline)
+                    now = time.perf_counter()
+                    self.times.period_error.append(now - deadline)
+                    late = int((now - deadline) / self.period)
+                    if late >= 1:  # skip the missed cycles
+                        self.overruns += late
+                        k += late
+                        deadline += late * self.period
+                        if k >= self.cycles:
+                            break
+                self._cycle(k)
+                k += 1
+                deadline += self.period
+        except KeyboardInterrupt:
+            self.safe_stop("Ctrl-C")
+        except SafetyStop as exc:
+            self.safe_stop(str(exc))
+        except DeviceFault as exc:
+            self.safe_stop(f"device fault: {exc}")
+        except RigError as exc:
+            self.safe_stop(f"{type(exc).__name__}: {exc}")
+        except Exception as exc:
+            log.exception("exception in the control loop")
+            self.safe_stop(f"exception in the control loop: {type(exc).__name__}: {exc}")
+        else:
+            self._finish()
+        finally:
+            if frozen:
+                gc.enable()
+                gc.unfreeze()
+        return self.summary()
+
+    def _cycle(self, k: int) -> None:
+        t = k * self.period
+        t0 = time.perf_counter()
+        self.sync()
+        fb = self.drive.feedback()
+        self.limits.watchdog(self.tpdo_stamp())
+        if self.drive.fault is not None:
+            raise self.drive.fault
+        self.limits.heartbeat(self.drive.last_heartbeat, self.bus_time())
+        self.limits.check_feedback(fb[0], fb[1], fb[3])
+        t1 = time.perf_counter()
+        u, ref, y, extra = self.law(t, fb)
+        self.limits.check_command(u)
+        t2 = time.perf_counter()
+        self.drive.command(u)
+        t3 = time.perf_counter()
+        self.times.read.append(t1 - t0)
+        self.times.update.append(t2 - t1)
+        self.times.write.append(t3 - t2)
+        self._errors.append(ref - y)
+        self._commands.append(u)
+        self.recorder.sample([t, ref, y, u, *extra, (t1 - t0) * 1e6, (t2 - t1) * 1e6, (t3 - t2) * 1e6])
+        self.done = k + 1
+
+    def safe_stop(self, reason: str) -> None:
+        """The one way out: zero command, quick stop, disable, flush, report."""
+        self.safe_stop_reason = reason
+        log.warning("safe stop: %s", reason)
+        for step in (lambda: self.drive.command(0.0), self.drive.quick_stop, self.drive.disable):
+            try:
+                step()
+            except Exception as exc:
+                log.error("safe stop step failed: %s", exc)
+        self._finish()
+
+    def _finish(self) -> None:
+        self.recorder.close(self.summary())
+
+    def summary(self) -> dict[str, Any]:
+        e = np.array(self._errors)
+        return {
+            "cycles": self.done,
+            "rms_error": rms(e) if e.size else math.nan,
+            "max_error": max_abs(e) if e.size else math.nan,
+            "chattering_count": chattering_count(self._commands, tol=1e-9),
+            "overruns": self.overruns,
+            "safe_stop_reason": self.safe_stop_reason,
+            "run_dir": str(self.recorder.dir),
+            "timing": self.times.stats(),
+        }

@@ -1,0 +1,125 @@
+"""The run recorder: one directory per run, flushed as it goes, nothing lost on a stop.
+
+Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
+
+- ``config.json``: the resolved configuration;
+- ``samples.csv``: one row per cycle (time, reference, measurement, command,
+  controller internals, loop timing), flushed every ``flush_every`` rows and on close;
+- ``samples.mat``: the same columns for MATLAB (scipy.io.savemat), written on close;
+- ``trace.asc``: the CAN trace in Vector ASCII (python-can's ``ASCWriter``),
+  which CANalyzer, SavvyCAN, asammdf and python-can read;
+- ``summary.json``: the metrics and how the run ended;
+- ``plot.png`` when matplotlib is installed.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import can
+import numpy as np
+
+__all__ = ["Recorder"]
+
+
+class Recorder:
+    """Record ``columns`` per cycle into a fresh run directory under ``output``."""
+
+    def __init__(
+        self, output: str | Path, name: str, columns: Sequence[str], *, flush_every: int = 100
+    ) -> None:
+        stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+        base = Path(output) / f"{name}-{stamp}"
+        path, n = base, 1
+        while path.exists():
+            n += 1
+            path = Path(f"{base}-{n}")
+        path.mkdir(parents=True)
+        self.dir = path
+        self.columns = list(columns)
+        self._file = (path / "samples.csv").open("w", newline="")
+        self._csv = csv.writer(self._file)
+        self._csv.writerow(self.columns)
+        self._rows: list[list[float]] = []
+        self._flush_every = flush_every
+        self._pending = 0
+        self.trace = can.ASCWriter(str(path / "trace.asc"))
+        self.closed = False
+
+    def write_config(self, config: dict[str, Any]) -> None:
+        (self.dir / "config.json").write_text(json.dumps(config, indent=2) + "\n")
+
+    def on_frame(self, msg: can.Message) -> None:
+        """A CAN frame for the trace (a bus listener)."""
+        if not self.closed:
+            self.trace.on_message_received(msg)
+
+    def sample(self, row: Sequence[float]) -> None:
+        """One cycle's values, in ``columns`` order."""
+        values = [float(v) for v in row]
+        self._rows.append(values)
+        self._csv.writerow([repr(v) for v in values])
+        self._pending += 1
+        if self._pending >= self._flush_every:
+            self._file.flush()
+            self._pending = 0
+
+    @property
+    def samples(self) -> int:
+        return len(self._rows)
+
+    def array(self) -> np.ndarray:
+        return np.array(self._rows, dtype=float).reshape(-1, len(self.columns))
+
+    def close(self, summary: dict[str, Any]) -> None:
+        """Flush everything, write .mat, summary.json and the plot; safe to call twice."""
+        if self.closed:
+            return
+        self.closed = True
+        self._file.flush()
+        self._file.close()
+        self.trace.stop()
+        data = self.array()
+        try:
+            import scipy.io
+
+            scipy.io.savemat(
+                self.dir / "samples.mat",
+                {c.replace(".", "_"): data[:, i] for i, c in enumerate(self.columns)},
+            )
+        except Exception as exc:
+            summary.setdefault("warnings", []).append(f"samples.mat not written: {exc}")
+        clean = {
+            k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()
+        }
+        (self.dir / "summary.json").write_text(json.dumps(clean, indent=2) + "\n")
+        self._plot(data)
+
+    def _plot(self, data: np.ndarray) -> None:
+        try:
+            import matplotlib
+
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+        except ImportError:
+            return
+        if not len(data):
+            return
+        fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+        t = data[:, 0]
+        for name in ("reference", "measurement"):
+            axes[0].plot(t, data[:, self.columns.index(name)], label=name)
+        axes[1].plot(t, data[:, self.columns.index("command")], label="command")
+        for ax in axes:
+            ax.grid(True)
+            ax.legend()
+        axes[-1].set_xlabel("time [s]")
+        fig.tight_layout()
+        fig.savefig(self.dir / "plot.png")
+        plt.close(fig)
