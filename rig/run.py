@@ -63,8 +63,20 @@ def _params(cfg: ControllerConfig, defaults: dict[str, float], source: str) -> d
 
 
 def _position_servo(cfg: RigConfig, period: float) -> tuple[Law, Sequence[str], str]:
-    p = _params(cfg.controller, {"a_m": 16.0, "b_m": 680.0, "lam": -15.0, "sigma": 10.0, "q": 0.0, "rho": 0.5,
-                                 "h": 16.0, "u0": math.inf}, cfg.source)  # fmt: skip
+    p = _params(
+        cfg.controller,
+        {
+            "a_m": 16.0,
+            "b_m": 680.0,
+            "lam": -15.0,
+            "sigma": 10.0,
+            "q": 0.0,
+            "rho": 0.5,
+            "h": 16.0,
+            "u0": math.inf,
+        },
+        cfg.source,
+    )
     design = design_dtsm(A=[[0.0, 1.0], [0.0, -p["a_m"]]], b=[0.0, -p["b_m"]], dt=period, lam=p["lam"])
     ctl = PositionServo(
         PositionServoParams(design=design, sigma=p["sigma"], q=p["q"], rho=p["rho"], h=p["h"], u0=p["u0"])
@@ -126,8 +138,14 @@ def run_config(cfg: RigConfig, *, emulate: bool, duration: float | None = None) 
 class Session:
     """A prepared run: the host loop, the host network and, when emulating, the hub and devices."""
 
-    def __init__(self, loop: HostLoop, network: canopen.Network, hub: SyncHub | None, devices: list[EmulatedNode],
-                 buses: list[Any]) -> None:  # fmt: skip
+    def __init__(
+        self,
+        loop: HostLoop,
+        network: canopen.Network,
+        hub: SyncHub | None,
+        devices: list[EmulatedNode],
+        buses: list[Any],
+    ) -> None:
         self.loop, self.network, self.hub, self.devices, self._buses = loop, network, hub, devices, buses
 
     def close(self) -> None:
@@ -157,8 +175,12 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
     else:
         if period <= 0.0:
             raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s) when not emulating")
-        bus = open_bus(cfg.bus.interface, cfg.bus.channel, bitrate=cfg.bus.bitrate or None,
-                       **({"host": cfg.bus.host, "port": cfg.bus.port} if cfg.bus.interface == "socketcand" else {}))  # fmt: skip
+        bus = open_bus(
+            cfg.bus.interface,
+            cfg.bus.channel,
+            bitrate=cfg.bus.bitrate or None,
+            **({"host": cfg.bus.host, "port": cfg.bus.port} if cfg.bus.interface == "socketcand" else {}),
+        )
         network.bus = bus
         network.connect()
     realtime = cfg.run.time == "realtime"
@@ -201,6 +223,17 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
 
         bus_time = __import__("time").time
     tpdo = drive.node.tpdo[2]
-    loop = HostLoop(drive, law, Limits(cfg.limits, period), recorder, sync, period=period, cycles=cycles,
-                    internals=internals, realtime=realtime, tpdo_stamp=lambda: tpdo.timestamp, bus_time=bus_time)  # fmt: skip
+    loop = HostLoop(
+        drive,
+        law,
+        Limits(cfg.limits, period),
+        recorder,
+        sync,
+        period=period,
+        cycles=cycles,
+        internals=internals,
+        realtime=realtime,
+        tpdo_stamp=lambda: tpdo.timestamp,
+        bus_time=bus_time,
+    )
     return Session(loop, network, hub, devices, buses)

@@ -53,7 +53,7 @@ def test_position_servo_over_the_bus_equals_the_pure_simulation(tmp_path: pathli
         if k:
             axis.advance(period, k * period)  # SYNC k+1 steps [t_k, t_k+1] (timestamps start at T)
         fb = (math.floor(axis.position * cpr) / cpr, round(axis.velocity * cpr) / cpr, 0.0, 0.0, 0x1237)
-        u, ref, y, _ = law(k * period, fb)
+        u, _ref, y, _ = law(k * period, fb)
         pure.append((y, u))
         axis.set_command(-1, round(u * 1000) / 1000)  # mV on the wire, applied on receipt
     pure_a = np.array(pure)
