@@ -119,6 +119,15 @@ def _build_parser() -> _Parser:
     run.add_argument("--duration", type=_finite, help="override [run] duration [s]")
     run.add_argument("--json", action="store_true", help="print the summary as one JSON object")
 
+    scan = sub.add_parser("scan", help="list the CANopen nodes on a bus")
+    scan.add_argument("--interface", help="python-can interface (e.g. socketcan, socketcand)")
+    scan.add_argument("--channel", help="python-can channel (e.g. vcan0)")
+    scan.add_argument("--host", default="127.0.0.1", help="socketcand host")
+    scan.add_argument("--port", type=int, default=29536, help="socketcand port")
+    scan.add_argument("--emulate", metavar="PRESET", help="scan an in-process emulator preset instead")
+    scan.add_argument("--listen", type=_finite, default=1.1, help="seconds to listen for heartbeats")
+    scan.add_argument("--json", action="store_true", help="print a list of JSON objects")
+
     emulate = sub.add_parser(
         "emulate",
         help="run the plant emulator as its own process (a python-can bus, or socketcand on 127.0.0.1)",
@@ -293,6 +302,58 @@ def _rig_run(args: argparse.Namespace) -> int:
     return 0 if summary["safe_stop_reason"] is None else 3
 
 
+def _scan(args: argparse.Namespace) -> int:
+    import canopen
+
+    from drivers.bus import open_bus
+    from drivers.transport import SyncHub, attach_network
+    from plant_emulator.presets import build_preset
+    from rig.scan import scan, wall_listen
+
+    network = canopen.Network()
+    if args.emulate:
+        hub = SyncHub()
+        devices_net = canopen.Network()
+        attach_network(devices_net, hub.bus(queue=False))
+        attach_network(network, hub.bus(queue=False))
+        try:
+            devices, period = build_preset(args.emulate, devices_net)
+        except ValueError as exc:
+            raise _UsageError(f"rig scan: --emulate {args.emulate}: {exc}") from exc
+        for d in devices:
+            d.boot()
+
+        def listen() -> None:  # advance emulated time by --listen seconds
+            for k in range(1, round(args.listen / period) + 1):
+                for d in devices:
+                    d.tick(k * period)
+
+        rows = scan(network, listen=listen)
+        for bus in list(hub.buses):
+            bus.shutdown()
+    else:
+        if not (args.interface and (args.channel or args.interface == "socketcand")):
+            raise _UsageError("rig scan: give --interface and --channel, or --emulate PRESET")
+        extra = {"host": args.host, "port": args.port} if args.interface == "socketcand" else {}
+        network.bus = open_bus(args.interface, args.channel or "can0", **extra)
+        network.connect()
+        try:
+            rows = scan(network, listen=wall_listen(args.listen))
+        finally:
+            network.disconnect()
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(f"{'node':>4s}  {'NMT state':16s} {'device type':12s} {'profile':18s} {'vendor':11s} product")
+    for r in rows:
+        product = r.get("product_name", r.get("error", ""))
+        print(
+            f"{r['node_id']:>4d}  {r['nmt_state']:16s} {r.get('device_type', '-'):12s} "
+            f"{r.get('profile', '-'):18s} {r.get('vendor_id', '-'):11s} {product}"
+        )
+    return 0
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.command == "demo":
         return run_demo(sys.stdout)
@@ -305,6 +366,8 @@ def _run(args: argparse.Namespace) -> int:
         return 0
     if args.command == "reproduce":
         return _reproduce_dismc(args) if args.study == "dismc" else _reproduce_dq(args)
+    if args.command == "scan":
+        return _scan(args)
     if args.command == "run":
         return _rig_run(args)
     if args.command == "emulate":

@@ -11,6 +11,9 @@ Control laws (``[controller] kind``):
   b_m, lam, sigma, q, rho, h, u0.
 - ``pi-speed``: a PI speed controller with anti-windup giving torque
   (mode ``cst``): kp [N m s/rad], ki [N m/rad], t_max [N m]; reference ``step``.
+- ``idtsm-speed``: the integral DTSM (6.20)-(6.21) on the speed loop
+  dw/dt = -(B/J) w + T/J (4.2) giving torque (mode ``cst``): j [kg m^2],
+  friction [N m s/rad], lam [1/s], t_max [N m].
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from typing import Any
 import canopen
 
 from controllers.design import design_dtsm
+from controllers.idtsm import IDTSM, IDTSMParams
 from controllers.pi import PI, PIParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from drivers.bus import open_bus
@@ -104,9 +108,27 @@ def _pi_speed(cfg: RigConfig, period: float) -> tuple[Law, Sequence[str], str]:
     return law, ("integral",), "cst"
 
 
+def _idtsm_speed(cfg: RigConfig, period: float) -> tuple[Law, Sequence[str], str]:
+    p = _params(
+        cfg.controller, {"j": 0.0035, "friction": 0.0022, "lam": -50.0, "t_max": math.inf}, cfg.source
+    )
+    ctl = IDTSM(
+        IDTSMParams(a=-p["friction"] / p["j"], b=1.0 / p["j"], dt=period, lam=p["lam"], u0=p["t_max"])
+    )
+    ref = reference_of(cfg.reference)
+
+    def law(t: float, fb: Feedback) -> tuple[float, float, float, Sequence[float]]:
+        w_r, _ = ref(t)
+        torque = ctl.step(w_r - fb[1])
+        return torque, w_r, fb[1], ()
+
+    return law, (), "cst"
+
+
 CONTROLLERS: dict[str, Callable[[RigConfig, float], tuple[Law, Sequence[str], str]]] = {
     "position-servo": _position_servo,
     "pi-speed": _pi_speed,
+    "idtsm-speed": _idtsm_speed,
 }
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import pathlib
 
 import pytest
 
@@ -93,6 +94,9 @@ def test_demo_runs_and_reports(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo"]) == 0
     out = capsys.readouterr().out
     assert "dtsm-7.30 h=16" in out and "sign law" in out and "cascade" in out
+    assert "Over the emulated CAN bus" in out and "safe_stop_reason   None" in out
+    run_dir = pathlib.Path(out.split("run_dir")[1].split()[0])
+    assert (run_dir / "samples.csv").exists() and (run_dir / "summary.json").exists()
 
 
 def test_bench_physics_json_contract(
@@ -105,3 +109,25 @@ def test_bench_physics_json_contract(
     figures = {f["name"]: f for f in json.loads(capsys.readouterr().out)}
     assert {"dc-servo_physics_steps_per_s", "dc-servo_lockstep_cycles_per_s"} <= set(figures)
     assert all(f["value"] > 0 for f in figures.values())
+
+
+def test_scan_lists_the_emulated_nodes(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["scan", "--emulate", "dc-servo", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [(r["node_id"], r["profile"], r["nmt_state"]) for r in rows] == [
+        (1, "CiA 402 drive", "PRE-OPERATIONAL"),
+        (2, "CiA 406 encoder", "PRE-OPERATIONAL"),
+    ]
+    assert rows[0]["product_name"] == "drive-rig emulated servo drive"
+
+
+def test_run_json_summary_contract(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
+    example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(example.read_text().replace('output = "runs"', f'output = "{tmp_path}"'))
+    assert main(["run", "--config", str(cfg), "--emulate", "--duration", "0.2", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    keys = {"cycles", "rms_error", "max_error", "chattering_count", "overruns", "safe_stop_reason", "run_dir"}
+    assert keys <= set(summary) and summary["cycles"] == 500 and summary["safe_stop_reason"] is None
+    assert main(["run", "--config", str(tmp_path / "missing.toml"), "--emulate"]) == 1
+    assert "missing.toml" in capsys.readouterr().err
