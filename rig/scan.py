@@ -13,6 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 import canopen
+from canopen.sdo.client import SdoClient
 
 __all__ = ["DEVICE_PROFILES", "scan"]
 
@@ -37,7 +38,7 @@ def scan(
     found = sorted(set(network.scanner.nodes) | set(states))
     rows = []
     for node_id in found:
-        make_client: Any = canopen.sdo.SdoClient
+        make_client: Any = SdoClient
         make_od: Any = canopen.ObjectDictionary
         client: Any = make_client(0x600 + node_id, 0x580 + node_id, make_od())
         client.network = network
