@@ -82,6 +82,7 @@ class EmulatedNode:
         self._dirty = True
         self.rx_time = 0.0  #: timestamp [s] of the RPDO being handled
         self._power_on: dict[int, dict[int, bytes]] | None = None
+        self._objs: dict[tuple[int, int], Any] = {}
 
     # --- NMT -----------------------------------------------------------
     @property
@@ -187,18 +188,31 @@ class EmulatedNode:
             raise SdoAbortedError(0x06040041)
 
     # --- object dictionary access ----------------------------------------
+    def _obj(self, index: int, subindex: int) -> Any:
+        """The OD entry, looked up once (the hot path reads the same few objects every SYNC)."""
+        key = (index, subindex)
+        obj = self._objs.get(key)
+        if obj is None:
+            obj = self._objs[key] = self.node._find_object(index, subindex)
+        return obj
+
+    def _raw(self, index: int, subindex: int) -> bytes:
+        """Stored bytes of an object; the device registers no read callbacks, so the store is the truth."""
+        try:
+            return self.node.data_store[index][subindex]  # type: ignore[no-any-return]
+        except KeyError:
+            return self.node.get_data(index, subindex)  # type: ignore[no-any-return]
+
     def _u(self, index: int, subindex: int) -> int:
-        return int.from_bytes(self.node.get_data(index, subindex), "little")
+        return int.from_bytes(self._raw(index, subindex), "little")
 
     def read(self, index: int, subindex: int = 0) -> Any:
-        """Decoded value of an object (through the read callbacks)."""
-        obj = self.node._find_object(index, subindex)
-        return obj.decode_raw(self.node.get_data(index, subindex))
+        """Decoded value of an object."""
+        return self._obj(index, subindex).decode_raw(self._raw(index, subindex))
 
     def write(self, index: int, subindex: int, value: Any) -> None:
         """Set an object's value from the device side (no access check, no callbacks)."""
-        obj = self.node._find_object(index, subindex)
-        self.node.data_store.setdefault(index, {})[subindex] = obj.encode_raw(value)
+        self.node.data_store.setdefault(index, {})[subindex] = self._obj(index, subindex).encode_raw(value)
 
     # --- PDO -------------------------------------------------------------
     def _pdo(self, comm: int, mapping: int, number: int) -> PdoConfig:
@@ -231,7 +245,7 @@ class EmulatedNode:
             self._sync_cob = sync_cob
 
     def _pack(self, pdo: PdoConfig) -> bytes:
-        return b"".join(self.node.get_data(i, s)[: bits // 8] for i, s, bits in pdo.mapping)
+        return b"".join(self._raw(i, s)[: bits // 8] for i, s, bits in pdo.mapping)
 
     def _on_rpdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
         if self.nmt_state != OPERATIONAL:

@@ -30,7 +30,7 @@ from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.rl_dq import ExactDqPlant, RLParams, StationaryRLConverter
 from rig.reproduce import dismc_laws
 
-__all__ = ["BENCHMARKS", "Figure", "bench_controllers", "bench_physics", "bench_plant"]
+__all__ = ["BENCHMARKS", "Figure", "bench_controllers", "bench_loop", "bench_physics", "bench_plant"]
 
 Figure = dict[str, object]
 
@@ -162,9 +162,101 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
     return figures
 
 
+def _steal_jiffies() -> int | None:
+    """Total steal time of this machine's CPUs [jiffies] from /proc/stat (None where unknown)."""
+    try:
+        fields = open("/proc/stat").readline().split()  # noqa: SIM115 - one line, closed by GC
+        return int(fields[8]) if fields[0] == "cpu" and len(fields) > 8 else None
+    except OSError:
+        return None
+
+
+def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figure]:
+    """The full chain per cycle: controller + CiA 402 driver + canopen + emulated drive + physics.
+
+    Lock-step: cycles/s on the in-process bus (the demo's servo, recorder on).
+    Real time: a 1 kHz loop against ``rig emulate`` in another process over socketcand
+    (127.0.0.1): median, p99 and max period error, overruns, and the machine's steal time.
+    """
+    import dataclasses
+    import os
+    import re
+    import subprocess
+    import sys
+    import tempfile
+
+    from rig.config import BusConfig
+    from rig.demo import demo_config
+    from rig.run import prepare
+
+    figures: list[Figure] = []
+    with tempfile.TemporaryDirectory() as out:
+        cfg = demo_config(out)
+        session = prepare(cfg, emulate=True, duration=lockstep_s)
+        t0 = time.perf_counter()
+        summary = session.loop.run()
+        elapsed = time.perf_counter() - t0
+        session.close()
+        figures.append(
+            {"name": "lockstep_cycles_per_s", "value": round(summary["cycles"] / elapsed), "unit": "cycles/s"}
+        )
+
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "rig.cli", "emulate", "--preset", "dc-servo", "--param", "period=0.001",
+             "--socketcand-port", "0"],
+            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )  # fmt: skip
+        try:
+            assert proc.stdout is not None
+            match = re.search(r":(\d+);", proc.stdout.readline())
+            if match is None:
+                raise RuntimeError("rig emulate did not start")
+            rt = dataclasses.replace(
+                cfg,
+                reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),  # hold: timing only
+                run=dataclasses.replace(cfg.run, time="realtime", period=0.001),
+                bus=BusConfig(interface="socketcand", channel="can0", port=int(match.group(1))),
+                limits=dataclasses.replace(cfg.limits, watchdog_periods=50),
+            )
+            steal0 = _steal_jiffies()
+            session = prepare(rt, emulate=False, duration=realtime_s)
+            summary = session.loop.run()
+            session.close()
+            steal1 = _steal_jiffies()
+        finally:
+            proc.terminate()
+            proc.wait(timeout=10)
+    timing = summary["timing"]
+    for key, name in (
+        ("period_error_median_us", "median"),
+        ("period_error_p99_us", "p99"),
+        ("period_error_max_us", "max"),
+    ):
+        figures.append(
+            {
+                "name": f"realtime_1khz_period_error_{name}",
+                "value": round(timing.get(key, float("nan")), 1),
+                "unit": "us",
+            }
+        )
+    figures.append({"name": "realtime_1khz_overruns", "value": summary["overruns"], "unit": "cycles"})
+    figures.append({"name": "realtime_1khz_cycles", "value": summary["cycles"], "unit": "cycles"})
+    figures.append(
+        {"name": "realtime_1khz_safe_stop", "value": summary["safe_stop_reason"] or "none", "unit": ""}
+    )
+    steal = (
+        (steal1 - steal0) / os.sysconf("SC_CLK_TCK") * 1e3
+        if steal0 is not None and steal1 is not None
+        else float("nan")
+    )
+    figures.append({"name": "machine_steal_time_during_realtime", "value": round(steal, 1), "unit": "ms"})
+    return figures
+
+
 #: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}.
 BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "controllers": bench_controllers,
     "plant": bench_plant,
     "physics": bench_physics,
+    "loop": bench_loop,
 }

@@ -94,6 +94,7 @@ class HostLoop:
         self.overruns = 0
         self.safe_stop_reason: str | None = None
         self.done = 0
+        self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
         self._errors: list[float] = []
         self._commands: list[float] = []
 
@@ -118,7 +119,7 @@ class HostLoop:
             gc.freeze()
             gc.disable()
             frozen = True
-        start = time.perf_counter()
+        start = self._t_end = time.perf_counter()
         deadline = start
         k = 0
         try:
@@ -137,6 +138,7 @@ class HostLoop:
                 self._cycle(k)
                 k += 1
                 deadline += self.period
+            self.elapsed = self._t_end - start
         except KeyboardInterrupt:
             self.safe_stop("Ctrl-C")
         except SafetyStop as exc:
@@ -175,6 +177,7 @@ class HostLoop:
         self.times.read.append(t1 - t0)
         self.times.update.append(t2 - t1)
         self.times.write.append(t3 - t2)
+        self._t_end = t3
         self._errors.append(ref - y)
         self._commands.append(u)
         self.recorder.sample([t, ref, y, u, *extra, (t1 - t0) * 1e6, (t2 - t1) * 1e6, (t3 - t2) * 1e6])
@@ -202,6 +205,7 @@ class HostLoop:
             "max_error": max_abs(e) if e.size else math.nan,
             "chattering_count": chattering_count(self._commands, tol=1e-9),
             "overruns": self.overruns,
+            "elapsed_s": self.elapsed,
             "safe_stop_reason": self.safe_stop_reason,
             "run_dir": str(self.recorder.dir),
             "timing": self.times.stats(),
