@@ -165,7 +165,7 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
 def _steal_jiffies() -> int | None:
     """Total steal time of this machine's CPUs [jiffies] from /proc/stat (None where unknown)."""
     try:
-        fields = open("/proc/stat").readline().split()  # noqa: SIM115 - one line, closed by GC
+        fields = open("/proc/stat").readline().split()
         return int(fields[8]) if fields[0] == "cpu" and len(fields) > 8 else None
     except OSError:
         return None
