@@ -201,11 +201,14 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figu
             {"name": "lockstep_cycles_per_s", "value": round(summary["cycles"] / elapsed), "unit": "cycles/s"}
         )
 
+        command = ["emulate", "--preset", "dc-servo", "--param", "period=0.001", "--socketcand-port", "0"]
         proc = subprocess.Popen(
-            [sys.executable, "-m", "rig.cli", "emulate", "--preset", "dc-servo", "--param", "period=0.001",
-             "--socketcand-port", "0"],
-            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        )  # fmt: skip
+            [sys.executable, "-m", "rig.cli", *command],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
         try:
             assert proc.stdout is not None
             match = re.search(r":(\d+);", proc.stdout.readline())
