@@ -119,8 +119,10 @@ class Cia402Drive:
         )
 
     def sdo_read(self, index: int, subindex: int = 0) -> Any:
-        """Read an object by SDO; SdoAbort or CommunicationTimeout on failure."""
+        """Read an object by SDO (raw bytes if the EDS lacks it); SdoAbort or CommunicationTimeout on failure."""
         try:
+            if index not in self.node.object_dictionary:
+                return self.node.sdo.upload(index, subindex)
             return self._entry(index, subindex).raw
         except (SdoAbortedError, SdoCommunicationError) as exc:
             raise self._translate(exc, "SDO upload", index, subindex) from exc

@@ -10,3 +10,19 @@ def _clean_environ(monkeypatch: pytest.MonkeyPatch, tmp_path: pytest.TempPathFac
     monkeypatch.chdir(tmp_path)  # run directories ("runs/") land in the test's own tmp dir
     for name in ("CAN_INTERFACE", "CAN_CHANNEL", "CAN_BITRATE", "CAN_CONFIG"):
         monkeypatch.delenv(name, raising=False)
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("drive-rig hardware")
+    group.addoption("--can-interface", help="python-can interface of a real bus (enables 'hardware' tests)")
+    group.addoption("--can-channel", help="python-can channel of the real bus, e.g. can0")
+    group.addoption("--drive-node", type=int, default=1, help="node id of the CiA 402 drive on the real bus")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if config.getoption("--can-interface"):
+        return
+    skip = pytest.mark.skip(reason="needs --can-interface/--can-channel (a real bus)")
+    for item in items:
+        if "hardware" in item.keywords:
+            item.add_marker(skip)
