@@ -49,7 +49,7 @@ def test_enable_disable_round_trip_with_zero_command(target) -> None:  # type: i
     for _ in range(5):
         drive.command(0.0)
         sync()
-    position, velocity, _, _, statusword = drive.feedback()
+    _, velocity, _, _, statusword = drive.feedback()
     assert statusword & 0x6F == 0x27 and abs(velocity) < 1.0
     drive.disable()
     assert drive.state == "SWITCH ON DISABLED"
