@@ -119,7 +119,7 @@ class Cia402Drive:
         )
 
     def sdo_read(self, index: int, subindex: int = 0) -> Any:
-        """Read an object by SDO (raw bytes if the EDS lacks it); SdoAbort or CommunicationTimeout if it fails."""
+        """Read an object by SDO (bytes if the EDS lacks it); raises SdoAbort or CommunicationTimeout."""
         try:
             if index not in self.node.object_dictionary:
                 return self.node.sdo.upload(index, subindex)
