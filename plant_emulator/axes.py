@@ -94,9 +94,16 @@ class DcServoAxis(Axis):
     modes = (VOLTAGE_MODE, CST, CSV, PV, CSP)
 
     def __init__(
-        self, motor: DCMotorParams, loops: ServoLoops, *, inner_dt: float, load: LoadProfile | None = None
+        self,
+        motor: DCMotorParams,
+        loops: ServoLoops,
+        *,
+        inner_dt: float,
+        load: LoadProfile | None = None,
+        coulomb: float = 0.0,
     ) -> None:
         self.motor = motor
+        self.coulomb = coulomb  #: Coulomb friction torque [N m], against the motion, held over a step
         self.loops = loops
         self.inner_dt = inner_dt
         self.load = load  #: load torque profile [N m] of time [s]; None: no load
@@ -155,15 +162,17 @@ class DcServoAxis(Axis):
         if h <= 0.0:
             return
         load = self.load
+        w = self.x[1]
+        friction = math.copysign(self.coulomb, w) if self.coulomb and w else 0.0
         if self._enabled and self.mode == VOLTAGE_MODE:  # the hot path: one unrolled ZOH step
             step = self._zoh.get(h)
             if step is None:
                 step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
-            step(self.x, self.command, 0.0 if load is None else load(t))
+            step(self.x, self.command, friction if load is None else load(t) + friction)
             return
         if not self._enabled:
             # power stage off: armature open, the current decays through the freewheel path
-            self._step(self.motor.k_e * self.x[1], 0.0 if load is None else load(t), h)
+            self._step(self.motor.k_e * self.x[1], friction if load is None else load(t) + friction, h)
             self.x[2] = 0.0
             return
         n = max(1, math.ceil(h / self.inner_dt - 1e-9))
@@ -175,7 +184,8 @@ class DcServoAxis(Axis):
                 torque = self._speed_loop(self.command, hs)
             else:  # CSP
                 torque = self._speed_loop(self.loops.position_kp * (self.command - self.x[0]), hs)
-            self._step(self._torque_to_voltage(torque, hs), 0.0 if load is None else load(t + k * hs), hs)
+            t_load = friction if load is None else load(t + k * hs) + friction
+            self._step(self._torque_to_voltage(torque, hs), t_load, hs)
 
     @property
     def position(self) -> float:

@@ -4,7 +4,7 @@
   section VII.B) as the full model (3.4) with R_r = 1 Ohm, L_r = 0.1 mH,
   k_e = k_t = a_m/b_m, J = k_t/(R_r b_m); a 4096-count encoder; T = 0.4 ms;
   48 V power stage. Drive node 1 (CiA 402, voltage mode -1 and CST/CSV/PV/CSP)
-  and encoder node 2 (CiA 406) on the same shaft.
+  and encoder node 2 (CiA 406) on the same shaft. ``coulomb`` adds Coulomb friction [N m].
 - ``grid-converter``: Table IV of the dq-current paper (L1 = 6 mH, R1 = 0.36 Ohm,
   50 Hz, 400 V grid, U_DC = 700 V) at omega_k/omega_s = 1/27; node 1 in mode -2
   takes u_d, u_q [mV] in RPDO1 and sends i_d, i_q [mA] in TPDO4 and the angle in
@@ -47,6 +47,7 @@ __all__ = [
     "LockstepBench",
     "build_preset",
     "load_profile",
+    "preset_period",
 ]
 
 
@@ -77,7 +78,8 @@ class DcServoPreset:
     b_m: float = 680.0
     r_r: float = 1.0
     tau_e: float = 1e-4
-    friction: float = 0.0
+    friction: float = 0.0  #: viscous B [N m s/rad]
+    coulomb: float = 0.0  #: Coulomb friction torque [N m], against the motion
     counts_per_rev: int = 4096
     period: float = 0.4e-3
     u_max: float = 48.0
@@ -136,7 +138,8 @@ PRESETS: dict[str, type] = {
 def _apply(preset: Any, overrides: dict[str, str]) -> Any:
     types = {f.name: f.type for f in fields(preset)}
     changes: dict[str, Any] = {}
-    for name, text in overrides.items():
+    for given, text in overrides.items():
+        name = given.removeprefix("plant.")  # ``plant.a_m`` and ``a_m`` name the same parameter
         if name not in types:
             raise ValueError(f"preset parameter {name!r} unknown; known: {', '.join(types)}")
         kind = types[name]
@@ -151,6 +154,13 @@ def _apply(preset: Any, overrides: dict[str, str]) -> Any:
         except (ValueError, ZeroDivisionError):
             raise ValueError(f"preset parameter {name}={text!r}: not a {kind}") from None
     return replace(preset, **changes)
+
+
+def preset_period(name: str, overrides: dict[str, str] | None = None) -> float:
+    """The SYNC period [s] preset ``name`` runs at, with ``overrides`` applied."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
+    return float(_apply(PRESETS[name](), overrides or {}).period)
 
 
 def build_preset(
@@ -189,9 +199,8 @@ def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
     w_c = 2.0 * math.pi * p.speed_bandwidth_hz
     max_torque = motor.k_t * p.rated_current * p.max_current_permille / 1000.0
     loops = ServoLoops(motor.j * w_c, motor.j * w_c * w_c / 5.0, w_c / 5.0, max_torque, p.u_max)
-    axis = DcServoAxis(
-        motor, loops, inner_dt=p.period / 4, load=load_profile(p.load) if p.load != "none" else None
-    )
+    load = load_profile(p.load) if p.load != "none" else None
+    axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load, coulomb=p.coulomb)
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
     drive.write(0x6075, 0, round(p.rated_current * 1000))  # mA
     drive.write(0x6076, 0, round(motor.k_t * p.rated_current * 1000))  # mN m

@@ -66,8 +66,9 @@ def _build_parser() -> _Parser:
         description="Design the delta-domain DTSM for dw/dt = -a_m w + b_m u with position "
         "(3.7), or the error-space model (7.28) with --error-space.",
     )
-    dtsm.add_argument("--a-m", type=_finite, required=True, help="a_m [1/s]")
-    dtsm.add_argument("--b-m", type=_finite, required=True, help="b_m [rad/(V s^2)]")
+    dtsm.add_argument("--a-m", type=_finite, help="a_m [1/s] (or --from-identify)")
+    dtsm.add_argument("--b-m", type=_finite, help="b_m [rad/(V s^2)] (or --from-identify)")
+    dtsm.add_argument("--from-identify", metavar="RESULT.json", help="take a_m, b_m from rig identify --json")
     dtsm.add_argument("--dt", type=_finite, required=True, help="sample period T [s], > 0")
     dtsm.add_argument("--lam", type=_finite, required=True, help="sliding eigenvalue lambda [1/s], < 0")
     dtsm.add_argument(
@@ -128,6 +129,23 @@ def _build_parser() -> _Parser:
     scan.add_argument("--listen", type=_finite, default=1.1, help="seconds to listen for heartbeats")
     scan.add_argument("--json", action="store_true", help="print a list of JSON objects")
 
+    ident = sub.add_parser(
+        "identify", help="identify a_m, b_m of (3.5) from a PRBS experiment on the drive, or from a run log"
+    )
+    source = ident.add_mutually_exclusive_group(required=True)
+    source.add_argument("--config", metavar="FILE", help="the rig configuration (bus, drive, limits)")
+    source.add_argument("--emulate", metavar="PRESET", help="run the experiment on an in-process preset")
+    source.add_argument("--from-log", metavar="RUN_DIR", help="estimate from a recorded run directory")
+    ident.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="preset parameter")
+    ident.add_argument("--excitation", choices=("prbs", "steps"), default="prbs")
+    ident.add_argument("--duration", type=_finite, default=5.0, help="experiment length [s]")
+    ident.add_argument("--seed", type=int, default=0, help="PRBS seed")
+    ident.add_argument("--u0", type=_finite, default=3.0, help="operating point [V] (speed of one sign)")
+    ident.add_argument("--amplitude", type=_finite, default=2.0, help="excitation amplitude [V], < u0")
+    ident.add_argument("--clock", type=_finite, default=0.02, help="PRBS bit time [s], a few times < 1/a_m")
+    ident.add_argument("--json", action="store_true", help="print one JSON object")
+    ident.add_argument("--plot", metavar="FILE", help="write measured and model speed to FILE")
+
     emulate = sub.add_parser(
         "emulate",
         help="run the plant emulator as its own process (a python-can bus, or socketcand on 127.0.0.1)",
@@ -150,6 +168,15 @@ def _build_parser() -> _Parser:
 
 
 def _design_dtsm(args: argparse.Namespace) -> DTSMDesign:
+    if args.from_identify:
+        try:
+            with open(args.from_identify) as f:
+                doc = json.load(f)
+            args.a_m, args.b_m = float(doc["a_m"]), float(doc["b_m"])
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise _UsageError(f"rig design dtsm: --from-identify {args.from_identify}: {exc}") from exc
+    if args.a_m is None or args.b_m is None:
+        raise _UsageError("rig design dtsm: give --a-m and --b-m, or --from-identify RESULT.json")
     if args.dt <= 0.0:
         raise _UsageError(f"rig design dtsm: argument --dt: must be > 0 s, got {args.dt:g}")
     if args.lam >= 0.0:
@@ -354,6 +381,60 @@ def _scan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _identify(args: argparse.Namespace) -> int:
+    from plant_emulator.presets import preset_period
+    from rig.config import load_config
+    from rig.demo import demo_config
+    from rig.experiment import experiment_config, identify_from_log, run_experiment, terminal_progress
+    from rig.identify import IdentificationError, excitation
+
+    run_dir = args.from_log
+    try:
+        if not run_dir:
+            if not 0.0 < args.amplitude < args.u0:
+                raise _UsageError(
+                    f"rig identify: need 0 < --amplitude ({args.amplitude:g}) < --u0 ({args.u0:g})"
+                )
+            overrides = dict(item.split("=", 1) for item in args.param if "=" in item)
+            if len(overrides) != len(args.param):
+                raise _UsageError(f"rig identify: --param needs NAME=VALUE, got {args.param}")
+            if args.emulate:
+                cfg = experiment_config(demo_config(), preset=args.emulate, params=overrides)
+                period = preset_period(args.emulate, overrides)
+            else:
+                cfg = load_config(args.config)
+                period = cfg.run.period
+                if period <= 0.0:
+                    raise _UsageError(f"rig identify: {args.config}: [run] period must be set")
+            u = excitation(args.excitation, u0=args.u0, amplitude=args.amplitude, clock=args.clock, dt=period,
+                           duration=args.duration, seed=args.seed)  # fmt: skip
+            summary = run_experiment(cfg, u, emulate=bool(args.emulate), progress=terminal_progress)
+            if summary["safe_stop_reason"]:
+                print(f"rig identify: the experiment stopped: {summary['safe_stop_reason']}", file=sys.stderr)
+                return 3
+            run_dir = summary["run_dir"]
+        result = identify_from_log(run_dir)
+    except (IdentificationError, ValueError) as exc:
+        raise _UsageError(f"rig identify: {exc}") from exc
+    if args.plot:
+        from rig.plots import plot_identify
+
+        plot_identify(run_dir, result, args.plot)
+    doc = {**result.as_dict(), "run_dir": str(run_dir)}
+    if args.json:
+        print(json.dumps(doc))
+        return 0
+    r = result
+    print(f"identified (3.5) from {r.samples} samples at T = {r.dt:g} s ({run_dir}):")
+    for name, unit in (("a_m", "1/s"), ("b_m", "rad/(V s^2)")):
+        value, err, (low, high) = getattr(r, name), getattr(r, f"{name}_stderr"), getattr(r, f"{name}_ci95")
+        print(f"  {name} = {value:.5g} {unit}, stderr {err:.2g}, 95 %: {low:.5g} .. {high:.5g}")
+    print(
+        f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2, fit {r.fit_percent:.1f} % (held out)"
+    )
+    return 0
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.command == "demo":
         return run_demo(sys.stdout)
@@ -366,6 +447,8 @@ def _run(args: argparse.Namespace) -> int:
         return 0
     if args.command == "reproduce":
         return _reproduce_dismc(args) if args.study == "dismc" else _reproduce_dq(args)
+    if args.command == "identify":
+        return _identify(args)
     if args.command == "scan":
         return _scan(args)
     if args.command == "run":

@@ -24,6 +24,8 @@ from rig.config import (
     RigConfig,
     RunConfig,
 )
+from rig.experiment import experiment_config, identify_from_log, run_experiment
+from rig.identify import excitation
 from rig.metrics import chattering_count, max_abs, rms
 from rig.run import run_config
 from rig.scenarios import Trajectory, cascade_run, position_servo_run
@@ -79,15 +81,16 @@ def demo_summary() -> DemoSummary:
     return DemoSummary(design, expected, rows)
 
 
-def demo_config(output: str = "runs") -> RigConfig:
-    """The section VII.B servo over the emulated bus: dc-servo preset, voltage mode, (7.30)."""
+def demo_config(output: str = "runs", *, a_m: float = 16.0, b_m: float = 680.0) -> RigConfig:
+    """The section VII.B servo over the emulated bus: dc-servo preset, voltage mode, (7.30)
+    designed for the model a_m, b_m (the identified one in ``rig demo``)."""
     return RigConfig(
         source="rig demo",
         run=RunConfig(duration=3.0, output=output, name="demo-dc-servo"),
         bus=BusConfig(),
         emulator=EmulatorConfig("dc-servo", {"load": f"step:{DEMO_LOAD * 16.0 / 680.0 / 680.0:.6g}:1.5"}),
         drive=DriveConfig(mode="voltage", sync_rpdo=False),
-        controller=ControllerConfig("position-servo", {"a_m": 16.0, "b_m": 680.0, "lam": -15.0, "u0": 48.0}),
+        controller=ControllerConfig("position-servo", {"a_m": a_m, "b_m": b_m, "lam": -15.0, "u0": 48.0}),
         reference=ReferenceConfig("smooth-move", distance=10.0, duration=1.0),
         limits=LimitsConfig(command=48.0, speed=300.0, position_min=-1.0, position_max=12.0, current=30.0),
     )
@@ -114,7 +117,18 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
         "  (6.36*) is a documented reconstruction; u is in V, except the cascade (V at the q axis).\n"
     )
     out.write("\nOver the emulated CAN bus (CiA 402 drive, voltage mode, 4096-count encoder, lock-step):\n")
-    wire = run_config(demo_config(output), emulate=True)
+    cfg = demo_config(output)
+    ident_cfg = experiment_config(cfg, params={})
+    u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=0.4e-3, duration=3.0, seed=1)
+    ident = run_experiment(ident_cfg, u, emulate=True)
+    model = identify_from_log(ident["run_dir"])
+    out.write(
+        f"  identify (PRBS 3 +- 2 V, 3 s): a_m = {model.a_m:.4f} +- {model.a_m_stderr:.1g} 1/s, "
+        f"b_m = {model.b_m:.2f} +- {model.b_m_stderr:.1g}, delay {model.delay_samples}, "
+        f"held-out fit {model.fit_percent:.1f} %\n"
+    )
+    out.write("  design (7.31) from the identified model, lambda = -15; run over the bus:\n")
+    wire = run_config(demo_config(output, a_m=model.a_m, b_m=model.b_m), emulate=True)
     for key in ("cycles", "rms_error", "max_error", "chattering_count", "safe_stop_reason", "run_dir"):
         out.write(f"  {key:18s} {wire[key]}\n")
     out.write(

@@ -61,3 +61,31 @@ def plot_dq_steps(runs: Sequence[StepRun], path: str) -> None:
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def plot_identify(run_dir: str, result: object, path: str) -> None:
+    """Write the measured speed (central differences) and the identified model's speed to ``path``."""
+    import numpy as np
+
+    from rig.experiment import read_run
+    from rig.identify import simulate_positions
+
+    plt = _pyplot()
+    u, theta, dt = read_run(run_dir)
+    r: Any = result
+    start, _ = simulate_positions(np.array([r.a_m, r.b_m, r.offset, theta[0], 0.0]), u, dt, r.delay_samples)
+    _, w = simulate_positions(np.array([r.a_m, r.b_m, r.offset, theta[0], 0.0]), u, dt, r.delay_samples)
+    t = np.arange(len(u)) * dt
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    axes[0].plot(t, np.gradient(theta, dt), label="measured (central differences)")
+    axes[0].plot(t, w, label="model")
+    axes[0].set_ylabel("speed [rad/s]")
+    axes[1].step(t, u, where="post")
+    axes[1].set_ylabel("u [V]")
+    axes[1].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(True)
+    axes[0].legend()
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)

@@ -1,0 +1,225 @@
+"""``rig identify``: a_m and b_m of dw/dt = -a_m w + b_m u (3.5) from an experiment on the drive.
+
+Experiment: u = u_0 + A prbs(t) (or steps), with u_0 keeping the speed of one
+sign so Coulomb friction is a constant offset, the PRBS clock a few times
+shorter than 1/a_m; the position (encoder counts) and u are recorded.
+
+Estimation, robust to encoder quantisation, Coulomb friction and a transport
+delay of k samples (model dw/dt = -a w + b u(t - k T) + d, d the offset):
+
+1. Least squares in the position domain, the model integrated twice:
+   theta_n - theta_0 = w_0 t_n - a int(theta - theta_0) + b int int u + d t_n^2/2,
+   for each delay k = 0..max_delay; the k with the least residual wins.
+   (Differencing quantised positions at 1 kHz is biased by about 14 %: not used.)
+2. Instrumental variables: the same regression with the measured position in
+   the regressor replaced by the position simulated from step 1.
+3. Output error: scipy.optimize.least_squares fits (a, b, d, theta_0, w_0) so the
+   exact ZOH simulation matches the measured positions, started from step 2.
+   Standard errors from cov = s^2 (J^T J)^-1 at the optimum; 95 % intervals
+   +- 1.96 sigma.
+
+The fit percentage is on held-out data (the last ``holdout`` of the record,
+not used for the estimate): 100 (1 - ||y - y_hat|| / ||y - mean(y)||) with y the
+speed by central differences of the measured position and y_hat the model's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import scipy.optimize
+import scipy.signal
+
+__all__ = [
+    "IdentResult",
+    "IdentificationError",
+    "estimate",
+    "excitation",
+    "simulate_positions",
+    "virtual_experiment",
+]
+
+
+class IdentificationError(ValueError):
+    """The data cannot identify the model; the message says why."""
+
+
+@dataclass(frozen=True)
+class IdentResult:
+    """Identified (3.5) with its uncertainty; SI units."""
+
+    a_m: float
+    b_m: float
+    a_m_stderr: float
+    b_m_stderr: float
+    a_m_ci95: tuple[float, float]
+    b_m_ci95: tuple[float, float]
+    delay_samples: int
+    offset: float  #: d [rad/s^2] (Coulomb friction and load as an acceleration)
+    fit_percent: float
+    dt: float
+    samples: int
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+
+def excitation(
+    kind: str, *, u0: float, amplitude: float, clock: float, dt: float, duration: float, seed: int = 0
+) -> np.ndarray:
+    """The input sequence u_k [V]: ``prbs`` (a maximum-length-like random binary signal held
+    for ``clock`` seconds per bit) or ``steps`` (alternating +-amplitude every 4 clocks)."""
+    n = round(duration / dt)
+    per_bit = max(1, round(clock / dt))
+    bits = math.ceil(n / per_bit)
+    if kind == "prbs":
+        rng = np.random.default_rng(seed)
+        levels = rng.integers(0, 2, bits) * 2 - 1
+    elif kind == "steps":
+        levels = np.array([1 if (i // 4) % 2 == 0 else -1 for i in range(bits)])
+    else:
+        raise ValueError(f"excitation {kind!r}: expected prbs or steps")
+    out: np.ndarray = u0 + amplitude * np.repeat(levels.astype(float), per_bit)[:n]
+    return out
+
+
+def _shift(u: np.ndarray, k: int) -> np.ndarray:
+    """u delayed by k samples (the first k repeat u_0: the drive held the first command)."""
+    return np.concatenate([np.full(k, u[0]), u[: len(u) - k]]) if k else u
+
+
+def simulate_positions(p: np.ndarray, u: np.ndarray, dt: float, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Exact ZOH response of (3.5) with offset: p = (a, b, d, theta_0, w_0); returns (theta, w) per sample."""
+    a, b, d, theta0, w0 = p
+    alpha = math.exp(-a * dt)
+    g = (1.0 - alpha) / a if a != 0.0 else dt
+    h = (dt - g) / a if a != 0.0 else dt * dt / 2.0
+    v = b * _shift(u, k) + d
+    w_forced = scipy.signal.lfilter([0.0, g], [1.0, -alpha], v)
+    w = w_forced + w0 * alpha ** np.arange(len(u))
+    increments = g * w + h * v
+    theta = theta0 + np.concatenate([[0.0], np.cumsum(increments[:-1])])
+    return theta, w
+
+
+def _regressors(theta: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rows [t, -int(theta - theta_0), int int u, t^2/2] and target theta - theta_0."""
+    n = len(theta)
+    t = np.arange(n) * dt
+    y = theta - theta[0]
+    int_theta = np.concatenate([[0.0], np.cumsum((y[1:] + y[:-1]) * dt / 2.0)])
+    v = np.concatenate([[0.0], np.cumsum(u[:-1] * dt)])  # int u, exact for a held u
+    w = np.concatenate([[0.0], np.cumsum(v[:-1] * dt + u[:-1] * dt * dt / 2.0)])  # int int u, exact
+    return np.column_stack([t, -int_theta, w, t * t / 2.0]), y
+
+
+def _check(u: np.ndarray, theta: np.ndarray, dt: float) -> None:
+    if len(u) < 50:
+        raise IdentificationError(f"only {len(u)} samples: record at least 50")
+    if float(np.std(u)) < 1e-9 * max(1.0, float(np.max(np.abs(u)))):
+        raise IdentificationError(
+            "the input is constant: b_m and the friction offset cannot be told apart (use --excitation prbs)"
+        )
+    travel = float(np.max(theta) - np.min(theta))
+    if travel < 1e-3 * len(u) * dt:
+        raise IdentificationError(f"the motor did not move (position changed by {travel:.3g} rad): stalled?")
+
+
+def estimate(
+    u: np.ndarray, theta: np.ndarray, dt: float, *, max_delay: int = 5, holdout: float = 0.3
+) -> IdentResult:
+    """Identify (3.5) from the command u [V] and the measured position theta [rad] per sample."""
+    u = np.asarray(u, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    if u.shape != theta.shape:
+        raise IdentificationError(f"u and theta differ in length: {u.shape} vs {theta.shape}")
+    _check(u, theta, dt)
+    n_fit = int(len(u) * (1.0 - holdout))
+    uf, thf = u[:n_fit], theta[:n_fit]
+    best = None
+    for k in range(max_delay + 1):
+        phi, y = _regressors(thf, _shift(uf, k), dt)
+        coef, *_ = np.linalg.lstsq(phi, y, rcond=None)
+        rss = float(np.sum((y - phi @ coef) ** 2))
+        if best is None or rss < best[0]:
+            best = (rss, k, coef)
+    assert best is not None
+    _, k, (w0, a, b, d) = best
+    if not (a > 0.0 and math.isfinite(b)):
+        raise IdentificationError(
+            f"least squares gave a_m = {a:.4g} (must be > 0): excitation too weak or too slow"
+        )
+    # instrumental variables: regressors from the simulated, noise-free position
+    sim, _ = simulate_positions(np.array([a, b, d, thf[0], w0]), uf, dt, k)
+    z, _ = _regressors(sim, _shift(uf, k), dt)
+    phi, y = _regressors(thf, _shift(uf, k), dt)
+    try:
+        w0, a, b, d = np.linalg.solve(z.T @ phi, z.T @ y)
+    except np.linalg.LinAlgError as exc:
+        raise IdentificationError(f"instrumental variables failed: {exc}") from exc
+
+    def residual(p: np.ndarray) -> np.ndarray:
+        err: np.ndarray = simulate_positions(p, uf, dt, k)[0] - thf
+        return err
+
+    start = np.array([max(a, 1e-6), b, d, thf[0], w0])
+    fit = scipy.optimize.least_squares(residual, start, x_scale="jac", method="lm")
+    p = fit.x
+    dof = max(1, n_fit - len(p))
+    s2 = float(fit.fun @ fit.fun) / dof
+    try:
+        cov = s2 * np.linalg.inv(fit.jac.T @ fit.jac)
+    except np.linalg.LinAlgError as exc:
+        raise IdentificationError(
+            "the output-error fit is singular: the data do not excite the model"
+        ) from exc
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    # held-out fit on speed
+    _, w_model = simulate_positions(p, u, dt, k)
+    w_meas = np.gradient(theta, dt)
+    yv, yh = w_meas[n_fit + 1 : -1], w_model[n_fit + 1 : -1]
+    denom = float(np.linalg.norm(yv - yv.mean()))
+    fit_pct = 100.0 * (1.0 - float(np.linalg.norm(yv - yh)) / denom) if denom > 0 else math.nan
+    a_m, b_m = float(p[0]), float(p[1])
+    return IdentResult(
+        a_m=a_m,
+        b_m=b_m,
+        a_m_stderr=float(se[0]),
+        b_m_stderr=float(se[1]),
+        a_m_ci95=(a_m - 1.96 * float(se[0]), a_m + 1.96 * float(se[0])),
+        b_m_ci95=(b_m - 1.96 * float(se[1]), b_m + 1.96 * float(se[1])),
+        delay_samples=int(k),
+        offset=float(p[2]),
+        fit_percent=fit_pct,
+        dt=dt,
+        samples=len(u),
+    )
+
+
+def virtual_experiment(
+    a_m: float,
+    b_m: float,
+    *,
+    dt: float = 1e-3,
+    duration: float = 5.0,
+    seed: int = 0,
+    counts_per_rev: int = 4096,
+    coulomb: float = 0.05,
+    delay: int = 1,
+    noise_counts: float = 0.3,
+    u0: float = 3.0,
+    amplitude: float = 2.0,
+    clock: float = 0.02,
+    kind: str = "prbs",
+) -> tuple[np.ndarray, np.ndarray]:
+    """The bench's experiment without a bus: the exact (3.7) response with Coulomb friction
+    (an acceleration ``coulomb`` b_m against the motion, i.e. ``coulomb`` volts), a delay of
+    ``delay`` samples, Gaussian position noise of ``noise_counts`` counts, then quantisation."""
+    rng = np.random.default_rng(seed + 10_000)
+    u = excitation(kind, u0=u0, amplitude=amplitude, clock=clock, dt=dt, duration=duration, seed=seed)
+    theta, _ = simulate_positions(np.array([a_m, b_m, -coulomb * b_m, 0.0, 0.0]), u, dt, delay)
+    cpr = counts_per_rev / (2.0 * math.pi)
+    measured = np.floor(theta * cpr + rng.normal(0.0, noise_counts, len(theta))) / cpr
+    return u, measured
