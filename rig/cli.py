@@ -406,8 +406,15 @@ def _identify(args: argparse.Namespace) -> int:
                 period = cfg.run.period
                 if period <= 0.0:
                     raise _UsageError(f"rig identify: {args.config}: [run] period must be set")
-            u = excitation(args.excitation, u0=args.u0, amplitude=args.amplitude, clock=args.clock, dt=period,
-                           duration=args.duration, seed=args.seed)  # fmt: skip
+            u = excitation(
+                args.excitation,
+                u0=args.u0,
+                amplitude=args.amplitude,
+                clock=args.clock,
+                dt=period,
+                duration=args.duration,
+                seed=args.seed,
+            )
             summary = run_experiment(cfg, u, emulate=bool(args.emulate), progress=terminal_progress)
             if summary["safe_stop_reason"]:
                 print(f"rig identify: the experiment stopped: {summary['safe_stop_reason']}", file=sys.stderr)
@@ -429,9 +436,8 @@ def _identify(args: argparse.Namespace) -> int:
     for name, unit in (("a_m", "1/s"), ("b_m", "rad/(V s^2)")):
         value, err, (low, high) = getattr(r, name), getattr(r, f"{name}_stderr"), getattr(r, f"{name}_ci95")
         print(f"  {name} = {value:.5g} {unit}, stderr {err:.2g}, 95 %: {low:.5g} .. {high:.5g}")
-    print(
-        f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2, fit {r.fit_percent:.1f} % (held out)"
-    )
+    print(f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2")
+    print(f"  fit on held-out data {r.fit_percent:.1f} %")
     return 0
 
 

@@ -73,7 +73,6 @@ def plot_identify(run_dir: str, result: object, path: str) -> None:
     plt = _pyplot()
     u, theta, dt = read_run(run_dir)
     r: Any = result
-    start, _ = simulate_positions(np.array([r.a_m, r.b_m, r.offset, theta[0], 0.0]), u, dt, r.delay_samples)
     _, w = simulate_positions(np.array([r.a_m, r.b_m, r.offset, theta[0], 0.0]), u, dt, r.delay_samples)
     t = np.arange(len(u)) * dt
     fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
