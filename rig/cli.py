@@ -416,6 +416,8 @@ def _identify(args: argparse.Namespace) -> int:
                 seed=args.seed,
             )
             summary = run_experiment(cfg, u, emulate=bool(args.emulate), progress=terminal_progress)
+            if sys.stderr.isatty():
+                sys.stderr.write("\n")
             if summary["safe_stop_reason"]:
                 print(f"rig identify: the experiment stopped: {summary['safe_stop_reason']}", file=sys.stderr)
                 return 3
