@@ -21,6 +21,8 @@ def open_bus(
 ) -> can.BusABC:
     """A python-can bus on ``interface``/``channel`` (e.g. socketcan/vcan0, socketcand/can0)."""
     kwargs = dict(options)
+    if interface == "socketcand":
+        kwargs.setdefault("tcp_tune", True)  # TCP_NODELAY/QUICKACK: no 40 ms Nagle/delayed-ACK stalls
     if bitrate is not None:
         kwargs["bitrate"] = bitrate
     try:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import math
+import struct
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -187,13 +188,13 @@ class Cia402Drive:
             ) from exc
         if not sync_rpdo:
             self.sdo_write(0x2001, 0, round(latency_s * 1e6))
-        self._cw = self.node.rpdo[1]["Controlword"]
-        self._target = self.node.rpdo[1][1]
-        self._pos = self.node.tpdo[2]["Position actual value"]
-        self._vel = self.node.tpdo[2]["Velocity actual value"]
-        self._sw = self.node.tpdo[3]["Statusword"]
-        self._torque = self.node.tpdo[3]["Torque actual value"]
-        self._current = self.node.tpdo[3]["Current actual value"]
+        # the process data are packed and unpacked with struct, in the layout mapped above:
+        # canopen's Variable.raw decodes and logs on every access, too slow for the cycle
+        target_bits = len(self.node.rpdo[1][1].od)
+        self._rpdo = self.node.rpdo[1]
+        self._rpdo_format = struct.Struct("<Hi" if target_bits == 32 else "<Hh")
+        self._tpdo2, self._tpdo3 = self.node.tpdo[2], self.node.tpdo[3]
+        self._tpdo2_format, self._tpdo3_format = struct.Struct("<ii"), struct.Struct("<Hhh")
 
     def set_mode(self, mode: str | int) -> None:
         """Write 0x6060 and check 0x6061."""
@@ -256,20 +257,22 @@ class Cia402Drive:
         """(position [rad], velocity [rad/s], torque [N m], current [A], statusword) from the last TPDOs."""
         u = self.units
         assert u is not None, "connect() first"
+        position, velocity = self._tpdo2_format.unpack_from(self._tpdo2.data)
+        statusword, torque, current = self._tpdo3_format.unpack_from(self._tpdo3.data)
         return (
-            self._pos.raw / u.counts_per_rad,
-            self._vel.raw / u.counts_per_rad,
-            self._torque.raw / 1000.0 * u.rated_torque,
-            self._current.raw / 1000.0 * u.rated_current,
-            int(self._sw.raw),
+            position / u.counts_per_rad,
+            velocity / u.counts_per_rad,
+            torque / 1000.0 * u.rated_torque,
+            current / 1000.0 * u.rated_current,
+            statusword,
         )
 
     def command(self, value: float, controlword: int = 0x0F) -> None:
         """Send the SI command of the active mode in RPDO1 (applied per its transmission type)."""
         assert self.units is not None, "connect() first"
-        self._cw.raw = controlword
-        self._target.raw = self.units.command_raw(self.mode, value)
-        self.node.rpdo[1].transmit()
+        rpdo = self._rpdo
+        rpdo.data = self._rpdo_format.pack(controlword, self.units.command_raw(self.mode, value))
+        rpdo.transmit()
 
     def _on_emcy(self, err: EmcyError) -> None:
         text = f"EMCY 0x{err.code:04X} ({err.get_desc() or 'unknown'}), error register 0x{err.register:02X}"

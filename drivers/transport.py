@@ -39,15 +39,9 @@ class SyncHub:
         return SyncBus(self, queue=queue, channel=channel)
 
     def deliver(self, sender: SyncBus, msg: can.Message) -> None:
-        frame = can.Message(
-            arbitration_id=msg.arbitration_id,
-            data=bytes(msg.data),
-            is_extended_id=msg.is_extended_id,
-            is_remote_frame=msg.is_remote_frame,
-            dlc=msg.dlc,
-            timestamp=self.clock,
-            channel=sender.channel_info,
-        )
+        frame = msg  # the sender's frame, stamped; receivers must not change it
+        frame.timestamp = self.clock
+        frame.channel = sender.channel_info
         self.frames += 1
         for tap in self.taps:
             tap(frame)

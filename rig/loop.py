@@ -103,13 +103,16 @@ class HostLoop:
         return ["t", "reference", "measurement", "command", *internals, "read_us", "update_us", "write_us"]
 
     def _wait(self, deadline: float) -> None:
-        """Sleep until shortly before ``deadline`` (monotonic s), then spin."""
+        """Sleep until shortly before ``deadline`` (monotonic s), then spin.
+
+        The spin yields the GIL (``sleep(0)``) so the bus's receive thread can deliver
+        the TPDOs meanwhile; a bare busy loop would hold it for the 5 ms switch interval.
+        """
         while True:
             left = deadline - time.perf_counter()
             if left <= 0.0:
                 return
-            if left > 0.0005:
-                time.sleep(left - 0.0004)
+            time.sleep(left - 0.0004 if left > 0.0005 else 0.0)
 
     def run(self) -> dict[str, Any]:
         """Run the cycles; returns the summary (also written by the recorder)."""
