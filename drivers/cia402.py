@@ -207,6 +207,52 @@ class Cia402Drive:
             raise DeviceFault(f"mode {code} requested, 0x6061 shows {shown}", device=f"node {self.node_id}")
         self.mode = code
 
+    def configure_dq_pdos(self, *, sync_rpdo: bool = True, latency_s: float = 0.0) -> None:
+        """Process data of mode -2 (dq voltage): RPDO1 u_d, u_q [mV] (0x2200); TPDO4 i_d, i_q [mA]
+        (0x2210) and TPDO2 frame angle [urad], frame speed [mrad/s] (0x2220, 0x2221), every SYNC."""
+        self.node.rpdo.read()
+        self.node.tpdo.read()
+        rp = self.node.rpdo[1]
+        rp.clear()
+        rp.add_variable(0x2200, 1)
+        rp.add_variable(0x2200, 2)
+        rp.trans_type = 1 if sync_rpdo else 255
+        rp.enabled = True
+        for n, entries in (
+            (2, ((0x2220, 0), (0x2221, 0))),
+            (4, ((0x2210, 1), (0x2210, 2))),
+            (3, ((0x6041, 0),)),
+        ):
+            tp = self.node.tpdo[n]
+            tp.clear()
+            for index, sub in entries:
+                tp.add_variable(index, sub)
+            tp.trans_type = 1
+            tp.enabled = True
+        try:
+            self.node.rpdo.save()
+            self.node.tpdo.save()
+        except SdoAbortedError as exc:
+            raise SdoAbort(
+                "PDO mapping refused", code=exc.code, node_id=self.node_id, index=0x1600, subindex=0
+            ) from exc
+        self.sdo_write(0x2001, 0, 0 if sync_rpdo else round(latency_s * 1e6))
+        self._rpdo = rp
+        self._dq = struct.Struct("<ii")
+        self._tpdo2, self._tpdo3, self._tpdo4 = self.node.tpdo[2], self.node.tpdo[3], self.node.tpdo[4]
+
+    def dq_feedback(self) -> tuple[complex, float, float, int]:
+        """(i_dq [A], frame angle [rad], frame speed [rad/s], statusword) from the last TPDOs."""
+        i_d, i_q = self._dq.unpack_from(self._tpdo4.data)
+        angle, speed = self._dq.unpack_from(self._tpdo2.data)
+        (statusword,) = struct.unpack_from("<H", self._tpdo3.data)
+        return complex(i_d, i_q) / 1000.0, angle * 1e-6, speed * 1e-3, statusword
+
+    def dq_command(self, u: complex) -> None:
+        """Send the dq voltage reference u [V] in RPDO1."""
+        self._rpdo.data = self._dq.pack(round(u.real * 1000.0), round(u.imag * 1000.0))
+        self._rpdo.transmit()
+
     # --- state machine ---------------------------------------------------------
     @property
     def state(self) -> str:

@@ -78,6 +78,7 @@ class HostLoop:
         realtime: bool = False,
         tpdo_stamp: Callable[[], float | None] = lambda: None,
         bus_time: Callable[[], float] = time.time,
+        paced_by_bus: bool = False,
     ) -> None:
         self.drive = drive
         self.law = law
@@ -90,6 +91,7 @@ class HostLoop:
         self.realtime = realtime
         self.tpdo_stamp = tpdo_stamp
         self.bus_time = bus_time  #: the clock of frame timestamps (the hub's in lock-step)
+        self.paced_by_bus = paced_by_bus  #: SYNC comes from the kernel; ``sync()`` waits for the TPDO
         self.times = StageTimes()
         self.overruns = 0
         self.safe_stop_reason: str | None = None
@@ -123,11 +125,11 @@ class HostLoop:
             gc.disable()
             frozen = True
         start = self._t_end = time.perf_counter()
-        deadline = start
+        deadline = last = start
         k = 0
         try:
             while k < self.cycles:
-                if self.realtime:
+                if self.realtime and not self.paced_by_bus:
                     self._wait(deadline)
                     now = time.perf_counter()
                     self.times.period_error.append(now - deadline)
@@ -139,6 +141,10 @@ class HostLoop:
                         if k >= self.cycles:
                             break
                 self._cycle(k)
+                if self.paced_by_bus:  # the kernel's SYNC sets the pace: measure it at the TPDO
+                    if k:
+                        self.times.period_error.append(self._t_end - last - self.period)
+                    last = self._t_end
                 k += 1
                 deadline += self.period
             self.elapsed = self._t_end - start

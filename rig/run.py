@@ -14,18 +14,27 @@ Control laws (``[controller] kind``):
 - ``idtsm-speed``: the integral DTSM (6.20)-(6.21) on the speed loop
   dw/dt = -(B/J) w + T/J (4.2) giving torque (mode ``cst``): j [kg m^2],
   friction [N m s/rad], lam [1/s], t_max [N m].
+- ``cascade-position``: the position and speed loops of section VII.D
+  (reconstructed (6.36), Table V) giving the q current, sent as torque k_t i_q
+  (mode ``cst``): k_t [N m/A] (default b_w J of Table V), position_every.
+- ``dq-current``: the complex-vector current controller (32)-(34), or (37) with
+  ``middle = 1``, in mode ``dq-voltage``: r1, l1, gamma, f_line, u_max; the
+  reference is i_q* [A] (``step``); the command column is |u|.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import canopen
 
+from controllers.cascade import TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoop
 from controllers.design import design_dtsm
+from controllers.dq_current import ComplexVectorCurrentController, DqCurrentParams
 from controllers.idtsm import IDTSM, IDTSMParams
 from controllers.pi import PI, PIParams
 from controllers.position_servo import PositionServo, PositionServoParams
@@ -125,10 +134,82 @@ def _idtsm_speed(cfg: RigConfig, period: float) -> tuple[Law, Sequence[str], str
     return law, (), "cst"
 
 
+def _cascade_position(cfg: RigConfig, period: float) -> tuple[Law, Sequence[str], str]:
+    """Section VII.D's position and speed loops (reconstructed (6.36), Table V) through CST:
+    position every ``position_every`` SYNCs, speed every SYNC, i_q* -> torque = k_t i_q*."""
+    p = _params(cfg.controller, {"k_t": 340.7439 * 0.0035, "position_every": 2.0}, cfg.source)
+    position, speed = CascadeLoop(TABLE_V_POSITION), CascadeLoop(TABLE_V_SPEED)
+    every = max(1, round(p["position_every"]))
+    ref = reference_of(cfg.reference)
+    state = {"k": 0, "omega_ref": 0.0}
+
+    def law(t: float, fb: Feedback) -> tuple[float, float, float, Sequence[float]]:
+        theta_r, _ = ref(t)
+        if state["k"] % every == 0:
+            state["omega_ref"] = position.step(theta_r, fb[0], fb[1])
+        state["k"] += 1
+        i_q = speed.step(state["omega_ref"], fb[1])
+        return p["k_t"] * i_q, theta_r, fb[0], (state["omega_ref"], i_q)
+
+    return law, ("omega_ref", "i_q_ref"), "cst"
+
+
+class DqLink:
+    """The host loop's drive for mode -2: scalar loop, complex process data.
+
+    ``feedback()`` gives (frame angle, frame speed, i_d, |i|, statusword) and keeps i_dq
+    for the law; ``command(magnitude)`` sends the complex u the law left here (zero
+    when the safe stop commands 0).
+    """
+
+    def __init__(self) -> None:
+        self.drive: Any = None
+        self.i_dq = 0j
+        self.u = 0j
+
+    def feedback(self) -> Feedback:
+        i_dq, angle, speed, statusword = self.drive.dq_feedback()
+        self.i_dq = i_dq
+        return angle, speed, i_dq.real, abs(i_dq), statusword
+
+    def command(self, magnitude: float) -> None:
+        self.drive.dq_command(self.u if magnitude else 0j)
+
+    def __getattr__(self, name: str) -> Any:  # fault, last_heartbeat, quick_stop, disable, sdo_read
+        return getattr(self.drive, name)
+
+
+def _dq_current(cfg: RigConfig, period: float) -> tuple[Law, Sequence[str], str]:
+    """The complex-vector controller (32)-(34)/(37) over CAN (mode -2): reference i_q* step."""
+    p = _params(
+        cfg.controller,
+        {"r1": 0.36, "l1": 6e-3, "gamma": 0.35, "f_line": 50.0, "middle": 0.0, "u_max": math.inf},
+        cfg.source,
+    )
+    strategy = "s-pwm-middle" if p["middle"] else "s-pwm-start"
+    ctl = ComplexVectorCurrentController(
+        DqCurrentParams(p["r1"], p["l1"], period, p["gamma"], strategy, p["u_max"])
+    )
+    omega_k = 2.0 * math.pi * p["f_line"]
+    ref = reference_of(cfg.reference)
+    link = DqLink()
+
+    def law(t: float, fb: Feedback) -> tuple[float, float, float, Sequence[float]]:
+        i_q_ref, _ = ref(t)
+        u = ctl.step(1j * i_q_ref, link.i_dq, omega_k)
+        link.u = u
+        return abs(u), i_q_ref, link.i_dq.imag, (link.i_dq.real, u.real, u.imag)
+
+    law.dq_link = link  # type: ignore[attr-defined]
+    return law, ("i_d", "u_d", "u_q"), "dq-voltage"
+
+
 CONTROLLERS: dict[str, Callable[[RigConfig, float], tuple[Law, Sequence[str], str]]] = {
     "position-servo": _position_servo,
     "pi-speed": _pi_speed,
     "idtsm-speed": _idtsm_speed,
+    "cascade-position": _cascade_position,
+    "dq-current": _dq_current,
 }
 
 
@@ -171,10 +252,10 @@ class Session:
         self.loop, self.network, self.hub, self.devices, self._buses = loop, network, hub, devices, buses
 
     def close(self) -> None:
-        if self.hub is None:
-            self.network.disconnect()
         for bus in self._buses:
             bus.shutdown()
+        if self.hub is None:
+            self.network.disconnect()
 
 
 def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> Session:
@@ -221,7 +302,10 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
         drive.connect()
         drive.nmt("PRE-OPERATIONAL")
         drive.set_mode(mode)
-        drive.configure_pdos(sync_rpdo=cfg.drive.sync_rpdo, latency_s=cfg.drive.latency)
+        if mode == "dq-voltage":
+            drive.configure_dq_pdos(sync_rpdo=cfg.drive.sync_rpdo, latency_s=cfg.drive.latency)
+        else:
+            drive.configure_pdos(sync_rpdo=cfg.drive.sync_rpdo, latency_s=cfg.drive.latency)
         drive.nmt("OPERATIONAL")
         drive.enable(timeout=cfg.drive.enable_timeout)
     except Exception:
@@ -238,15 +322,34 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
             network.send_message(0x80, b"")
 
         bus_time: Callable[[], float] = lambda: sync_hub.clock  # noqa: E731
-    else:
+    tpdo = drive.node.tpdo[2]
+    paced = False
+    if hub is None and realtime and cfg.bus.interface == "socketcan":
+        # SYNC from the kernel's broadcast manager (python-can send_periodic): the kernel keeps the
+        # period; each cycle waits for the drive's TPDO answering that SYNC.
+        network.sync.start(period)
+        paced = True
+        timeout = cfg.limits.watchdog_periods * period
+
+        def sync() -> None:
+            tpdo.wait_for_reception(timeout=timeout)
+
+    elif hub is None:
 
         def sync() -> None:
             network.sync.transmit()
 
-        bus_time = __import__("time").time
-    tpdo = drive.node.tpdo[2]
+    if hub is None:
+        bus_time = time.time
+        assert network.notifier is not None
+        network.notifier.add_listener(recorder.on_frame)  # the trace: every frame received
+        if paced:
+            buses.append(_KernelSync(network))
+    link = getattr(law, "dq_link", None)
+    if link is not None:
+        link.drive = drive
     loop = HostLoop(
-        drive,
+        link if link is not None else drive,
         law,
         Limits(cfg.limits, period),
         recorder,
@@ -257,5 +360,16 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
         realtime=realtime,
         tpdo_stamp=lambda: tpdo.timestamp,
         bus_time=bus_time,
+        paced_by_bus=paced,
     )
     return Session(loop, network, hub, devices, buses)
+
+
+class _KernelSync:
+    """Stops the kernel's SYNC when the session closes (it sits with the buses to shut down)."""
+
+    def __init__(self, network: Any) -> None:
+        self.network = network
+
+    def shutdown(self) -> None:
+        self.network.sync.stop()
