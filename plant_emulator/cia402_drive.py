@@ -62,6 +62,10 @@ class EmulatedDrive(EmulatedNode):
         self.sm = PowerStateMachine()
         self._pending: list[tuple[float, int, complex, bool]] = []  # (offset s, mode, value, one_sync_ago)
         self._t_sync = 0.0
+        #: True: an event RPDO counts as received at its SYNC (lock-step across processes, where the
+        #: frame's real arrival time is scheduling noise); False: its arrival time counts (real time)
+        self.lockstep = False
+        self._syncs = 0
         self._first_sync = True
         self._sdo_target = False
         self._in_rpdo = False
@@ -163,7 +167,8 @@ class EmulatedDrive(EmulatedNode):
             self._pending.append((0.0, mode, value, True))
         else:
             latency = self._u(0x2001, 0) * 1e-6
-            offset = min(max(self.rx_time - self._t_sync, 0.0) + latency, self.period)
+            arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
+            offset = min(arrival + latency, self.period)
             self._pending.append((offset, mode, value, False))
 
     def on_reset(self, *, application: bool) -> None:
@@ -174,6 +179,7 @@ class EmulatedDrive(EmulatedNode):
         self._pending.clear()
         self.fault_code = 0
         self._first_sync = True
+        self._syncs = 0
         self._latch_status()
 
     # --- the cycle ----------------------------------------------------------
@@ -234,6 +240,9 @@ class EmulatedDrive(EmulatedNode):
         self.emcy(code, register)
 
     def on_sync_latch(self, timestamp: float) -> None:
+        if self.lockstep:  # device time from the SYNC count, as the in-process hub keeps it
+            self._syncs += 1
+            timestamp = self._syncs * self.period
         if self._first_sync:
             self._first_sync = False
         else:

@@ -158,6 +158,12 @@ def _build_parser() -> _Parser:
     emulate.add_argument("--channel", help="python-can channel, e.g. vcan0")
     emulate.add_argument("--socketcand-port", type=int, default=29536, help="TCP port on 127.0.0.1 (0: any)")
     emulate.add_argument(
+        "--time",
+        choices=("realtime", "lockstep"),
+        default="realtime",
+        help="lockstep: an event RPDO counts as received at its SYNC (for hosts that wait for each answer)",
+    )
+    emulate.add_argument(
         "--param", action="append", default=[], metavar="NAME=VALUE", help="override a preset parameter"
     )
 
@@ -300,7 +306,12 @@ def _emulate(args: argparse.Namespace) -> int:
         raise _UsageError("rig emulate: --interface needs --channel")
     try:
         return run_emulator(
-            args.preset, overrides, interface=args.interface, channel=args.channel, port=args.socketcand_port
+            args.preset,
+            overrides,
+            interface=args.interface,
+            channel=args.channel,
+            port=args.socketcand_port,
+            lockstep=args.time == "lockstep",
         )
     except ValueError as exc:
         raise _UsageError(f"rig emulate: {exc}") from exc

@@ -5,7 +5,9 @@ interface) the devices answer real frames; without kernel CAN, the emulator
 serves socketcand's rawmode on 127.0.0.1 (``--socketcand-port``), which
 python-can's ``socketcand`` interface speaks as a client. Time is real: the
 devices step their physics one period per SYNC the host sends, and send
-heartbeats on the wall clock. Ctrl-C stops it cleanly.
+heartbeats on the wall clock. With ``--time lockstep`` an event RPDO counts as
+received at the SYNC it answers, so a host that waits for each answer gets
+exactly the in-process trajectory. Ctrl-C (or SIGTERM) stops it cleanly.
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ def run_emulator(
     port: int = 29536,
     stop: threading.Event | None = None,
     ready: Any = None,
+    lockstep: bool = False,
 ) -> int:
     """Run until Ctrl-C (or ``stop`` is set); ``ready(port)`` is called once serving."""
     stop = stop or threading.Event()
@@ -81,6 +84,8 @@ def run_emulator(
             devices: list[EmulatedNode]
             devices, period = build_preset(preset, network, overrides)
             for d in devices:
+                if hasattr(d, "lockstep"):
+                    d.lockstep = lockstep
                 d.boot()
         if server is not None:
             server.start()

@@ -334,10 +334,21 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
         def sync() -> None:
             tpdo.wait_for_reception(timeout=timeout)
 
-    elif hub is None:
+    elif hub is None and realtime:
 
         def sync() -> None:
             network.sync.transmit()
+
+    elif hub is None:  # lock-step over a real bus: each cycle waits for the drive's last TPDO
+        answer = drive.node.tpdo[3]
+        timeout = cfg.limits.watchdog_periods * period
+
+        def sync() -> None:
+            before = answer.timestamp
+            network.sync.transmit()
+            deadline = time.monotonic() + timeout
+            while answer.timestamp == before and time.monotonic() < deadline:
+                time.sleep(0.0001)
 
     if hub is None:
         bus_time = time.time

@@ -20,9 +20,14 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    if config.getoption("--can-interface"):
-        return
-    skip = pytest.mark.skip(reason="needs --can-interface/--can-channel (a real bus)")
+    hardware = bool(config.getoption("--can-interface"))
+    vcan = "vcan" in (config.getoption("markexpr") or "")
+    skip_hw = pytest.mark.skip(reason="needs --can-interface/--can-channel (a real bus)")
+    skip_vcan = pytest.mark.skip(
+        reason="the vcan tier runs only with -m vcan (see README, Testing with virtual CAN)"
+    )
     for item in items:
-        if "hardware" in item.keywords:
-            item.add_marker(skip)
+        if "hardware" in item.keywords and not hardware:
+            item.add_marker(skip_hw)
+        if "vcan" in item.keywords and not vcan:
+            item.add_marker(skip_vcan)
