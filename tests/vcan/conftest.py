@@ -20,7 +20,7 @@ def vcan_unavailable() -> str | None:
         with socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW) as s:
             s.bind(("vcan0",))
     except OSError as exc:
-        return f"no SocketCAN vcan0 here ({exc.strerror}); use ../shared/tools/run-in-vcan-vm.sh or see the README"
+        return f"no SocketCAN vcan0 here ({exc.strerror}); see the README, Testing with virtual CAN"
     return None
 
 
