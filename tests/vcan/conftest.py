@@ -63,5 +63,5 @@ def start_emulator() -> Iterator[Callable[..., subprocess.Popen[str]]]:
     yield start
     for proc in procs:
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
+        _out, err = proc.communicate(timeout=60)
         assert proc.returncode == 0, err
