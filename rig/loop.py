@@ -16,6 +16,7 @@ every sample up to the stop.
 
 from __future__ import annotations
 
+import collections
 import gc
 import logging
 import math
@@ -27,7 +28,6 @@ from typing import Any
 import numpy as np
 
 from drivers.errors import DeviceFault, RigError, SafetyStop
-from rig.metrics import chattering_count, max_abs, rms
 from rig.recorder import Recorder
 from rig.safety import Limits
 
@@ -41,14 +41,23 @@ Feedback = tuple[float, float, float, float, int]
 Law = Callable[[float, Feedback], tuple[float, float, float, Sequence[float]]]
 
 
+class _Window(collections.deque):  # type: ignore[type-arg]
+    """The last ``WINDOW`` values: timing statistics without growing memory on long runs."""
+
+    WINDOW = 100_000
+
+    def __init__(self) -> None:
+        super().__init__(maxlen=self.WINDOW)
+
+
 @dataclass
 class StageTimes:
-    """Per-stage durations [s] of each cycle (read, update, write) and period errors."""
+    """Per-stage durations [s] of the last 100,000 cycles (read, update, write) and period errors."""
 
-    read: list[float] = field(default_factory=list)
-    update: list[float] = field(default_factory=list)
-    write: list[float] = field(default_factory=list)
-    period_error: list[float] = field(default_factory=list)
+    read: _Window = field(default_factory=_Window)
+    update: _Window = field(default_factory=_Window)
+    write: _Window = field(default_factory=_Window)
+    period_error: _Window = field(default_factory=_Window)
 
     def stats(self) -> dict[str, float]:
         out: dict[str, float] = {}
@@ -59,6 +68,26 @@ class StageTimes:
                 out[f"{name}_p99_us"] = float(np.percentile(a, 99))
                 out[f"{name}_max_us"] = float(a.max())
         return out
+
+
+class _ChatterCounter:
+    """``rig.metrics.chattering_count`` computed as the samples arrive."""
+
+    def __init__(self, tol: float) -> None:
+        self.tol = tol
+        self.count = 0
+        self._last: float | None = None
+        self._sign = 0.0
+
+    def add(self, u: float) -> None:
+        if self._last is not None:
+            du = u - self._last
+            if abs(du) > self.tol:
+                sign = 1.0 if du > 0 else -1.0
+                if self._sign and sign != self._sign:
+                    self.count += 1
+                self._sign = sign
+        self._last = u
 
 
 class HostLoop:
@@ -97,8 +126,10 @@ class HostLoop:
         self.safe_stop_reason: str | None = None
         self.done = 0
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
-        self._errors: list[float] = []
-        self._commands: list[float] = []
+        # streaming metrics: nothing grows with the run's length
+        self._sq_error = 0.0
+        self._max_error = 0.0
+        self._chatter = _ChatterCounter(tol=1e-9)
 
     @staticmethod
     def columns(internals: Sequence[str]) -> list[str]:
@@ -187,8 +218,10 @@ class HostLoop:
         self.times.update.append(t2 - t1)
         self.times.write.append(t3 - t2)
         self._t_end = t3
-        self._errors.append(ref - y)
-        self._commands.append(u)
+        e = ref - y
+        self._sq_error += e * e
+        self._max_error = max(self._max_error, abs(e))
+        self._chatter.add(u)
         self.recorder.sample([t, ref, y, u, *extra, (t1 - t0) * 1e6, (t2 - t1) * 1e6, (t3 - t2) * 1e6])
         self.done = k + 1
 
@@ -207,12 +240,12 @@ class HostLoop:
         self.recorder.close(self.summary())
 
     def summary(self) -> dict[str, Any]:
-        e = np.array(self._errors)
+        n = self.done
         return {
-            "cycles": self.done,
-            "rms_error": rms(e) if e.size else math.nan,
-            "max_error": max_abs(e) if e.size else math.nan,
-            "chattering_count": chattering_count(self._commands, tol=1e-9),
+            "cycles": n,
+            "rms_error": math.sqrt(self._sq_error / n) if n else math.nan,
+            "max_error": self._max_error if n else math.nan,
+            "chattering_count": self._chatter.count,
             "overruns": self.overruns,
             "elapsed_s": self.elapsed,
             "safe_stop_reason": self.safe_stop_reason,

@@ -46,7 +46,7 @@ class Recorder:
         self._file = (path / "samples.csv").open("w", newline="")
         self._csv = csv.writer(self._file)
         self._csv.writerow(self.columns)
-        self._rows: list[list[float]] = []
+        self._count = 0
         self._flush_every = flush_every
         self._pending = 0
         self.trace = can.ASCWriter(str(path / "trace.asc"))
@@ -62,9 +62,8 @@ class Recorder:
 
     def sample(self, row: Sequence[float]) -> None:
         """One cycle's values, in ``columns`` order."""
-        values = [float(v) for v in row]
-        self._rows.append(values)
-        self._csv.writerow([repr(v) for v in values])
+        self._csv.writerow([repr(float(v)) for v in row])
+        self._count += 1
         self._pending += 1
         if self._pending >= self._flush_every:
             self._file.flush()
@@ -72,10 +71,16 @@ class Recorder:
 
     @property
     def samples(self) -> int:
-        return len(self._rows)
+        return self._count
 
     def array(self) -> np.ndarray:
-        return np.array(self._rows, dtype=float).reshape(-1, len(self.columns))
+        """The samples read back from samples.csv (nothing is held in memory during the run)."""
+        if not self._count:
+            return np.empty((0, len(self.columns)))
+        if not self._file.closed:
+            self._file.flush()
+        data = np.loadtxt(self.dir / "samples.csv", delimiter=",", skiprows=1, ndmin=2)
+        return data.reshape(-1, len(self.columns))
 
     def close(self, summary: dict[str, Any]) -> None:
         """Flush everything, write .mat, summary.json and the plot; safe to call twice."""
