@@ -333,6 +333,11 @@ class Cia402Drive:
         ts = self.node.nmt.timestamp
         return float(ts) if ts is not None else None
 
+    @property
+    def nmt_state(self) -> str:
+        """The node's NMT state as last commanded or reported (heartbeat, boot-up)."""
+        return str(self.node.nmt.state)
+
     def nmt(self, state: str) -> None:
         self.node.nmt.state = state
 

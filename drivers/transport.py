@@ -15,6 +15,7 @@ without canopen's Notifier thread.
 from __future__ import annotations
 
 import collections
+import logging
 from collections.abc import Callable
 from typing import Any
 
@@ -23,6 +24,7 @@ import can
 __all__ = ["SyncBus", "SyncHub", "attach_network"]
 
 Listener = Callable[[can.Message], None]
+log = logging.getLogger(__name__)
 
 
 class SyncHub:
@@ -33,6 +35,7 @@ class SyncHub:
         self.clock = 0.0
         self.frames = 0  #: frames carried so far
         self.taps: list[Listener] = []  #: see every frame (a CAN trace)
+        self.drop: Callable[[can.Message], bool] | None = None  #: fault injection: True loses the frame
 
     def bus(self, *, queue: bool = True, channel: str = "sync0") -> SyncBus:
         """A new bus on this hub."""
@@ -42,6 +45,8 @@ class SyncHub:
         frame = msg  # the sender's frame, stamped; receivers must not change it
         frame.timestamp = self.clock
         frame.channel = sender.channel_info
+        if self.drop is not None and self.drop(frame):
+            return
         self.frames += 1
         for tap in self.taps:
             tap(frame)
@@ -83,11 +88,20 @@ class SyncBus(can.BusABC):
 
 
 def attach_network(network: Any, bus: SyncBus) -> None:
-    """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify``."""
+    """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify``.
+
+    A frame its handler cannot parse (wrong length, bad command) is logged and
+    dropped, as canopen's own listener does on a real bus: a malformed frame
+    must not take down the node that received it.
+    """
     network.bus = bus
 
     def _to_network(msg: can.Message) -> None:
-        if not msg.is_error_frame and not msg.is_remote_frame:
+        if msg.is_error_frame or msg.is_remote_frame:
+            return
+        try:
             network.notify(msg.arbitration_id, msg.data, msg.timestamp)
+        except Exception as exc:
+            log.warning("dropped frame 0x%03X [%s]: %s", msg.arbitration_id, bytes(msg.data).hex(), exc)
 
     bus.listeners.append(_to_network)

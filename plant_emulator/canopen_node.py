@@ -110,21 +110,25 @@ class EmulatedNode:
         if target not in (0, self.node_id):
             return
         if cmd in (0x81, 0x82):  # reset node / reset communication
-            comm_only = cmd == 0x82
-            stored = self._power_on or {}
-            for index in list(self.node.data_store):
-                if not comm_only or 0x1000 <= index < 0x2000:
-                    del self.node.data_store[index]
-            for index, subs in stored.items():
-                if not comm_only or 0x1000 <= index < 0x2000:
-                    self.node.data_store[index] = dict(subs)
-            log.info("node %d: NMT %s", self.node_id, "reset communication" if comm_only else "reset node")
-            self.node.nmt._state = INITIALISING
-            if not comm_only:
-                self.on_reset(application=True)
-            self.network.send_message(0x700 + self.node_id, bytes([0]))
-            self.node.nmt._state = PRE_OPERATIONAL
-            self._dirty = True
+            self.reset(comm_only=cmd == 0x82)
+        self._configure()
+
+    def reset(self, *, comm_only: bool = False) -> None:
+        """NMT reset node (or communication): restore the power-on values, boot-up, PRE-OPERATIONAL."""
+        stored = self._power_on or {}
+        for index in list(self.node.data_store):
+            if not comm_only or 0x1000 <= index < 0x2000:
+                del self.node.data_store[index]
+        for index, subs in stored.items():
+            if not comm_only or 0x1000 <= index < 0x2000:
+                self.node.data_store[index] = dict(subs)
+        log.info("node %d: NMT %s", self.node_id, "reset communication" if comm_only else "reset node")
+        self.node.nmt._state = INITIALISING
+        if not comm_only:
+            self.on_reset(application=True)
+        self.network.send_message(0x700 + self.node_id, bytes([0]))
+        self.node.nmt._state = PRE_OPERATIONAL
+        self._dirty = True
         self._configure()
 
     def tick(self, now: float) -> None:

@@ -65,6 +65,7 @@ class EmulatedDrive(EmulatedNode):
         #: True: an event RPDO counts as received at its SYNC (lock-step across processes, where the
         #: frame's real arrival time is scheduling noise); False: its arrival time counts (real time)
         self.lockstep = False
+        self.glitch_counts = 0  #: fault injection: added to the latched position [increments]
         self._syncs = 0
         self._first_sync = True
         self._sdo_target = False
@@ -267,7 +268,7 @@ class EmulatedDrive(EmulatedNode):
     def _latch(self) -> None:
         ax = self.axis
         cpr = self.counts_per_rad
-        pos = math.floor(ax.position * cpr)
+        pos = math.floor(ax.position * cpr) + self.glitch_counts
         self.write(0x6064, 0, max(-(2**31), min(2**31 - 1, pos)))
         self.write(0x606C, 0, max(-(2**31), min(2**31 - 1, round(ax.velocity * cpr))))
         rated_t, rated_i = self._rated_torque(), self._rated_current()

@@ -119,6 +119,14 @@ def _build_parser() -> _Parser:
     run.add_argument("--emulate", action="store_true", help="run the configured emulator preset in-process")
     run.add_argument("--duration", type=_finite, help="override [run] duration [s]")
     run.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    run.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="inject a fault with --emulate (overrides [faults]): frame_loss, tpdo_stall_at, heartbeat_loss_at, "
+        "node_reset_at, overcurrent_at, encoder_glitch_at [s], encoder_glitch_counts, seed",
+    )
 
     scan = sub.add_parser("scan", help="list the CANopen nodes on a bus")
     scan.add_argument("--interface", help="python-can interface (e.g. socketcan, socketcand)")
@@ -323,7 +331,21 @@ def _rig_run(args: argparse.Namespace) -> int:
 
     if args.duration is not None and args.duration <= 0.0:
         raise _UsageError(f"rig run: argument --duration: must be > 0 s, got {args.duration:g}")
-    summary = run_config(load_config(args.config), emulate=args.emulate, duration=args.duration)
+    cfg = load_config(args.config)
+    if args.fault:
+        import dataclasses
+
+        from plant_emulator.faults import parse_faults
+
+        if not args.emulate:
+            raise _UsageError("rig run: --fault needs --emulate (faults are injected by the emulator)")
+        try:
+            plan = parse_faults(args.fault)
+        except ValueError as exc:
+            raise _UsageError(f"rig run: {exc}") from exc
+        changed = {k: v for k, v in dataclasses.asdict(plan).items() if v != getattr(type(plan)(), k)}
+        cfg = dataclasses.replace(cfg, faults=dataclasses.replace(cfg.faults, **changed))
+    summary = run_config(cfg, emulate=args.emulate, duration=args.duration)
     if args.json:
         print(json.dumps({k: _json_number(v) if isinstance(v, float) else v for k, v in summary.items()}))
     else:

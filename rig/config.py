@@ -11,6 +11,8 @@ Sections and keys (SI units; see ``examples/`` for complete files)::
     [reference]  kind (smooth-move | step | constant), distance, duration, start, value
     [limits]     command, speed [rad/s], position_min/max [rad], current [A],
                  watchdog_periods, heartbeat_timeout [s] (0: off)
+    [faults]     fault injection with --emulate: frame_loss, seed, tpdo_stall_at, heartbeat_loss_at,
+                 node_reset_at, overcurrent_at, encoder_glitch_at [s], encoder_glitch_counts
 
 An unknown section or key, or a value of the wrong type, is a ``ConfigError``
 naming the file and the key.
@@ -36,6 +38,7 @@ __all__ = [
     "ControllerConfig",
     "DriveConfig",
     "EmulatorConfig",
+    "FaultsConfig",
     "LimitsConfig",
     "ReferenceConfig",
     "RigConfig",
@@ -104,6 +107,20 @@ class LimitsConfig:
 
 
 @dataclass(frozen=True)
+class FaultsConfig:
+    """Fault injection of the emulator (``plant_emulator.faults.FaultPlan``); --emulate only."""
+
+    frame_loss: float = 0.0
+    seed: int = 0
+    tpdo_stall_at: float = math.inf
+    heartbeat_loss_at: float = math.inf
+    node_reset_at: float = math.inf
+    overcurrent_at: float = math.inf
+    encoder_glitch_at: float = math.inf
+    encoder_glitch_counts: int = 2048
+
+
+@dataclass(frozen=True)
 class RigConfig:
     source: str
     run: RunConfig
@@ -113,6 +130,7 @@ class RigConfig:
     controller: ControllerConfig
     reference: ReferenceConfig
     limits: LimitsConfig
+    faults: FaultsConfig = field(default_factory=FaultsConfig)
 
     def as_dict(self) -> dict[str, Any]:
         """The resolved configuration, JSON-ready (inf as null)."""
@@ -140,6 +158,7 @@ _SECTIONS: dict[str, type] = {
     "controller": ControllerConfig,
     "reference": ReferenceConfig,
     "limits": LimitsConfig,
+    "faults": FaultsConfig,
 }
 
 

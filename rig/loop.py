@@ -202,12 +202,19 @@ class HostLoop:
         t = k * self.period
         t0 = time.perf_counter()
         self.sync()
-        fb = self.drive.feedback()
-        self.limits.watchdog(self.tpdo_stamp())
-        if self.drive.fault is not None:
-            raise self.drive.fault
-        self.limits.heartbeat(self.drive.last_heartbeat, self.bus_time())
-        self.limits.check_feedback(fb[0], fb[1], fb[3])
+        drive = self.drive
+        try:
+            fb = drive.feedback()
+            self.limits.watchdog(self.tpdo_stamp())
+            if drive.fault is not None:
+                raise drive.fault
+            state = drive.nmt_state
+            if state != "OPERATIONAL":
+                raise SafetyStop(f"NMT state {state} (the node reset or was stopped)")
+            self.limits.heartbeat(drive.last_heartbeat, self.bus_time())
+            self.limits.check_feedback(fb[0], fb[1], fb[3])
+        except SafetyStop as exc:
+            raise SafetyStop(f"node {drive.node_id}: {exc}") from exc
         t1 = time.perf_counter()
         u, ref, y, extra = self.law(t, fb)
         self.limits.check_command(u)

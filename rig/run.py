@@ -24,6 +24,7 @@ Control laws (``[controller] kind``):
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -40,9 +41,10 @@ from controllers.pi import PI, PIParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from drivers.bus import open_bus
 from drivers.cia402 import Cia402Drive
-from drivers.errors import ConfigError
+from drivers.errors import CommunicationTimeout, ConfigError, SdoAbort
 from drivers.transport import SyncHub, attach_network
 from plant_emulator.canopen_node import EmulatedNode
+from plant_emulator.faults import FaultInjector, FaultPlan
 from plant_emulator.presets import build_preset
 from rig.config import ControllerConfig, ReferenceConfig, RigConfig
 from rig.loop import Feedback, HostLoop, Law
@@ -157,7 +159,7 @@ def _cascade_position(cfg: RigConfig, period: float) -> tuple[Law, Sequence[str]
 class DqLink:
     """The host loop's drive for mode -2: scalar loop, complex process data.
 
-    ``feedback()`` gives (frame angle, frame speed, i_d, |i|, statusword) and keeps i_dq
+    ``feedback()`` gives (unwrapped frame angle, frame speed, i_d, |i|, statusword) and keeps i_dq
     for the law; ``command(magnitude)`` sends the complex u the law left here (zero
     when the safe stop commands 0).
     """
@@ -166,11 +168,16 @@ class DqLink:
         self.drive: Any = None
         self.i_dq = 0j
         self.u = 0j
+        self._angle: float | None = None
+        self._turns = 0
 
     def feedback(self) -> Feedback:
         i_dq, angle, speed, statusword = self.drive.dq_feedback()
         self.i_dq = i_dq
-        return angle, speed, i_dq.real, abs(i_dq), statusword
+        if self._angle is not None:  # unwrap the frame angle, so it is a position like any other
+            self._turns += round((self._angle - angle) / (2.0 * math.pi))
+        self._angle = angle
+        return angle + 2.0 * math.pi * self._turns, speed, i_dq.real, abs(i_dq), statusword
 
     def command(self, magnitude: float) -> None:
         self.drive.dq_command(self.u if magnitude else 0j)
@@ -275,6 +282,9 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
         period = period or preset_period
         for d in devices:
             d.boot()
+        plan = FaultPlan(**dataclasses.asdict(cfg.faults))
+        if plan.active:
+            buses.append(FaultInjector(plan, hub, devices[0]))
     else:
         if period <= 0.0:
             raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s) when not emulating")
@@ -293,7 +303,10 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
             f"{cfg.source}: [drive] mode = {cfg.drive.mode!r}, but {cfg.controller.kind} commands {mode!r}"
         )
     cycles = round((duration or cfg.run.duration) / period)
-    recorder = Recorder(cfg.run.output, cfg.run.name, HostLoop.columns(internals))
+    # flushed at least every 50 ms of run time: a killed host loses at most that
+    recorder = Recorder(
+        cfg.run.output, cfg.run.name, HostLoop.columns(internals), flush_every=max(1, round(0.05 / period))
+    )
     recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": emulate})
     if hub is not None:
         hub.taps.append(recorder.on_frame)
@@ -308,6 +321,11 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
             drive.configure_pdos(sync_rpdo=cfg.drive.sync_rpdo, latency_s=cfg.drive.latency)
         drive.nmt("OPERATIONAL")
         drive.enable(timeout=cfg.drive.enable_timeout)
+    except (canopen.SdoCommunicationError, canopen.SdoAbortedError) as exc:
+        recorder.close({"cycles": 0, "safe_stop_reason": "setup failed", "run_dir": str(recorder.dir)})
+        if isinstance(exc, canopen.SdoAbortedError):
+            raise SdoAbort("setup", code=exc.code, node_id=cfg.drive.node_id, index=0, subindex=0) from exc
+        raise CommunicationTimeout(f"node {cfg.drive.node_id}: no SDO answer during setup ({exc})") from exc
     except Exception:
         recorder.close({"cycles": 0, "safe_stop_reason": "setup failed", "run_dir": str(recorder.dir)})
         raise

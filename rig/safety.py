@@ -25,6 +25,7 @@ class Limits:
     period: float
     _stale: int = 0
     _last_stamp: float | None = None
+    _last_position: float | None = None
 
     def check_feedback(self, position: float, velocity: float, current: float) -> None:
         c = self.cfg
@@ -33,6 +34,14 @@ class Limits:
                 raise SafetyStop(f"{name} feedback is {value!r}")
         if abs(velocity) > c.speed:
             raise SafetyStop(f"speed {velocity:.4g} rad/s exceeds the limit {c.speed:g} rad/s")
+        # a jump no motor can make within the speed limit: an encoder glitch or a lost count
+        max_step = (c.speed if math.isfinite(c.speed) else 1000.0) * self.period * 3.0
+        if self._last_position is not None and abs(position - self._last_position) > max_step:
+            jump = position - self._last_position
+            raise SafetyStop(
+                f"position jumped by {jump:.4g} rad in one period (> {max_step:.3g} rad): encoder glitch?"
+            )
+        self._last_position = position
         if not c.position_min <= position <= c.position_max:
             raise SafetyStop(
                 f"position {position:.4g} rad outside [{c.position_min:g}, {c.position_max:g}] rad"
