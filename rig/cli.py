@@ -124,8 +124,7 @@ def _build_parser() -> _Parser:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="inject a fault with --emulate (overrides [faults]): frame_loss, tpdo_stall_at, heartbeat_loss_at, "
-        "node_reset_at, overcurrent_at, encoder_glitch_at [s], encoder_glitch_counts, seed",
+        help="inject a fault with --emulate (overrides [faults]); names as in [faults] (rig/config.py)",
     )
 
     scan = sub.add_parser("scan", help="list the CANopen nodes on a bus")
