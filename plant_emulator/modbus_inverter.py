@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -33,6 +34,7 @@ __all__ = ["InverterContext", "InverterModel", "serve_rtu", "serve_tcp"]
 
 log = logging.getLogger(__name__)
 OVERSPEED = 0x7310  # fault code used by the emulator for over-speed (ABB 7310 'overspeed')
+COMM_LOSS = 0x6681  # communication loss of the embedded fieldbus (ABB 6681 'EFB comm loss')
 
 
 @dataclass
@@ -55,10 +57,18 @@ class InverterModel:
     speed: float = 0.0
     current: float = 0.0
     t: float = 0.0
+    comm_loss_timeout: float = math.inf  #: trip if no request arrives this long while running [s] (inf: off)
+    last_request: float = 0.0  #: model time of the last request [s]
 
     def step(self, dt: float) -> None:
         """Advance dt [s]."""
         self.t += dt
+        if self.running and not self.fault and self.t - self.last_request > self.comm_loss_timeout:
+            log.warning(
+                "inverter: no request for %.3g s, communication-loss trip", self.t - self.last_request
+            )
+            self.fault = COMM_LOSS
+            self.running = False
         target = self.reference if (self.running and not self.fault) else 0.0
         delta = max(-self.accel * dt, min(self.accel * dt, target - self.ramp))
         self.ramp += delta
@@ -89,6 +99,8 @@ class InverterContext(ModbusBaseDeviceContext):
         self.by_address = self.map.by_address()
         self.control_word = int(self.map.control["stop"])
         self.writes = 0
+        self.fault_mode: str | None = None  #: fault injection: None, "timeout" or "exception"
+        self.timeout_sleep = 1.5  #: [s] how long a swallowed request blocks
 
     def reset(self) -> None:
         self.control_word = int(self.map.control["stop"])
@@ -132,7 +144,21 @@ class InverterContext(ModbusBaseDeviceContext):
                 word |= 1 << st["at_setpoint_bit"]
         return word
 
+    def _fault_injected(self) -> ExcCodes | None:
+        """Fault injection: ``timeout`` swallows the request (no answer in time, and the drive
+        sees nothing), ``exception`` answers every request with exception 04 (device failure)."""
+        if self.fault_mode == "timeout":
+            time.sleep(self.timeout_sleep)
+            return ExcCodes.DEVICE_FAILURE  # too late: the client has given up
+        self.model.last_request = self.model.t
+        if self.fault_mode == "exception":
+            return ExcCodes.DEVICE_FAILURE
+        return None
+
     def getValues(self, func_code: int, address: int, count: int = 1) -> list[int] | ExcCodes:
+        injected = self._fault_injected()
+        if injected is not None:
+            return injected
         if func_code not in (3, 4, 6, 16, 22, 23):  # holding/input registers (6, 16: read-back after write)
             return ExcCodes.ILLEGAL_FUNCTION
         out = []
@@ -144,6 +170,9 @@ class InverterContext(ModbusBaseDeviceContext):
         return out
 
     def setValues(self, func_code: int, address: int, values: list[int] | list[bool]) -> ExcCodes | None:
+        injected = self._fault_injected()
+        if injected is not None:
+            return injected
         if func_code not in (6, 16):
             return ExcCodes.ILLEGAL_FUNCTION
         regs = [self.by_address.get(a) for a in range(address, address + len(values))]
@@ -180,9 +209,9 @@ class InverterContext(ModbusBaseDeviceContext):
         return None
 
 
-def _context(model: InverterModel, unit: int) -> Any:
+def _context(model: InverterModel, unit: int, context: InverterContext | None = None) -> Any:
     make: Any = ModbusServerContext
-    return make(devices={unit: InverterContext(model)}, single=False)
+    return make(devices={unit: context or InverterContext(model)}, single=False)
 
 
 async def _physics(model: InverterModel, dt: float) -> None:
@@ -195,12 +224,18 @@ async def _physics(model: InverterModel, dt: float) -> None:
 
 
 async def serve_tcp(
-    model: InverterModel, *, host: str = "127.0.0.1", port: int = 5020, unit: int = 1, dt: float = 0.01
+    model: InverterModel,
+    *,
+    host: str = "127.0.0.1",
+    port: int = 5020,
+    unit: int = 1,
+    dt: float = 0.01,
+    context: InverterContext | None = None,
 ) -> None:
-    """Serve the inverter on Modbus TCP until cancelled."""
+    """Serve the inverter on Modbus TCP (127.0.0.1 unless ``host`` names another address) until cancelled."""
     from pymodbus.server import ModbusTcpServer
 
-    server: Any = ModbusTcpServer(_context(model, unit), address=(host, port))
+    server: Any = ModbusTcpServer(_context(model, unit, context), address=(host, port))
     task = asyncio.create_task(_physics(model, dt))
     log.info("Modbus TCP inverter (%s) on %s:%d unit %d", model.regmap.name, host, port, unit)
     try:

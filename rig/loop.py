@@ -155,6 +155,7 @@ class HostLoop:
             gc.freeze()
             gc.disable()
             frozen = True
+        self.recorder.mark_start()
         start = self._t_end = time.perf_counter()
         deadline = last = start
         k = 0
@@ -191,6 +192,7 @@ class HostLoop:
             log.exception("exception in the control loop")
             self.safe_stop(f"exception in the control loop: {type(exc).__name__}: {exc}")
         else:
+            self._stop_drive(quick=False)  # a run ends with the drive disabled, too
             self._finish()
         finally:
             if frozen:
@@ -236,12 +238,24 @@ class HostLoop:
         """The one way out: zero command, quick stop, disable, flush, report."""
         self.safe_stop_reason = reason
         log.warning("safe stop: %s", reason)
-        for step in (lambda: self.drive.command(0.0), self.drive.quick_stop, self.drive.disable):
-            try:
-                step()
-            except Exception as exc:
-                log.error("safe stop step failed: %s", exc)
+        self._stop_drive(quick=True)
         self._finish()
+
+    def _stop_drive(self, *, quick: bool, tries: int = 5) -> None:
+        """Zero command, quick stop (when stopping on a fault), disable; each step retried, since
+        the frame that carries it may be lost; a step that still fails is logged and the next runs."""
+        steps: list[Callable[[], object]] = [lambda: self.drive.command(0.0)]
+        if quick:
+            steps.append(self.drive.quick_stop)
+        steps.append(self.drive.disable)
+        for step in steps:
+            for attempt in range(tries):
+                try:
+                    step()
+                    break
+                except Exception as exc:
+                    if attempt == tries - 1:
+                        log.error("stopping the drive: a step failed %d times: %s", tries, exc)
 
     def _finish(self) -> None:
         self.recorder.close(self.summary())

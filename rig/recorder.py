@@ -3,6 +3,7 @@
 Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
 
 - ``config.json``: the resolved configuration;
+- ``started.json``: the wall-clock time the cycles started;
 - ``samples.csv``: one row per cycle (time, reference, measurement, command,
   controller internals, loop timing), flushed every ``flush_every`` rows and on close;
 - ``samples.mat``: the same columns for MATLAB (scipy.io.savemat), written on close;
@@ -18,6 +19,7 @@ import csv
 import datetime
 import json
 import math
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -54,6 +56,10 @@ class Recorder:
 
     def write_config(self, config: dict[str, Any]) -> None:
         (self.dir / "config.json").write_text(json.dumps(config, indent=2) + "\n")
+
+    def mark_start(self) -> None:
+        """Write ``started.json`` with the wall-clock time the cycles start (for post-mortems)."""
+        (self.dir / "started.json").write_text(json.dumps({"wall_time": time.time()}) + "\n")
 
     def on_frame(self, msg: can.Message) -> None:
         """A CAN frame for the trace (a bus listener)."""
