@@ -136,6 +136,12 @@ def _build_parser() -> _Parser:
     scan.add_argument("--listen", type=_finite, default=1.1, help="seconds to listen for heartbeats")
     scan.add_argument("--json", action="store_true", help="print a list of JSON objects")
 
+    faults = sub.add_parser(
+        "faults", help="run every fault scenario over the whole chain and print the table"
+    )
+    faults.add_argument("--json", action="store_true", help="print a list of JSON objects")
+    faults.add_argument("--scenario", action="append", default=[], metavar="NAME", help="run only these")
+
     ident = sub.add_parser(
         "identify", help="identify a_m, b_m of (3.5) from a PRBS experiment on the drive, or from a run log"
     )
@@ -475,6 +481,24 @@ def _identify(args: argparse.Namespace) -> int:
     return 0
 
 
+def _faults(args: argparse.Namespace) -> int:
+    from rig.fault_suite import SCENARIOS, run_faults
+
+    unknown = [n for n in args.scenario if n not in SCENARIOS]
+    if unknown:
+        raise _UsageError(f"rig faults: unknown scenario(s) {unknown}; known: {', '.join(SCENARIOS)}")
+    rows = run_faults(args.scenario or None)
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(f"{'scenario':18s} {'detected':>9s} {'disabled':>9s} {'lost':>5s}  message")
+    for r in rows:
+        detected = "-" if r["detected_after_cycles"] is None else str(r["detected_after_cycles"])
+        lost = "-" if r["samples_lost"] is None else str(r["samples_lost"])
+        print(f"{r['scenario']:18s} {detected:>9s} {r['drive_disabled']!s:>9s} {lost:>5s}  {r['message']}")
+    return 0
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.command == "demo":
         return run_demo(sys.stdout)
@@ -487,6 +511,8 @@ def _run(args: argparse.Namespace) -> int:
         return 0
     if args.command == "reproduce":
         return _reproduce_dismc(args) if args.study == "dismc" else _reproduce_dq(args)
+    if args.command == "faults":
+        return _faults(args)
     if args.command == "identify":
         return _identify(args)
     if args.command == "scan":

@@ -1,0 +1,269 @@
+"""``rig faults``: every fault scenario over the whole chain, and what the host did about it.
+
+CANopen scenarios run the section VII.B servo (``rig.demo.demo_config``) over
+the emulated bus in lock-step with a fault injected at ``AT`` seconds; host
+scenarios break the controller, a limit, Ctrl-C and SIGKILL; Modbus scenarios
+make the emulated inverter time out or answer with an exception.
+
+Each row: ``scenario``; ``detected_after_cycles`` (cycles from the injection to
+the stop; null when nothing had to be stopped); ``drive_disabled`` (the drive's
+final state produces no torque); ``samples_lost`` (cycles run minus rows in
+samples.csv; for SIGKILL, the cycles the clock says ran minus the rows on disk);
+``message`` (what the operator is told).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from drivers.cia402 import decode_state
+from drivers.errors import CommunicationTimeout, ModbusExceptionResponse
+from drivers.modbus_inverter import ModbusInverter
+from plant_emulator.modbus_inverter import InverterContext, default_model, serve_tcp
+from rig.config import FaultsConfig, RigConfig
+from rig.demo import demo_config
+from rig.run import prepare
+
+__all__ = ["AT", "SCENARIOS", "run_faults"]
+
+AT = 0.3  #: s: when the fault is injected
+DURATION = 0.8  #: s: length of each CANopen run
+NO_TORQUE = ("SWITCH ON DISABLED", "READY TO SWITCH ON", "SWITCHED ON", "FAULT", "FAULT REACTION ACTIVE")
+
+
+def _rows(run_dir: str) -> int:
+    with (Path(run_dir) / "samples.csv").open() as f:
+        return sum(1 for _ in f) - 1
+
+
+def _canopen(
+    out: str,
+    *,
+    faults: dict[str, Any] | None = None,
+    limits: dict[str, Any] | None = None,
+    law: Callable[[Any], None] | None = None,
+    timed: bool = True,
+) -> dict[str, Any]:
+    cfg: RigConfig = demo_config(out)
+    cfg = dataclasses.replace(
+        cfg,
+        faults=dataclasses.replace(FaultsConfig(), **(faults or {})),
+        limits=dataclasses.replace(cfg.limits, **(limits or {})),
+    )
+    session = prepare(cfg, emulate=True, duration=DURATION)
+    if law is not None:
+        law(session)
+    summary = session.loop.run()
+    state = "unknown"
+    for _ in range(5):  # the SDO may be lost under frame loss
+        try:
+            state = decode_state(session.loop.drive.sdo_read(0x6041))
+            break
+        except Exception:
+            continue
+    session.close()
+    period = session.loop.period
+    # the fault acts at the first SYNC at or after AT (SYNC k carries time (k + 1) T); frame loss acts
+    # from the first cycle; a limit acts in the cycle its value is crossed
+    if faults and "frame_loss" in faults:
+        injected = 0
+    elif timed:
+        injected = math.ceil(AT / period - 1e-9) - 1
+    else:
+        injected = summary["cycles"]
+    stopped = summary["safe_stop_reason"] is not None
+    return {
+        "detected_after_cycles": summary["cycles"] - injected if stopped else None,
+        "drive_disabled": state in NO_TORQUE,
+        "samples_lost": summary["cycles"] - _rows(summary["run_dir"]),
+        "message": summary["safe_stop_reason"] or "completed without a stop",
+    }
+
+
+def _host_law(fault: str) -> Callable[[Any], None]:
+    def install(session: Any) -> None:
+        law, period = session.loop.law, session.loop.period
+
+        def broken(t: float, fb: Any) -> Any:
+            if t >= AT - period / 2:
+                if fault == "nan":
+                    return math.nan, 0.0, fb[0], (0.0, 0.0)
+                raise KeyboardInterrupt
+            return law(t, fb)
+
+        session.loop.law = broken
+
+    return install
+
+
+_KILL_CONFIG = """
+[run]
+time = "realtime"
+period = 0.001
+output = "{out}"
+name = "sigkill"
+
+[emulator]
+preset = "dc-servo"
+
+[emulator.params]
+period = "0.001"
+
+[drive]
+mode = "voltage"
+sync_rpdo = false
+
+[controller]
+kind = "position-servo"
+u0 = 48.0
+
+[reference]
+kind = "smooth-move"
+distance = 10.0
+duration = 1.0
+
+[limits]
+command = 48.0
+speed = 300.0
+watchdog_periods = 1000
+"""
+
+
+def _sigkill(out: str) -> dict[str, Any]:
+    """``rig run`` in its own process, real time at 1 kHz, killed with SIGKILL after about 1 s."""
+    config = Path(out) / "rt.toml"
+    config.write_text(_KILL_CONFIG.format(out=Path(out) / "kill"))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rig.cli", "run", "--config", str(config), "--emulate", "--duration", "5"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    started, marks = None, []
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and started is None:
+        marks = list((Path(out) / "kill").glob("*/started.json"))
+        if marks:
+            with contextlib.suppress(ValueError, KeyError):
+                started = float(json.loads(marks[0].read_text())["wall_time"])
+        time.sleep(0.01)
+    time.sleep(1.0)
+    killed_at = time.time()
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=10)
+    if started is None:
+        return {
+            "detected_after_cycles": None,
+            "drive_disabled": False,
+            "samples_lost": None,
+            "message": "the run did not start within 60 s",
+        }
+    ran = int((killed_at - started) / 0.001)
+    lost = max(0, ran - _rows(str(marks[0].parent)))
+    return {
+        "detected_after_cycles": None,
+        "drive_disabled": False,  # the host is dead: only the drive's own supervision can stop it now
+        "samples_lost": lost,
+        "message": f"host killed after about {ran} cycles; {lost} samples ({lost} ms at 1 kHz) not on disk",
+    }
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _modbus(mode: str) -> dict[str, Any]:
+    """The Modbus inverter running at 50 rad/s, then every request times out or is answered with 04."""
+    model = default_model("abb-drives-profile", comm_loss_timeout=0.3)
+    context = InverterContext(model)
+    context.timeout_sleep = 0.6
+    port = _free_port()
+    stop = threading.Event()
+
+    def serve() -> None:
+        async def run() -> None:
+            task = asyncio.create_task(serve_tcp(model, port=port, dt=0.005, context=context))
+            while not stop.is_set():
+                await asyncio.sleep(0.01)
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+
+        asyncio.run(run())
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    time.sleep(0.3)
+    drive = ModbusInverter("abb-drives-profile", host="127.0.0.1", tcp_port=port, timeout=0.2)
+    message, cycles = "no error", None
+    try:
+        drive.connect()
+        drive.run(50.0)
+        context.fault_mode = mode
+        for cycle in range(1, 20):
+            try:
+                drive.read("actual_speed")
+            except (CommunicationTimeout, ModbusExceptionResponse) as exc:
+                message, cycles = str(exc), cycle
+                try:
+                    drive.stop()  # the host's safe stop; under a dead line the drive's own trip must do it
+                except (CommunicationTimeout, ModbusExceptionResponse):
+                    pass
+                break
+        time.sleep(0.8)  # past the drive's communication-loss time
+    finally:
+        drive.close()
+        stop.set()
+        thread.join(timeout=5)
+    return {
+        "detected_after_cycles": cycles,
+        "drive_disabled": not model.running,
+        "samples_lost": 0,
+        "message": message + (f"; drive tripped 0x{model.fault:04X}" if model.fault else ""),
+    }
+
+
+SCENARIOS: dict[str, Callable[[str], dict[str, Any]]] = {
+    "frame-loss-1%": lambda out: _canopen(out, faults={"frame_loss": 0.01}),
+    "frame-loss-10%": lambda out: _canopen(out, faults={"frame_loss": 0.10}),
+    "tpdo-stall": lambda out: _canopen(out, faults={"tpdo_stall_at": AT}),
+    "heartbeat-loss": lambda out: _canopen(
+        out, faults={"heartbeat_loss_at": AT}, limits={"heartbeat_timeout": 0.15}
+    ),
+    "node-reset": lambda out: _canopen(out, faults={"node_reset_at": AT}),
+    "over-current-emcy": lambda out: _canopen(out, faults={"overcurrent_at": AT}),
+    "encoder-glitch": lambda out: _canopen(out, faults={"encoder_glitch_at": AT}),
+    "controller-nan": lambda out: _canopen(out, law=_host_law("nan")),
+    "limit-violation": lambda out: _canopen(out, limits={"speed": 5.0}, timed=False),
+    "ctrl-c": lambda out: _canopen(out, law=_host_law("ctrl-c")),
+    "modbus-timeout": lambda out: _modbus("timeout"),
+    "modbus-exception": lambda out: _modbus("exception"),
+    "sigkill-host": _sigkill,
+}
+
+
+def run_faults(names: list[str] | None = None) -> list[dict[str, Any]]:
+    """Run the scenarios (all by default); one row each."""
+    rows = []
+    with tempfile.TemporaryDirectory() as out:
+        for name in names or list(SCENARIOS):
+            sub = Path(out) / name.replace("%", "pc")
+            sub.mkdir()
+            rows.append({"scenario": name, **SCENARIOS[name](str(sub))})
+    return rows
