@@ -28,8 +28,9 @@ import canopen
 from canopen.emcy import EmcyError
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
-from drivers.errors import CommunicationTimeout, ConfigError, DeviceFault, SdoAbort
+from drivers.errors import CommunicationError, CommunicationTimeout, ConfigError, DeviceFault, SdoAbort
 from drivers.maps import CIA402_EDS
+from drivers.maps.od import load_od
 
 __all__ = ["MODES", "STATES", "Cia402Drive", "DriveUnits", "decode_state"]
 
@@ -86,6 +87,8 @@ class DriveUnits:
         raise ConfigError(f"mode {mode} has no scalar command")
 
 
+_STATUSWORD = struct.Struct("<H")
+
 #: target object per mode
 _TARGET = {-1: (0x2100, 0), 3: (0x60FF, 0), 8: (0x607A, 0), 9: (0x60FF, 0), 10: (0x6071, 0)}
 
@@ -97,7 +100,7 @@ class Cia402Drive:
         self, network: canopen.Network, node_id: int, *, eds: str = CIA402_EDS, sdo_timeout: float = 0.3
     ):
         self.node_id = node_id
-        self.node: Any = canopen.RemoteNode(node_id, eds)
+        self.node: Any = canopen.RemoteNode(node_id, load_od(eds, node_id))
         self.node.sdo.RESPONSE_TIMEOUT = sdo_timeout
         self.node.sdo.MAX_RETRIES = 1
         network.add_node(self.node)
@@ -243,9 +246,9 @@ class Cia402Drive:
 
     def dq_feedback(self) -> tuple[complex, float, float, int]:
         """(i_dq [A], frame angle [rad], frame speed [rad/s], statusword) from the last TPDOs."""
-        i_d, i_q = self._dq.unpack_from(self._tpdo4.data)
-        angle, speed = self._dq.unpack_from(self._tpdo2.data)
-        (statusword,) = struct.unpack_from("<H", self._tpdo3.data)
+        i_d, i_q = self._unpack(self._tpdo4, self._dq)
+        angle, speed = self._unpack(self._tpdo2, self._dq)
+        (statusword,) = self._unpack(self._tpdo3, _STATUSWORD)
         return complex(i_d, i_q) / 1000.0, angle * 1e-6, speed * 1e-3, statusword
 
     def dq_command(self, u: complex) -> None:
@@ -303,8 +306,8 @@ class Cia402Drive:
         """(position [rad], velocity [rad/s], torque [N m], current [A], statusword) from the last TPDOs."""
         u = self.units
         assert u is not None, "connect() first"
-        position, velocity = self._tpdo2_format.unpack_from(self._tpdo2.data)
-        statusword, torque, current = self._tpdo3_format.unpack_from(self._tpdo3.data)
+        position, velocity = self._unpack(self._tpdo2, self._tpdo2_format)
+        statusword, torque, current = self._unpack(self._tpdo3, self._tpdo3_format)
         return (
             position / u.counts_per_rad,
             velocity / u.counts_per_rad,
@@ -312,6 +315,16 @@ class Cia402Drive:
             current / 1000.0 * u.rated_current,
             statusword,
         )
+
+    def _unpack(self, pdo: Any, layout: struct.Struct) -> tuple[Any, ...]:
+        """The values of a received TPDO; CommunicationError naming it when its length is wrong."""
+        data = pdo.data
+        if len(data) < layout.size:
+            raise CommunicationError(
+                f"node {self.node_id}: TPDO 0x{pdo.cob_id:03X} has {len(data)} bytes, "
+                f"its mapping {layout.size}"
+            )
+        return layout.unpack_from(data)
 
     def command(self, value: float, controlword: int = 0x0F) -> None:
         """Send the SI command of the active mode in RPDO1 (applied per its transmission type)."""

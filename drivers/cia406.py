@@ -14,6 +14,7 @@ from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drivers.errors import CommunicationTimeout, ConfigError, SdoAbort
 from drivers.maps import CIA406_EDS
+from drivers.maps.od import load_od
 
 __all__ = ["Cia406Encoder"]
 
@@ -25,7 +26,7 @@ class Cia406Encoder:
         self, network: canopen.Network, node_id: int, *, eds: str = CIA406_EDS, sdo_timeout: float = 0.3
     ):
         self.node_id = node_id
-        self.node: Any = canopen.RemoteNode(node_id, eds)
+        self.node: Any = canopen.RemoteNode(node_id, load_od(eds, node_id))
         self.node.sdo.RESPONSE_TIMEOUT = sdo_timeout
         network.add_node(self.node)
         self.counts_per_rad = math.nan

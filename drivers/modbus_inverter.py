@@ -56,6 +56,8 @@ class ModbusInverter:
         self.client.close()
 
     def _check(self, rr: Any, register: int) -> Any:
+        if rr is None:
+            raise CommunicationTimeout(f"{self.where}: no answer for register {register}")
         if rr.isError():
             code = getattr(rr, "exception_code", 0)
             raise ModbusExceptionResponse(
@@ -72,7 +74,13 @@ class ModbusInverter:
             raise CommunicationTimeout(
                 f"{self.where}: no answer reading {role} (register {reg.address})"
             ) from exc
-        return reg.to_si(self._check(rr, reg.address).registers[0])
+        registers = getattr(self._check(rr, reg.address), "registers", None)
+        if not registers or not isinstance(registers[0], int) or not 0 <= registers[0] <= 0xFFFF:
+            raise CommunicationError(
+                f"{self.map.name} at {self.where}: the answer for {role} (register {reg.address}) "
+                f"holds no 16-bit register value: {registers!r}"
+            )
+        return reg.to_si(registers[0])
 
     def write(self, role: str, value: float) -> None:
         """Write the SI ``value`` to the register with ``role``."""

@@ -25,6 +25,8 @@ from typing import Any
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
 
+from drivers.maps.od import load_od
+
 __all__ = ["EmulatedNode", "PdoConfig"]
 
 log = logging.getLogger(__name__)
@@ -56,14 +58,16 @@ class EmulatedNode:
             raise ValueError(f"node id must be 1..127, got {node_id!r}")
         self.node_id = node_id
         net: Any = network  # canopen's callback types say bytearray; frames are bytes
-        local: Any = canopen.LocalNode(node_id, canopen.import_od(eds, node_id))
+        local: Any = canopen.LocalNode(node_id, load_od(eds, node_id))
         self.network: Any = net
         self.node: Any = local
         self.network.add_node(self.node)
         # SDO and NMT through our gates; heartbeat on our clock, not canopen's thread
         self.network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
         self.network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
-        self.network.subscribe(0, self._after_nmt)
+        # NMT through a gate as well: CiA 301 NMT frames are exactly 2 bytes
+        self.network.unsubscribe(0, self.node.nmt.on_command)
+        self.network.subscribe(0, self._on_nmt)
         nmt: Any = self.node.nmt
         nmt.start_heartbeat = lambda ms: None
         nmt.stop_heartbeat = lambda: None
@@ -104,6 +108,13 @@ class EmulatedNode:
         self._dirty = True
         self._configure()
         self._last_heartbeat = self.clock
+
+    def _on_nmt(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if len(data) != 2:
+            log.warning("node %d: NMT frame of %d bytes ignored", self.node_id, len(data))
+            return
+        self.node.nmt.on_command(can_id, data, timestamp)
+        self._after_nmt(can_id, data, timestamp)
 
     def _after_nmt(self, can_id: int, data: bytes, timestamp: float) -> None:
         cmd, target = struct.unpack_from("BB", data)
@@ -257,6 +268,19 @@ class EmulatedNode:
         self.rx_time = timestamp
         for pdo in self._rpdos:
             if pdo.valid and pdo.cob_id == can_id:
+                expected = sum(bits for _, _, bits in pdo.mapping) // 8
+                if (
+                    len(data) != expected
+                ):  # CiA 301: not processed, EMCY 0x8210 (too short) / 0x8220 (too long)
+                    log.warning(
+                        "node %d: RPDO%d with %d bytes, mapped %d: ignored",
+                        self.node_id,
+                        pdo.number + 1,
+                        len(data),
+                        expected,
+                    )
+                    self.emcy(0x8210 if len(data) < expected else 0x8220, 0x11)
+                    return
                 if pdo.ttype <= 240:
                     self._pending_sync_rpdo[pdo.number] = bytes(data)
                 else:

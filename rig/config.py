@@ -6,7 +6,8 @@ Sections and keys (SI units; see ``examples/`` for complete files)::
                  period [s] (default: the emulator preset's)
     [bus]        interface, channel, bitrate, host, port       (ignored with --emulate)
     [emulator]   preset, and [emulator.params] NAME = "VALUE"   (for --emulate)
-    [drive]      node_id, mode (voltage | cst | csv | csp | pv), sync_rpdo, latency [s], enable_timeout [s]
+    [drive]      node_id, mode (voltage | cst | csv | csp | pv | dq-voltage), sync_rpdo, latency [s],
+                 enable_timeout [s], eds (the drive's EDS/DCF; default the toolkit's)
     [controller] kind (position-servo | pi-speed | idtsm-speed), and its parameters
     [reference]  kind (smooth-move | step | constant), distance, duration, start, value
     [limits]     command, speed [rad/s], position_min/max [rad], current [A],
@@ -78,6 +79,7 @@ class DriveConfig:
     sync_rpdo: bool = True
     latency: float = 0.0
     enable_timeout: float = 1.0
+    eds: str = ""  #: the drive's EDS/DCF file (empty: the toolkit's CiA 402 EDS)
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,7 @@ from controllers.position_servo import PositionServo, PositionServoParams
 from drivers.bus import open_bus
 from drivers.cia402 import Cia402Drive
 from drivers.errors import CommunicationTimeout, ConfigError, SdoAbort
+from drivers.maps import CIA402_EDS
 from drivers.transport import SyncHub, attach_network
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.faults import FaultInjector, FaultPlan
@@ -310,7 +311,11 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
     recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": emulate})
     if hub is not None:
         hub.taps.append(recorder.on_frame)
-    drive = Cia402Drive(network, cfg.drive.node_id)
+    try:
+        drive = Cia402Drive(network, cfg.drive.node_id, eds=cfg.drive.eds or CIA402_EDS)
+    except ConfigError:
+        recorder.close({"cycles": 0, "safe_stop_reason": "setup failed", "run_dir": str(recorder.dir)})
+        raise
     try:
         drive.connect()
         drive.nmt("PRE-OPERATIONAL")
