@@ -8,9 +8,12 @@ figures are what a host loop pays.
 from __future__ import annotations
 
 import functools
+import gc
 import itertools
+import os
 import time
 from collections.abc import Callable
+from typing import Any
 
 from controllers.cascade import (
     TABLE_V_CURRENT,
@@ -327,6 +330,66 @@ def bench_identify(*, seeds: int = 30, duration: float = 5.0) -> list[Figure]:
     return figures
 
 
+def _rss_bytes() -> int:
+    """Resident set size of this process [bytes] (Linux /proc; 0 elsewhere)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def bench_soak(*, cycles: int = 1_000_000, frame_loss: float = 0.01) -> list[Figure]:
+    """The lock-step soak: the section VII.B servo over the emulated bus for ``cycles`` cycles with
+    ``frame_loss`` of the frames lost. Memory is the RSS at 10 % of the run and at the end; the
+    watchdog tolerates 10 lost TPDOs in a row, so a stop would be a real one. Not a test: run it
+    with ``rig bench soak`` (about 2-3 minutes)."""
+    import dataclasses
+    import tempfile
+
+    from rig.config import FaultsConfig
+    from rig.demo import demo_config
+    from rig.run import prepare
+
+    with tempfile.TemporaryDirectory() as out:
+        cfg = demo_config(out)
+        period = 0.4e-3
+        cfg = dataclasses.replace(
+            cfg,
+            run=dataclasses.replace(cfg.run, trace=False),
+            reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),
+            faults=FaultsConfig(frame_loss=frame_loss, seed=1),
+            limits=dataclasses.replace(cfg.limits, watchdog_periods=10),
+        )
+        session = prepare(cfg, emulate=True, duration=cycles * period)
+        law = session.loop.law
+        rss: dict[str, int] = {}
+
+        def measured(t: float, fb: Any) -> Any:
+            k = round(t / period)
+            if k in (cycles // 10, cycles - 1):  # the end is measured before the recorder's close
+                gc.collect()
+                rss["early" if k == cycles // 10 else "end"] = _rss_bytes()
+            return law(t, fb)
+
+        session.loop.law = measured
+        t0 = time.perf_counter()
+        summary = session.loop.run()
+        elapsed = time.perf_counter() - t0
+        session.close()
+    early, end = rss.get("early", 0), rss.get("end", 0)
+    growth = 100.0 * (end - early) / early if early and end else float("nan")
+    return [
+        {"name": "soak_cycles", "value": summary["cycles"], "unit": "cycles"},
+        {"name": "soak_frame_loss", "value": frame_loss, "unit": ""},
+        {"name": "soak_rss_at_10_percent", "value": round(rss.get("early", 0) / 2**20, 1), "unit": "MiB"},
+        {"name": "soak_rss_at_last_cycle", "value": round(rss.get("end", 0) / 2**20, 1), "unit": "MiB"},
+        {"name": "soak_memory_growth", "value": round(growth, 2), "unit": "%"},
+        {"name": "soak_safe_stop", "value": summary["safe_stop_reason"] or "none", "unit": ""},
+        {"name": "soak_wall_time", "value": round(elapsed, 1), "unit": "s"},
+    ]
+
+
 #: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}.
 BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "controllers": bench_controllers,
@@ -334,4 +397,5 @@ BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "physics": bench_physics,
     "loop": bench_loop,
     "identify": bench_identify,
+    "soak": bench_soak,
 }

@@ -163,13 +163,33 @@ def _build_parser() -> _Parser:
         "emulate",
         help="run the plant emulator as its own process (a python-can bus, or socketcand on 127.0.0.1)",
     )
-    emulate.add_argument("--preset", required=True, help="dc-servo or grid-converter")
+    emulate.add_argument("--preset", help="dc-servo, im-drive or grid-converter (CANopen)")
+    emulate.add_argument(
+        "--modbus-map",
+        metavar="NAME",
+        help="serve an emulated Modbus inverter of this map instead (abb-drives-profile, delta-vfd-b)",
+    )
+    emulate.add_argument("--modbus-port", type=int, default=5020, help="Modbus TCP port (default 5020)")
+    emulate.add_argument(
+        "--modbus-serial", metavar="DEVICE", help="serve Modbus RTU on this serial device instead"
+    )
+    emulate.add_argument(
+        "--listen",
+        default="127.0.0.1",
+        metavar="ADDRESS",
+        help="address the TCP servers (socketcand, Modbus TCP) bind: 127.0.0.1 unless you name another",
+    )
     emulate.add_argument("--node-id", type=int, help="node id of the drive (the encoder takes the next one)")
     emulate.add_argument(
         "--interface", help="python-can interface, e.g. socketcan (default: serve socketcand)"
     )
     emulate.add_argument("--channel", help="python-can channel, e.g. vcan0")
-    emulate.add_argument("--socketcand-port", type=int, default=29536, help="TCP port on 127.0.0.1 (0: any)")
+    emulate.add_argument(
+        "--socketcand-port",
+        type=int,
+        default=29536,
+        help="socketcand TCP port on --listen (0: any free port)",
+    )
     emulate.add_argument(
         "--time",
         choices=("realtime", "lockstep"),
@@ -313,16 +333,25 @@ def _emulate(args: argparse.Namespace) -> int:
         if not 1 <= args.node_id <= 126:
             raise _UsageError(f"rig emulate: --node-id {args.node_id}: must be 1..126")
         overrides["drive_node"] = str(args.node_id)
-        if args.preset == "dc-servo":
+        if args.preset in ("dc-servo", "im-drive"):
             overrides["encoder_node"] = str(args.node_id + 1)
     if args.interface and not args.channel:
         raise _UsageError("rig emulate: --interface needs --channel")
     try:
+        if args.modbus_map:
+            from rig.emulate import run_modbus_emulator
+
+            return run_modbus_emulator(
+                args.modbus_map, overrides, host=args.listen, port=args.modbus_port, serial=args.modbus_serial
+            )
+        if not args.preset:
+            raise _UsageError("rig emulate: give --preset (CANopen) or --modbus-map (Modbus)")
         return run_emulator(
             args.preset,
             overrides,
             interface=args.interface,
             channel=args.channel,
+            host=args.listen,
             port=args.socketcand_port,
             lockstep=args.time == "lockstep",
         )

@@ -3,7 +3,7 @@
 Sections and keys (SI units; see ``examples/`` for complete files)::
 
     [run]        duration [s], time ("lockstep" | "realtime"), output (directory), name,
-                 period [s] (default: the emulator preset's)
+                 period [s] (default: the emulator preset's), trace (write trace.asc, default true)
     [bus]        interface, channel, bitrate, host, port       (ignored with --emulate)
     [emulator]   preset, and [emulator.params] NAME = "VALUE"   (for --emulate)
     [drive]      node_id, mode (voltage | cst | csv | csp | pv | dq-voltage), sync_rpdo, latency [s],
@@ -55,6 +55,7 @@ class RunConfig:
     output: str = "runs"
     name: str = "run"
     period: float = 0.0  #: 0: the emulator preset's period
+    trace: bool = True  #: write the CAN trace (trace.asc)
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.presets import build_preset
 from plant_emulator.socketcand_server import SocketcandServer
 
-__all__ = ["run_emulator"]
+__all__ = ["run_emulator", "run_modbus_emulator"]
 
 log = logging.getLogger(__name__)
 
@@ -112,5 +112,50 @@ def run_emulator(
             if network.notifier is not None:
                 network.notifier.stop()
             bus.shutdown()
+        print("rig emulate: stopped", flush=True)
+    return 0
+
+
+def run_modbus_emulator(
+    family: str,
+    overrides: dict[str, str],
+    *,
+    host: str = "127.0.0.1",
+    port: int = 5020,
+    serial: str | None = None,
+) -> int:
+    """Serve an emulated Modbus inverter (TCP on ``host``:``port``, or RTU on ``serial``) until Ctrl-C.
+
+    ``overrides`` set ``InverterModel`` fields by name (accel, slip, max_speed, comm_loss_timeout, ...).
+    """
+    import asyncio
+    import dataclasses
+
+    from plant_emulator.modbus_inverter import InverterModel, default_model, serve_rtu, serve_tcp
+
+    kinds = {f.name: f.type for f in dataclasses.fields(InverterModel)}
+    values: dict[str, float] = {}
+    for name, text in overrides.items():
+        if kinds.get(name) != "float":
+            known = ", ".join(k for k, v in kinds.items() if v == "float")
+            raise ConfigError(f"--param {name}: not a parameter of the inverter; known: {known}")
+        try:
+            values[name] = float(text)
+        except ValueError:
+            raise ConfigError(f"--param {name}={text!r}: not a number") from None
+    try:
+        model = default_model(family, **values)
+    except ValueError as exc:
+        raise ConfigError(f"--modbus-map {family}: {exc}") from exc
+    where = f"RTU on {serial}" if serial else f"TCP {host}:{port}"
+    print(f"rig emulate: Modbus inverter {family} on {where}; Ctrl-C stops", flush=True)
+    server = serve_rtu(model, port=serial) if serial else serve_tcp(model, host=host, port=port)
+    try:
+        asyncio.run(server)
+    except KeyboardInterrupt:
+        log.info("interrupted")
+    except OSError as exc:
+        raise ConfigError(f"cannot serve Modbus {where}: {exc}") from exc
+    finally:
         print("rig emulate: stopped", flush=True)
     return 0

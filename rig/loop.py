@@ -44,7 +44,7 @@ Law = Callable[[float, Feedback], tuple[float, float, float, Sequence[float]]]
 class _Window(collections.deque):  # type: ignore[type-arg]
     """The last ``WINDOW`` values: timing statistics without growing memory on long runs."""
 
-    WINDOW = 100_000
+    WINDOW = 20_000
 
     def __init__(self) -> None:
         super().__init__(maxlen=self.WINDOW)
@@ -52,7 +52,7 @@ class _Window(collections.deque):  # type: ignore[type-arg]
 
 @dataclass
 class StageTimes:
-    """Per-stage durations [s] of the last 100,000 cycles (read, update, write) and period errors."""
+    """Per-stage durations [s] of the last 20,000 cycles (read, update, write) and period errors."""
 
     read: _Window = field(default_factory=_Window)
     update: _Window = field(default_factory=_Window)

@@ -7,8 +7,8 @@ Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
 - ``samples.csv``: one row per cycle (time, reference, measurement, command,
   controller internals, loop timing), flushed every ``flush_every`` rows and on close;
 - ``samples.mat``: the same columns for MATLAB (scipy.io.savemat), written on close;
-- ``trace.asc``: the CAN trace in Vector ASCII (python-can's ``ASCWriter``),
-  which CANalyzer, SavvyCAN, asammdf and python-can read;
+- ``trace.asc``: the CAN trace in Vector ASCII (python-can's ``ASCWriter``), which
+  CANalyzer, SavvyCAN, asammdf and python-can read; left out with ``[run] trace = false``;
 - ``summary.json``: the metrics and how the run ended;
 - ``plot.png`` when matplotlib is installed.
 """
@@ -34,7 +34,13 @@ class Recorder:
     """Record ``columns`` per cycle into a fresh run directory under ``output``."""
 
     def __init__(
-        self, output: str | Path, name: str, columns: Sequence[str], *, flush_every: int = 100
+        self,
+        output: str | Path,
+        name: str,
+        columns: Sequence[str],
+        *,
+        flush_every: int = 100,
+        trace: bool = True,
     ) -> None:
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
         base = Path(output) / f"{name}-{stamp}"
@@ -51,7 +57,7 @@ class Recorder:
         self._count = 0
         self._flush_every = flush_every
         self._pending = 0
-        self.trace = can.ASCWriter(str(path / "trace.asc"))
+        self.trace = can.ASCWriter(str(path / "trace.asc")) if trace else None
         self.closed = False
 
     def write_config(self, config: dict[str, Any]) -> None:
@@ -63,7 +69,7 @@ class Recorder:
 
     def on_frame(self, msg: can.Message) -> None:
         """A CAN frame for the trace (a bus listener)."""
-        if not self.closed:
+        if not self.closed and self.trace is not None:
             self.trace.on_message_received(msg)
 
     def sample(self, row: Sequence[float]) -> None:
@@ -95,7 +101,8 @@ class Recorder:
         self.closed = True
         self._file.flush()
         self._file.close()
-        self.trace.stop()
+        if self.trace is not None:
+            self.trace.stop()
         data = self.array()
         try:
             import scipy.io

@@ -306,7 +306,11 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
     cycles = round((duration or cfg.run.duration) / period)
     # flushed at least every 50 ms of run time: a killed host loses at most that
     recorder = Recorder(
-        cfg.run.output, cfg.run.name, HostLoop.columns(internals), flush_every=max(1, round(0.05 / period))
+        cfg.run.output,
+        cfg.run.name,
+        HostLoop.columns(internals),
+        flush_every=max(1, round(0.05 / period)),
+        trace=cfg.run.trace,
     )
     recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": emulate})
     if hub is not None:

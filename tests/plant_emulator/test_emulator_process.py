@@ -62,3 +62,48 @@ def test_emulator_in_a_separate_process() -> None:
         out, err = proc.communicate(timeout=10)
     assert proc.returncode == 0, err
     assert "stopped" in out
+
+
+def test_modbus_inverter_process_binds_localhost_by_default() -> None:
+    import socket
+
+    from drivers.modbus_inverter import ModbusInverter
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rig.cli",
+            "emulate",
+            "--modbus-map",
+            "delta-vfd-b",
+            "--modbus-port",
+            str(port),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        assert f"TCP 127.0.0.1:{port}" in line, line
+        inverter = ModbusInverter("delta-vfd-b", host="127.0.0.1", tcp_port=port)
+        for _ in range(50):  # the server may need a moment after printing
+            try:
+                inverter.connect()
+                break
+            except Exception:
+                import time
+
+                time.sleep(0.05)
+        assert inverter.read("fault_code") == 0.0
+        inverter.close()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=10)
+    assert "stopped" in out, err
