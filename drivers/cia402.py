@@ -152,36 +152,31 @@ class Cia402Drive:
         )
         return self.units
 
-    def configure_pdos(self, *, sync_rpdo: bool = True, latency_s: float = 0.0) -> None:
-        """Map the process data the host loop uses: RPDO1 controlword + target of the mode,
-        TPDO2 position + velocity and TPDO3 statusword + torque + current, every SYNC."""
-        if self.mode not in _TARGET:
-            raise ConfigError(f"node {self.node_id}: set a mode with a scalar target before mapping PDOs")
-        index, sub = _TARGET[self.mode]
+    def _map_pdos(
+        self,
+        rpdo: list[tuple[int, int]],
+        tpdos: dict[int, list[tuple[int, int]]],
+        sync_rpdo: bool,
+        latency_s: float,
+    ) -> None:
+        """RPDO1 = ``rpdo`` (synchronous, or applied ``latency_s`` after receipt), the other RPDOs off;
+        TPDO n = ``tpdos[n]`` on every SYNC; written to the drive through SDO."""
         self.node.rpdo.read()
         self.node.tpdo.read()
-        rp = self.node.rpdo[1]
-        rp.clear()
-        rp.add_variable(0x6040)
-        rp.add_variable(index, sub)
-        rp.trans_type = 1 if sync_rpdo else 255
-        rp.enabled = True
-        for n in (2, 3, 4):
-            self.node.rpdo[n].clear()
-            self.node.rpdo[n].enabled = False
-        tp = self.node.tpdo[2]
-        tp.clear()
-        tp.add_variable(0x6064)
-        tp.add_variable(0x606C)
-        tp.trans_type = 1
-        tp.enabled = True
-        tp3 = self.node.tpdo[3]
-        tp3.clear()
-        tp3.add_variable(0x6041)
-        tp3.add_variable(0x6077)
-        tp3.add_variable(0x6078)
-        tp3.trans_type = 1
-        tp3.enabled = True
+        for n in (1, 2, 3, 4):
+            rp = self.node.rpdo[n]
+            rp.clear()
+            for index, sub in rpdo if n == 1 else ():
+                rp.add_variable(index, sub)
+            rp.trans_type = 1 if sync_rpdo else 255
+            rp.enabled = n == 1
+        for n, entries in tpdos.items():
+            tp = self.node.tpdo[n]
+            tp.clear()
+            for index, sub in entries:
+                tp.add_variable(index, sub)
+            tp.trans_type = 1
+            tp.enabled = True
         try:
             self.node.rpdo.save()
             self.node.tpdo.save()
@@ -189,12 +184,23 @@ class Cia402Drive:
             raise SdoAbort(
                 "PDO mapping refused", code=exc.code, node_id=self.node_id, index=0x1600, subindex=0
             ) from exc
-        if not sync_rpdo:
-            self.sdo_write(0x2001, 0, round(latency_s * 1e6))
+        self.sdo_write(0x2001, 0, 0 if sync_rpdo else round(latency_s * 1e6))
+        self._rpdo = self.node.rpdo[1]
+
+    def configure_pdos(self, *, sync_rpdo: bool = True, latency_s: float = 0.0) -> None:
+        """Map the process data the host loop uses: RPDO1 controlword + target of the mode,
+        TPDO2 position + velocity and TPDO3 statusword + torque + current, every SYNC."""
+        if self.mode not in _TARGET:
+            raise ConfigError(f"node {self.node_id}: set a mode with a scalar target before mapping PDOs")
+        self._map_pdos(
+            [(0x6040, 0), _TARGET[self.mode]],
+            {2: [(0x6064, 0), (0x606C, 0)], 3: [(0x6041, 0), (0x6077, 0), (0x6078, 0)]},
+            sync_rpdo,
+            latency_s,
+        )
         # the process data are packed and unpacked with struct, in the layout mapped above:
         # canopen's Variable.raw decodes and logs on every access, too slow for the cycle
-        target_bits = len(self.node.rpdo[1][1].od)
-        self._rpdo = self.node.rpdo[1]
+        target_bits = len(self._rpdo[1].od)
         self._rpdo_format = struct.Struct("<Hi" if target_bits == 32 else "<Hh")
         self._tpdo2, self._tpdo3 = self.node.tpdo[2], self.node.tpdo[3]
         self._tpdo2_format, self._tpdo3_format = struct.Struct("<ii"), struct.Struct("<Hhh")
@@ -212,35 +218,13 @@ class Cia402Drive:
 
     def configure_dq_pdos(self, *, sync_rpdo: bool = True, latency_s: float = 0.0) -> None:
         """Process data of mode -2 (dq voltage): RPDO1 u_d, u_q [mV] (0x2200); TPDO4 i_d, i_q [mA]
-        (0x2210) and TPDO2 frame angle [urad], frame speed [mrad/s] (0x2220, 0x2221), every SYNC."""
-        self.node.rpdo.read()
-        self.node.tpdo.read()
-        rp = self.node.rpdo[1]
-        rp.clear()
-        rp.add_variable(0x2200, 1)
-        rp.add_variable(0x2200, 2)
-        rp.trans_type = 1 if sync_rpdo else 255
-        rp.enabled = True
-        for n, entries in (
-            (2, ((0x2220, 0), (0x2221, 0))),
-            (4, ((0x2210, 1), (0x2210, 2))),
-            (3, ((0x6041, 0),)),
-        ):
-            tp = self.node.tpdo[n]
-            tp.clear()
-            for index, sub in entries:
-                tp.add_variable(index, sub)
-            tp.trans_type = 1
-            tp.enabled = True
-        try:
-            self.node.rpdo.save()
-            self.node.tpdo.save()
-        except SdoAbortedError as exc:
-            raise SdoAbort(
-                "PDO mapping refused", code=exc.code, node_id=self.node_id, index=0x1600, subindex=0
-            ) from exc
-        self.sdo_write(0x2001, 0, 0 if sync_rpdo else round(latency_s * 1e6))
-        self._rpdo = rp
+        (0x2210), TPDO2 frame angle [urad] and speed [mrad/s] (0x2220, 0x2221), TPDO3 statusword."""
+        self._map_pdos(
+            [(0x2200, 1), (0x2200, 2)],
+            {2: [(0x2220, 0), (0x2221, 0)], 3: [(0x6041, 0)], 4: [(0x2210, 1), (0x2210, 2)]},
+            sync_rpdo,
+            latency_s,
+        )
         self._dq = struct.Struct("<ii")
         self._tpdo2, self._tpdo3, self._tpdo4 = self.node.tpdo[2], self.node.tpdo[3], self.node.tpdo[4]
 
