@@ -195,12 +195,11 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figu
     import math
     import os
     import re
-    import subprocess
-    import sys
     import tempfile
 
     from rig.config import BusConfig
     from rig.demo import demo_config
+    from rig.process import spawn_rig, stop_rig
     from rig.run import prepare
 
     figures: list[Figure] = []
@@ -217,17 +216,11 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figu
             {"name": "lockstep_cycles_per_s_worst_of_3", "value": round(min(rates)), "unit": "cycles/s"}
         )
 
-        command = ["emulate", "--preset", "dc-servo", "--param", "period=0.001", "--socketcand-port", "0"]
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "rig.cli", *command],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.DEVNULL,
-            text=True,
-            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        proc, line = spawn_rig(
+            "emulate", "--preset", "dc-servo", "--param", "period=0.001", "--socketcand-port", "0"
         )
         try:
-            assert proc.stdout is not None
-            match = re.search(r":(\d+);", proc.stdout.readline())
+            match = re.search(r":(\d+);", line)
             if match is None:
                 raise RuntimeError("rig emulate did not start")
             rt = dataclasses.replace(
@@ -245,8 +238,7 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figu
             session.close()
             steal1 = _steal_jiffies()
         finally:
-            proc.terminate()
-            proc.wait(timeout=10)
+            stop_rig(proc, timeout=10)
     timing = summary["timing"]
     for key, name in (
         ("period_error_median_us", "median"),

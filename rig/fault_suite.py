@@ -19,11 +19,8 @@ import contextlib
 import dataclasses
 import json
 import math
-import os
 import signal
 import socket
-import subprocess
-import sys
 import tempfile
 import threading
 import time
@@ -37,6 +34,7 @@ from drivers.modbus_inverter import ModbusInverter
 from plant_emulator.modbus_inverter import InverterContext, default_model, serve_tcp
 from rig.config import FaultsConfig, RigConfig
 from rig.demo import demo_config
+from rig.process import spawn_rig
 from rig.run import prepare
 
 __all__ = ["AT", "SCENARIOS", "run_faults"]
@@ -148,12 +146,7 @@ def _sigkill(out: str) -> dict[str, Any]:
     """``rig run`` in its own process, real time at 1 kHz, killed with SIGKILL after about 1 s."""
     config = Path(out) / "rt.toml"
     config.write_text(_KILL_CONFIG.format(out=Path(out) / "kill"))
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "rig.cli", "run", "--config", str(config), "--emulate", "--duration", "5"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
-    )
+    proc, _ = spawn_rig("run", "--config", str(config), "--emulate", "--duration", "5", quiet=True)
     started, marks = None, []
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and started is None:

@@ -2,40 +2,20 @@
 
 from __future__ import annotations
 
-import os
 import re
-import signal
-import subprocess
-import sys
 
 import can
 import canopen
 
 from drivers.maps import CIA402_EDS
+from rig.process import spawn_rig, stop_rig
 
 
 def test_emulator_in_a_separate_process() -> None:
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "rig.cli",
-            "emulate",
-            "--preset",
-            "dc-servo",
-            "--node-id",
-            "5",
-            "--socketcand-port",
-            "0",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    proc, line = spawn_rig(
+        "emulate", "--preset", "dc-servo", "--node-id", "5", "--socketcand-port", "0", stderr=True
     )
     try:
-        assert proc.stdout is not None
-        line = proc.stdout.readline()
         match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
         assert match, line
         bus = can.Bus(
@@ -58,8 +38,7 @@ def test_emulator_in_a_separate_process() -> None:
         finally:
             network.disconnect()
     finally:
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=10)
+        out, err = stop_rig(proc, timeout=10)
     assert proc.returncode == 0, err
     assert "stopped" in out
 
@@ -72,25 +51,8 @@ def test_modbus_inverter_process_binds_localhost_by_default() -> None:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "rig.cli",
-            "emulate",
-            "--modbus-map",
-            "delta-vfd-b",
-            "--modbus-port",
-            str(port),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env={**os.environ, "PYTHONUNBUFFERED": "1"},
-    )
+    proc, line = spawn_rig("emulate", "--modbus-map", "delta-vfd-b", "--modbus-port", str(port), stderr=True)
     try:
-        assert proc.stdout is not None
-        line = proc.stdout.readline()
         assert f"TCP 127.0.0.1:{port}" in line, line
         inverter = ModbusInverter("delta-vfd-b", host="127.0.0.1", tcp_port=port)
         for _ in range(50):  # the server may need a moment after printing
@@ -104,6 +66,5 @@ def test_modbus_inverter_process_binds_localhost_by_default() -> None:
         assert inverter.read("fault_code") == 0.0
         inverter.close()
     finally:
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=10)
+        out, err = stop_rig(proc, timeout=10)
     assert "stopped" in out, err

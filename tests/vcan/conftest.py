@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import os
-import signal
 import socket
 import subprocess
-import sys
 from collections.abc import Callable, Iterator
 
 import pytest
+
+from rig.process import spawn_rig, stop_rig
 
 
 def vcan_unavailable() -> str | None:
@@ -37,31 +36,14 @@ def start_emulator() -> Iterator[Callable[..., subprocess.Popen[str]]]:
     procs: list[subprocess.Popen[str]] = []
 
     def start(*args: str) -> subprocess.Popen[str]:
-        proc = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "rig.cli",
-                "emulate",
-                "--interface",
-                "socketcan",
-                "--channel",
-                "vcan0",
-                *args,
-            ],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        proc, line = spawn_rig(
+            "emulate", "--interface", "socketcan", "--channel", "vcan0", *args, stderr=True
         )
         procs.append(proc)
-        assert proc.stdout is not None
-        line = proc.stdout.readline()  # "rig emulate: ... on socketcan:vcan0; Ctrl-C stops"
-        assert "socketcan:vcan0" in line, line + (proc.stderr.read() if proc.stderr else "")
+        assert "socketcan:vcan0" in line, line  # "rig emulate: ... on socketcan:vcan0; Ctrl-C stops"
         return proc
 
     yield start
     for proc in procs:
-        proc.send_signal(signal.SIGINT)
-        _out, err = proc.communicate(timeout=60)
+        _out, err = stop_rig(proc)
         assert proc.returncode == 0, err

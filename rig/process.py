@@ -1,0 +1,32 @@
+"""Starting ``rig`` itself as another process (the emulator for tests and benchmarks, a run to kill)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+
+__all__ = ["spawn_rig", "stop_rig"]
+
+
+def spawn_rig(*args: str, quiet: bool = False, stderr: bool = False) -> tuple[subprocess.Popen[str], str]:
+    """Start ``python -m rig.cli ARGS`` unbuffered; returns the process and its first stdout line
+    ("" when ``quiet``: stdout is discarded and nothing is waited for). stderr is kept for
+    ``stop_rig`` only with ``stderr=True`` (an unread pipe would block a chatty process)."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rig.cli", *args],
+        stdout=subprocess.DEVNULL if quiet else subprocess.PIPE,
+        stderr=subprocess.PIPE if stderr else subprocess.DEVNULL,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    line = "" if quiet or proc.stdout is None else proc.stdout.readline()
+    return proc, line
+
+
+def stop_rig(proc: subprocess.Popen[str], *, timeout: float = 60.0) -> tuple[str, str]:
+    """Ctrl-C (SIGINT) and wait; returns the rest of (stdout, stderr)."""
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=timeout)
+    return out or "", err or ""
