@@ -17,7 +17,7 @@ from typing import Any
 
 import can
 
-from drivers.transport import SyncHub
+from plant_emulator.lockstep import SyncHub
 
 __all__ = ["FAULT_NAMES", "FaultInjector", "FaultPlan", "parse_faults"]
 

@@ -30,7 +30,6 @@ from typing import Any
 
 import canopen
 
-from drivers.transport import SyncHub, attach_network
 from plant_emulator.axes import CST, DQ_VOLTAGE_MODE, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive
@@ -44,7 +43,6 @@ __all__ = [
     "DcServoPreset",
     "GridConverterPreset",
     "ImDrivePreset",
-    "LockstepBench",
     "build_preset",
     "load_profile",
     "preset_period",
@@ -235,33 +233,3 @@ def _grid(p: GridConverterPreset, network: canopen.Network) -> list[EmulatedNode
     drive.write(0x1A01, 2, 0x22210020)
     drive.write(0x1803, 1, 0x480 + p.drive_node)
     return [drive]
-
-
-class LockstepBench:
-    """A preset on an in-process ``SyncHub``, with a host-side canopen ``Network`` to drive it.
-
-    ``sync()`` advances emulated time by one period and sends SYNC from the host:
-    when it returns, the devices have stepped their physics and their TPDOs are
-    in the host's PDO maps.
-    """
-
-    def __init__(self, preset: str, overrides: dict[str, str] | None = None) -> None:
-        self.hub = SyncHub()
-        self.device_network = canopen.Network()
-        attach_network(self.device_network, self.hub.bus(queue=False, channel="emulator"))
-        self.host = canopen.Network()
-        attach_network(self.host, self.hub.bus(queue=False, channel="host"))
-        self.devices, self.period = build_preset(preset, self.device_network, overrides)
-        self.syncs = 0
-        for d in self.devices:
-            d.boot()
-
-    def sync(self) -> None:
-        self.syncs += 1
-        self.hub.clock = self.syncs * self.period  # from a count: no drift by rounding
-        self.host.send_message(0x80, b"")
-
-    def close(self) -> None:
-        for net in (self.host, self.device_network):
-            if net.bus is not None:
-                net.bus.shutdown()

@@ -23,7 +23,7 @@ import time
 
 import can
 
-from drivers.transport import SyncHub
+from plant_emulator.lockstep import SyncHub
 
 __all__ = ["SocketcandServer", "format_frame", "parse_send"]
 

@@ -146,7 +146,8 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
     import canopen
 
     from drivers.maps import CIA402_EDS
-    from plant_emulator.presets import PRESETS, LockstepBench, build_preset
+    from plant_emulator.lockstep import LockstepBench
+    from plant_emulator.presets import PRESETS, build_preset
 
     figures: list[Figure] = []
     for name in PRESETS:

@@ -400,7 +400,7 @@ def _scan(args: argparse.Namespace) -> int:
     import canopen
 
     from drivers.bus import open_bus
-    from drivers.transport import SyncHub, attach_network
+    from plant_emulator.lockstep import SyncHub, attach_network
     from plant_emulator.presets import build_preset
     from rig.scan import scan, wall_listen
 

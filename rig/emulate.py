@@ -22,8 +22,8 @@ import can
 import canopen
 
 from drivers.errors import ConfigError
-from drivers.transport import SyncHub, attach_network
 from plant_emulator.canopen_node import EmulatedNode
+from plant_emulator.lockstep import SyncHub, attach_network
 from plant_emulator.presets import build_preset
 from plant_emulator.socketcand_server import SocketcandServer
 

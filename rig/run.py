@@ -43,9 +43,9 @@ from drivers.bus import open_bus
 from drivers.cia402 import Cia402Drive
 from drivers.errors import CommunicationTimeout, ConfigError, SdoAbort
 from drivers.maps import CIA402_EDS
-from drivers.transport import SyncHub, attach_network
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.faults import FaultInjector, FaultPlan
+from plant_emulator.lockstep import SyncHub, attach_network
 from plant_emulator.presets import build_preset
 from rig.config import ControllerConfig, ReferenceConfig, RigConfig
 from rig.loop import Feedback, HostLoop, Law

@@ -20,7 +20,7 @@ from drivers.maps import CIA402_EDS
 from drivers.maps.od import load_od
 from drivers.modbus_inverter import ModbusInverter
 from plant_emulator.cia402_state import PowerState
-from plant_emulator.presets import LockstepBench
+from plant_emulator.lockstep import LockstepBench
 from rig.config import load_config
 from rig.run import build_law
 

@@ -14,7 +14,7 @@ import pytest
 from drivers.bus import open_bus
 from drivers.cia402 import Cia402Drive
 from drivers.errors import CommunicationError, SdoAbort
-from plant_emulator.presets import LockstepBench
+from plant_emulator.lockstep import LockstepBench
 
 
 @pytest.fixture(params=["emulator", pytest.param("hardware", marks=pytest.mark.hardware)])

@@ -14,7 +14,7 @@ from drivers.maps import CIA402_EDS, CIA406_EDS
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.cia402_state import PowerState, statusword_state
 from plant_emulator.induction_motor import ImParams
-from plant_emulator.presets import LockstepBench
+from plant_emulator.lockstep import LockstepBench
 
 S = PowerState
 

@@ -9,7 +9,7 @@ import pytest
 
 from controllers.dq_current import ComplexVectorCurrentController, DqCurrentParams
 from drivers.maps import CIA402_EDS
-from plant_emulator.presets import LockstepBench
+from plant_emulator.lockstep import LockstepBench
 from plant_emulator.rl_dq import RLParams, StationaryRLConverter
 
 L1, R1, W = 6e-3, 0.36, 2 * math.pi * 50

@@ -20,8 +20,11 @@ from collections.abc import Callable
 from typing import Any
 
 import can
+import canopen
 
-__all__ = ["SyncBus", "SyncHub", "attach_network"]
+from plant_emulator.presets import build_preset
+
+__all__ = ["LockstepBench", "SyncBus", "SyncHub", "attach_network"]
 
 Listener = Callable[[can.Message], None]
 log = logging.getLogger(__name__)
@@ -105,3 +108,33 @@ def attach_network(network: Any, bus: SyncBus) -> None:
             log.warning("dropped frame 0x%03X [%s]: %s", msg.arbitration_id, bytes(msg.data).hex(), exc)
 
     bus.listeners.append(_to_network)
+
+
+class LockstepBench:
+    """A preset on an in-process ``SyncHub``, with a host-side canopen ``Network`` to drive it.
+
+    ``sync()`` advances emulated time by one period and sends SYNC from the host:
+    when it returns, the devices have stepped their physics and their TPDOs are
+    in the host's PDO maps.
+    """
+
+    def __init__(self, preset: str, overrides: dict[str, str] | None = None) -> None:
+        self.hub = SyncHub()
+        self.device_network = canopen.Network()
+        attach_network(self.device_network, self.hub.bus(queue=False, channel="emulator"))
+        self.host = canopen.Network()
+        attach_network(self.host, self.hub.bus(queue=False, channel="host"))
+        self.devices, self.period = build_preset(preset, self.device_network, overrides)
+        self.syncs = 0
+        for d in self.devices:
+            d.boot()
+
+    def sync(self) -> None:
+        self.syncs += 1
+        self.hub.clock = self.syncs * self.period  # from a count: no drift by rounding
+        self.host.send_message(0x80, b"")
+
+    def close(self) -> None:
+        for net in (self.host, self.device_network):
+            if net.bus is not None:
+                net.bus.shutdown()

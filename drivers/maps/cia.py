@@ -1,0 +1,275 @@
+"""CANopen wire constants: CiA 301 (communication), CiA 402 (drives), CiA 406 (encoders).
+
+One definition for both sides of the wire: the host drivers (``drivers/``) and
+the emulated devices (``plant_emulator/``) import these names, so neither
+writes an object index, a statusword mask, a mode number or an NMT code as a
+literal. Object indices are module constants (the hot paths read them every
+cycle); states, modes and commands are enums.
+
+Manufacturer objects (0x2000-0x5FFF) are those of the toolkit's own emulated
+drive (``drivers/maps/build_eds.py``); a commercial drive has other ones.
+"""
+
+from __future__ import annotations
+
+import enum
+
+__all__ = [
+    "BOOT_UP",
+    "COB_EMCY",
+    "COB_HEARTBEAT",
+    "COB_NMT",
+    "COB_RPDO",
+    "COB_SDO_RX",
+    "COB_SDO_TX",
+    "COB_SYNC",
+    "COB_TPDO",
+    "MODE_BITS",
+    "MODE_NAMES",
+    "PDO_INVALID",
+    "TARGET_OF_MODE",
+    "Controlword",
+    "Mode",
+    "NmtCommand",
+    "NmtState",
+    "PowerState",
+    "decode_statusword",
+    "mode_code",
+]
+
+# --- CiA 301 communication profile ---------------------------------------------------------
+DEVICE_TYPE = 0x1000
+ERROR_REGISTER = 0x1001
+COB_ID_SYNC = 0x1005
+COMM_CYCLE_PERIOD = 0x1006  #: [us]
+DEVICE_NAME = 0x1008
+SOFTWARE_VERSION = 0x100A
+STORE_PARAMETERS = 0x1010
+COB_ID_EMCY = 0x1014
+CONSUMER_HEARTBEAT = 0x1016  #: sub n: node id << 16 | time [ms]
+PRODUCER_HEARTBEAT = 0x1017  #: [ms]
+IDENTITY = 0x1018  #: sub 1 vendor, 2 product, 3 revision, 4 serial
+RPDO_COMM, RPDO_MAP = 0x1400, 0x1600  #: + n for RPDO n + 1
+TPDO_COMM, TPDO_MAP = 0x1800, 0x1A00  #: + n for TPDO n + 1
+PDO_COMM_COB_ID, PDO_COMM_TYPE, PDO_COMM_INHIBIT, PDO_COMM_EVENT_TIMER = 1, 2, 3, 5  #: subindices
+PDO_INVALID = 0x80000000  #: COB-ID bit 31: the PDO does not exist (is being configured)
+PDO_SYNC_MAX = 240  #: transmission types 1-240: every n-th SYNC; 254/255: event driven
+PDO_EVENT_TYPES = (254, 255)
+
+# COB-IDs of the predefined connection set (+ node id)
+COB_NMT = 0x000
+COB_SYNC = 0x080
+COB_EMCY = 0x080
+COB_TPDO = (0x180, 0x280, 0x380, 0x480)
+COB_RPDO = (0x200, 0x300, 0x400, 0x500)
+COB_SDO_TX = 0x580  #: server -> client
+COB_SDO_RX = 0x600  #: client -> server
+COB_HEARTBEAT = 0x700
+BOOT_UP = 0x00  #: the one data byte of a boot-up message on COB_HEARTBEAT + node id
+
+
+class NmtCommand(enum.IntEnum):
+    """NMT command specifiers (first byte of the 2-byte frame on COB-ID 0)."""
+
+    START = 0x01
+    STOP = 0x02
+    PRE_OPERATIONAL = 0x80
+    RESET_NODE = 0x81
+    RESET_COMMUNICATION = 0x82
+
+
+class NmtState(enum.IntEnum):
+    """NMT states as a heartbeat reports them."""
+
+    INITIALISING = 0x00
+    STOPPED = 0x04
+    OPERATIONAL = 0x05
+    PRE_OPERATIONAL = 0x7F
+
+    @property
+    def text(self) -> str:
+        """The state as canopen spells it (``PRE-OPERATIONAL``)."""
+        return self.name.replace("_", "-")
+
+
+# --- CiA 402 drive profile --------------------------------------------------------------------
+ERROR_CODE = 0x603F
+CONTROLWORD = 0x6040
+STATUSWORD = 0x6041
+QUICK_STOP_OPTION = 0x605A
+SHUTDOWN_OPTION = 0x605B
+DISABLE_OPERATION_OPTION = 0x605C
+HALT_OPTION = 0x605D
+FAULT_REACTION_OPTION = 0x605E
+MODES_OF_OPERATION = 0x6060
+MODES_DISPLAY = 0x6061
+POSITION_ACTUAL = 0x6064  #: [increments]
+FOLLOWING_ERROR_WINDOW = 0x6065  #: [increments]
+VELOCITY_ACTUAL = 0x606C  #: [increments/s]
+TARGET_TORQUE = 0x6071  #: [per mille of RATED_TORQUE]
+MAX_CURRENT = 0x6073  #: [per mille of RATED_CURRENT]
+RATED_CURRENT = 0x6075  #: [mA]
+RATED_TORQUE = 0x6076  #: [mN m]
+TORQUE_ACTUAL = 0x6077  #: [per mille]
+CURRENT_ACTUAL = 0x6078  #: [per mille]
+TARGET_POSITION = 0x607A  #: [increments]
+MAX_MOTOR_SPEED = 0x6080  #: [rpm]
+PROFILE_ACCELERATION = 0x6083
+PROFILE_DECELERATION = 0x6084
+QUICK_STOP_DECELERATION = 0x6085
+POSITION_ENCODER_RESOLUTION = 0x608F  #: sub 1 increments, sub 2 motor revolutions
+GEAR_RATIO = 0x6091
+FEED_CONSTANT = 0x6092
+SI_UNIT_POSITION = 0x60A8
+SI_UNIT_VELOCITY = 0x60A9
+FOLLOWING_ERROR_ACTUAL = 0x60F4
+TARGET_VELOCITY = 0x60FF  #: [increments/s]
+SUPPORTED_MODES = 0x6502
+
+# manufacturer objects of the toolkit's emulated drive
+COMMAND_LATENCY = 0x2001  #: [us] an event RPDO takes effect this long after receipt
+TARGET_VOLTAGE = 0x2100  #: [mV] mode -1
+DQ_VOLTAGE = 0x2200  #: [mV] sub 1 u_d, sub 2 u_q, mode -2
+DQ_CURRENT = 0x2210  #: [mA] sub 1 i_d, sub 2 i_q
+FRAME_ANGLE = 0x2220  #: [urad]
+FRAME_SPEED = 0x2221  #: [mrad/s]
+
+# statusword bits beyond the state (CiA 402-2, 6.3)
+SW_VOLTAGE_ENABLED = 0x0010
+SW_WARNING = 0x0080
+SW_REMOTE = 0x0200
+SW_TARGET_REACHED = 0x0400
+SW_FOLLOWS_COMMAND = 0x1000  #: bit 12 in the cyclic synchronous modes
+SW_FOLLOWING_ERROR = 0x2000  #: bit 13
+
+
+class PowerState(enum.Enum):
+    """States of the CiA 402 power drive system; ``mask``/``bits`` decode the statusword."""
+
+    NOT_READY_TO_SWITCH_ON = "NOT READY TO SWITCH ON"
+    SWITCH_ON_DISABLED = "SWITCH ON DISABLED"
+    READY_TO_SWITCH_ON = "READY TO SWITCH ON"
+    SWITCHED_ON = "SWITCHED ON"
+    OPERATION_ENABLED = "OPERATION ENABLED"
+    QUICK_STOP_ACTIVE = "QUICK STOP ACTIVE"
+    FAULT_REACTION_ACTIVE = "FAULT REACTION ACTIVE"
+    FAULT = "FAULT"
+
+    @property
+    def mask(self) -> int:
+        return _STATUS[self][0]
+
+    @property
+    def bits(self) -> int:
+        """Statusword bits 0-6 of this state."""
+        return _STATUS[self][1]
+
+
+#: statusword (mask, value) of each state: ready, switched on, operation enabled, fault,
+#: voltage enabled (ignored), quick stop, switch on disabled
+_STATUS = {
+    PowerState.NOT_READY_TO_SWITCH_ON: (0x4F, 0x00),
+    PowerState.SWITCH_ON_DISABLED: (0x4F, 0x40),
+    PowerState.READY_TO_SWITCH_ON: (0x6F, 0x21),
+    PowerState.SWITCHED_ON: (0x6F, 0x23),
+    PowerState.OPERATION_ENABLED: (0x6F, 0x27),
+    PowerState.QUICK_STOP_ACTIVE: (0x6F, 0x07),
+    PowerState.FAULT_REACTION_ACTIVE: (0x4F, 0x0F),
+    PowerState.FAULT: (0x4F, 0x08),
+}
+_BY_STATUS = {(mask, value): state for state, (mask, value) in _STATUS.items()}
+
+
+def decode_statusword(statusword: int) -> PowerState | None:
+    """The state a statusword reports, or None when its bits 0-6 encode none."""
+    for (mask, value), state in _BY_STATUS.items():
+        if statusword & mask == value:
+            return state
+    return None
+
+
+class Controlword(enum.IntEnum):
+    """Device control commands (controlword bits 0-3 and 7; CiA 402-2, 6.2)."""
+
+    DISABLE_VOLTAGE = 0x00  #: transitions 7, 9, 10, 12
+    QUICK_STOP = 0x02  #: transitions 7, 10, 11
+    SHUTDOWN = 0x06  #: transitions 2, 6, 8
+    SWITCH_ON = 0x07  #: transition 3 (and 5: disable operation)
+    ENABLE_OPERATION = 0x0F  #: transitions 4, 16
+    FAULT_RESET = 0x80  #: transition 15, on the rising edge
+
+
+class Mode(enum.IntEnum):
+    """Modes of operation (0x6060); negative values are this toolkit's manufacturer modes."""
+
+    PROFILE_POSITION = 1
+    PROFILE_VELOCITY = 3
+    PROFILE_TORQUE = 4
+    HOMING = 6
+    INTERPOLATED_POSITION = 7
+    CSP = 8
+    CSV = 9
+    CST = 10
+    VOLTAGE = -1  #: armature voltage [mV] in TARGET_VOLTAGE
+    DQ_VOLTAGE = -2  #: dq voltage [mV] in DQ_VOLTAGE
+
+
+#: the configuration's mode names
+MODE_NAMES = {
+    "pp": Mode.PROFILE_POSITION,
+    "pv": Mode.PROFILE_VELOCITY,
+    "tq": Mode.PROFILE_TORQUE,
+    "csp": Mode.CSP,
+    "csv": Mode.CSV,
+    "cst": Mode.CST,
+    "voltage": Mode.VOLTAGE,
+    "dq-voltage": Mode.DQ_VOLTAGE,
+}
+
+#: bit of each mode in SUPPORTED_MODES (0x6502); bits 16-31 are manufacturer specific
+MODE_BITS = {
+    Mode.PROFILE_POSITION: 1 << 0,
+    Mode.PROFILE_VELOCITY: 1 << 2,
+    Mode.PROFILE_TORQUE: 1 << 3,
+    Mode.HOMING: 1 << 5,
+    Mode.INTERPOLATED_POSITION: 1 << 6,
+    Mode.CSP: 1 << 7,
+    Mode.CSV: 1 << 8,
+    Mode.CST: 1 << 9,
+    Mode.VOLTAGE: 1 << 16,
+    Mode.DQ_VOLTAGE: 1 << 17,
+}
+
+#: the target object (index, subindex) each scalar mode takes its command from
+TARGET_OF_MODE = {
+    Mode.VOLTAGE: (TARGET_VOLTAGE, 0),
+    Mode.PROFILE_VELOCITY: (TARGET_VELOCITY, 0),
+    Mode.CSP: (TARGET_POSITION, 0),
+    Mode.CSV: (TARGET_VELOCITY, 0),
+    Mode.CST: (TARGET_TORQUE, 0),
+}
+
+
+def mode_code(mode: str | int) -> Mode:
+    """A mode by its configuration name or number; ValueError naming the known ones."""
+    if isinstance(mode, str):
+        if mode in MODE_NAMES:
+            return MODE_NAMES[mode]
+    else:
+        try:
+            return Mode(mode)
+        except ValueError:
+            pass
+    raise ValueError(f"unknown CiA 402 mode {mode!r}; known: {', '.join(MODE_NAMES)}")
+
+
+# --- CiA 406 encoder profile ------------------------------------------------------------------
+ENCODER_OPERATING_PARAMETERS = 0x6000
+ENCODER_RESOLUTION = 0x6001  #: measuring units per revolution
+ENCODER_POSITION = 0x6004  #: [increments]
+ENCODER_SPEED = 0x6030  #: sub 1: speed value channel 1 [increments/s], INTEGER16
+ENCODER_CYCLIC_TIMER = 0x6200  #: [ms]
+ENCODER_SINGLETURN_RESOLUTION = 0x6501
+
+#: device profile numbers in the low word of DEVICE_TYPE
+PROFILE_DRIVE, PROFILE_ENCODER = 402, 406
