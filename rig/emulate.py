@@ -44,7 +44,7 @@ def _locked_notify(network: Any, lock: threading.RLock) -> None:
 
 def run_emulator(
     preset: str,
-    overrides: dict[str, str],
+    params: dict[str, Any],
     *,
     interface: str | None = None,
     channel: str | None = None,
@@ -82,7 +82,7 @@ def run_emulator(
     try:
         with lock:
             devices: list[EmulatedNode]
-            devices, period = build_preset(preset, network, overrides)
+            devices, period = build_preset(preset, network, params)
             for d in devices:
                 if hasattr(d, "lockstep"):
                     d.lockstep = lockstep
@@ -118,7 +118,7 @@ def run_emulator(
 
 def run_modbus_emulator(
     family: str,
-    overrides: dict[str, str],
+    params: dict[str, str],
     *,
     host: str = "127.0.0.1",
     port: int = 5020,
@@ -126,23 +126,14 @@ def run_modbus_emulator(
 ) -> int:
     """Serve an emulated Modbus inverter (TCP on ``host``:``port``, or RTU on ``serial``) until Ctrl-C.
 
-    ``overrides`` set ``InverterModel`` fields by name (accel, slip, max_speed, comm_loss_timeout, ...).
+    ``params`` set ``InverterModel`` fields by name (accel, slip, max_speed, comm_loss_timeout, ...).
     """
     import asyncio
-    import dataclasses
 
     from plant_emulator.modbus_inverter import InverterModel, default_model, serve_rtu, serve_tcp
+    from rig.params import typed_values
 
-    kinds = {f.name: f.type for f in dataclasses.fields(InverterModel)}
-    values: dict[str, float] = {}
-    for name, text in overrides.items():
-        if kinds.get(name) != "float":
-            known = ", ".join(k for k, v in kinds.items() if v == "float")
-            raise ConfigError(f"--param {name}: not a parameter of the inverter; known: {known}")
-        try:
-            values[name] = float(text)
-        except ValueError:
-            raise ConfigError(f"--param {name}={text!r}: not a number") from None
+    values = typed_values(InverterModel, params, "rig emulate: --param", fixed=("regmap", "load"))
     try:
         model = default_model(family, **values)
     except ValueError as exc:

@@ -28,14 +28,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from drivers.cia402 import decode_state
-from drivers.errors import CommunicationTimeout, ModbusExceptionResponse
+from drivers.errors import CommunicationTimeout, ModbusExceptionResponse, RigError
 from drivers.modbus_inverter import ModbusInverter
 from plant_emulator.modbus_inverter import InverterContext, default_model, serve_tcp
-from rig.config import FaultsConfig, RigConfig
+from rig.config import FaultsConfig, replace_axis
 from rig.demo import demo_config
+from rig.host.session import Session
 from rig.process import spawn_rig
-from rig.run import prepare
 
 __all__ = ["AT", "SCENARIOS", "run_faults"]
 
@@ -54,32 +53,29 @@ def _canopen(
     *,
     faults: dict[str, Any] | None = None,
     limits: dict[str, Any] | None = None,
-    law: Callable[[Any], None] | None = None,
     timed: bool = True,
 ) -> dict[str, Any]:
-    cfg: RigConfig = demo_config(out)
-    cfg = dataclasses.replace(
-        cfg,
-        faults=dataclasses.replace(FaultsConfig(), **(faults or {})),
-        limits=dataclasses.replace(cfg.limits, **(limits or {})),
-    )
-    session = prepare(cfg, emulate=True, duration=DURATION)
-    if law is not None:
-        law(session)
-    summary = session.loop.run()
-    state = "unknown"
-    for _ in range(5):  # the SDO may be lost under frame loss
-        try:
-            state = decode_state(session.loop.drive.sdo_read(0x6041))
-            break
-        except Exception:
-            continue
-    session.close()
-    period = session.loop.period
+    cfg = demo_config(out)
+    cfg = dataclasses.replace(cfg, faults=dataclasses.replace(FaultsConfig(), **(faults or {})))
+    cfg = replace_axis(cfg, "motor", limits=limits)
+    with Session(cfg, emulate=True, duration=DURATION) as session:
+        session.start()
+        summary = session.run()
+        drive = session.axes[0]
+        state = "unknown"
+        for _ in range(5):  # the SDO may be lost under frame loss
+            try:
+                state = drive.read_power_state().value  # type: ignore[attr-defined]
+                break
+            except RigError:
+                continue
+        period = session.period
     # the fault acts at the first SYNC at or after AT (SYNC k carries time (k + 1) T); frame loss acts
-    # from the first cycle; a limit acts in the cycle its value is crossed
+    # from the first cycle; a host fault and a limit act in the cycle they come in
     if faults and "frame_loss" in faults:
         injected = 0
+    elif faults and any(k in faults for k in ("law_nan_at", "law_error_at", "interrupt_at")):
+        injected = round(AT / period)
     elif timed:
         injected = math.ceil(AT / period - 1e-9) - 1
     else:
@@ -91,22 +87,6 @@ def _canopen(
         "samples_lost": summary["cycles"] - _rows(summary["run_dir"]),
         "message": summary["safe_stop_reason"] or "completed without a stop",
     }
-
-
-def _host_law(fault: str) -> Callable[[Any], None]:
-    def install(session: Any) -> None:
-        law, period = session.loop.law, session.loop.period
-
-        def broken(t: float, fb: Any) -> Any:
-            if t >= AT - period / 2:
-                if fault == "nan":
-                    return math.nan, 0.0, fb[0], (0.0, 0.0)
-                raise KeyboardInterrupt
-            return law(t, fb)
-
-        session.loop.law = broken
-
-    return install
 
 
 _KILL_CONFIG = """
@@ -122,9 +102,17 @@ preset = "dc-servo"
 [emulator.params]
 period = "0.001"
 
-[drive]
+[[axis]]
+name = "motor"
+kind = "cia402"
+node_id = 1
 mode = "voltage"
 sync_rpdo = false
+
+[axis.limits]
+command = 48.0
+speed = 300.0
+watchdog_periods = 1000
 
 [controller]
 kind = "position-servo"
@@ -134,11 +122,6 @@ u0 = 48.0
 kind = "smooth-move"
 distance = 10.0
 duration = 1.0
-
-[limits]
-command = 48.0
-speed = 300.0
-watchdog_periods = 1000
 """
 
 
@@ -242,9 +225,9 @@ SCENARIOS: dict[str, Callable[[str], dict[str, Any]]] = {
     "node-reset": lambda out: _canopen(out, faults={"node_reset_at": AT}),
     "over-current-emcy": lambda out: _canopen(out, faults={"overcurrent_at": AT}),
     "encoder-glitch": lambda out: _canopen(out, faults={"encoder_glitch_at": AT}),
-    "controller-nan": lambda out: _canopen(out, law=_host_law("nan")),
+    "controller-nan": lambda out: _canopen(out, faults={"law_nan_at": AT}),
     "limit-violation": lambda out: _canopen(out, limits={"speed": 5.0}, timed=False),
-    "ctrl-c": lambda out: _canopen(out, law=_host_law("ctrl-c")),
+    "ctrl-c": lambda out: _canopen(out, faults={"interrupt_at": AT}),
     "modbus-timeout": lambda out: _modbus("timeout"),
     "modbus-exception": lambda out: _modbus("exception"),
     "sigkill-host": _sigkill,

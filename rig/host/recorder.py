@@ -11,6 +11,11 @@ Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
   CANalyzer, SavvyCAN, asammdf and python-can read; left out with ``[run] trace = false``;
 - ``summary.json``: the metrics and how the run ended;
 - ``plot.png`` when matplotlib is installed.
+
+Frames reach ``on_frame`` from the bus's receive thread (python-can's notifier)
+while the loop writes samples; a lock orders the trace against ``close``, and a
+frame that arrives after the close is dropped and counted
+(``trace_frames_dropped`` in the summary), never an exception in that thread.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import csv
 import datetime
 import json
 import math
+import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -59,6 +65,8 @@ class Recorder:
         self._pending = 0
         self.trace = can.ASCWriter(str(path / "trace.asc")) if trace else None
         self.closed = False
+        self._trace_lock = threading.Lock()
+        self.frames_dropped = 0  #: frames that arrived after the close
 
     def write_config(self, config: dict[str, Any]) -> None:
         (self.dir / "config.json").write_text(json.dumps(config, indent=2) + "\n")
@@ -68,8 +76,13 @@ class Recorder:
         (self.dir / "started.json").write_text(json.dumps({"wall_time": time.time()}) + "\n")
 
     def on_frame(self, msg: can.Message) -> None:
-        """A CAN frame for the trace (a bus listener)."""
-        if not self.closed and self.trace is not None:
+        """A CAN frame for the trace (a bus listener, any thread); after the close it is counted."""
+        with self._trace_lock:
+            if self.trace is None:
+                return
+            if self.closed:
+                self.frames_dropped += 1
+                return
             self.trace.on_message_received(msg)
 
     def sample(self, row: Sequence[float]) -> None:
@@ -98,11 +111,13 @@ class Recorder:
         """Flush everything, write .mat, summary.json and the plot; safe to call twice."""
         if self.closed:
             return
-        self.closed = True
+        with self._trace_lock:
+            self.closed = True
+            if self.trace is not None:
+                self.trace.stop()
+        summary["trace_frames_dropped"] = self.frames_dropped
         self._file.flush()
         self._file.close()
-        if self.trace is not None:
-            self.trace.stop()
         data = self.array()
         try:
             import scipy.io

@@ -1,4 +1,4 @@
-"""Benchmarks: microseconds per controller step and per plant step.
+"""Benchmarks of the parts: microseconds per controller and plant step, physics steps/s, identification.
 
 Each figure is the best of several repeats of N calls with changing inputs,
 timed with ``time.perf_counter``; the loop's own overhead is included, so the
@@ -8,12 +8,8 @@ figures are what a host loop pays.
 from __future__ import annotations
 
 import functools
-import gc
-import itertools
-import os
 import time
 from collections.abc import Callable
-from typing import Any
 
 from controllers.cascade import (
     TABLE_V_CURRENT,
@@ -32,17 +28,10 @@ from controllers.pi import PI, PIParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.rl_dq import ExactDqPlant, RLParams, StationaryRLConverter
-from rig.reproduce import dismc_laws
+from rig.papers import drives
+from rig.papers.dismc import dismc_laws
 
-__all__ = [
-    "BENCHMARKS",
-    "Figure",
-    "bench_controllers",
-    "bench_identify",
-    "bench_loop",
-    "bench_physics",
-    "bench_plant",
-]
+__all__ = ["Figure", "bench_controllers", "bench_identify", "bench_physics", "bench_plant", "rate"]
 
 Figure = dict[str, object]
 
@@ -60,12 +49,15 @@ def _time_per_call(fn: Callable[[float], object], n: int, repeats: int) -> float
 
 
 def _controllers() -> dict[str, Callable[[float], object]]:
-    servo = design_dtsm(A=[[0.0, 1.0], [0.0, -16.0]], b=[0.0, -680.0], dt=0.4e-3, lam=-15.0)
-    speed = design_dtsm(A=[[-16.0]], b=[680.0], dt=1e-3, lam=-1.0)
+    a_m, b_m = drives.A_M, drives.B_M
+    servo = design_dtsm(
+        A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, -b_m], dt=drives.T_SERVO, lam=drives.LAMBDA_SERVO
+    )
+    speed = design_dtsm(A=[[-a_m]], b=[b_m], dt=1e-3, lam=-1.0)
     dtsm2 = DTSM(DTSMParams(design=servo, law="bounded", sigma=10.0))
     dtsm1c = DTSM(DTSMParams(design=speed, law="deadbeat"), FirstOrderCompensator(0.5, 1e-3))
     dtsm1c2 = DTSM(DTSMParams(design=speed, law="deadbeat"), SecondOrderCompensator(1e-3))
-    idtsm = IDTSM(IDTSMParams(a=-16.0, b=680.0, dt=1e-3, lam=-50.0))
+    idtsm = IDTSM(IDTSMParams(a=-a_m, b=b_m, dt=1e-3, lam=drives.LAMBDA_IDTSM))
     ps = PositionServo(PositionServoParams(design=servo))
     loop1, loop2 = CascadeLoop(TABLE_V_CURRENT), CascadeLoop(TABLE_V_POSITION)
     casc = Cascade(CascadeLoop(TABLE_V_POSITION), CascadeLoop(TABLE_V_SPEED), CascadeLoop(TABLE_V_CURRENT))
@@ -99,8 +91,8 @@ def _controllers() -> dict[str, Callable[[float], object]]:
 
 
 def _plants() -> dict[str, Callable[[float], object]]:
-    full = DCMotor(DCMotorParams.from_am_bm(a_m=16.0, b_m=680.0), dt=1e-4)
-    reduced = ReducedDCMotor(a_m=16.0, b_m=680.0, dt=1e-3)
+    full = DCMotor(DCMotorParams.from_am_bm(a_m=drives.A_M, b_m=drives.B_M), dt=1e-4)
+    reduced = ReducedDCMotor(a_m=drives.A_M, b_m=drives.B_M, dt=1e-3)
     exact = ExactDqPlant(RLParams(r1=0.36, l1=6e-3, ts=1.0 / 2700.0, m=0.5))
     fine = StationaryRLConverter(RLParams(r1=0.36, l1=6e-3, ts=1.0 / 2700.0, m=0.5), u_max=400.0)
     return {
@@ -129,7 +121,7 @@ def bench_plant(*, n: int = 100_000, repeats: int = 5) -> list[Figure]:
     return _run(_plants(), n, repeats)
 
 
-def _rate(fn: Callable[[], object], n: int, repeats: int) -> float:
+def rate(fn: Callable[[], object], n: int, repeats: int) -> float:
     """Best calls per second of ``fn()`` over ``repeats`` runs of ``n`` calls."""
     best = float("inf")
     for _ in range(repeats):
@@ -153,10 +145,10 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
     for name in PRESETS:
         devices, period = build_preset(name, canopen.Network())
         advance = functools.partial(devices[0].axis.advance, period, 0.0)  # type: ignore[attr-defined]
-        rate = _rate(advance, n // {"dc-servo": 1, "grid-converter": 4}.get(name, 100), repeats)
-        figures.append({"name": f"{name}_physics_steps_per_s", "value": round(rate), "unit": "steps/s"})
+        steps = rate(advance, n // {"dc-servo": 1, "grid-converter": 4}.get(name, 100), repeats)
+        figures.append({"name": f"{name}_physics_steps_per_s", "value": round(steps), "unit": "steps/s"})
     for name in PRESETS:
-        bench = LockstepBench(name, {"u_line_rms": "0"} if name == "grid-converter" else None)
+        bench = LockstepBench(name, {"u_line_rms": 0.0} if name == "grid-converter" else None)
         drive = canopen.RemoteNode(bench.devices[0].node_id, CIA402_EDS)
         bench.host.add_node(drive)
         if name == "dc-servo":
@@ -167,111 +159,11 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
         figures.append(
             {
                 "name": f"{name}_lockstep_cycles_per_s",
-                "value": round(_rate(bench.sync, cycles, repeats)),
+                "value": round(rate(bench.sync, cycles, repeats)),
                 "unit": "cycles/s",
             }
         )
         bench.close()
-    return figures
-
-
-def _steal_jiffies() -> int | None:
-    """Total steal time of this machine's CPUs [jiffies] from /proc/stat (None where unknown)."""
-    try:
-        with open("/proc/stat") as f:
-            fields = f.readline().split()
-        return int(fields[8]) if fields[0] == "cpu" and len(fields) > 8 else None
-    except OSError:
-        return None
-
-
-def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0) -> list[Figure]:
-    """The full chain per cycle: controller + CiA 402 driver + canopen + emulated drive + physics.
-
-    Lock-step: cycles/s on the in-process bus (the demo's servo, recorder on).
-    Real time: a 1 kHz loop against ``rig emulate`` in another process over socketcand
-    (127.0.0.1): median, p99 and max period error, overruns, and the machine's steal time.
-    """
-    import dataclasses
-    import math
-    import os
-    import re
-    import tempfile
-
-    from rig.config import BusConfig
-    from rig.demo import demo_config
-    from rig.process import spawn_rig, stop_rig
-    from rig.run import prepare
-
-    figures: list[Figure] = []
-    with tempfile.TemporaryDirectory() as out:
-        cfg = demo_config(out)
-        rates = []
-        for _ in range(3):  # best of three, as the other benchmarks: this machine is noisy
-            session = prepare(cfg, emulate=True, duration=lockstep_s)
-            summary = session.loop.run()
-            session.close()
-            rates.append(summary["cycles"] / summary["elapsed_s"])
-        figures.append({"name": "lockstep_cycles_per_s", "value": round(max(rates)), "unit": "cycles/s"})
-        figures.append(
-            {"name": "lockstep_cycles_per_s_worst_of_3", "value": round(min(rates)), "unit": "cycles/s"}
-        )
-
-        proc, line = spawn_rig(
-            "emulate", "--preset", "dc-servo", "--param", "period=0.001", "--socketcand-port", "0"
-        )
-        try:
-            match = re.search(r":(\d+);", line)
-            if match is None:
-                raise RuntimeError("rig emulate did not start")
-            rt = dataclasses.replace(
-                cfg,
-                reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),  # hold: timing only
-                run=dataclasses.replace(cfg.run, time="realtime", period=0.001),
-                bus=BusConfig(interface="socketcand", channel="can0", port=int(match.group(1))),
-                limits=dataclasses.replace(cfg.limits, watchdog_periods=1000),
-            )
-            steal0 = _steal_jiffies()
-            session = prepare(rt, emulate=False, duration=realtime_s)
-            arrivals: list[float] = []
-            session.network.subscribe(0x281, lambda can_id, data, ts: arrivals.append(time.perf_counter()))
-            summary = session.loop.run()
-            session.close()
-            steal1 = _steal_jiffies()
-        finally:
-            stop_rig(proc, timeout=10)
-    timing = summary["timing"]
-    for key, name in (
-        ("period_error_median_us", "median"),
-        ("period_error_p99_us", "p99"),
-        ("period_error_max_us", "max"),
-    ):
-        figures.append(
-            {
-                "name": f"realtime_1khz_period_error_{name}",
-                "value": round(timing.get(key, float("nan")), 1),
-                "unit": "us",
-            }
-        )
-    figures.append({"name": "realtime_1khz_overruns", "value": summary["overruns"], "unit": "cycles"})
-    gaps = [b - a for a, b in itertools.pairwise(arrivals)]
-    figures.append(
-        {
-            "name": "realtime_1khz_max_tpdo_gap",
-            "value": round(max(gaps, default=math.nan) * 1e3, 2),
-            "unit": "ms",
-        }
-    )
-    figures.append({"name": "realtime_1khz_cycles", "value": summary["cycles"], "unit": "cycles"})
-    figures.append(
-        {"name": "realtime_1khz_safe_stop", "value": summary["safe_stop_reason"] or "none", "unit": ""}
-    )
-    steal = (
-        (steal1 - steal0) / os.sysconf("SC_CLK_TCK") * 1e3
-        if steal0 is not None and steal1 is not None
-        else float("nan")
-    )
-    figures.append({"name": "machine_steal_time_during_realtime", "value": round(steal, 1), "unit": "ms"})
     return figures
 
 
@@ -290,7 +182,7 @@ def bench_identify(*, seeds: int = 30, duration: float = 5.0) -> list[Figure]:
     errors: dict[str, list[float]] = {"a_m": [], "b_m": []}
     seconds = []
     for seed in range(seeds):
-        devices, period = build_preset("dc-servo", canopen.Network(), {"coulomb": "0.002"})
+        devices, period = build_preset("dc-servo", canopen.Network(), {"coulomb": 0.002})
         axis = devices[0].axis  # type: ignore[attr-defined]
         true = {"a_m": axis.motor.a_m, "b_m": axis.motor.b_m}
         u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=period, duration=duration, seed=seed)
@@ -321,74 +213,3 @@ def bench_identify(*, seeds: int = 30, duration: float = 5.0) -> list[Figure]:
     )
     figures.append({"name": "identify_data_seconds", "value": duration, "unit": "s"})
     return figures
-
-
-def _rss_bytes() -> int:
-    """Resident set size of this process [bytes] (Linux /proc; 0 elsewhere)."""
-    try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-    except (OSError, ValueError, IndexError):
-        return 0
-
-
-def bench_soak(*, cycles: int = 1_000_000, frame_loss: float = 0.01) -> list[Figure]:
-    """The lock-step soak: the section VII.B servo over the emulated bus for ``cycles`` cycles with
-    ``frame_loss`` of the frames lost. Memory is the RSS at 10 % of the run and at the end; the
-    watchdog tolerates 10 lost TPDOs in a row, so a stop would be a real one. Not a test: run it
-    with ``rig bench soak`` (about 2-3 minutes)."""
-    import dataclasses
-    import tempfile
-
-    from rig.config import FaultsConfig
-    from rig.demo import demo_config
-    from rig.run import prepare
-
-    with tempfile.TemporaryDirectory() as out:
-        cfg = demo_config(out)
-        period = 0.4e-3
-        cfg = dataclasses.replace(
-            cfg,
-            run=dataclasses.replace(cfg.run, trace=False),
-            reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),
-            faults=FaultsConfig(frame_loss=frame_loss, seed=1),
-            limits=dataclasses.replace(cfg.limits, watchdog_periods=10),
-        )
-        session = prepare(cfg, emulate=True, duration=cycles * period)
-        law = session.loop.law
-        rss: dict[str, int] = {}
-
-        def measured(t: float, fb: Any) -> Any:
-            k = round(t / period)
-            if k in (cycles // 10, cycles - 1):  # the end is measured before the recorder's close
-                gc.collect()
-                rss["early" if k == cycles // 10 else "end"] = _rss_bytes()
-            return law(t, fb)
-
-        session.loop.law = measured
-        t0 = time.perf_counter()
-        summary = session.loop.run()
-        elapsed = time.perf_counter() - t0
-        session.close()
-    early, end = rss.get("early", 0), rss.get("end", 0)
-    growth = 100.0 * (end - early) / early if early and end else float("nan")
-    return [
-        {"name": "soak_cycles", "value": summary["cycles"], "unit": "cycles"},
-        {"name": "soak_frame_loss", "value": frame_loss, "unit": ""},
-        {"name": "soak_rss_at_10_percent", "value": round(rss.get("early", 0) / 2**20, 1), "unit": "MiB"},
-        {"name": "soak_rss_at_last_cycle", "value": round(rss.get("end", 0) / 2**20, 1), "unit": "MiB"},
-        {"name": "soak_memory_growth", "value": round(growth, 2), "unit": "%"},
-        {"name": "soak_safe_stop", "value": summary["safe_stop_reason"] or "none", "unit": ""},
-        {"name": "soak_wall_time", "value": round(elapsed, 1), "unit": "s"},
-    ]
-
-
-#: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}.
-BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
-    "controllers": bench_controllers,
-    "plant": bench_plant,
-    "physics": bench_physics,
-    "loop": bench_loop,
-    "identify": bench_identify,
-    "soak": bench_soak,
-}

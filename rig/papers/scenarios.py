@@ -27,12 +27,13 @@ from controllers.dtsm import DTSM, DTSMParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.encoder import Encoder
+from rig.laws.references import smooth_move
+from rig.papers import drives
 
 __all__ = [
     "Trajectory",
     "cascade_run",
     "position_servo_run",
-    "smooth_move",
     "speed_loop_run",
 ]
 
@@ -60,33 +61,16 @@ class Trajectory:
         return mask
 
 
-def smooth_move(
-    distance: float, duration: float, start: float = 0.0
-) -> Callable[[float], tuple[float, float]]:
-    """Reference theta_r(t) moving by ``distance`` [rad] in ``duration`` [s] from ``start`` [s].
-
-    A quintic (minimum-jerk) profile; returns (theta_r, omega_r) at time t.
-    """
-
-    def ref(t: float) -> tuple[float, float]:
-        s = min(max((t - start) / duration, 0.0), 1.0)
-        pos = distance * s**3 * (10.0 - 15.0 * s + 6.0 * s * s)
-        vel = distance * 30.0 * s * s * (1.0 - s) ** 2 / duration if 0.0 < s < 1.0 else 0.0
-        return pos, vel
-
-    return ref
-
-
 def position_servo_run(
     *,
-    a_m: float = 16.0,
-    b_m: float = 680.0,
-    dt: float = 0.4e-3,
-    lam: float = -15.0,
-    sigma: float = 10.0,
-    q: float = 0.0,
-    rho: float = 0.5,
-    h: float = 16.0,
+    a_m: float = drives.A_M,
+    b_m: float = drives.B_M,
+    dt: float = drives.T_SERVO,
+    lam: float = drives.LAMBDA_SERVO,
+    sigma: float = drives.SIGMA,
+    q: float = drives.Q,
+    rho: float = drives.RHO,
+    h: float = drives.H,
     u0: float = math.inf,
     distance: float = 10.0,
     move_time: float = 1.0,
@@ -146,8 +130,8 @@ def speed_loop_run(
     *,
     compensator: str = "none",
     alpha: float = 1.0,
-    a_m: float = 16.0,
-    b_m: float = 680.0,
+    a_m: float = drives.A_M,
+    b_m: float = drives.B_M,
     dt: float = 1e-3,
     t_end: float = 4.0,
     disturbance: Callable[[float], float] | None = None,
@@ -201,8 +185,8 @@ def cascade_run(
     a_i: float = -233.8936,
     b_i: float = 42.8992,
     a_w: float = -0.6286,
-    b_w: float = 340.7439,
-    j: float = 0.0035,
+    b_w: float = drives.B_W,
+    j: float = drives.J_IM,
     distance: float = 10.0,
     move_time: float = 1.0,
     t_end: float = 3.0,
