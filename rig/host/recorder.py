@@ -33,6 +33,8 @@ from typing import Any
 import can
 import numpy as np
 
+from rig.host.trace import AscTrace
+
 __all__ = ["Recorder"]
 
 
@@ -63,7 +65,7 @@ class Recorder:
         self._count = 0
         self._flush_every = flush_every
         self._pending = 0
-        self.trace = can.ASCWriter(str(path / "trace.asc")) if trace else None
+        self.trace = AscTrace(str(path / "trace.asc")) if trace else None
         self.closed = False
         self._trace_lock = threading.Lock()
         self.frames_dropped = 0  #: frames that arrived after the close

@@ -30,7 +30,9 @@ def target(request: pytest.FixtureRequest) -> Iterator[Target]:
     if request.param == "modbus":
         model = InverterModel(modbus_map("abb-drives-profile"))
         with InverterServer(model, dt=None) as server:
-            axis: AxisDriver = ModbusInverterAxis("inverter", "abb-drives-profile", host="127.0.0.1", port=server.port)
+            axis: AxisDriver = ModbusInverterAxis(
+                "inverter", "abb-drives-profile", host="127.0.0.1", port=server.port
+            )
             yield axis, lambda: model.step(0.01)
             axis.close()
         return
@@ -111,6 +113,6 @@ def test_a_device_that_does_not_answer_is_a_toolkit_error() -> None:
     finally:
         bench.close()
     nowhere = ModbusInverterAxis("ghost", "abb-drives-profile", host="127.0.0.1", port=1, timeout=0.1)
-    with pytest.raises(CommunicationError, match="unit 1 at 127.0.0.1:1"):
+    with pytest.raises(CommunicationError, match=r"unit 1 at 127\.0\.0\.1:1"):
         nowhere.setup()
     nowhere.close()
