@@ -4,7 +4,7 @@ An axis takes the command of the active mode in SI (``set_command``) and is
 advanced by ``advance(h, t)`` with that command held; the drive splits a SYNC
 period at the instant a command takes effect. Modes (CiA 402 0x6060):
 -1 voltage [V] (the u of the DC-motor papers), -2 dq voltage [V, complex],
-10 CST torque [N m], 9 CSV and 3 PV velocity [rad/s], 8 CSP position [rad].
+10 CST torque [N m], 9 CSV and 3 PV velocity [rad/s], 8 CSP position [rad] (``Mode``).
 
 ``DcServoAxis``: the DC motor (3.4) stepped exactly (ZOH per distinct h),
 with the drive's own loops for the other modes: a deadbeat armature-current
@@ -21,13 +21,12 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from drivers.maps.cia import Mode
 from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.rl_dq import RLParams, StationaryRLConverter
 from plant_emulator.zoh import LinearZOH, unrolled_step3
 
-__all__ = ["DQ_VOLTAGE_MODE", "VOLTAGE_MODE", "Axis", "DcServoAxis", "GridAxis", "ServoLoops"]
-
-VOLTAGE_MODE, DQ_VOLTAGE_MODE, PV, CSP, CSV, CST = -1, -2, 3, 8, 9, 10
+__all__ = ["Axis", "DcServoAxis", "GridAxis", "LoadProfile", "ServoLoops"]
 
 LoadProfile = Callable[[float], float]
 
@@ -35,7 +34,7 @@ LoadProfile = Callable[[float], float]
 class Axis:
     """Interface of the physics behind a drive (see the module docstring)."""
 
-    modes: tuple[int, ...] = ()
+    modes: tuple[Mode, ...] = ()
 
     @property
     def position(self) -> float:
@@ -91,7 +90,7 @@ class ServoLoops:
 class DcServoAxis(Axis):
     """DC motor (3.4) behind a servo drive; state [theta, omega, i_r]."""
 
-    modes = (VOLTAGE_MODE, CST, CSV, PV, CSP)
+    modes = (Mode.VOLTAGE, Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY, Mode.CSP)
 
     def __init__(
         self,
@@ -112,7 +111,7 @@ class DcServoAxis(Axis):
         self._B = [[0.0, 0.0], [0.0, -1.0 / p.j], [1.0 / p.l_r, 0.0]]
         self._zoh: dict[float, Callable[[list[float], float, float], None]] = {}
         self.x = [0.0, 0.0, 0.0]
-        self.mode = VOLTAGE_MODE
+        self.mode: int = Mode.VOLTAGE
         self.command = 0.0
         self._integral = 0.0
         self._enabled = True
@@ -130,7 +129,7 @@ class DcServoAxis(Axis):
         if mode != self.mode:
             self._integral = 0.0
         command = float(value.real if isinstance(value, complex) else value)
-        if mode == VOLTAGE_MODE:
+        if mode == Mode.VOLTAGE:
             command = max(-self.loops.max_voltage, min(self.loops.max_voltage, command))
         self.mode, self.command = mode, command
         self._enabled = True
@@ -164,7 +163,7 @@ class DcServoAxis(Axis):
         load = self.load
         w = self.x[1]
         friction = math.copysign(self.coulomb, w) if self.coulomb and w else 0.0
-        if self._enabled and self.mode == VOLTAGE_MODE:  # the hot path: one unrolled ZOH step
+        if self._enabled and self.mode == Mode.VOLTAGE:  # the hot path: one unrolled ZOH step
             step = self._zoh.get(h)
             if step is None:
                 step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
@@ -178,9 +177,9 @@ class DcServoAxis(Axis):
         n = max(1, math.ceil(h / self.inner_dt - 1e-9))
         hs = h / n
         for k in range(n):
-            if self.mode == CST:
+            if self.mode == Mode.CST:
                 torque = self.command
-            elif self.mode in (CSV, PV):
+            elif self.mode in (Mode.CSV, Mode.PROFILE_VELOCITY):
                 torque = self._speed_loop(self.command, hs)
             else:  # CSP
                 torque = self._speed_loop(self.loops.position_kp * (self.command - self.x[0]), hs)
@@ -207,7 +206,7 @@ class DcServoAxis(Axis):
 class GridAxis(Axis):
     """RL load with a rotating source (Table IV) behind the converter; mode -2 (dq voltage)."""
 
-    modes = (DQ_VOLTAGE_MODE,)
+    modes = (Mode.DQ_VOLTAGE,)
 
     def __init__(
         self,
@@ -231,8 +230,8 @@ class GridAxis(Axis):
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         """dq voltage reference [V]: turned to alpha-beta with the angle of the sample it was
         computed from (plus half a period with ``hold_angle="middle"``), as the modulator would."""
-        if mode != DQ_VOLTAGE_MODE:
-            raise ValueError(f"grid axis has only mode {DQ_VOLTAGE_MODE}, got {mode}")
+        if mode != Mode.DQ_VOLTAGE:
+            raise ValueError(f"grid axis has only mode {Mode.DQ_VOLTAGE}, got {mode}")
         theta = self._theta_samples[0 if computed_one_sync_ago else 1]
         now = self.converter.theta
         self.converter.theta = theta

@@ -25,13 +25,39 @@ from typing import Any
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
 
+from drivers.maps import cia
+from drivers.maps.cia import (
+    BOOT_UP,
+    COB_HEARTBEAT,
+    COB_ID_MASK,
+    COB_NMT,
+    COMMUNICATION_AREA,
+    PDO_BLOCK,
+    PDO_INVALID,
+    PDO_MAX_BITS,
+    PDO_MAX_MAPPED,
+    PDO_SYNC_MAX,
+    EmcyCode,
+    ErrorRegister,
+    NmtCommand,
+    NmtState,
+    SdoAbort,
+)
 from drivers.maps.od import load_od
 
 __all__ = ["EmulatedNode", "PdoConfig"]
 
 log = logging.getLogger(__name__)
 
-PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = 127, 5, 4, 0
+PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = (
+    NmtState.PRE_OPERATIONAL,
+    NmtState.OPERATIONAL,
+    NmtState.STOPPED,
+    NmtState.INITIALISING,
+)
+_RPDO_MAPS = range(cia.RPDO_MAP, cia.RPDO_MAP + PDO_BLOCK)
+_TPDO_MAPS = range(cia.TPDO_MAP, cia.TPDO_MAP + PDO_BLOCK)
+_PDO_PARAMETERS = range(cia.RPDO_COMM, cia.TPDO_MAP + PDO_BLOCK)
 
 
 @dataclass(frozen=True)
@@ -54,7 +80,7 @@ class EmulatedNode:
     """
 
     def __init__(self, node_id: int, eds: str, network: canopen.Network) -> None:
-        if not 1 <= node_id <= 127:
+        if node_id not in cia.NODE_IDS:
             raise ValueError(f"node id must be 1..127, got {node_id!r}")
         self.node_id = node_id
         net: Any = network  # canopen's callback types say bytearray; frames are bytes
@@ -66,8 +92,8 @@ class EmulatedNode:
         self.network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
         self.network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
         # NMT through a gate as well: CiA 301 NMT frames are exactly 2 bytes
-        self.network.unsubscribe(0, self.node.nmt.on_command)
-        self.network.subscribe(0, self._on_nmt)
+        self.network.unsubscribe(COB_NMT, self.node.nmt.on_command)
+        self.network.subscribe(COB_NMT, self._on_nmt)
         nmt: Any = self.node.nmt
         nmt.start_heartbeat = lambda ms: None
         nmt.stop_heartbeat = lambda: None
@@ -103,7 +129,7 @@ class EmulatedNode:
             self._power_on = {i: dict(subs) for i, subs in self.node.data_store.items()}
         self.node.nmt._state = INITIALISING
         self.on_reset(application=True)
-        self.network.send_message(0x700 + self.node_id, bytes([0]))
+        self.network.send_message(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
         self.node.nmt._state = PRE_OPERATIONAL
         self._dirty = True
         self._configure()
@@ -120,24 +146,24 @@ class EmulatedNode:
         cmd, target = struct.unpack_from("BB", data)
         if target not in (0, self.node_id):
             return
-        if cmd in (0x81, 0x82):  # reset node / reset communication
-            self.reset(comm_only=cmd == 0x82)
+        if cmd in (NmtCommand.RESET_NODE, NmtCommand.RESET_COMMUNICATION):
+            self.reset(comm_only=cmd == NmtCommand.RESET_COMMUNICATION)
         self._configure()
 
     def reset(self, *, comm_only: bool = False) -> None:
         """NMT reset node (or communication): restore the power-on values, boot-up, PRE-OPERATIONAL."""
         stored = self._power_on or {}
         for index in list(self.node.data_store):
-            if not comm_only or 0x1000 <= index < 0x2000:
+            if not comm_only or index in COMMUNICATION_AREA:
                 del self.node.data_store[index]
         for index, subs in stored.items():
-            if not comm_only or 0x1000 <= index < 0x2000:
+            if not comm_only or index in COMMUNICATION_AREA:
                 self.node.data_store[index] = dict(subs)
         log.info("node %d: NMT %s", self.node_id, "reset communication" if comm_only else "reset node")
         self.node.nmt._state = INITIALISING
         if not comm_only:
             self.on_reset(application=True)
-        self.network.send_message(0x700 + self.node_id, bytes([0]))
+        self.network.send_message(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
         self.node.nmt._state = PRE_OPERATIONAL
         self._dirty = True
         self._configure()
@@ -145,17 +171,17 @@ class EmulatedNode:
     def tick(self, now: float) -> None:
         """Advance the device clock to ``now`` [s]: heartbeat and event timers."""
         self.clock = now
-        period = self._u(0x1017, 0) / 1000.0
+        period = self._u(cia.PRODUCER_HEARTBEAT, 0) / 1000.0  # ms -> s
         if period > 0.0 and now - self._last_heartbeat >= period - 1e-9:
             self._last_heartbeat = now
-            self.network.send_message(0x700 + self.node_id, bytes([self.nmt_state]))
+            self.network.send_message(COB_HEARTBEAT + self.node_id, bytes([self.nmt_state]))
         if self.nmt_state == OPERATIONAL:
             self.event_tpdos(now)
 
     def event_tpdos(self, now: float) -> None:
         """TPDOs of type 254/255: sent when their data change or their event timer (sub 5) expires."""
         for pdo in self._tpdos:
-            if pdo.valid and pdo.mapping and pdo.ttype >= 254:
+            if pdo.valid and pdo.mapping and pdo.ttype > PDO_SYNC_MAX:
                 self._event_tpdo(pdo, now)
 
     # --- SDO -------------------------------------------------------------
@@ -164,43 +190,39 @@ class EmulatedNode:
             self.node.sdo.on_request(can_id, data, timestamp)
 
     def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
-        if 0x1400 <= index <= 0x1BFF:
+        if index in _PDO_PARAMETERS:
             self._check_pdo_write(index, subindex, data)
             self._dirty = True
-        if index == 0x1005:
+        if index == cia.COB_ID_SYNC:
             self._dirty = True
 
     def _check_pdo_write(self, index: int, subindex: int, data: bytes) -> None:
         """CiA 301 rules: mapping only while the PDO is invalid and sub 0 is 0; mapped objects must exist."""
-        is_map = (0x1600 <= index <= 0x17FF) or (0x1A00 <= index <= 0x1BFF)
-        if not is_map:
+        if index not in _RPDO_MAPS and index not in _TPDO_MAPS:
             return
-        comm = index - 0x200
-        valid = not (self._u(comm, 1) & 0x80000000)
-        if valid:
-            raise SdoAbortedError(0x08000022)  # data cannot be stored: device state
+        comm = index - PDO_BLOCK
+        if not self._u(comm, cia.PDO_COMM_COB_ID) & PDO_INVALID:
+            raise SdoAbortedError(SdoAbort.DEVICE_STATE)
         if subindex == 0:
             count = data[0]
-            if count > 8:
-                raise SdoAbortedError(0x06090031)  # value too high
-            bits = 0
-            for s in range(1, count + 1):
-                bits += self._u(index, s) & 0xFF
-            if bits > 64:
-                raise SdoAbortedError(0x06040042)  # PDO length exceeded
+            if count > PDO_MAX_MAPPED:
+                raise SdoAbortedError(SdoAbort.VALUE_TOO_HIGH)
+            bits = sum(cia.split_map_entry(self._u(index, s))[2] for s in range(1, count + 1))
+            if bits > PDO_MAX_BITS:
+                raise SdoAbortedError(SdoAbort.PDO_LENGTH_EXCEEDED)
             return
         if self._u(index, 0) != 0:
-            raise SdoAbortedError(0x08000022)
+            raise SdoAbortedError(SdoAbort.DEVICE_STATE)
         entry = int.from_bytes(data, "little")
         if entry == 0:
             return
-        obj_index, obj_sub, bits = entry >> 16, (entry >> 8) & 0xFF, entry & 0xFF
+        obj_index, obj_sub, bits = cia.split_map_entry(entry)
         try:
             obj = self.node._find_object(obj_index, obj_sub)
         except SdoAbortedError:
-            raise SdoAbortedError(0x06040041) from None  # object cannot be mapped
+            raise SdoAbortedError(SdoAbort.NOT_MAPPABLE) from None
         if not obj.pdo_mappable or len(obj) != bits:
-            raise SdoAbortedError(0x06040041)
+            raise SdoAbortedError(SdoAbort.NOT_MAPPABLE)
 
     # --- object dictionary access ----------------------------------------
     def _obj(self, index: int, subindex: int) -> Any:
@@ -231,28 +253,30 @@ class EmulatedNode:
 
     # --- PDO -------------------------------------------------------------
     def _pdo(self, comm: int, mapping: int, number: int) -> PdoConfig:
-        cob = self._u(comm, 1)
+        cob = self._u(comm, cia.PDO_COMM_COB_ID)
         count = self._u(mapping, 0)
-        entries = []
-        for s in range(1, count + 1):
-            m = self._u(mapping, s)
-            entries.append((m >> 16, (m >> 8) & 0xFF, m & 0xFF))
+        entries = tuple(cia.split_map_entry(self._u(mapping, s)) for s in range(1, count + 1))
         return PdoConfig(
-            number, cob & 0x7FF, not (cob & 0x80000000), self._u(comm, 2), self._u(comm, 5), tuple(entries)
+            number,
+            cob & COB_ID_MASK,
+            not (cob & PDO_INVALID),
+            self._u(comm, cia.PDO_COMM_TYPE),
+            self._u(comm, cia.PDO_COMM_EVENT_TIMER),
+            entries,
         )
 
     def _configure(self) -> None:
         if not self._dirty:
             return
         self._dirty = False
-        self._tpdos = [self._pdo(0x1800 + n, 0x1A00 + n, n) for n in range(4)]
-        self._rpdos = [self._pdo(0x1400 + n, 0x1600 + n, n) for n in range(4)]
+        self._tpdos = [self._pdo(cia.TPDO_COMM + n, cia.TPDO_MAP + n, n) for n in range(4)]
+        self._rpdos = [self._pdo(cia.RPDO_COMM + n, cia.RPDO_MAP + n, n) for n in range(4)]
         for cob in self._rpdo_subscribed:
             self.network.unsubscribe(cob, self._on_rpdo_frame)
         self._rpdo_subscribed = [p.cob_id for p in self._rpdos if p.valid and p.mapping]
         for cob in self._rpdo_subscribed:
             self.network.subscribe(cob, self._on_rpdo_frame)
-        sync_cob = self._u(0x1005, 0) & 0x7FF
+        sync_cob = self._u(cia.COB_ID_SYNC, 0) & COB_ID_MASK
         if sync_cob != self._sync_cob:
             if self._sync_cob is not None:
                 self.network.unsubscribe(self._sync_cob, self._on_sync)
@@ -279,9 +303,10 @@ class EmulatedNode:
                         len(data),
                         expected,
                     )
-                    self.emcy(0x8210 if len(data) < expected else 0x8220, 0x11)
+                    code = EmcyCode.PDO_TOO_SHORT if len(data) < expected else EmcyCode.PDO_TOO_LONG
+                    self.emcy(code, ErrorRegister.GENERIC | ErrorRegister.COMMUNICATION)
                     return
-                if pdo.ttype <= 240:
+                if pdo.ttype <= PDO_SYNC_MAX:
                     self._pending_sync_rpdo[pdo.number] = bytes(data)
                 else:
                     self._unpack(pdo, bytes(data))
@@ -315,7 +340,12 @@ class EmulatedNode:
         self.on_sync_latch(timestamp)
         if self.nmt_state == OPERATIONAL:
             for pdo in self._tpdos:
-                if pdo.valid and pdo.mapping and 1 <= pdo.ttype <= 240 and self._sync_count % pdo.ttype == 0:
+                if (
+                    pdo.valid
+                    and pdo.mapping
+                    and 1 <= pdo.ttype <= PDO_SYNC_MAX
+                    and self._sync_count % pdo.ttype == 0
+                ):
                     self.network.send_message(pdo.cob_id, self._pack(pdo))
             pending, self._pending_sync_rpdo = self._pending_sync_rpdo, {}
             for number, payload in sorted(pending.items()):
@@ -325,7 +355,7 @@ class EmulatedNode:
 
     def emcy(self, code: int, register: int, data: bytes = b"") -> None:
         """Send an EMCY (not in STOPPED) and set 0x1001."""
-        self.write(0x1001, 0, register)
+        self.write(cia.ERROR_REGISTER, 0, register)
         if self.nmt_state != STOPPED:
             self.node.emcy.send(code, register, data)
 

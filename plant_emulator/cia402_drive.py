@@ -27,25 +27,38 @@ import math
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drivers.maps import CIA402_EDS
-from plant_emulator.axes import CSP, CST, CSV, DQ_VOLTAGE_MODE, PV, VOLTAGE_MODE, Axis
+from drivers.maps import CIA402_EDS, cia
+from drivers.maps.cia import (
+    MODE_BITS,
+    SW_FOLLOWING_ERROR,
+    SW_FOLLOWS_COMMAND,
+    SW_REMOTE,
+    TARGET_OF_MODE,
+    EmcyCode,
+    ErrorRegister,
+    Mode,
+    PowerState,
+    QuickStopOption,
+    SdoAbort,
+)
+from plant_emulator.axes import Axis
 from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
-from plant_emulator.cia402_state import PowerState, PowerStateMachine
+from plant_emulator.cia402_state import PowerStateMachine
 
 __all__ = ["FAULT_CODES", "EmulatedDrive"]
 
 log = logging.getLogger(__name__)
 
-FAULT_CODES = {0x2310: "over-current", 0x8400: "over-speed", 0x8611: "following error"}
-_MODE_BITS = {
-    PV: 1 << 2,
-    CSP: 1 << 7,
-    CSV: 1 << 8,
-    CST: 1 << 9,
-    VOLTAGE_MODE: 1 << 16,
-    DQ_VOLTAGE_MODE: 1 << 17,
+FAULT_CODES: dict[int, str] = {
+    EmcyCode.OVER_CURRENT: "over-current",
+    EmcyCode.OVER_SPEED: "over-speed",
+    EmcyCode.FOLLOWING_ERROR: "following error",
 }
-_TARGETS = {0x2100, 0x2200, 0x6071, 0x607A, 0x60FF}
+#: objects holding a command: an SDO write of one takes effect at the next SYNC
+_TARGETS = {index for index, _ in TARGET_OF_MODE.values()} | {cia.DQ_VOLTAGE}
+_SIGNED = (cia.MODES_OF_OPERATION, cia.QUICK_STOP_OPTION, cia.FAULT_REACTION_OPTION)
+_CYCLIC = (Mode.CSP, Mode.CSV, Mode.CST)
+_QUICK_STOP_OPTIONS = frozenset(int(o) for o in QuickStopOption)
 S = PowerState
 
 
@@ -73,47 +86,47 @@ class EmulatedDrive(EmulatedNode):
         self.fault_code = 0
         self._pending_cw: int | None = None
         super().__init__(node_id, eds, network)
-        supported = sum(_MODE_BITS[m] for m in axis.modes)
-        self.write(0x6502, 0, supported)
+        self.write(cia.SUPPORTED_MODES, 0, sum(MODE_BITS[m] for m in axis.modes))
         self.node.add_write_callback(self._on_drive_write)
 
     # --- units ----------------------------------------------------------------
     @property
     def counts_per_rad(self) -> float:
-        return self._u(0x608F, 1) / (self._u(0x608F, 2) * 2.0 * math.pi)
+        res = cia.POSITION_ENCODER_RESOLUTION
+        return self._u(res, 1) / (self._u(res, 2) * 2.0 * math.pi)
 
     def _rated_torque(self) -> float:
-        return self._u(0x6076, 0) / 1000.0  # mN m -> N m
+        return self._u(cia.RATED_TORQUE, 0) / 1000.0  # mN m -> N m
 
     def _rated_current(self) -> float:
-        return self._u(0x6075, 0) / 1000.0  # mA -> A
+        return self._u(cia.RATED_CURRENT, 0) / 1000.0  # mA -> A
 
     def _command(self, mode: int) -> complex:
         """The present target of ``mode`` from the object dictionary, in SI."""
-        if mode == VOLTAGE_MODE:
-            return complex(self.read(0x2100) / 1000.0)
-        if mode == DQ_VOLTAGE_MODE:
-            return complex(self.read(0x2200, 1), self.read(0x2200, 2)) / 1000.0
-        if mode == CST:
-            return complex(self.read(0x6071) / 1000.0 * self._rated_torque())
-        if mode in (CSV, PV):
-            return complex(self.read(0x60FF) / self.counts_per_rad)
-        if mode == CSP:
-            return complex(self.read(0x607A) / self.counts_per_rad)
+        if mode == Mode.VOLTAGE:
+            return complex(self.read(cia.TARGET_VOLTAGE) / 1000.0)
+        if mode == Mode.DQ_VOLTAGE:
+            return complex(self.read(cia.DQ_VOLTAGE, 1), self.read(cia.DQ_VOLTAGE, 2)) / 1000.0
+        if mode == Mode.CST:
+            return complex(self.read(cia.TARGET_TORQUE) / 1000.0 * self._rated_torque())
+        if mode in (Mode.CSV, Mode.PROFILE_VELOCITY):
+            return complex(self.read(cia.TARGET_VELOCITY) / self.counts_per_rad)
+        if mode == Mode.CSP:
+            return complex(self.read(cia.TARGET_POSITION) / self.counts_per_rad)
         return 0j
 
     # --- object writes -----------------------------------------------------
     def _on_drive_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
-        value = int.from_bytes(data, "little", signed=index in (0x6060, 0x605A, 0x605E))
-        if index == 0x6060:
+        value = int.from_bytes(data, "little", signed=index in _SIGNED)
+        if index == cia.MODES_OF_OPERATION:
             if value not in self.axis.modes:
-                raise SdoAbortedError(0x06090030)  # value range of parameter exceeded
-            self.write(0x6061, 0, value)
-        elif index == 0x605A:
-            if not 0 <= value <= 8:
-                raise SdoAbortedError(0x06090030)
+                raise SdoAbortedError(SdoAbort.VALUE_RANGE_EXCEEDED)
+            self.write(cia.MODES_DISPLAY, 0, value)
+        elif index == cia.QUICK_STOP_OPTION:
+            if value not in _QUICK_STOP_OPTIONS:
+                raise SdoAbortedError(SdoAbort.VALUE_RANGE_EXCEEDED)
             self.sm.quick_stop_option = value
-        elif index == 0x6040:
+        elif index == cia.CONTROLWORD:
             self._pending_cw = value
             if not self._in_rpdo:
                 self._apply_controlword(value)
@@ -134,12 +147,12 @@ class EmulatedDrive(EmulatedNode):
             log.info("node %d: %s -> %s (controlword 0x%04X)", self.node_id, before.value, after.value, cw)
             if before is S.FAULT:
                 self.fault_code = 0
-                self.write(0x603F, 0, 0)
-                self.write(0x1001, 0, 0)
+                self.write(cia.ERROR_CODE, 0, EmcyCode.NO_ERROR)
+                self.write(cia.ERROR_REGISTER, 0, 0)
                 if self.nmt_state == OPERATIONAL:
                     self.node.emcy.reset()
             if after is S.OPERATION_ENABLED:
-                mode = self.read(0x6061)
+                mode = self.read(cia.MODES_DISPLAY)
                 if mode in self.axis.modes:
                     self.axis.set_command(mode, self._hold_command(mode))
                 else:  # no mode selected: enabled, but no torque
@@ -148,10 +161,8 @@ class EmulatedDrive(EmulatedNode):
 
     def _hold_command(self, mode: int) -> complex:
         """On enable: hold the present position/speed rather than jump to a stale target."""
-        if mode == CSP:
+        if mode == Mode.CSP:
             return complex(self.axis.position)
-        if mode in (CSV, PV, CST, VOLTAGE_MODE, DQ_VOLTAGE_MODE):
-            return 0j
         return 0j
 
     def on_rpdo(self, number: int, *, synchronous: bool) -> None:
@@ -160,14 +171,14 @@ class EmulatedDrive(EmulatedNode):
             self._apply_controlword(cw)
         if self.sm.state is not S.OPERATION_ENABLED:
             return
-        mode = self.read(0x6061)
+        mode = self.read(cia.MODES_DISPLAY)
         if mode not in self.axis.modes:
             return
         value = self._command(mode)
         if synchronous:
             self._pending.append((0.0, mode, value, True))
         else:
-            latency = self._u(0x2001, 0) * 1e-6
+            latency = self._u(cia.COMMAND_LATENCY, 0) * 1e-6  # us -> s
             arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
             offset = min(arrival + latency, self.period)
             self._pending.append((offset, mode, value, False))
@@ -176,7 +187,7 @@ class EmulatedDrive(EmulatedNode):
         self.axis.reset()
         self.sm = PowerStateMachine()
         self.sm.power_on()
-        self.sm.quick_stop_option = 2
+        self.sm.quick_stop_option = QuickStopOption.QUICK_STOP_RAMP
         self._pending.clear()
         self.fault_code = 0
         self._first_sync = True
@@ -203,12 +214,14 @@ class EmulatedDrive(EmulatedNode):
         st = self.sm.state
         if st not in (S.QUICK_STOP_ACTIVE, S.FAULT_REACTION_ACTIVE):
             return
-        option = self.sm.quick_stop_option if st is S.QUICK_STOP_ACTIVE else self.read(0x605E)
-        if option == 0 or CSV not in self.axis.modes:
+        option = (
+            self.sm.quick_stop_option if st is S.QUICK_STOP_ACTIVE else self.read(cia.FAULT_REACTION_OPTION)
+        )
+        if option == QuickStopOption.DISABLE_DRIVE or Mode.CSV not in self.axis.modes:
             self.axis.coast()
             self.sm.reaction_done()
             return
-        self.axis.set_command(CSV, 0.0)
+        self.axis.set_command(Mode.CSV, 0.0)
         if abs(self.axis.velocity) < 1e-2:
             self.sm.reaction_done()
             if self.sm.state in (S.FAULT, S.SWITCH_ON_DISABLED):
@@ -217,17 +230,17 @@ class EmulatedDrive(EmulatedNode):
     def _check_limits(self) -> None:
         if self.sm.state in (S.FAULT, S.FAULT_REACTION_ACTIVE):
             return
-        code = 0
-        i_max = self.read(0x6073) / 1000.0 * self._rated_current()
-        w_max = self._u(0x6080, 0) * 2.0 * math.pi / 60.0
+        code = EmcyCode.NO_ERROR
+        i_max = self.read(cia.MAX_CURRENT) / 1000.0 * self._rated_current()
+        w_max = self._u(cia.MAX_MOTOR_SPEED, 0) * 2.0 * math.pi / 60.0  # rpm -> rad/s
         if abs(self.axis.current) > i_max:
-            code = 0x2310
-        elif DQ_VOLTAGE_MODE not in self.axis.modes and abs(self.axis.velocity) > w_max:
-            code = 0x8400
-        elif self.read(0x6061) == CSP and self.sm.state is S.OPERATION_ENABLED:
-            error = self.read(0x607A) - self.read(0x6064)
-            if abs(error) > self._u(0x6065, 0):
-                code = 0x8611
+            code = EmcyCode.OVER_CURRENT
+        elif Mode.DQ_VOLTAGE not in self.axis.modes and abs(self.axis.velocity) > w_max:
+            code = EmcyCode.OVER_SPEED
+        elif self.read(cia.MODES_DISPLAY) == Mode.CSP and self.sm.state is S.OPERATION_ENABLED:
+            error = self.read(cia.TARGET_POSITION) - self.read(cia.POSITION_ACTUAL)
+            if abs(error) > self._u(cia.FOLLOWING_ERROR_WINDOW, 0):
+                code = EmcyCode.FOLLOWING_ERROR
         if code:
             self.raise_fault(code)
 
@@ -236,8 +249,12 @@ class EmulatedDrive(EmulatedNode):
         log.warning("node %d: fault 0x%04X %s", self.node_id, code, FAULT_CODES.get(code, ""))
         self.fault_code = code
         self.sm.fault()
-        self.write(0x603F, 0, code)
-        register = 0x01 | (0x02 if code >> 12 == 2 else 0) | (0x20 if code >> 12 == 8 else 0)
+        self.write(cia.ERROR_CODE, 0, code)
+        register = ErrorRegister.GENERIC
+        if code >> 12 == 0x2:  # 0x2xxx: current
+            register |= ErrorRegister.CURRENT
+        elif code >> 12 == 0x8:  # 0x8xxx: monitoring (the profile's control loops)
+            register |= ErrorRegister.DEVICE_PROFILE
         self.emcy(code, register)
 
     def on_sync_latch(self, timestamp: float) -> None:
@@ -249,7 +266,7 @@ class EmulatedDrive(EmulatedNode):
         else:
             self._advance(self._t_sync)
         self._t_sync = timestamp
-        mode = self.read(0x6061)
+        mode = self.read(cia.MODES_DISPLAY)
         if self._sdo_target and self.sm.state is S.OPERATION_ENABLED and mode in self.axis.modes:
             self._pending.append((0.0, mode, self._command(mode), False))
         self._sdo_target = False
@@ -258,29 +275,29 @@ class EmulatedDrive(EmulatedNode):
         self._latch()
 
     def _latch_status(self) -> None:
-        word = self.sm.statusword() | 0x0200  # bit 9 remote
-        if self.sm.state is S.OPERATION_ENABLED and self.read(0x6061) in (CSP, CSV, CST):
-            word |= 0x1000  # bit 12: drive follows the command value
-        if self.fault_code == 0x8611:
-            word |= 0x2000  # bit 13: following error
-        self.write(0x6041, 0, word)
+        word = self.sm.statusword() | SW_REMOTE
+        if self.sm.state is S.OPERATION_ENABLED and self.read(cia.MODES_DISPLAY) in _CYCLIC:
+            word |= SW_FOLLOWS_COMMAND
+        if self.fault_code == EmcyCode.FOLLOWING_ERROR:
+            word |= SW_FOLLOWING_ERROR
+        self.write(cia.STATUSWORD, 0, word)
 
     def _latch(self) -> None:
         ax = self.axis
         cpr = self.counts_per_rad
         pos = math.floor(ax.position * cpr) + self.glitch_counts
-        self.write(0x6064, 0, max(-(2**31), min(2**31 - 1, pos)))
-        self.write(0x606C, 0, max(-(2**31), min(2**31 - 1, round(ax.velocity * cpr))))
+        self.write(cia.POSITION_ACTUAL, 0, max(-(2**31), min(2**31 - 1, pos)))
+        self.write(cia.VELOCITY_ACTUAL, 0, max(-(2**31), min(2**31 - 1, round(ax.velocity * cpr))))
         rated_t, rated_i = self._rated_torque(), self._rated_current()
-        self.write(0x6077, 0, max(-32768, min(32767, round(ax.torque / rated_t * 1000.0))))
-        self.write(0x6078, 0, max(-32768, min(32767, round(ax.current / rated_i * 1000.0))))
-        if self.read(0x6061) == CSP:
-            self.write(0x60F4, 0, self.read(0x607A) - pos)
+        self.write(cia.TORQUE_ACTUAL, 0, max(-32768, min(32767, round(ax.torque / rated_t * 1000.0))))
+        self.write(cia.CURRENT_ACTUAL, 0, max(-32768, min(32767, round(ax.current / rated_i * 1000.0))))
+        if self.read(cia.MODES_DISPLAY) == Mode.CSP:
+            self.write(cia.FOLLOWING_ERROR_ACTUAL, 0, self.read(cia.TARGET_POSITION) - pos)
         i_dq = getattr(ax, "i_dq", None)
         if i_dq is not None:
-            self.write(0x2210, 1, round(i_dq.real * 1000.0))
-            self.write(0x2210, 2, round(i_dq.imag * 1000.0))
-            self.write(0x2220, 0, round(ax.position * 1e6))
-            self.write(0x2221, 0, round(ax.velocity * 1000.0))
+            self.write(cia.DQ_CURRENT, 1, round(i_dq.real * 1000.0))  # mA
+            self.write(cia.DQ_CURRENT, 2, round(i_dq.imag * 1000.0))
+            self.write(cia.FRAME_ANGLE, 0, round(ax.position * 1e6))  # urad
+            self.write(cia.FRAME_SPEED, 0, round(ax.velocity * 1000.0))  # mrad/s
         ax.latch()
         self._latch_status()

@@ -14,9 +14,18 @@ from collections.abc import Callable
 import canopen
 
 from drivers.maps import CIA406_EDS
+from drivers.maps.cia import (
+    ENCODER_CYCLIC_TIMER,
+    ENCODER_POSITION,
+    ENCODER_RESOLUTION,
+    ENCODER_SPEED,
+    PDO_SYNC_MAX,
+)
 from plant_emulator.canopen_node import EmulatedNode
 
 __all__ = ["EmulatedEncoder"]
+
+_TURNS = 1 << 16  #: the multi-turn range [revolutions]
 
 
 class EmulatedEncoder(EmulatedNode):
@@ -41,7 +50,7 @@ class EmulatedEncoder(EmulatedNode):
 
     def counts(self) -> int:
         """The multi-turn count of the present shaft angle."""
-        per_rev = self._u(0x6001, 0)
+        per_rev = self._u(ENCODER_RESOLUTION, 0)
         return math.floor(self.shaft() / (2.0 * math.pi) * per_rev)
 
     def on_sync_latch(self, timestamp: float) -> None:
@@ -51,17 +60,17 @@ class EmulatedEncoder(EmulatedNode):
         counts = self.counts()
         speed = 0 if self._last is None else round((counts - self._last) / self.period)
         self._last = counts
-        self.write(0x6004, 0, counts % (self._u(0x6001, 0) << 16))
-        self.write(0x6030, 1, max(-32768, min(32767, speed)))
+        self.write(ENCODER_POSITION, 0, counts % (self._u(ENCODER_RESOLUTION, 0) * _TURNS))
+        self.write(ENCODER_SPEED, 1, max(-32768, min(32767, speed)))
 
     def event_tpdos(self, now: float) -> None:
         """TPDOs of type 254/255 go out on the cyclic timer 0x6200 [ms] (0: never)."""
-        timer = self._u(0x6200, 0)
+        timer = self._u(ENCODER_CYCLIC_TIMER, 0)
         if timer and now - self._last_cyclic >= timer / 1000.0 - 1e-9:
             self._last_cyclic = now
-            self.write(0x6004, 0, self.counts() % (self._u(0x6001, 0) << 16))
+            self.write(ENCODER_POSITION, 0, self.counts() % (self._u(ENCODER_RESOLUTION, 0) * _TURNS))
             for pdo in self._tpdos:
-                if pdo.valid and pdo.mapping and pdo.ttype >= 254:
+                if pdo.valid and pdo.mapping and pdo.ttype > PDO_SYNC_MAX:
                     self.network.send_message(pdo.cob_id, self._pack(pdo))
 
     _last_cyclic = -1e9

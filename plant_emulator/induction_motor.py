@@ -25,7 +25,8 @@ import cmath
 import math
 from dataclasses import dataclass
 
-from plant_emulator.axes import CSP, CST, CSV, PV, Axis, LoadProfile
+from drivers.maps.cia import Mode
+from plant_emulator.axes import Axis, LoadProfile
 
 __all__ = ["ImAxis", "ImParams"]
 
@@ -61,7 +62,7 @@ class ImParams:
 class ImAxis(Axis):
     """The IM and its FOC drive; see the module docstring."""
 
-    modes = (CST, CSV, PV, CSP)
+    modes = (Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY, Mode.CSP)
 
     def __init__(self, p: ImParams, *, load: LoadProfile | None = None) -> None:
         self.p = p
@@ -77,7 +78,7 @@ class ImAxis(Axis):
         self.omega = 0.0
         self.theta = 0.0
         self.theta_e = 0.0  # FOC angle
-        self.mode = CST
+        self.mode: int = Mode.CST
         self.command = 0.0
         self._int_d = self._int_q = 0.0
         self._int_w = 0.0
@@ -139,9 +140,13 @@ class ImAxis(Axis):
 
     def _i_q_ref(self, h: float) -> float:
         p = self.p
-        if self.mode == CST:
+        if self.mode == Mode.CST:
             return self.command / p.k_t
-        w_ref = self.command if self.mode in (CSV, PV) else p.position_kp * (self.command - self.theta)
+        w_ref = (
+            self.command
+            if self.mode in (Mode.CSV, Mode.PROFILE_VELOCITY)
+            else p.position_kp * (self.command - self.theta)
+        )
         e = w_ref - self.omega
         i_q = p.speed_kp * e + self._int_w + p.speed_ki * e
         if abs(i_q) < p.i_max:

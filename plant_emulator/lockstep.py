@@ -22,6 +22,7 @@ from typing import Any
 import can
 import canopen
 
+from drivers.maps.cia import COB_SYNC
 from plant_emulator.presets import build_preset
 
 __all__ = ["LockstepBench", "SyncBus", "SyncHub", "attach_network"]
@@ -132,7 +133,7 @@ class LockstepBench:
     def sync(self) -> None:
         self.syncs += 1
         self.hub.clock = self.syncs * self.period  # from a count: no drift by rounding
-        self.host.send_message(0x80, b"")
+        self.host.send_message(COB_SYNC, b"")
 
     def close(self) -> None:
         for net in (self.host, self.device_network):

@@ -30,7 +30,9 @@ from typing import Any
 
 import canopen
 
-from plant_emulator.axes import CST, DQ_VOLTAGE_MODE, DcServoAxis, GridAxis, ServoLoops
+from drivers.maps import cia
+from drivers.maps.cia import Mode, map_entry
+from plant_emulator.axes import DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.cia406_encoder import EmulatedEncoder
@@ -180,15 +182,15 @@ def build_preset(
 def _im_drive(p: ImDrivePreset, network: canopen.Network) -> list[EmulatedNode]:
     axis = ImAxis(ImParams(i_ds_ref=p.i_ds_ref), load=load_profile(p.load) if p.load != "none" else None)
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    drive.write(0x6075, 0, round(p.rated_current * 1000))
-    drive.write(0x6076, 0, round(p.rated_torque * 1000))
-    drive.write(0x6073, 0, p.max_current_permille)
-    drive.write(0x6080, 0, p.max_speed_rpm)
-    drive.write(0x608F, 1, p.counts_per_rev)
-    drive.write(0x6060, 0, CST)
-    drive.write(0x6061, 0, CST)
+    drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
+    drive.write(cia.RATED_TORQUE, 0, round(p.rated_torque * 1000))  # mN m
+    drive.write(cia.MAX_CURRENT, 0, p.max_current_permille)
+    drive.write(cia.MAX_MOTOR_SPEED, 0, p.max_speed_rpm)
+    drive.write(cia.POSITION_ENCODER_RESOLUTION, 1, p.counts_per_rev)
+    drive.write(cia.MODES_OF_OPERATION, 0, Mode.CST)
+    drive.write(cia.MODES_DISPLAY, 0, Mode.CST)
     encoder = EmulatedEncoder(p.encoder_node, network, lambda: axis.position, period=p.period)
-    encoder.write(0x6001, 0, p.counts_per_rev)
+    encoder.write(cia.ENCODER_RESOLUTION, 0, p.counts_per_rev)
     return [drive, encoder]
 
 
@@ -200,13 +202,13 @@ def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
     load = load_profile(p.load) if p.load != "none" else None
     axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load, coulomb=p.coulomb)
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    drive.write(0x6075, 0, round(p.rated_current * 1000))  # mA
-    drive.write(0x6076, 0, round(motor.k_t * p.rated_current * 1000))  # mN m
-    drive.write(0x6073, 0, p.max_current_permille)
-    drive.write(0x6080, 0, p.max_speed_rpm)
-    drive.write(0x608F, 1, p.counts_per_rev)
+    drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
+    drive.write(cia.RATED_TORQUE, 0, round(motor.k_t * p.rated_current * 1000))  # mN m
+    drive.write(cia.MAX_CURRENT, 0, p.max_current_permille)
+    drive.write(cia.MAX_MOTOR_SPEED, 0, p.max_speed_rpm)
+    drive.write(cia.POSITION_ENCODER_RESOLUTION, 1, p.counts_per_rev)
     encoder = EmulatedEncoder(p.encoder_node, network, lambda: axis.position, period=p.period)
-    encoder.write(0x6001, 0, p.counts_per_rev)
+    encoder.write(cia.ENCODER_RESOLUTION, 0, p.counts_per_rev)
     return [drive, encoder]
 
 
@@ -219,17 +221,18 @@ def _grid(p: GridConverterPreset, network: canopen.Network) -> list[EmulatedNode
         RLParams(p.R1, p.L1, p.period), omega_k=omega, source=source, u_max=p.u_dc / math.sqrt(3.0)
     )
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    drive.write(0x6075, 0, round(p.rated_current * 1000))
-    drive.write(0x6073, 0, p.max_current_permille)
-    drive.write(0x6060, 0, DQ_VOLTAGE_MODE)
-    drive.write(0x6061, 0, DQ_VOLTAGE_MODE)
+    drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
+    drive.write(cia.MAX_CURRENT, 0, p.max_current_permille)
+    drive.write(cia.MODES_OF_OPERATION, 0, Mode.DQ_VOLTAGE)
+    drive.write(cia.MODES_DISPLAY, 0, Mode.DQ_VOLTAGE)
     event = p.strategy == "s-pwm-middle"
-    drive.write(0x1400, 2, 255 if event else 1)
-    drive.write(0x2001, 0, round(p.period / 2 * 1e6) if event else 0)
-    drive.write(0x1600, 0, 2)
-    drive.write(0x1600, 1, 0x22000120)
-    drive.write(0x1600, 2, 0x22000220)
-    drive.write(0x1A01, 1, 0x22200020)
-    drive.write(0x1A01, 2, 0x22210020)
-    drive.write(0x1803, 1, 0x480 + p.drive_node)
+    # RPDO1: u_d, u_q [mV]; TPDO2: frame angle and speed; TPDO4 (i_d, i_q) valid
+    drive.write(cia.RPDO_COMM, cia.PDO_COMM_TYPE, cia.PDO_EVENT if event else 1)
+    drive.write(cia.COMMAND_LATENCY, 0, round(p.period / 2 * 1e6) if event else 0)  # us
+    drive.write(cia.RPDO_MAP, 0, 2)
+    drive.write(cia.RPDO_MAP, 1, map_entry(cia.DQ_VOLTAGE, 1, 32))
+    drive.write(cia.RPDO_MAP, 2, map_entry(cia.DQ_VOLTAGE, 2, 32))
+    drive.write(cia.TPDO_MAP + 1, 1, map_entry(cia.FRAME_ANGLE, 0, 32))
+    drive.write(cia.TPDO_MAP + 1, 2, map_entry(cia.FRAME_SPEED, 0, 32))
+    drive.write(cia.TPDO_COMM + 3, cia.PDO_COMM_COB_ID, cia.COB_TPDO[3] + p.drive_node)
     return [drive]

@@ -11,12 +11,32 @@ import pytest
 from canopen.sdo import SdoAbortedError
 
 from drivers.maps import CIA402_EDS, CIA406_EDS
+from drivers.maps.cia import PowerState
 from plant_emulator.cia402_drive import EmulatedDrive
-from plant_emulator.cia402_state import PowerState, statusword_state
 from plant_emulator.induction_motor import ImParams
 from plant_emulator.lockstep import LockstepBench
 
 S = PowerState
+
+#: statusword bits 0-6 (mask, value) of each state, from the CiA 402 table: written out here
+#: rather than taken from drivers.maps.cia, so a misreading there cannot pass
+_STATUSWORD = [
+    (0x4F, 0x00, S.NOT_READY_TO_SWITCH_ON),
+    (0x4F, 0x40, S.SWITCH_ON_DISABLED),
+    (0x6F, 0x21, S.READY_TO_SWITCH_ON),
+    (0x6F, 0x23, S.SWITCHED_ON),
+    (0x6F, 0x27, S.OPERATION_ENABLED),
+    (0x6F, 0x07, S.QUICK_STOP_ACTIVE),
+    (0x4F, 0x0F, S.FAULT_REACTION_ACTIVE),
+    (0x4F, 0x08, S.FAULT),
+]
+
+
+def statusword_state(word: int) -> PowerState:
+    """The state statusword ``word`` reports."""
+    states = [state for mask, value, state in _STATUSWORD if word & mask == value]
+    assert len(states) == 1, hex(word)
+    return states[0]
 
 
 @pytest.fixture
