@@ -30,7 +30,7 @@ from pathlib import Path
 
 import canopen
 
-from drivers.maps import CIA402_EDS
+from drivers.maps import CIA402_EDS, cia
 from plant_emulator.lockstep import SyncHub, attach_network
 from rig.bench.micro import Figure, rate
 from rig.config import BusConfig, RigConfig, load_config, replace_axis
@@ -68,7 +68,7 @@ def canopen_baseline(cycles: int = 20_000, repeats: int = 3) -> float:
     tpdo.data = bytearray(8)
     rpdo.data = bytearray(6)
     received, applied = remote.tpdo[2][0], local.rpdo[1][1]
-    device.subscribe(0x80, lambda can_id, data, ts: tpdo.transmit())
+    device.subscribe(cia.COB_SYNC, lambda can_id, data, ts: tpdo.transmit())
 
     def cycle() -> None:
         hub.clock += 1e-3
@@ -136,7 +136,9 @@ def _realtime(out: str, seconds: float) -> list[Figure]:
         arrivals: list[float] = []
         with Session(rt, emulate=False, duration=seconds) as session:
             session.start()
-            session.network.subscribe(0x281, lambda can_id, data, ts: arrivals.append(time.perf_counter()))
+            session.network.subscribe(
+                cia.COB_TPDO[1] + 1, lambda can_id, data, ts: arrivals.append(time.perf_counter())
+            )
             summary = session.run()
         steal1 = _steal_jiffies()
     finally:

@@ -137,7 +137,7 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
     emulator cycles per second (SYNC -> drive physics, limits, latch, TPDOs over the in-process bus)."""
     import canopen
 
-    from drivers.maps import CIA402_EDS
+    from drivers.maps import CIA402_EDS, cia
     from plant_emulator.lockstep import LockstepBench
     from plant_emulator.presets import PRESETS, build_preset
 
@@ -152,9 +152,9 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
         drive = canopen.RemoteNode(bench.devices[0].node_id, CIA402_EDS)
         bench.host.add_node(drive)
         if name == "dc-servo":
-            drive.sdo[0x6060].raw = -1  # voltage mode, 0 V
-        for cw in (0x06, 0x0F):  # enabled, so the physics runs as in a real run
-            drive.sdo[0x6040].raw = cw
+            drive.sdo[cia.MODES_OF_OPERATION].raw = int(cia.Mode.VOLTAGE)  # 0 V
+        for cw in (cia.Controlword.SHUTDOWN, cia.Controlword.ENABLE_OPERATION):  # physics as in a run
+            drive.sdo[cia.CONTROLWORD].raw = int(cw)
         bench.host.send_message(0, bytes([1, 0]))  # NMT start all
         figures.append(
             {

@@ -49,5 +49,5 @@ class AscTrace(can.ASCWriter):
         ):
             super().on_message_received(msg)
             return
-        stamp = "%9.6f" % (msg.timestamp - self.started)  # noqa: UP031 - the fastest float format here
+        stamp = "%9.6f" % (msg.timestamp - self.started)
         self.file.write(stamp + self._head(msg) + msg.data.hex(" ").upper() + "\n")
