@@ -127,7 +127,7 @@ class CanopenAxis(AxisDriver):
             raise self._translate(exc, "SDO upload", index, subindex) from exc
         except KeyError as exc:
             raise SdoAbort(
-                "not in the EDS", code=0x06090011, node_id=self.node_id, index=index, subindex=subindex
+                "not in the EDS", code=cia.SdoAbort.NO_SUBINDEX, node_id=self.node_id, index=index, subindex=subindex
             ) from exc
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
@@ -138,7 +138,7 @@ class CanopenAxis(AxisDriver):
             raise self._translate(exc, f"SDO download of {value!r}", index, subindex) from exc
         except KeyError as exc:
             raise SdoAbort(
-                "not in the EDS", code=0x06090011, node_id=self.node_id, index=index, subindex=subindex
+                "not in the EDS", code=cia.SdoAbort.NO_SUBINDEX, node_id=self.node_id, index=index, subindex=subindex
             ) from exc
 
     def save_pdos(self, maps: Any, first_index: int) -> None:

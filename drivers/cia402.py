@@ -317,7 +317,8 @@ class Cia402Axis(CanopenAxis):
         status = self._status
         if status.timestamp is not None and status.timestamp != self._enabled_stamp:
             (word, *_) = status.values()
-            if word & 0x6F != PowerState.OPERATION_ENABLED.bits:
+            enabled = PowerState.OPERATION_ENABLED
+            if word & enabled.mask != enabled.bits:
                 raise SafetyStop(
                     f"node {self.node_id}: the drive left OPERATION ENABLED: {power_state(word).value}"
                 )
