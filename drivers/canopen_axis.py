@@ -12,9 +12,10 @@ decodes it with a struct built from the mapping in force.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import struct
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import canopen
@@ -23,6 +24,7 @@ from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drivers.base import AxisDriver
 from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault, SafetyStop, SdoAbort
+from drivers.maps import cia
 from drivers.maps.od import load_od
 
 __all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec"]
@@ -106,12 +108,22 @@ class CanopenAxis(AxisDriver):
         return f"node {self.node_id}"
 
     # --- SDO with the toolkit's errors ---------------------------------------------------
-    def _translate(self, exc: Exception, what: str, index: int, subindex: int) -> Exception:
-        if isinstance(exc, SdoAbortedError):
-            return SdoAbort(what, code=exc.code, node_id=self.node_id, index=index, subindex=subindex)
-        return CommunicationTimeout(
-            f"node {self.node_id}: no SDO answer ({what}, 0x{index:04X}:{subindex:02X})"
-        )
+    @contextlib.contextmanager
+    def _sdo(self, what: str, index: int, subindex: int) -> Iterator[None]:
+        """canopen's SDO errors (and an object the EDS lacks) as the toolkit's, naming node and object."""
+        try:
+            yield
+        except SdoAbortedError as exc:
+            raise SdoAbort(what, code=exc.code, node_id=self.node_id, index=index, subindex=subindex) from exc
+        except SdoCommunicationError as exc:
+            raise CommunicationTimeout(
+                f"node {self.node_id}: no SDO answer ({what}, 0x{index:04X}:{subindex:02X})"
+            ) from exc
+        except KeyError as exc:
+            code = cia.SdoAbort.NO_SUBINDEX
+            raise SdoAbort(
+                f"{what}: not in the EDS", code=code, node_id=self.node_id, index=index, subindex=subindex
+            ) from exc
 
     def _entry(self, index: int, subindex: int) -> Any:
         obj = self.node.sdo[index]
@@ -119,34 +131,20 @@ class CanopenAxis(AxisDriver):
 
     def sdo_read(self, index: int, subindex: int = 0) -> Any:
         """Read an object by SDO (raw bytes if the EDS lacks it); SdoAbort or CommunicationTimeout."""
-        try:
+        with self._sdo("SDO upload", index, subindex):
             if index not in self.node.object_dictionary:
                 return self.node.sdo.upload(index, subindex)
             return self._entry(index, subindex).raw
-        except (SdoAbortedError, SdoCommunicationError) as exc:
-            raise self._translate(exc, "SDO upload", index, subindex) from exc
-        except KeyError as exc:
-            raise SdoAbort(
-                "not in the EDS", code=cia.SdoAbort.NO_SUBINDEX, node_id=self.node_id, index=index, subindex=subindex
-            ) from exc
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """Write an object by SDO; SdoAbort or CommunicationTimeout on failure."""
-        try:
+        with self._sdo(f"SDO download of {value!r}", index, subindex):
             self._entry(index, subindex).raw = value
-        except (SdoAbortedError, SdoCommunicationError) as exc:
-            raise self._translate(exc, f"SDO download of {value!r}", index, subindex) from exc
-        except KeyError as exc:
-            raise SdoAbort(
-                "not in the EDS", code=cia.SdoAbort.NO_SUBINDEX, node_id=self.node_id, index=index, subindex=subindex
-            ) from exc
 
     def save_pdos(self, maps: Any, first_index: int) -> None:
         """``maps.save()`` (canopen PdoMaps) with SDO errors translated."""
-        try:
+        with self._sdo("PDO mapping", first_index, 0):
             maps.save()
-        except (SdoAbortedError, SdoCommunicationError) as exc:
-            raise self._translate(exc, "PDO mapping", first_index, 0) from exc
 
     # --- NMT, EMCY, heartbeat ----------------------------------------------------------------
     def nmt(self, state: str) -> None:
