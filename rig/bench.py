@@ -156,7 +156,7 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
         rate = _rate(advance, n // {"dc-servo": 1, "grid-converter": 4}.get(name, 100), repeats)
         figures.append({"name": f"{name}_physics_steps_per_s", "value": round(rate), "unit": "steps/s"})
     for name in PRESETS:
-        bench = LockstepBench(name, {"u_line_rms": "0"} if name == "grid-converter" else None)
+        bench = LockstepBench(name, {"u_line_rms": 0.0} if name == "grid-converter" else None)
         drive = canopen.RemoteNode(bench.devices[0].node_id, CIA402_EDS)
         bench.host.add_node(drive)
         if name == "dc-servo":
@@ -290,7 +290,7 @@ def bench_identify(*, seeds: int = 30, duration: float = 5.0) -> list[Figure]:
     errors: dict[str, list[float]] = {"a_m": [], "b_m": []}
     seconds = []
     for seed in range(seeds):
-        devices, period = build_preset("dc-servo", canopen.Network(), {"coulomb": "0.002"})
+        devices, period = build_preset("dc-servo", canopen.Network(), {"coulomb": 0.002})
         axis = devices[0].axis  # type: ignore[attr-defined]
         true = {"a_m": axis.motor.a_m, "b_m": axis.motor.b_m}
         u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=period, duration=duration, seed=seed)

@@ -452,6 +452,7 @@ def _identify(args: argparse.Namespace) -> int:
     from plant_emulator.presets import preset_period
     from rig.config import load_config
     from rig.demo import demo_config
+    from rig.emulate import preset_values
     from rig.experiment import experiment_config, identify_from_log, run_experiment, terminal_progress
     from rig.identify import IdentificationError, excitation
 
@@ -467,7 +468,7 @@ def _identify(args: argparse.Namespace) -> int:
                 raise _UsageError(f"rig identify: --param needs NAME=VALUE, got {args.param}")
             if args.emulate:
                 cfg = experiment_config(demo_config(), preset=args.emulate, params=overrides)
-                period = preset_period(args.emulate, overrides)
+                period = preset_period(args.emulate, preset_values(args.emulate, overrides))
             else:
                 cfg = load_config(args.config)
                 period = cfg.run.period

@@ -16,6 +16,7 @@ import logging
 import signal
 import threading
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import can
@@ -24,10 +25,11 @@ import canopen
 from drivers.errors import ConfigError
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.lockstep import SyncHub, attach_network
-from plant_emulator.presets import build_preset
+from plant_emulator.parameters import PREFIX, field_types
+from plant_emulator.presets import PRESETS, build_preset
 from plant_emulator.socketcand_server import SocketcandServer
 
-__all__ = ["run_emulator", "run_modbus_emulator"]
+__all__ = ["preset_values", "run_emulator", "run_modbus_emulator"]
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +42,31 @@ def _locked_notify(network: Any, lock: threading.RLock) -> None:
             notify(can_id, data, timestamp)
 
     network.notify = locked
+
+
+def _parse(kind: Any, text: str) -> object:
+    """``text`` as a value of field type ``kind`` (int, float or a fraction, str, a Literal)."""
+    if kind is int:
+        return int(text, 0)
+    if kind is float:
+        num, slash, den = text.partition("/")
+        return float(num) / float(den) if slash else float(num)
+    return text
+
+
+def preset_values(name: str, texts: Mapping[str, str]) -> dict[str, object]:
+    """``NAME=VALUE`` texts typed by the fields of preset ``name``; the emulator checks the rest."""
+    kinds = field_types(PRESETS[name]) if name in PRESETS else {}
+    values: dict[str, object] = {}
+    for given, text in texts.items():
+        kind = kinds.get(given.removeprefix(PREFIX))
+        try:
+            values[given] = _parse(kind, text) if isinstance(text, str) else text
+        except (ValueError, ZeroDivisionError):
+            raise ValueError(
+                f"preset parameter {given}={text!r}: not a {getattr(kind, '__name__', kind)}"
+            ) from None
+    return values
 
 
 def run_emulator(
@@ -82,7 +109,7 @@ def run_emulator(
     try:
         with lock:
             devices: list[EmulatedNode]
-            devices, period = build_preset(preset, network, overrides)
+            devices, period = build_preset(preset, network, preset_values(preset, overrides))
             for d in devices:
                 if hasattr(d, "lockstep"):
                     d.lockstep = lockstep

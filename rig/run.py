@@ -48,6 +48,7 @@ from plant_emulator.faults import FaultInjector, FaultPlan
 from plant_emulator.lockstep import SyncHub, attach_network
 from plant_emulator.presets import build_preset
 from rig.config import ControllerConfig, ReferenceConfig, RigConfig
+from rig.emulate import preset_values
 from rig.loop import Feedback, HostLoop, Law
 from rig.recorder import Recorder
 from rig.safety import Limits
@@ -279,7 +280,8 @@ def prepare(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> 
         buses = [hub.bus(queue=False, channel="emulator"), hub.bus(queue=False, channel="host")]
         attach_network(device_network, buses[0])
         attach_network(network, buses[1])
-        devices, preset_period = build_preset(cfg.emulator.preset, device_network, cfg.emulator.params)
+        params = preset_values(cfg.emulator.preset, cfg.emulator.params)
+        devices, preset_period = build_preset(cfg.emulator.preset, device_network, params)
         period = period or preset_period
         for d in devices:
             d.boot()

@@ -15,6 +15,7 @@ import pytest
 from drivers.cia402 import decode_state
 from plant_emulator.presets import build_preset
 from rig.config import load_config
+from rig.emulate import preset_values
 from rig.run import build_law, prepare
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
@@ -44,7 +45,9 @@ def test_position_servo_over_the_bus_equals_the_pure_simulation(tmp_path: pathli
     assert summary["safe_stop_reason"] is None and summary["cycles"] == 5000
     wire = _samples(summary["run_dir"])
 
-    devices, period = build_preset("dc-servo", canopen.Network(), cfg.emulator.params)
+    devices, period = build_preset(
+        "dc-servo", canopen.Network(), preset_values("dc-servo", cfg.emulator.params)
+    )
     axis = devices[0].axis  # type: ignore[attr-defined]
     law, _, _ = build_law(cfg, period)
     cpr = 4096 / (2 * math.pi)
