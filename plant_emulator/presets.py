@@ -25,7 +25,7 @@ out of range is a ValueError naming it.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -33,13 +33,14 @@ import canopen
 
 from drivers.maps import cia
 from drivers.maps.cia import Mode, map_entry
-from plant_emulator.axes import DcServoAxis, GridAxis, ServoLoops
+from plant_emulator.axes import DcServoAxis, GridAxis, LoadProfile, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.cia406_encoder import EmulatedEncoder
 from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.induction_motor import ImAxis, ImParams
 from plant_emulator.parameters import require_nodes, require_nonnegative, require_positive, with_params
+from plant_emulator.profiles import parse_profile
 from plant_emulator.rl_dq import RLParams
 
 __all__ = [
@@ -48,36 +49,22 @@ __all__ = [
     "GridConverterPreset",
     "ImDrivePreset",
     "build_preset",
-    "load_profile",
+    "load_torque",
     "preset_params",
     "preset_period",
 ]
 
 
-def load_profile(text: str) -> Callable[[float], float]:
-    """A load torque profile [N m] of time [s]: ``none``, ``const:T``, ``step:T:t0``, ``sine:A:f``
-    (A sin(2 pi f t), e.g. ``sine:5:1`` is the drives paper's 5 sin(2 pi t))."""
-    kind, *args = text.split(":")
-    try:
-        nums = [float(a) for a in args]
-    except ValueError:
-        raise ValueError(f"load profile {text!r}: arguments must be numbers") from None
-    if kind == "none" and not nums:
-        return lambda t: 0.0
-    if kind == "const" and len(nums) == 1:
-        return lambda t: nums[0]
-    if kind == "step" and len(nums) == 2:
-        return lambda t: nums[0] if t >= nums[1] else 0.0
-    if kind == "sine" and len(nums) == 2:
-        return lambda t: nums[0] * math.sin(2.0 * math.pi * nums[1] * t)
-    raise ValueError(f"load profile {text!r}: use none, const:T, step:T:t0 or sine:A:f")
+def load_torque(text: str) -> LoadProfile | None:
+    """The load torque [N m] of time [s] written in ``text`` (``parse_profile``); None for ``none``.
 
-
-def _check_load(text: str) -> None:
+    ValueError naming the parameter ``load`` and the faulty term.
+    """
     try:
-        load_profile(text)
+        profile = parse_profile(text)
     except ValueError as exc:
         raise ValueError(f"preset parameter load={text!r}: {exc}") from None
+    return None if text.strip() == "none" else profile
 
 
 @dataclass(frozen=True)
@@ -97,7 +84,7 @@ class DcServoPreset:
     max_current_permille: int = 3000  #: 0x6073 [per mille of the rated current]
     max_speed_rpm: int = 6000  #: 0x6080 [rpm]
     speed_bandwidth_hz: float = 100.0  #: of the drive's speed loop [Hz]
-    load: str = "none"  #: load torque profile [N m]
+    load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
     drive_node: int = 1
     encoder_node: int = 2
 
@@ -108,7 +95,7 @@ class DcServoPreset:
         require_positive(self, "max_current_permille", "max_speed_rpm", "speed_bandwidth_hz")
         require_nonnegative(self, "friction", "coulomb")
         require_nodes(self, "drive_node", "encoder_node")
-        _check_load(self.load)
+        load_torque(self.load)
 
 
 @dataclass(frozen=True)
@@ -150,7 +137,7 @@ class ImDrivePreset:
     max_current_permille: int = 2500  #: 0x6073 [per mille of the rated current]
     max_speed_rpm: int = 3600  #: 0x6080 [rpm]
     i_ds_ref: float = 2.35  #: flux current (4.7) [A]
-    load: str = "none"  #: load torque profile [N m]
+    load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
     drive_node: int = 1
     encoder_node: int = 2
 
@@ -158,7 +145,7 @@ class ImDrivePreset:
         require_positive(self, "period", "counts_per_rev", "rated_torque", "rated_current")
         require_positive(self, "max_current_permille", "max_speed_rpm", "i_ds_ref")
         require_nodes(self, "drive_node", "encoder_node")
-        _check_load(self.load)
+        load_torque(self.load)
 
 
 PRESETS: dict[str, type] = {
@@ -203,7 +190,7 @@ def build_preset(
 
 
 def _im_drive(p: ImDrivePreset, network: canopen.Network) -> list[EmulatedNode]:
-    axis = ImAxis(ImParams(i_ds_ref=p.i_ds_ref), load=load_profile(p.load) if p.load != "none" else None)
+    axis = ImAxis(ImParams(i_ds_ref=p.i_ds_ref), load=load_torque(p.load))
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
     drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
     drive.write(cia.RATED_TORQUE, 0, round(p.rated_torque * 1000))  # mN m
@@ -222,8 +209,7 @@ def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
     w_c = 2.0 * math.pi * p.speed_bandwidth_hz
     max_torque = motor.k_t * p.rated_current * p.max_current_permille / 1000.0
     loops = ServoLoops(motor.j * w_c, motor.j * w_c * w_c / 5.0, w_c / 5.0, max_torque, p.u_max)
-    load = load_profile(p.load) if p.load != "none" else None
-    axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load, coulomb=p.coulomb)
+    axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load_torque(p.load), coulomb=p.coulomb)
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
     drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
     drive.write(cia.RATED_TORQUE, 0, round(motor.k_t * p.rated_current * 1000))  # mN m
