@@ -41,7 +41,7 @@ from drivers.maps.cia import (
     ErrorRegister,
     NmtCommand,
     NmtState,
-    SdoAbort,
+    SdoAbortCode,
 )
 from drivers.maps.od import load_od
 
@@ -202,17 +202,17 @@ class EmulatedNode:
             return
         comm = index - PDO_BLOCK
         if not self._u(comm, cia.PDO_COMM_COB_ID) & PDO_INVALID:
-            raise SdoAbortedError(SdoAbort.DEVICE_STATE)
+            raise SdoAbortedError(SdoAbortCode.DEVICE_STATE)
         if subindex == 0:
             count = data[0]
             if count > PDO_MAX_MAPPED:
-                raise SdoAbortedError(SdoAbort.VALUE_TOO_HIGH)
+                raise SdoAbortedError(SdoAbortCode.VALUE_TOO_HIGH)
             bits = sum(cia.split_map_entry(self._u(index, s))[2] for s in range(1, count + 1))
             if bits > PDO_MAX_BITS:
-                raise SdoAbortedError(SdoAbort.PDO_LENGTH_EXCEEDED)
+                raise SdoAbortedError(SdoAbortCode.PDO_LENGTH_EXCEEDED)
             return
         if self._u(index, 0) != 0:
-            raise SdoAbortedError(SdoAbort.DEVICE_STATE)
+            raise SdoAbortedError(SdoAbortCode.DEVICE_STATE)
         entry = int.from_bytes(data, "little")
         if entry == 0:
             return
@@ -220,9 +220,9 @@ class EmulatedNode:
         try:
             obj = self.node._find_object(obj_index, obj_sub)
         except SdoAbortedError:
-            raise SdoAbortedError(SdoAbort.NOT_MAPPABLE) from None
+            raise SdoAbortedError(SdoAbortCode.NOT_MAPPABLE) from None
         if not obj.pdo_mappable or len(obj) != bits:
-            raise SdoAbortedError(SdoAbort.NOT_MAPPABLE)
+            raise SdoAbortedError(SdoAbortCode.NOT_MAPPABLE)
 
     # --- object dictionary access ----------------------------------------
     def _obj(self, index: int, subindex: int) -> Any:

@@ -39,7 +39,7 @@ from drivers.maps.cia import (
     Mode,
     PowerState,
     QuickStopOption,
-    SdoAbort,
+    SdoAbortCode,
 )
 from plant_emulator.axes import Axis
 from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
@@ -120,11 +120,11 @@ class EmulatedDrive(EmulatedNode):
         value = int.from_bytes(data, "little", signed=index in _SIGNED)
         if index == cia.MODES_OF_OPERATION:
             if value not in self.axis.modes:
-                raise SdoAbortedError(SdoAbort.VALUE_RANGE_EXCEEDED)
+                raise SdoAbortedError(SdoAbortCode.VALUE_RANGE_EXCEEDED)
             self.write(cia.MODES_DISPLAY, 0, value)
         elif index == cia.QUICK_STOP_OPTION:
             if value not in _QUICK_STOP_OPTIONS:
-                raise SdoAbortedError(SdoAbort.VALUE_RANGE_EXCEEDED)
+                raise SdoAbortedError(SdoAbortCode.VALUE_RANGE_EXCEEDED)
             self.sm.quick_stop_option = value
         elif index == cia.CONTROLWORD:
             self._pending_cw = value

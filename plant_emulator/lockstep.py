@@ -16,14 +16,14 @@ from __future__ import annotations
 
 import collections
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import can
 import canopen
 
 from drivers.maps.cia import COB_SYNC
-from plant_emulator.presets import build_preset
+from plant_emulator.presets import build_preset, preset_params
 
 __all__ = ["LockstepBench", "SyncBus", "SyncHub", "attach_network"]
 
@@ -119,13 +119,19 @@ class LockstepBench:
     in the host's PDO maps.
     """
 
-    def __init__(self, preset: str, overrides: dict[str, str] | None = None) -> None:
+    def __init__(self, preset: str, params: Mapping[str, object] | None = None) -> None:
+        """Preset ``preset`` with ``params`` (typed values by name, see ``build_preset``)."""
+        preset_params(preset, params)  # a bad parameter fails here, before any bus exists
         self.hub = SyncHub()
         self.device_network = canopen.Network()
         attach_network(self.device_network, self.hub.bus(queue=False, channel="emulator"))
         self.host = canopen.Network()
         attach_network(self.host, self.hub.bus(queue=False, channel="host"))
-        self.devices, self.period = build_preset(preset, self.device_network, overrides)
+        try:
+            self.devices, self.period = build_preset(preset, self.device_network, params)
+        except BaseException:
+            self.close()
+            raise
         self.syncs = 0
         for d in self.devices:
             d.boot()

@@ -17,27 +17,30 @@
   section VII.C); the host closes speed or position through CST (torque in per
   mille of 0x6076 = 5 N m, the rated 1.5 kW at 2860 rpm); encoder node 2.
 
-Every parameter can be overridden by name (``overrides``); an unknown name or
-a bad value is a ValueError naming it.
+Every parameter can be set by name to a typed value (``params``, checked by
+``plant_emulator.parameters``); an unknown name, a value of the wrong type or
+out of range is a ValueError naming it.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
-from typing import Any
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import canopen
 
 from drivers.maps import cia
 from drivers.maps.cia import Mode, map_entry
-from plant_emulator.axes import DcServoAxis, GridAxis, ServoLoops
+from plant_emulator.axes import DcServoAxis, GridAxis, LoadProfile, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.cia406_encoder import EmulatedEncoder
 from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.induction_motor import ImAxis, ImParams
+from plant_emulator.parameters import require_nodes, require_nonnegative, require_positive, with_params
+from plant_emulator.profiles import parse_profile
 from plant_emulator.rl_dq import RLParams
 
 __all__ = [
@@ -46,69 +49,80 @@ __all__ = [
     "GridConverterPreset",
     "ImDrivePreset",
     "build_preset",
-    "load_profile",
+    "load_torque",
+    "preset_params",
     "preset_period",
 ]
 
 
-def load_profile(text: str) -> Callable[[float], float]:
-    """A load torque profile [N m] of time [s]: ``none``, ``const:T``, ``step:T:t0``, ``sine:A:f``
-    (A sin(2 pi f t), e.g. ``sine:5:1`` is the drives paper's 5 sin(2 pi t))."""
-    kind, *args = text.split(":")
+def load_torque(text: str) -> LoadProfile | None:
+    """The load torque [N m] of time [s] written in ``text`` (``parse_profile``); None for ``none``.
+
+    ValueError naming the parameter ``load`` and the faulty term.
+    """
     try:
-        nums = [float(a) for a in args]
-    except ValueError:
-        raise ValueError(f"load profile {text!r}: arguments must be numbers") from None
-    if kind == "none" and not nums:
-        return lambda t: 0.0
-    if kind == "const" and len(nums) == 1:
-        return lambda t: nums[0]
-    if kind == "step" and len(nums) == 2:
-        return lambda t: nums[0] if t >= nums[1] else 0.0
-    if kind == "sine" and len(nums) == 2:
-        return lambda t: nums[0] * math.sin(2.0 * math.pi * nums[1] * t)
-    raise ValueError(f"load profile {text!r}: use none, const:T, step:T:t0 or sine:A:f")
+        profile = parse_profile(text)
+    except ValueError as exc:
+        raise ValueError(f"preset parameter load={text!r}: {exc}") from None
+    return None if text.strip() == "none" else profile
 
 
 @dataclass(frozen=True)
 class DcServoPreset:
     """Parameters of ``dc-servo`` (SI; see the module docstring)."""
 
-    a_m: float = 16.0
-    b_m: float = 680.0
-    r_r: float = 1.0
-    tau_e: float = 1e-4
+    a_m: float = 16.0  #: (3.5) [1/s]
+    b_m: float = 680.0  #: (3.5) [rad/(V s^2)]
+    r_r: float = 1.0  #: armature resistance [Ohm]
+    tau_e: float = 1e-4  #: electrical time constant L_r/R_r [s]
     friction: float = 0.0  #: viscous B [N m s/rad]
     coulomb: float = 0.0  #: Coulomb friction torque [N m], against the motion
-    counts_per_rev: int = 4096
-    period: float = 0.4e-3
-    u_max: float = 48.0
-    rated_current: float = 10.0
-    max_current_permille: int = 3000
-    max_speed_rpm: int = 6000
-    speed_bandwidth_hz: float = 100.0
-    load: str = "none"
+    counts_per_rev: int = 4096  #: position resolution (0x608F, 0x6001) [increments/rev]
+    period: float = 0.4e-3  #: SYNC period [s]
+    u_max: float = 48.0  #: power stage voltage limit [V]
+    rated_current: float = 10.0  #: 0x6075 [A]
+    max_current_permille: int = 3000  #: 0x6073 [per mille of the rated current]
+    max_speed_rpm: int = 6000  #: 0x6080 [rpm]
+    speed_bandwidth_hz: float = 100.0  #: of the drive's speed loop [Hz]
+    load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
     drive_node: int = 1
     encoder_node: int = 2
+
+    def __post_init__(self) -> None:
+        require_positive(
+            self, "a_m", "b_m", "r_r", "tau_e", "counts_per_rev", "period", "u_max", "rated_current"
+        )
+        require_positive(self, "max_current_permille", "max_speed_rpm", "speed_bandwidth_hz")
+        require_nonnegative(self, "friction", "coulomb")
+        require_nodes(self, "drive_node", "encoder_node")
+        load_torque(self.load)
 
 
 @dataclass(frozen=True)
 class GridConverterPreset:
     """Parameters of ``grid-converter`` (SI; see the module docstring)."""
 
-    L1: float = 6e-3
-    R1: float = 0.36
-    f_line: float = 50.0
-    ratio: float = 1.0 / 27.0
-    u_line_rms: float = 400.0
-    u_dc: float = 700.0
-    rated_current: float = 32.0 * math.sqrt(2.0)
-    max_current_permille: int = 2000
-    strategy: str = "s-pwm-start"
+    L1: float = 6e-3  #: [H]
+    R1: float = 0.36  #: [Ohm]
+    f_line: float = 50.0  #: grid frequency [Hz]
+    ratio: float = 1.0 / 27.0  #: omega_k/omega_s: the SYNC period is ratio/f_line
+    u_line_rms: float = 400.0  #: line-to-line grid voltage [V rms]
+    u_dc: float = 700.0  #: DC link [V]
+    rated_current: float = 32.0 * math.sqrt(2.0)  #: 0x6075 [A]
+    max_current_permille: int = 2000  #: 0x6073 [per mille of the rated current]
+    strategy: Literal["s-pwm-start", "s-pwm-middle"] = "s-pwm-start"
     drive_node: int = 1
+
+    def __post_init__(self) -> None:
+        require_positive(self, "L1", "R1", "f_line", "ratio", "u_dc", "rated_current", "max_current_permille")
+        require_nonnegative(self, "u_line_rms")
+        require_nodes(self, "drive_node")
+        if self.strategy not in ("s-pwm-start", "s-pwm-middle"):
+            raise ValueError(f"preset parameter strategy={self.strategy!r}: use s-pwm-start or s-pwm-middle")
 
     @property
     def period(self) -> float:
+        """SYNC period [s]."""
         return self.ratio / self.f_line
 
 
@@ -116,16 +130,22 @@ class GridConverterPreset:
 class ImDrivePreset:
     """Parameters of ``im-drive`` (SI; see the module docstring; the motor is ``ImParams``)."""
 
-    period: float = 0.5e-3
-    counts_per_rev: int = 4096
-    rated_torque: float = 5.0
-    rated_current: float = 3.25 * math.sqrt(2.0)
-    max_current_permille: int = 2500
-    max_speed_rpm: int = 3600
-    i_ds_ref: float = 2.35
-    load: str = "none"
+    period: float = 0.5e-3  #: SYNC period [s]
+    counts_per_rev: int = 4096  #: position resolution (0x608F, 0x6001) [increments/rev]
+    rated_torque: float = 5.0  #: 0x6076 [N m]
+    rated_current: float = 3.25 * math.sqrt(2.0)  #: 0x6075 [A]
+    max_current_permille: int = 2500  #: 0x6073 [per mille of the rated current]
+    max_speed_rpm: int = 3600  #: 0x6080 [rpm]
+    i_ds_ref: float = 2.35  #: flux current (4.7) [A]
+    load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
     drive_node: int = 1
     encoder_node: int = 2
+
+    def __post_init__(self) -> None:
+        require_positive(self, "period", "counts_per_rev", "rated_torque", "rated_current")
+        require_positive(self, "max_current_permille", "max_speed_rpm", "i_ds_ref")
+        require_nodes(self, "drive_node", "encoder_node")
+        load_torque(self.load)
 
 
 PRESETS: dict[str, type] = {
@@ -135,43 +155,33 @@ PRESETS: dict[str, type] = {
 }
 
 
-def _apply(preset: Any, overrides: dict[str, str]) -> Any:
-    types = {f.name: f.type for f in fields(preset)}
-    changes: dict[str, Any] = {}
-    for given, text in overrides.items():
-        name = given.removeprefix("plant.")  # ``plant.a_m`` and ``a_m`` name the same parameter
-        if name not in types:
-            raise ValueError(f"preset parameter {name!r} unknown; known: {', '.join(types)}")
-        kind = types[name]
-        try:
-            if kind == "str":
-                changes[name] = text
-            elif kind == "int":
-                changes[name] = int(text, 0)
-            else:
-                num, slash, den = text.partition("/")
-                changes[name] = float(num) / float(den) if slash else float(num)
-        except (ValueError, ZeroDivisionError):
-            raise ValueError(f"preset parameter {name}={text!r}: not a {kind}") from None
-    return replace(preset, **changes)
+def preset_params(name: str, params: Mapping[str, object] | None = None) -> Any:
+    """The parameters of preset ``name`` with ``params`` (typed values by name) applied.
 
-
-def preset_period(name: str, overrides: dict[str, str] | None = None) -> float:
-    """The SYNC period [s] preset ``name`` runs at, with ``overrides`` applied."""
+    ValueError naming an unknown preset, an unknown parameter (with the known ones), a value
+    of the wrong type (with the expected one) or out of range.
+    """
     if name not in PRESETS:
         raise ValueError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
-    return float(_apply(PRESETS[name](), overrides or {}).period)
+    return with_params(PRESETS[name], params)
+
+
+def preset_period(name: str, params: Mapping[str, object] | None = None) -> float:
+    """The SYNC period [s] preset ``name`` runs at, with ``params`` applied."""
+    return float(preset_params(name, params).period)
 
 
 def build_preset(
     name: str,
     network: canopen.Network,
-    overrides: dict[str, str] | None = None,
+    params: Mapping[str, object] | None = None,
 ) -> tuple[list[EmulatedNode], float]:
-    """Create the devices of preset ``name`` on ``network``: (devices, SYNC period [s])."""
-    if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
-    p = _apply(PRESETS[name](), overrides or {})
+    """Create the devices of preset ``name`` on ``network``: (devices, SYNC period [s]).
+
+    ``params`` sets parameters by name (``a_m`` or ``plant.a_m``) to typed values, see
+    ``preset_params``.
+    """
+    p = preset_params(name, params)
     if isinstance(p, DcServoPreset):
         return _dc_servo(p, network), p.period
     if isinstance(p, ImDrivePreset):
@@ -180,7 +190,7 @@ def build_preset(
 
 
 def _im_drive(p: ImDrivePreset, network: canopen.Network) -> list[EmulatedNode]:
-    axis = ImAxis(ImParams(i_ds_ref=p.i_ds_ref), load=load_profile(p.load) if p.load != "none" else None)
+    axis = ImAxis(ImParams(i_ds_ref=p.i_ds_ref), load=load_torque(p.load))
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
     drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
     drive.write(cia.RATED_TORQUE, 0, round(p.rated_torque * 1000))  # mN m
@@ -199,8 +209,7 @@ def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
     w_c = 2.0 * math.pi * p.speed_bandwidth_hz
     max_torque = motor.k_t * p.rated_current * p.max_current_permille / 1000.0
     loops = ServoLoops(motor.j * w_c, motor.j * w_c * w_c / 5.0, w_c / 5.0, max_torque, p.u_max)
-    load = load_profile(p.load) if p.load != "none" else None
-    axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load, coulomb=p.coulomb)
+    axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load_torque(p.load), coulomb=p.coulomb)
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
     drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
     drive.write(cia.RATED_TORQUE, 0, round(motor.k_t * p.rated_current * 1000))  # mN m
@@ -213,8 +222,6 @@ def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
 
 
 def _grid(p: GridConverterPreset, network: canopen.Network) -> list[EmulatedNode]:
-    if p.strategy not in ("s-pwm-start", "s-pwm-middle"):
-        raise ValueError(f"preset parameter strategy={p.strategy!r}: use s-pwm-start or s-pwm-middle")
     omega = 2.0 * math.pi * p.f_line
     source = complex(p.u_line_rms * math.sqrt(2.0 / 3.0), 0.0)  # phase peak, d-aligned
     axis = GridAxis(

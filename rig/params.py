@@ -16,7 +16,6 @@ came from (``source``: a file and table, or an option) and what is expected.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import types
 import typing
@@ -24,16 +23,11 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from drivers.errors import ConfigError
+from plant_emulator.parameters import field_types
 
 __all__ = ["build", "field_types", "parse_items", "typed_values"]
 
 _TRUE, _FALSE = ("true", "yes", "on", "1"), ("false", "no", "off", "0")
-
-
-def field_types(schema: type) -> dict[str, Any]:
-    """The fields of dataclass ``schema`` with their resolved types."""
-    hints = typing.get_type_hints(schema)
-    return {f.name: hints[f.name] for f in dataclasses.fields(schema)}
 
 
 def parse_items(items: Iterable[str], source: str) -> dict[str, str]:

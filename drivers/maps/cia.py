@@ -38,7 +38,7 @@ __all__ = [
     "NmtState",
     "PowerState",
     "QuickStopOption",
-    "SdoAbort",
+    "SdoAbortCode",
     "decode_statusword",
     "map_entry",
     "mode_code",
@@ -83,7 +83,7 @@ def split_map_entry(entry: int) -> tuple[int, int, int]:
     return entry >> 16, (entry >> 8) & 0xFF, entry & 0xFF
 
 
-class SdoAbort(enum.IntEnum):
+class SdoAbortCode(enum.IntEnum):
     """SDO abort codes (CiA 301, 7.2.4.3.17) that the devices answer with."""
 
     WRITE_ONLY = 0x06010001
