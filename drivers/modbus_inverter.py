@@ -124,7 +124,9 @@ class ModbusInverterAxis(AxisDriver):
         try:
             rr = self.client.read_holding_registers(start, count=len(group), device_id=self.unit)
         except ModbusException as exc:
-            raise CommunicationTimeout(f"{self.where}: no answer reading register {start}") from exc
+            roles = ", ".join(r.role for r in group)
+            span = f"register {start}" if len(group) == 1 else f"registers {start}-{group[-1].address}"
+            raise CommunicationTimeout(f"{self.where}: no answer reading {roles} ({span})") from exc
         raw = self._check(rr, start, len(group))
         return {reg.role: reg.to_si(v) for reg, v in zip(group, raw)}
 

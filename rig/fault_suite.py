@@ -29,11 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.errors import CommunicationTimeout, ModbusExceptionResponse, RigError
-from drivers.modbus_inverter import ModbusInverter
-from plant_emulator.modbus_inverter import InverterContext, default_model, serve_tcp
 from rig.config import FaultsConfig, replace_axis
-from rig.demo import demo_config
-from rig.host.session import Session
 from rig.process import spawn_rig
 
 __all__ = ["AT", "SCENARIOS", "run_faults"]
@@ -55,6 +51,9 @@ def _canopen(
     limits: dict[str, Any] | None = None,
     timed: bool = True,
 ) -> dict[str, Any]:
+    from rig.demo import demo_config
+    from rig.host.session import Session
+
     cfg = demo_config(out)
     cfg = dataclasses.replace(cfg, faults=dataclasses.replace(FaultsConfig(), **(faults or {})))
     cfg = replace_axis(cfg, "motor", limits=limits)
@@ -167,6 +166,9 @@ def _free_port() -> int:
 
 def _modbus(mode: str) -> dict[str, Any]:
     """The Modbus inverter running at 50 rad/s, then every request times out or is answered with 04."""
+    from drivers.modbus_inverter import ModbusInverterAxis
+    from plant_emulator.modbus_inverter import InverterContext, default_model, serve_tcp
+
     model = default_model("abb-drives-profile", comm_loss_timeout=0.3)
     context = InverterContext(model)
     context.timeout_sleep = 0.6
@@ -186,19 +188,20 @@ def _modbus(mode: str) -> dict[str, Any]:
     thread = threading.Thread(target=serve, daemon=True)
     thread.start()
     time.sleep(0.3)
-    drive = ModbusInverter("abb-drives-profile", host="127.0.0.1", tcp_port=port, timeout=0.2)
+    drive = ModbusInverterAxis("inverter", "abb-drives-profile", host="127.0.0.1", port=port, timeout=0.2)
     message, cycles = "no error", None
     try:
-        drive.connect()
-        drive.run(50.0)
+        drive.setup()
+        drive.enable(timeout=1.0)
+        drive.command(50.0)
         context.fault_mode = mode
         for cycle in range(1, 20):
             try:
-                drive.read("actual_speed")
+                drive.feedback()
             except (CommunicationTimeout, ModbusExceptionResponse) as exc:
                 message, cycles = str(exc), cycle
                 try:
-                    drive.stop()  # the host's safe stop; under a dead line the drive's own trip must do it
+                    drive.quick_stop()  # the host's safe stop; under a dead line the drive's own trip must
                 except (CommunicationTimeout, ModbusExceptionResponse):
                     pass
                 break

@@ -19,9 +19,7 @@ from drivers.errors import ConfigError
 from drivers.maps import modbus_map
 from plant_emulator.faults import FaultInjector, FaultPlan
 from plant_emulator.lockstep import LockstepBench
-from plant_emulator.modbus_inverter import InverterModel, InverterServer
 from plant_emulator.presets import PRESETS
-from plant_emulator.pty_link import PtyLink
 from rig.config import AxisConfig, RigConfig
 from rig.params import field_types, typed_values
 
@@ -51,8 +49,8 @@ class Emulation:
         self._dt = None if cfg.run.time == "lockstep" else 0.005
         self.bench: LockstepBench | None = None
         self.injector: FaultInjector | None = None
-        self.inverters: dict[str, tuple[InverterModel, InverterServer]] = {}
-        self._links: list[PtyLink] = []
+        self.inverters: dict[str, tuple[Any, Any]] = {}  #: axis name -> (InverterModel, InverterServer)
+        self._links: list[Any] = []
         self._endpoints: dict[str, dict[str, Any]] = {}
         period = cfg.run.period
         preset = cfg.emulator.preset
@@ -80,6 +78,9 @@ class Emulation:
             raise
 
     def _start_inverter(self, cfg: RigConfig, a: AxisConfig) -> None:
+        from plant_emulator.modbus_inverter import InverterModel, InverterServer
+        from plant_emulator.pty_link import PtyLink
+
         where = f"{cfg.source}: [emulator.inverter]"
         values = typed_values(InverterModel, cfg.emulator.inverter, where, fixed=_MODEL_FIXED)
         try:

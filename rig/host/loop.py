@@ -44,6 +44,11 @@ log = logging.getLogger(__name__)
 FIELDS = ("position", "velocity", "torque", "current")
 
 
+def _scalar(value: float | complex) -> float:
+    """A command as recorded: itself, or the magnitude of a complex (dq) one."""
+    return abs(value) if isinstance(value, complex) else value
+
+
 class _Window(collections.deque):  # type: ignore[type-arg]
     """The last ``WINDOW`` values: timing statistics without growing memory on long runs."""
 
@@ -260,7 +265,7 @@ class HostLoop:
         self.times.update.append(t2 - t1)
         self.times.write.append(t3 - t2)
         self._t_end = t3
-        u = abs(values[0]) if values else 0.0
+        u = _scalar(values[0]) if values else 0.0
         self.recorder.sample(
             [
                 t,
@@ -269,7 +274,7 @@ class HostLoop:
                 u,
                 *out.internals,
                 *(getattr(samples[i], f) for i, fields in self._recorded for f in fields),
-                *(abs(v) for v in values),
+                *(_scalar(v) for v in values),
                 (t1 - t0) * 1e6,
                 (t2 - t1) * 1e6,
                 (t3 - t2) * 1e6,

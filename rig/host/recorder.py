@@ -20,7 +20,6 @@ frame that arrives after the close is dropped and counted
 
 from __future__ import annotations
 
-import csv
 import datetime
 import json
 import math
@@ -39,13 +38,12 @@ __all__ = ["Recorder"]
 
 
 class Recorder:
-    """Record ``columns`` per cycle into a fresh run directory under ``output``."""
+    """A fresh run directory under ``output``; ``begin(columns)``, then one ``sample`` per cycle."""
 
     def __init__(
         self,
         output: str | Path,
         name: str,
-        columns: Sequence[str],
         *,
         flush_every: int = 100,
         trace: bool = True,
@@ -58,10 +56,8 @@ class Recorder:
             path = Path(f"{base}-{n}")
         path.mkdir(parents=True)
         self.dir = path
-        self.columns = list(columns)
+        self.columns: list[str] = []
         self._file = (path / "samples.csv").open("w", newline="")
-        self._csv = csv.writer(self._file)
-        self._csv.writerow(self.columns)
         self._count = 0
         self._flush_every = flush_every
         self._pending = 0
@@ -69,6 +65,11 @@ class Recorder:
         self.closed = False
         self._trace_lock = threading.Lock()
         self.frames_dropped = 0  #: frames that arrived after the close
+
+    def begin(self, columns: Sequence[str]) -> None:
+        """The samples' columns (known once the axes are set up): the CSV header."""
+        self.columns = list(columns)
+        self._file.write(",".join(self.columns) + "\n")
 
     def write_config(self, config: dict[str, Any]) -> None:
         (self.dir / "config.json").write_text(json.dumps(config, indent=2) + "\n")
@@ -89,7 +90,7 @@ class Recorder:
 
     def sample(self, row: Sequence[float]) -> None:
         """One cycle's values, in ``columns`` order."""
-        self._csv.writerow([repr(float(v)) for v in row])
+        self._file.write(",".join([repr(float(v)) for v in row]) + "\n")
         self._count += 1
         self._pending += 1
         if self._pending >= self._flush_every:

@@ -18,12 +18,12 @@ from collections.abc import Callable
 from typing import Any
 
 import canopen
-from plant_emulator.profiles import parse_profile
 
 from drivers.base import AxisDriver
 from drivers.bus import open_bus
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import ConfigError, RigError
+from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
 from rig.host.axes import open_axis
 from rig.host.emulation import Emulation
@@ -80,8 +80,8 @@ class Session:
         self.axes: list[AxisDriver] = []
         self._bus: Any = None
         self._tap: Callable[[Any], None] | None = None
-        self._started = False
         self.pacing: Pacing = Pacing()
+        self.loop: HostLoop | None = None
         try:
             self._build(duration, cycles)
         except BaseException:
@@ -120,30 +120,15 @@ class Session:
             tuple(names.index(n) for n in cfg.controller.commands),
             tuple((names.index(a.name), self._profile(a.name, a.profile)) for a in cfg.axes if a.profile),
         )
-        guards = [AxisGuard(axis, a.limits, period) for axis, a in zip(self.axes, cfg.axes)]
-        cycles = cycles or round((duration or cfg.run.duration) / period)
+        self.law, self.wiring = law, wiring
+        self.cycles = cycles or round((duration or cfg.run.duration) / period)
         # flushed at least every 50 ms of run time: a killed host loses at most that
         self.recorder = Recorder(
-            cfg.run.output,
-            cfg.run.name,
-            HostLoop.columns(self.axes, law, wiring),
-            flush_every=max(1, round(0.05 / period)),
-            trace=cfg.run.trace,
+            cfg.run.output, cfg.run.name, flush_every=max(1, round(0.05 / period)), trace=cfg.run.trace
         )
         self.recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": self.emulate})
         self._attach_trace()
         self.pacing = self._pacing(period)
-        self.loop = HostLoop(
-            self.axes,
-            guards,
-            law,
-            wiring,
-            recorder=self.recorder,
-            pacing=self.pacing,
-            period=period,
-            cycles=cycles,
-            realtime=cfg.run.time == "realtime",
-        )
 
     def _profile(self, name: str, text: str) -> Callable[[float], float]:
         try:
@@ -191,24 +176,42 @@ class Session:
             for axis, a in zip(self.axes, self.cfg.axes):
                 axis.enable(timeout=a.enable_timeout)
             if isinstance(self.pacing, _Deferred):
-                self.pacing = self.loop.pacing = self.pacing.make()
+                self.pacing = self.pacing.make()
         except BaseException as exc:
             reason = f"setup failed: {exc}" if isinstance(exc, RigError) else "setup failed"
             for axis in self.axes:
                 axis.close()
             self._finish({"cycles": 0, "safe_stop_reason": reason, "run_dir": str(self.recorder.dir)})
             raise
-        self._started = True
+        self.loop = self._loop()
+
+    def _loop(self) -> HostLoop:
+        """The host loop over the set-up axes (what each measures is known now)."""
+        cfg = self.cfg
+        guards = [AxisGuard(axis, a.limits, self.period) for axis, a in zip(self.axes, cfg.axes)]
+        self.recorder.begin(HostLoop.columns(self.axes, self.law, self.wiring))
+        return HostLoop(
+            self.axes,
+            guards,
+            self.law,
+            self.wiring,
+            recorder=self.recorder,
+            pacing=self.pacing,
+            period=self.period,
+            cycles=self.cycles,
+            realtime=cfg.run.time == "realtime",
+        )
 
     def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
         """Run the loop (``start()`` first); stop SYNC and the trace; close the recorder; the summary."""
-        if not self._started:
+        loop = self.loop
+        if loop is None:
             raise RuntimeError("Session.run() before start()")
         summary: dict[str, Any] = {}
         try:
-            summary = self.loop.run(progress)
+            summary = loop.run(progress)
         finally:
-            self._finish(summary or self.loop.summary())
+            self._finish(summary or loop.summary())
         return summary
 
     def _finish(self, summary: dict[str, Any]) -> None:
