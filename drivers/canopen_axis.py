@@ -120,7 +120,7 @@ class CanopenAxis(AxisDriver):
                 f"node {self.node_id}: no SDO answer ({what}, 0x{index:04X}:{subindex:02X})"
             ) from exc
         except KeyError as exc:
-            code = cia.SdoAbort.NO_SUBINDEX
+            code = cia.SdoAbortCode.NO_SUBINDEX
             raise SdoAbort(
                 f"{what}: not in the EDS", code=code, node_id=self.node_id, index=index, subindex=subindex
             ) from exc
