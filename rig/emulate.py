@@ -42,6 +42,30 @@ def _locked_notify(network: Any, lock: threading.RLock) -> None:
     network.notify = locked
 
 
+def _transport(
+    network: Any, lock: threading.RLock, *, interface: str | None, channel: str | None, host: str, port: int
+) -> tuple[Any, SocketcandServer | None, str]:
+    """Join ``network`` to a python-can bus (``interface``) or a socketcand server: (bus, server, where)."""
+    if interface:
+        try:
+            bus = can.Bus(interface=interface, channel=channel, ignore_config=True)
+        except (can.CanError, OSError, ValueError) as exc:
+            raise ConfigError(
+                f"--interface {interface} --channel {channel}: cannot open the bus: {exc}"
+            ) from exc
+        network.bus = bus
+        _locked_notify(network, lock)
+        network.notifier = can.Notifier(bus, network.listeners, 0.5)
+        return bus, None, f"{interface}:{channel}"
+    hub = SyncHub()
+    attach_network(network, hub.bus(queue=False, channel="emulator"))
+    try:
+        server = SocketcandServer(hub, lock, host=host, port=port)
+    except OSError as exc:
+        raise ConfigError(f"--socketcand-port {port}: cannot listen on {host}: {exc}") from exc
+    return None, server, f"socketcand://{host}:{server.port}"
+
+
 def run_emulator(
     preset: str,
     params: dict[str, Any],
@@ -58,27 +82,7 @@ def run_emulator(
     stop = stop or threading.Event()
     lock = threading.RLock()
     network = canopen.Network()
-    server: SocketcandServer | None = None
-    bus: can.BusABC | None = None
-    if interface:
-        try:
-            bus = can.Bus(interface=interface, channel=channel, ignore_config=True)
-        except (can.CanError, OSError, ValueError) as exc:
-            raise ConfigError(
-                f"--interface {interface} --channel {channel}: cannot open the bus: {exc}"
-            ) from exc
-        network.bus = bus
-        _locked_notify(network, lock)
-        network.notifier = can.Notifier(bus, network.listeners, 0.5)
-        where = f"{interface}:{channel}"
-    else:
-        hub = SyncHub()
-        attach_network(network, hub.bus(queue=False, channel="emulator"))
-        try:
-            server = SocketcandServer(hub, lock, host=host, port=port)
-        except OSError as exc:
-            raise ConfigError(f"--socketcand-port {port}: cannot listen on {host}: {exc}") from exc
-        where = f"socketcand://{host}:{server.port}"
+    bus, server, where = _transport(network, lock, interface=interface, channel=channel, host=host, port=port)
     try:
         with lock:
             devices: list[EmulatedNode]
@@ -89,9 +93,8 @@ def run_emulator(
                 d.boot()
         if server is not None:
             server.start()
-        log.info(
-            "emulating %s (nodes %s, period %g s) on %s", preset, [d.node_id for d in devices], period, where
-        )
+        nodes = [d.node_id for d in devices]
+        log.info("emulating %s (nodes %s, period %g s) on %s", preset, nodes, period, where)
         print(f"rig emulate: {preset} on {where}; Ctrl-C stops", flush=True)
         if ready is not None:
             ready(server.port if server else 0)

@@ -61,6 +61,14 @@ class Trajectory:
         return mask
 
 
+def _dc_motor(a_m: float, b_m: float, dt: float, *, full: bool) -> tuple[DCMotor | ReducedDCMotor, float]:
+    """(3.4) with a 0.1 ms electrical time constant, or (3.7) with J = 1; (motor, J)."""
+    if full:
+        full_motor = DCMotor(DCMotorParams.from_am_bm(a_m=a_m, b_m=b_m), dt=dt)
+        return full_motor, full_motor.params.j
+    return ReducedDCMotor(a_m=a_m, b_m=b_m, dt=dt, j=1.0), 1.0
+
+
 def position_servo_run(
     *,
     a_m: float = drives.A_M,
@@ -90,23 +98,14 @@ def position_servo_run(
     an electrical time constant of 0.1 ms instead of (3.7).
     """
     design = design_dtsm(A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, -b_m], dt=dt, lam=lam)
-    step: Callable[[float, float], float]
-    internals: Callable[[], float]
+    ctl: PositionServo | DTSM
     if law == "7.30":
         ctl = PositionServo(PositionServoParams(design=design, sigma=sigma, q=q, rho=rho, h=h, u0=u0))
-        step, internals = ctl.step, lambda: ctl.u_i
     elif law == "relay":
-        relay = DTSM(DTSMParams(design=design, law="relay", sigma=sigma, u0=u0))
-        step, internals = relay.step, lambda: 0.0
+        ctl = DTSM(DTSMParams(design=design, law="relay", sigma=sigma, u0=u0))
     else:
         raise ValueError(f"law must be '7.30' or 'relay', got {law!r}")
-    motor: DCMotor | ReducedDCMotor
-    if full_motor:
-        motor = DCMotor(DCMotorParams.from_am_bm(a_m=a_m, b_m=b_m), dt=dt)
-        j = motor.params.j
-    else:
-        j = 1.0
-        motor = ReducedDCMotor(a_m=a_m, b_m=b_m, dt=dt, j=j)
+    motor, j = _dc_motor(a_m, b_m, dt, full=full_motor)
     encoder = Encoder(counts_per_rev, dt=dt) if counts_per_rev else None
     ref = smooth_move(distance, move_time)
     n = round(t_end / dt)
@@ -118,10 +117,10 @@ def position_servo_run(
         theta, omega = motor.theta, motor.omega
         if encoder is not None:
             theta, omega = encoder.sample(theta)
-        u = step(theta_r - theta, omega_r - omega)
+        u = ctl.step(theta_r - theta, omega_r - omega)
         out["ref"][k], out["y"][k], out["u"][k] = theta_r, motor.theta, u
-        out["g"][k] = ctl.g if law == "7.30" else relay.g
-        out["u_i"][k] = internals()
+        out["g"][k] = ctl.g
+        out["u_i"][k] = getattr(ctl, "u_i", 0.0)
         motor.step(u, j * load if tk >= load_time else 0.0)
     return Trajectory(t, out["ref"], out["y"], out["u"], out["g"], {"u_i": out["u_i"]})
 
@@ -198,9 +197,8 @@ def cascade_run(
     With rotor-flux orientation and decoupling, (4.9) is a DC motor without
     back-EMF: i_q' = a_i i_q + b_i u_q, omega' = a_w omega + b_w i_q - T_L/J,
     theta' = omega, with Table V's a_i, b_i, a_w, b_w and J of Table II.
-    ``load(t)`` [N m] defaults to zero. Sampled every 0.1 ms (current loop);
-    speed every 0.5 ms, position every 1 ms. ``counts_per_rev`` measures
-    position through an encoder and speed by Euler backward at 0.5 ms.
+    ``load(t)`` [N m] defaults to zero. Sampled every 0.1 ms (current loop); speed every
+    0.5 ms, position every 1 ms. ``counts_per_rev``: an encoder, speed by Euler backward.
     """
     dt = current.dt
     k_t = b_w * j
