@@ -201,8 +201,9 @@ def cascade_run(
     0.5 ms, position every 1 ms. ``counts_per_rev``: an encoder, speed by Euler backward.
     """
     dt = current.dt
-    k_t = b_w * j
-    motor = DCMotor(DCMotorParams(r_r=-a_i / b_i, l_r=1.0 / b_i, k_e=0.0, k_t=k_t, j=j, b=-a_w * j), dt=dt)
+    motor = DCMotor(
+        DCMotorParams(r_r=-a_i / b_i, l_r=1.0 / b_i, k_e=0.0, k_t=b_w * j, j=j, b=-a_w * j), dt=dt
+    )
     ctl = Cascade(
         CascadeLoop(position),
         CascadeLoop(speed),
@@ -224,17 +225,9 @@ def cascade_run(
             theta_m, omega_m = motor.theta, motor.omega
         elif k % ctl.speed_every == 0:
             theta_m, omega_m = encoder.sample(motor.theta)
-        u = ctl.step(ref(tk)[0], theta_m, omega_m, motor.current)
-        row = (
-            ref(tk)[0],
-            motor.theta,
-            u,
-            ctl.position.g,
-            ctl.omega_ref,
-            motor.omega,
-            ctl.i_ref,
-            motor.current,
-        )
+        theta_r = ref(tk)[0]
+        u = ctl.step(theta_r, theta_m, omega_m, motor.current)
+        row = (theta_r, motor.theta, u, ctl.position.g, ctl.omega_ref, motor.omega, ctl.i_ref, motor.current)
         for name, value in zip(names, row):
             out[name][k] = value
         motor.step(u, load(tk))
