@@ -35,6 +35,7 @@ class Axis:
     """Interface of the physics behind a drive (see the module docstring)."""
 
     modes: tuple[Mode, ...] = ()
+    load: LoadProfile | None = None  #: load torque T_L [N m] of time [s] on the motion; None: none
 
     @property
     def position(self) -> float:
@@ -70,6 +71,11 @@ class Axis:
     def coast(self) -> None:
         """Power stage off: no voltage, no torque."""
         raise NotImplementedError
+
+    def release(self) -> None:
+        """The drive restarts (NMT reset): its controller state is cleared and the power stage
+        is off; the motion (angle, speed) stays."""
+        self.coast()
 
     def reset(self) -> None:
         """Back to rest (state zero)."""
@@ -137,9 +143,27 @@ class DcServoAxis(Axis):
     def coast(self) -> None:
         self._enabled = False
 
+    def release(self) -> None:
+        self._integral = 0.0
+        self.coast()
+
     def reset(self) -> None:
         self.x[:] = [0.0, 0.0, 0.0]
         self._integral = 0.0
+
+    def _coast(self, t_load: float, h: float) -> None:
+        """Power stage off, armature open: i_r = 0 and (3.4) is J dw/dt = -B w - T_L, solved
+        exactly over h [s] with T_L [N m] held."""
+        p, x = self.motor, self.x
+        if p.b > 0.0:
+            a, w_inf = p.b / p.j, -t_load / p.b
+            decay = math.exp(-a * h)
+            x[0] += w_inf * h + (x[1] - w_inf) * (1.0 - decay) / a
+            x[1] = w_inf + (x[1] - w_inf) * decay
+        else:
+            x[0] += x[1] * h - t_load * h * h / (2.0 * p.j)
+            x[1] -= t_load * h / p.j
+        x[2] = 0.0
 
     def _torque_to_voltage(self, torque: float, h: float) -> float:
         """Deadbeat armature-current loop: u that takes i_r to torque/k_t over h (omega held)."""
@@ -170,9 +194,7 @@ class DcServoAxis(Axis):
             step(self.x, self.command, friction if load is None else load(t) + friction)
             return
         if not self._enabled:
-            # power stage off: armature open, the current decays through the freewheel path
-            self._step(self.motor.k_e * self.x[1], friction if load is None else load(t) + friction, h)
-            self.x[2] = 0.0
+            self._coast(friction if load is None else load(t) + friction, h)
             return
         n = max(1, math.ceil(h / self.inner_dt - 1e-9))
         hs = h / n

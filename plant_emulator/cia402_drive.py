@@ -1,8 +1,11 @@
 """An emulated CiA 402 servo drive / converter on the bus, with an ``Axis`` behind it.
 
 Per SYNC (period ``period`` [s]): the physics advances one period with the
-commands in force, the drive checks its limits, latches the feedback into the
-object dictionary and sends its synchronous TPDOs. Command timing is the two
+commands in force (the drive's ``Shaft``, once for all the nodes on it), the
+drive checks its limits, latches the feedback into the object dictionary and
+sends its synchronous TPDOs. A drive whose power stage is off gives no
+commands and lets its axis coast; an NMT reset lets go of the axis (the shaft
+keeps its motion). Command timing is the two
 delay cases of the dq-current paper: a synchronous RPDO (type 0-240) is
 applied at the next SYNC (one period of delay: s-PWM-start); an event RPDO
 (type 254/255) is applied ``0x2001`` microseconds after receipt (a fraction
@@ -23,6 +26,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass, replace
 
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
@@ -44,8 +48,9 @@ from drivers.maps.cia import (
 from plant_emulator.axes import Axis
 from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
 from plant_emulator.cia402_state import PowerStateMachine
+from plant_emulator.shaft import Shaft, Timed
 
-__all__ = ["FAULT_CODES", "EmulatedDrive"]
+__all__ = ["FAULT_CODES", "EmulatedDrive", "Ratings"]
 
 log = logging.getLogger(__name__)
 
@@ -62,25 +67,53 @@ _QUICK_STOP_OPTIONS = frozenset(int(o) for o in QuickStopOption)
 S = PowerState
 
 
+@dataclass(frozen=True)
+class Ratings:
+    """A drive's rated and maximum values (written to its object dictionary by ``EmulatedDrive.rate``)."""
+
+    rated_current: float  #: 0x6075 [A]
+    rated_torque: float  #: 0x6076 [N m]
+    max_current_permille: int  #: 0x6073 [per mille of the rated current]
+    max_speed_rpm: int  #: 0x6080 [rpm]
+
+    def as_stored(self) -> Ratings:
+        """These ratings as the object dictionary holds them (whole mA and mN m)."""
+        return replace(
+            self,
+            rated_current=round(self.rated_current * 1000) / 1000,
+            rated_torque=round(self.rated_torque * 1000) / 1000,
+        )
+
+
 class EmulatedDrive(EmulatedNode):
-    """A CiA 402 drive node; see the module docstring."""
+    """A CiA 402 drive node with ``axis`` behind it; see the module docstring.
+
+    ``shaft``: the plant the axis is part of (``plant_emulator.shaft``), shared with the
+    other nodes on it; None gives the drive a shaft of its own.
+    """
 
     def __init__(
-        self, node_id: int, network: canopen.Network, axis: Axis, *, period: float, eds: str = CIA402_EDS
+        self,
+        node_id: int,
+        network: canopen.Network,
+        axis: Axis,
+        *,
+        period: float,
+        eds: str = CIA402_EDS,
+        shaft: Shaft | None = None,
     ) -> None:
-        if not (math.isfinite(period) and period > 0.0):
-            raise ValueError(f"period must be > 0 s, got {period!r}")
+        shaft = shaft or Shaft(axis, period=period)
+        if axis not in shaft.axes:
+            raise ValueError("the drive's axis must be one of its shaft's axes")
+        if period != shaft.period:
+            raise ValueError(f"the drive's period {period!r} s is not its shaft's, {shaft.period!r} s")
         self.axis = axis
+        self.shaft = shaft
         self.period = period
         self.sm = PowerStateMachine()
-        self._pending: list[tuple[float, int, complex, bool]] = []  # (offset s, mode, value, one_sync_ago)
+        self._pending: list[Timed] = []
         self._t_sync = 0.0
-        #: True: an event RPDO counts as received at its SYNC (lock-step across processes, where the
-        #: frame's real arrival time is scheduling noise); False: its arrival time counts (real time)
-        self.lockstep = False
         self.glitch_counts = 0  #: fault injection: added to the latched position [increments]
-        self._syncs = 0
-        self._first_sync = True
         self._sdo_target = False
         self._in_rpdo = False
         self.fault_code = 0
@@ -88,6 +121,26 @@ class EmulatedDrive(EmulatedNode):
         super().__init__(node_id, eds, network)
         self.write(cia.SUPPORTED_MODES, 0, sum(MODE_BITS[m] for m in axis.modes))
         self.node.add_write_callback(self._on_drive_write)
+        shaft.attach(self)
+
+    @property
+    def lockstep(self) -> bool:
+        """True: an event RPDO counts as received at its SYNC and time is the SYNC count (lock-step
+        across processes, where a frame's real arrival time is scheduling noise); False: arrival
+        times count (real time). A property of the shaft, so the nodes on it agree."""
+        return self.shaft.lockstep
+
+    @lockstep.setter
+    def lockstep(self, value: bool) -> None:
+        self.shaft.lockstep = value
+
+    def rate(self, ratings: Ratings, *, counts_per_rev: int) -> None:
+        """Write the ratings and the position resolution [increments/rev] (device side, SI in)."""
+        self.write(cia.RATED_CURRENT, 0, round(ratings.rated_current * 1000))  # mA
+        self.write(cia.RATED_TORQUE, 0, round(ratings.rated_torque * 1000))  # mN m
+        self.write(cia.MAX_CURRENT, 0, ratings.max_current_permille)
+        self.write(cia.MAX_MOTOR_SPEED, 0, ratings.max_speed_rpm)
+        self.write(cia.POSITION_ENCODER_RESOLUTION, 1, counts_per_rev)
 
     # --- units ----------------------------------------------------------------
     @property
@@ -176,39 +229,32 @@ class EmulatedDrive(EmulatedNode):
             return
         value = self._command(mode)
         if synchronous:
-            self._pending.append((0.0, mode, value, True))
+            self._pending.append((0.0, self.axis, mode, value, True))
         else:
             latency = self._u(cia.COMMAND_LATENCY, 0) * 1e-6  # us -> s
             arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
             offset = min(arrival + latency, self.period)
-            self._pending.append((offset, mode, value, False))
+            self._pending.append((offset, self.axis, mode, value, False))
 
     def on_reset(self, *, application: bool) -> None:
-        self.axis.reset()
+        """Power-on or NMT reset node: the drive lets go of its axis; the shaft keeps turning."""
+        self.axis.release()
         self.sm = PowerStateMachine()
         self.sm.power_on()
         self.sm.quick_stop_option = QuickStopOption.QUICK_STOP_RAMP
         self._pending.clear()
         self.fault_code = 0
-        self._first_sync = True
-        self._syncs = 0
         self._latch_status()
 
     # --- the cycle ----------------------------------------------------------
-    def _advance(self, t: float) -> None:
-        """One period of physics, switching commands at their offsets."""
+    def take_timeline(self) -> list[Timed]:
+        """The commands of the period just ended, for the shaft; none (and the axis coasts)
+        when the power stage is off."""
+        pending, self._pending = self._pending, []
         if not self.sm.power_stage_on:
-            self._pending.clear()
             self.axis.coast()
-            self.axis.advance(self.period, t)
-            return
-        done = 0.0
-        for offset, mode, value, one_ago in sorted(self._pending, key=lambda p: p[0]):
-            self.axis.advance(offset - done, t + done)
-            self.axis.set_command(mode, value, computed_one_sync_ago=one_ago)
-            done = offset
-        self._pending.clear()
-        self.axis.advance(self.period - done, t + done)
+            return []
+        return pending
 
     def _stop_reaction(self) -> None:
         st = self.sm.state
@@ -258,17 +304,11 @@ class EmulatedDrive(EmulatedNode):
         self.emcy(code, register)
 
     def on_sync_latch(self, timestamp: float) -> None:
-        if self.lockstep:  # device time from the SYNC count, as the in-process hub keeps it
-            self._syncs += 1
-            timestamp = self._syncs * self.period
-        if self._first_sync:
-            self._first_sync = False
-        else:
-            self._advance(self._t_sync)
+        self.shaft.sync(self, timestamp)  # the shaft at this SYNC, advanced once for all its nodes
         self._t_sync = timestamp
         mode = self.read(cia.MODES_DISPLAY)
         if self._sdo_target and self.sm.state is S.OPERATION_ENABLED and mode in self.axis.modes:
-            self._pending.append((0.0, mode, self._command(mode), False))
+            self._pending.append((0.0, self.axis, mode, self._command(mode), False))
         self._sdo_target = False
         self._check_limits()
         self._stop_reaction()

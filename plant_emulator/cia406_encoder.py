@@ -1,15 +1,16 @@
-"""An emulated CiA 406 rotary encoder on the bus, reading a shaft angle.
+"""An emulated CiA 406 rotary encoder on the bus, reading the angle of a ``Shaft``.
 
 Position 0x6004 [increments, 0x6001 per revolution, wrapped to the single-turn
 range times 2^16 turns], speed 0x6030:1 [increments/s, Euler backward over the
 SYNC period, saturated to INTEGER16]. TPDO1 is sent on its cyclic timer 0x6200
-(transmission type 254/255) and TPDO2 on SYNC, as mapped in the EDS.
+(transmission type 254/255) and TPDO2 on SYNC, as mapped in the EDS. On SYNC the
+encoder brings the shaft to the SYNC instant first (``Shaft.sync``), so it reads
+the same angle as the drives on the shaft, whichever node handles the frame first.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import canopen
 
@@ -22,6 +23,7 @@ from drivers.maps.cia import (
     PDO_SYNC_MAX,
 )
 from plant_emulator.canopen_node import EmulatedNode
+from plant_emulator.shaft import Shaft
 
 __all__ = ["EmulatedEncoder"]
 
@@ -29,13 +31,13 @@ _TURNS = 1 << 16  #: the multi-turn range [revolutions]
 
 
 class EmulatedEncoder(EmulatedNode):
-    """CiA 406 encoder node; ``shaft`` returns the true angle [rad] when called."""
+    """CiA 406 encoder node on ``shaft``; ``period`` [s] is the SYNC period of its speed."""
 
     def __init__(
         self,
         node_id: int,
         network: canopen.Network,
-        shaft: Callable[[], float],
+        shaft: Shaft,
         *,
         period: float,
         eds: str = CIA406_EDS,
@@ -51,9 +53,10 @@ class EmulatedEncoder(EmulatedNode):
     def counts(self) -> int:
         """The multi-turn count of the present shaft angle."""
         per_rev = self._u(ENCODER_RESOLUTION, 0)
-        return math.floor(self.shaft() / (2.0 * math.pi) * per_rev)
+        return math.floor(self.shaft.position / (2.0 * math.pi) * per_rev)
 
     def on_sync_latch(self, timestamp: float) -> None:
+        self.shaft.sync(self, timestamp)
         self.latch()
 
     def latch(self) -> None:
