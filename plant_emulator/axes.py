@@ -28,6 +28,10 @@ from plant_emulator.zoh import LinearZOH, unrolled_step3
 
 __all__ = ["Axis", "DcServoAxis", "GridAxis", "LoadProfile", "ServoLoops"]
 
+#: modes as module globals for the per-step comparisons (an enum member looked up on its class
+#: costs ~0.2 us in CPython 3.11)
+_VOLTAGE, _CST, _CSV, _PV = Mode.VOLTAGE, Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY
+
 LoadProfile = Callable[[float], float]
 
 
@@ -135,7 +139,7 @@ class DcServoAxis(Axis):
         if mode != self.mode:
             self._integral = 0.0
         command = float(value.real if isinstance(value, complex) else value)
-        if mode == Mode.VOLTAGE:
+        if mode == _VOLTAGE:
             command = max(-self.loops.max_voltage, min(self.loops.max_voltage, command))
         self.mode, self.command = mode, command
         self._enabled = True
@@ -187,7 +191,7 @@ class DcServoAxis(Axis):
         load = self.load
         w = self.x[1]
         friction = math.copysign(self.coulomb, w) if self.coulomb and w else 0.0
-        if self._enabled and self.mode == Mode.VOLTAGE:  # the hot path: one unrolled ZOH step
+        if self._enabled and self.mode == _VOLTAGE:  # the hot path: one unrolled ZOH step
             step = self._zoh.get(h)
             if step is None:
                 step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
@@ -199,9 +203,9 @@ class DcServoAxis(Axis):
         n = max(1, math.ceil(h / self.inner_dt - 1e-9))
         hs = h / n
         for k in range(n):
-            if self.mode == Mode.CST:
+            if self.mode == _CST:
                 torque = self.command
-            elif self.mode in (Mode.CSV, Mode.PROFILE_VELOCITY):
+            elif self.mode in (_CSV, _PV):
                 torque = self._speed_loop(self.command, hs)
             else:  # CSP
                 torque = self._speed_loop(self.loops.position_kp * (self.command - self.x[0]), hs)

@@ -20,7 +20,6 @@ from drivers.maps.cia import (
     ENCODER_POSITION,
     ENCODER_RESOLUTION,
     ENCODER_SPEED,
-    PDO_SYNC_MAX,
 )
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.shaft import Shaft
@@ -52,7 +51,7 @@ class EmulatedEncoder(EmulatedNode):
 
     def counts(self) -> int:
         """The multi-turn count of the present shaft angle."""
-        per_rev = self._u(ENCODER_RESOLUTION, 0)
+        per_rev: int = self.od.read(ENCODER_RESOLUTION, 0)
         return math.floor(self.shaft.position / (2.0 * math.pi) * per_rev)
 
     def on_sync_latch(self, timestamp: float) -> None:
@@ -63,17 +62,16 @@ class EmulatedEncoder(EmulatedNode):
         counts = self.counts()
         speed = 0 if self._last is None else round((counts - self._last) / self.period)
         self._last = counts
-        self.write(ENCODER_POSITION, 0, counts % (self._u(ENCODER_RESOLUTION, 0) * _TURNS))
+        self.write(ENCODER_POSITION, 0, counts % (self.od.read(ENCODER_RESOLUTION, 0) * _TURNS))
         self.write(ENCODER_SPEED, 1, max(-32768, min(32767, speed)))
 
     def event_tpdos(self, now: float) -> None:
         """TPDOs of type 254/255 go out on the cyclic timer 0x6200 [ms] (0: never)."""
-        timer = self._u(ENCODER_CYCLIC_TIMER, 0)
+        timer = self.od.read(ENCODER_CYCLIC_TIMER, 0)
         if timer and now - self._last_cyclic >= timer / 1000.0 - 1e-9:
             self._last_cyclic = now
-            self.write(ENCODER_POSITION, 0, self.counts() % (self._u(ENCODER_RESOLUTION, 0) * _TURNS))
-            for pdo in self._tpdos:
-                if pdo.valid and pdo.mapping and pdo.ttype > PDO_SYNC_MAX:
-                    self.network.send_message(pdo.cob_id, self._pack(pdo))
+            self.write(ENCODER_POSITION, 0, self.counts() % (self.od.read(ENCODER_RESOLUTION, 0) * _TURNS))
+            for pdo in self._event_tpdos:
+                self.network.send_message(pdo.cob_id, self._pack(pdo))
 
     _last_cyclic = -1e9

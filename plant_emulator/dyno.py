@@ -49,6 +49,7 @@ from plant_emulator.shaft import Shaft
 __all__ = ["DynoPreset", "LoadMachineAxis", "build_dyno"]
 
 T = TypeVar("T")
+_CST = Mode.CST  # looked up once, compared on every command
 
 #: the motor under test's values that None takes from the motor (see ``DynoPreset``)
 _MOTOR_DEFAULTED = ("rated_current", "rated_torque", "max_current_permille", "max_speed_rpm")
@@ -135,7 +136,7 @@ class LoadMachineAxis(Axis):
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         """Torque command [N m] (CST), limited to k_t i_max."""
-        if mode != Mode.CST:
+        if mode != _CST:
             raise ValueError(f"the load machine has only mode {Mode.CST}, got {mode}")
         torque = value.real if isinstance(value, complex) else value
         self.i_ref = max(-self.i_max, min(self.i_max, torque / self.k_t))

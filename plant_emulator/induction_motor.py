@@ -30,6 +30,8 @@ from plant_emulator.axes import Axis, LoadProfile
 
 __all__ = ["ImAxis", "ImParams"]
 
+_CST, _CSV, _PV = Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY  # looked up once, compared every step
+
 
 @dataclass(frozen=True)
 class ImParams:
@@ -152,16 +154,12 @@ class ImAxis(Axis):
         """i_qs* [A]: T*/k_t (4.8) in CST; else the speed PI of Table III, sampled once per SYNC
         period (a command later in the period waits for the next sample)."""
         p = self.p
-        if self.mode == Mode.CST:
+        if self.mode == _CST:
             return self.command / p.k_t
         if not self._speed_due:
             return self._i_q_speed
         self._speed_due = False
-        w_ref = (
-            self.command
-            if self.mode in (Mode.CSV, Mode.PROFILE_VELOCITY)
-            else p.position_kp * (self.command - self.theta)
-        )
+        w_ref = self.command if self.mode in (_CSV, _PV) else p.position_kp * (self.command - self.theta)
         e = w_ref - self.omega
         i_q = p.speed_kp * e + self._int_w + p.speed_ki * e
         if abs(i_q) < p.i_max:
