@@ -19,11 +19,10 @@ from __future__ import annotations
 
 import logging
 import struct
-from dataclasses import dataclass, field
 from typing import Any
 
+import can
 import canopen
-from canopen.sdo.exceptions import SdoAbortedError
 
 from drivers.maps import cia
 from drivers.maps.cia import (
@@ -32,19 +31,15 @@ from drivers.maps.cia import (
     COB_ID_MASK,
     COB_NMT,
     COMMUNICATION_AREA,
-    PDO_BLOCK,
-    PDO_INVALID,
-    PDO_MAX_BITS,
-    PDO_MAX_MAPPED,
     PDO_SYNC_MAX,
     EmcyCode,
     ErrorRegister,
     NmtCommand,
     NmtState,
-    SdoAbortCode,
 )
 from drivers.maps.od import load_od
 from plant_emulator.od_store import ObjectStore, StoreNode
+from plant_emulator.pdo import PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
 
 __all__ = ["EmulatedNode", "PdoConfig"]
 
@@ -58,31 +53,6 @@ PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = (
     int(NmtState.INITIALISING),
 )
 _SDO_SYNC_STATES = (PRE_OPERATIONAL, OPERATIONAL)
-_RPDO_MAPS = range(cia.RPDO_MAP, cia.RPDO_MAP + PDO_BLOCK)
-_TPDO_MAPS = range(cia.TPDO_MAP, cia.TPDO_MAP + PDO_BLOCK)
-_PDO_PARAMETERS = range(cia.RPDO_COMM, cia.TPDO_MAP + PDO_BLOCK)
-
-
-@dataclass(frozen=True)
-class PdoConfig:
-    """One PDO as configured in the object dictionary."""
-
-    number: int  #: 0-based
-    cob_id: int
-    valid: bool
-    ttype: int  #: transmission type
-    event_timer_ms: int
-    mapping: tuple[tuple[int, int, int], ...]  #: (index, subindex, bits)
-    slices: tuple[tuple[int, int, int, int], ...] = field(init=False)  #: (index, subindex, start, end)
-    size: int = field(init=False)  #: mapped data [bytes]
-
-    def __post_init__(self) -> None:
-        slices, start = [], 0
-        for index, sub, bits in self.mapping:
-            slices.append((index, sub, start, start + bits // 8))
-            start += bits // 8
-        object.__setattr__(self, "slices", tuple(slices))
-        object.__setattr__(self, "size", start)
 
 
 class EmulatedNode:
@@ -145,7 +115,7 @@ class EmulatedNode:
             self._power_on = {i: dict(subs) for i, subs in self.node.data_store.items()}
         self.node.nmt._state = INITIALISING
         self.on_reset(application=True)
-        self.network.send_message(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
+        self._send(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
         self.node.nmt._state = PRE_OPERATIONAL
         self._dirty = True
         self._configure()
@@ -180,7 +150,7 @@ class EmulatedNode:
         self.node.nmt._state = INITIALISING
         if not comm_only:
             self.on_reset(application=True)
-        self.network.send_message(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
+        self._send(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
         self.node.nmt._state = PRE_OPERATIONAL
         self._dirty = True
         self._configure()
@@ -191,7 +161,7 @@ class EmulatedNode:
         period = self.od.read(cia.PRODUCER_HEARTBEAT, 0) / 1000.0  # ms -> s
         if period > 0.0 and now - self._last_heartbeat >= period - 1e-9:
             self._last_heartbeat = now
-            self.network.send_message(COB_HEARTBEAT + self.node_id, bytes([self.nmt_state]))
+            self._send(COB_HEARTBEAT + self.node_id, bytes([self.nmt_state]))
         if self.nmt_state == OPERATIONAL:
             self.event_tpdos(now)
 
@@ -206,39 +176,11 @@ class EmulatedNode:
             self.node.sdo.on_request(can_id, data, timestamp)
 
     def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
-        if index in _PDO_PARAMETERS:
-            self._check_pdo_write(index, subindex, data)
+        if index in PARAMETERS:
+            check_mapping_write(self.od, index, subindex, data)
             self._dirty = True
         if index == cia.COB_ID_SYNC:
             self._dirty = True
-
-    def _check_pdo_write(self, index: int, subindex: int, data: bytes) -> None:
-        """CiA 301 rules: mapping only while the PDO is invalid and sub 0 is 0; mapped objects must exist."""
-        if index not in _RPDO_MAPS and index not in _TPDO_MAPS:
-            return
-        comm = index - PDO_BLOCK
-        if not self._u(comm, cia.PDO_COMM_COB_ID) & PDO_INVALID:
-            raise SdoAbortedError(SdoAbortCode.DEVICE_STATE)
-        if subindex == 0:
-            count = data[0]
-            if count > PDO_MAX_MAPPED:
-                raise SdoAbortedError(SdoAbortCode.VALUE_TOO_HIGH)
-            bits = sum(cia.split_map_entry(self._u(index, s))[2] for s in range(1, count + 1))
-            if bits > PDO_MAX_BITS:
-                raise SdoAbortedError(SdoAbortCode.PDO_LENGTH_EXCEEDED)
-            return
-        if self._u(index, 0) != 0:
-            raise SdoAbortedError(SdoAbortCode.DEVICE_STATE)
-        entry = int.from_bytes(data, "little")
-        if entry == 0:
-            return
-        obj_index, obj_sub, bits = cia.split_map_entry(entry)
-        try:
-            obj = self.od.obj(obj_index, obj_sub)
-        except SdoAbortedError:
-            raise SdoAbortedError(SdoAbortCode.NOT_MAPPABLE) from None
-        if not obj.pdo_mappable or len(obj) != bits:
-            raise SdoAbortedError(SdoAbortCode.NOT_MAPPABLE)
 
     # --- object dictionary access ----------------------------------------
     def _u(self, index: int, subindex: int) -> int:
@@ -254,31 +196,29 @@ class EmulatedNode:
         self.od.write(index, subindex, value)
 
     # --- PDO -------------------------------------------------------------
-    def _pdo(self, comm: int, mapping: int, number: int) -> PdoConfig:
-        cob = self._u(comm, cia.PDO_COMM_COB_ID)
-        count = self._u(mapping, 0)
-        entries = tuple(cia.split_map_entry(self._u(mapping, s)) for s in range(1, count + 1))
-        return PdoConfig(
-            number,
-            cob & COB_ID_MASK,
-            not (cob & PDO_INVALID),
-            self._u(comm, cia.PDO_COMM_TYPE),
-            self._u(comm, cia.PDO_COMM_EVENT_TIMER),
-            entries,
-        )
+    def _pack(self, pdo: PdoConfig) -> bytes:
+        return pack(self.od, pdo)
+
+    def _send(self, cob_id: int, data: bytes) -> None:
+        """A frame from this node (on the bus directly: canopen's ``send_message`` adds a lock
+        and a check that cost a third of the frame, and the devices are driven by one thread)."""
+        bus = self.network.bus
+        if bus is None:
+            raise RuntimeError("Not connected to CAN bus")
+        bus.send(can.Message(arbitration_id=cob_id, data=data, is_extended_id=False))
 
     def _configure(self) -> None:
         if not self._dirty:
             return
         self._dirty = False
-        self._tpdos = [self._pdo(cia.TPDO_COMM + n, cia.TPDO_MAP + n, n) for n in range(4)]
-        self._rpdos = [self._pdo(cia.RPDO_COMM + n, cia.RPDO_MAP + n, n) for n in range(4)]
+        self._tpdos = [read_pdo(self.od, cia.TPDO_COMM + n, cia.TPDO_MAP + n, n) for n in range(4)]
+        self._rpdos = [read_pdo(self.od, cia.RPDO_COMM + n, cia.RPDO_MAP + n, n) for n in range(4)]
         tpdos = [p for p in self._tpdos if p.valid and p.mapping]
         self._sync_tpdos = [p for p in tpdos if 1 <= p.ttype <= PDO_SYNC_MAX]
         self._event_tpdos = [p for p in tpdos if p.ttype > PDO_SYNC_MAX]
         self._rpdo_of_cob = {}
         for pdo in self._rpdos:
-            if pdo.valid and pdo.mapping and self._mappable(pdo):
+            if pdo.valid and pdo.mapping and mappable(self.od, pdo):
                 self._rpdo_of_cob.setdefault(pdo.cob_id, pdo)
         for cob in self._rpdo_subscribed:
             self.network.unsubscribe(cob, self._on_rpdo_frame)
@@ -291,33 +231,6 @@ class EmulatedNode:
                 self.network.unsubscribe(self._sync_cob, self._on_sync)
             self.network.subscribe(sync_cob, self._on_sync)
             self._sync_cob = sync_cob
-
-    def _mappable(self, pdo: PdoConfig) -> bool:
-        """Every mapped object exists and has the mapped size (an EDS's default mapping may not)."""
-        for index, sub, bits in pdo.mapping:
-            try:
-                size = len(self.od.obj(index, sub))
-            except SdoAbortedError:
-                size = -1
-            if size != bits:
-                log.warning(
-                    "node %d: RPDO%d maps 0x%04X:%d as %d bits: unused",
-                    self.node_id,
-                    pdo.number + 1,
-                    index,
-                    sub,
-                    bits,
-                )
-                return False
-        return True
-
-    def _pack(self, pdo: PdoConfig) -> bytes:
-        data = self.od.data
-        try:
-            return b"".join([data[i][s][: b - a] for i, s, a, b in pdo.slices])
-        except KeyError:  # an object never written: its default
-            raw = self.od.raw
-            return b"".join([raw(i, s)[: b - a] for i, s, a, b in pdo.slices])
 
     def _on_rpdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
         if self.nmt_state != OPERATIONAL:
@@ -360,7 +273,7 @@ class EmulatedNode:
         if payload != last or due:
             self._last_event[pdo.number] = payload
             self._last_event_time[pdo.number] = now
-            self.network.send_message(pdo.cob_id, payload)
+            self._send(pdo.cob_id, payload)
 
     def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
         if self.nmt_state not in _SDO_SYNC_STATES:
@@ -370,7 +283,7 @@ class EmulatedNode:
         self._sync_count += 1
         self.on_sync_latch(timestamp)
         if self.nmt_state == OPERATIONAL:
-            send = self.network.send_message
+            send = self._send
             for pdo in self._sync_tpdos:
                 if self._sync_count % pdo.ttype == 0:
                     send(pdo.cob_id, self._pack(pdo))

@@ -72,6 +72,6 @@ class EmulatedEncoder(EmulatedNode):
             self._last_cyclic = now
             self.write(ENCODER_POSITION, 0, self.counts() % (self.od.read(ENCODER_RESOLUTION, 0) * _TURNS))
             for pdo in self._event_tpdos:
-                self.network.send_message(pdo.cob_id, self._pack(pdo))
+                self._send(pdo.cob_id, self._pack(pdo))
 
     _last_cyclic = -1e9
