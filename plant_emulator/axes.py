@@ -28,6 +28,10 @@ from plant_emulator.zoh import LinearZOH, unrolled_step3
 
 __all__ = ["Axis", "DcServoAxis", "GridAxis", "LoadProfile", "ServoLoops"]
 
+#: modes as module globals for the per-step comparisons (an enum member looked up on its class
+#: costs ~0.2 us in CPython 3.11)
+_VOLTAGE, _CST, _CSV, _PV = Mode.VOLTAGE, Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY
+
 LoadProfile = Callable[[float], float]
 
 
@@ -35,6 +39,7 @@ class Axis:
     """Interface of the physics behind a drive (see the module docstring)."""
 
     modes: tuple[Mode, ...] = ()
+    load: LoadProfile | None = None  #: load torque T_L [N m] of time [s] on the motion; None: none
 
     @property
     def position(self) -> float:
@@ -70,6 +75,11 @@ class Axis:
     def coast(self) -> None:
         """Power stage off: no voltage, no torque."""
         raise NotImplementedError
+
+    def release(self) -> None:
+        """The drive restarts (NMT reset): its controller state is cleared and the power stage
+        is off; the motion (angle, speed) stays."""
+        self.coast()
 
     def reset(self) -> None:
         """Back to rest (state zero)."""
@@ -129,7 +139,7 @@ class DcServoAxis(Axis):
         if mode != self.mode:
             self._integral = 0.0
         command = float(value.real if isinstance(value, complex) else value)
-        if mode == Mode.VOLTAGE:
+        if mode == _VOLTAGE:
             command = max(-self.loops.max_voltage, min(self.loops.max_voltage, command))
         self.mode, self.command = mode, command
         self._enabled = True
@@ -137,9 +147,27 @@ class DcServoAxis(Axis):
     def coast(self) -> None:
         self._enabled = False
 
+    def release(self) -> None:
+        self._integral = 0.0
+        self.coast()
+
     def reset(self) -> None:
         self.x[:] = [0.0, 0.0, 0.0]
         self._integral = 0.0
+
+    def _coast(self, t_load: float, h: float) -> None:
+        """Power stage off, armature open: i_r = 0 and (3.4) is J dw/dt = -B w - T_L, solved
+        exactly over h [s] with T_L [N m] held."""
+        p, x = self.motor, self.x
+        if p.b > 0.0:
+            a, w_inf = p.b / p.j, -t_load / p.b
+            decay = math.exp(-a * h)
+            x[0] += w_inf * h + (x[1] - w_inf) * (1.0 - decay) / a
+            x[1] = w_inf + (x[1] - w_inf) * decay
+        else:
+            x[0] += x[1] * h - t_load * h * h / (2.0 * p.j)
+            x[1] -= t_load * h / p.j
+        x[2] = 0.0
 
     def _torque_to_voltage(self, torque: float, h: float) -> float:
         """Deadbeat armature-current loop: u that takes i_r to torque/k_t over h (omega held)."""
@@ -163,23 +191,21 @@ class DcServoAxis(Axis):
         load = self.load
         w = self.x[1]
         friction = math.copysign(self.coulomb, w) if self.coulomb and w else 0.0
-        if self._enabled and self.mode == Mode.VOLTAGE:  # the hot path: one unrolled ZOH step
+        if self._enabled and self.mode == _VOLTAGE:  # the hot path: one unrolled ZOH step
             step = self._zoh.get(h)
             if step is None:
                 step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
             step(self.x, self.command, friction if load is None else load(t) + friction)
             return
         if not self._enabled:
-            # power stage off: armature open, the current decays through the freewheel path
-            self._step(self.motor.k_e * self.x[1], friction if load is None else load(t) + friction, h)
-            self.x[2] = 0.0
+            self._coast(friction if load is None else load(t) + friction, h)
             return
         n = max(1, math.ceil(h / self.inner_dt - 1e-9))
         hs = h / n
         for k in range(n):
-            if self.mode == Mode.CST:
+            if self.mode == _CST:
                 torque = self.command
-            elif self.mode in (Mode.CSV, Mode.PROFILE_VELOCITY):
+            elif self.mode in (_CSV, _PV):
                 torque = self._speed_loop(self.command, hs)
             else:  # CSP
                 torque = self._speed_loop(self.loops.position_kp * (self.command - self.x[0]), hs)

@@ -15,13 +15,31 @@ from drivers.maps.cia import SW_VOLTAGE_ENABLED, Controlword, PowerState, QuickS
 __all__ = ["PowerState", "PowerStateMachine"]
 
 S = PowerState
-CW = Controlword
 _VOLTAGE_ON = (S.READY_TO_SWITCH_ON, S.SWITCHED_ON, S.OPERATION_ENABLED, S.QUICK_STOP_ACTIVE)
 _POWER_ON = (S.OPERATION_ENABLED, S.QUICK_STOP_ACTIVE, S.FAULT_REACTION_ACTIVE)
+_STAY = QuickStopOption.SLOW_DOWN_RAMP_STAY  #: quick stop options from here on stay in QUICK STOP ACTIVE
 
 
-def _is(cw: int, command: Controlword) -> bool:
-    return cw & command.mask == command
+def _bits(command: Controlword) -> tuple[int, int]:
+    """(mask, value) of a device control command, as plain ints (checked on every controlword)."""
+    return command.mask, int(command)
+
+
+_DISABLE_VOLTAGE, _QUICK_STOP, _SHUTDOWN, _SWITCH_ON, _ENABLE, _FAULT_RESET = (
+    _bits(c)
+    for c in (
+        Controlword.DISABLE_VOLTAGE,
+        Controlword.QUICK_STOP,
+        Controlword.SHUTDOWN,
+        Controlword.SWITCH_ON,
+        Controlword.ENABLE_OPERATION,
+        Controlword.FAULT_RESET,
+    )
+)
+
+
+def _is(cw: int, command: tuple[int, int]) -> bool:
+    return cw & command[0] == command[1]
 
 
 class PowerStateMachine:
@@ -36,19 +54,24 @@ class PowerStateMachine:
         self.state = S.NOT_READY_TO_SWITCH_ON
         self.quick_stop_option = int(QuickStopOption.QUICK_STOP_RAMP)
         self._last_cw = 0
+        self._settled: tuple[int, PowerState, int] | None = None  # (cw, state, option) that changed nothing
+        self._word_state: PowerState | None = None
+        self._word = 0
 
     def power_on(self) -> PowerState:
         """Transitions 0 and 1: self-test done, to SWITCH ON DISABLED."""
         self.state = S.SWITCH_ON_DISABLED
         self._last_cw = 0
+        self._settled = None
         return self.state
 
     def statusword(self) -> int:
         """Bits 0-6 for the present state, plus bit 4 voltage enabled where the power stage is on."""
-        word = self.state.bits
-        if self.state in _VOLTAGE_ON:
-            word |= SW_VOLTAGE_ENABLED
-        return word
+        st = self.state
+        if st is not self._word_state:  # decoded once per state change
+            self._word_state = st
+            self._word = st.bits | (SW_VOLTAGE_ENABLED if st in _VOLTAGE_ON else 0)
+        return self._word
 
     @property
     def power_stage_on(self) -> bool:
@@ -65,35 +88,37 @@ class PowerStateMachine:
         """The stop ramp ended: transition 14 (to FAULT) or 12 (to SWITCH ON DISABLED, options 0-4)."""
         if self.state is S.FAULT_REACTION_ACTIVE:
             self.state = S.FAULT
-        elif (
-            self.state is S.QUICK_STOP_ACTIVE and self.quick_stop_option < QuickStopOption.SLOW_DOWN_RAMP_STAY
-        ):
+        elif self.state is S.QUICK_STOP_ACTIVE and self.quick_stop_option < _STAY:
             self.state = S.SWITCH_ON_DISABLED
         return self.state
 
     def command(self, cw: int) -> PowerState:
-        """Apply controlword ``cw`` (device control commands of CiA 402)."""
-        rising_reset = _is(cw, CW.FAULT_RESET) and not _is(self._last_cw, CW.FAULT_RESET)
-        self._last_cw = cw
+        """Apply controlword ``cw`` (device control commands of CiA 402).
+
+        A controlword sent again (every cycle, in a PDO) to a state it left as it was
+        changes nothing again: that case returns at once.
+        """
         st = self.state
+        key = (cw, st, self.quick_stop_option)
+        if key == self._settled:
+            return st
+        rising_reset = _is(cw, _FAULT_RESET) and not _is(self._last_cw, _FAULT_RESET)
+        self._last_cw = cw
         if st is S.FAULT:
             if rising_reset:
                 self.state = S.SWITCH_ON_DISABLED  # 15
-            return self.state
-        if st in (S.NOT_READY_TO_SWITCH_ON, S.FAULT_REACTION_ACTIVE):
-            return st
-        if _is(cw, CW.FAULT_RESET):
-            return st  # fault reset bit outside FAULT: no command
-        self.state = self._transition(st, cw)
+        elif st not in (S.NOT_READY_TO_SWITCH_ON, S.FAULT_REACTION_ACTIVE) and not _is(cw, _FAULT_RESET):
+            self.state = self._transition(st, cw)  # (the fault reset bit outside FAULT: no command)
+        self._settled = key if self.state is st else None
         return self.state
 
     def _transition(self, st: PowerState, cw: int) -> PowerState:
         """Transitions 2-12 and 16 from ``st`` under controlword ``cw`` (bit 7 clear)."""
-        disable_voltage = _is(cw, CW.DISABLE_VOLTAGE)
-        quick_stop = _is(cw, CW.QUICK_STOP)
-        shutdown = _is(cw, CW.SHUTDOWN)
-        switch_on = _is(cw, CW.SWITCH_ON)
-        enable = _is(cw, CW.ENABLE_OPERATION)
+        disable_voltage = _is(cw, _DISABLE_VOLTAGE)
+        quick_stop = _is(cw, _QUICK_STOP)
+        shutdown = _is(cw, _SHUTDOWN)
+        switch_on = _is(cw, _SWITCH_ON)
+        enable = _is(cw, _ENABLE)
         if st is S.SWITCH_ON_DISABLED:
             if shutdown:
                 return S.READY_TO_SWITCH_ON  # 2
@@ -123,6 +148,6 @@ class PowerStateMachine:
         elif st is S.QUICK_STOP_ACTIVE:
             if disable_voltage:
                 return S.SWITCH_ON_DISABLED  # 12
-            if enable and self.quick_stop_option >= QuickStopOption.SLOW_DOWN_RAMP_STAY:
+            if enable and self.quick_stop_option >= _STAY:
                 return S.OPERATION_ENABLED  # 16
         return st

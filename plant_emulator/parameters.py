@@ -19,8 +19,16 @@ from collections.abc import Mapping
 from typing import Any, TypeVar
 
 from drivers.maps.cia import NODE_IDS
+from plant_emulator.profiles import Profile, parse_profile
 
-__all__ = ["field_types", "require_nodes", "require_nonnegative", "require_positive", "with_params"]
+__all__ = [
+    "field_types",
+    "load_torque",
+    "require_nodes",
+    "require_nonnegative",
+    "require_positive",
+    "with_params",
+]
 
 T = TypeVar("T")
 PREFIX = "plant."  #: ``plant.a_m`` and ``a_m`` name the same parameter
@@ -116,3 +124,15 @@ def require_nodes(obj: object, *names: str) -> None:
         if value in seen:
             raise ValueError(f"preset parameter {name}={value} is also {seen[value]}")
         seen[value] = name
+
+
+def load_torque(text: str) -> Profile | None:
+    """The load torque [N m] of time [s] written in ``text`` (``parse_profile``); None for ``none``.
+
+    ValueError naming the parameter ``load`` and the faulty term.
+    """
+    try:
+        profile = parse_profile(text)
+    except ValueError as exc:
+        raise ValueError(f"preset parameter load={text!r}: {exc}") from None
+    return None if text.strip() == "none" else profile

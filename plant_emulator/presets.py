@@ -11,6 +11,9 @@
   TPDO2. ``strategy`` s-pwm-start makes RPDO1 synchronous (applied at the next
   SYNC, T_d = T_s); s-pwm-middle makes it event-driven with 0x2001 = T_s/2.
 
+- ``dyno``: a bench of a motor under test (``motor``: the DC motor of dc-servo or
+  the IM of im-drive) at node 1, an encoder at node 2 and a load machine in CST at
+  node 3, all on one shaft (``plant_emulator.dyno``).
 - ``im-drive``: the induction motor IM1 of Table II under indirect rotor FOC with
   the PI current loops of Table III inside the drive at 0.1 ms
   (``plant_emulator.induction_motor``); T = 0.5 ms (the speed loop's period of
@@ -26,45 +29,39 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 import canopen
 
 from drivers.maps import cia
 from drivers.maps.cia import Mode, map_entry
-from plant_emulator.axes import DcServoAxis, GridAxis, LoadProfile, ServoLoops
+from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
-from plant_emulator.cia402_drive import EmulatedDrive
+from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
 from plant_emulator.dc_motor import DCMotorParams
+from plant_emulator.dyno import DynoPreset, build_dyno
 from plant_emulator.induction_motor import ImAxis, ImParams
-from plant_emulator.parameters import require_nodes, require_nonnegative, require_positive, with_params
-from plant_emulator.profiles import parse_profile
+from plant_emulator.parameters import (
+    load_torque,
+    require_nodes,
+    require_nonnegative,
+    require_positive,
+    with_params,
+)
 from plant_emulator.rl_dq import RLParams
 
 __all__ = [
     "PRESETS",
     "DcServoPreset",
+    "DynoPreset",
     "GridConverterPreset",
     "ImDrivePreset",
     "build_preset",
-    "load_torque",
     "preset_params",
     "preset_period",
 ]
-
-
-def load_torque(text: str) -> LoadProfile | None:
-    """The load torque [N m] of time [s] written in ``text`` (``parse_profile``); None for ``none``.
-
-    ValueError naming the parameter ``load`` and the faulty term.
-    """
-    try:
-        profile = parse_profile(text)
-    except ValueError as exc:
-        raise ValueError(f"preset parameter load={text!r}: {exc}") from None
-    return None if text.strip() == "none" else profile
 
 
 @dataclass(frozen=True)
@@ -152,6 +149,7 @@ PRESETS: dict[str, type] = {
     "dc-servo": DcServoPreset,
     "im-drive": ImDrivePreset,
     "grid-converter": GridConverterPreset,
+    "dyno": DynoPreset,
 }
 
 
@@ -186,39 +184,69 @@ def build_preset(
         return _dc_servo(p, network), p.period
     if isinstance(p, ImDrivePreset):
         return _im_drive(p, network), p.period
+    if isinstance(p, DynoPreset):
+        return _dyno(p, network), p.period
     return _grid(p, network), p.period
 
 
-def _im_drive(p: ImDrivePreset, network: canopen.Network) -> list[EmulatedNode]:
-    axis = ImAxis(ImParams(i_ds_ref=p.i_ds_ref), load=load_torque(p.load))
-    drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
-    drive.write(cia.RATED_TORQUE, 0, round(p.rated_torque * 1000))  # mN m
-    drive.write(cia.MAX_CURRENT, 0, p.max_current_permille)
-    drive.write(cia.MAX_MOTOR_SPEED, 0, p.max_speed_rpm)
-    drive.write(cia.POSITION_ENCODER_RESOLUTION, 1, p.counts_per_rev)
-    drive.write(cia.MODES_OF_OPERATION, 0, Mode.CST)
-    drive.write(cia.MODES_DISPLAY, 0, Mode.CST)
-    encoder = EmulatedEncoder(p.encoder_node, network, lambda: axis.position, period=p.period)
-    encoder.write(cia.ENCODER_RESOLUTION, 0, p.counts_per_rev)
-    return [drive, encoder]
-
-
-def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
+def _dc_axis(p: DcServoPreset, *, period: float, j_load: float = 0.0) -> tuple[DcServoAxis, Ratings]:
+    """The DC motor (3.4) of ``p`` with ``j_load`` [kg m^2] added to J, behind its drive's loops
+    (speed PI at the bandwidth ``speed_bandwidth_hz`` for the total J, position P at a fifth of it)."""
     motor = DCMotorParams.from_am_bm(a_m=p.a_m, b_m=p.b_m, r_r=p.r_r, tau_e=p.tau_e, b=p.friction)
+    motor = replace(motor, j=motor.j + j_load)
     w_c = 2.0 * math.pi * p.speed_bandwidth_hz
     max_torque = motor.k_t * p.rated_current * p.max_current_permille / 1000.0
     loops = ServoLoops(motor.j * w_c, motor.j * w_c * w_c / 5.0, w_c / 5.0, max_torque, p.u_max)
-    axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load_torque(p.load), coulomb=p.coulomb)
-    drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
-    drive.write(cia.RATED_TORQUE, 0, round(motor.k_t * p.rated_current * 1000))  # mN m
-    drive.write(cia.MAX_CURRENT, 0, p.max_current_permille)
-    drive.write(cia.MAX_MOTOR_SPEED, 0, p.max_speed_rpm)
-    drive.write(cia.POSITION_ENCODER_RESOLUTION, 1, p.counts_per_rev)
-    encoder = EmulatedEncoder(p.encoder_node, network, lambda: axis.position, period=p.period)
+    axis = DcServoAxis(motor, loops, inner_dt=period / 4, load=load_torque(p.load), coulomb=p.coulomb)
+    ratings = Ratings(p.rated_current, motor.k_t * p.rated_current, p.max_current_permille, p.max_speed_rpm)
+    return axis, ratings
+
+
+def _im_axis(p: ImDrivePreset, *, j_load: float = 0.0) -> tuple[ImAxis, Ratings]:
+    """IM1 of Table II under FOC with ``j_load`` [kg m^2] added to its total inertia."""
+    motor = ImParams(i_ds_ref=p.i_ds_ref)
+    axis = ImAxis(replace(motor, j=motor.j + j_load), load=load_torque(p.load))
+    return axis, Ratings(p.rated_current, p.rated_torque, p.max_current_permille, p.max_speed_rpm)
+
+
+def _with_encoder(
+    drive: EmulatedDrive, p: DcServoPreset | ImDrivePreset, network: canopen.Network
+) -> list[EmulatedNode]:
+    encoder = EmulatedEncoder(p.encoder_node, network, drive.shaft, period=p.period)
     encoder.write(cia.ENCODER_RESOLUTION, 0, p.counts_per_rev)
     return [drive, encoder]
+
+
+def _im_drive(p: ImDrivePreset, network: canopen.Network) -> list[EmulatedNode]:
+    axis, ratings = _im_axis(p)
+    drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
+    drive.rate(ratings, counts_per_rev=p.counts_per_rev)
+    drive.write(cia.MODES_OF_OPERATION, 0, Mode.CST)
+    drive.write(cia.MODES_DISPLAY, 0, Mode.CST)
+    return _with_encoder(drive, p, network)
+
+
+def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
+    axis, ratings = _dc_axis(p, period=p.period)
+    drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
+    drive.rate(ratings, counts_per_rev=p.counts_per_rev)
+    return _with_encoder(drive, p, network)
+
+
+#: the dyno's motor ratings that are also parameters of the dc-servo and im-drive presets
+_MOTOR_RATINGS = ("rated_current", "max_current_permille", "max_speed_rpm")
+
+
+def _dyno(p: DynoPreset, network: canopen.Network) -> list[EmulatedNode]:
+    """The motor under test from the dc-servo or im-drive preset (its own load none: the dyno's
+    ``load`` acts on the shaft), with the dyno's ratings where given."""
+    given = {k: getattr(p, k) for k in _MOTOR_RATINGS if getattr(p, k) is not None}
+    axis: Axis
+    if p.motor == "dc":
+        axis, ratings = _dc_axis(replace(DcServoPreset(), **given), period=p.period, j_load=p.j_load)
+    else:
+        axis, ratings = _im_axis(replace(ImDrivePreset(), **given), j_load=p.j_load)
+    return build_dyno(p, network, axis, p.motor_ratings(ratings))
 
 
 def _grid(p: GridConverterPreset, network: canopen.Network) -> list[EmulatedNode]:

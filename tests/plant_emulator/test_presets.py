@@ -69,6 +69,12 @@ def test_a_choice_outside_its_literal() -> None:
         ("im-drive", {"max_speed_rpm": -5}, "max_speed_rpm must be > 0, got -5"),
         ("grid-converter", {"u_line_rms": -1.0}, "u_line_rms must be >= 0"),
         ("grid-converter", {"drive_node": 0}, "drive_node must be a node id 1..127, got 0"),
+        ("dyno", {"motor": "pmsm"}, "motor='pmsm': expected one of 'dc', 'im'"),
+        ("dyno", {"load_node": 2}, "load_node=2 is also encoder_node"),
+        ("dyno", {"j_load": -1e-4}, "j_load must be >= 0"),
+        ("dyno", {"load_rated_torque": 0.0}, "load_rated_torque must be > 0, got 0.0"),
+        ("dyno", {"rated_current": None, "max_speed_rpm": 0}, "max_speed_rpm must be > 0, got 0"),
+        ("dyno", {"load": "pulse:5:2"}, "load='pulse:5:2'"),
     ],
 )
 def test_out_of_range_values_name_the_field_and_value(
@@ -93,6 +99,18 @@ def test_build_and_bench_take_typed_values_and_refuse_text() -> None:
     bench = LockstepBench("grid-converter", {"u_line_rms": 0.0})
     assert bench.period == pytest.approx(1 / 1350)
     bench.close()
+
+
+def test_dyno_ratings_default_to_the_motor_under_tests() -> None:
+    devices, _ = build_preset(
+        "dyno", canopen.Network(), {"motor": "im", "load_rated_torque": 8, "j_load": 1e-3}
+    )
+    motor, _, load = devices
+    assert [motor.read(i) for i in (0x6075, 0x6076, 0x6073, 0x6080)] == [4596, 5000, 2500, 3600]
+    assert [load.read(i) for i in (0x6075, 0x6076, 0x6073, 0x6080)] == [4596, 8000, 3000, 3600]
+    assert motor.axis.p.j == pytest.approx(0.0035 + 1e-3)  # type: ignore[attr-defined]
+    devices, _ = build_preset("dyno", canopen.Network(), {"rated_current": 5.0})
+    assert [devices[0].read(i) for i in (0x6075, 0x6076)] == [5000, round(16 / 680 * 5 * 1000)]
 
 
 def test_every_preset_builds_with_its_defaults() -> None:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from plant_emulator.presets import load_torque
+from plant_emulator.parameters import load_torque
 from plant_emulator.profiles import parse_profile
 
 T = np.linspace(-1.0, 12.0, 2601)
