@@ -81,6 +81,7 @@ class ModbusInverterAxis(AxisDriver):
             raise ConfigError(f"axis {name!r}: map {family!r} lacks the register roles {missing}")
         self._groups = self._contiguous([self.map[r] for r in _FEEDBACK_ROLES])
         self._count = 0
+        self._status: int | None = None  #: the status word of the last feedback
 
     @property
     def where(self) -> str:
@@ -237,6 +238,8 @@ class ModbusInverterAxis(AxisDriver):
 
     def supervise(self, now: float) -> None:
         """A status word that reports a fault, or that the drive stopped running, stops the loop."""
+        if self._status is None:
+            return
         state = self._state(self._status)
         if state is AxisState.FAULT:
             raise self._fault()

@@ -14,15 +14,12 @@ samples.csv; for SIGKILL, the cycles the clock says ran minus the rows on disk);
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import dataclasses
 import json
 import math
 import signal
-import socket
 import tempfile
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -158,58 +155,37 @@ def _sigkill(out: str) -> dict[str, Any]:
     }
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def _modbus(mode: str) -> dict[str, Any]:
     """The Modbus inverter running at 50 rad/s, then every request times out or is answered with 04."""
     from drivers.modbus_inverter import ModbusInverterAxis
-    from plant_emulator.modbus_inverter import InverterContext, default_model, serve_tcp
+    from plant_emulator.modbus_inverter import InverterContext, InverterServer, default_model
 
     model = default_model("abb-drives-profile", comm_loss_timeout=0.3)
     context = InverterContext(model)
     context.timeout_sleep = 0.6
-    port = _free_port()
-    stop = threading.Event()
-
-    def serve() -> None:
-        async def run() -> None:
-            task = asyncio.create_task(serve_tcp(model, port=port, dt=0.005, context=context))
-            while not stop.is_set():
-                await asyncio.sleep(0.01)
-            task.cancel()
-            await asyncio.gather(task, return_exceptions=True)
-
-        asyncio.run(run())
-
-    thread = threading.Thread(target=serve, daemon=True)
-    thread.start()
-    time.sleep(0.3)
-    drive = ModbusInverterAxis("inverter", "abb-drives-profile", host="127.0.0.1", port=port, timeout=0.2)
     message, cycles = "no error", None
-    try:
-        drive.setup()
-        drive.enable(timeout=1.0)
-        drive.command(50.0)
-        context.fault_mode = mode
-        for cycle in range(1, 20):
-            try:
-                drive.feedback()
-            except (CommunicationTimeout, ModbusExceptionResponse) as exc:
-                message, cycles = str(exc), cycle
+    with InverterServer(model, dt=0.005, context=context) as server:
+        drive = ModbusInverterAxis(
+            "inverter", "abb-drives-profile", host="127.0.0.1", port=server.port, timeout=0.2
+        )
+        try:
+            drive.setup()
+            drive.enable(timeout=1.0)
+            drive.command(50.0)
+            context.fault_mode = mode
+            for cycle in range(1, 20):
                 try:
-                    drive.quick_stop()  # the host's safe stop; under a dead line the drive's own trip must
-                except (CommunicationTimeout, ModbusExceptionResponse):
-                    pass
-                break
-        time.sleep(0.8)  # past the drive's communication-loss time
-    finally:
-        drive.close()
-        stop.set()
-        thread.join(timeout=5)
+                    drive.feedback()
+                except (CommunicationTimeout, ModbusExceptionResponse) as exc:
+                    message, cycles = str(exc), cycle
+                    try:
+                        drive.quick_stop()  # the host's safe stop; on a dead line the drive's own trip must
+                    except (CommunicationTimeout, ModbusExceptionResponse):
+                        pass
+                    break
+            time.sleep(0.8)  # past the drive's communication-loss time
+        finally:
+            drive.close()
     return {
         "detected_after_cycles": cycles,
         "drive_disabled": not model.running,

@@ -90,7 +90,7 @@ class Emulation:
         if a.serial:  # RTU: the inverter on one end of a pty pair, the axis on the other
             link = PtyLink()
             self._links.append(link)
-            server = InverterServer(model, serial=link.port_b, unit=a.unit, dt=self._dt)
+            server = InverterServer(model, serial=link.port_b, baudrate=a.baudrate, unit=a.unit, dt=self._dt)
             self._endpoints[a.name] = {"serial": link.port_a, "host": ""}
         else:
             server = InverterServer(model, unit=a.unit, dt=self._dt)

@@ -58,6 +58,7 @@ def test_setup_moves_nothing_and_enable_disable_round_trip(target: Target) -> No
     for _ in range(5):
         axis.command(0.0)
         tick()
+    axis.feedback()
     axis.supervise(0.0)
     axis.quick_stop()
     assert axis.read_state() in (AxisState.STOPPING, AxisState.DISABLED)

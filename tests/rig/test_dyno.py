@@ -39,8 +39,8 @@ def test_three_axes_one_law_one_sync(run) -> None:  # type: ignore[no-untyped-de
 def test_the_encoder_and_the_drives_see_one_shaft(run) -> None:  # type: ignore[no-untyped-def]
     _, c = run
     quantum = 2 * np.pi / 4096
-    assert np.max(np.abs(c["encoder.position"] - c["motor.position"])) <= 1.01 * quantum
-    assert np.max(np.abs(c["load.position"] - c["motor.position"])) <= 1.01 * quantum
+    assert np.max(np.abs(c["encoder.position"] - c["motor.position"])) <= 2.01 * quantum  # one or two quanta
+    assert np.max(np.abs(c["load.position"] - c["motor.position"])) <= 2.01 * quantum  # one or two quanta
 
 
 def test_the_load_machine_applies_the_profile_in_the_same_cycle(run) -> None:  # type: ignore[no-untyped-def]
@@ -59,7 +59,8 @@ def test_the_speed_law_holds_the_speed_against_the_load(run) -> None:  # type: i
     t, w = c["t"], c["encoder.velocity"]
     reference = c["reference"]
     settled = (t > 1.5) & (t < 2.0)
-    assert np.max(np.abs(w[settled] - reference[settled])) < 2.0
-    loaded = (t > 3.0) & (t < 4.0)  # the integral has taken up the load step
-    assert np.max(np.abs(w[loaded] - reference[loaded])) < 2.0
+    quantum = 2 * np.pi / 65536 / 0.4e-3  # the speed by difference: 0.24 rad/s
+    assert np.max(np.abs(w[settled] - reference[settled])) <= 2.01 * quantum  # one or two quanta
+    loaded = (t > 2.2) & (t < 4.0)  # the integral has taken up the load step
+    assert np.max(np.abs(w[loaded] - reference[loaded])) <= 2.01 * quantum  # one or two quanta
     assert np.min(w[(t > 2.0) & (t < 2.3)]) < reference[-1] - 1.0  # the load step did bite
