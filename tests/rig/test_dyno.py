@@ -38,9 +38,9 @@ def test_three_axes_one_law_one_sync(run) -> None:  # type: ignore[no-untyped-de
 
 def test_the_encoder_and_the_drives_see_one_shaft(run) -> None:  # type: ignore[no-untyped-def]
     _, c = run
-    quantum = 2 * np.pi / 4096
-    assert np.max(np.abs(c["encoder.position"] - c["motor.position"])) <= 2.01 * quantum  # one or two quanta
-    assert np.max(np.abs(c["load.position"] - c["motor.position"])) <= 2.01 * quantum  # one or two quanta
+    quantum = 2 * np.pi / 65536  # the example's counts per revolution
+    assert np.max(np.abs(c["encoder.position"] - c["motor.position"])) <= 1.01 * quantum
+    assert np.max(np.abs(c["load.position"] - c["motor.position"])) <= 1.01 * quantum
 
 
 def test_the_load_machine_applies_the_profile_in_the_same_cycle(run) -> None:  # type: ignore[no-untyped-def]
