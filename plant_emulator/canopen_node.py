@@ -82,6 +82,7 @@ class EmulatedNode:
         nmt.start_heartbeat = lambda ms: None
         nmt.stop_heartbeat = lambda: None
         nmt.update_heartbeat = lambda: None
+        self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
         self.node.add_write_callback(self._on_write)
         self.clock = 0.0  #: device time [s]
         self._last_heartbeat = -1e9
@@ -181,6 +182,7 @@ class EmulatedNode:
             self._dirty = True
         if index == cia.COB_ID_SYNC:
             self._dirty = True
+        self.on_write(index, subindex, data)
 
     # --- object dictionary access ----------------------------------------
     def _u(self, index: int, subindex: int) -> int:
@@ -309,3 +311,7 @@ class EmulatedNode:
 
     def on_reset(self, *, application: bool) -> None:
         """NMT reset node (application) or power-on."""
+
+    def on_write(self, index: int, subindex: int, data: bytes) -> None:
+        """An SDO or RPDO write of ``data`` to (index, subindex) is about to be stored; an
+        ``SdoAbortedError`` refuses it."""

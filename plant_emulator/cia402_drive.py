@@ -138,7 +138,6 @@ class EmulatedDrive(EmulatedNode):
         self._pending_cw: int | None = None
         super().__init__(node_id, eds, network)
         self.write(cia.SUPPORTED_MODES, 0, sum(MODE_BITS[m] for m in axis.modes))
-        self.node.add_write_callback(self._on_drive_write)
         shaft.attach(self)
 
     @property
@@ -189,7 +188,7 @@ class EmulatedDrive(EmulatedNode):
         return 0j
 
     # --- object writes -----------------------------------------------------
-    def _on_drive_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
+    def on_write(self, index: int, subindex: int, data: bytes) -> None:
         value = int.from_bytes(data, "little", signed=index in _SIGNED)
         if index == cia.MODES_OF_OPERATION:
             if value not in self.axis.modes:
