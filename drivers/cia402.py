@@ -58,6 +58,9 @@ _AXIS_STATE = {
 }
 
 
+_ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
+
+
 def power_state(statusword: int) -> PowerState:
     """The state a statusword reports; DeviceFault-free: an undecodable word is NOT READY."""
     return cia.decode_statusword(statusword) or PowerState.NOT_READY_TO_SWITCH_ON
@@ -316,9 +319,8 @@ class Cia402Axis(CanopenAxis):
         super().supervise(now)
         status = self._status
         if status.timestamp is not None and status.timestamp != self._enabled_stamp:
-            (word, *_) = status.values()
-            enabled = PowerState.OPERATION_ENABLED
-            if word & enabled.mask != enabled.bits:
+            word = status.values()[0]
+            if word & _ENABLED_MASK != _ENABLED_BITS:
                 raise SafetyStop(
                     f"node {self.node_id}: the drive left OPERATION ENABLED: {power_state(word).value}"
                 )

@@ -54,7 +54,13 @@ def lockstep_rate(cfg: RigConfig, seconds: float) -> float:
 
 
 def canopen_baseline(cycles: int = 20_000, repeats: int = 3) -> float:
-    """Cycles/s of the bare exchange (see the module docstring); the best of ``repeats``."""
+    """Cycles/s of the bare exchange (see the module docstring); the best of ``repeats``.
+
+    Per cycle, through canopen's generic PDO path on both sides: the host sends SYNC; the
+    device packs TPDO2 (position, velocity) from its object dictionary and sends it; the host
+    decodes both values (``PdoVariable.raw``), encodes RPDO1 (controlword, target) and sends
+    it; the device writes both values into its object dictionary.
+    """
     hub = SyncHub()
     host, device = canopen.Network(), canopen.Network()
     attach_network(host, hub.bus(queue=False, channel="host"))
@@ -64,18 +70,27 @@ def canopen_baseline(cycles: int = 20_000, repeats: int = 3) -> float:
     device.add_node(local)
     for maps in (remote.tpdo, remote.rpdo, local.tpdo, local.rpdo):
         maps.read(from_od=True)  # type: ignore[no-untyped-call]
-    tpdo, rpdo = local.tpdo[2], remote.rpdo[1]
-    tpdo.data = bytearray(8)
-    rpdo.data = bytearray(6)
-    received, applied = remote.tpdo[2][0], local.rpdo[1][1]
-    device.subscribe(cia.COB_SYNC, lambda can_id, data, ts: tpdo.transmit())
+    tpdo, received, sent = local.tpdo[2], remote.tpdo[2], remote.rpdo[1]
+    applied = local.rpdo[1]
+    sent.data = bytearray(6)
+
+    def on_sync(can_id: int, data: bytearray, ts: float) -> None:
+        tpdo.data = bytearray(b"".join(local.get_data(v.index, v.subindex) for v in tpdo.map))
+        tpdo.transmit()
+
+    def on_rpdo(can_id: int, data: bytearray, ts: float) -> None:
+        for v in applied.map:
+            local.set_data(v.index, v.subindex, v.get_data())
+
+    device.subscribe(cia.COB_SYNC, on_sync)
+    device.subscribe(applied.cob_id, on_rpdo)  # after canopen's own handler, which stores the frame
 
     def cycle() -> None:
         hub.clock += 1e-3
         host.sync.transmit()
-        _ = received.raw
-        rpdo.transmit()
-        _ = applied.raw
+        position, velocity = (v.raw for v in received.map)
+        sent[0].raw, sent[1].raw = 0x0F, position - velocity
+        sent.transmit()
 
     try:
         return rate(cycle, cycles, repeats)

@@ -105,10 +105,11 @@ class Wiring:
     reads: tuple[int, ...]
     commands: tuple[int, ...]
     profiles: tuple[tuple[int, Callable[[float], float]], ...] = ()
+    #: the law's axes, then the profile axes: the order of a cycle's commands
+    commanded: tuple[int, ...] = field(init=False)
 
-    @property
-    def commanded(self) -> tuple[int, ...]:
-        return self.commands + tuple(i for i, _ in self.profiles)
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "commanded", self.commands + tuple(i for i, _ in self.profiles))
 
 
 class HostLoop:
@@ -145,6 +146,11 @@ class HostLoop:
         self._max_error = 0.0
         self._chatter = _ChatterCounter(tol=1e-9)
         self._peaks = {a.name: dict.fromkeys(("velocity", "current", "command"), 0.0) for a in self.axes}
+        #: per axis, its peaks and the measured quantities whose peak is kept
+        self._peak_fields = [
+            (self._peaks[a.name], [f for f in ("velocity", "current") if f in a.measures]) for a in self.axes
+        ]
+        self._command_peaks = [self._peaks[self.axes[i].name] for i in wiring.commanded]
         self._recorded = [(i, [f for f in FIELDS if f in a.measures]) for i, a in enumerate(self.axes)]
 
     @staticmethod
@@ -275,10 +281,8 @@ class HostLoop:
                 *out.internals,
                 *(getattr(samples[i], f) for i, fields in self._recorded for f in fields),
                 *(_scalar(v) for v in values),
-                (t1 - t0) * 1e6,
-                (t2 - t1) * 1e6,
-                (t3 - t2) * 1e6,
-            ]
+            ],
+            (t1 - t0, t2 - t1, t3 - t2),
         )
         self.done = k + 1
 
@@ -289,14 +293,13 @@ class HostLoop:
         self._max_error = max(self._max_error, abs(e))
         if values:
             self._chatter.add(abs(values[0]) if isinstance(values[0], complex) else values[0])
-        for axis, fb in zip(self.axes, samples):
-            peaks = self._peaks[axis.name]
-            for name in ("velocity", "current"):
-                if name in axis.measures:
-                    peaks[name] = max(peaks[name], abs(getattr(fb, name)))
-        for i, value in zip(self.wiring.commanded, values):
-            peaks = self._peaks[self.axes[i].name]
-            peaks["command"] = max(peaks["command"], abs(value))
+        for (peaks, names), fb in zip(self._peak_fields, samples):
+            for name in names:
+                value = abs(getattr(fb, name))
+                peaks[name] = max(peaks[name], value)
+        for peaks, command in zip(self._command_peaks, values):
+            value = abs(command)
+            peaks["command"] = max(peaks["command"], value)
 
     def safe_stop(self, reason: str) -> None:
         """The one way out: zero command, quick stop, disable, on every axis."""

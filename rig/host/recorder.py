@@ -88,9 +88,13 @@ class Recorder:
                 return
             self.trace.on_message_received(msg)
 
-    def sample(self, row: Sequence[float]) -> None:
-        """One cycle's values, in ``columns`` order."""
-        self._file.write(",".join([repr(float(v)) for v in row]) + "\n")
+    def sample(self, row: Sequence[float], timing: Sequence[float] = ()) -> None:
+        """One cycle's values in ``columns`` order, then its stage durations [s] (written in us,
+        to 0.1 us); the values at full precision (``repr``: they read back exactly)."""
+        line = ",".join(map(repr, map(float, row)))
+        if timing:
+            line += "," + ",".join(["%.1f" % (d * 1e6) for d in timing])
+        self._file.write(line + "\n")
         self._count += 1
         self._pending += 1
         if self._pending >= self._flush_every:
