@@ -16,9 +16,9 @@ already, so each node latches the state at the SYNC instant, whatever order
 the nodes handle the frame in. The timelines are merged in the order the
 drives were attached, so that order, not the handling order, breaks ties.
 
-A drive with no shaft of its own making (``EmulatedDrive(shaft=None)``) gets a
-private one: a solo drive and a coupled one step the same way. A node's NMT
-reset leaves the shaft as it is.
+A drive built without one (``EmulatedDrive(shaft=None)``) gets a shaft of its
+own: a solo drive and a coupled one step the same way. A node's NMT reset
+leaves the shaft as it is.
 """
 
 from __future__ import annotations
