@@ -219,12 +219,16 @@ def _context(model: InverterModel, unit: int, context: InverterContext | None = 
 
 
 async def _physics(model: InverterModel, dt: float) -> None:
+    """The model on the wall clock, ``dt`` [s] per step; after the loop was held up (a slow
+    request), every missed step is made at once, so model time keeps up with the wall clock."""
     loop = asyncio.get_running_loop()
     t_next = loop.time()
     while True:
-        t_next += dt
-        model.step(dt)
-        await asyncio.sleep(max(0.0, t_next - loop.time()))
+        now = loop.time()
+        while t_next <= now:
+            model.step(dt)
+            t_next += dt
+        await asyncio.sleep(t_next - now)
 
 
 def _server(model: InverterModel, unit: int, context: InverterContext | None, **where: Any) -> Any:
