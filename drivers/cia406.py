@@ -1,60 +1,105 @@
-"""Host-side CiA 406 rotary encoder driver over canopen.
+"""Host-side CiA 406 rotary encoder: a feedback-only ``AxisDriver`` on canopen.
 
-Position 0x6004 [increments] and speed 0x6030:1 [increments/s] from TPDO2
-(on SYNC), converted with the encoder's own 0x6001 (increments per revolution).
+Position 0x6004 [increments] from the TPDO that carries it on SYNC (read from
+the mapping in force), converted with the encoder's own 0x6001 (measuring
+units per revolution) and unwrapped over its multi-turn range. Speed is the
+encoder's 0x6030:1 [increments/s] where that TPDO maps it; with
+``speed_from_position`` (or where it is not mapped) it is the backward
+difference of the position over the SYNC period, since 0x6030 is an INTEGER16
+and saturates at 32,767 increments/s (8 revolutions/s at 4096 counts).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import canopen
-from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
-from drivers.errors import CommunicationTimeout, ConfigError, SdoAbort
-from drivers.maps import CIA406_EDS
-from drivers.maps.od import load_od
+from drivers.base import AxisState, Feedback
+from drivers.canopen_axis import CanopenAxis, TpdoSlot
+from drivers.errors import ConfigError
+from drivers.maps import CIA406_EDS, cia
 
-__all__ = ["Cia406Encoder"]
+__all__ = ["Cia406Axis"]
 
 
-class Cia406Encoder:
-    """A CiA 406 encoder at ``node_id``; ``read()`` gives (angle [rad], speed [rad/s])."""
+class Cia406Axis(CanopenAxis):
+    """A CiA 406 encoder at ``node_id``; ``period`` [s] is the SYNC period (for the speed by difference)."""
+
+    measures = frozenset({"position", "velocity"})
 
     def __init__(
-        self, network: canopen.Network, node_id: int, *, eds: str = CIA406_EDS, sdo_timeout: float = 0.3
-    ):
-        self.node_id = node_id
-        self.node: Any = canopen.RemoteNode(node_id, load_od(eds, node_id))
-        self.node.sdo.RESPONSE_TIMEOUT = sdo_timeout
-        network.add_node(self.node)
+        self,
+        name: str,
+        network: canopen.Network,
+        node_id: int,
+        *,
+        period: float,
+        eds: str = CIA406_EDS,
+        speed_from_position: bool = False,
+        heartbeat_timeout: float = 0.0,
+    ) -> None:
+        super().__init__(name, None, network, node_id, eds=eds, heartbeat_timeout=heartbeat_timeout)
+        if not period > 0.0:
+            raise ConfigError(f"axis {name!r}: the SYNC period must be > 0 s, got {period!r}")
+        self.period = period
+        self.speed_from_position = speed_from_position
         self.counts_per_rad = math.nan
         self._turns = 0
         self._last_raw: int | None = None
+        self._last_counts: int | None = None
+        self._last_stamp: float | None = None
+        self._last: Feedback | None = None
 
-    def connect(self) -> None:
-        """Check the device type, read the resolution and the PDO mapping."""
-        try:
-            device_type = self.node.sdo[0x1000].raw
-            per_rev = self.node.sdo[0x6001].raw
-            self.node.tpdo.read()
-        except SdoAbortedError as exc:
-            raise SdoAbort(
-                "encoder setup", code=exc.code, node_id=self.node_id, index=0x6001, subindex=0
-            ) from exc
-        except SdoCommunicationError as exc:
-            raise CommunicationTimeout(f"encoder node {self.node_id}: no SDO answer") from exc
-        if device_type & 0xFFFF != 406:
+    def setup(self) -> None:
+        """Check the device type, read the resolution and the TPDO carrying the position on SYNC."""
+        device_type = self.sdo_read(cia.DEVICE_TYPE)
+        if device_type & 0xFFFF != cia.PROFILE_ENCODER:
             raise ConfigError(f"node {self.node_id} is not a CiA 406 encoder (0x1000 = 0x{device_type:08X})")
+        per_rev = self.sdo_read(cia.ENCODER_RESOLUTION)
+        if not per_rev:
+            raise ConfigError(f"node {self.node_id}: 0x6001 measuring units per revolution is 0")
         self.counts_per_rad = per_rev / (2.0 * math.pi)
         self.modulus = per_rev << 16
-        self._pos = self.node.tpdo[2]["Position value"]
-        self._speed = self.node.tpdo[2]["Speed value.Speed value channel 1"]
+        try:
+            self.node.tpdo.read()
+        except Exception as exc:  # canopen raises SDO errors while reading the maps
+            raise ConfigError(f"node {self.node_id}: cannot read the TPDO mapping: {exc}") from exc
+        self.nmt("OPERATIONAL")
+        for pdo in self.node.tpdo.values():
+            entries = [(v.index, v.subindex) for v in pdo.map]
+            if (
+                pdo.enabled
+                and 1 <= (pdo.trans_type or 0) <= cia.PDO_SYNC_MAX
+                and ((cia.ENCODER_POSITION, 0) in entries)
+            ):
+                self._slot: TpdoSlot = self.receive(pdo)
+                self._position_at = entries.index((cia.ENCODER_POSITION, 0))
+                speed = (cia.ENCODER_SPEED, 1)
+                self._speed_at = entries.index(speed) if speed in entries else None
+                return
+        raise ConfigError(f"node {self.node_id}: no synchronous TPDO maps the position 0x6004")
 
-    def read(self) -> tuple[float, float]:
-        """(angle [rad], speed [rad/s]) from the last TPDO2, the angle unwrapped over the 2^16-turn range."""
-        raw = int(self._pos.raw)
+    def enable(self, *, timeout: float = 1.0) -> None:
+        """An encoder has nothing to enable."""
+
+    def disable(self) -> None:
+        """An encoder has nothing to disable."""
+
+    def quick_stop(self) -> None:
+        """An encoder has nothing to stop."""
+
+    def read_state(self) -> AxisState:
+        return AxisState.ENABLED if self.nmt_state == "OPERATIONAL" else AxisState.DISABLED
+
+    def feedback(self) -> Feedback:
+        """(angle [rad], speed [rad/s]) from the last TPDO, the angle unwrapped."""
+        slot = self._slot
+        if slot.timestamp == self._last_stamp and self._last is not None:
+            return self._last  # no new sample: the same one (the watchdog counts it)
+        self._last_stamp = slot.timestamp
+        values = slot.values()
+        raw = int(values[self._position_at])
         if self._last_raw is not None:
             step = raw - self._last_raw
             if step > self.modulus // 2:
@@ -63,4 +108,11 @@ class Cia406Encoder:
                 self._turns += 1
         self._last_raw = raw
         counts = raw + self._turns * self.modulus
-        return counts / self.counts_per_rad, self._speed.raw / self.counts_per_rad
+        if self._speed_at is not None and not self.speed_from_position:
+            speed = values[self._speed_at] / self.counts_per_rad
+        else:
+            last = self._last_counts
+            speed = 0.0 if last is None else (counts - last) / self.period / self.counts_per_rad
+        self._last_counts = counts
+        self._last = Feedback(counts / self.counts_per_rad, speed, stamp=slot.timestamp)
+        return self._last

@@ -1,61 +1,106 @@
-"""Host-side Modbus inverter driver (pymodbus client, TCP or RTU), register map from ``drivers/maps``.
+"""Host-side Modbus inverter: an ``AxisDriver`` on a pymodbus client (TCP or RTU).
 
-SI in and out: speed in rad/s, current in A. A Modbus exception answer
-becomes ``ModbusExceptionResponse`` with its code, unit and register; no
-answer becomes ``CommunicationTimeout``. The client is pymodbus' synchronous
-one, so the host loop calls it directly.
+The register map of the family comes from ``drivers/maps``.
+
+Mode ``speed``: the command is the speed reference [rad/s]; the feedback is
+the actual speed [rad/s] and current [A]; the state comes from the status word
+as the family's map defines it. Registers are read in as few requests as the
+map allows (adjacent registers in one request). A Modbus exception answer
+becomes ``ModbusExceptionResponse`` with its code, unit and register; no answer
+becomes ``CommunicationTimeout``. The client is pymodbus' synchronous one.
 """
 
 from __future__ import annotations
 
+import itertools
+import time
 from typing import Any
 
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ModbusException
 from pymodbus.framer import FramerType
 
-from drivers.errors import CommunicationError, CommunicationTimeout, ModbusExceptionResponse
-from drivers.maps import ModbusMap, modbus_map
+from drivers.base import AxisDriver, AxisState, Feedback
+from drivers.errors import (
+    CommunicationError,
+    CommunicationTimeout,
+    ConfigError,
+    DeviceFault,
+    ModbusExceptionResponse,
+    SafetyStop,
+)
+from drivers.maps import ModbusMap, Register, modbus_map
 
-__all__ = ["ModbusInverter"]
+__all__ = ["ModbusInverterAxis"]
+
+#: what the host loop reads every cycle
+_FEEDBACK_ROLES = ("actual_speed", "current", "status_word")
 
 
-class ModbusInverter:
-    """An inverter of map ``family`` at ``unit``, over TCP (``host``) or RTU (``port``)."""
+class ModbusInverterAxis(AxisDriver):
+    """An inverter of register map ``family`` at ``unit``, over TCP (``host``) or RTU (``serial``)."""
+
+    measures = frozenset({"velocity", "current"})
+    sample_name = "answer"
 
     def __init__(
         self,
+        name: str,
         family: str,
         *,
         unit: int = 1,
         host: str | None = None,
-        tcp_port: int = 502,
-        port: str | None = None,
+        port: int = 502,
+        serial: str | None = None,
         baudrate: int = 19200,
         timeout: float = 1.0,
     ) -> None:
-        self.map: ModbusMap = modbus_map(family)
+        super().__init__(name, "speed")
+        try:
+            self.map: ModbusMap = modbus_map(family)
+        except ValueError as exc:
+            raise ConfigError(f"axis {name!r}: {exc}") from None
+        if not 0 <= unit <= 247:
+            raise ConfigError(f"axis {name!r}: Modbus unit {unit!r} is not 0..247")
         self.unit = unit
         self.client: Any
-        if host is not None:
-            self.client = ModbusTcpClient(host, port=tcp_port, timeout=timeout, retries=1)
-            self.where = f"{host}:{tcp_port}"
-        elif port is not None:
+        if host:
+            self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=1)
+            self._where = f"unit {unit} at {host}:{port}"
+        elif serial:
             self.client = ModbusSerialClient(
-                port, framer=FramerType.RTU, baudrate=baudrate, timeout=timeout, retries=1
+                serial, framer=FramerType.RTU, baudrate=baudrate, timeout=timeout, retries=1
             )
-            self.where = port
+            self._where = f"unit {unit} on {serial}"
         else:
-            raise ValueError("ModbusInverter needs host (TCP) or port (RTU)")
+            raise ConfigError(f"axis {name!r}: a Modbus axis needs host (TCP) or serial (RTU)")
+        missing = [
+            r for r in (*_FEEDBACK_ROLES, "control_word", "speed_reference") if r not in self.map.registers
+        ]
+        if missing:
+            raise ConfigError(f"axis {name!r}: map {family!r} lacks the register roles {missing}")
+        self._groups = self._contiguous([self.map[r] for r in _FEEDBACK_ROLES])
+        self._count = 0
+        self._status: int | None = None  #: the status word of the last feedback
 
-    def connect(self) -> None:
-        if not self.client.connect():
-            raise CommunicationError(f"Modbus inverter at {self.where}: cannot connect")
+    @property
+    def where(self) -> str:
+        return self._where
 
-    def close(self) -> None:
-        self.client.close()
+    @staticmethod
+    def _contiguous(regs: list[Register]) -> list[list[Register]]:
+        """Registers grouped into runs of adjacent addresses (one request each)."""
+        regs = sorted(regs, key=lambda r: r.address)
+        groups: list[list[Register]] = []
+        for reg in regs:
+            if groups and reg.address == groups[-1][-1].address + 1:
+                groups[-1].append(reg)
+            else:
+                groups.append([reg])
+        return groups
 
-    def _check(self, rr: Any, register: int) -> Any:
+    # --- registers ---------------------------------------------------------------------------
+    def _check(self, rr: Any, register: int, count: int = 1) -> list[int]:
         if rr is None:
             raise CommunicationTimeout(f"{self.where}: no answer for register {register}")
         if rr.isError():
@@ -63,44 +108,116 @@ class ModbusInverter:
             raise ModbusExceptionResponse(
                 f"{self.map.name} at {self.where}", code=code, unit=self.unit, register=register
             )
-        return rr
+        registers = getattr(rr, "registers", None)
+        if (
+            not isinstance(registers, list)
+            or len(registers) < count
+            or not all(isinstance(v, int) and 0 <= v <= 0xFFFF for v in registers[:count])
+        ):
+            raise CommunicationError(
+                f"{self.map.name} at {self.where}: the answer for register {register} holds no "
+                f"{count} 16-bit register value(s): {registers!r}"
+            )
+        return registers[:count]
+
+    def _read_group(self, group: list[Register]) -> dict[str, float]:
+        start = group[0].address
+        try:
+            rr = self.client.read_holding_registers(start, count=len(group), device_id=self.unit)
+        except ModbusException as exc:
+            roles = ", ".join(r.role for r in group)
+            span = f"register {start}" if len(group) == 1 else f"registers {start}-{group[-1].address}"
+            raise CommunicationTimeout(f"{self.where}: no answer reading {roles} ({span})") from exc
+        raw = self._check(rr, start, len(group))
+        return {reg.role: reg.to_si(v) for reg, v in zip(group, raw)}
 
     def read(self, role: str) -> float:
         """The SI value of the register with ``role``."""
-        reg = self.map[role]
+        return self._read_group([self._register(role)])[role]
+
+    def _register(self, role: str) -> Register:
         try:
-            rr = self.client.read_holding_registers(reg.address, count=1, device_id=self.unit)
-        except ModbusException as exc:
-            raise CommunicationTimeout(
-                f"{self.where}: no answer reading {role} (register {reg.address})"
-            ) from exc
-        registers = getattr(self._check(rr, reg.address), "registers", None)
-        if not registers or not isinstance(registers[0], int) or not 0 <= registers[0] <= 0xFFFF:
-            raise CommunicationError(
-                f"{self.map.name} at {self.where}: the answer for {role} (register {reg.address}) "
-                f"holds no 16-bit register value: {registers!r}"
-            )
-        return reg.to_si(registers[0])
+            return self.map[role]
+        except KeyError as exc:
+            raise ConfigError(f"{self.where}: {exc.args[0]}") from None
 
     def write(self, role: str, value: float) -> None:
         """Write the SI ``value`` to the register with ``role``."""
-        reg = self.map[role]
-        raw = reg.to_raw(value)
+        reg = self._register(role)
+        try:
+            raw = reg.to_raw(value)
+        except ValueError as exc:
+            raise ConfigError(f"{self.where}: {exc}") from None
         try:
             rr = self.client.write_register(reg.address, raw, device_id=self.unit)
         except ModbusException as exc:
             raise CommunicationTimeout(
                 f"{self.where}: no answer writing {role} (register {reg.address})"
             ) from exc
-        self._check(rr, reg.address)
+        if rr is None:
+            raise CommunicationTimeout(f"{self.where}: no answer writing {role} (register {reg.address})")
+        if rr.isError():
+            raise ModbusExceptionResponse(
+                f"{self.map.name} at {self.where}",
+                code=getattr(rr, "exception_code", 0),
+                unit=self.unit,
+                register=reg.address,
+            )
 
-    def run(self, speed: float) -> None:
-        """Speed reference [rad/s], then the run command of the family."""
-        self.write("speed_reference", speed)
+    # --- the axis contract ------------------------------------------------------------------------
+    def setup(self) -> None:
+        """Connect and read the status word (the unit answers)."""
+        try:
+            connected = self.client.connect()
+        except (ModbusException, OSError) as exc:
+            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect: {exc}") from exc
+        if not connected:
+            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect")
+        self.read("status_word")
+
+    def _state(self, status: int) -> AxisState:
+        st = self.map.status
+        if "running_value" in st:  # bits 0-1 give the state (Delta)
+            running = status & int(st["state_mask"]) == int(st["running_value"])
+            return AxisState.ENABLED if running else AxisState.DISABLED
+        if status >> int(st["fault_bit"]) & 1:
+            return AxisState.FAULT
+        return AxisState.ENABLED if status >> int(st["running_bit"]) & 1 else AxisState.DISABLED
+
+    def read_state(self) -> AxisState:
+        state = self._state(int(self.read("status_word")))
+        if state is not AxisState.FAULT and "fault_code" in self.map.registers and self.read("fault_code"):
+            return AxisState.FAULT
+        return state
+
+    def _fault(self) -> DeviceFault:
+        code = int(self.read("fault_code")) if "fault_code" in self.map.registers else 0
+        return DeviceFault(f"{self.map.name} reports a fault", device=self.where, code=code)
+
+    def enable(self, *, timeout: float = 1.0) -> None:
+        """Speed reference 0, then the family's run command; waits until the status word says running."""
+        if self.read_state() is AxisState.FAULT:
+            raise self._fault()
+        self.write("speed_reference", 0.0)
         self.write("control_word", self.map.control["run"])
+        deadline = time.monotonic() + timeout
+        for _ in itertools.count():
+            if self.read_state() is AxisState.ENABLED:
+                return
+            if time.monotonic() > deadline:
+                raise CommunicationTimeout(f"{self.where}: not running {timeout:g} s after the run command")
 
-    def stop(self) -> None:
+    def command(self, value: float | complex) -> None:
+        """The speed reference [rad/s]."""
+        self.write("speed_reference", float(value.real if isinstance(value, complex) else value))
+
+    def disable(self) -> None:
+        """The family's stop command (a ramp stop)."""
         self.write("control_word", self.map.control["stop"])
+
+    def quick_stop(self) -> None:
+        """The family's quick (emergency ramp) stop where the map has one, else its stop."""
+        self.write("control_word", self.map.control.get("quick_stop", self.map.control["stop"]))
 
     def reset_fault(self) -> None:
         ctl = self.map.control
@@ -109,3 +226,25 @@ class ModbusInverter:
         else:
             self.write("control_word", ctl["stop"])
             self.write("control_word", ctl["reset"])
+
+    def feedback(self) -> Feedback:
+        """Actual speed [rad/s] and current [A], read now; the status word is kept for ``supervise``."""
+        values: dict[str, float] = {}
+        for group in self._groups:
+            values.update(self._read_group(group))
+        self._status = int(values["status_word"])
+        self._count += 1
+        return Feedback(velocity=values["actual_speed"], current=values["current"], stamp=float(self._count))
+
+    def supervise(self, now: float) -> None:
+        """A status word that reports a fault, or that the drive stopped running, stops the loop."""
+        if self._status is None:
+            return
+        state = self._state(self._status)
+        if state is AxisState.FAULT:
+            raise self._fault()
+        if state is not AxisState.ENABLED:
+            raise SafetyStop(f"{self.where}: the inverter stopped running (status word 0x{self._status:04X})")
+
+    def _release(self) -> None:
+        self.client.close()

@@ -19,31 +19,40 @@ from __future__ import annotations
 
 import logging
 import struct
-from dataclasses import dataclass
 from typing import Any
 
+import can
 import canopen
-from canopen.sdo.exceptions import SdoAbortedError
 
+from drivers.maps import cia
+from drivers.maps.cia import (
+    BOOT_UP,
+    COB_HEARTBEAT,
+    COB_ID_MASK,
+    COB_NMT,
+    COMMUNICATION_AREA,
+    PDO_SYNC_MAX,
+    EmcyCode,
+    ErrorRegister,
+    NmtCommand,
+    NmtState,
+)
 from drivers.maps.od import load_od
+from plant_emulator.od_store import ObjectStore, StoreNode
+from plant_emulator.pdo import PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
 
 __all__ = ["EmulatedNode", "PdoConfig"]
 
 log = logging.getLogger(__name__)
 
-PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = 127, 5, 4, 0
-
-
-@dataclass(frozen=True)
-class PdoConfig:
-    """One PDO as configured in the object dictionary."""
-
-    number: int  #: 0-based
-    cob_id: int
-    valid: bool
-    ttype: int  #: transmission type
-    event_timer_ms: int
-    mapping: tuple[tuple[int, int, int], ...]  #: (index, subindex, bits)
+#: NMT states as the plain ints canopen's NmtSlave keeps (compared on every frame)
+PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = (
+    int(NmtState.PRE_OPERATIONAL),
+    int(NmtState.OPERATIONAL),
+    int(NmtState.STOPPED),
+    int(NmtState.INITIALISING),
+)
+_SDO_SYNC_STATES = (PRE_OPERATIONAL, OPERATIONAL)
 
 
 class EmulatedNode:
@@ -54,30 +63,35 @@ class EmulatedNode:
     """
 
     def __init__(self, node_id: int, eds: str, network: canopen.Network) -> None:
-        if not 1 <= node_id <= 127:
+        if node_id not in cia.NODE_IDS:
             raise ValueError(f"node id must be 1..127, got {node_id!r}")
         self.node_id = node_id
         net: Any = network  # canopen's callback types say bytearray; frames are bytes
-        local: Any = canopen.LocalNode(node_id, load_od(eds, node_id))
+        local: Any = StoreNode(node_id, load_od(eds, node_id))
         self.network: Any = net
         self.node: Any = local
+        self.od = ObjectStore(local)  #: typed, cached device-side access to the object dictionary
         self.network.add_node(self.node)
         # SDO and NMT through our gates; heartbeat on our clock, not canopen's thread
         self.network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
         self.network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
         # NMT through a gate as well: CiA 301 NMT frames are exactly 2 bytes
-        self.network.unsubscribe(0, self.node.nmt.on_command)
-        self.network.subscribe(0, self._on_nmt)
+        self.network.unsubscribe(COB_NMT, self.node.nmt.on_command)
+        self.network.subscribe(COB_NMT, self._on_nmt)
         nmt: Any = self.node.nmt
         nmt.start_heartbeat = lambda ms: None
         nmt.stop_heartbeat = lambda: None
         nmt.update_heartbeat = lambda: None
+        self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
         self.node.add_write_callback(self._on_write)
         self.clock = 0.0  #: device time [s]
         self._last_heartbeat = -1e9
         self._sync_count = 0
         self._tpdos: list[PdoConfig] = []
         self._rpdos: list[PdoConfig] = []
+        self._sync_tpdos: list[PdoConfig] = []  #: valid, mapped, types 1-240
+        self._event_tpdos: list[PdoConfig] = []  #: valid, mapped, types 254/255
+        self._rpdo_of_cob: dict[int, PdoConfig] = {}  #: valid, mapped
         self._rpdo_subscribed: list[int] = []
         self._sync_cob: int | None = None
         self._pending_sync_rpdo: dict[int, bytes] = {}
@@ -86,12 +100,11 @@ class EmulatedNode:
         self._dirty = True
         self.rx_time = 0.0  #: timestamp [s] of the RPDO being handled
         self._power_on: dict[int, dict[int, bytes]] | None = None
-        self._objs: dict[tuple[int, int], Any] = {}
 
     # --- NMT -----------------------------------------------------------
     @property
     def nmt_state(self) -> int:
-        return int(self.node.nmt._state)
+        return self.node.nmt._state  # type: ignore[no-any-return]
 
     def boot(self) -> None:
         """Power on: INITIALISING, boot-up message, PRE-OPERATIONAL.
@@ -103,7 +116,7 @@ class EmulatedNode:
             self._power_on = {i: dict(subs) for i, subs in self.node.data_store.items()}
         self.node.nmt._state = INITIALISING
         self.on_reset(application=True)
-        self.network.send_message(0x700 + self.node_id, bytes([0]))
+        self._send(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
         self.node.nmt._state = PRE_OPERATIONAL
         self._dirty = True
         self._configure()
@@ -120,24 +133,25 @@ class EmulatedNode:
         cmd, target = struct.unpack_from("BB", data)
         if target not in (0, self.node_id):
             return
-        if cmd in (0x81, 0x82):  # reset node / reset communication
-            self.reset(comm_only=cmd == 0x82)
+        if cmd in (NmtCommand.RESET_NODE, NmtCommand.RESET_COMMUNICATION):
+            self.reset(comm_only=cmd == NmtCommand.RESET_COMMUNICATION)
         self._configure()
 
     def reset(self, *, comm_only: bool = False) -> None:
         """NMT reset node (or communication): restore the power-on values, boot-up, PRE-OPERATIONAL."""
         stored = self._power_on or {}
         for index in list(self.node.data_store):
-            if not comm_only or 0x1000 <= index < 0x2000:
+            if not comm_only or index in COMMUNICATION_AREA:
                 del self.node.data_store[index]
         for index, subs in stored.items():
-            if not comm_only or 0x1000 <= index < 0x2000:
+            if not comm_only or index in COMMUNICATION_AREA:
                 self.node.data_store[index] = dict(subs)
+        self.od.clear()
         log.info("node %d: NMT %s", self.node_id, "reset communication" if comm_only else "reset node")
         self.node.nmt._state = INITIALISING
         if not comm_only:
             self.on_reset(application=True)
-        self.network.send_message(0x700 + self.node_id, bytes([0]))
+        self._send(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
         self.node.nmt._state = PRE_OPERATIONAL
         self._dirty = True
         self._configure()
@@ -145,157 +159,113 @@ class EmulatedNode:
     def tick(self, now: float) -> None:
         """Advance the device clock to ``now`` [s]: heartbeat and event timers."""
         self.clock = now
-        period = self._u(0x1017, 0) / 1000.0
+        period = self.od.read(cia.PRODUCER_HEARTBEAT, 0) / 1000.0  # ms -> s
         if period > 0.0 and now - self._last_heartbeat >= period - 1e-9:
             self._last_heartbeat = now
-            self.network.send_message(0x700 + self.node_id, bytes([self.nmt_state]))
+            self._send(COB_HEARTBEAT + self.node_id, bytes([self.nmt_state]))
         if self.nmt_state == OPERATIONAL:
             self.event_tpdos(now)
 
     def event_tpdos(self, now: float) -> None:
         """TPDOs of type 254/255: sent when their data change or their event timer (sub 5) expires."""
-        for pdo in self._tpdos:
-            if pdo.valid and pdo.mapping and pdo.ttype >= 254:
-                self._event_tpdo(pdo, now)
+        for pdo in self._event_tpdos:
+            self._event_tpdo(pdo, now)
 
     # --- SDO -------------------------------------------------------------
     def _on_sdo(self, can_id: int, data: bytes, timestamp: float) -> None:
-        if self.nmt_state in (PRE_OPERATIONAL, OPERATIONAL):
+        if self.nmt_state in _SDO_SYNC_STATES:
             self.node.sdo.on_request(can_id, data, timestamp)
 
     def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
-        if 0x1400 <= index <= 0x1BFF:
-            self._check_pdo_write(index, subindex, data)
+        if index in PARAMETERS:
+            check_mapping_write(self.od, index, subindex, data)
             self._dirty = True
-        if index == 0x1005:
+        if index == cia.COB_ID_SYNC:
             self._dirty = True
-
-    def _check_pdo_write(self, index: int, subindex: int, data: bytes) -> None:
-        """CiA 301 rules: mapping only while the PDO is invalid and sub 0 is 0; mapped objects must exist."""
-        is_map = (0x1600 <= index <= 0x17FF) or (0x1A00 <= index <= 0x1BFF)
-        if not is_map:
-            return
-        comm = index - 0x200
-        valid = not (self._u(comm, 1) & 0x80000000)
-        if valid:
-            raise SdoAbortedError(0x08000022)  # data cannot be stored: device state
-        if subindex == 0:
-            count = data[0]
-            if count > 8:
-                raise SdoAbortedError(0x06090031)  # value too high
-            bits = 0
-            for s in range(1, count + 1):
-                bits += self._u(index, s) & 0xFF
-            if bits > 64:
-                raise SdoAbortedError(0x06040042)  # PDO length exceeded
-            return
-        if self._u(index, 0) != 0:
-            raise SdoAbortedError(0x08000022)
-        entry = int.from_bytes(data, "little")
-        if entry == 0:
-            return
-        obj_index, obj_sub, bits = entry >> 16, (entry >> 8) & 0xFF, entry & 0xFF
-        try:
-            obj = self.node._find_object(obj_index, obj_sub)
-        except SdoAbortedError:
-            raise SdoAbortedError(0x06040041) from None  # object cannot be mapped
-        if not obj.pdo_mappable or len(obj) != bits:
-            raise SdoAbortedError(0x06040041)
+        self.on_write(index, subindex, data)
 
     # --- object dictionary access ----------------------------------------
-    def _obj(self, index: int, subindex: int) -> Any:
-        """The OD entry, looked up once (the hot path reads the same few objects every SYNC)."""
-        key = (index, subindex)
-        obj = self._objs.get(key)
-        if obj is None:
-            obj = self._objs[key] = self.node._find_object(index, subindex)
-        return obj
-
-    def _raw(self, index: int, subindex: int) -> bytes:
-        """Stored bytes of an object; the device registers no read callbacks, so the store is the truth."""
-        try:
-            return self.node.data_store[index][subindex]  # type: ignore[no-any-return]
-        except KeyError:
-            return self.node.get_data(index, subindex)  # type: ignore[no-any-return]
-
     def _u(self, index: int, subindex: int) -> int:
-        return int.from_bytes(self._raw(index, subindex), "little")
+        """Value of an unsigned object (a count, a COB-ID, a time)."""
+        return self.od.read(index, subindex)  # type: ignore[no-any-return]
 
     def read(self, index: int, subindex: int = 0) -> Any:
         """Decoded value of an object."""
-        return self._obj(index, subindex).decode_raw(self._raw(index, subindex))
+        return self.od.read(index, subindex)
 
     def write(self, index: int, subindex: int, value: Any) -> None:
         """Set an object's value from the device side (no access check, no callbacks)."""
-        self.node.data_store.setdefault(index, {})[subindex] = self._obj(index, subindex).encode_raw(value)
+        self.od.write(index, subindex, value)
 
     # --- PDO -------------------------------------------------------------
-    def _pdo(self, comm: int, mapping: int, number: int) -> PdoConfig:
-        cob = self._u(comm, 1)
-        count = self._u(mapping, 0)
-        entries = []
-        for s in range(1, count + 1):
-            m = self._u(mapping, s)
-            entries.append((m >> 16, (m >> 8) & 0xFF, m & 0xFF))
-        return PdoConfig(
-            number, cob & 0x7FF, not (cob & 0x80000000), self._u(comm, 2), self._u(comm, 5), tuple(entries)
-        )
+    def _pack(self, pdo: PdoConfig) -> bytes:
+        return pack(self.od, pdo)
+
+    def _send(self, cob_id: int, data: bytes) -> None:
+        """A frame from this node (on the bus directly: canopen's ``send_message`` adds a lock
+        and a check that cost a third of the frame, and the devices are driven by one thread)."""
+        bus = self.network.bus
+        if bus is None:
+            raise RuntimeError("Not connected to CAN bus")
+        bus.send(can.Message(arbitration_id=cob_id, data=data, is_extended_id=False))
 
     def _configure(self) -> None:
         if not self._dirty:
             return
         self._dirty = False
-        self._tpdos = [self._pdo(0x1800 + n, 0x1A00 + n, n) for n in range(4)]
-        self._rpdos = [self._pdo(0x1400 + n, 0x1600 + n, n) for n in range(4)]
+        self._tpdos = [read_pdo(self.od, cia.TPDO_COMM + n, cia.TPDO_MAP + n, n) for n in range(4)]
+        self._rpdos = [read_pdo(self.od, cia.RPDO_COMM + n, cia.RPDO_MAP + n, n) for n in range(4)]
+        tpdos = [p for p in self._tpdos if p.valid and p.mapping]
+        self._sync_tpdos = [p for p in tpdos if 1 <= p.ttype <= PDO_SYNC_MAX]
+        self._event_tpdos = [p for p in tpdos if p.ttype > PDO_SYNC_MAX]
+        self._rpdo_of_cob = {}
+        for pdo in self._rpdos:
+            if pdo.valid and pdo.mapping and mappable(self.od, pdo):
+                self._rpdo_of_cob.setdefault(pdo.cob_id, pdo)
         for cob in self._rpdo_subscribed:
             self.network.unsubscribe(cob, self._on_rpdo_frame)
-        self._rpdo_subscribed = [p.cob_id for p in self._rpdos if p.valid and p.mapping]
+        self._rpdo_subscribed = list(self._rpdo_of_cob)
         for cob in self._rpdo_subscribed:
             self.network.subscribe(cob, self._on_rpdo_frame)
-        sync_cob = self._u(0x1005, 0) & 0x7FF
+        sync_cob = self._u(cia.COB_ID_SYNC, 0) & COB_ID_MASK
         if sync_cob != self._sync_cob:
             if self._sync_cob is not None:
                 self.network.unsubscribe(self._sync_cob, self._on_sync)
             self.network.subscribe(sync_cob, self._on_sync)
             self._sync_cob = sync_cob
 
-    def _pack(self, pdo: PdoConfig) -> bytes:
-        return b"".join(self._raw(i, s)[: bits // 8] for i, s, bits in pdo.mapping)
-
     def _on_rpdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
         if self.nmt_state != OPERATIONAL:
             return
         self.rx_time = timestamp
-        for pdo in self._rpdos:
-            if pdo.valid and pdo.cob_id == can_id:
-                expected = sum(bits for _, _, bits in pdo.mapping) // 8
-                if (
-                    len(data) != expected
-                ):  # CiA 301: not processed, EMCY 0x8210 (too short) / 0x8220 (too long)
-                    log.warning(
-                        "node %d: RPDO%d with %d bytes, mapped %d: ignored",
-                        self.node_id,
-                        pdo.number + 1,
-                        len(data),
-                        expected,
-                    )
-                    self.emcy(0x8210 if len(data) < expected else 0x8220, 0x11)
-                    return
-                if pdo.ttype <= 240:
-                    self._pending_sync_rpdo[pdo.number] = bytes(data)
-                else:
-                    self._unpack(pdo, bytes(data))
-                    self.on_rpdo(pdo.number, synchronous=False)
+        pdo = self._rpdo_of_cob.get(can_id)
+        if pdo is None:
+            return
+        if len(data) != pdo.size:  # CiA 301: not processed, EMCY 0x8210 (too short) / 0x8220 (too long)
+            log.warning(
+                "node %d: RPDO%d with %d bytes, mapped %d: ignored",
+                self.node_id,
+                pdo.number + 1,
+                len(data),
+                pdo.size,
+            )
+            code = EmcyCode.PDO_TOO_SHORT if len(data) < pdo.size else EmcyCode.PDO_TOO_LONG
+            self.emcy(code, ErrorRegister.GENERIC | ErrorRegister.COMMUNICATION)
+            return
+        if pdo.ttype <= PDO_SYNC_MAX:
+            self._pending_sync_rpdo[pdo.number] = bytes(data)
+        else:
+            self._unpack(pdo, bytes(data))
+            self.on_rpdo(pdo.number, synchronous=False)
 
     def _unpack(self, pdo: PdoConfig, data: bytes) -> None:
-        offset = 0
-        for index, sub, bits in pdo.mapping:
-            n = bits // 8
-            if offset + n > len(data):
-                log.warning("node %d: RPDO%d shorter than its mapping", self.node_id, pdo.number + 1)
-                return
-            self.node.set_data(index, sub, data[offset : offset + n])
-            offset += n
+        """Write an RPDO's data into the mapped objects, as an SDO write would (callbacks first)."""
+        if len(data) < pdo.size:
+            log.warning("node %d: RPDO%d shorter than its mapping", self.node_id, pdo.number + 1)
+            return
+        store, obj = self.node.store, self.od.obj
+        for index, sub, start, end in pdo.slices:
+            store(index, sub, obj(index, sub), data[start:end])
 
     def _event_tpdo(self, pdo: PdoConfig, now: float) -> None:
         payload = self._pack(pdo)
@@ -305,27 +275,30 @@ class EmulatedNode:
         if payload != last or due:
             self._last_event[pdo.number] = payload
             self._last_event_time[pdo.number] = now
-            self.network.send_message(pdo.cob_id, payload)
+            self._send(pdo.cob_id, payload)
 
     def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
-        if self.nmt_state not in (PRE_OPERATIONAL, OPERATIONAL):
+        if self.nmt_state not in _SDO_SYNC_STATES:
             return
-        self._configure()
+        if self._dirty:
+            self._configure()
         self._sync_count += 1
         self.on_sync_latch(timestamp)
         if self.nmt_state == OPERATIONAL:
-            for pdo in self._tpdos:
-                if pdo.valid and pdo.mapping and 1 <= pdo.ttype <= 240 and self._sync_count % pdo.ttype == 0:
-                    self.network.send_message(pdo.cob_id, self._pack(pdo))
-            pending, self._pending_sync_rpdo = self._pending_sync_rpdo, {}
-            for number, payload in sorted(pending.items()):
-                self._unpack(self._rpdos[number], payload)
-                self.on_rpdo(number, synchronous=True)
+            send = self._send
+            for pdo in self._sync_tpdos:
+                if self._sync_count % pdo.ttype == 0:
+                    send(pdo.cob_id, self._pack(pdo))
+            if self._pending_sync_rpdo:
+                pending, self._pending_sync_rpdo = self._pending_sync_rpdo, {}
+                for number, payload in sorted(pending.items()):
+                    self._unpack(self._rpdos[number], payload)
+                    self.on_rpdo(number, synchronous=True)
         self.tick(timestamp)
 
     def emcy(self, code: int, register: int, data: bytes = b"") -> None:
         """Send an EMCY (not in STOPPED) and set 0x1001."""
-        self.write(0x1001, 0, register)
+        self.write(cia.ERROR_REGISTER, 0, register)
         if self.nmt_state != STOPPED:
             self.node.emcy.send(code, register, data)
 
@@ -338,3 +311,7 @@ class EmulatedNode:
 
     def on_reset(self, *, application: bool) -> None:
         """NMT reset node (application) or power-on."""
+
+    def on_write(self, index: int, subindex: int, data: bytes) -> None:
+        """An SDO or RPDO write of ``data`` to (index, subindex) is about to be stored; an
+        ``SdoAbortedError`` refuses it."""

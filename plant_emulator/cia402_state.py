@@ -1,60 +1,45 @@
 """The CiA 402 power drive state machine (CiA 402-2, 6.x "PDS FSA"), pure logic.
 
 ``PowerStateMachine.command(controlword)`` applies the controlword's device
-control command (Table: bits 7, 3, 2, 1, 0) and returns the new state;
+control command (bits 7, 3, 2, 1, 0) and returns the new state;
 ``statusword()`` gives bits 0-6 for the state. Quick stop and fault reactions
 take time (a ramp), so QUICK_STOP_ACTIVE and FAULT_REACTION_ACTIVE are left by
-``reaction_done()``, which the drive calls when the motor has stopped.
+``reaction_done()``, which the drive calls when the motor has stopped. States,
+statusword bits and controlword commands are those of ``drivers.maps.cia``.
 """
 
 from __future__ import annotations
 
-import enum
+from drivers.maps.cia import SW_VOLTAGE_ENABLED, Controlword, PowerState, QuickStopOption
 
-__all__ = ["PowerState", "PowerStateMachine", "statusword_state"]
-
-
-class PowerState(enum.Enum):
-    NOT_READY_TO_SWITCH_ON = "NOT READY TO SWITCH ON"
-    SWITCH_ON_DISABLED = "SWITCH ON DISABLED"
-    READY_TO_SWITCH_ON = "READY TO SWITCH ON"
-    SWITCHED_ON = "SWITCHED ON"
-    OPERATION_ENABLED = "OPERATION ENABLED"
-    QUICK_STOP_ACTIVE = "QUICK STOP ACTIVE"
-    FAULT_REACTION_ACTIVE = "FAULT REACTION ACTIVE"
-    FAULT = "FAULT"
-
+__all__ = ["PowerState", "PowerStateMachine"]
 
 S = PowerState
-#: statusword bits 0-6: ready, switched on, op enabled, fault, voltage on, quick stop, switch on disabled
-_STATUS = {
-    S.NOT_READY_TO_SWITCH_ON: 0x0000,
-    S.SWITCH_ON_DISABLED: 0x0040,
-    S.READY_TO_SWITCH_ON: 0x0021,
-    S.SWITCHED_ON: 0x0023,
-    S.OPERATION_ENABLED: 0x0027,
-    S.QUICK_STOP_ACTIVE: 0x0007,
-    S.FAULT_REACTION_ACTIVE: 0x000F,
-    S.FAULT: 0x0008,
-}
-_MASKS = [
-    (0x4F, 0x00, S.NOT_READY_TO_SWITCH_ON),
-    (0x4F, 0x40, S.SWITCH_ON_DISABLED),
-    (0x6F, 0x21, S.READY_TO_SWITCH_ON),
-    (0x6F, 0x23, S.SWITCHED_ON),
-    (0x6F, 0x27, S.OPERATION_ENABLED),
-    (0x6F, 0x07, S.QUICK_STOP_ACTIVE),
-    (0x4F, 0x0F, S.FAULT_REACTION_ACTIVE),
-    (0x4F, 0x08, S.FAULT),
-]
+_VOLTAGE_ON = (S.READY_TO_SWITCH_ON, S.SWITCHED_ON, S.OPERATION_ENABLED, S.QUICK_STOP_ACTIVE)
+_POWER_ON = (S.OPERATION_ENABLED, S.QUICK_STOP_ACTIVE, S.FAULT_REACTION_ACTIVE)
+_STAY = QuickStopOption.SLOW_DOWN_RAMP_STAY  #: quick stop options from here on stay in QUICK STOP ACTIVE
 
 
-def statusword_state(statusword: int) -> PowerState:
-    """The state a statusword reports (CiA 402 statusword decoding)."""
-    for mask, value, state in _MASKS:
-        if statusword & mask == value:
-            return state
-    raise ValueError(f"statusword 0x{statusword:04X} encodes no CiA 402 state")
+def _bits(command: Controlword) -> tuple[int, int]:
+    """(mask, value) of a device control command, as plain ints (checked on every controlword)."""
+    return command.mask, int(command)
+
+
+_DISABLE_VOLTAGE, _QUICK_STOP, _SHUTDOWN, _SWITCH_ON, _ENABLE, _FAULT_RESET = (
+    _bits(c)
+    for c in (
+        Controlword.DISABLE_VOLTAGE,
+        Controlword.QUICK_STOP,
+        Controlword.SHUTDOWN,
+        Controlword.SWITCH_ON,
+        Controlword.ENABLE_OPERATION,
+        Controlword.FAULT_RESET,
+    )
+)
+
+
+def _is(cw: int, command: tuple[int, int]) -> bool:
+    return cw & command[0] == command[1]
 
 
 class PowerStateMachine:
@@ -67,26 +52,31 @@ class PowerStateMachine:
 
     def __init__(self) -> None:
         self.state = S.NOT_READY_TO_SWITCH_ON
-        self.quick_stop_option = 2
+        self.quick_stop_option = int(QuickStopOption.QUICK_STOP_RAMP)
         self._last_cw = 0
+        self._settled: tuple[int, PowerState, int] | None = None  # (cw, state, option) that changed nothing
+        self._word_state: PowerState | None = None
+        self._word = 0
 
     def power_on(self) -> PowerState:
         """Transitions 0 and 1: self-test done, to SWITCH ON DISABLED."""
         self.state = S.SWITCH_ON_DISABLED
         self._last_cw = 0
+        self._settled = None
         return self.state
 
     def statusword(self) -> int:
         """Bits 0-6 for the present state, plus bit 4 voltage enabled where the power stage is on."""
-        word = _STATUS[self.state]
-        if self.state in (S.SWITCHED_ON, S.OPERATION_ENABLED, S.QUICK_STOP_ACTIVE, S.READY_TO_SWITCH_ON):
-            word |= 0x0010
-        return word
+        st = self.state
+        if st is not self._word_state:  # decoded once per state change
+            self._word_state = st
+            self._word = st.bits | (SW_VOLTAGE_ENABLED if st in _VOLTAGE_ON else 0)
+        return self._word
 
     @property
     def power_stage_on(self) -> bool:
         """Torque may be produced (operation enabled, or a stopping reaction in progress)."""
-        return self.state in (S.OPERATION_ENABLED, S.QUICK_STOP_ACTIVE, S.FAULT_REACTION_ACTIVE)
+        return self.state in _POWER_ON
 
     def fault(self) -> PowerState:
         """Transition 13: a fault from any state (reaction runs before FAULT)."""
@@ -98,57 +88,66 @@ class PowerStateMachine:
         """The stop ramp ended: transition 14 (to FAULT) or 12 (to SWITCH ON DISABLED, options 0-4)."""
         if self.state is S.FAULT_REACTION_ACTIVE:
             self.state = S.FAULT
-        elif self.state is S.QUICK_STOP_ACTIVE and self.quick_stop_option <= 4:
+        elif self.state is S.QUICK_STOP_ACTIVE and self.quick_stop_option < _STAY:
             self.state = S.SWITCH_ON_DISABLED
         return self.state
 
     def command(self, cw: int) -> PowerState:
-        """Apply controlword ``cw`` (device control commands of CiA 402)."""
-        rising_reset = bool(cw & 0x80) and not (self._last_cw & 0x80)
-        self._last_cw = cw
+        """Apply controlword ``cw`` (device control commands of CiA 402).
+
+        A controlword sent again (every cycle, in a PDO) to a state it left as it was
+        changes nothing again: that case returns at once.
+        """
         st = self.state
+        key = (cw, st, self.quick_stop_option)
+        if key == self._settled:
+            return st
+        rising_reset = _is(cw, _FAULT_RESET) and not _is(self._last_cw, _FAULT_RESET)
+        self._last_cw = cw
         if st is S.FAULT:
             if rising_reset:
                 self.state = S.SWITCH_ON_DISABLED  # 15
-            return self.state
-        if st in (S.NOT_READY_TO_SWITCH_ON, S.FAULT_REACTION_ACTIVE):
-            return st
-        if cw & 0x80:
-            return st  # fault reset bit outside FAULT: no command
-        disable_voltage = not (cw & 0x02)
-        quick_stop = (cw & 0x06) == 0x02
-        shutdown = (cw & 0x07) == 0x06
-        switch_on = (cw & 0x0F) == 0x07
-        enable = (cw & 0x0F) == 0x0F
+        elif st not in (S.NOT_READY_TO_SWITCH_ON, S.FAULT_REACTION_ACTIVE) and not _is(cw, _FAULT_RESET):
+            self.state = self._transition(st, cw)  # (the fault reset bit outside FAULT: no command)
+        self._settled = key if self.state is st else None
+        return self.state
+
+    def _transition(self, st: PowerState, cw: int) -> PowerState:
+        """Transitions 2-12 and 16 from ``st`` under controlword ``cw`` (bit 7 clear)."""
+        disable_voltage = _is(cw, _DISABLE_VOLTAGE)
+        quick_stop = _is(cw, _QUICK_STOP)
+        shutdown = _is(cw, _SHUTDOWN)
+        switch_on = _is(cw, _SWITCH_ON)
+        enable = _is(cw, _ENABLE)
         if st is S.SWITCH_ON_DISABLED:
             if shutdown:
-                self.state = S.READY_TO_SWITCH_ON  # 2
+                return S.READY_TO_SWITCH_ON  # 2
         elif st is S.READY_TO_SWITCH_ON:
             if disable_voltage or quick_stop:
-                self.state = S.SWITCH_ON_DISABLED  # 7
-            elif switch_on:
-                self.state = S.SWITCHED_ON  # 3
-            elif enable:
-                self.state = S.OPERATION_ENABLED  # 3 + 4
+                return S.SWITCH_ON_DISABLED  # 7
+            if switch_on:
+                return S.SWITCHED_ON  # 3
+            if enable:
+                return S.OPERATION_ENABLED  # 3 + 4
         elif st is S.SWITCHED_ON:
             if disable_voltage or quick_stop:
-                self.state = S.SWITCH_ON_DISABLED  # 10
-            elif shutdown:
-                self.state = S.READY_TO_SWITCH_ON  # 6
-            elif enable:
-                self.state = S.OPERATION_ENABLED  # 4
+                return S.SWITCH_ON_DISABLED  # 10
+            if shutdown:
+                return S.READY_TO_SWITCH_ON  # 6
+            if enable:
+                return S.OPERATION_ENABLED  # 4
         elif st is S.OPERATION_ENABLED:
             if disable_voltage:
-                self.state = S.SWITCH_ON_DISABLED  # 9
-            elif quick_stop:
-                self.state = S.QUICK_STOP_ACTIVE  # 11
-            elif shutdown:
-                self.state = S.READY_TO_SWITCH_ON  # 8
-            elif switch_on:
-                self.state = S.SWITCHED_ON  # 5
+                return S.SWITCH_ON_DISABLED  # 9
+            if quick_stop:
+                return S.QUICK_STOP_ACTIVE  # 11
+            if shutdown:
+                return S.READY_TO_SWITCH_ON  # 8
+            if switch_on:
+                return S.SWITCHED_ON  # 5
         elif st is S.QUICK_STOP_ACTIVE:
             if disable_voltage:
-                self.state = S.SWITCH_ON_DISABLED  # 12
-            elif enable and self.quick_stop_option >= 5:
-                self.state = S.OPERATION_ENABLED  # 16
-        return self.state
+                return S.SWITCH_ON_DISABLED  # 12
+            if enable and self.quick_stop_option >= _STAY:
+                return S.OPERATION_ENABLED  # 16
+        return st

@@ -1,32 +1,42 @@
-"""An emulated CiA 406 rotary encoder on the bus, reading a shaft angle.
+"""An emulated CiA 406 rotary encoder on the bus, reading the angle of a ``Shaft``.
 
 Position 0x6004 [increments, 0x6001 per revolution, wrapped to the single-turn
 range times 2^16 turns], speed 0x6030:1 [increments/s, Euler backward over the
 SYNC period, saturated to INTEGER16]. TPDO1 is sent on its cyclic timer 0x6200
-(transmission type 254/255) and TPDO2 on SYNC, as mapped in the EDS.
+(transmission type 254/255) and TPDO2 on SYNC, as mapped in the EDS. On SYNC the
+encoder brings the shaft to the SYNC instant first (``Shaft.sync``), so it reads
+the same angle as the drives on the shaft, whichever node handles the frame first.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import canopen
 
 from drivers.maps import CIA406_EDS
+from drivers.maps.cia import (
+    ENCODER_CYCLIC_TIMER,
+    ENCODER_POSITION,
+    ENCODER_RESOLUTION,
+    ENCODER_SPEED,
+)
 from plant_emulator.canopen_node import EmulatedNode
+from plant_emulator.shaft import Shaft
 
 __all__ = ["EmulatedEncoder"]
 
+_TURNS = 1 << 16  #: the multi-turn range [revolutions]
+
 
 class EmulatedEncoder(EmulatedNode):
-    """CiA 406 encoder node; ``shaft`` returns the true angle [rad] when called."""
+    """CiA 406 encoder node on ``shaft``; ``period`` [s] is the SYNC period of its speed."""
 
     def __init__(
         self,
         node_id: int,
         network: canopen.Network,
-        shaft: Callable[[], float],
+        shaft: Shaft,
         *,
         period: float,
         eds: str = CIA406_EDS,
@@ -41,27 +51,27 @@ class EmulatedEncoder(EmulatedNode):
 
     def counts(self) -> int:
         """The multi-turn count of the present shaft angle."""
-        per_rev = self._u(0x6001, 0)
-        return math.floor(self.shaft() / (2.0 * math.pi) * per_rev)
+        per_rev: int = self.od.read(ENCODER_RESOLUTION, 0)
+        return math.floor(self.shaft.position / (2.0 * math.pi) * per_rev)
 
     def on_sync_latch(self, timestamp: float) -> None:
+        self.shaft.sync(self, timestamp)
         self.latch()
 
     def latch(self) -> None:
         counts = self.counts()
         speed = 0 if self._last is None else round((counts - self._last) / self.period)
         self._last = counts
-        self.write(0x6004, 0, counts % (self._u(0x6001, 0) << 16))
-        self.write(0x6030, 1, max(-32768, min(32767, speed)))
+        self.write(ENCODER_POSITION, 0, counts % (self.od.read(ENCODER_RESOLUTION, 0) * _TURNS))
+        self.write(ENCODER_SPEED, 1, max(-32768, min(32767, speed)))
 
     def event_tpdos(self, now: float) -> None:
         """TPDOs of type 254/255 go out on the cyclic timer 0x6200 [ms] (0: never)."""
-        timer = self._u(0x6200, 0)
+        timer = self.od.read(ENCODER_CYCLIC_TIMER, 0)
         if timer and now - self._last_cyclic >= timer / 1000.0 - 1e-9:
             self._last_cyclic = now
-            self.write(0x6004, 0, self.counts() % (self._u(0x6001, 0) << 16))
-            for pdo in self._tpdos:
-                if pdo.valid and pdo.mapping and pdo.ttype >= 254:
-                    self.network.send_message(pdo.cob_id, self._pack(pdo))
+            self.write(ENCODER_POSITION, 0, self.counts() % (self.od.read(ENCODER_RESOLUTION, 0) * _TURNS))
+            for pdo in self._event_tpdos:
+                self._send(pdo.cob_id, self._pack(pdo))
 
     _last_cyclic = -1e9

@@ -17,6 +17,7 @@ from typing import Any
 
 import can
 
+from drivers.maps.cia import COB_HEARTBEAT, COB_SYNC, COB_TPDO, EmcyCode
 from plant_emulator.lockstep import SyncHub
 
 __all__ = ["FAULT_NAMES", "FaultInjector", "FaultPlan", "parse_faults"]
@@ -88,10 +89,8 @@ class FaultInjector:
         p, t, node = self.plan, self.hub.clock, self.drive.node_id
         cob = msg.arbitration_id
         lose = p.frame_loss > 0.0 and t > 0.0 and self.rng.random() < p.frame_loss  # from the first SYNC on
-        lose = lose or (
-            t >= p.tpdo_stall_at and cob in (0x180 + node, 0x280 + node, 0x380 + node, 0x480 + node)
-        )
-        lose = lose or (t >= p.heartbeat_loss_at and cob == 0x700 + node)
+        lose = lose or (t >= p.tpdo_stall_at and cob - node in COB_TPDO)
+        lose = lose or (t >= p.heartbeat_loss_at and cob == COB_HEARTBEAT + node)
         if lose:
             self.dropped += 1
         return lose
@@ -103,13 +102,13 @@ class FaultInjector:
         return False
 
     def _on_frame(self, msg: can.Message) -> None:
-        if msg.arbitration_id != 0x80:  # act at SYNC: the device has just latched this cycle
+        if msg.arbitration_id != COB_SYNC:  # act at SYNC: the device has just latched this cycle
             return
         p, drive = self.plan, self.drive
         if self._once("node_reset", p.node_reset_at):
             drive.reset()
         if self._once("overcurrent", p.overcurrent_at):
-            drive.raise_fault(0x2310)
+            drive.raise_fault(EmcyCode.OVER_CURRENT)
         if self._once("encoder_glitch", p.encoder_glitch_at):
             drive.glitch_counts += p.encoder_glitch_counts
 

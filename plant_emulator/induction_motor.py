@@ -25,9 +25,12 @@ import cmath
 import math
 from dataclasses import dataclass
 
-from plant_emulator.axes import CSP, CST, CSV, PV, Axis, LoadProfile
+from drivers.maps.cia import Mode
+from plant_emulator.axes import Axis, LoadProfile
 
 __all__ = ["ImAxis", "ImParams"]
+
+_CST, _CSV, _PV = Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY  # looked up once, compared every step
 
 
 @dataclass(frozen=True)
@@ -61,7 +64,7 @@ class ImParams:
 class ImAxis(Axis):
     """The IM and its FOC drive; see the module docstring."""
 
-    modes = (CST, CSV, PV, CSP)
+    modes = (Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY, Mode.CSP)
 
     def __init__(self, p: ImParams, *, load: LoadProfile | None = None) -> None:
         self.p = p
@@ -77,15 +80,25 @@ class ImAxis(Axis):
         self.omega = 0.0
         self.theta = 0.0
         self.theta_e = 0.0  # FOC angle
-        self.mode = CST
+        self.mode: int = Mode.CST
         self.command = 0.0
         self._int_d = self._int_q = 0.0
         self._int_w = 0.0
+        self._i_q_speed = 0.0  # the speed PI's output, held over a SYNC period [A]
+        self._speed_due = True  # the speed PI samples at the next piece of physics
         self._enabled = False
         self._u = 0j
 
+    def latch(self) -> None:
+        """A SYNC: the speed PI samples once per period, at its start."""
+        self._speed_due = True
+
     def coast(self) -> None:
         self._enabled = False
+
+    def release(self) -> None:
+        self._int_d = self._int_q = self._int_w = 0.0
+        self.coast()
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         if mode not in self.modes:
@@ -137,15 +150,21 @@ class ImAxis(Axis):
         self.theta_e = math.remainder(self.theta_e + omega_e * p.foc_dt, math.tau)
         return u
 
-    def _i_q_ref(self, h: float) -> float:
+    def _i_q_ref(self) -> float:
+        """i_qs* [A]: T*/k_t (4.8) in CST; else the speed PI of Table III, sampled once per SYNC
+        period (a command later in the period waits for the next sample)."""
         p = self.p
-        if self.mode == CST:
+        if self.mode == _CST:
             return self.command / p.k_t
-        w_ref = self.command if self.mode in (CSV, PV) else p.position_kp * (self.command - self.theta)
+        if not self._speed_due:
+            return self._i_q_speed
+        self._speed_due = False
+        w_ref = self.command if self.mode in (_CSV, _PV) else p.position_kp * (self.command - self.theta)
         e = w_ref - self.omega
         i_q = p.speed_kp * e + self._int_w + p.speed_ki * e
         if abs(i_q) < p.i_max:
             self._int_w += p.speed_ki * e
+        self._i_q_speed = i_q
         return i_q
 
     def advance(self, h: float, t: float) -> None:
@@ -154,7 +173,7 @@ class ImAxis(Axis):
         p = self.p
         n = max(1, round(h / p.foc_dt))
         hs = h / n
-        i_q_ref = self._i_q_ref(h) if self._enabled else 0.0
+        i_q_ref = self._i_q_ref() if self._enabled else 0.0
         for k in range(n):
             t_load = 0.0 if self.load is None else self.load(t + k * hs)
             u = self._foc_step(i_q_ref) if self._enabled else 0j

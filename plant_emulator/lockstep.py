@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import collections
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import can
 import canopen
 
-from plant_emulator.presets import build_preset
+from drivers.maps.cia import COB_SYNC
+from plant_emulator.presets import build_preset, preset_params
 
 __all__ = ["LockstepBench", "SyncBus", "SyncHub", "attach_network"]
 
@@ -118,13 +119,19 @@ class LockstepBench:
     in the host's PDO maps.
     """
 
-    def __init__(self, preset: str, overrides: dict[str, str] | None = None) -> None:
+    def __init__(self, preset: str, params: Mapping[str, object] | None = None) -> None:
+        """Preset ``preset`` with ``params`` (typed values by name, see ``build_preset``)."""
+        preset_params(preset, params)  # a bad parameter fails here, before any bus exists
         self.hub = SyncHub()
         self.device_network = canopen.Network()
         attach_network(self.device_network, self.hub.bus(queue=False, channel="emulator"))
         self.host = canopen.Network()
         attach_network(self.host, self.hub.bus(queue=False, channel="host"))
-        self.devices, self.period = build_preset(preset, self.device_network, overrides)
+        try:
+            self.devices, self.period = build_preset(preset, self.device_network, params)
+        except BaseException:
+            self.close()
+            raise
         self.syncs = 0
         for d in self.devices:
             d.boot()
@@ -132,7 +139,7 @@ class LockstepBench:
     def sync(self) -> None:
         self.syncs += 1
         self.hub.clock = self.syncs * self.period  # from a count: no drift by rounding
-        self.host.send_message(0x80, b"")
+        self.host.send_message(COB_SYNC, b"")
 
     def close(self) -> None:
         for net in (self.host, self.device_network):

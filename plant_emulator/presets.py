@@ -11,102 +11,115 @@
   TPDO2. ``strategy`` s-pwm-start makes RPDO1 synchronous (applied at the next
   SYNC, T_d = T_s); s-pwm-middle makes it event-driven with 0x2001 = T_s/2.
 
+- ``dyno``: a bench of a motor under test (``motor``: the DC motor of dc-servo or
+  the IM of im-drive) at node 1, an encoder at node 2 and a load machine in CST at
+  node 3, all on one shaft (``plant_emulator.dyno``).
 - ``im-drive``: the induction motor IM1 of Table II under indirect rotor FOC with
   the PI current loops of Table III inside the drive at 0.1 ms
   (``plant_emulator.induction_motor``); T = 0.5 ms (the speed loop's period of
   section VII.C); the host closes speed or position through CST (torque in per
   mille of 0x6076 = 5 N m, the rated 1.5 kW at 2860 rpm); encoder node 2.
 
-Every parameter can be overridden by name (``overrides``); an unknown name or
-a bad value is a ValueError naming it.
+Every parameter can be set by name to a typed value (``params``, checked by
+``plant_emulator.parameters``); an unknown name, a value of the wrong type or
+out of range is a ValueError naming it.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
-from typing import Any
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any, Literal
 
 import canopen
 
-from plant_emulator.axes import CST, DQ_VOLTAGE_MODE, DcServoAxis, GridAxis, ServoLoops
+from drivers.maps import cia
+from drivers.maps.cia import Mode, map_entry
+from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
-from plant_emulator.cia402_drive import EmulatedDrive
+from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
 from plant_emulator.dc_motor import DCMotorParams
+from plant_emulator.dyno import DynoPreset, build_dyno
 from plant_emulator.induction_motor import ImAxis, ImParams
+from plant_emulator.parameters import (
+    load_torque,
+    require_nodes,
+    require_nonnegative,
+    require_positive,
+    with_params,
+)
 from plant_emulator.rl_dq import RLParams
 
 __all__ = [
     "PRESETS",
     "DcServoPreset",
+    "DynoPreset",
     "GridConverterPreset",
     "ImDrivePreset",
     "build_preset",
-    "load_profile",
+    "preset_params",
     "preset_period",
 ]
-
-
-def load_profile(text: str) -> Callable[[float], float]:
-    """A load torque profile [N m] of time [s]: ``none``, ``const:T``, ``step:T:t0``, ``sine:A:f``
-    (A sin(2 pi f t), e.g. ``sine:5:1`` is the drives paper's 5 sin(2 pi t))."""
-    kind, *args = text.split(":")
-    try:
-        nums = [float(a) for a in args]
-    except ValueError:
-        raise ValueError(f"load profile {text!r}: arguments must be numbers") from None
-    if kind == "none" and not nums:
-        return lambda t: 0.0
-    if kind == "const" and len(nums) == 1:
-        return lambda t: nums[0]
-    if kind == "step" and len(nums) == 2:
-        return lambda t: nums[0] if t >= nums[1] else 0.0
-    if kind == "sine" and len(nums) == 2:
-        return lambda t: nums[0] * math.sin(2.0 * math.pi * nums[1] * t)
-    raise ValueError(f"load profile {text!r}: use none, const:T, step:T:t0 or sine:A:f")
 
 
 @dataclass(frozen=True)
 class DcServoPreset:
     """Parameters of ``dc-servo`` (SI; see the module docstring)."""
 
-    a_m: float = 16.0
-    b_m: float = 680.0
-    r_r: float = 1.0
-    tau_e: float = 1e-4
+    a_m: float = 16.0  #: (3.5) [1/s]
+    b_m: float = 680.0  #: (3.5) [rad/(V s^2)]
+    r_r: float = 1.0  #: armature resistance [Ohm]
+    tau_e: float = 1e-4  #: electrical time constant L_r/R_r [s]
     friction: float = 0.0  #: viscous B [N m s/rad]
     coulomb: float = 0.0  #: Coulomb friction torque [N m], against the motion
-    counts_per_rev: int = 4096
-    period: float = 0.4e-3
-    u_max: float = 48.0
-    rated_current: float = 10.0
-    max_current_permille: int = 3000
-    max_speed_rpm: int = 6000
-    speed_bandwidth_hz: float = 100.0
-    load: str = "none"
+    counts_per_rev: int = 4096  #: position resolution (0x608F, 0x6001) [increments/rev]
+    period: float = 0.4e-3  #: SYNC period [s]
+    u_max: float = 48.0  #: power stage voltage limit [V]
+    rated_current: float = 10.0  #: 0x6075 [A]
+    max_current_permille: int = 3000  #: 0x6073 [per mille of the rated current]
+    max_speed_rpm: int = 6000  #: 0x6080 [rpm]
+    speed_bandwidth_hz: float = 100.0  #: of the drive's speed loop [Hz]
+    load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
     drive_node: int = 1
     encoder_node: int = 2
+
+    def __post_init__(self) -> None:
+        require_positive(
+            self, "a_m", "b_m", "r_r", "tau_e", "counts_per_rev", "period", "u_max", "rated_current"
+        )
+        require_positive(self, "max_current_permille", "max_speed_rpm", "speed_bandwidth_hz")
+        require_nonnegative(self, "friction", "coulomb")
+        require_nodes(self, "drive_node", "encoder_node")
+        load_torque(self.load)
 
 
 @dataclass(frozen=True)
 class GridConverterPreset:
     """Parameters of ``grid-converter`` (SI; see the module docstring)."""
 
-    L1: float = 6e-3
-    R1: float = 0.36
-    f_line: float = 50.0
-    ratio: float = 1.0 / 27.0
-    u_line_rms: float = 400.0
-    u_dc: float = 700.0
-    rated_current: float = 32.0 * math.sqrt(2.0)
-    max_current_permille: int = 2000
-    strategy: str = "s-pwm-start"
+    L1: float = 6e-3  #: [H]
+    R1: float = 0.36  #: [Ohm]
+    f_line: float = 50.0  #: grid frequency [Hz]
+    ratio: float = 1.0 / 27.0  #: omega_k/omega_s: the SYNC period is ratio/f_line
+    u_line_rms: float = 400.0  #: line-to-line grid voltage [V rms]
+    u_dc: float = 700.0  #: DC link [V]
+    rated_current: float = 32.0 * math.sqrt(2.0)  #: 0x6075 [A]
+    max_current_permille: int = 2000  #: 0x6073 [per mille of the rated current]
+    strategy: Literal["s-pwm-start", "s-pwm-middle"] = "s-pwm-start"
     drive_node: int = 1
+
+    def __post_init__(self) -> None:
+        require_positive(self, "L1", "R1", "f_line", "ratio", "u_dc", "rated_current", "max_current_permille")
+        require_nonnegative(self, "u_line_rms")
+        require_nodes(self, "drive_node")
+        if self.strategy not in ("s-pwm-start", "s-pwm-middle"):
+            raise ValueError(f"preset parameter strategy={self.strategy!r}: use s-pwm-start or s-pwm-middle")
 
     @property
     def period(self) -> float:
+        """SYNC period [s]."""
         return self.ratio / self.f_line
 
 
@@ -114,122 +127,147 @@ class GridConverterPreset:
 class ImDrivePreset:
     """Parameters of ``im-drive`` (SI; see the module docstring; the motor is ``ImParams``)."""
 
-    period: float = 0.5e-3
-    counts_per_rev: int = 4096
-    rated_torque: float = 5.0
-    rated_current: float = 3.25 * math.sqrt(2.0)
-    max_current_permille: int = 2500
-    max_speed_rpm: int = 3600
-    i_ds_ref: float = 2.35
-    load: str = "none"
+    period: float = 0.5e-3  #: SYNC period [s]
+    counts_per_rev: int = 4096  #: position resolution (0x608F, 0x6001) [increments/rev]
+    rated_torque: float = 5.0  #: 0x6076 [N m]
+    rated_current: float = 3.25 * math.sqrt(2.0)  #: 0x6075 [A]
+    max_current_permille: int = 2500  #: 0x6073 [per mille of the rated current]
+    max_speed_rpm: int = 3600  #: 0x6080 [rpm]
+    i_ds_ref: float = 2.35  #: flux current (4.7) [A]
+    load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
     drive_node: int = 1
     encoder_node: int = 2
+
+    def __post_init__(self) -> None:
+        require_positive(self, "period", "counts_per_rev", "rated_torque", "rated_current")
+        require_positive(self, "max_current_permille", "max_speed_rpm", "i_ds_ref")
+        require_nodes(self, "drive_node", "encoder_node")
+        load_torque(self.load)
 
 
 PRESETS: dict[str, type] = {
     "dc-servo": DcServoPreset,
     "im-drive": ImDrivePreset,
     "grid-converter": GridConverterPreset,
+    "dyno": DynoPreset,
 }
 
 
-def _apply(preset: Any, overrides: dict[str, str]) -> Any:
-    types = {f.name: f.type for f in fields(preset)}
-    changes: dict[str, Any] = {}
-    for given, text in overrides.items():
-        name = given.removeprefix("plant.")  # ``plant.a_m`` and ``a_m`` name the same parameter
-        if name not in types:
-            raise ValueError(f"preset parameter {name!r} unknown; known: {', '.join(types)}")
-        kind = types[name]
-        try:
-            if kind == "str":
-                changes[name] = text
-            elif kind == "int":
-                changes[name] = int(text, 0)
-            else:
-                num, slash, den = text.partition("/")
-                changes[name] = float(num) / float(den) if slash else float(num)
-        except (ValueError, ZeroDivisionError):
-            raise ValueError(f"preset parameter {name}={text!r}: not a {kind}") from None
-    return replace(preset, **changes)
+def preset_params(name: str, params: Mapping[str, object] | None = None) -> Any:
+    """The parameters of preset ``name`` with ``params`` (typed values by name) applied.
 
-
-def preset_period(name: str, overrides: dict[str, str] | None = None) -> float:
-    """The SYNC period [s] preset ``name`` runs at, with ``overrides`` applied."""
+    ValueError naming an unknown preset, an unknown parameter (with the known ones), a value
+    of the wrong type (with the expected one) or out of range.
+    """
     if name not in PRESETS:
         raise ValueError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
-    return float(_apply(PRESETS[name](), overrides or {}).period)
+    return with_params(PRESETS[name], params)
+
+
+def preset_period(name: str, params: Mapping[str, object] | None = None) -> float:
+    """The SYNC period [s] preset ``name`` runs at, with ``params`` applied."""
+    return float(preset_params(name, params).period)
 
 
 def build_preset(
     name: str,
     network: canopen.Network,
-    overrides: dict[str, str] | None = None,
+    params: Mapping[str, object] | None = None,
 ) -> tuple[list[EmulatedNode], float]:
-    """Create the devices of preset ``name`` on ``network``: (devices, SYNC period [s])."""
-    if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
-    p = _apply(PRESETS[name](), overrides or {})
+    """Create the devices of preset ``name`` on ``network``: (devices, SYNC period [s]).
+
+    ``params`` sets parameters by name (``a_m`` or ``plant.a_m``) to typed values, see
+    ``preset_params``.
+    """
+    p = preset_params(name, params)
     if isinstance(p, DcServoPreset):
         return _dc_servo(p, network), p.period
     if isinstance(p, ImDrivePreset):
         return _im_drive(p, network), p.period
+    if isinstance(p, DynoPreset):
+        return _dyno(p, network), p.period
     return _grid(p, network), p.period
 
 
-def _im_drive(p: ImDrivePreset, network: canopen.Network) -> list[EmulatedNode]:
-    axis = ImAxis(ImParams(i_ds_ref=p.i_ds_ref), load=load_profile(p.load) if p.load != "none" else None)
-    drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    drive.write(0x6075, 0, round(p.rated_current * 1000))
-    drive.write(0x6076, 0, round(p.rated_torque * 1000))
-    drive.write(0x6073, 0, p.max_current_permille)
-    drive.write(0x6080, 0, p.max_speed_rpm)
-    drive.write(0x608F, 1, p.counts_per_rev)
-    drive.write(0x6060, 0, CST)
-    drive.write(0x6061, 0, CST)
-    encoder = EmulatedEncoder(p.encoder_node, network, lambda: axis.position, period=p.period)
-    encoder.write(0x6001, 0, p.counts_per_rev)
-    return [drive, encoder]
-
-
-def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
+def _dc_axis(p: DcServoPreset, *, period: float, j_load: float = 0.0) -> tuple[DcServoAxis, Ratings]:
+    """The DC motor (3.4) of ``p`` with ``j_load`` [kg m^2] added to J, behind its drive's loops
+    (speed PI at the bandwidth ``speed_bandwidth_hz`` for the total J, position P at a fifth of it)."""
     motor = DCMotorParams.from_am_bm(a_m=p.a_m, b_m=p.b_m, r_r=p.r_r, tau_e=p.tau_e, b=p.friction)
+    motor = replace(motor, j=motor.j + j_load)
     w_c = 2.0 * math.pi * p.speed_bandwidth_hz
     max_torque = motor.k_t * p.rated_current * p.max_current_permille / 1000.0
     loops = ServoLoops(motor.j * w_c, motor.j * w_c * w_c / 5.0, w_c / 5.0, max_torque, p.u_max)
-    load = load_profile(p.load) if p.load != "none" else None
-    axis = DcServoAxis(motor, loops, inner_dt=p.period / 4, load=load, coulomb=p.coulomb)
-    drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    drive.write(0x6075, 0, round(p.rated_current * 1000))  # mA
-    drive.write(0x6076, 0, round(motor.k_t * p.rated_current * 1000))  # mN m
-    drive.write(0x6073, 0, p.max_current_permille)
-    drive.write(0x6080, 0, p.max_speed_rpm)
-    drive.write(0x608F, 1, p.counts_per_rev)
-    encoder = EmulatedEncoder(p.encoder_node, network, lambda: axis.position, period=p.period)
-    encoder.write(0x6001, 0, p.counts_per_rev)
+    axis = DcServoAxis(motor, loops, inner_dt=period / 4, load=load_torque(p.load), coulomb=p.coulomb)
+    ratings = Ratings(p.rated_current, motor.k_t * p.rated_current, p.max_current_permille, p.max_speed_rpm)
+    return axis, ratings
+
+
+def _im_axis(p: ImDrivePreset, *, j_load: float = 0.0) -> tuple[ImAxis, Ratings]:
+    """IM1 of Table II under FOC with ``j_load`` [kg m^2] added to its total inertia."""
+    motor = ImParams(i_ds_ref=p.i_ds_ref)
+    axis = ImAxis(replace(motor, j=motor.j + j_load), load=load_torque(p.load))
+    return axis, Ratings(p.rated_current, p.rated_torque, p.max_current_permille, p.max_speed_rpm)
+
+
+def _with_encoder(
+    drive: EmulatedDrive, p: DcServoPreset | ImDrivePreset, network: canopen.Network
+) -> list[EmulatedNode]:
+    encoder = EmulatedEncoder(p.encoder_node, network, drive.shaft, period=p.period)
+    encoder.write(cia.ENCODER_RESOLUTION, 0, p.counts_per_rev)
     return [drive, encoder]
 
 
+def _im_drive(p: ImDrivePreset, network: canopen.Network) -> list[EmulatedNode]:
+    axis, ratings = _im_axis(p)
+    drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
+    drive.rate(ratings, counts_per_rev=p.counts_per_rev)
+    drive.write(cia.MODES_OF_OPERATION, 0, Mode.CST)
+    drive.write(cia.MODES_DISPLAY, 0, Mode.CST)
+    return _with_encoder(drive, p, network)
+
+
+def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
+    axis, ratings = _dc_axis(p, period=p.period)
+    drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
+    drive.rate(ratings, counts_per_rev=p.counts_per_rev)
+    return _with_encoder(drive, p, network)
+
+
+#: the dyno's motor ratings that are also parameters of the dc-servo and im-drive presets
+_MOTOR_RATINGS = ("rated_current", "max_current_permille", "max_speed_rpm")
+
+
+def _dyno(p: DynoPreset, network: canopen.Network) -> list[EmulatedNode]:
+    """The motor under test from the dc-servo or im-drive preset (its own load none: the dyno's
+    ``load`` acts on the shaft), with the dyno's ratings where given."""
+    given = {k: getattr(p, k) for k in _MOTOR_RATINGS if getattr(p, k) is not None}
+    axis: Axis
+    if p.motor == "dc":
+        axis, ratings = _dc_axis(replace(DcServoPreset(), **given), period=p.period, j_load=p.j_load)
+    else:
+        axis, ratings = _im_axis(replace(ImDrivePreset(), **given), j_load=p.j_load)
+    return build_dyno(p, network, axis, p.motor_ratings(ratings))
+
+
 def _grid(p: GridConverterPreset, network: canopen.Network) -> list[EmulatedNode]:
-    if p.strategy not in ("s-pwm-start", "s-pwm-middle"):
-        raise ValueError(f"preset parameter strategy={p.strategy!r}: use s-pwm-start or s-pwm-middle")
     omega = 2.0 * math.pi * p.f_line
     source = complex(p.u_line_rms * math.sqrt(2.0 / 3.0), 0.0)  # phase peak, d-aligned
     axis = GridAxis(
         RLParams(p.R1, p.L1, p.period), omega_k=omega, source=source, u_max=p.u_dc / math.sqrt(3.0)
     )
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
-    drive.write(0x6075, 0, round(p.rated_current * 1000))
-    drive.write(0x6073, 0, p.max_current_permille)
-    drive.write(0x6060, 0, DQ_VOLTAGE_MODE)
-    drive.write(0x6061, 0, DQ_VOLTAGE_MODE)
+    drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
+    drive.write(cia.MAX_CURRENT, 0, p.max_current_permille)
+    drive.write(cia.MODES_OF_OPERATION, 0, Mode.DQ_VOLTAGE)
+    drive.write(cia.MODES_DISPLAY, 0, Mode.DQ_VOLTAGE)
     event = p.strategy == "s-pwm-middle"
-    drive.write(0x1400, 2, 255 if event else 1)
-    drive.write(0x2001, 0, round(p.period / 2 * 1e6) if event else 0)
-    drive.write(0x1600, 0, 2)
-    drive.write(0x1600, 1, 0x22000120)
-    drive.write(0x1600, 2, 0x22000220)
-    drive.write(0x1A01, 1, 0x22200020)
-    drive.write(0x1A01, 2, 0x22210020)
-    drive.write(0x1803, 1, 0x480 + p.drive_node)
+    # RPDO1: u_d, u_q [mV]; TPDO2: frame angle and speed; TPDO4 (i_d, i_q) valid
+    drive.write(cia.RPDO_COMM, cia.PDO_COMM_TYPE, cia.PDO_EVENT if event else 1)
+    drive.write(cia.COMMAND_LATENCY, 0, round(p.period / 2 * 1e6) if event else 0)  # us
+    drive.write(cia.RPDO_MAP, 0, 2)
+    drive.write(cia.RPDO_MAP, 1, map_entry(cia.DQ_VOLTAGE, 1, 32))
+    drive.write(cia.RPDO_MAP, 2, map_entry(cia.DQ_VOLTAGE, 2, 32))
+    drive.write(cia.TPDO_MAP + 1, 1, map_entry(cia.FRAME_ANGLE, 0, 32))
+    drive.write(cia.TPDO_MAP + 1, 2, map_entry(cia.FRAME_SPEED, 0, 32))
+    drive.write(cia.TPDO_COMM + 3, cia.PDO_COMM_COB_ID, cia.COB_TPDO[3] + p.drive_node)
     return [drive]

@@ -76,7 +76,8 @@ class SocketcandServer:
         log.info("socketcand rawmode server on %s:%d", *self.server.server_address[:2])
 
     def stop(self) -> None:
-        self.server.shutdown()
+        if self._thread.is_alive():  # socketserver's shutdown() waits forever for a loop never started
+            self.server.shutdown()
         self.server.server_close()
         for c in list(self.clients):
             c.close()

@@ -1,19 +1,30 @@
 """The rig configuration: a TOML file loaded into frozen dataclasses.
 
-Sections and keys (SI units; see ``examples/`` for complete files)::
+A rig is a set of named axes and one control law (SI units; see ``examples/``)::
 
     [run]        duration [s], time ("lockstep" | "realtime"), output (directory), name,
                  period [s] (default: the emulator preset's), trace (write trace.asc, default true)
-    [bus]        interface, channel, bitrate, host, port       (ignored with --emulate)
-    [emulator]   preset, and [emulator.params] NAME = "VALUE"   (for --emulate)
-    [drive]      node_id, mode (voltage | cst | csv | csp | pv | dq-voltage), sync_rpdo, latency [s],
-                 enable_timeout [s], eds (the drive's EDS/DCF; default the toolkit's)
-    [controller] kind (position-servo | pi-speed | idtsm-speed), and its parameters
-    [reference]  kind (smooth-move | step | constant), distance, duration, start, value
-    [limits]     command, speed [rad/s], position_min/max [rad], current [A],
+    [bus]        the CAN bus: interface, channel, bitrate, host, port (ignored with --emulate)
+    [emulator]   preset (dc-servo | im-drive | grid-converter | dyno), and [emulator.params]
+                 NAME = value (the preset's parameters); [emulator.inverter] NAME = value for
+                 the emulated Modbus inverters (one per modbus axis)
+    [[axis]]     name, kind (cia402 | modbus | cia406), and per kind:
+                   cia402: node_id, mode (voltage | cst | csv | csp | pv | dq-voltage), sync_rpdo,
+                           latency [s], enable_timeout [s], eds (default: the toolkit's)
+                   cia406: node_id, speed_from_position, eds
+                   modbus: map, unit, host + port (TCP) or serial + baudrate (RTU), mode = "speed"
+                 profile = "TERM + ..." commands the axis by a time profile instead of the law
+                 (plant_emulator.profiles: const, step, pulse, sine);
+                 [axis.units] counts_per_rev, rated_torque [N m], rated_current [A]: where the
+                 device does not report them;
+                 [axis.limits] command, speed [rad/s], position_min/max [rad], current [A],
                  watchdog_periods, heartbeat_timeout [s] (0: off)
-    [faults]     fault injection with --emulate: frame_loss, seed, tpdo_stall_at, heartbeat_loss_at,
-                 node_reset_at, overcurrent_at, encoder_glitch_at [s], encoder_glitch_counts
+    [controller] kind (see ``rig.laws.LAWS``), reads = [axis names], commands = [axis names],
+                 and the law's parameters
+    [reference]  kind (smooth-move | step | constant | profile), distance, duration, start, value, profile
+    [faults]     fault injection: on the emulated bus (--emulate): frame_loss, seed, tpdo_stall_at,
+                 heartbeat_loss_at, node_reset_at, overcurrent_at, encoder_glitch_at [s],
+                 encoder_glitch_counts; in the host: law_nan_at, law_error_at, interrupt_at [s]
 
 An unknown section or key, or a value of the wrong type, is a ``ConfigError``
 naming the file and the key.
@@ -23,11 +34,12 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from drivers.errors import ConfigError
+from rig.params import typed_values
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -35,26 +47,37 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 __all__ = [
+    "AXIS_KINDS",
+    "AxisConfig",
+    "AxisLimits",
+    "AxisUnits",
     "BusConfig",
     "ControllerConfig",
-    "DriveConfig",
     "EmulatorConfig",
     "FaultsConfig",
-    "LimitsConfig",
     "ReferenceConfig",
     "RigConfig",
     "RunConfig",
     "load_config",
+    "replace_axis",
+    "rig_config",
 ]
+
+#: axis kinds and the modes each takes ("" : feedback only)
+AXIS_KINDS = {
+    "cia402": ("voltage", "cst", "csv", "csp", "pv", "dq-voltage"),
+    "modbus": ("speed",),
+    "cia406": ("",),
+}
 
 
 @dataclass(frozen=True)
 class RunConfig:
-    duration: float = 3.0
-    time: str = "lockstep"
+    duration: float = 3.0  #: [s]
+    time: Literal["lockstep", "realtime"] = "lockstep"
     output: str = "runs"
     name: str = "run"
-    period: float = 0.0  #: 0: the emulator preset's period
+    period: float = 0.0  #: [s]; 0: the emulator preset's period
     trace: bool = True  #: write the CAN trace (trace.asc)
 
 
@@ -69,49 +92,75 @@ class BusConfig:
 
 @dataclass(frozen=True)
 class EmulatorConfig:
-    preset: str = "dc-servo"
-    params: dict[str, str] = field(default_factory=dict)
+    preset: str = ""  #: the CANopen preset ("" : none)
+    params: dict[str, Any] = field(default_factory=dict)  #: the preset's parameters
+    inverter: dict[str, Any] = field(default_factory=dict)  #: parameters of emulated Modbus inverters
 
 
 @dataclass(frozen=True)
-class DriveConfig:
-    node_id: int = 1
-    mode: str = "voltage"
+class AxisUnits:
+    """Unit factors for a device that does not report them (0: the device's own)."""
+
+    counts_per_rev: int = 0  #: position increments per revolution
+    rated_torque: float = 0.0  #: [N m]
+    rated_current: float = 0.0  #: [A]
+
+
+@dataclass(frozen=True)
+class AxisLimits:
+    command: float = math.inf  #: |command| in the unit of the mode
+    speed: float = math.inf  #: [rad/s]
+    position_min: float = -math.inf  #: [rad]
+    position_max: float = math.inf  #: [rad]
+    current: float = math.inf  #: [A]
+    watchdog_periods: int = 3  #: cycles without a new sample before the stop
+    heartbeat_timeout: float = 0.0  #: [s]; 0: not supervised
+
+
+@dataclass(frozen=True)
+class AxisConfig:
+    name: str
+    kind: str
+    node_id: int = 0  #: CANopen node id
+    mode: str = ""
+    profile: str = ""  #: command by this time profile instead of the law
     sync_rpdo: bool = True
-    latency: float = 0.0
-    enable_timeout: float = 1.0
-    eds: str = ""  #: the drive's EDS/DCF file (empty: the toolkit's CiA 402 EDS)
+    latency: float = 0.0  #: [s]
+    enable_timeout: float = 1.0  #: [s]
+    eds: str = ""  #: the device's EDS/DCF ("" : the toolkit's)
+    speed_from_position: bool = False  #: cia406: speed as the backward difference of the position
+    map: str = ""  #: modbus register map
+    unit: int = 1  #: modbus unit id
+    host: str = ""  #: modbus TCP host
+    port: int = 502  #: modbus TCP port
+    serial: str = ""  #: modbus RTU serial device
+    baudrate: int = 19200
+    units: AxisUnits = field(default_factory=AxisUnits)
+    limits: AxisLimits = field(default_factory=AxisLimits)
 
 
 @dataclass(frozen=True)
 class ControllerConfig:
-    kind: str = "position-servo"
-    params: dict[str, float] = field(default_factory=dict)
+    kind: str
+    reads: tuple[str, ...] = ()
+    commands: tuple[str, ...] = ()
+    params: dict[str, Any] = field(default_factory=dict)  #: the law's, typed by its Params
 
 
 @dataclass(frozen=True)
 class ReferenceConfig:
-    kind: str = "smooth-move"
+    kind: Literal["smooth-move", "step", "constant", "profile"] = "smooth-move"
     distance: float = 10.0
-    duration: float = 1.0
-    start: float = 0.0
+    duration: float = 1.0  #: [s]
+    start: float = 0.0  #: [s]
     value: float = 0.0
-
-
-@dataclass(frozen=True)
-class LimitsConfig:
-    command: float = math.inf
-    speed: float = math.inf
-    position_min: float = -math.inf
-    position_max: float = math.inf
-    current: float = math.inf
-    watchdog_periods: int = 3
-    heartbeat_timeout: float = 0.0
+    profile: str = ""
 
 
 @dataclass(frozen=True)
 class FaultsConfig:
-    """Fault injection of the emulator (``plant_emulator.faults.FaultPlan``); --emulate only."""
+    """Fault injection: the emulator's (``plant_emulator.faults.FaultPlan``, --emulate only) and the
+    host's (``rig.laws.injected``); times [s] of the run (inf: never)."""
 
     frame_loss: float = 0.0
     seed: int = 0
@@ -121,6 +170,9 @@ class FaultsConfig:
     overcurrent_at: float = math.inf
     encoder_glitch_at: float = math.inf
     encoder_glitch_counts: int = 2048
+    law_nan_at: float = math.inf  #: host side: the law's commands become NaN
+    law_error_at: float = math.inf  #: host side: the law raises an exception
+    interrupt_at: float = math.inf  #: host side: Ctrl-C arrives
 
 
 @dataclass(frozen=True)
@@ -129,11 +181,16 @@ class RigConfig:
     run: RunConfig
     bus: BusConfig
     emulator: EmulatorConfig
-    drive: DriveConfig
+    axes: tuple[AxisConfig, ...]
     controller: ControllerConfig
     reference: ReferenceConfig
-    limits: LimitsConfig
     faults: FaultsConfig = field(default_factory=FaultsConfig)
+
+    def axis(self, name: str) -> AxisConfig:
+        for a in self.axes:
+            if a.name == name:
+                return a
+        raise ConfigError(f"{self.source}: no [[axis]] named {name!r}")
 
     def as_dict(self) -> dict[str, Any]:
         """The resolved configuration, JSON-ready (inf as null)."""
@@ -143,79 +200,184 @@ class RigConfig:
                 return None
             if isinstance(v, dict):
                 return {k: clean(x) for k, x in v.items()}
+            if isinstance(v, (list, tuple)):
+                return [clean(x) for x in v]
+            if hasattr(v, "__dataclass_fields__"):
+                return {f.name: clean(getattr(v, f.name)) for f in fields(v)}
             return v
 
-        out: dict[str, Any] = {"source": self.source}
-        for f in fields(self):
-            if f.name != "source":
-                section = getattr(self, f.name)
-                out[f.name] = {g.name: clean(getattr(section, g.name)) for g in fields(section)}
-        return out
+        return {"source": self.source, **{f.name: clean(getattr(self, f.name)) for f in fields(self)[1:]}}
 
 
-_SECTIONS: dict[str, type] = {
-    "run": RunConfig,
-    "bus": BusConfig,
-    "emulator": EmulatorConfig,
-    "drive": DriveConfig,
-    "controller": ControllerConfig,
-    "reference": ReferenceConfig,
-    "limits": LimitsConfig,
-    "faults": FaultsConfig,
-}
+_SECTIONS = {"run": RunConfig, "bus": BusConfig, "reference": ReferenceConfig, "faults": FaultsConfig}
+_OLD_FORM = (
+    "is the old single-drive form: describe each device as an [[axis]] table (name, kind, node_id, mode, "
+    "[axis.limits]) and name the axes in [controller] reads and commands "
+    "(see examples/dc_servo_position.toml)"
+)
 
 
-def _coerce(path: str, key: str, value: Any, default: Any) -> Any:
-    where = f"{path}: [{key.split('.', maxsplit=1)[0]}] {key.split('.', 1)[-1]}"
-    if isinstance(default, bool):
-        if not isinstance(value, bool):
-            raise ConfigError(f"{where} = {value!r}: expected true or false")
-        return value
-    if isinstance(default, int) and not isinstance(default, bool):
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where} = {value!r}: expected an integer")
-        return value
-    if isinstance(default, float):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{where} = {value!r}: expected a number")
-        if math.isnan(value):
-            raise ConfigError(f"{where} = {value!r}: NaN is not allowed")
-        return float(value)
-    if isinstance(default, str):
-        if not isinstance(value, str):
-            raise ConfigError(f"{where} = {value!r}: expected a string")
-        return value
+def _table(path: str, where: str, value: Any) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise ConfigError(f"{path}: {where} must be a table")
     return value
 
 
-def _section(path: str, name: str, table: Any) -> Any:
-    cls = _SECTIONS[name]
-    if not isinstance(table, dict):
-        raise ConfigError(f"{path}: [{name}] must be a table")
-    defaults = cls()
-    known = {f.name for f in fields(cls)}
-    values: dict[str, Any] = {}
-    if name == "controller":  # kind, then the controller's own numeric parameters
-        params = {}
-        for key, value in table.items():
-            if key == "kind":
-                values["kind"] = _coerce(path, "controller.kind", value, "")
-            elif isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ConfigError(f"{path}: [controller] {key} = {value!r}: expected a number")
-            else:
-                params[key] = float(value)
-        values["params"] = params
-        return cls(**values)
-    for key, value in table.items():
+def _axis(path: str, n: int, table: Any) -> AxisConfig:
+    where = f"[[axis]] #{n + 1}"
+    table = dict(_table(path, where, table))
+    name = table.get("name")
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"{path}: {where} needs a name (a string)")
+    where = f"[[axis]] {name!r}"
+    units = typed_values(AxisUnits, _table(path, where, table.pop("units", {})), f"{path}: {where} units")
+    limits = typed_values(AxisLimits, _table(path, where, table.pop("limits", {})), f"{path}: {where} limits")
+    values = typed_values(AxisConfig, table, f"{path}: {where}", fixed=("units", "limits"))
+    if "kind" not in values:
+        raise ConfigError(f"{path}: {where} needs kind ({', '.join(AXIS_KINDS)})")
+    axis = AxisConfig(**values, units=AxisUnits(**units), limits=AxisLimits(**limits))
+    _check_axis(path, where, axis)
+    return axis
+
+
+def _check_axis(path: str, where: str, a: AxisConfig) -> None:
+    if a.kind not in AXIS_KINDS:
+        raise ConfigError(f"{path}: {where} kind = {a.kind!r}; known: {', '.join(AXIS_KINDS)}")
+    if a.mode not in AXIS_KINDS[a.kind]:
+        modes = ", ".join(m for m in AXIS_KINDS[a.kind] if m) or "none (a feedback-only axis)"
+        raise ConfigError(f"{path}: {where} mode = {a.mode!r} for kind {a.kind}; expected {modes}")
+    if a.kind in ("cia402", "cia406") and not 1 <= a.node_id <= 127:
+        raise ConfigError(f"{path}: {where} node_id = {a.node_id}: must be 1..127")
+    if a.kind == "modbus" and not a.map:
+        raise ConfigError(f"{path}: {where} needs map (abb-drives-profile, delta-vfd-b)")
+    if a.profile and not a.mode:
+        raise ConfigError(f"{path}: {where} has a profile but no mode to command it in")
+    for key in ("latency", "enable_timeout"):
+        if not getattr(a, key) >= 0.0:
+            raise ConfigError(f"{path}: {where} {key} = {getattr(a, key)!r}: must be >= 0 s")
+    if a.limits.watchdog_periods < 1:
+        raise ConfigError(
+            f"{path}: {where} limits watchdog_periods = {a.limits.watchdog_periods}: must be >= 1"
+        )
+
+
+def _controller(path: str, table: Any) -> ControllerConfig:
+    table = dict(_table(path, "[controller]", table))
+    kind = table.pop("kind", None)
+    if not isinstance(kind, str):
+        raise ConfigError(f"{path}: [controller] needs kind (a string naming the law)")
+    roles: dict[str, tuple[str, ...]] = {}
+    for key in ("reads", "commands"):
+        value = table.pop(key, [])
+        if isinstance(value, str):
+            value = [value]
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ConfigError(f"{path}: [controller] {key} = {value!r}: expected a list of axis names")
+        roles[key] = tuple(value)
+    return ControllerConfig(kind, roles["reads"], roles["commands"], table)
+
+
+def _emulator(path: str, table: Any) -> EmulatorConfig:
+    table = dict(_table(path, "[emulator]", table))
+    known = {"preset", "params", "inverter"}
+    unknown = set(table) - known
+    if unknown:
+        raise ConfigError(
+            f"{path}: unknown key(s) {sorted(unknown)} in [emulator]; known: {', '.join(known)}"
+        )
+    preset = table.get("preset", "")
+    if not isinstance(preset, str):
+        raise ConfigError(f"{path}: [emulator] preset = {preset!r}: expected a string")
+    params = _table(path, "[emulator.params]", table.get("params", {}))
+    inverter = _table(path, "[emulator.inverter]", table.get("inverter", {}))
+    return EmulatorConfig(preset, dict(params), dict(inverter))
+
+
+def rig_config(doc: dict[str, Any], source: str) -> RigConfig:
+    """A checked configuration from a parsed TOML document; ``source`` names it in errors."""
+    for old in ("drive", "limits"):
+        if old in doc:
+            raise ConfigError(f"{source}: [{old}] {_OLD_FORM}")
+    known = {*_SECTIONS, "emulator", "axis", "controller"}
+    for key in doc:
         if key not in known:
-            raise ConfigError(f"{path}: unknown key {key!r} in [{name}]; known: {', '.join(sorted(known))}")
-        if name == "emulator" and key == "params":
-            if not isinstance(value, dict):
-                raise ConfigError(f"{path}: [emulator.params] must be a table")
-            values[key] = {str(k): str(v) for k, v in value.items()}
-            continue
-        values[key] = _coerce(path, f"{name}.{key}", value, getattr(defaults, key))
-    return cls(**values)
+            raise ConfigError(f"{source}: unknown section [{key}]; known: {', '.join(sorted(known))}")
+    sections = {
+        name: cls(**typed_values(cls, _table(source, f"[{name}]", doc.get(name, {})), f"{source}: [{name}]"))
+        for name, cls in _SECTIONS.items()
+    }
+    raw_axes = doc.get("axis", [])
+    if not isinstance(raw_axes, list) or not raw_axes:
+        raise ConfigError(f"{source}: describe at least one device as an [[axis]] table")
+    axes = tuple(_axis(source, n, t) for n, t in enumerate(raw_axes))
+    if "controller" not in doc:
+        raise ConfigError(f"{source}: [controller] is missing: name the law (kind) and its axes")
+    cfg = RigConfig(
+        source=source,
+        emulator=_emulator(source, doc.get("emulator", {})),
+        axes=axes,
+        controller=_controller(source, doc["controller"]),
+        **sections,
+    )
+    _check_rig(cfg)
+    return _default_roles(cfg)
+
+
+def _default_roles(cfg: RigConfig) -> RigConfig:
+    """A law over one axis needs no names: with one commandable axis, it reads and commands that one."""
+    c = cfg.controller
+    commands, reads = c.commands, c.reads
+    if not commands:
+        commandable = [a.name for a in cfg.axes if a.mode and not a.profile]
+        if len(commandable) != 1:
+            raise ConfigError(
+                f"{cfg.source}: [controller] commands is missing: name the axes the law commands "
+                f"(of {', '.join(commandable) or 'none'})"
+            )
+        commands = (commandable[0],)
+    reads = reads or commands
+    return replace(cfg, controller=replace(c, reads=reads, commands=commands))
+
+
+def _check_rig(cfg: RigConfig) -> None:
+    src = cfg.source
+    names = [a.name for a in cfg.axes]
+    for name in names:
+        if names.count(name) > 1:
+            raise ConfigError(f"{src}: two [[axis]] tables are named {name!r}")
+    nodes = [a.node_id for a in cfg.axes if a.kind != "modbus"]
+    for node in nodes:
+        if nodes.count(node) > 1:
+            raise ConfigError(f"{src}: two CANopen axes have node_id {node}")
+    c = cfg.controller
+    for key in ("reads", "commands"):
+        for name in getattr(c, key):
+            if name not in names:
+                raise ConfigError(
+                    f"{src}: [controller] {key} names {name!r}; the axes are {', '.join(names)}"
+                )
+    for name in c.commands:
+        a = cfg.axis(name)
+        if not a.mode or a.profile:
+            raise ConfigError(
+                f"{src}: [controller] commands {name!r}, which has "
+                + ("a profile" if a.profile else "no mode (a feedback-only axis)")
+            )
+    if cfg.run.duration <= 0.0:
+        raise ConfigError(f"{src}: [run] duration = {cfg.run.duration!r}: must be > 0 s")
+    if cfg.run.period < 0.0:
+        raise ConfigError(f"{src}: [run] period = {cfg.run.period!r}: must be > 0 s (or 0: the preset's)")
+
+
+def replace_axis(
+    cfg: RigConfig, name: str, *, limits: dict[str, Any] | None = None, **changes: Any
+) -> RigConfig:
+    """``cfg`` with the axis ``name`` changed (and its limits, by key)."""
+    a = cfg.axis(name)
+    if limits:
+        changes["limits"] = replace(a.limits, **limits)
+    axes = tuple(replace(x, **changes) if x.name == name else x for x in cfg.axes)
+    return replace(cfg, axes=axes)
 
 
 def load_config(path: str | Path) -> RigConfig:
@@ -225,17 +387,6 @@ def load_config(path: str | Path) -> RigConfig:
         doc = tomllib.loads(p.read_text())
     except OSError as exc:
         raise ConfigError(f"{p}: cannot read: {exc.strerror}") from exc
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{p}: not valid TOML: {exc}") from exc
-    for key in doc:
-        if key not in _SECTIONS:
-            raise ConfigError(f"{p}: unknown section [{key}]; known: {', '.join(_SECTIONS)}")
-    sections = {name: _section(str(p), name, doc.get(name, {})) for name in _SECTIONS}
-    cfg = RigConfig(source=str(p), **sections)
-    if cfg.run.time not in ("lockstep", "realtime"):
-        raise ConfigError(f"{p}: [run] time = {cfg.run.time!r}: expected 'lockstep' or 'realtime'")
-    if cfg.run.duration <= 0.0:
-        raise ConfigError(f"{p}: [run] duration = {cfg.run.duration!r}: must be > 0 s")
-    if not 1 <= cfg.drive.node_id <= 127:
-        raise ConfigError(f"{p}: [drive] node_id = {cfg.drive.node_id}: must be 1..127")
-    return cfg
+    return rig_config(doc, str(p))

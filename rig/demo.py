@@ -14,21 +14,13 @@ from dataclasses import dataclass
 from typing import Any, TextIO
 
 from controllers.design import DTSMDesign, design_dtsm
-from rig.config import (
-    BusConfig,
-    ControllerConfig,
-    DriveConfig,
-    EmulatorConfig,
-    LimitsConfig,
-    ReferenceConfig,
-    RigConfig,
-    RunConfig,
-)
-from rig.experiment import experiment_config, identify_from_log, run_experiment
+from rig.config import RigConfig, rig_config
+from rig.host.session import run_config
 from rig.identify import excitation
+from rig.identify.experiment import experiment_config, identify_from_log, run_experiment
 from rig.metrics import chattering_count, max_abs, rms
-from rig.run import run_config
-from rig.scenarios import Trajectory, cascade_run, position_servo_run
+from rig.papers import drives
+from rig.papers.scenarios import Trajectory, cascade_run, position_servo_run
 
 __all__ = ["DemoSummary", "demo_config", "demo_summary", "run_demo"]
 
@@ -61,7 +53,9 @@ class DemoSummary:
 
 def demo_summary() -> DemoSummary:
     """Run the demo scenarios and return the design and one metrics row per controller."""
-    design = design_dtsm(A=[[0.0, 1.0], [0.0, -16.0]], b=[0.0, -680.0], dt=0.4e-3, lam=-15.0)
+    design = design_dtsm(
+        A=[[0.0, 1.0], [0.0, -drives.A_M]], b=[0.0, -drives.B_M], dt=drives.T_SERVO, lam=drives.LAMBDA_SERVO
+    )
 
     def servo(**kw: Any) -> Trajectory:
         return position_servo_run(load=DEMO_LOAD, full_motor=True, t_end=3.0, **kw)
@@ -81,19 +75,33 @@ def demo_summary() -> DemoSummary:
     return DemoSummary(design, expected, rows)
 
 
-def demo_config(output: str = "runs", *, a_m: float = 16.0, b_m: float = 680.0) -> RigConfig:
+def demo_config(output: str = "runs", *, a_m: float = drives.A_M, b_m: float = drives.B_M) -> RigConfig:
     """The section VII.B servo over the emulated bus: dc-servo preset, voltage mode, (7.30)
     designed for the model a_m, b_m (the identified one in ``rig demo``)."""
-    return RigConfig(
-        source="rig demo",
-        run=RunConfig(duration=3.0, output=output, name="demo-dc-servo"),
-        bus=BusConfig(),
-        emulator=EmulatorConfig("dc-servo", {"load": f"step:{DEMO_LOAD * 16.0 / 680.0 / 680.0:.6g}:1.5"}),
-        drive=DriveConfig(mode="voltage", sync_rpdo=False),
-        controller=ControllerConfig("position-servo", {"a_m": a_m, "b_m": b_m, "lam": -15.0, "u0": 48.0}),
-        reference=ReferenceConfig("smooth-move", distance=10.0, duration=1.0),
-        limits=LimitsConfig(command=48.0, speed=300.0, position_min=-1.0, position_max=12.0, current=30.0),
-    )
+    load = DEMO_LOAD * drives.A_M / drives.B_M / drives.B_M  # T_L = J f, J = k_t/(R b_m), k_t = a_m/b_m
+    doc: dict[str, object] = {
+        "run": {"duration": 3.0, "output": output, "name": "demo-dc-servo"},
+        "emulator": {"preset": "dc-servo", "params": {"load": f"step:{load:.6g}:1.5"}},
+        "axis": [
+            {
+                "name": "motor",
+                "kind": "cia402",
+                "node_id": 1,
+                "mode": "voltage",
+                "sync_rpdo": False,
+                "limits": {
+                    "command": 48.0,
+                    "speed": 300.0,
+                    "position_min": -1.0,
+                    "position_max": 12.0,
+                    "current": 30.0,
+                },
+            }
+        ],
+        "controller": {"kind": "position-servo", "a_m": a_m, "b_m": b_m, "u0": 48.0},
+        "reference": {"kind": "smooth-move", "distance": 10.0, "duration": 1.0},
+    }
+    return rig_config(doc, "rig demo")
 
 
 def run_demo(out: TextIO, *, output: str = "runs") -> int:
@@ -118,9 +126,8 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
     )
     out.write("\nOver the emulated CAN bus (CiA 402 drive, voltage mode, 4096-count encoder, lock-step):\n")
     cfg = demo_config(output)
-    ident_cfg = experiment_config(cfg, params={})
-    u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=0.4e-3, duration=3.0, seed=1)
-    ident = run_experiment(ident_cfg, u, emulate=True)
+    u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=drives.T_SERVO, duration=3.0, seed=1)
+    ident = run_experiment(experiment_config(cfg, u, params={}), emulate=True)
     model = identify_from_log(ident["run_dir"])
     out.write(
         f"  identify (PRBS 3 +- 2 V, 3 s): a_m = {model.a_m:.4f} +- {model.a_m_stderr:.1g} 1/s, "

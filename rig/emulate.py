@@ -42,9 +42,33 @@ def _locked_notify(network: Any, lock: threading.RLock) -> None:
     network.notify = locked
 
 
+def _transport(
+    network: Any, lock: threading.RLock, *, interface: str | None, channel: str | None, host: str, port: int
+) -> tuple[Any, SocketcandServer | None, str]:
+    """Join ``network`` to a python-can bus (``interface``) or a socketcand server: (bus, server, where)."""
+    if interface:
+        try:
+            bus = can.Bus(interface=interface, channel=channel, ignore_config=True)
+        except (can.CanError, OSError, ValueError) as exc:
+            raise ConfigError(
+                f"--interface {interface} --channel {channel}: cannot open the bus: {exc}"
+            ) from exc
+        network.bus = bus
+        _locked_notify(network, lock)
+        network.notifier = can.Notifier(bus, network.listeners, 0.5)
+        return bus, None, f"{interface}:{channel}"
+    hub = SyncHub()
+    attach_network(network, hub.bus(queue=False, channel="emulator"))
+    try:
+        server = SocketcandServer(hub, lock, host=host, port=port)
+    except OSError as exc:
+        raise ConfigError(f"--socketcand-port {port}: cannot listen on {host}: {exc}") from exc
+    return None, server, f"socketcand://{host}:{server.port}"
+
+
 def run_emulator(
     preset: str,
-    overrides: dict[str, str],
+    params: dict[str, Any],
     *,
     interface: str | None = None,
     channel: str | None = None,
@@ -58,40 +82,19 @@ def run_emulator(
     stop = stop or threading.Event()
     lock = threading.RLock()
     network = canopen.Network()
-    server: SocketcandServer | None = None
-    bus: can.BusABC | None = None
-    if interface:
-        try:
-            bus = can.Bus(interface=interface, channel=channel, ignore_config=True)
-        except (can.CanError, OSError, ValueError) as exc:
-            raise ConfigError(
-                f"--interface {interface} --channel {channel}: cannot open the bus: {exc}"
-            ) from exc
-        network.bus = bus
-        _locked_notify(network, lock)
-        network.notifier = can.Notifier(bus, network.listeners, 0.5)
-        where = f"{interface}:{channel}"
-    else:
-        hub = SyncHub()
-        attach_network(network, hub.bus(queue=False, channel="emulator"))
-        try:
-            server = SocketcandServer(hub, lock, host=host, port=port)
-        except OSError as exc:
-            raise ConfigError(f"--socketcand-port {port}: cannot listen on {host}: {exc}") from exc
-        where = f"socketcand://{host}:{server.port}"
+    bus, server, where = _transport(network, lock, interface=interface, channel=channel, host=host, port=port)
     try:
         with lock:
             devices: list[EmulatedNode]
-            devices, period = build_preset(preset, network, overrides)
+            devices, period = build_preset(preset, network, params)
             for d in devices:
                 if hasattr(d, "lockstep"):
                     d.lockstep = lockstep
                 d.boot()
         if server is not None:
             server.start()
-        log.info(
-            "emulating %s (nodes %s, period %g s) on %s", preset, [d.node_id for d in devices], period, where
-        )
+        nodes = [d.node_id for d in devices]
+        log.info("emulating %s (nodes %s, period %g s) on %s", preset, nodes, period, where)
         print(f"rig emulate: {preset} on {where}; Ctrl-C stops", flush=True)
         if ready is not None:
             ready(server.port if server else 0)
@@ -118,7 +121,7 @@ def run_emulator(
 
 def run_modbus_emulator(
     family: str,
-    overrides: dict[str, str],
+    params: dict[str, str],
     *,
     host: str = "127.0.0.1",
     port: int = 5020,
@@ -126,23 +129,14 @@ def run_modbus_emulator(
 ) -> int:
     """Serve an emulated Modbus inverter (TCP on ``host``:``port``, or RTU on ``serial``) until Ctrl-C.
 
-    ``overrides`` set ``InverterModel`` fields by name (accel, slip, max_speed, comm_loss_timeout, ...).
+    ``params`` set ``InverterModel`` fields by name (accel, slip, max_speed, comm_loss_timeout, ...).
     """
     import asyncio
-    import dataclasses
 
     from plant_emulator.modbus_inverter import InverterModel, default_model, serve_rtu, serve_tcp
+    from rig.params import typed_values
 
-    kinds = {f.name: f.type for f in dataclasses.fields(InverterModel)}
-    values: dict[str, float] = {}
-    for name, text in overrides.items():
-        if kinds.get(name) != "float":
-            known = ", ".join(k for k, v in kinds.items() if v == "float")
-            raise ConfigError(f"--param {name}: not a parameter of the inverter; known: {known}")
-        try:
-            values[name] = float(text)
-        except ValueError:
-            raise ConfigError(f"--param {name}={text!r}: not a number") from None
+    values = typed_values(InverterModel, params, "rig emulate: --param", fixed=("regmap", "load"))
     try:
         model = default_model(family, **values)
     except ValueError as exc:

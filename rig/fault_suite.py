@@ -14,28 +14,20 @@ samples.csv; for SIGKILL, the cycles the clock says ran minus the rows on disk);
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import dataclasses
 import json
 import math
 import signal
-import socket
 import tempfile
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from drivers.cia402 import decode_state
-from drivers.errors import CommunicationTimeout, ModbusExceptionResponse
-from drivers.modbus_inverter import ModbusInverter
-from plant_emulator.modbus_inverter import InverterContext, default_model, serve_tcp
-from rig.config import FaultsConfig, RigConfig
-from rig.demo import demo_config
+from drivers.errors import CommunicationTimeout, ModbusExceptionResponse, RigError
+from rig.config import FaultsConfig, replace_axis
 from rig.process import spawn_rig
-from rig.run import prepare
 
 __all__ = ["AT", "SCENARIOS", "run_faults"]
 
@@ -54,32 +46,32 @@ def _canopen(
     *,
     faults: dict[str, Any] | None = None,
     limits: dict[str, Any] | None = None,
-    law: Callable[[Any], None] | None = None,
     timed: bool = True,
 ) -> dict[str, Any]:
-    cfg: RigConfig = demo_config(out)
-    cfg = dataclasses.replace(
-        cfg,
-        faults=dataclasses.replace(FaultsConfig(), **(faults or {})),
-        limits=dataclasses.replace(cfg.limits, **(limits or {})),
-    )
-    session = prepare(cfg, emulate=True, duration=DURATION)
-    if law is not None:
-        law(session)
-    summary = session.loop.run()
-    state = "unknown"
-    for _ in range(5):  # the SDO may be lost under frame loss
-        try:
-            state = decode_state(session.loop.drive.sdo_read(0x6041))
-            break
-        except Exception:
-            continue
-    session.close()
-    period = session.loop.period
+    from rig.demo import demo_config
+    from rig.host.session import Session
+
+    cfg = demo_config(out)
+    cfg = dataclasses.replace(cfg, faults=dataclasses.replace(FaultsConfig(), **(faults or {})))
+    cfg = replace_axis(cfg, "motor", limits=limits)
+    with Session(cfg, emulate=True, duration=DURATION) as session:
+        session.start()
+        summary = session.run()
+        drive = session.axes[0]
+        state = "unknown"
+        for _ in range(5):  # the SDO may be lost under frame loss
+            try:
+                state = drive.read_power_state().value  # type: ignore[attr-defined]
+                break
+            except RigError:
+                continue
+        period = session.period
     # the fault acts at the first SYNC at or after AT (SYNC k carries time (k + 1) T); frame loss acts
-    # from the first cycle; a limit acts in the cycle its value is crossed
+    # from the first cycle; a host fault and a limit act in the cycle they come in
     if faults and "frame_loss" in faults:
         injected = 0
+    elif faults and any(k in faults for k in ("law_nan_at", "law_error_at", "interrupt_at")):
+        injected = round(AT / period)
     elif timed:
         injected = math.ceil(AT / period - 1e-9) - 1
     else:
@@ -91,22 +83,6 @@ def _canopen(
         "samples_lost": summary["cycles"] - _rows(summary["run_dir"]),
         "message": summary["safe_stop_reason"] or "completed without a stop",
     }
-
-
-def _host_law(fault: str) -> Callable[[Any], None]:
-    def install(session: Any) -> None:
-        law, period = session.loop.law, session.loop.period
-
-        def broken(t: float, fb: Any) -> Any:
-            if t >= AT - period / 2:
-                if fault == "nan":
-                    return math.nan, 0.0, fb[0], (0.0, 0.0)
-                raise KeyboardInterrupt
-            return law(t, fb)
-
-        session.loop.law = broken
-
-    return install
 
 
 _KILL_CONFIG = """
@@ -122,9 +98,17 @@ preset = "dc-servo"
 [emulator.params]
 period = "0.001"
 
-[drive]
+[[axis]]
+name = "motor"
+kind = "cia402"
+node_id = 1
 mode = "voltage"
 sync_rpdo = false
+
+[axis.limits]
+command = 48.0
+speed = 300.0
+watchdog_periods = 1000
 
 [controller]
 kind = "position-servo"
@@ -134,11 +118,6 @@ u0 = 48.0
 kind = "smooth-move"
 distance = 10.0
 duration = 1.0
-
-[limits]
-command = 48.0
-speed = 300.0
-watchdog_periods = 1000
 """
 
 
@@ -176,54 +155,37 @@ def _sigkill(out: str) -> dict[str, Any]:
     }
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def _modbus(mode: str) -> dict[str, Any]:
     """The Modbus inverter running at 50 rad/s, then every request times out or is answered with 04."""
+    from drivers.modbus_inverter import ModbusInverterAxis
+    from plant_emulator.modbus_inverter import InverterContext, InverterServer, default_model
+
     model = default_model("abb-drives-profile", comm_loss_timeout=0.3)
     context = InverterContext(model)
     context.timeout_sleep = 0.6
-    port = _free_port()
-    stop = threading.Event()
-
-    def serve() -> None:
-        async def run() -> None:
-            task = asyncio.create_task(serve_tcp(model, port=port, dt=0.005, context=context))
-            while not stop.is_set():
-                await asyncio.sleep(0.01)
-            task.cancel()
-            await asyncio.gather(task, return_exceptions=True)
-
-        asyncio.run(run())
-
-    thread = threading.Thread(target=serve, daemon=True)
-    thread.start()
-    time.sleep(0.3)
-    drive = ModbusInverter("abb-drives-profile", host="127.0.0.1", tcp_port=port, timeout=0.2)
     message, cycles = "no error", None
-    try:
-        drive.connect()
-        drive.run(50.0)
-        context.fault_mode = mode
-        for cycle in range(1, 20):
-            try:
-                drive.read("actual_speed")
-            except (CommunicationTimeout, ModbusExceptionResponse) as exc:
-                message, cycles = str(exc), cycle
+    with InverterServer(model, dt=0.005, context=context) as server:
+        drive = ModbusInverterAxis(
+            "inverter", "abb-drives-profile", host="127.0.0.1", port=server.port, timeout=0.2
+        )
+        try:
+            drive.setup()
+            drive.enable(timeout=1.0)
+            drive.command(50.0)
+            context.fault_mode = mode
+            for cycle in range(1, 20):
                 try:
-                    drive.stop()  # the host's safe stop; under a dead line the drive's own trip must do it
-                except (CommunicationTimeout, ModbusExceptionResponse):
-                    pass
-                break
-        time.sleep(0.8)  # past the drive's communication-loss time
-    finally:
-        drive.close()
-        stop.set()
-        thread.join(timeout=5)
+                    drive.feedback()
+                except (CommunicationTimeout, ModbusExceptionResponse) as exc:
+                    message, cycles = str(exc), cycle
+                    try:
+                        drive.quick_stop()  # the host's safe stop; on a dead line the drive's own trip must
+                    except (CommunicationTimeout, ModbusExceptionResponse):
+                        pass
+                    break
+            time.sleep(0.8)  # past the drive's communication-loss time
+        finally:
+            drive.close()
     return {
         "detected_after_cycles": cycles,
         "drive_disabled": not model.running,
@@ -242,9 +204,9 @@ SCENARIOS: dict[str, Callable[[str], dict[str, Any]]] = {
     "node-reset": lambda out: _canopen(out, faults={"node_reset_at": AT}),
     "over-current-emcy": lambda out: _canopen(out, faults={"overcurrent_at": AT}),
     "encoder-glitch": lambda out: _canopen(out, faults={"encoder_glitch_at": AT}),
-    "controller-nan": lambda out: _canopen(out, law=_host_law("nan")),
+    "controller-nan": lambda out: _canopen(out, faults={"law_nan_at": AT}),
     "limit-violation": lambda out: _canopen(out, limits={"speed": 5.0}, timed=False),
-    "ctrl-c": lambda out: _canopen(out, law=_host_law("ctrl-c")),
+    "ctrl-c": lambda out: _canopen(out, faults={"interrupt_at": AT}),
     "modbus-timeout": lambda out: _modbus("timeout"),
     "modbus-exception": lambda out: _modbus("exception"),
     "sigkill-host": _sigkill,

@@ -6,8 +6,8 @@ from collections.abc import Sequence
 from typing import Any
 
 from drivers.errors import ConfigError
-from rig.reproduce import DismcRun
-from rig.reproduce_dq import StepRun
+from rig.papers.dismc import DismcRun
+from rig.papers.dq_current import StepRun
 
 __all__ = ["plot_dismc", "plot_dq_steps"]
 
@@ -67,8 +67,8 @@ def plot_identify(run_dir: str, result: object, path: str) -> None:
     """Write the measured speed (central differences) and the identified model's speed to ``path``."""
     import numpy as np
 
-    from rig.experiment import read_run
-    from rig.identify import simulate_positions
+    from rig.host.rundir import read_run
+    from rig.identify.estimate import simulate_positions
 
     plt = _pyplot()
     u, theta, dt = read_run(run_dir)

@@ -15,10 +15,16 @@ from typing import Any
 import canopen
 from canopen.sdo.client import SdoClient
 
+from drivers.maps import cia
+
 __all__ = ["DEVICE_PROFILES", "scan"]
 
-DEVICE_PROFILES = {401: "CiA 401 I/O", 402: "CiA 402 drive", 406: "CiA 406 encoder"}
-NMT = {0: "INITIALISING", 4: "STOPPED", 5: "OPERATIONAL", 127: "PRE-OPERATIONAL"}
+DEVICE_PROFILES = {
+    401: "CiA 401 I/O",
+    cia.PROFILE_DRIVE: "CiA 402 drive",
+    cia.PROFILE_ENCODER: "CiA 406 encoder",
+}
+NMT = {state.value: state.text for state in cia.NmtState}
 
 
 def scan(
@@ -29,10 +35,10 @@ def scan(
 
     def on_frame(can_id: int, data: bytearray, timestamp: float) -> None:
         if data:
-            states[can_id - 0x700] = data[0] & 0x7F
+            states[can_id - cia.COB_HEARTBEAT] = data[0] & 0x7F  # bit 7: the toggle bit
 
     for node_id in range(1, 128):
-        network.subscribe(0x700 + node_id, on_frame)
+        network.subscribe(cia.COB_HEARTBEAT + node_id, on_frame)
     network.scanner.search()
     listen()
     found = sorted(set(network.scanner.nodes) | set(states))
@@ -40,20 +46,20 @@ def scan(
     for node_id in found:
         make_client: Any = SdoClient
         make_od: Any = canopen.ObjectDictionary
-        client: Any = make_client(0x600 + node_id, 0x580 + node_id, make_od())
+        client: Any = make_client(cia.COB_SDO_RX + node_id, cia.COB_SDO_TX + node_id, make_od())
         client.network = network
         client.RESPONSE_TIMEOUT = sdo_timeout
-        network.subscribe(0x580 + node_id, client.on_response)
+        network.subscribe(cia.COB_SDO_TX + node_id, client.on_response)
         row: dict[str, Any] = {"node_id": node_id, "nmt_state": NMT.get(states.get(node_id, -1), "unknown")}
         try:
-            device_type = int.from_bytes(client.upload(0x1000, 0), "little")
+            device_type = int.from_bytes(client.upload(cia.DEVICE_TYPE, 0), "little")
             row["device_type"] = f"0x{device_type:08X}"
             row["profile"] = DEVICE_PROFILES.get(device_type & 0xFFFF, f"CiA {device_type & 0xFFFF}")
-            row["vendor_id"] = f"0x{int.from_bytes(client.upload(0x1018, 1), 'little'):08X}"
-            row["product_name"] = client.upload(0x1008, 0).decode("latin-1").rstrip("\x00")
+            row["vendor_id"] = f"0x{int.from_bytes(client.upload(cia.IDENTITY, 1), 'little'):08X}"
+            row["product_name"] = client.upload(cia.DEVICE_NAME, 0).decode("latin-1").rstrip("\x00")
         except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as exc:
             row["error"] = str(exc)
-        network.unsubscribe(0x580 + node_id, client.on_response)
+        network.unsubscribe(cia.COB_SDO_TX + node_id, client.on_response)
         rows.append(row)
     return rows
 

@@ -14,18 +14,18 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from drivers.cia402 import Cia402Drive
+from drivers.cia402 import Cia402Axis
 from drivers.errors import CommunicationError, ConfigError, ModbusExceptionResponse
 from drivers.maps import CIA402_EDS
 from drivers.maps.od import load_od
-from drivers.modbus_inverter import ModbusInverter
+from drivers.modbus_inverter import ModbusInverterAxis
 from plant_emulator.cia402_state import PowerState
 from plant_emulator.lockstep import LockstepBench
 from rig.config import load_config
-from rig.run import build_law
+from rig.host.session import build_law
 
 CASES = settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
-SECTIONS = ["run", "bus", "emulator", "drive", "controller", "reference", "limits", "faults", "plant", "Run"]
+SECTIONS = ["run", "bus", "emulator", "axis", "controller", "reference", "faults", "plant", "Run"]
 KEYS = [
     "duration",
     "time",
@@ -55,6 +55,11 @@ KEYS = [
     "tpdo_stall_at",
     "eds",
     "latency",
+    "reads",
+    "commands",
+    "limits",
+    "units",
+    "profile",
     "x",
     "",
 ]
@@ -92,7 +97,9 @@ def _toml_value(v: Any) -> str:
 )
 def test_configuration_files(doc: dict[str, dict[str, Any]]) -> None:
     text = "\n".join(
-        f"[{section}]\n" + "\n".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in table.items())
+        ("[[axis]]" if section == "axis" else f"[{section}]")
+        + "\n"
+        + "\n".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in table.items())
         for section, table in doc.items()
     )
     with tempfile.TemporaryDirectory() as d:
@@ -157,14 +164,12 @@ frames = st.one_of(
 @pytest.fixture(scope="module")
 def bench() -> Any:
     b = LockstepBench("dc-servo")
-    drive = Cia402Drive(b.host, 1)
-    drive.connect()
-    drive.set_mode("voltage")
-    drive.configure_pdos(sync_rpdo=False)
-    drive.nmt("OPERATIONAL")
+    drive = Cia402Axis("drive", b.host, 1, mode="voltage", sync_rpdo=False)
+    drive.setup()  # OPERATIONAL, never enabled
     rogue = b.hub.bus(queue=False, channel="rogue")
     yield b, drive, rogue
     rogue.shutdown()
+    drive.close()
     b.close()
 
 
@@ -208,7 +213,7 @@ answers = st.one_of(
 @CASES
 @given(answers, st.sampled_from(["actual_speed", "current", "status_word", "fault_code"]))
 def test_modbus_answers(answer: Any, role: str) -> None:
-    inverter = ModbusInverter("abb-drives-profile", host="127.0.0.1", tcp_port=1)
+    inverter = ModbusInverterAxis("inverter", "abb-drives-profile", host="127.0.0.1", port=1)
 
     class Client:
         def read_holding_registers(self, *args: Any, **kwargs: Any) -> Any:
@@ -217,8 +222,16 @@ def test_modbus_answers(answer: Any, role: str) -> None:
         def write_register(self, *args: Any, **kwargs: Any) -> Any:
             return answer
 
+        def close(self) -> None:
+            pass
+
     inverter.client = Client()
-    for call in (lambda: inverter.read(role), lambda: inverter.write("speed_reference", 10.0)):
+    calls = (
+        lambda: inverter.read(role),
+        lambda: inverter.write("speed_reference", 10.0),
+        lambda: inverter.feedback().velocity,
+    )
+    for call in calls:
         try:
             value = call()
             assert value is None or math.isfinite(value)
@@ -226,3 +239,4 @@ def test_modbus_answers(answer: Any, role: str) -> None:
             assert "register" in str(exc) and "exception code" in str(exc)
         except CommunicationError as exc:
             assert "register" in str(exc)
+    inverter.close()

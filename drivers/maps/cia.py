@@ -24,17 +24,25 @@ __all__ = [
     "COB_SDO_TX",
     "COB_SYNC",
     "COB_TPDO",
+    "COMMUNICATION_AREA",
     "MODE_BITS",
     "MODE_NAMES",
+    "NODE_IDS",
     "PDO_INVALID",
     "TARGET_OF_MODE",
     "Controlword",
+    "EmcyCode",
+    "ErrorRegister",
     "Mode",
     "NmtCommand",
     "NmtState",
     "PowerState",
+    "QuickStopOption",
+    "SdoAbortCode",
     "decode_statusword",
+    "map_entry",
     "mode_code",
+    "split_map_entry",
 ]
 
 # --- CiA 301 communication profile ---------------------------------------------------------
@@ -55,6 +63,63 @@ PDO_COMM_COB_ID, PDO_COMM_TYPE, PDO_COMM_INHIBIT, PDO_COMM_EVENT_TIMER = 1, 2, 3
 PDO_INVALID = 0x80000000  #: COB-ID bit 31: the PDO does not exist (is being configured)
 PDO_SYNC_MAX = 240  #: transmission types 1-240: every n-th SYNC; 254/255: event driven
 PDO_EVENT_TYPES = (254, 255)
+PDO_EVENT = 255  #: transmission type: event driven (device profile)
+PDO_BLOCK = 0x200  #: objects per PDO parameter range (RPDO_COMM..RPDO_COMM + 0x1FF), also MAP - COMM
+PDO_MAX_MAPPED = 8  #: mapped objects per PDO (byte granularity)
+PDO_MAX_BITS = 64  #: data bits per PDO (one classic CAN frame)
+COB_ID_MASK = 0x7FF  #: the 11-bit CAN identifier in a COB-ID entry
+NODE_IDS = range(1, 128)  #: node ids a device may have
+#: CiA 301 communication profile area: what NMT reset communication restores
+COMMUNICATION_AREA = range(0x1000, 0x2000)
+
+
+def map_entry(index: int, subindex: int, bits: int) -> int:
+    """A PDO mapping entry (sub 1-8 of 0x1600/0x1A00 + n): index << 16 | subindex << 8 | bits."""
+    return index << 16 | subindex << 8 | bits
+
+
+def split_map_entry(entry: int) -> tuple[int, int, int]:
+    """(index, subindex, bits) of a PDO mapping entry."""
+    return entry >> 16, (entry >> 8) & 0xFF, entry & 0xFF
+
+
+class SdoAbortCode(enum.IntEnum):
+    """SDO abort codes (CiA 301, 7.2.4.3.17) that the devices answer with."""
+
+    WRITE_ONLY = 0x06010001
+    READ_ONLY = 0x06010002
+    NO_OBJECT = 0x06020000
+    NOT_MAPPABLE = 0x06040041  #: object cannot be mapped to the PDO
+    PDO_LENGTH_EXCEEDED = 0x06040042  #: number and length of mapped objects exceed the PDO
+    LENGTH_MISMATCH = 0x06070010
+    NO_SUBINDEX = 0x06090011
+    VALUE_RANGE_EXCEEDED = 0x06090030  #: value range of parameter exceeded (write access)
+    VALUE_TOO_HIGH = 0x06090031
+    DEVICE_STATE = 0x08000022  #: data cannot be stored because of the present device state
+
+
+class EmcyCode(enum.IntEnum):
+    """Emergency error codes (CiA 301 Table 21, CiA 402) the devices send; also in 0x603F."""
+
+    NO_ERROR = 0x0000
+    OVER_CURRENT = 0x2310  #: continuous over-current (device output side)
+    PDO_TOO_SHORT = 0x8210  #: PDO not processed due to length error
+    PDO_TOO_LONG = 0x8220  #: PDO length exceeded
+    OVER_SPEED = 0x8400  #: velocity speed controller (CiA 402): over-speed
+    FOLLOWING_ERROR = 0x8611  #: positioning controller: following error
+
+
+class ErrorRegister(enum.IntFlag):
+    """Bits of the error register 0x1001 (CiA 301, 7.5.2.2)."""
+
+    GENERIC = 0x01
+    CURRENT = 0x02
+    VOLTAGE = 0x04
+    TEMPERATURE = 0x08
+    COMMUNICATION = 0x10
+    DEVICE_PROFILE = 0x20
+    MANUFACTURER = 0x80
+
 
 # COB-IDs of the predefined connection set (+ node id)
 COB_NMT = 0x000
@@ -197,6 +262,39 @@ class Controlword(enum.IntEnum):
     SWITCH_ON = 0x07  #: transition 3 (and 5: disable operation)
     ENABLE_OPERATION = 0x0F  #: transitions 4, 16
     FAULT_RESET = 0x80  #: transition 15, on the rising edge
+
+    @property
+    def mask(self) -> int:
+        """Controlword bits that select this command: ``cw & c.mask == c`` (bit 7 clear for the others)."""
+        return _CW_MASK[self]
+
+
+_CW_MASK = {
+    Controlword.DISABLE_VOLTAGE: 0x02,
+    Controlword.QUICK_STOP: 0x06,
+    Controlword.SHUTDOWN: 0x07,
+    Controlword.SWITCH_ON: 0x0F,
+    Controlword.ENABLE_OPERATION: 0x0F,
+    Controlword.FAULT_RESET: 0x80,
+}
+
+
+class QuickStopOption(enum.IntEnum):
+    """Quick stop option codes (0x605A); 0-4 also code the fault reaction (0x605E).
+
+    1-4 end in SWITCH ON DISABLED after the stop; 5-8 brake the same way and stay in
+    QUICK STOP ACTIVE.
+    """
+
+    DISABLE_DRIVE = 0  #: power off at once: the motor coasts
+    SLOW_DOWN_RAMP = 1
+    QUICK_STOP_RAMP = 2
+    CURRENT_LIMIT = 3
+    VOLTAGE_LIMIT = 4
+    SLOW_DOWN_RAMP_STAY = 5
+    QUICK_STOP_RAMP_STAY = 6
+    CURRENT_LIMIT_STAY = 7
+    VOLTAGE_LIMIT_STAY = 8
 
 
 class Mode(enum.IntEnum):

@@ -11,12 +11,32 @@ import pytest
 from canopen.sdo import SdoAbortedError
 
 from drivers.maps import CIA402_EDS, CIA406_EDS
+from drivers.maps.cia import PowerState
 from plant_emulator.cia402_drive import EmulatedDrive
-from plant_emulator.cia402_state import PowerState, statusword_state
 from plant_emulator.induction_motor import ImParams
 from plant_emulator.lockstep import LockstepBench
 
 S = PowerState
+
+#: statusword bits 0-6 (mask, value) of each state, from the CiA 402 table: written out here
+#: rather than taken from drivers.maps.cia, so a misreading there cannot pass
+_STATUSWORD = [
+    (0x4F, 0x00, S.NOT_READY_TO_SWITCH_ON),
+    (0x4F, 0x40, S.SWITCH_ON_DISABLED),
+    (0x6F, 0x21, S.READY_TO_SWITCH_ON),
+    (0x6F, 0x23, S.SWITCHED_ON),
+    (0x6F, 0x27, S.OPERATION_ENABLED),
+    (0x6F, 0x07, S.QUICK_STOP_ACTIVE),
+    (0x4F, 0x0F, S.FAULT_REACTION_ACTIVE),
+    (0x4F, 0x08, S.FAULT),
+]
+
+
+def statusword_state(word: int) -> PowerState:
+    """The state statusword ``word`` reports."""
+    states = [state for mask, value, state in _STATUSWORD if word & mask == value]
+    assert len(states) == 1, hex(word)
+    return states[0]
 
 
 @pytest.fixture
@@ -299,3 +319,38 @@ def test_emcy_on_following_error_and_over_current() -> None:
     assert node.sdo[0x1001].raw & 0x02  # current bit of the error register
     assert statusword_state(node.sdo[0x6041].raw) is S.FAULT
     grid.close()
+
+
+def test_a_fault_shows_in_the_statusword_at_once(rig) -> None:  # type: ignore[no-untyped-def]
+    bench, node, _ = rig
+    node.nmt.state = "OPERATIONAL"
+    node.sdo[0x6060].raw = -1
+    for cw in (0x06, 0x0F):
+        node.sdo[0x6040].raw = cw
+    bench.sync()
+    _drive(bench).raise_fault(0x2310)  # between SYNCs, as fault injection does
+    assert statusword_state(node.sdo[0x6041].raw) is S.FAULT_REACTION_ACTIVE
+    assert node.sdo[0x603F].raw == 0x2310
+
+
+def test_device_side_values_follow_sdo_writes_rpdos_and_resets(rig) -> None:  # type: ignore[no-untyped-def]
+    """The drive's cached object values: an SDO write, an RPDO and an NMT reset all reach it."""
+    bench, node, _ = rig
+    drive = _drive(bench)
+    assert drive.read(0x6080) == 6000
+    node.sdo[0x6080].raw = 300
+    assert drive.read(0x6080) == 300  # SDO download
+    node.nmt.state = "OPERATIONAL"
+    node.rpdo.read()
+    node.rpdo[1]["Target voltage mV"].raw = -1234
+    node.rpdo[1]["Controlword"].raw = 0x06
+    node.rpdo[1].transmit()
+    bench.sync()  # a synchronous RPDO is unpacked at the SYNC
+    assert drive.read(0x2100) == -1234 and node.sdo[0x2100].raw == -1234
+    assert statusword_state(node.sdo[0x6041].raw) is S.READY_TO_SWITCH_ON  # its controlword acted
+    drive.write(0x6065, 0, 777)  # device side
+    assert node.sdo[0x6065].raw == 777
+    node.nmt.state = "RESET"
+    assert drive.read(0x6080) == 6000 and drive.read(0x2100) == 0 and drive.read(0x6065) == 4096
+    with pytest.raises(ValueError, match="does not fit"):
+        drive.write(0x6071, 0, 40000)  # INTEGER16

@@ -46,7 +46,8 @@ def test_emulator_in_a_separate_process() -> None:
 def test_modbus_inverter_process_binds_localhost_by_default() -> None:
     import socket
 
-    from drivers.modbus_inverter import ModbusInverter
+    from drivers.errors import CommunicationError
+    from drivers.modbus_inverter import ModbusInverterAxis
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -54,12 +55,12 @@ def test_modbus_inverter_process_binds_localhost_by_default() -> None:
     proc, line = spawn_rig("emulate", "--modbus-map", "delta-vfd-b", "--modbus-port", str(port), stderr=True)
     try:
         assert f"TCP 127.0.0.1:{port}" in line, line
-        inverter = ModbusInverter("delta-vfd-b", host="127.0.0.1", tcp_port=port)
+        inverter = ModbusInverterAxis("inverter", "delta-vfd-b", host="127.0.0.1", port=port)
         for _ in range(50):  # the server may need a moment after printing
             try:
-                inverter.connect()
+                inverter.setup()
                 break
-            except Exception:
+            except CommunicationError:
                 import time
 
                 time.sleep(0.05)

@@ -17,7 +17,7 @@ TS = 1 / 1350
 
 
 def _over_can(strategy: str, steps: int) -> list[complex]:
-    bench = LockstepBench("grid-converter", {"strategy": strategy, "u_line_rms": "0"})
+    bench = LockstepBench("grid-converter", {"strategy": strategy, "u_line_rms": 0.0})
     node = canopen.RemoteNode(1, CIA402_EDS)
     bench.host.add_node(node)
     node.tpdo.read()

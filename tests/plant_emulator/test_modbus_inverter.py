@@ -1,4 +1,5 @@
-"""The emulated Modbus inverter with pymodbus clients as the peer: TCP, and RTU over a pty pair."""
+"""The emulated Modbus inverter with pymodbus clients as the peer: TCP, and RTU over a pty pair;
+served by coroutines (``rig emulate``) and by the ``InverterServer`` handle."""
 
 from __future__ import annotations
 
@@ -6,13 +7,20 @@ import asyncio
 import gc
 import math
 import socket
+import time
 
 import pytest
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 from pymodbus.framer import FramerType
 
 from drivers.maps import modbus_map
-from plant_emulator.modbus_inverter import InverterContext, default_model, serve_rtu, serve_tcp
+from plant_emulator.modbus_inverter import (
+    InverterContext,
+    InverterServer,
+    default_model,
+    serve_rtu,
+    serve_tcp,
+)
 from plant_emulator.pty_link import PtyLink
 
 
@@ -107,4 +115,60 @@ def test_rtu_over_a_pty_pair() -> None:
 
     with PtyLink() as link:
         asyncio.run(run(link))
+    gc.collect()
+
+
+def test_inverter_server_handle_over_tcp_in_lock_step() -> None:
+    """dt=None: nothing moves until the owner steps the model; start/stop from plain code."""
+    from pymodbus.client import ModbusTcpClient
+
+    model = default_model("abb-drives-profile")
+    speed = modbus_map("abb-drives-profile")["actual_speed"]
+    with InverterServer(model) as server:
+        assert server.port > 0
+        with pytest.raises(RuntimeError, match="already started"):
+            server.start()
+        client = ModbusTcpClient("127.0.0.1", port=server.port, timeout=2)
+        assert client.connect()
+        assert not client.write_register(1, 2000, device_id=1).isError()  # 20 % of the speed range
+        assert not client.write_register(0, 0x047F, device_id=1).isError()  # run
+        assert client.read_holding_registers(speed.address, count=1, device_id=1).registers == [0]
+        for _ in range(100):
+            model.step(0.01)  # the owner's lock-step
+        reading = speed.to_si(client.read_holding_registers(speed.address, count=1, device_id=1).registers[0])
+        assert reading == pytest.approx(model.speed, abs=0.01) and model.speed > 10.0
+        client.close()
+    server.stop()  # idempotent
+    refused = ModbusTcpClient("127.0.0.1", port=server.port, timeout=0.5, retries=0)
+    assert not refused.connect()
+    refused.close()
+    gc.collect()
+
+
+def test_inverter_server_with_wall_clock_physics_and_a_busy_port() -> None:
+    model = default_model("delta-vfd-b")
+    with InverterServer(model, dt=0.002) as server:
+        deadline = time.monotonic() + 10.0
+        while model.t == 0.0 and time.monotonic() < deadline:  # waits for the physics, decides nothing
+            time.sleep(0.005)
+        assert model.t > 0.0
+        with pytest.raises(OSError, match="Modbus inverter server"):
+            InverterServer(default_model("delta-vfd-b"), port=server.port, timeout=5.0).start()
+    gc.collect()
+
+
+def test_inverter_server_handle_over_rtu_on_a_pty_pair() -> None:
+    from pymodbus.client import ModbusSerialClient
+
+    reg = modbus_map("delta-vfd-b")
+    f = reg["speed_reference"]
+    with PtyLink() as link, InverterServer(default_model("delta-vfd-b"), serial=link.port_a, unit=3):
+        client = ModbusSerialClient(link.port_b, framer=FramerType.RTU, baudrate=19200, timeout=1, retries=1)
+        assert client.connect()
+        assert not client.write_register(f.address, f.to_raw(2 * math.pi * 10), device_id=3).isError()
+        rr = client.read_holding_registers(f.address, count=1, device_id=3)
+        assert f.to_si(rr.registers[0]) == pytest.approx(2 * math.pi * 10, abs=0.04)
+        client.close()
+    with pytest.raises(OSError):
+        InverterServer(default_model("delta-vfd-b"), serial="/dev/no-such-tty", timeout=5.0).start()
     gc.collect()

@@ -5,7 +5,9 @@ from __future__ import annotations
 import math
 
 import pytest
+from scipy.integrate import solve_ivp
 
+from plant_emulator.axes import DcServoAxis, ServoLoops
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.encoder import Encoder
 from plant_emulator.zoh import LinearZOH
@@ -83,3 +85,19 @@ def test_encoder_quantises_and_differentiates() -> None:
 def test_encoder_rejects_bad_resolution(cpr: float) -> None:
     with pytest.raises(ValueError, match="counts_per_rev"):
         Encoder(cpr, dt=1e-3)  # type: ignore[arg-type]
+
+
+def test_dc_servo_axis_coasts_with_the_armature_open() -> None:
+    """Power stage off: i_r = 0 and J dw/dt = -B w - T_L, whatever the back-EMF."""
+    p = DCMotorParams(r_r=1.0, l_r=1e-4, k_e=0.05, k_t=0.05, j=1e-4, b=2e-4)
+    axis = DcServoAxis(p, ServoLoops(1.0, 1.0, 1.0, 1.0, 48.0), inner_dt=1e-4, load=lambda t: 0.01)
+    axis.x[:] = [0.0, 100.0, 3.0]
+    axis.coast()
+    for k in range(50):
+        axis.advance(1e-3, k * 1e-3)
+    ref = solve_ivp(
+        lambda t, y: [y[1], (-p.b * y[1] - 0.01) / p.j], (0.0, 0.05), [0.0, 100.0], rtol=1e-12, atol=1e-12
+    )
+    assert axis.current == 0.0
+    assert axis.velocity == pytest.approx(ref.y[1, -1], rel=1e-9)
+    assert axis.position == pytest.approx(ref.y[0, -1], rel=1e-9)

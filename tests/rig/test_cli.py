@@ -129,5 +129,6 @@ def test_run_json_summary_contract(tmp_path: pathlib.Path, capsys: pytest.Captur
     summary = json.loads(capsys.readouterr().out)
     keys = {"cycles", "rms_error", "max_error", "chattering_count", "overruns", "safe_stop_reason", "run_dir"}
     assert keys <= set(summary) and summary["cycles"] == 500 and summary["safe_stop_reason"] is None
-    assert main(["run", "--config", str(tmp_path / "missing.toml"), "--emulate"]) == 1
+    assert main(["run", "--config", str(tmp_path / "missing.toml"), "--emulate"]) == 2
     assert "missing.toml" in capsys.readouterr().err
+    assert set(summary["axes"]) == {"motor"} and summary["axes"]["motor"]["max_abs_velocity"] > 0

@@ -36,8 +36,8 @@ def test_messages_name_the_fault_and_the_device(table) -> None:  # type: ignore[
         "controller-nan": "controller output is nan",
         "limit-violation": "node 1: speed",
         "ctrl-c": "Ctrl-C",
-        "modbus-timeout": "no answer reading actual_speed (register 4)",
-        "modbus-exception": "unit 1, register 4, exception code 4",
+        "modbus-timeout": "no answer reading status_word, actual_speed (registers 3-4)",
+        "modbus-exception": "unit 1, register 3, exception code 4",
     }
     for name, text in expected.items():
         assert text in table[name]["message"], table[name]

@@ -10,7 +10,8 @@ import pytest
 
 from rig.cli import main
 from rig.metrics import overshoot, rise_time, settling_time
-from rig.reproduce import DismcExample, apply_params, run_dismc
+from rig.papers.dismc import ALIASES, FIXED, DismcExample, run_dismc
+from rig.params import parse_items, typed_values
 
 TABLE_1 = {"DISMC-LMI": (1.82, 2.88, -60.6, 135.8), "DISMC-LQR": (0.44, 0.72, -32.7, 175.1)}
 
@@ -55,9 +56,8 @@ def test_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_param_overrides_and_errors(capsys: pytest.CaptureFixture[str]) -> None:
-    ex = apply_params(
-        DismcExample(), ["phi=0.8", "S=2,1", "Q=2,0;0,1", "H=solved", "disturbance_amplitude=0"]
-    )
+    items = parse_items(["phi=0.8", "S=2,1", "Q=2,0;0,1", "H=solved", "disturbance_amplitude=0"], "--param")
+    ex = DismcExample(**typed_values(DismcExample, items, "--param", aliases=ALIASES, fixed=FIXED))
     assert (ex.phi, ex.S, ex.Q, ex.H, ex.amplitude) == (
         0.8,
         (2.0, 1.0),
@@ -69,6 +69,10 @@ def test_param_overrides_and_errors(capsys: pytest.CaptureFixture[str]) -> None:
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "gamma" in err[0]
     assert main(["reproduce", "dismc", "--param", "phi=1.5"]) == 2
+    assert main(["reproduce", "dismc", "--param", "S=1,2,3"]) == 2
+    assert "S needs 2 numbers" in capsys.readouterr().err
+    assert main(["reproduce", "dismc", "--param", "H=guessed"]) == 2
+    assert "one of printed, solved" in capsys.readouterr().err
 
 
 def test_plot_is_written(tmp_path: object) -> None:

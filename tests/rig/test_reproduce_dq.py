@@ -7,7 +7,7 @@ import json
 import pytest
 
 from rig.cli import main
-from rig.reproduce_dq import PRINTED_TABLES, DqStudy, apply_dq_params, cross_coupling, table_rows
+from rig.papers.dq_current import PRINTED_TABLES, DqStudy, cross_coupling, table_rows
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +63,7 @@ def test_cross_coupling_proposed_zero_pi_not() -> None:
 
 
 def test_fine_plant_keeps_the_decoupling() -> None:
-    study = apply_dq_params(DqStudy(), ["plant=fine", "strategy=s-pwm-start", "ratio=1/27"])
+    study = DqStudy(plant="fine", strategy="s-pwm-start", ratio=1 / 27)
     peaks = {r.controller: r.peak_id for r in cross_coupling(study)}
     assert peaks["proposed"] < 0.002 and peaks["pi"] > 0.5
 

@@ -7,25 +7,30 @@ import dataclasses
 import json
 import math
 import pathlib
+from typing import Any
 
 import canopen
 import numpy as np
 import pytest
 
-from drivers.cia402 import decode_state
+from drivers.base import Feedback
+from drivers.errors import ConfigError
 from plant_emulator.presets import build_preset
-from rig.config import load_config
-from rig.run import build_law, prepare
+from rig.config import load_config, replace_axis
+from rig.host.emulation import preset_params
+from rig.host.session import Session
+from rig.laws import make_law
+from rig.laws.references import reference_of
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
 
 
-def _cfg(tmp_path: pathlib.Path, **limits: float):  # type: ignore[no-untyped-def]
+def _cfg(tmp_path: pathlib.Path, faults: dict[str, Any] | None = None, **limits: float):  # type: ignore[no-untyped-def]
     cfg = load_config(EXAMPLE)
     cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path)))
-    if limits:
-        cfg = dataclasses.replace(cfg, limits=dataclasses.replace(cfg.limits, **limits))
-    return cfg
+    if faults:
+        cfg = dataclasses.replace(cfg, faults=dataclasses.replace(cfg.faults, **faults))
+    return replace_axis(cfg, "motor", limits=limits) if limits else cfg
 
 
 def _samples(run_dir: str) -> np.ndarray:
@@ -35,43 +40,47 @@ def _samples(run_dir: str) -> np.ndarray:
 
 
 def test_position_servo_over_the_bus_equals_the_pure_simulation(tmp_path: pathlib.Path) -> None:
-    """Controller -> CiA 402 driver -> canopen -> emulated drive -> (3.4) -> TPDO -> controller,
-    against the same law on the same axis with the same quantisation and timing, no bus."""
+    """Law -> CiA 402 driver -> canopen -> emulated drive -> (3.4) -> TPDO -> law, against the same
+    law on the same axis with the same quantisation and timing, no bus."""
     cfg = _cfg(tmp_path)
-    session = prepare(cfg, emulate=True, duration=2.0)
-    summary = session.loop.run()
-    session.close()
+    with Session(cfg, emulate=True, duration=2.0) as session:
+        session.start()
+        summary = session.run()
     assert summary["safe_stop_reason"] is None and summary["cycles"] == 5000
     wire = _samples(summary["run_dir"])
 
-    devices, period = build_preset("dc-servo", canopen.Network(), cfg.emulator.params)
+    params = preset_params("dc-servo", cfg.emulator.params, "test")
+    devices, period = build_preset("dc-servo", canopen.Network(), params)
     axis = devices[0].axis  # type: ignore[attr-defined]
-    law, _, _ = build_law(cfg, period)
+    law = make_law(
+        cfg.controller.kind, cfg.controller.params, period=period, reference=reference_of(cfg.reference)
+    )
     cpr = 4096 / (2 * math.pi)
     pure = []
     for k in range(5000):
         if k:
             axis.advance(period, k * period)  # SYNC k+1 steps [t_k, t_k+1] (timestamps start at T)
-        fb = (math.floor(axis.position * cpr) / cpr, round(axis.velocity * cpr) / cpr, 0.0, 0.0, 0x1237)
-        u, _ref, y, _ = law(k * period, fb)
-        pure.append((y, u))
-        axis.set_command(-1, round(u * 1000) / 1000)  # mV on the wire, applied on receipt
+        fb = Feedback(math.floor(axis.position * cpr) / cpr, round(axis.velocity * cpr) / cpr)
+        out = law.step(k * period, [fb])
+        pure.append((out.measurement, out.commands[0]))
+        axis.set_command(-1, round(out.commands[0] * 1000) / 1000)  # mV on the wire, applied on receipt
     pure_a = np.array(pure)
     assert np.max(np.abs(wire[:, 2] - pure_a[:, 0])) < 1e-9
     assert np.max(np.abs(wire[:, 3] - pure_a[:, 1])) < 1e-9
     assert abs(wire[-1, 1] - wire[-1, 2]) < 0.01  # it does track: within 0.01 rad at the end
 
 
-def _run_with(tmp_path: pathlib.Path, mutate, **limits: float) -> tuple[dict, object]:  # type: ignore[no-untyped-def]
-    session = prepare(_cfg(tmp_path, **limits), emulate=True, duration=0.4)
-    mutate(session)
-    summary = session.loop.run()
-    state = decode_state(session.loop.drive.sdo_read(0x6041))
-    session.close()
+def _run(cfg: Any, mutate: Any = None) -> tuple[dict[str, Any], str]:
+    with Session(cfg, emulate=True, duration=0.4) as session:
+        if mutate is not None:
+            mutate(session)
+        session.start()
+        summary = session.run()
+        state = session.axes[0].read_power_state().value  # type: ignore[attr-defined]
     return summary, state
 
 
-def _check_stopped(summary: dict, state: str, reason: str) -> None:  # type: ignore[type-arg]
+def _check_stopped(summary: dict[str, Any], state: str, reason: str) -> None:
     assert reason in summary["safe_stop_reason"]
     assert state == "SWITCH ON DISABLED"  # quick stop, then disabled
     run_dir = pathlib.Path(summary["run_dir"])
@@ -83,69 +92,38 @@ def _check_stopped(summary: dict, state: str, reason: str) -> None:  # type: ign
 
 
 def test_speed_limit_stops_the_drive(tmp_path: pathlib.Path) -> None:
-    summary, state = _run_with(tmp_path, lambda s: None, speed=5.0)
-    _check_stopped(summary, state, "speed")
+    summary, state = _run(_cfg(tmp_path, speed=5.0))
+    _check_stopped(summary, state, "motor, node 1: speed")
     assert 0 < summary["cycles"] < 1000
 
 
-def test_nan_and_exception_from_the_controller(tmp_path: pathlib.Path) -> None:
-    for bad, reason in ((math.nan, "controller output is nan"), (None, "ZeroDivisionError")):
-
-        def mutate(session, bad=bad):  # type: ignore[no-untyped-def]
-            law = session.loop.law
-
-            def broken(t, fb):  # type: ignore[no-untyped-def]
-                if t >= 0.1:
-                    if bad is None:
-                        return 1 / 0
-                    return bad, 0.0, 0.0, (0.0, 0.0)
-                return law(t, fb)
-
-            session.loop.law = broken
-
-        summary, state = _run_with(tmp_path, mutate)
-        _check_stopped(summary, state, reason)
-        assert summary["cycles"] == 250
+@pytest.mark.parametrize(
+    ("fault", "reason"),
+    [("law_nan_at", "controller output is nan"), ("law_error_at", "InjectedFault: injected at 0.1 s")],
+)
+def test_nan_and_exception_from_the_law(tmp_path: pathlib.Path, fault: str, reason: str) -> None:
+    summary, state = _run(_cfg(tmp_path, faults={fault: 0.1}))
+    _check_stopped(summary, state, reason)
+    assert summary["cycles"] == 250
 
 
 def test_ctrl_c_stops_the_drive(tmp_path: pathlib.Path) -> None:
-    def mutate(session):  # type: ignore[no-untyped-def]
-        law = session.loop.law
-
-        def interrupted(t, fb):  # type: ignore[no-untyped-def]
-            if t >= 0.2:
-                raise KeyboardInterrupt
-            return law(t, fb)
-
-        session.loop.law = interrupted
-
-    summary, state = _run_with(tmp_path, mutate)
+    summary, state = _run(_cfg(tmp_path, faults={"interrupt_at": 0.2}))
     _check_stopped(summary, state, "Ctrl-C")
     assert summary["cycles"] == 500
 
 
 def test_tpdo_watchdog(tmp_path: pathlib.Path) -> None:
-    def mutate(session):  # type: ignore[no-untyped-def]
-        sync = session.loop.sync
-        count = [0]
-
-        def dying_sync() -> None:  # the device stops answering after 100 cycles
-            count[0] += 1
-            if count[0] <= 100:
-                sync()
-
-        session.loop.sync = dying_sync
-
-    summary, state = _run_with(tmp_path, mutate)
+    summary, state = _run(_cfg(tmp_path, faults={"tpdo_stall_at": 0.04}))
     _check_stopped(summary, state, "no TPDO for 3 periods")
-    assert summary["cycles"] == 102
+    assert summary["cycles"] == 101
 
 
 def test_emcy_from_the_drive_stops_the_loop(tmp_path: pathlib.Path) -> None:
-    def mutate(session):  # type: ignore[no-untyped-def]
-        session.devices[0].write(0x6080, 0, 30)  # the drive trips over-speed at 30 rpm
+    def mutate(session: Session) -> None:
+        session.emulation.devices[0].write(0x6080, 0, 30)  # type: ignore[union-attr]  # trips at 30 rpm
 
-    summary, state = _run_with(tmp_path, mutate)
+    summary, state = _run(_cfg(tmp_path), mutate)
     assert "EMCY 0x8400" in summary["safe_stop_reason"]
     # the drive is in its fault reaction (it brakes per SYNC, and the host stopped sending SYNC)
     # or in FAULT; the host's disable cannot leave either, which is correct
@@ -153,31 +131,49 @@ def test_emcy_from_the_drive_stops_the_loop(tmp_path: pathlib.Path) -> None:
 
 
 def test_heartbeat_loss(tmp_path: pathlib.Path) -> None:
-    def mutate(session):  # type: ignore[no-untyped-def]
-        law = session.loop.law
-
-        def silencing(t, fb):  # type: ignore[no-untyped-def]
-            if abs(t - 0.15) < 1e-9:
-                session.devices[0].write(0x1017, 0, 0)  # the drive's heartbeat stops
-            return law(t, fb)
-
-        session.loop.law = silencing
-
-    summary, state = _run_with(tmp_path, mutate, heartbeat_timeout=0.15)
+    summary, state = _run(_cfg(tmp_path, faults={"heartbeat_loss_at": 0.15}, heartbeat_timeout=0.15))
     _check_stopped(summary, state, "heartbeat lost")
-    assert 600 <= summary["cycles"] <= 700
+    assert 600 <= summary["cycles"] <= 750
+
+
+def test_a_drive_that_leaves_operation_enabled_stops_the_run(tmp_path: pathlib.Path) -> None:
+    """Someone else disables the drive (a controlword by SDO from another master): the statusword
+    in the next TPDO says so, and the host stops instead of commanding a disabled drive."""
+
+    def mutate(session: Session) -> None:
+        drive = session.emulation.devices[0]  # type: ignore[union-attr]
+        hub = session.emulation.bench.hub  # type: ignore[union-attr]
+
+        def intruder(msg: Any) -> None:
+            if msg.arbitration_id == 0x80 and abs(hub.clock - 0.1) < 1e-9:
+                drive._apply_controlword(0x00)  # disable voltage, as an SDO from another master would
+
+        hub.taps.append(intruder)
+
+    summary, _ = _run(_cfg(tmp_path), mutate)
+    assert "the drive left OPERATION ENABLED: SWITCH ON DISABLED" in summary["safe_stop_reason"]
 
 
 def test_config_errors_name_the_file_and_key(tmp_path: pathlib.Path) -> None:
-    from drivers.errors import ConfigError
-
     bad = tmp_path / "bad.toml"
     bad.write_text(EXAMPLE.read_text().replace("sync_rpdo = false", "sync_rpdoo = false"))
-    with pytest.raises(ConfigError, match=r"bad\.toml: unknown key 'sync_rpdoo' in \[drive\]"):
+    with pytest.raises(ConfigError, match=r"bad\.toml: \[\[axis\]\] 'motor': unknown parameter 'sync_rpdoo'"):
         load_config(bad)
     bad.write_text(EXAMPLE.read_text().replace("lam = -15.0", 'lam = "fast"'))
-    with pytest.raises(ConfigError, match=r"\[controller\] lam"):
-        load_config(bad)
+    cfg = load_config(bad)
+    with pytest.raises(ConfigError, match=r"\[controller\] position-servo: lam = 'fast': expected float"):
+        Session(cfg, emulate=True)
     bad.write_text(EXAMPLE.read_text().replace("duration = 3.0", "duration = -1"))
     with pytest.raises(ConfigError, match=r"duration"):
         load_config(bad)
+
+
+def test_the_old_single_drive_form_gets_one_line_naming_the_new(tmp_path: pathlib.Path) -> None:
+    old = tmp_path / "old.toml"
+    old.write_text('[drive]\nnode_id = 1\nmode = "voltage"\n[controller]\nkind = "position-servo"\n')
+    with pytest.raises(ConfigError) as exc:
+        load_config(old)
+    text = str(exc.value)
+    assert (
+        "\n" not in text and "old.toml: [drive] is the old single-drive form" in text and "[[axis]]" in text
+    )

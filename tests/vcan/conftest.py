@@ -24,10 +24,13 @@ def vcan_unavailable() -> str | None:
 
 
 @pytest.fixture(autouse=True)
-def _need_vcan() -> None:
+def _need_vcan(monkeypatch: pytest.MonkeyPatch) -> None:
     reason = vcan_unavailable()
     if reason:
         pytest.skip(reason)
+    from drivers.canopen_axis import CanopenAxis
+
+    monkeypatch.setattr(CanopenAxis, "SDO_TIMEOUT", 2.0)  # the VM's emulated CPU is slow, not the drive
 
 
 @pytest.fixture

@@ -9,17 +9,18 @@ from __future__ import annotations
 import dataclasses
 import json
 import pathlib
+from typing import Any
 
 import canopen
 import numpy as np
 import pytest
 
 from drivers.bus import open_bus
-from drivers.cia402 import Cia402Drive
+from drivers.cia402 import Cia402Axis
 from rig.cli import main
-from rig.config import BusConfig
+from rig.config import BusConfig, RigConfig, replace_axis
 from rig.demo import demo_config
-from rig.run import prepare
+from rig.host.session import Session
 
 pytestmark = pytest.mark.vcan
 
@@ -29,17 +30,13 @@ def test_driver_contract_over_vcan(start_emulator) -> None:  # type: ignore[no-u
     network = canopen.Network(open_bus("socketcan", "vcan0"))
     network.connect()
     try:
-        drive = Cia402Drive(network, 1, sdo_timeout=2.0)
-        units = drive.connect()
-        assert units.counts_per_rad == pytest.approx(4096 / (2 * np.pi))
-        drive.nmt("PRE-OPERATIONAL")
-        drive.set_mode("csv")
-        drive.configure_pdos(sync_rpdo=True)
-        drive.nmt("OPERATIONAL")
-        drive.enable(timeout=10.0)
-        assert drive.state == "OPERATION ENABLED"
-        drive.disable()
-        assert drive.state == "SWITCH ON DISABLED"
+        with Cia402Axis("drive", network, 1, mode="csv") as drive:
+            drive.setup()
+            assert drive.units.counts_per_rad == pytest.approx(4096 / (2 * np.pi))
+            drive.enable(timeout=10.0)
+            assert drive.read_power_state().value == "OPERATION ENABLED"
+            drive.disable()
+            assert drive.read_power_state().value == "SWITCH ON DISABLED"
     finally:
         network.disconnect()
 
@@ -49,6 +46,12 @@ def test_scan_over_vcan(start_emulator, capsys: pytest.CaptureFixture[str]) -> N
     assert main(["scan", "--interface", "socketcan", "--channel", "vcan0", "--listen", "1.5", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert [(r["node_id"], r["profile"]) for r in rows] == [(1, "CiA 402 drive"), (2, "CiA 406 encoder")]
+
+
+def _run(cfg: RigConfig, *, emulate: bool, duration: float) -> dict[str, Any]:
+    with Session(cfg, emulate=emulate, duration=duration) as session:
+        session.start()
+        return session.run()
 
 
 def _samples(run_dir: str) -> np.ndarray:
@@ -63,15 +66,11 @@ def test_lockstep_servo_over_vcan_equals_the_in_process_run(start_emulator, tmp_
         cfg,
         run=dataclasses.replace(cfg.run, period=0.4e-3),
         bus=BusConfig(interface="socketcan", channel="vcan0"),
-        drive=dataclasses.replace(cfg.drive, enable_timeout=10.0),
-        limits=dataclasses.replace(cfg.limits, watchdog_periods=10_000),  # the VM is slow, not the drive
     )
-    session = prepare(wire_cfg, emulate=False, duration=0.2)
-    wire = session.loop.run()
-    session.close()
-    local = prepare(cfg, emulate=True, duration=0.2)
-    here = local.loop.run()
-    local.close()
+    # the VM is slow, not the drive
+    wire_cfg = replace_axis(wire_cfg, "motor", enable_timeout=10.0, limits={"watchdog_periods": 10_000})
+    wire = _run(wire_cfg, emulate=False, duration=0.2)
+    here = _run(cfg, emulate=True, duration=0.2)
     assert wire["safe_stop_reason"] is None and wire["cycles"] == here["cycles"] == 500
     a, b = _samples(wire["run_dir"]), _samples(here["run_dir"])
     assert np.max(np.abs(a["measurement"] - b["measurement"])) < 1e-9
@@ -88,12 +87,9 @@ def test_realtime_1khz_with_kernel_sync(start_emulator, tmp_path: pathlib.Path) 
         run=dataclasses.replace(cfg.run, time="realtime", period=0.001),
         bus=BusConfig(interface="socketcan", channel="vcan0"),
         reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),
-        drive=dataclasses.replace(cfg.drive, enable_timeout=10.0),
-        limits=dataclasses.replace(cfg.limits, watchdog_periods=1000),
     )
-    session = prepare(rt, emulate=False, duration=2.0)
-    summary = session.loop.run()
-    session.close()
+    rt = replace_axis(rt, "motor", enable_timeout=10.0, limits={"watchdog_periods": 1000})
+    summary = _run(rt, emulate=False, duration=2.0)
     timing = summary["timing"]
     print(
         f"\nvcan 1 kHz, kernel SYNC: cycles {summary['cycles']}, overruns {summary['overruns']}, "

@@ -11,14 +11,19 @@ Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
   CANalyzer, SavvyCAN, asammdf and python-can read; left out with ``[run] trace = false``;
 - ``summary.json``: the metrics and how the run ended;
 - ``plot.png`` when matplotlib is installed.
+
+Frames reach ``on_frame`` from the bus's receive thread (python-can's notifier)
+while the loop writes samples; a lock orders the trace against ``close``, and a
+frame that arrives after the close is dropped and counted
+(``trace_frames_dropped`` in the summary), never an exception in that thread.
 """
 
 from __future__ import annotations
 
-import csv
 import datetime
 import json
 import math
+import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -27,17 +32,18 @@ from typing import Any
 import can
 import numpy as np
 
+from rig.host.trace import AscTrace
+
 __all__ = ["Recorder"]
 
 
 class Recorder:
-    """Record ``columns`` per cycle into a fresh run directory under ``output``."""
+    """A fresh run directory under ``output``; ``begin(columns)``, then one ``sample`` per cycle."""
 
     def __init__(
         self,
         output: str | Path,
         name: str,
-        columns: Sequence[str],
         *,
         flush_every: int = 100,
         trace: bool = True,
@@ -50,15 +56,20 @@ class Recorder:
             path = Path(f"{base}-{n}")
         path.mkdir(parents=True)
         self.dir = path
-        self.columns = list(columns)
+        self.columns: list[str] = []
         self._file = (path / "samples.csv").open("w", newline="")
-        self._csv = csv.writer(self._file)
-        self._csv.writerow(self.columns)
         self._count = 0
         self._flush_every = flush_every
         self._pending = 0
-        self.trace = can.ASCWriter(str(path / "trace.asc")) if trace else None
+        self.trace = AscTrace(str(path / "trace.asc")) if trace else None
         self.closed = False
+        self._trace_lock = threading.Lock()
+        self.frames_dropped = 0  #: frames that arrived after the close
+
+    def begin(self, columns: Sequence[str]) -> None:
+        """The samples' columns (known once the axes are set up): the CSV header."""
+        self.columns = list(columns)
+        self._file.write(",".join(self.columns) + "\n")
 
     def write_config(self, config: dict[str, Any]) -> None:
         (self.dir / "config.json").write_text(json.dumps(config, indent=2) + "\n")
@@ -68,13 +79,22 @@ class Recorder:
         (self.dir / "started.json").write_text(json.dumps({"wall_time": time.time()}) + "\n")
 
     def on_frame(self, msg: can.Message) -> None:
-        """A CAN frame for the trace (a bus listener)."""
-        if not self.closed and self.trace is not None:
+        """A CAN frame for the trace (a bus listener, any thread); after the close it is counted."""
+        with self._trace_lock:
+            if self.trace is None:
+                return
+            if self.closed:
+                self.frames_dropped += 1
+                return
             self.trace.on_message_received(msg)
 
-    def sample(self, row: Sequence[float]) -> None:
-        """One cycle's values, in ``columns`` order."""
-        self._csv.writerow([repr(float(v)) for v in row])
+    def sample(self, row: Sequence[float], timing: Sequence[float] = ()) -> None:
+        """One cycle's values in ``columns`` order, then its stage durations [s] (written in us,
+        to 0.1 us); the values at full precision (``repr``: they read back exactly)."""
+        line = ",".join(map(repr, map(float, row)))
+        if timing:
+            line += "," + ",".join(["%.1f" % (d * 1e6) for d in timing])
+        self._file.write(line + "\n")
         self._count += 1
         self._pending += 1
         if self._pending >= self._flush_every:
@@ -98,11 +118,13 @@ class Recorder:
         """Flush everything, write .mat, summary.json and the plot; safe to call twice."""
         if self.closed:
             return
-        self.closed = True
+        with self._trace_lock:
+            self.closed = True
+            if self.trace is not None:
+                self.trace.stop()
+        summary["trace_frames_dropped"] = self.frames_dropped
         self._file.flush()
         self._file.close()
-        if self.trace is not None:
-            self.trace.stop()
         data = self.array()
         try:
             import scipy.io

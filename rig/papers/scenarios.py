@@ -27,12 +27,13 @@ from controllers.dtsm import DTSM, DTSMParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.encoder import Encoder
+from rig.laws.references import smooth_move
+from rig.papers import drives
 
 __all__ = [
     "Trajectory",
     "cascade_run",
     "position_servo_run",
-    "smooth_move",
     "speed_loop_run",
 ]
 
@@ -60,33 +61,24 @@ class Trajectory:
         return mask
 
 
-def smooth_move(
-    distance: float, duration: float, start: float = 0.0
-) -> Callable[[float], tuple[float, float]]:
-    """Reference theta_r(t) moving by ``distance`` [rad] in ``duration`` [s] from ``start`` [s].
-
-    A quintic (minimum-jerk) profile; returns (theta_r, omega_r) at time t.
-    """
-
-    def ref(t: float) -> tuple[float, float]:
-        s = min(max((t - start) / duration, 0.0), 1.0)
-        pos = distance * s**3 * (10.0 - 15.0 * s + 6.0 * s * s)
-        vel = distance * 30.0 * s * s * (1.0 - s) ** 2 / duration if 0.0 < s < 1.0 else 0.0
-        return pos, vel
-
-    return ref
+def _dc_motor(a_m: float, b_m: float, dt: float, *, full: bool) -> tuple[DCMotor | ReducedDCMotor, float]:
+    """(3.4) with a 0.1 ms electrical time constant, or (3.7) with J = 1; (motor, J)."""
+    if full:
+        full_motor = DCMotor(DCMotorParams.from_am_bm(a_m=a_m, b_m=b_m), dt=dt)
+        return full_motor, full_motor.params.j
+    return ReducedDCMotor(a_m=a_m, b_m=b_m, dt=dt, j=1.0), 1.0
 
 
 def position_servo_run(
     *,
-    a_m: float = 16.0,
-    b_m: float = 680.0,
-    dt: float = 0.4e-3,
-    lam: float = -15.0,
-    sigma: float = 10.0,
-    q: float = 0.0,
-    rho: float = 0.5,
-    h: float = 16.0,
+    a_m: float = drives.A_M,
+    b_m: float = drives.B_M,
+    dt: float = drives.T_SERVO,
+    lam: float = drives.LAMBDA_SERVO,
+    sigma: float = drives.SIGMA,
+    q: float = drives.Q,
+    rho: float = drives.RHO,
+    h: float = drives.H,
     u0: float = math.inf,
     distance: float = 10.0,
     move_time: float = 1.0,
@@ -106,23 +98,14 @@ def position_servo_run(
     an electrical time constant of 0.1 ms instead of (3.7).
     """
     design = design_dtsm(A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, -b_m], dt=dt, lam=lam)
-    step: Callable[[float, float], float]
-    internals: Callable[[], float]
+    ctl: PositionServo | DTSM
     if law == "7.30":
         ctl = PositionServo(PositionServoParams(design=design, sigma=sigma, q=q, rho=rho, h=h, u0=u0))
-        step, internals = ctl.step, lambda: ctl.u_i
     elif law == "relay":
-        relay = DTSM(DTSMParams(design=design, law="relay", sigma=sigma, u0=u0))
-        step, internals = relay.step, lambda: 0.0
+        ctl = DTSM(DTSMParams(design=design, law="relay", sigma=sigma, u0=u0))
     else:
         raise ValueError(f"law must be '7.30' or 'relay', got {law!r}")
-    motor: DCMotor | ReducedDCMotor
-    if full_motor:
-        motor = DCMotor(DCMotorParams.from_am_bm(a_m=a_m, b_m=b_m), dt=dt)
-        j = motor.params.j
-    else:
-        j = 1.0
-        motor = ReducedDCMotor(a_m=a_m, b_m=b_m, dt=dt, j=j)
+    motor, j = _dc_motor(a_m, b_m, dt, full=full_motor)
     encoder = Encoder(counts_per_rev, dt=dt) if counts_per_rev else None
     ref = smooth_move(distance, move_time)
     n = round(t_end / dt)
@@ -134,10 +117,10 @@ def position_servo_run(
         theta, omega = motor.theta, motor.omega
         if encoder is not None:
             theta, omega = encoder.sample(theta)
-        u = step(theta_r - theta, omega_r - omega)
+        u = ctl.step(theta_r - theta, omega_r - omega)
         out["ref"][k], out["y"][k], out["u"][k] = theta_r, motor.theta, u
-        out["g"][k] = ctl.g if law == "7.30" else relay.g
-        out["u_i"][k] = internals()
+        out["g"][k] = ctl.g
+        out["u_i"][k] = getattr(ctl, "u_i", 0.0)
         motor.step(u, j * load if tk >= load_time else 0.0)
     return Trajectory(t, out["ref"], out["y"], out["u"], out["g"], {"u_i": out["u_i"]})
 
@@ -146,8 +129,8 @@ def speed_loop_run(
     *,
     compensator: str = "none",
     alpha: float = 1.0,
-    a_m: float = 16.0,
-    b_m: float = 680.0,
+    a_m: float = drives.A_M,
+    b_m: float = drives.B_M,
     dt: float = 1e-3,
     t_end: float = 4.0,
     disturbance: Callable[[float], float] | None = None,
@@ -201,8 +184,8 @@ def cascade_run(
     a_i: float = -233.8936,
     b_i: float = 42.8992,
     a_w: float = -0.6286,
-    b_w: float = 340.7439,
-    j: float = 0.0035,
+    b_w: float = drives.B_W,
+    j: float = drives.J_IM,
     distance: float = 10.0,
     move_time: float = 1.0,
     t_end: float = 3.0,
@@ -214,13 +197,13 @@ def cascade_run(
     With rotor-flux orientation and decoupling, (4.9) is a DC motor without
     back-EMF: i_q' = a_i i_q + b_i u_q, omega' = a_w omega + b_w i_q - T_L/J,
     theta' = omega, with Table V's a_i, b_i, a_w, b_w and J of Table II.
-    ``load(t)`` [N m] defaults to zero. Sampled every 0.1 ms (current loop);
-    speed every 0.5 ms, position every 1 ms. ``counts_per_rev`` measures
-    position through an encoder and speed by Euler backward at 0.5 ms.
+    ``load(t)`` [N m] defaults to zero. Sampled every 0.1 ms (current loop); speed every
+    0.5 ms, position every 1 ms. ``counts_per_rev``: an encoder, speed by Euler backward.
     """
     dt = current.dt
-    k_t = b_w * j
-    motor = DCMotor(DCMotorParams(r_r=-a_i / b_i, l_r=1.0 / b_i, k_e=0.0, k_t=k_t, j=j, b=-a_w * j), dt=dt)
+    motor = DCMotor(
+        DCMotorParams(r_r=-a_i / b_i, l_r=1.0 / b_i, k_e=0.0, k_t=b_w * j, j=j, b=-a_w * j), dt=dt
+    )
     ctl = Cascade(
         CascadeLoop(position),
         CascadeLoop(speed),
@@ -242,17 +225,9 @@ def cascade_run(
             theta_m, omega_m = motor.theta, motor.omega
         elif k % ctl.speed_every == 0:
             theta_m, omega_m = encoder.sample(motor.theta)
-        u = ctl.step(ref(tk)[0], theta_m, omega_m, motor.current)
-        row = (
-            ref(tk)[0],
-            motor.theta,
-            u,
-            ctl.position.g,
-            ctl.omega_ref,
-            motor.omega,
-            ctl.i_ref,
-            motor.current,
-        )
+        theta_r = ref(tk)[0]
+        u = ctl.step(theta_r, theta_m, omega_m, motor.current)
+        row = (theta_r, motor.theta, u, ctl.position.g, ctl.omega_ref, motor.omega, ctl.i_ref, motor.current)
         for name, value in zip(names, row):
             out[name][k] = value
         motor.step(u, load(tk))

@@ -127,6 +127,61 @@ def _check(u: np.ndarray, theta: np.ndarray, dt: float) -> None:
         raise IdentificationError(f"the motor did not move (position changed by {travel:.3g} rad): stalled?")
 
 
+def _least_squares(u: np.ndarray, theta: np.ndarray, dt: float, max_delay: int) -> tuple[int, np.ndarray]:
+    """Step 1: position-domain least squares for each delay; (delay, [w0, a, b, d]) of the best."""
+    best = None
+    for k in range(max_delay + 1):
+        phi, y = _regressors(theta, _shift(u, k), dt)
+        coef, *_ = np.linalg.lstsq(phi, y, rcond=None)
+        rss = float(np.sum((y - phi @ coef) ** 2))
+        if best is None or rss < best[0]:
+            best = (rss, k, coef)
+    if best is None:
+        raise IdentificationError(f"max_delay must be >= 0, got {max_delay}")
+    _, k, coef = best
+    a, b = coef[1], coef[2]
+    if not (a > 0.0 and math.isfinite(b)):
+        raise IdentificationError(
+            f"least squares gave a_m = {a:.4g} (must be > 0): excitation too weak or too slow"
+        )
+    return k, coef
+
+
+def _instrumental(u: np.ndarray, theta: np.ndarray, dt: float, k: int, coef: np.ndarray) -> np.ndarray:
+    """Step 2: instrumental variables, regressors from the simulated, noise-free position."""
+    w0, a, b, d = coef
+    sim, _ = simulate_positions(np.array([a, b, d, theta[0], w0]), u, dt, k)
+    z, _ = _regressors(sim, _shift(u, k), dt)
+    phi, y = _regressors(theta, _shift(u, k), dt)
+    try:
+        solved: np.ndarray = np.linalg.solve(z.T @ phi, z.T @ y)
+    except np.linalg.LinAlgError as exc:
+        raise IdentificationError(f"instrumental variables failed: {exc}") from exc
+    return solved
+
+
+def _output_error(
+    u: np.ndarray, theta: np.ndarray, dt: float, k: int, coef: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Step 3: the output-error fit from ``coef``; (parameters, standard errors)."""
+    w0, a, b, d = coef
+
+    def residual(p: np.ndarray) -> np.ndarray:
+        err: np.ndarray = simulate_positions(p, u, dt, k)[0] - theta
+        return err
+
+    start = np.array([max(a, 1e-6), b, d, theta[0], w0])
+    fit = scipy.optimize.least_squares(residual, start, x_scale="jac", method="lm")
+    s2 = float(fit.fun @ fit.fun) / max(1, len(u) - len(fit.x))
+    try:
+        cov = s2 * np.linalg.inv(fit.jac.T @ fit.jac)
+    except np.linalg.LinAlgError as exc:
+        raise IdentificationError(
+            "the output-error fit is singular: the data do not excite the model"
+        ) from exc
+    return fit.x, np.sqrt(np.maximum(np.diag(cov), 0.0))
+
+
 def estimate(
     u: np.ndarray, theta: np.ndarray, dt: float, *, max_delay: int = 5, holdout: float = 0.3
 ) -> IdentResult:
@@ -138,44 +193,8 @@ def estimate(
     _check(u, theta, dt)
     n_fit = int(len(u) * (1.0 - holdout))
     uf, thf = u[:n_fit], theta[:n_fit]
-    best = None
-    for k in range(max_delay + 1):
-        phi, y = _regressors(thf, _shift(uf, k), dt)
-        coef, *_ = np.linalg.lstsq(phi, y, rcond=None)
-        rss = float(np.sum((y - phi @ coef) ** 2))
-        if best is None or rss < best[0]:
-            best = (rss, k, coef)
-    assert best is not None
-    _, k, (w0, a, b, d) = best
-    if not (a > 0.0 and math.isfinite(b)):
-        raise IdentificationError(
-            f"least squares gave a_m = {a:.4g} (must be > 0): excitation too weak or too slow"
-        )
-    # instrumental variables: regressors from the simulated, noise-free position
-    sim, _ = simulate_positions(np.array([a, b, d, thf[0], w0]), uf, dt, k)
-    z, _ = _regressors(sim, _shift(uf, k), dt)
-    phi, y = _regressors(thf, _shift(uf, k), dt)
-    try:
-        w0, a, b, d = np.linalg.solve(z.T @ phi, z.T @ y)
-    except np.linalg.LinAlgError as exc:
-        raise IdentificationError(f"instrumental variables failed: {exc}") from exc
-
-    def residual(p: np.ndarray) -> np.ndarray:
-        err: np.ndarray = simulate_positions(p, uf, dt, k)[0] - thf
-        return err
-
-    start = np.array([max(a, 1e-6), b, d, thf[0], w0])
-    fit = scipy.optimize.least_squares(residual, start, x_scale="jac", method="lm")
-    p = fit.x
-    dof = max(1, n_fit - len(p))
-    s2 = float(fit.fun @ fit.fun) / dof
-    try:
-        cov = s2 * np.linalg.inv(fit.jac.T @ fit.jac)
-    except np.linalg.LinAlgError as exc:
-        raise IdentificationError(
-            "the output-error fit is singular: the data do not excite the model"
-        ) from exc
-    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    k, coef = _least_squares(uf, thf, dt, max_delay)
+    p, se = _output_error(uf, thf, dt, k, _instrumental(uf, thf, dt, k, coef))
     # held-out fit on speed
     _, w_model = simulate_positions(p, u, dt, k)
     w_meas = np.gradient(theta, dt)

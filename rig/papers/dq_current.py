@@ -23,8 +23,8 @@ Table IV parameters and the gamma of the paper's oscillograms.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, Literal
 
 import numpy as np
 
@@ -42,12 +42,12 @@ from rig.metrics import loop_margins, overshoot
 
 __all__ = [
     "CROSS_GAMMA",
+    "DQ_FIXED",
     "DQ_PARAM_NAMES",
     "PAPER_RATIOS",
     "PRINTED_TABLES",
     "DqStudy",
     "StepRun",
-    "apply_dq_params",
     "cross_coupling",
     "dq_study",
     "step_response",
@@ -96,8 +96,23 @@ class DqStudy:
     strategy: str | None = None
     gamma: float | None = None
     ratio: float | None = None  #: omega_k / omega_s
-    plant: str = "exact"  #: "exact" (29) or "fine" (StationaryRLConverter)
+    plant: Literal["exact", "fine"] = "exact"  #: (29), or the fine model (StationaryRLConverter)
     steps: int = 80
+
+    def __post_init__(self) -> None:
+        if self.strategy is not None:
+            dead_time_fraction(self.strategy)  # ValueError naming the known strategies
+        for name, lower in (("L1", 0.0), ("R1", None), ("gamma", 0.0)):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            ok = math.isfinite(value) and (value >= 0.0 if lower is None else value > lower)
+            if not ok:
+                raise ValueError(
+                    f"{name} must be a finite number {'>= 0' if lower is None else '> 0'}, got {value!r}"
+                )
+        if self.ratio is not None and not 0.0 < self.ratio < 0.5:
+            raise ValueError(f"ratio omega_k/omega_s must be in (0, 1/2) (Nyquist), got {self.ratio!r}")
 
     def strategies(self) -> tuple[str, ...]:
         return (self.strategy,) if self.strategy else tuple(PWM_STRATEGIES)
@@ -110,35 +125,8 @@ class DqStudy:
 
 
 DQ_PARAM_NAMES = ("ratio", "L1", "R1", "gamma", "strategy", "plant")
-
-
-def apply_dq_params(study: DqStudy, overrides: list[str]) -> DqStudy:
-    """Apply ``NAME=VALUE`` overrides; ``ratio`` also takes a fraction such as ``1/27``."""
-    changes: dict[str, Any] = {}
-    for item in overrides:
-        name, sep, text = (s.strip() for s in item.partition("="))
-        if not sep or name not in DQ_PARAM_NAMES:
-            raise ValueError(f"--param {item!r}: unknown name; known: {', '.join(DQ_PARAM_NAMES)}")
-        if name == "strategy":
-            dead_time_fraction(text)
-            changes[name] = text
-        elif name == "plant":
-            if text not in ("exact", "fine"):
-                raise ValueError(f"--param {item!r}: plant is 'exact' or 'fine'")
-            changes[name] = text
-        else:
-            num, slash, den = text.partition("/")
-            try:
-                value = float(num) / float(den) if slash else float(num)
-            except (ValueError, ZeroDivisionError):
-                raise ValueError(f"--param {item!r}: not a number") from None
-            lower = 0.0 if name == "R1" else math.ulp(0.0)
-            if not (math.isfinite(value) and value >= lower):
-                raise ValueError(f"--param {item!r}: must be a finite number {'>=' if lower == 0 else '>'} 0")
-            if name == "ratio" and value >= 0.5:
-                raise ValueError(f"--param {item!r}: ratio omega_k/omega_s must be < 1/2 (Nyquist)")
-            changes[name] = value
-    return replace(study, **changes)
+#: study settings ``--param`` may not set
+DQ_FIXED = ("f_line", "steps")
 
 
 @dataclass

@@ -11,8 +11,8 @@ u_min and u_max over the run (u_max is u(0)).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from controllers.dismc import DISMC, DISMCParams, dismc_lqr_gain
 from controllers.model_following import solve_model_following
 from rig.metrics import rise_time, settling_time
 
-__all__ = ["DismcExample", "DismcRun", "apply_params", "dismc_laws", "run_dismc"]
+__all__ = ["ALIASES", "FIXED", "PARAM_NAMES", "DismcExample", "DismcRun", "dismc_laws", "run_dismc"]
 
 PRINTED_H = (-1.0011, 0.1102)  #: H of (50) as printed
 K_LMI = (-153.6018, -97.1424)  #: K of (55), from the LMI (28)-(29)
@@ -47,8 +47,18 @@ class DismcExample:
     R: float = 1.0  #: (56)
     Ts: float = 0.02  #: sampling period [s]
     amplitude: float = 0.1  #: disturbance amplitude of d(k) = B amplitude sin(k)
-    H: str = "printed"  #: "printed" (50) or "solved" (3)
+    H: Literal["printed", "solved"] = "printed"  #: (50) as printed, or solved from (3)
     steps: int = 300  #: samples simulated (6 s)
+
+    def __post_init__(self) -> None:
+        for name in ("phi", "eta", "varphi", "beta", "mu", "R", "Ts", "amplitude"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be a finite number, got {getattr(self, name)!r}")
+        for name in ("S", "x0", "xm0"):
+            if len(getattr(self, name)) != 2:
+                raise ValueError(f"{name} needs 2 numbers, got {getattr(self, name)!r}")
+        if [len(row) for row in self.Q] != [2, 2]:
+            raise ValueError(f"Q needs 4 numbers (2x2, row-major as 1,0;0,1), got {self.Q!r}")
 
 
 @dataclass
@@ -62,48 +72,10 @@ class DismcRun:
     metrics: dict[str, float] = field(default_factory=dict)
 
 
-_SCALARS = ("phi", "eta", "varphi", "beta", "mu", "R", "Ts", "amplitude")
-_VECTORS = ("S", "x0", "xm0")
-_MATRICES = ("Q",)
-PARAM_NAMES = (*_SCALARS, *_VECTORS, *_MATRICES, "H", "disturbance_amplitude")
-
-
-def _numbers(name: str, text: str) -> list[float]:
-    try:
-        return [
-            float(v) for v in text.replace(";", ",").replace("[", "").replace("]", "").split(",") if v.strip()
-        ]
-    except ValueError:
-        raise ValueError(f"--param {name}={text}: not a list of numbers") from None
-
-
-def apply_params(example: DismcExample, overrides: list[str]) -> DismcExample:
-    """Apply ``NAME=VALUE`` overrides; vectors as ``1,2``, matrices row-major ``1,0;0,1``."""
-    changes: dict[str, Any] = {}
-    for item in overrides:
-        name, sep, text = item.partition("=")
-        name = "amplitude" if name == "disturbance_amplitude" else name.strip()
-        if not sep or name not in PARAM_NAMES:
-            raise ValueError(f"--param {item!r}: unknown name; known: {', '.join(PARAM_NAMES)}")
-        if name in _SCALARS:
-            (value,) = _numbers(name, text) or [math.nan]
-            if not math.isfinite(value):
-                raise ValueError(f"--param {item!r}: not a finite number")
-            changes[name] = value
-        elif name in _VECTORS:
-            changes[name] = tuple(_numbers(name, text))
-            if len(changes[name]) != 2:
-                raise ValueError(f"--param {item!r}: needs 2 numbers")
-        elif name == "Q":
-            flat = _numbers(name, text)
-            if len(flat) != 4:
-                raise ValueError(f"--param {item!r}: Q needs 4 numbers (2x2, row-major)")
-            changes[name] = ((flat[0], flat[1]), (flat[2], flat[3]))
-        else:
-            if text not in ("printed", "solved"):
-                raise ValueError(f"--param {item!r}: H is 'printed' or 'solved'")
-            changes[name] = text
-    return replace(example, **changes)
+#: parameters of the example that ``--param`` may set (the others are the plant of (47)-(48))
+FIXED = ("A", "B", "C", "A_m", "C_m", "steps")
+PARAM_NAMES = ("phi", "eta", "varphi", "beta", "mu", "R", "Ts", "amplitude", "S", "x0", "xm0", "Q", "H")
+ALIASES = {"disturbance_amplitude": "amplitude"}
 
 
 def dismc_laws(example: DismcExample | None = None) -> dict[str, DISMCParams]:

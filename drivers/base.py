@@ -1,0 +1,172 @@
+"""The one contract every axis driver keeps, in the manner of python-can's ``BusABC``.
+
+An axis is one device of a rig seen from the host: a CiA 402 drive, a Modbus
+inverter, a CiA 406 encoder. The host loop knows axes through this contract
+only, never their protocol::
+
+    axis.setup()                  # identity, units, mode, process data; nothing moves
+    axis.enable(timeout=1.0)      # the device follows commands from now on
+    fb = axis.feedback()          # SI: rad, rad/s, N m, A
+    axis.supervise(now)           # raises when the device reports trouble
+    axis.command(u)               # SI, in the unit of the axis's mode
+    axis.quick_stop(); axis.disable()
+    axis.close()                  # idempotent; leaves the device disabled
+
+Every library exception (canopen, pymodbus, python-can, OS) is translated into
+the toolkit's tree (``drivers.errors``) inside the driver, once, with
+``raise ... from``: callers of an axis catch ``RigError`` only.
+"""
+
+from __future__ import annotations
+
+import abc
+import enum
+import logging
+import math
+import warnings
+from dataclasses import dataclass
+from typing import ClassVar
+
+__all__ = ["AXIS_MODES", "AxisDriver", "AxisState", "Feedback"]
+
+log = logging.getLogger(__name__)
+
+#: the command each mode takes, in SI
+AXIS_MODES = {
+    "voltage": "armature voltage [V]",
+    "cst": "torque [N m]",
+    "csv": "speed [rad/s]",
+    "pv": "speed [rad/s]",
+    "csp": "position [rad]",
+    "dq-voltage": "dq voltage u_d + j u_q [V] (complex)",
+    "speed": "speed reference [rad/s]",
+}
+
+
+class AxisState(enum.Enum):
+    """What an axis does, whatever its protocol."""
+
+    DISABLED = "disabled"  #: no torque; may be enabled
+    ENABLED = "enabled"  #: follows the commands
+    STOPPING = "stopping"  #: a quick-stop ramp or fault reaction runs
+    FAULT = "fault"  #: stopped by a fault; needs a reset
+    UNKNOWN = "unknown"  #: the device did not say
+
+
+@dataclass(slots=True)
+class Feedback:
+    """One sample of an axis in SI; NaN where the axis does not measure the quantity."""
+
+    position: float = math.nan  #: [rad]
+    velocity: float = math.nan  #: [rad/s]
+    torque: float = math.nan  #: [N m]
+    current: float = math.nan  #: [A] (|i| for a dq axis)
+    stamp: float | None = None  #: changes with every new sample (receive time [s] or a count)
+    i_dq: complex | None = None  #: dq current [A], dq axes only
+
+
+class AxisDriver(abc.ABC):
+    """Base of every axis driver; see the module docstring.
+
+    Subclasses set ``measures`` (the Feedback fields they fill) and implement the
+    abstract hooks. ``close`` calls ``disable`` once, logs (never raises) a
+    failure, and then ``_release``; it is safe to call twice. An axis that is
+    never closed warns (ResourceWarning) when collected.
+    """
+
+    #: Feedback fields this kind of axis fills
+    measures: frozenset[str] = frozenset()
+    #: what a sample is called in messages ("no TPDO for 3 periods")
+    sample_name: ClassVar[str] = "sample"
+
+    def __init__(self, name: str, mode: str | None) -> None:
+        if mode is not None and mode not in AXIS_MODES:
+            raise ValueError(f"axis {name!r}: unknown mode {mode!r}; known: {', '.join(AXIS_MODES)}")
+        self.name = name  #: the configuration's axis name
+        self.mode = mode  #: what ``command`` takes; None for a feedback-only axis
+        self._closed = False
+
+    @property
+    def commandable(self) -> bool:
+        """True if ``command`` may be called (the axis has a mode)."""
+        return self.mode is not None
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.name!r} {self.where}>"
+
+    @property
+    @abc.abstractmethod
+    def where(self) -> str:
+        """Where the device is, for messages (``node 1``, ``unit 1 at 127.0.0.1:502``)."""
+
+    @abc.abstractmethod
+    def setup(self) -> None:
+        """Check the device's identity, read its units, select the mode, set up process data.
+
+        Leaves the device disabled. Raises ConfigError when the device cannot do
+        what the configuration asks, naming the object or register.
+        """
+
+    @abc.abstractmethod
+    def enable(self, *, timeout: float = 1.0) -> None:
+        """Bring the device to follow commands within ``timeout`` [s]; a zero command is held."""
+
+    @abc.abstractmethod
+    def disable(self) -> None:
+        """Remove torque (voltage off); the device stays configured."""
+
+    @abc.abstractmethod
+    def quick_stop(self) -> None:
+        """Stop with the device's own quick-stop ramp."""
+
+    @abc.abstractmethod
+    def feedback(self) -> Feedback:
+        """The latest sample in SI (from the last process data, or read now)."""
+
+    def command(self, value: float | complex) -> None:
+        """Send ``value`` in the SI unit of the mode (``AXIS_MODES``)."""
+        raise NotImplementedError(f"{self!r} takes no commands")
+
+    def supervise(self, now: float) -> None:  # noqa: B027 - a hook with a default
+        """Raise SafetyStop, DeviceFault or CommunicationError if the device reports trouble.
+
+        Called once per cycle after ``feedback``; ``now`` is the bus clock [s]
+        (the clock of the frames' timestamps). The default checks nothing.
+        """
+
+    @abc.abstractmethod
+    def read_state(self) -> AxisState:
+        """Ask the device for its state (I/O)."""
+
+    @property
+    def fault(self) -> Exception | None:
+        """The last fault the device reported (DeviceFault), or None."""
+        return None
+
+    def _release(self) -> None:  # noqa: B027 - a hook with a default
+        """Release connections and subscriptions (after the device is disabled)."""
+
+    def close(self) -> None:
+        """Disable the device (once; a failure is logged) and release it; safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self.disable()
+        except Exception as exc:  # the device may be gone: closing must not raise
+            log.warning("%s: disabling on close failed: %s", self.where, exc)
+        self._release()
+
+    def __enter__(self) -> AxisDriver:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        if not getattr(self, "_closed", True):
+            warnings.warn(f"{self!r} was never closed", ResourceWarning, stacklevel=2)
+
+    def _forget(self) -> None:
+        """Mark closed without I/O (for an axis whose setup failed before it touched the device)."""
+        self._closed = True

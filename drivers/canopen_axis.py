@@ -1,0 +1,214 @@
+"""What every CANopen axis shares: one node on a canopen ``RemoteNode``, with the toolkit's errors.
+
+``CanopenAxis`` gives its subclasses (the CiA 402 drive, the CiA 406 encoder)
+SDO access that raises ``SdoAbort``/``CommunicationTimeout`` naming the node and
+object, NMT commands, the EMCY consumer (an EMCY with a non-zero code becomes
+the axis's ``fault``), and the per-cycle supervision of NMT state, heartbeat
+and EMCY. Process data are received by ``TpdoSlot``: a plain subscriber that
+keeps the last frame and its timestamp (canopen's ``PdoMap.on_message`` takes a
+lock and notifies waiters on every frame, which the cycle does not need) and
+decodes it with a struct built from the mapping in force.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import struct
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import canopen
+from canopen.emcy import EmcyError
+from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
+
+from drivers.base import AxisDriver
+from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault, SafetyStop, SdoAbort
+from drivers.maps import cia
+from drivers.maps.od import load_od
+
+__all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec"]
+
+log = logging.getLogger(__name__)
+
+
+class TpdoSlot:
+    """The last frame of one TPDO and its decoder (little-endian, per the mapping in force)."""
+
+    __slots__ = ("cob_id", "codec", "data", "node_id", "timestamp")
+
+    def __init__(self, node_id: int, cob_id: int, codec: struct.Struct) -> None:
+        self.node_id = node_id
+        self.cob_id = cob_id
+        self.codec = codec
+        self.data: bytes | bytearray = b""
+        self.timestamp: float | None = None
+
+    def on_frame(self, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
+        self.data = data
+        self.timestamp = timestamp
+
+    def values(self) -> tuple[Any, ...]:
+        """The mapped values of the last frame; CommunicationError naming it when its length is wrong."""
+        data = self.data
+        if len(data) != self.codec.size:
+            raise CommunicationError(
+                f"node {self.node_id}: TPDO 0x{self.cob_id:03X} has {len(data)} bytes, "
+                f"its mapping {self.codec.size}"
+            )
+        return self.codec.unpack(data)
+
+
+def pdo_codec(pdo: Any) -> struct.Struct:
+    """A struct for the variables of canopen PDO map ``pdo`` (CANopen is little-endian)."""
+    formats = []
+    for var in pdo.map:
+        od_struct = var.od.STRUCT_TYPES.get(var.od.data_type)
+        if od_struct is None:
+            raise CommunicationError(f"0x{var.index:04X}:{var.subindex:02X} is not a numeric PDO entry")
+        formats.append(od_struct.format.lstrip("<"))
+    return struct.Struct("<" + "".join(formats))
+
+
+class CanopenAxis(AxisDriver):
+    """An axis on CANopen node ``node_id`` of ``network``, described by the EDS/DCF ``eds``."""
+
+    sample_name = "TPDO"
+    #: SDO response timeout [s] and retries; a test may override them
+    SDO_TIMEOUT = 0.3
+    SDO_RETRIES = 1
+
+    def __init__(
+        self,
+        name: str,
+        mode: str | None,
+        network: canopen.Network,
+        node_id: int,
+        *,
+        eds: str,
+        heartbeat_timeout: float = 0.0,
+    ) -> None:
+        super().__init__(name, mode)
+        if not 1 <= node_id <= 127:
+            raise ValueError(f"axis {name!r}: node id must be 1..127, got {node_id!r}")
+        self.node_id = node_id
+        self.heartbeat_timeout = heartbeat_timeout  #: [s]; 0: not supervised
+        self.network = network
+        self.node: Any = canopen.RemoteNode(node_id, load_od(eds, node_id))
+        self.node.sdo.RESPONSE_TIMEOUT = self.SDO_TIMEOUT
+        self.node.sdo.MAX_RETRIES = self.SDO_RETRIES
+        network.add_node(self.node)
+        self._fault: DeviceFault | None = None
+        self.emcy_log: list[str] = []
+        self.node.emcy.add_callback(self._on_emcy)
+        self._slots: list[TpdoSlot] = []
+
+    @property
+    def where(self) -> str:
+        return f"node {self.node_id}"
+
+    # --- SDO with the toolkit's errors ---------------------------------------------------
+    @contextlib.contextmanager
+    def _sdo(self, what: str, index: int, subindex: int) -> Iterator[None]:
+        """canopen's SDO errors (and an object the EDS lacks) as the toolkit's, naming node and object."""
+        try:
+            yield
+        except SdoAbortedError as exc:
+            raise SdoAbort(what, code=exc.code, node_id=self.node_id, index=index, subindex=subindex) from exc
+        except SdoCommunicationError as exc:
+            raise CommunicationTimeout(
+                f"node {self.node_id}: no SDO answer ({what}, 0x{index:04X}:{subindex:02X})"
+            ) from exc
+        except KeyError as exc:
+            code = cia.SdoAbortCode.NO_SUBINDEX
+            raise SdoAbort(
+                f"{what}: not in the EDS", code=code, node_id=self.node_id, index=index, subindex=subindex
+            ) from exc
+
+    def _entry(self, index: int, subindex: int) -> Any:
+        obj = self.node.sdo[index]
+        return obj[subindex] if subindex or not hasattr(obj, "raw") else obj
+
+    def sdo_read(self, index: int, subindex: int = 0) -> Any:
+        """Read an object by SDO (raw bytes if the EDS lacks it); SdoAbort or CommunicationTimeout."""
+        with self._sdo("SDO upload", index, subindex):
+            if index not in self.node.object_dictionary:
+                return self.node.sdo.upload(index, subindex)
+            return self._entry(index, subindex).raw
+
+    def sdo_write(self, index: int, subindex: int, value: Any) -> None:
+        """Write an object by SDO; SdoAbort or CommunicationTimeout on failure."""
+        with self._sdo(f"SDO download of {value!r}", index, subindex):
+            self._entry(index, subindex).raw = value
+
+    def save_pdos(self, maps: Any, first_index: int) -> None:
+        """``maps.save()`` (canopen PdoMaps) with SDO errors translated."""
+        with self._sdo("PDO mapping", first_index, 0):
+            maps.save()
+
+    # --- NMT, EMCY, heartbeat ----------------------------------------------------------------
+    def nmt(self, state: str) -> None:
+        """Command the node's NMT state (``OPERATIONAL``, ``PRE-OPERATIONAL``, ``STOPPED``)."""
+        self.node.nmt.state = state
+
+    @property
+    def nmt_state(self) -> str:
+        """The node's NMT state as last commanded or reported (heartbeat, boot-up)."""
+        return str(self.node.nmt.state)
+
+    @property
+    def last_heartbeat(self) -> float | None:
+        """Timestamp [s] of the last heartbeat received, or None."""
+        ts = self.node.nmt.timestamp
+        return float(ts) if ts is not None else None
+
+    def _on_emcy(self, err: EmcyError) -> None:
+        text = f"EMCY 0x{err.code:04X} ({err.get_desc() or 'unknown'}), error register 0x{err.register:02X}"
+        self.emcy_log.append(text)
+        if err.code:
+            log.warning("node %d: %s", self.node_id, text)
+            self._fault = DeviceFault(text, device=f"node {self.node_id}", code=err.code)
+
+    @property
+    def fault(self) -> DeviceFault | None:
+        return self._fault
+
+    def clear_fault(self) -> None:
+        self._fault = None
+
+    def supervise(self, now: float) -> None:
+        """EMCY fault, NMT state (must be OPERATIONAL) and heartbeat age (``heartbeat_timeout``)."""
+        if self._fault is not None:
+            raise self._fault
+        state = self.node.nmt.state
+        if state != "OPERATIONAL":
+            raise SafetyStop(f"node {self.node_id}: NMT state {state} (the node reset or was stopped)")
+        timeout = self.heartbeat_timeout
+        if timeout > 0.0:
+            last = self.node.nmt.timestamp
+            if last is not None and now - last > timeout:
+                age = now - last
+                raise SafetyStop(
+                    f"node {self.node_id}: heartbeat lost: none for {age:.3g} s (timeout {timeout:g} s)"
+                )
+
+    # --- process data ---------------------------------------------------------------------------
+    def receive(self, pdo: Any) -> TpdoSlot:
+        """Receive TPDO ``pdo`` (a saved canopen PdoMap) into a slot, instead of canopen's handler."""
+        slot = TpdoSlot(self.node_id, pdo.cob_id, pdo_codec(pdo))
+        if pdo.on_message in self.network.subscribers.get(pdo.cob_id, ()):
+            self.network.unsubscribe(pdo.cob_id, pdo.on_message)
+        self.network.subscribe(pdo.cob_id, slot.on_frame)
+        self._slots.append(slot)
+        return slot
+
+    def tpdo_stamps(self) -> Sequence[float | None]:
+        """Timestamps of the last frame of each received TPDO (the lock-step pacing waits on them)."""
+        return [s.timestamp for s in self._slots]
+
+    def _release(self) -> None:
+        for slot in self._slots:
+            self.network.unsubscribe(slot.cob_id, slot.on_frame)
+        self._slots.clear()
+        if self.node_id in self.network:
+            del self.network[self.node_id]

@@ -1,0 +1,126 @@
+"""PDOs of an emulated node (CiA 301): their configuration in the object dictionary, and the data.
+
+``read_pdo`` reads one PDO's communication (0x1400/0x1800 + n) and mapping
+(0x1600/0x1A00 + n) parameters; ``check_mapping_write`` enforces the mapping
+protocol on an SDO write (CANopenNode ``301/CO_PDO.c`` behaves the same):
+a mapping is written only while the PDO is invalid (COB-ID bit 31) and its
+sub 0 is 0, each mapped object must exist, be mappable and have the mapped
+length, and at most 8 objects of 64 bits in all are enabled. ``pack`` joins
+the stored bytes of a TPDO's objects.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+from canopen.sdo.exceptions import SdoAbortedError
+
+from drivers.maps import cia
+from drivers.maps.cia import (
+    PDO_BLOCK,
+    PDO_INVALID,
+    PDO_MAX_BITS,
+    PDO_MAX_MAPPED,
+    SdoAbortCode,
+    split_map_entry,
+)
+from plant_emulator.od_store import ObjectStore
+
+__all__ = ["MAPPINGS", "PARAMETERS", "PdoConfig", "check_mapping_write", "mappable", "pack", "read_pdo"]
+
+log = logging.getLogger(__name__)
+
+#: object indices of the PDO parameters, and of the mapping parameters among them
+PARAMETERS = range(cia.RPDO_COMM, cia.TPDO_MAP + PDO_BLOCK)
+MAPPINGS = (range(cia.RPDO_MAP, cia.RPDO_MAP + PDO_BLOCK), range(cia.TPDO_MAP, cia.TPDO_MAP + PDO_BLOCK))
+
+
+@dataclass(frozen=True)
+class PdoConfig:
+    """One PDO as configured in the object dictionary."""
+
+    number: int  #: 0-based
+    cob_id: int
+    valid: bool
+    ttype: int  #: transmission type
+    event_timer_ms: int
+    mapping: tuple[tuple[int, int, int], ...]  #: (index, subindex, bits)
+    slices: tuple[tuple[int, int, int, int], ...] = field(init=False)  #: (index, subindex, start, end)
+    size: int = field(init=False)  #: mapped data [bytes]
+
+    def __post_init__(self) -> None:
+        slices, start = [], 0
+        for index, sub, bits in self.mapping:
+            slices.append((index, sub, start, start + bits // 8))
+            start += bits // 8
+        object.__setattr__(self, "slices", tuple(slices))
+        object.__setattr__(self, "size", start)
+
+
+def read_pdo(od: ObjectStore, comm: int, mapping: int, number: int) -> PdoConfig:
+    """PDO ``number`` (0-based) from its communication and mapping parameters."""
+    cob = od.read(comm, cia.PDO_COMM_COB_ID)
+    count = od.read(mapping, 0)
+    return PdoConfig(
+        number,
+        cob & cia.COB_ID_MASK,
+        not (cob & PDO_INVALID),
+        od.read(comm, cia.PDO_COMM_TYPE),
+        od.read(comm, cia.PDO_COMM_EVENT_TIMER),
+        tuple(split_map_entry(od.read(mapping, s)) for s in range(1, count + 1)),
+    )
+
+
+def check_mapping_write(od: ObjectStore, index: int, subindex: int, data: bytes) -> None:
+    """An SDO write of ``data`` to PDO parameter (index, subindex): SdoAbortedError if the
+    mapping protocol forbids it (see the module docstring)."""
+    if not any(index in r for r in MAPPINGS):
+        return
+    if not od.read(index - PDO_BLOCK, cia.PDO_COMM_COB_ID) & PDO_INVALID:
+        raise SdoAbortedError(SdoAbortCode.DEVICE_STATE)
+    if subindex == 0:
+        count = data[0]
+        if count > PDO_MAX_MAPPED:
+            raise SdoAbortedError(SdoAbortCode.VALUE_TOO_HIGH)
+        bits = sum(split_map_entry(od.read(index, s))[2] for s in range(1, count + 1))
+        if bits > PDO_MAX_BITS:
+            raise SdoAbortedError(SdoAbortCode.PDO_LENGTH_EXCEEDED)
+        return
+    if od.read(index, 0) != 0:
+        raise SdoAbortedError(SdoAbortCode.DEVICE_STATE)
+    entry = int.from_bytes(data, "little")
+    if entry == 0:
+        return
+    obj_index, obj_sub, bits = split_map_entry(entry)
+    try:
+        obj = od.obj(obj_index, obj_sub)
+    except SdoAbortedError:
+        raise SdoAbortedError(SdoAbortCode.NOT_MAPPABLE) from None
+    if not obj.pdo_mappable or len(obj) != bits:
+        raise SdoAbortedError(SdoAbortCode.NOT_MAPPABLE)
+
+
+def mappable(od: ObjectStore, pdo: PdoConfig) -> bool:
+    """Every mapped object exists and has the mapped size (an EDS's default mapping may not)."""
+    for index, sub, bits in pdo.mapping:
+        try:
+            size = len(od.obj(index, sub))
+        except SdoAbortedError:
+            size = -1
+        if size != bits:
+            log.warning(
+                "PDO%d maps 0x%04X:%d as %d bits, it has %d: unused", pdo.number + 1, index, sub, bits, size
+            )
+            return False
+    return True
+
+
+def pack(od: ObjectStore, pdo: PdoConfig) -> bytes:
+    """The data of TPDO ``pdo``: its objects' stored bytes."""
+    data = od.data
+    try:
+        return b"".join([data[i][s][: b - a] for i, s, a, b in pdo.slices])
+    except KeyError:  # an object never written: its default
+        raw = od.raw
+        return b"".join([raw(i, s)[: b - a] for i, s, a, b in pdo.slices])

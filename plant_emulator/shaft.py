@@ -1,0 +1,137 @@
+"""The plant behind one or more nodes, advanced exactly once per SYNC period.
+
+A ``Shaft`` is what the nodes on one shaft share: the axis whose model
+integrates the motion (``motion``: a motor with its mechanics, e.g. (3.4) or
+(4.2)) and the torque sources coupled to it (``sources``: a load machine whose
+torque enters the motion's load torque). Drives hand it their commands, with
+the instant each takes effect; encoders read its angle.
+
+Per SYNC k every node on the shaft calls ``sync(node, timestamp)``. The first
+of them advances the period [t_(k-1), t_k] for all: it collects every drive's
+command timeline for that period (``take_timeline``: a synchronous RPDO at
+offset 0, an event RPDO after its latency; a drive whose power stage is off
+gives none and lets its axis coast) and steps the axes piecewise between the
+commands (``run_period``). The others of the same SYNC find the shaft at t_k
+already, so each node latches the state at the SYNC instant, whatever order
+the nodes handle the frame in. The timelines are merged in the order the
+drives were attached, so that order, not the handling order, breaks ties.
+
+A drive built without one (``EmulatedDrive(shaft=None)``) gets a shaft of its
+own: a solo drive and a coupled one step the same way. A node's NMT reset
+leaves the shaft as it is.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+from plant_emulator.axes import Axis
+
+__all__ = ["Shaft", "Timed", "run_period"]
+
+#: a command taking effect ``offset`` [s] into the period: (offset, axis, mode, value SI,
+#: computed one SYNC ago)
+Timed = tuple[float, Axis, int, complex, bool]
+
+
+def _offset(c: Timed) -> float:
+    return c[0]
+
+
+def run_period(
+    advance: Callable[[float, float], None], timeline: list[Timed], t: float, period: float
+) -> None:
+    """Advance [t, t + period] by ``advance(h, t_start)``, applying each command at its offset.
+
+    Commands at equal offsets are applied in the order given (a stable sort). The
+    physics between two commands sees the earlier one held: ZOH, as a drive's
+    modulator holds its reference.
+    """
+    done = 0.0
+    if timeline:
+        if len(timeline) > 1:
+            timeline = sorted(timeline, key=_offset)
+        for offset, axis, mode, value, one_ago in timeline:
+            advance(offset - done, t + done)
+            axis.set_command(mode, value, computed_one_sync_ago=one_ago)
+            done = offset
+    advance(period - done, t + done)
+
+
+class Coupled(Protocol):
+    """A drive on a shaft: it gives its command timeline of the period just ended."""
+
+    def take_timeline(self) -> list[Timed]: ...
+
+
+class Shaft:
+    """See the module docstring; ``period`` [s] is the SYNC period every period is advanced by.
+
+    ``sources`` are advanced before ``motion`` over each piece of a period, so the
+    torque they apply over it is known when the motion integrates it.
+    """
+
+    def __init__(self, motion: Axis, *, sources: Sequence[Axis] = (), period: float) -> None:
+        if not (math.isfinite(period) and period > 0.0):
+            raise ValueError(f"period must be > 0 s, got {period!r}")
+        self.motion = motion
+        self.sources = tuple(sources)
+        self.axes = (*self.sources, motion)
+        self.period = period
+        #: True: time is the SYNC count times the period (lock-step across processes, where a
+        #: frame's arrival time is scheduling noise); False: the SYNC's timestamp
+        self.lockstep = False
+        self.syncs = 0  #: SYNCs seen; the shaft has been advanced syncs - 1 periods
+        self.t = 0.0  #: time of the latest SYNC [s]
+        self._drives: list[Coupled] = []
+        self._seen: set[int] = set()
+        self._stamp: float | None = None
+        self._step = motion.advance if not self.sources else self._step_all
+
+    def attach(self, drive: Coupled) -> None:
+        """Take ``drive``'s commands into every period from now on."""
+        self._drives.append(drive)
+
+    @property
+    def position(self) -> float:
+        """Shaft angle [rad]."""
+        return self.motion.position
+
+    @property
+    def velocity(self) -> float:
+        """Shaft speed [rad/s]."""
+        return self.motion.velocity
+
+    def sync(self, node: object, timestamp: float) -> bool:
+        """``node`` handles a SYNC stamped ``timestamp`` [s]: the shaft is brought to it.
+
+        A SYNC is new when its timestamp differs from the latest one's, or when ``node``
+        has handled the latest one already; a new SYNC advances the period ending at it
+        (none before the first). True when this call advanced the shaft.
+        """
+        key = id(node)
+        if timestamp == self._stamp and key not in self._seen:
+            self._seen.add(key)
+            return False
+        self._seen = {key}
+        self._stamp = timestamp
+        self.syncs += 1
+        now = self.syncs * self.period if self.lockstep else timestamp
+        if self.syncs > 1:
+            self._advance(self.t)
+        self.t = now
+        return True
+
+    def _advance(self, t: float) -> None:
+        drives = self._drives
+        if len(drives) == 1:
+            timeline = drives[0].take_timeline()
+        else:
+            timeline = [c for d in drives for c in d.take_timeline()]
+        run_period(self._step, timeline, t, self.period)
+
+    def _step_all(self, h: float, t: float) -> None:
+        for axis in self.axes:
+            axis.advance(h, t)

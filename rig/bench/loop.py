@@ -1,0 +1,199 @@
+"""``rig bench loop``: the whole chain per cycle, against the bare protocol exchange.
+
+Lock-step, in this process, each the median of ``repeats`` runs:
+
+- ``lockstep_cycles_per_s``: the section VII.B servo (``rig demo``'s configuration:
+  law, CiA 402 driver, canopen, emulated drive, physics, recorder and CAN trace);
+- ``lockstep_dyno_cycles_per_s``: ``examples/dyno_speed_load.toml`` (three nodes,
+  two commanded, one read);
+- ``canopen_baseline_cycles_per_s``: one SYNC, one TPDO and one RPDO per cycle
+  between a canopen ``RemoteNode`` and a ``LocalNode`` on the same synchronous
+  in-process bus, one value decoded on each side, and nothing else: no drive-rig
+  driver, no physics, no recording;
+- ``lockstep_vs_canopen_ratio``: the first over the third.
+
+Real time: a 1 kHz loop against ``rig emulate`` in another process over
+socketcand (127.0.0.1): period error, overruns, the longest TPDO gap, steal time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+import os
+import re
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import canopen
+
+from drivers.maps import CIA402_EDS, cia
+from plant_emulator.lockstep import SyncHub, attach_network
+from rig.bench.micro import Figure, rate
+from rig.config import BusConfig, RigConfig, load_config, replace_axis
+from rig.demo import demo_config
+from rig.host.session import Session
+from rig.process import spawn_rig, stop_rig
+
+__all__ = ["DYNO_EXAMPLE", "bench_loop", "canopen_baseline", "lockstep_rate"]
+
+DYNO_EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "dyno_speed_load.toml"
+
+
+def lockstep_rate(cfg: RigConfig, seconds: float) -> float:
+    """Cycles/s of one lock-step run of ``cfg`` (emulated) for ``seconds`` of run time."""
+    with Session(cfg, emulate=True, duration=seconds) as session:
+        session.start()
+        summary = session.run()
+    if summary["safe_stop_reason"]:
+        raise RuntimeError(f"the benchmark run stopped: {summary['safe_stop_reason']}")
+    return float(summary["cycles"] / summary["elapsed_s"])
+
+
+def canopen_baseline(cycles: int = 20_000, repeats: int = 3) -> float:
+    """Cycles/s of the bare exchange (see the module docstring); the best of ``repeats``.
+
+    Per cycle, through canopen's generic PDO path on both sides: the host sends SYNC; the
+    device packs TPDO2 (position, velocity) from its object dictionary and sends it; the host
+    decodes both values (``PdoVariable.raw``), encodes RPDO1 (controlword, target) and sends
+    it; the device writes both values into its object dictionary.
+    """
+    hub = SyncHub()
+    host, device = canopen.Network(), canopen.Network()
+    attach_network(host, hub.bus(queue=False, channel="host"))
+    attach_network(device, hub.bus(queue=False, channel="device"))
+    remote, local = canopen.RemoteNode(1, CIA402_EDS), canopen.LocalNode(1, CIA402_EDS)
+    host.add_node(remote)
+    device.add_node(local)
+    for maps in (remote.tpdo, remote.rpdo, local.tpdo, local.rpdo):
+        maps.read(from_od=True)  # type: ignore[no-untyped-call]
+    tpdo, received, sent = local.tpdo[2], remote.tpdo[2], remote.rpdo[1]
+    applied = local.rpdo[1]
+    sent.data = bytearray(6)
+
+    def on_sync(can_id: int, data: bytearray, ts: float) -> None:
+        tpdo.data = bytearray(b"".join(local.get_data(v.index, v.subindex) for v in tpdo.map))
+        tpdo.transmit()
+
+    def on_rpdo(can_id: int, data: bytearray, ts: float) -> None:
+        for v in applied.map:
+            local.set_data(v.index, v.subindex, v.get_data())
+
+    device.subscribe(cia.COB_SYNC, on_sync)
+    device.subscribe(applied.cob_id, on_rpdo)  # after canopen's own handler, which stores the frame
+
+    def cycle() -> None:
+        hub.clock += 1e-3
+        host.sync.transmit()
+        position, velocity = (v.raw for v in received.map)
+        sent[0].raw, sent[1].raw = 0x0F, position - velocity
+        sent.transmit()
+
+    try:
+        return rate(cycle, cycles, repeats)
+    finally:
+        for net in (host, device):
+            if net.bus is not None:
+                net.bus.shutdown()
+
+
+def _lockstep(out: str, seconds: float, repeats: int) -> list[Figure]:
+    servo = demo_config(out)
+    dyno = dataclasses.replace(load_config(DYNO_EXAMPLE), run=dataclasses.replace(servo.run, name="dyno"))
+    one = [lockstep_rate(servo, seconds) for _ in range(repeats)]
+    three = [lockstep_rate(dyno, seconds) for _ in range(repeats)]
+    base = canopen_baseline()
+    one_axis = statistics.median(one)
+    return [
+        {"name": "lockstep_cycles_per_s", "value": round(one_axis), "unit": "cycles/s"},
+        {
+            "name": "lockstep_cycles_per_s_min_max",
+            "value": f"{min(one):.0f}-{max(one):.0f}",
+            "unit": "cycles/s",
+        },
+        {"name": "lockstep_dyno_cycles_per_s", "value": round(statistics.median(three)), "unit": "cycles/s"},
+        {"name": "lockstep_dyno_min_max", "value": f"{min(three):.0f}-{max(three):.0f}", "unit": "cycles/s"},
+        {"name": "canopen_baseline_cycles_per_s", "value": round(base), "unit": "cycles/s"},
+        {"name": "lockstep_vs_canopen_ratio", "value": round(one_axis / base, 3), "unit": ""},
+    ]
+
+
+def _steal_jiffies() -> int | None:
+    """Total steal time of this machine's CPUs [jiffies] from /proc/stat (None where unknown)."""
+    try:
+        with open("/proc/stat") as f:
+            fields = f.readline().split()
+        return int(fields[8]) if fields[0] == "cpu" and len(fields) > 8 else None
+    except OSError:
+        return None
+
+
+def _realtime(out: str, seconds: float) -> list[Figure]:
+    proc, line = spawn_rig(
+        "emulate", "--preset", "dc-servo", "--param", "period=0.001", "--socketcand-port", "0"
+    )
+    try:
+        match = re.search(r":(\d+);", line)
+        if match is None:
+            raise RuntimeError("rig emulate did not start")
+        cfg = demo_config(out)
+        rt = dataclasses.replace(
+            cfg,
+            reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),  # hold: timing only
+            run=dataclasses.replace(cfg.run, time="realtime", period=0.001),
+            bus=BusConfig(interface="socketcand", channel="can0", port=int(match.group(1))),
+        )
+        rt = replace_axis(rt, "motor", limits={"watchdog_periods": 1000})
+        steal0 = _steal_jiffies()
+        arrivals: list[float] = []
+        with Session(rt, emulate=False, duration=seconds) as session:
+            session.start()
+            session.network.subscribe(
+                cia.COB_TPDO[1] + 1, lambda can_id, data, ts: arrivals.append(time.perf_counter())
+            )
+            summary = session.run()
+        steal1 = _steal_jiffies()
+    finally:
+        stop_rig(proc, timeout=10)
+    timing = summary["timing"]
+    gaps = [b - a for a, b in itertools.pairwise(arrivals)]
+    steal = (
+        (steal1 - steal0) / os.sysconf("SC_CLK_TCK") * 1e3
+        if steal0 is not None and steal1 is not None
+        else math.nan
+    )
+    figures: list[Figure] = [
+        {
+            "name": f"realtime_1khz_period_error_{name}",
+            "value": round(timing.get(key, math.nan), 1),
+            "unit": "us",
+        }
+        for key, name in (
+            ("period_error_median_us", "median"),
+            ("period_error_p99_us", "p99"),
+            ("period_error_max_us", "max"),
+        )
+    ]
+    return [
+        *figures,
+        {"name": "realtime_1khz_overruns", "value": summary["overruns"], "unit": "cycles"},
+        {
+            "name": "realtime_1khz_max_tpdo_gap",
+            "value": round(max(gaps, default=math.nan) * 1e3, 2),
+            "unit": "ms",
+        },
+        {"name": "realtime_1khz_cycles", "value": summary["cycles"], "unit": "cycles"},
+        {"name": "realtime_1khz_safe_stop", "value": summary["safe_stop_reason"] or "none", "unit": ""},
+        {"name": "machine_steal_time_during_realtime", "value": round(steal, 1), "unit": "ms"},
+    ]
+
+
+def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0, repeats: int = 3) -> list[Figure]:
+    """The full chain per cycle: lock-step cycles/s (one axis, the dyno, the bare canopen exchange)
+    and a 1 kHz real-time loop against rig emulate in another process."""
+    with tempfile.TemporaryDirectory() as out:
+        figures = _lockstep(out, lockstep_s, repeats)
+        return figures + _realtime(out, realtime_s)

@@ -1,0 +1,64 @@
+"""The ``rig`` command line: ``main(argv=None) -> int``; one module per subcommand.
+
+Each subcommand module has ``add_parser(sub)``, which adds its parser and sets
+its handler with ``set_defaults(handler=...)``. Only this module configures
+logging. Exit codes: 0 done, 1 a failure of the rig (communication, device),
+2 a bad argument or configuration, 3 a safety stop, 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from collections.abc import Sequence
+from importlib.metadata import PackageNotFoundError, version
+
+from drivers.errors import ConfigError, RigError
+from rig.cli import bench, demo, design, emulate, faults, identify, reproduce, run, scan
+from rig.cli.common import EXIT_USAGE, Parser, UsageError
+
+__all__ = ["main"]
+
+SUBCOMMANDS = (demo, design, reproduce, run, identify, scan, emulate, faults, bench)
+
+
+def _version() -> str:
+    try:
+        return version("drive-rig")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
+def build_parser() -> Parser:
+    parser = Parser(prog="rig", description="drive-rig: electrical-drive lab rig toolkit.")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages to stderr")
+    parser.add_argument("--version", action="version", version=f"rig {_version()}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for module in SUBCOMMANDS:
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``rig`` command line; returns the process exit code."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        logging.basicConfig(
+            level=logging.DEBUG if args.verbose else logging.WARNING,
+            stream=sys.stderr,
+            format="%(levelname)s %(name)s: %(message)s",
+        )
+        return int(args.handler(args))
+    except UsageError as exc:
+        print(str(exc), file=sys.stderr)
+        return EXIT_USAGE
+    except ConfigError as exc:
+        print(f"rig: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except RigError as exc:
+        print(f"rig: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("rig: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,97 @@
+"""What every subcommand of ``rig`` shares: the usage error, number options, --json, --param, bus options.
+
+Conventions: ``--help`` on every level; ``--json`` prints one JSON document on
+stdout and nothing else there; a bad argument gives one line on stderr naming
+it and exit code 2; a safety stop exits 3.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from collections.abc import Sequence
+from typing import Any, NoReturn
+
+from drivers.errors import ConfigError
+from rig.params import parse_items, typed_values
+
+__all__ = [
+    "EXIT_STOPPED",
+    "EXIT_USAGE",
+    "Parser",
+    "UsageError",
+    "add_bus_arguments",
+    "add_json",
+    "add_params",
+    "finite",
+    "json_clean",
+    "params_of",
+    "print_json",
+]
+
+EXIT_USAGE = 2
+EXIT_STOPPED = 3
+
+
+class UsageError(Exception):
+    """A command-line argument is wrong; the message names it."""
+
+
+class Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line, raised instead of exiting."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def finite(text: str) -> float:
+    """An argparse type: a finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
+
+
+def add_json(parser: argparse.ArgumentParser, what: str = "print one JSON document") -> None:
+    parser.add_argument("--json", action="store_true", help=what)
+
+
+def add_params(parser: argparse.ArgumentParser, help: str, *, flag: str = "--param") -> None:
+    """A repeatable ``--param NAME=VALUE`` (or ``flag``) option."""
+    parser.add_argument(flag, action="append", default=[], metavar="NAME=VALUE", help=help)
+
+
+def params_of(items: Sequence[str], schema: type, source: str, **kw: Any) -> dict[str, Any]:
+    """``--param`` items typed against ``schema`` (``rig.params.typed_values``); UsageError when bad."""
+    try:
+        return typed_values(schema, parse_items(items, source), source, **kw)
+    except ConfigError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options that open a CAN bus (python-can interface and channel, socketcand address)."""
+    group = parser.add_argument_group("CAN bus")
+    group.add_argument("--interface", help="python-can interface (e.g. socketcan, socketcand, pcan)")
+    group.add_argument("--channel", help="python-can channel (e.g. vcan0, can0)")
+    group.add_argument("--host", default="127.0.0.1", help="socketcand host (default 127.0.0.1)")
+    group.add_argument("--port", type=int, default=29536, help="socketcand port (default 29536)")
+
+
+def json_clean(value: Any) -> Any:
+    """``value`` with non-finite floats as null (JSON has no inf or NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: json_clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_clean(v) for v in value]
+    return value
+
+
+def print_json(value: Any) -> None:
+    print(json.dumps(json_clean(value)))

@@ -1,0 +1,107 @@
+"""``rig identify``: a_m, b_m of (3.5) from a PRBS (or step) experiment on the drive, or from a run log."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from rig.cli.common import EXIT_STOPPED, UsageError, add_json, add_params, finite, print_json
+from rig.params import parse_items
+
+__all__ = ["add_parser"]
+
+
+def add_parser(sub: Any) -> None:
+    ident = sub.add_parser(
+        "identify",
+        help="identify a_m, b_m of (3.5) from a PRBS experiment on the drive, or from a run log",
+        description="Replays u = u0 + amplitude prbs(t) (or steps) in voltage mode on the axis the "
+        "configuration's law commands, through the session like any rig run, and estimates (3.5) with "
+        "a delay and an offset (rig/identify/estimate.py).",
+    )
+    source = ident.add_mutually_exclusive_group(required=True)
+    source.add_argument("--config", metavar="FILE", help="the rig configuration (bus, axis, limits)")
+    source.add_argument("--emulate", metavar="PRESET", help="run the experiment on an in-process preset")
+    source.add_argument("--from-log", metavar="RUN_DIR", help="estimate from a recorded run directory")
+    add_params(ident, "a parameter of the --emulate preset (e.g. plant.a_m=23.5)")
+    ident.add_argument("--excitation", choices=("prbs", "steps"), default="prbs")
+    ident.add_argument("--duration", type=finite, default=5.0, help="experiment length [s]")
+    ident.add_argument("--seed", type=int, default=0, help="PRBS seed")
+    ident.add_argument("--u0", type=finite, default=3.0, help="operating point [V] (speed of one sign)")
+    ident.add_argument("--amplitude", type=finite, default=2.0, help="excitation amplitude [V], < u0")
+    ident.add_argument("--clock", type=finite, default=0.02, help="PRBS bit time [s], a few times < 1/a_m")
+    add_json(ident, "print one JSON object")
+    ident.add_argument("--plot", metavar="FILE", help="write measured and model speed to FILE")
+    ident.set_defaults(handler=run)
+
+
+def _experiment(args: argparse.Namespace) -> str | None:
+    """Run the experiment; its run directory, or None after a safe stop."""
+    from plant_emulator.presets import preset_period
+    from rig.config import load_config
+    from rig.demo import demo_config
+    from rig.host.emulation import preset_params
+    from rig.identify import excitation
+    from rig.identify.experiment import experiment_config, run_experiment, terminal_progress
+
+    if not 0.0 < args.amplitude < args.u0:
+        raise UsageError(f"rig identify: need 0 < --amplitude ({args.amplitude:g}) < --u0 ({args.u0:g})")
+    if args.emulate:
+        where = "rig identify: --param"
+        params = preset_params(
+            args.emulate, parse_items(args.param, where), f"rig identify: --emulate {args.emulate}"
+        )
+        base, period = demo_config(), preset_period(args.emulate, params)
+    else:
+        if args.param:
+            raise UsageError("rig identify: --param sets a parameter of the --emulate preset")
+        base = load_config(args.config)
+        period, params = base.run.period, None
+        if period <= 0.0:
+            raise UsageError(f"rig identify: {args.config}: [run] period must be set")
+    u = excitation(
+        args.excitation,
+        u0=args.u0,
+        amplitude=args.amplitude,
+        clock=args.clock,
+        dt=period,
+        duration=args.duration,
+        seed=args.seed,
+    )
+    cfg = experiment_config(base, u, preset=args.emulate, params=params)
+    summary = run_experiment(cfg, emulate=bool(args.emulate), progress=terminal_progress)
+    if sys.stderr.isatty():
+        sys.stderr.write("\n")
+    if summary["safe_stop_reason"]:
+        print(f"rig identify: the experiment stopped: {summary['safe_stop_reason']}", file=sys.stderr)
+        return None
+    return str(summary["run_dir"])
+
+
+def run(args: argparse.Namespace) -> int:
+    from rig.identify import IdentificationError
+    from rig.identify.experiment import identify_from_log
+
+    try:
+        run_dir = args.from_log or _experiment(args)
+        if run_dir is None:
+            return EXIT_STOPPED
+        result = identify_from_log(run_dir)
+    except IdentificationError as exc:
+        raise UsageError(f"rig identify: {exc}") from exc
+    if args.plot:
+        from rig.plots import plot_identify
+
+        plot_identify(run_dir, result, args.plot)
+    if args.json:
+        print_json({**result.as_dict(), "run_dir": str(run_dir)})
+        return 0
+    r = result
+    print(f"identified (3.5) from {r.samples} samples at T = {r.dt:g} s ({run_dir}):")
+    for name, unit in (("a_m", "1/s"), ("b_m", "rad/(V s^2)")):
+        value, err, (low, high) = getattr(r, name), getattr(r, f"{name}_stderr"), getattr(r, f"{name}_ci95")
+        print(f"  {name} = {value:.5g} {unit}, stderr {err:.2g}, 95 %: {low:.5g} .. {high:.5g}")
+    print(f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2")
+    print(f"  fit on held-out data {r.fit_percent:.1f} %")
+    return 0

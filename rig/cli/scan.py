@@ -1,0 +1,77 @@
+"""``rig scan``: the CANopen nodes on a bus (or on an in-process emulator preset)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from rig.cli.common import UsageError, add_bus_arguments, add_json, finite
+
+__all__ = ["add_parser"]
+
+
+def add_parser(sub: Any) -> None:
+    scan = sub.add_parser(
+        "scan",
+        help="list the CANopen nodes on a bus",
+        description="Finds the nodes that answer an SDO upload of 0x1000 or send heartbeats, and lists "
+        "node id, NMT state, device type, profile, vendor and product name.",
+    )
+    add_bus_arguments(scan)
+    scan.add_argument("--emulate", metavar="PRESET", help="scan an in-process emulator preset instead")
+    scan.add_argument("--listen", type=finite, default=1.1, help="seconds to listen for heartbeats")
+    add_json(scan, "print a list of JSON objects")
+    scan.set_defaults(handler=run)
+
+
+def _emulated(preset: str, seconds: float) -> list[dict[str, Any]]:
+    from plant_emulator.lockstep import LockstepBench
+    from rig.scan import scan
+
+    try:
+        bench = LockstepBench(preset)
+    except ValueError as exc:
+        raise UsageError(f"rig scan: --emulate {preset}: {exc}") from exc
+
+    def listen() -> None:  # advance emulated time by ``seconds``
+        for k in range(1, round(seconds / bench.period) + 1):
+            for d in bench.devices:
+                d.tick(k * bench.period)
+
+    try:
+        return scan(bench.host, listen=listen)
+    finally:
+        bench.close()
+
+
+def _on_bus(args: argparse.Namespace) -> list[dict[str, Any]]:
+    import canopen
+
+    from drivers.bus import open_bus
+    from rig.scan import scan, wall_listen
+
+    if not (args.interface and (args.channel or args.interface == "socketcand")):
+        raise UsageError("rig scan: give --interface and --channel, or --emulate PRESET")
+    extra = {"host": args.host, "port": args.port} if args.interface == "socketcand" else {}
+    network = canopen.Network(open_bus(args.interface, args.channel or "can0", **extra))
+    network.connect()
+    try:
+        return scan(network, listen=wall_listen(args.listen))
+    finally:
+        network.disconnect()
+
+
+def run(args: argparse.Namespace) -> int:
+    rows = _emulated(args.emulate, args.listen) if args.emulate else _on_bus(args)
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(f"{'node':>4s}  {'NMT state':16s} {'device type':12s} {'profile':18s} {'vendor':11s} product")
+    for r in rows:
+        product = r.get("product_name", r.get("error", ""))
+        print(
+            f"{r['node_id']:>4d}  {r['nmt_state']:16s} {r.get('device_type', '-'):12s} "
+            f"{r.get('profile', '-'):18s} {r.get('vendor_id', '-'):11s} {product}"
+        )
+    return 0

@@ -1,0 +1,58 @@
+"""Axis drivers from the configuration: ``kind`` -> builder, each importing its driver when used.
+
+Like python-can's interface table: a Modbus-only rig never imports canopen's
+drivers, and a CANopen rig never imports pymodbus.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from typing import Any
+
+from drivers.base import AxisDriver
+from drivers.maps import CIA402_EDS, CIA406_EDS
+from rig.config import AxisConfig
+
+__all__ = ["AXIS_DRIVERS", "open_axis"]
+
+#: ``[[axis]] kind`` -> (module, class)
+AXIS_DRIVERS = {
+    "cia402": ("drivers.cia402", "Cia402Axis"),
+    "cia406": ("drivers.cia406", "Cia406Axis"),
+    "modbus": ("drivers.modbus_inverter", "ModbusInverterAxis"),
+}
+
+
+def _units(a: AxisConfig) -> dict[str, float]:
+    u = a.units
+    return {
+        k: float(v)
+        for k, v in (
+            ("counts_per_rev", u.counts_per_rev),
+            ("rated_torque", u.rated_torque),
+            ("rated_current", u.rated_current),
+        )
+        if v
+    }
+
+
+def _arguments(a: AxisConfig, network: Any, period: float) -> tuple[tuple[Any, ...], dict[str, Any]]:
+    hb = a.limits.heartbeat_timeout
+    if a.kind == "cia402":
+        kw = {"mode": a.mode, "eds": a.eds or CIA402_EDS, "units": _units(a), "sync_rpdo": a.sync_rpdo}
+        kw |= {"latency": a.latency, "heartbeat_timeout": hb}
+        return (a.name, network, a.node_id), kw
+    if a.kind == "cia406":
+        kw = {"period": period, "eds": a.eds or CIA406_EDS, "heartbeat_timeout": hb}
+        return (a.name, network, a.node_id), kw | {"speed_from_position": a.speed_from_position}
+    kw = {"unit": a.unit, "host": a.host or None, "port": a.port, "serial": a.serial or None}
+    return (a.name, a.map), kw | {"baudrate": a.baudrate}
+
+
+def open_axis(a: AxisConfig, *, network: Any, period: float) -> AxisDriver:
+    """The driver of axis ``a`` (nothing is sent yet); CANopen axes join ``network``."""
+    module, name = AXIS_DRIVERS[a.kind]
+    cls: Callable[..., AxisDriver] = getattr(importlib.import_module(module), name)
+    args, kwargs = _arguments(a, network, period)
+    return cls(*args, **kwargs)

@@ -1,0 +1,147 @@
+"""The emulated world of a ``--emulate`` run, in this process.
+
+The configured preset on the in-process lock-step bus (``plant_emulator.lockstep``),
+an emulated Modbus inverter for every Modbus axis (TCP on 127.0.0.1, or RTU over a
+pseudo-terminal pair when the axis names a serial device), and the fault
+injector of ``[faults]``. The host's canopen network is ``network``; Modbus axes
+are pointed at their inverters by ``endpoint``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+import canopen
+
+from drivers.errors import ConfigError
+from drivers.maps import modbus_map
+from plant_emulator.faults import FaultInjector, FaultPlan
+from plant_emulator.lockstep import LockstepBench
+from plant_emulator.presets import PRESETS
+from rig.config import AxisConfig, RigConfig
+from rig.params import field_types, typed_values
+
+__all__ = ["Emulation", "preset_params"]
+
+#: the fields of FaultsConfig that the emulator injects (the others are host-side)
+EMULATOR_FAULTS = tuple(f.name for f in dataclasses.fields(FaultPlan))
+#: modbus model fields that are not parameters
+_MODEL_FIXED = ("regmap", "load")
+
+
+def preset_params(name: str, params: dict[str, Any], source: str) -> dict[str, Any]:
+    """``params`` typed against the preset ``name``'s parameters; ConfigError naming the bad one."""
+    if name not in PRESETS:
+        raise ConfigError(f"{source}: unknown preset {name!r}; known: {', '.join(PRESETS)}")
+    schema = PRESETS[name]
+    aliases = {f"plant.{k}": k for k in field_types(schema)}
+    return typed_values(schema, params, source, aliases=aliases)
+
+
+class Emulation:
+    """See the module docstring; ``close`` stops everything it started."""
+
+    def __init__(self, cfg: RigConfig) -> None:
+        src = cfg.source
+        #: lock-step: the inverters' physics is stepped by the host; real time: on the wall clock
+        self._dt = None if cfg.run.time == "lockstep" else 0.005
+        self.bench: LockstepBench | None = None
+        self.injector: FaultInjector | None = None
+        self.inverters: dict[str, tuple[Any, Any]] = {}  #: axis name -> (InverterModel, InverterServer)
+        self._links: list[Any] = []
+        self._endpoints: dict[str, dict[str, Any]] = {}
+        period = cfg.run.period
+        preset = cfg.emulator.preset
+        canopen_axes = [a.name for a in cfg.axes if a.kind != "modbus"]
+        if preset:
+            params = preset_params(preset, cfg.emulator.params, f"{src}: [emulator.params]")
+            try:
+                self.bench = LockstepBench(preset, params)
+            except ValueError as exc:
+                raise ConfigError(f"{src}: [emulator] preset {preset}: {exc}") from exc
+            period = period or self.bench.period
+        elif canopen_axes:
+            raise ConfigError(f"{src}: --emulate needs [emulator] preset for the CANopen axes {canopen_axes}")
+        if not period > 0.0:
+            raise ConfigError(f"{src}: [run] period must be set (> 0 s): no preset gives one")
+        self.period = period
+        self.network: Any = self.bench.host if self.bench else canopen.Network()
+        try:
+            for a in cfg.axes:
+                if a.kind == "modbus":
+                    self._start_inverter(cfg, a)
+            self._inject(cfg)
+        except BaseException:
+            self.close()
+            raise
+
+    def _start_inverter(self, cfg: RigConfig, a: AxisConfig) -> None:
+        from plant_emulator.modbus_inverter import InverterModel, InverterServer
+        from plant_emulator.pty_link import PtyLink
+
+        where = f"{cfg.source}: [emulator.inverter]"
+        values = typed_values(InverterModel, cfg.emulator.inverter, where, fixed=_MODEL_FIXED)
+        try:
+            model = InverterModel(modbus_map(a.map), **values)
+        except ValueError as exc:
+            raise ConfigError(f"{where}: {exc}") from exc
+        if a.serial:  # RTU: the inverter on one end of a pty pair, the axis on the other
+            link = PtyLink()
+            self._links.append(link)
+            server = InverterServer(model, serial=link.port_b, baudrate=a.baudrate, unit=a.unit, dt=self._dt)
+            self._endpoints[a.name] = {"serial": link.port_a, "host": ""}
+        else:
+            server = InverterServer(model, unit=a.unit, dt=self._dt)
+        server.start()
+        if not a.serial:
+            self._endpoints[a.name] = {"host": "127.0.0.1", "port": server.port, "serial": ""}
+        self.inverters[a.name] = (model, server)
+
+    def _inject(self, cfg: RigConfig) -> None:
+        plan = FaultPlan(**{k: getattr(cfg.faults, k) for k in EMULATOR_FAULTS})
+        if plan.active:
+            if self.bench is None:
+                raise ConfigError(f"{cfg.source}: [faults] of the CAN bus need a CANopen [emulator] preset")
+            self.injector = FaultInjector(plan, self.bench.hub, self.bench.devices[0])
+
+    def endpoint(self, a: AxisConfig) -> AxisConfig:
+        """``a`` pointed at its emulated device."""
+        return dataclasses.replace(a, **self._endpoints.get(a.name, {}))
+
+    @property
+    def sync(self) -> Callable[[], None] | None:
+        return self.bench.sync if self.bench else None
+
+    @property
+    def steppers(self) -> list[Callable[[float], None]]:
+        """The in-process Modbus inverters' physics, stepped one period per cycle in lock-step."""
+        if self._dt is not None:
+            return []
+        return [model.step for model, _ in self.inverters.values()]
+
+    @property
+    def devices(self) -> list[Any]:
+        return self.bench.devices if self.bench else []
+
+    def add_tap(self, tap: Callable[[Any], None]) -> None:
+        if self.bench is not None:
+            self.bench.hub.taps.append(tap)
+
+    def remove_tap(self, tap: Callable[[Any], None]) -> None:
+        if self.bench is not None and tap in self.bench.hub.taps:
+            self.bench.hub.taps.remove(tap)
+
+    def close(self) -> None:
+        """Stop the inverters, the fault injector and the bus (idempotent)."""
+        for _, server in self.inverters.values():
+            server.stop()
+        for link in self._links:
+            link.close()
+        self._links.clear()
+        if self.injector is not None:
+            self.injector.shutdown()
+            self.injector = None
+        if self.bench is not None:
+            self.bench.close()

@@ -1,0 +1,342 @@
+"""The SYNC-driven host loop of ARCHITECTURE.md: every axis of the rig, one law, one safe-stop path.
+
+Each cycle: ``pacing.tick()`` (the SYNC), then for every axis its feedback in
+SI, its own supervision (EMCY, NMT, heartbeat, statusword, ...) and its guard
+(watchdog, NaN, limits); then the law runs once on the axes it reads; every
+command (the law's, and the time profiles of profile axes) is checked against
+its axis's limits and only then all are written; the sample is recorded. Two
+time modes, same code path: lock-step (as fast as possible, deterministic) and
+real time (absolute deadlines on the monotonic clock, a short spin before each
+deadline, garbage collection frozen, missed cycles skipped and counted).
+
+Every way out (a limit, the watchdog, a lost heartbeat, an EMCY, a NaN or an
+exception from the law, Ctrl-C) goes through ``safe_stop``: zero command,
+quick stop, disable, on every axis. The loop does not close the recorder: the
+session does, after it has stopped the frames that feed the trace.
+"""
+
+from __future__ import annotations
+
+import collections
+import functools
+import gc
+import logging
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from drivers.base import AxisDriver, Feedback
+from drivers.errors import DeviceFault, RigError, SafetyStop
+from rig.host.pacing import Pacing
+from rig.host.recorder import Recorder
+from rig.host.safety import AxisGuard
+from rig.laws.base import Law
+
+__all__ = ["HostLoop", "StageTimes"]
+
+log = logging.getLogger(__name__)
+
+#: Feedback fields recorded per axis, in this order
+FIELDS = ("position", "velocity", "torque", "current")
+
+
+def _scalar(value: float | complex) -> float:
+    """A command as recorded: itself, or the magnitude of a complex (dq) one."""
+    return abs(value) if isinstance(value, complex) else value
+
+
+class _Window(collections.deque):  # type: ignore[type-arg]
+    """The last ``WINDOW`` values: timing statistics without growing memory on long runs."""
+
+    WINDOW = 20_000
+
+    def __init__(self) -> None:
+        super().__init__(maxlen=self.WINDOW)
+
+
+@dataclass
+class StageTimes:
+    """Per-stage durations [s] of the last 20,000 cycles (read, update, write) and period errors."""
+
+    read: _Window = field(default_factory=_Window)
+    update: _Window = field(default_factory=_Window)
+    write: _Window = field(default_factory=_Window)
+    period_error: _Window = field(default_factory=_Window)
+
+    def stats(self) -> dict[str, float]:
+        out: dict[str, float] = {}
+        for name in ("read", "update", "write", "period_error"):
+            a = np.abs(np.array(getattr(self, name))) * 1e6
+            if a.size:
+                out[f"{name}_median_us"] = float(np.median(a))
+                out[f"{name}_p99_us"] = float(np.percentile(a, 99))
+                out[f"{name}_max_us"] = float(a.max())
+        return out
+
+
+class _ChatterCounter:
+    """``rig.metrics.chattering_count`` computed as the samples arrive."""
+
+    def __init__(self, tol: float) -> None:
+        self.tol = tol
+        self.count = 0
+        self._last: float | None = None
+        self._sign = 0.0
+
+    def add(self, u: float) -> None:
+        if self._last is not None:
+            du = u - self._last
+            if abs(du) > self.tol:
+                sign = 1.0 if du > 0 else -1.0
+                if self._sign and sign != self._sign:
+                    self.count += 1
+                self._sign = sign
+        self._last = u
+
+
+@dataclass(frozen=True)
+class Wiring:
+    """Which axes (indices into the loop's axes) the law reads and commands, and the profile axes."""
+
+    reads: tuple[int, ...]
+    commands: tuple[int, ...]
+    profiles: tuple[tuple[int, Callable[[float], float]], ...] = ()
+    #: the law's axes, then the profile axes: the order of a cycle's commands
+    commanded: tuple[int, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "commanded", self.commands + tuple(i for i, _ in self.profiles))
+
+
+class HostLoop:
+    """Run ``law`` on ``axes`` (wired by ``wiring``) for ``cycles`` periods of ``period`` [s]."""
+
+    def __init__(
+        self,
+        axes: Sequence[AxisDriver],
+        guards: Sequence[AxisGuard],
+        law: Law,
+        wiring: Wiring,
+        *,
+        recorder: Recorder,
+        pacing: Pacing,
+        period: float,
+        cycles: int,
+        realtime: bool = False,
+    ) -> None:
+        self.axes = list(axes)
+        self.guards = list(guards)
+        self.law = law
+        self.wiring = wiring
+        self.recorder = recorder
+        self.pacing = pacing
+        self.period = period
+        self.cycles = cycles
+        self.realtime = realtime
+        self.times = StageTimes()
+        self.overruns = 0
+        self.safe_stop_reason: str | None = None
+        self.done = 0
+        self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
+        self._sq_error = 0.0
+        self._max_error = 0.0
+        self._chatter = _ChatterCounter(tol=1e-9)
+        self._peaks = {a.name: dict.fromkeys(("velocity", "current", "command"), 0.0) for a in self.axes}
+        #: per axis, its peaks and the measured quantities whose peak is kept
+        self._peak_fields = [
+            (self._peaks[a.name], [f for f in ("velocity", "current") if f in a.measures]) for a in self.axes
+        ]
+        self._command_peaks = [self._peaks[self.axes[i].name] for i in wiring.commanded]
+        self._recorded = [(i, [f for f in FIELDS if f in a.measures]) for i, a in enumerate(self.axes)]
+
+    @staticmethod
+    def columns(axes: Sequence[AxisDriver], law: Law, wiring: Wiring) -> list[str]:
+        """The recorder's columns: law level, the law's internals, per axis, timing [us]."""
+        per_axis = [f"{a.name}.{f}" for a in axes for f in FIELDS if f in a.measures]
+        commands = [f"{axes[i].name}.command" for i in wiring.commanded]
+        return [
+            "t",
+            "reference",
+            "measurement",
+            "command",
+            *law.internals,
+            *per_axis,
+            *commands,
+            "read_us",
+            "update_us",
+            "write_us",
+        ]
+
+    def _wait(self, deadline: float) -> None:
+        """Sleep until shortly before ``deadline`` (perf_counter s), then spin yielding the GIL,
+        so the bus's receive thread can deliver the TPDOs meanwhile."""
+        while True:
+            left = deadline - time.perf_counter()
+            if left <= 0.0:
+                return
+            time.sleep(left - 0.0004 if left > 0.0005 else 0.0)
+
+    def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
+        """Run the cycles (``progress(k)`` every 1 % of them); returns the summary."""
+        frozen = False
+        if self.realtime:
+            gc.collect()
+            gc.freeze()
+            gc.disable()
+            frozen = True
+        self.recorder.mark_start()
+        try:
+            self._cycles(progress)
+        except KeyboardInterrupt:
+            self.safe_stop("Ctrl-C")
+        except SafetyStop as exc:
+            self.safe_stop(str(exc))
+        except DeviceFault as exc:
+            self.safe_stop(f"device fault: {exc}")
+        except RigError as exc:
+            self.safe_stop(f"{type(exc).__name__}: {exc}")
+        except Exception as exc:
+            log.exception("exception in the control loop")
+            self.safe_stop(f"exception in the control loop: {type(exc).__name__}: {exc}")
+        else:
+            self._stop_axes(quick=False)  # a run ends with every axis disabled, too
+        finally:
+            if frozen:
+                gc.enable()
+                gc.unfreeze()
+        return self.summary()
+
+    def _cycles(self, progress: Callable[[int], None] | None) -> None:
+        start = self._t_end = time.perf_counter()
+        deadline = last = start
+        every = max(1, self.cycles // 100)
+        k = 0
+        pace = self.realtime and not self.pacing.paced_by_bus
+        while k < self.cycles:
+            if pace:
+                self._wait(deadline)
+                now = time.perf_counter()
+                self.times.period_error.append(now - deadline)
+                late = int((now - deadline) / self.period)
+                if late >= 1:  # skip the missed cycles
+                    self.overruns += late
+                    k += late
+                    deadline += late * self.period
+                    if k >= self.cycles:
+                        break
+            self._cycle(k)
+            if self.pacing.paced_by_bus:  # the kernel's SYNC sets the pace: measure it at the TPDO
+                if k:
+                    self.times.period_error.append(self._t_end - last - self.period)
+                last = self._t_end
+            k += 1
+            deadline += self.period
+            if progress is not None and k % every == 0:
+                progress(k)
+        self.elapsed = self._t_end - start
+
+    def _read(self) -> list[Feedback]:
+        now = self.pacing.now()
+        samples = []
+        for axis, guard in zip(self.axes, self.guards):
+            fb = axis.feedback()
+            axis.supervise(now)
+            guard.check_feedback(fb)
+            samples.append(fb)
+        return samples
+
+    def _cycle(self, k: int) -> None:
+        t = k * self.period
+        t0 = time.perf_counter()
+        self.pacing.tick()
+        samples = self._read()
+        t1 = time.perf_counter()
+        wiring = self.wiring
+        out = self.law.step(t, [samples[i] for i in wiring.reads])
+        values = [*out.commands, *(profile(t) for _, profile in wiring.profiles)]
+        targets = wiring.commanded
+        guards, axes = self.guards, self.axes
+        for i, value in zip(targets, values):
+            guards[i].check_command(value)
+        t2 = time.perf_counter()
+        for i, value in zip(targets, values):
+            axes[i].command(value)
+        t3 = time.perf_counter()
+        self._account(out.reference, out.measurement, values, samples)
+        self.times.read.append(t1 - t0)
+        self.times.update.append(t2 - t1)
+        self.times.write.append(t3 - t2)
+        self._t_end = t3
+        u = _scalar(values[0]) if values else 0.0
+        self.recorder.sample(
+            [
+                t,
+                out.reference,
+                out.measurement,
+                u,
+                *out.internals,
+                *(getattr(samples[i], f) for i, fields in self._recorded for f in fields),
+                *(_scalar(v) for v in values),
+            ],
+            (t1 - t0, t2 - t1, t3 - t2),
+        )
+        self.done = k + 1
+
+    def _account(self, ref: float, y: float, values: list[Any], samples: list[Feedback]) -> None:
+        """Streaming metrics: nothing grows with the run's length."""
+        e = ref - y
+        self._sq_error += e * e
+        self._max_error = max(self._max_error, abs(e))
+        if values:
+            self._chatter.add(abs(values[0]) if isinstance(values[0], complex) else values[0])
+        for (peaks, names), fb in zip(self._peak_fields, samples):
+            for name in names:
+                value = abs(getattr(fb, name))
+                peaks[name] = max(peaks[name], value)
+        for peaks, command in zip(self._command_peaks, values):
+            value = abs(command)
+            peaks["command"] = max(peaks["command"], value)
+
+    def safe_stop(self, reason: str) -> None:
+        """The one way out: zero command, quick stop, disable, on every axis."""
+        self.safe_stop_reason = reason
+        log.warning("safe stop: %s", reason)
+        self._stop_axes(quick=True)
+
+    def _stop_axes(self, *, quick: bool, tries: int = 5) -> None:
+        """Zero command (commanded axes), quick stop (on a stop), disable, on every axis; each step
+        retried, since the frame that carries it may be lost; a step that still fails is logged."""
+        commanded = [self.axes[i] for i in self.wiring.commanded]
+        steps: list[tuple[AxisDriver, Callable[[], object]]] = [
+            (a, functools.partial(a.command, 0j if a.mode == "dq-voltage" else 0.0)) for a in commanded
+        ]
+        if quick:
+            steps += [(a, a.quick_stop) for a in self.axes if a.commandable]
+        steps += [(a, a.disable) for a in self.axes if a.commandable]
+        for axis, step in steps:
+            for attempt in range(tries):
+                try:
+                    step()
+                    break
+                except Exception as exc:
+                    if attempt == tries - 1:
+                        log.error("stopping %s: a step failed %d times: %s", axis.where, tries, exc)
+
+    def summary(self) -> dict[str, Any]:
+        n = self.done
+        return {
+            "cycles": n,
+            "rms_error": math.sqrt(self._sq_error / n) if n else math.nan,
+            "max_error": self._max_error if n else math.nan,
+            "chattering_count": self._chatter.count,
+            "overruns": self.overruns,
+            "elapsed_s": self.elapsed,
+            "safe_stop_reason": self.safe_stop_reason,
+            "run_dir": str(self.recorder.dir),
+            "timing": self.times.stats(),
+            "axes": {name: {f"max_abs_{k}": v for k, v in p.items()} for name, p in self._peaks.items()},
+        }

@@ -1,0 +1,246 @@
+"""A run of a configured rig: the one public path from a configuration to a running host loop.
+
+``Session(cfg, emulate=..., duration=... or cycles=...)`` builds, in this order, and moves nothing yet:
+the transports (the CAN bus, or with ``emulate`` the emulated world of
+``rig.host.emulation``), the law (``rig.laws.make_law``), the axis drivers,
+the recorder (the configuration first, then every frame), and the pacing.
+``start()`` sets every axis up and enables it. ``run()`` runs the loop and then,
+in this order, stops SYNC, stops the frames that feed the trace, and closes the
+recorder with the summary. ``close()`` disables and releases every axis and
+the transports; a session is a context manager. ``rig run``, ``rig identify``,
+the benchmarks and the fault suite all run through here.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import Any
+
+import canopen
+
+from drivers.base import AxisDriver
+from drivers.bus import open_bus
+from drivers.canopen_axis import CanopenAxis
+from drivers.errors import ConfigError, RigError
+from plant_emulator.profiles import parse_profile
+from rig.config import RigConfig
+from rig.host.axes import open_axis
+from rig.host.emulation import Emulation
+from rig.host.loop import HostLoop, Wiring
+from rig.host.pacing import FreeRun, HostSync, InProcessLockstep, KernelSync, Pacing, WireLockstep
+from rig.host.recorder import Recorder
+from rig.host.safety import AxisGuard
+from rig.laws import Law, make_law
+from rig.laws.injected import with_injected_faults
+from rig.laws.references import reference_of
+
+__all__ = ["Session", "build_law", "run_config"]
+
+log = logging.getLogger(__name__)
+
+
+def run_config(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> dict[str, Any]:
+    """Build, start and run ``cfg``; returns the summary (``cycles``, ``rms_error``, ..., ``run_dir``)."""
+    with Session(cfg, emulate=emulate, duration=duration) as session:
+        session.start()
+        return session.run()
+
+
+def build_law(cfg: RigConfig, period: float) -> Law:
+    """The law of ``[controller]`` at ``period`` [s], checked against the axes it reads and commands."""
+    c = cfg.controller
+    law = make_law(
+        c.kind, c.params, period=period, reference=reference_of(cfg.reference, cfg.source), source=cfg.source
+    )
+    if len(c.reads) != law.reads or len(c.commands) != len(law.modes):
+        raise ConfigError(
+            f"{cfg.source}: [controller] {c.kind} reads {law.reads} and commands {len(law.modes)} "
+            f"axis(es); reads = {list(c.reads)}, commands = {list(c.commands)}"
+        )
+    for name, modes in zip(c.commands, law.modes):
+        mode = cfg.axis(name).mode
+        if mode not in modes:
+            raise ConfigError(
+                f"{cfg.source}: [controller] {c.kind} commands {' or '.join(sorted(modes))}, "
+                f"but axis {name!r} is in mode {mode!r}"
+            )
+    return with_injected_faults(law, cfg.faults)
+
+
+class Session:
+    """See the module docstring."""
+
+    def __init__(
+        self, cfg: RigConfig, *, emulate: bool, duration: float | None = None, cycles: int | None = None
+    ) -> None:
+        self.cfg = cfg
+        self.emulate = emulate
+        self.emulation: Emulation | None = None
+        self.axes: list[AxisDriver] = []
+        self._bus: Any = None
+        self._tap: Callable[[Any], None] | None = None
+        self.pacing: Pacing = Pacing()
+        self.loop: HostLoop | None = None
+        try:
+            self._build(duration, cycles)
+        except BaseException:
+            self.close()
+            raise
+
+    # --- building ------------------------------------------------------------------------------
+    def _transports(self) -> float:
+        cfg = self.cfg
+        if self.emulate:
+            self.emulation = Emulation(cfg)
+            self.network: Any = self.emulation.network
+            return self.emulation.period
+        if not cfg.run.period > 0.0:
+            raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s) when not emulating")
+        self.network = canopen.Network()
+        if any(a.kind != "modbus" for a in cfg.axes):
+            b = cfg.bus
+            extra = {"host": b.host, "port": b.port} if b.interface == "socketcand" else {}
+            self._bus = open_bus(b.interface, b.channel, bitrate=b.bitrate or None, **extra)
+            self.network.bus = self._bus
+            self.network.connect()
+        return cfg.run.period
+
+    def _build(self, duration: float | None, cycles: int | None) -> None:
+        cfg = self.cfg
+        period = self._transports()
+        self.period = period
+        law = build_law(cfg, period)
+        for a in cfg.axes:
+            spec = self.emulation.endpoint(a) if self.emulation else a
+            self.axes.append(open_axis(spec, network=self.network, period=period))
+        names = [a.name for a in cfg.axes]
+        wiring = Wiring(
+            tuple(names.index(n) for n in cfg.controller.reads),
+            tuple(names.index(n) for n in cfg.controller.commands),
+            tuple((names.index(a.name), self._profile(a.name, a.profile)) for a in cfg.axes if a.profile),
+        )
+        self.law, self.wiring = law, wiring
+        self.cycles = cycles or round((duration or cfg.run.duration) / period)
+        # flushed at least every 50 ms of run time: a killed host loses at most that
+        self.recorder = Recorder(
+            cfg.run.output, cfg.run.name, flush_every=max(1, round(0.05 / period)), trace=cfg.run.trace
+        )
+        self.recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": self.emulate})
+        self._attach_trace()
+        self.pacing = self._pacing(period)
+
+    def _profile(self, name: str, text: str) -> Callable[[float], float]:
+        try:
+            profile: Callable[[float], float] = parse_profile(text)
+            return profile
+        except ValueError as exc:
+            raise ConfigError(f"{self.cfg.source}: [[axis]] {name!r} profile: {exc}") from None
+
+    def _attach_trace(self) -> None:
+        tap = self._tap = self.recorder.on_frame
+        if self.emulation is not None:
+            self.emulation.add_tap(tap)
+        elif self.network.notifier is not None:
+            self.network.notifier.add_listener(tap)  # the trace: every frame received
+
+    def _detach_trace(self) -> None:
+        tap, self._tap = self._tap, None
+        if tap is None:
+            return
+        if self.emulation is not None:
+            self.emulation.remove_tap(tap)
+        elif self.network.notifier is not None and tap in self.network.notifier.listeners:
+            self.network.notifier.remove_listener(tap)
+
+    def _pacing(self, period: float) -> Pacing:
+        cfg = self.cfg
+        if self.emulation is not None:
+            return InProcessLockstep(period, self.emulation.sync, self.emulation.steppers)
+        canopen_axes = [a for a in self.axes if isinstance(a, CanopenAxis)]
+        if not canopen_axes:
+            return FreeRun()
+        timeout = min(a.limits.watchdog_periods for a in cfg.axes) * period
+        if cfg.run.time == "lockstep":
+            return WireLockstep(self.network, canopen_axes, timeout)
+        if cfg.bus.interface == "socketcan":
+            return _Deferred(lambda: KernelSync(self.network, canopen_axes, period, timeout))
+        return HostSync(self.network)
+
+    # --- running -------------------------------------------------------------------------------
+    def start(self) -> None:
+        """Set every axis up and enable it (in configuration order); on failure, nothing stays enabled."""
+        try:
+            for axis in self.axes:
+                axis.setup()
+            for axis, a in zip(self.axes, self.cfg.axes):
+                axis.enable(timeout=a.enable_timeout)
+            if isinstance(self.pacing, _Deferred):
+                self.pacing = self.pacing.make()
+        except BaseException as exc:
+            reason = f"setup failed: {exc}" if isinstance(exc, RigError) else "setup failed"
+            for axis in self.axes:
+                axis.close()
+            self._finish({"cycles": 0, "safe_stop_reason": reason, "run_dir": str(self.recorder.dir)})
+            raise
+        self.loop = self._loop()
+
+    def _loop(self) -> HostLoop:
+        """The host loop over the set-up axes (what each measures is known now)."""
+        cfg = self.cfg
+        guards = [AxisGuard(axis, a.limits, self.period) for axis, a in zip(self.axes, cfg.axes)]
+        self.recorder.begin(HostLoop.columns(self.axes, self.law, self.wiring))
+        return HostLoop(
+            self.axes,
+            guards,
+            self.law,
+            self.wiring,
+            recorder=self.recorder,
+            pacing=self.pacing,
+            period=self.period,
+            cycles=self.cycles,
+            realtime=cfg.run.time == "realtime",
+        )
+
+    def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
+        """Run the loop (``start()`` first); stop SYNC and the trace; close the recorder; the summary."""
+        loop = self.loop
+        if loop is None:
+            raise RuntimeError("Session.run() before start()")
+        summary: dict[str, Any] = {}
+        try:
+            summary = loop.run(progress)
+        finally:
+            self._finish(summary or loop.summary())
+        return summary
+
+    def _finish(self, summary: dict[str, Any]) -> None:
+        self.pacing.close()
+        self._detach_trace()
+        self.recorder.close(summary)
+
+    def close(self) -> None:
+        """Disable and release every axis, the bus and the emulated world (idempotent)."""
+        for axis in self.axes:
+            axis.close()
+        recorder = getattr(self, "recorder", None)
+        if recorder is not None and not recorder.closed:
+            self._finish({"cycles": 0, "safe_stop_reason": "not run", "run_dir": str(recorder.dir)})
+        if self._bus is not None:
+            self.network.disconnect()
+            self._bus = None
+        if self.emulation is not None:
+            self.emulation.close()
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class _Deferred(Pacing):
+    """A pacing made once the axes are enabled (the kernel's SYNC must not run during setup)."""
+
+    def __init__(self, make: Callable[[], Pacing]) -> None:
+        self.make = make

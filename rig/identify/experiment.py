@@ -1,0 +1,88 @@
+"""The identification experiment: a configuration whose law replays the excitation, run by the session.
+
+The excitation is replayed in voltage mode (the u of (3.5)) on the axis the
+configuration's law commands, so it runs with that axis's limits, the watchdog,
+the recorder and the one safe-stop path like any ``rig run``: a limit ends it
+and keeps what was recorded.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rig.config import RigConfig
+from rig.host.rundir import read_run
+from rig.host.session import Session
+from rig.identify.estimate import IdentResult, estimate
+
+__all__ = ["experiment_config", "identify_from_log", "run_experiment", "terminal_progress"]
+
+
+def experiment_config(
+    cfg: RigConfig, u: np.ndarray, *, preset: str | None = None, params: dict[str, Any] | None = None
+) -> RigConfig:
+    """``cfg`` made into an identification run of ``u`` (one value [V] per period): name ``identify``;
+    the law ``replay`` on the axis ``cfg``'s law commands, in voltage mode with a synchronous RPDO
+    (the delay is estimated), no position window, a speed limit of 1000 rad/s;
+    ``preset``/``params`` replace the emulator's."""
+    target = cfg.controller.commands[0]
+    axes = tuple(
+        dataclasses.replace(
+            a,
+            mode="voltage",
+            sync_rpdo=True,
+            limits=dataclasses.replace(a.limits, position_min=-math.inf, position_max=math.inf, speed=1000.0),
+        )
+        if a.name == target
+        else a
+        for a in cfg.axes
+    )
+    return dataclasses.replace(
+        cfg,
+        run=dataclasses.replace(cfg.run, name="identify"),
+        emulator=dataclasses.replace(
+            cfg.emulator,
+            preset=preset or cfg.emulator.preset,
+            params=cfg.emulator.params if params is None else params,
+        ),
+        axes=axes,
+        controller=dataclasses.replace(
+            cfg.controller,
+            kind="replay",
+            reads=(target,),
+            commands=(target,),
+            params={"u": [float(v) for v in u], "one_sign": True},
+        ),
+    )
+
+
+def run_experiment(
+    cfg: RigConfig, *, emulate: bool, progress: Callable[[float], None] | None = None
+) -> dict[str, Any]:
+    """Run the experiment configuration ``cfg`` (``experiment_config``); returns the run summary."""
+    n = len(cfg.controller.params["u"])
+    with Session(cfg, emulate=emulate, cycles=n) as session:
+        session.start()
+        summary = session.run(None if progress is None else lambda k: progress(k / n))
+        summary["period"] = session.period
+    return summary
+
+
+def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult:
+    """Estimate from a recorded run: ``samples.csv`` (command, measurement) and its period."""
+    u, theta, period = read_run(run_dir)
+    return estimate(u, theta, period, max_delay=max_delay)
+
+
+def terminal_progress(fraction: float) -> None:
+    """A progress line on stderr when it is a terminal."""
+    if sys.stderr.isatty():
+        sys.stderr.write(f"\ridentify: experiment {100 * fraction:5.1f} %")
+        sys.stderr.flush()

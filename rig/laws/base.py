@@ -1,0 +1,56 @@
+"""The contract of a control law run by the host loop.
+
+A law is built once from its typed parameters (``Params``, a frozen dataclass),
+the loop period and the reference, and is never changed afterwards. Each cycle
+``step(t, feedback)`` gets the ``Feedback`` of the axes it reads (in the order
+``[controller] reads`` names them) and returns a ``LawStep``: one command per
+axis it commands (in the order of ``[controller] commands``), the reference and
+the measured value of the controlled variable, and its internals (the columns
+``internals`` names).
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from drivers.base import Feedback
+
+__all__ = ["Law", "LawStep", "Reference"]
+
+#: reference(t) -> (value, rate) at time t [s]
+Reference = Callable[[float], tuple[float, float]]
+
+
+@dataclass(frozen=True, slots=True)
+class LawStep:
+    """What a law gives each cycle."""
+
+    commands: tuple[float | complex, ...]  #: one per commanded axis, in the unit of its mode
+    reference: float  #: of the controlled variable
+    measurement: float  #: the controlled variable as measured
+    internals: tuple[float, ...] = ()  #: in the order of ``Law.internals``
+
+
+class Law(abc.ABC):
+    """Base of the laws of ``rig.laws.LAWS``."""
+
+    #: the typed parameter dataclass; a field named ``dt`` or ``ts`` is the loop period
+    Params: ClassVar[type]
+    #: for each commanded axis, the modes its command may be in
+    modes: ClassVar[tuple[frozenset[str], ...]]
+    #: how many axes the law reads
+    reads: ClassVar[int] = 1
+    #: names of the internal columns the recorder keeps
+    internals: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, params: Any, *, period: float, reference: Reference) -> None:
+        self.params = params
+        self.period = period  #: [s]
+        self.reference = reference
+
+    @abc.abstractmethod
+    def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
+        """One cycle at time ``t`` [s]; must not do I/O."""

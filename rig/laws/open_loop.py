@@ -1,0 +1,58 @@
+"""Open-loop laws: ``speed-reference`` (the reference is the command) and ``replay`` (a recorded input)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from drivers.base import Feedback
+from drivers.errors import SafetyStop
+from rig.laws.base import Law, LawStep, Reference
+
+__all__ = ["ReplayLaw", "ReplayParams", "SpeedReferenceLaw", "SpeedReferenceParams"]
+
+
+@dataclass(frozen=True)
+class SpeedReferenceParams:
+    """No parameters: the speed reference goes to the drive's own speed loop (an inverter's ramp)."""
+
+
+class SpeedReferenceLaw(Law):
+    """Command = reference [rad/s]; measurement = the read axis's speed."""
+
+    Params = SpeedReferenceParams
+    modes = (frozenset({"speed", "csv", "pv"}),)
+
+    def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
+        w_r, _ = self.reference(t)
+        return LawStep((w_r,), w_r, feedback[0].velocity)
+
+
+@dataclass(frozen=True)
+class ReplayParams:
+    """An input sequence, one value per cycle (``rig identify``'s excitation)."""
+
+    u: tuple[float, ...] = ()  #: [V] (or the unit of the mode)
+    one_sign: bool = False  #: stop when the speed changes sign after the first 10 % (friction)
+
+
+class ReplayLaw(Law):
+    """Replays ``u``; reference = command, measurement = the read axis's position."""
+
+    Params = ReplayParams
+    modes = (frozenset({"voltage", "cst"}),)
+
+    def __init__(self, params: ReplayParams, *, period: float, reference: Reference) -> None:
+        super().__init__(params, period=period, reference=reference)
+        if not params.u:
+            raise ValueError("replay needs an input sequence u")
+        self._k = 0
+
+    def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
+        k = min(self._k, len(self.params.u) - 1)
+        self._k += 1
+        fb = feedback[0]
+        if self.params.one_sign and fb.velocity < 0.0 and k > len(self.params.u) // 10:
+            raise SafetyStop(f"speed {fb.velocity:.3g} rad/s changed sign: raise u0 above the friction")
+        u = self.params.u[k]
+        return LawStep((u,), u, fb.position)

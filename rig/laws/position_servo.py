@@ -1,0 +1,52 @@
+"""``position-servo``: the DC position servo of section VII.B, law (7.30) with the design (7.31)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from controllers.design import design_dtsm
+from controllers.position_servo import PositionServo, PositionServoParams
+from drivers.base import Feedback
+from rig.laws.base import Law, LawStep, Reference
+from rig.papers import drives
+
+__all__ = ["PositionServoLaw", "ServoParams"]
+
+
+@dataclass(frozen=True)
+class ServoParams:
+    """The model (3.5) the design (7.31) is made for, and the gains of (7.30)."""
+
+    a_m: float = drives.A_M  #: [1/s]
+    b_m: float = drives.B_M  #: [rad/(V s^2)] (per N m when the axis is in CST)
+    lam: float = drives.LAMBDA_SERVO  #: sliding eigenvalue [1/s], < 0
+    sigma: float = drives.SIGMA  #: reaching bound [V]
+    q: float = drives.Q  #: proportional reaching gain [V/(V s)]
+    rho: float = drives.RHO  #: speed-error threshold of the integral [rad/s]
+    h: float = drives.H  #: integral gain [1/s], 0 <= h < 1/T
+    u0: float = math.inf  #: output limit [V]
+
+
+class PositionServoLaw(Law):
+    """theta_r - theta and omega_r - omega of the read axis -> u (7.30) of the commanded axis."""
+
+    Params = ServoParams
+    modes = (frozenset({"voltage", "cst"}),)
+    internals = ("g", "u_i")
+
+    def __init__(self, params: ServoParams, *, period: float, reference: Reference) -> None:
+        super().__init__(params, period=period, reference=reference)
+        p = params
+        design = design_dtsm(A=[[0.0, 1.0], [0.0, -p.a_m]], b=[0.0, -p.b_m], dt=period, lam=p.lam)
+        self.servo = PositionServo(
+            PositionServoParams(design=design, sigma=p.sigma, q=p.q, rho=p.rho, h=p.h, u0=p.u0)
+        )
+
+    def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
+        theta_r, omega_r = self.reference(t)
+        fb = feedback[0]
+        servo = self.servo
+        u = servo.step(theta_r - fb.position, omega_r - fb.velocity)
+        return LawStep((u,), theta_r, fb.position, (servo.g, servo.u_i))

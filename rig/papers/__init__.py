@@ -1,0 +1,1 @@
+"""The offline reproductions of the three papers, and each paper's constants."""

@@ -1,0 +1,140 @@
+"""The one typed NAME=VALUE parser: every ``--param``, ``--fault`` and parameter table goes through it.
+
+``typed_values(schema, items, source)`` checks names against the fields of a
+dataclass ``schema`` and converts each value to the field's type:
+
+- text (from the command line) is parsed: ``int`` (``0x`` allowed), ``float``
+  (a fraction such as ``1/27`` allowed), ``bool`` (true/false, yes/no, on/off,
+  1/0), ``str``, a ``Literal`` of choices, a tuple of floats (``1,2``), a tuple
+  of tuples of floats (row-major ``1,0;0,1``), and ``X | None`` (``none``);
+- values that already have a type (from TOML) are checked: an int is a float,
+  a bool is never a number, a list is a tuple.
+
+An unknown name or a bad value is a ``ConfigError`` naming the item, where it
+came from (``source``: a file and table, or an option) and what is expected.
+"""
+
+from __future__ import annotations
+
+import math
+import types
+import typing
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from drivers.errors import ConfigError
+from plant_emulator.parameters import field_types
+
+__all__ = ["build", "field_types", "parse_items", "typed_values"]
+
+_TRUE, _FALSE = ("true", "yes", "on", "1"), ("false", "no", "off", "0")
+
+
+def parse_items(items: Iterable[str], source: str) -> dict[str, str]:
+    """``["NAME=VALUE", ...]`` -> {NAME: VALUE}; ConfigError naming a malformed item."""
+    out: dict[str, str] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise ConfigError(f"{source} {item!r}: expected NAME=VALUE")
+        out[name.strip()] = value.strip()
+    return out
+
+
+class _Expected(ValueError):
+    """The value is not of the kind; the message says what is expected."""
+
+
+def _number(text: str) -> float:
+    num, slash, den = text.partition("/")
+    return float(num) / float(den) if slash else float(num)
+
+
+def _convert(kind: Any, value: Any) -> Any:
+    """``value`` as ``kind``; ValueError with what is expected."""
+    origin, args = typing.get_origin(kind), typing.get_args(kind)
+    if origin in (typing.Union, types.UnionType):
+        if value is None or (isinstance(value, str) and value.lower() == "none"):
+            if type(None) in args:
+                return None
+        inner = [a for a in args if a is not type(None)]
+        return _convert(inner[0], value)
+    if origin is typing.Literal:
+        if value not in args:
+            raise _Expected(f"one of {', '.join(map(str, args))}")
+        return value
+    if origin is tuple:
+        if isinstance(value, str):
+            value = [row.split(",") for row in value.split(";")] if ";" in value else value.split(",")
+        if not isinstance(value, (list, tuple)):
+            raise _Expected("a list")
+        element: Any = args[0] if args else float
+        return tuple(_convert(element, v) for v in value)
+    if kind is bool:
+        if isinstance(value, str) and value.lower() in _TRUE + _FALSE:
+            return value.lower() in _TRUE
+        if not isinstance(value, bool):
+            raise _Expected("true or false")
+        return value
+    if kind is int:
+        if isinstance(value, str):
+            return int(value, 0)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise _Expected("an integer")
+        return value
+    if kind is float:
+        if isinstance(value, str):
+            value = _number(value)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise _Expected("a number")
+        if math.isnan(value):
+            raise _Expected("a number, not NaN")
+        return float(value)
+    if kind is str:
+        if not isinstance(value, str):
+            raise _Expected("a string")
+        return value
+    raise _Expected(f"a {kind}")  # pragma: no cover - a schema with an unsupported field type
+
+
+def _expected(kind: Any) -> str:
+    if typing.get_origin(kind) is typing.Literal:
+        return "one of " + ", ".join(map(str, typing.get_args(kind)))
+    return getattr(kind, "__name__", str(kind))
+
+
+def typed_values(
+    schema: type,
+    items: Mapping[str, Any],
+    source: str,
+    *,
+    aliases: Mapping[str, str] | None = None,
+    fixed: Iterable[str] = (),
+) -> dict[str, Any]:
+    """``items`` converted to the field types of dataclass ``schema`` (see the module docstring).
+
+    ``aliases`` maps other spellings to field names; ``fixed`` names fields the caller
+    sets itself (giving one is an error too).
+    """
+    kinds = field_types(schema)
+    settable = {k: v for k, v in kinds.items() if k not in set(fixed)}
+    out: dict[str, Any] = {}
+    for given, value in items.items():
+        name = (aliases or {}).get(given, given)
+        if name not in settable:
+            raise ConfigError(f"{source}: unknown parameter {given!r}; known: {', '.join(settable)}")
+        try:
+            out[name] = _convert(settable[name], value)
+        except (ValueError, ZeroDivisionError, TypeError) as exc:
+            expected = str(exc) if isinstance(exc, _Expected) else _expected(settable[name])
+            raise ConfigError(f"{source}: {given} = {value!r}: expected {expected}") from None
+    return out
+
+
+def build(schema: type, items: Mapping[str, Any], source: str, **fixed: Any) -> Any:
+    """``schema(**typed_values(...), **fixed)``; the dataclass's own checks become ConfigError."""
+    values = typed_values(schema, items, source, fixed=fixed)
+    try:
+        return schema(**values, **fixed)
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"{source}: {exc}") from exc
