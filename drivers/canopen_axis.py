@@ -41,7 +41,7 @@ class TpdoSlot:
         self.node_id = node_id
         self.cob_id = cob_id
         self.codec = codec
-        self.data: bytes | bytearray = b""
+        self.data: bytes | bytearray = bytes(codec.size)  #: zeros until the first frame (stamp None)
         self.timestamp: float | None = None
 
     def on_frame(self, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
