@@ -30,6 +30,7 @@ from pathlib import Path
 
 import canopen
 
+from drivers.errors import ConfigError
 from drivers.maps import CIA402_EDS, cia
 from plant_emulator.lockstep import SyncHub, attach_network
 from rig.bench.micro import Figure, rate
@@ -102,6 +103,8 @@ def canopen_baseline(cycles: int = 20_000, repeats: int = 3) -> float:
 
 def _lockstep(out: str, seconds: float, repeats: int) -> list[Figure]:
     servo = demo_config(out)
+    if not DYNO_EXAMPLE.exists():
+        raise ConfigError(f"rig bench loop runs {DYNO_EXAMPLE}: run it from a source checkout")
     dyno = dataclasses.replace(load_config(DYNO_EXAMPLE), run=dataclasses.replace(servo.run, name="dyno"))
     one = [lockstep_rate(servo, seconds) for _ in range(repeats)]
     three = [lockstep_rate(dyno, seconds) for _ in range(repeats)]
