@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from plant_emulator.profiles import parse_profile
-
 from drivers.errors import ConfigError
+from plant_emulator.profiles import parse_profile
 from rig.config import ReferenceConfig
 from rig.laws.base import Reference
 
