@@ -202,9 +202,9 @@ class CanopenAxis(AxisDriver):
         self._slots.append(slot)
         return slot
 
-    def tpdo_stamps(self) -> Sequence[float | None]:
-        """Timestamps of the last frame of each received TPDO (the lock-step pacing waits on them)."""
-        return [s.timestamp for s in self._slots]
+    def tpdo_cob_ids(self) -> Sequence[int]:
+        """The COB-IDs of the TPDOs the axis receives (a pacing waits for them after a SYNC)."""
+        return [s.cob_id for s in self._slots]
 
     def _release(self) -> None:
         for slot in self._slots:

@@ -18,6 +18,7 @@ the clock the frames' timestamps are on (heartbeat ages are measured on it).
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -82,8 +83,43 @@ class HostSync(Pacing):
         self.network.sync.transmit()
 
 
-def _stamps(axes: Sequence[CanopenAxis]) -> list[float | None]:
-    return [s for a in axes for s in a.tpdo_stamps()]
+class _Answers:
+    """Waits for one frame on each of ``cob_ids``: a subscriber per COB-ID on ``network``.
+
+    ``arm()`` before the SYNC (or the wait), ``wait(timeout)`` until every COB-ID has sent
+    a frame since, or ``timeout`` [s]. The receive thread wakes the waiter at once.
+    """
+
+    def __init__(self, network: Any, cob_ids: Sequence[int]) -> None:
+        self.network = network
+        self.cob_ids = frozenset(cob_ids)
+        self._pending: set[int] = set()
+        self._done = threading.Condition()
+        for cob in self.cob_ids:
+            network.subscribe(cob, self._on_frame)
+
+    def arm(self) -> None:
+        with self._done:
+            self._pending = set(self.cob_ids)
+
+    def _on_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        with self._done:
+            self._pending.discard(can_id)
+            if not self._pending:
+                self._done.notify_all()
+
+    def wait(self, timeout: float) -> bool:
+        with self._done:
+            return self._done.wait_for(lambda: not self._pending, timeout)
+
+    def close(self) -> None:
+        for cob in self.cob_ids:
+            if self._on_frame in self.network.subscribers.get(cob, ()):
+                self.network.unsubscribe(cob, self._on_frame)
+
+
+def _cob_ids(axes: Sequence[CanopenAxis]) -> list[int]:
+    return [cob for a in axes for cob in a.tpdo_cob_ids()]
 
 
 class WireLockstep(HostSync):
@@ -91,17 +127,16 @@ class WireLockstep(HostSync):
 
     def __init__(self, network: Any, axes: Sequence[CanopenAxis], timeout: float) -> None:
         super().__init__(network)
-        self.axes = list(axes)
+        self.answers = _Answers(network, _cob_ids(axes))
         self.timeout = timeout
 
     def tick(self) -> None:
-        before = _stamps(self.axes)
+        self.answers.arm()
         self.network.sync.transmit()
-        deadline = time.monotonic() + self.timeout
-        while time.monotonic() < deadline:
-            if all(a != b for a, b in zip(_stamps(self.axes), before)):
-                return
-            time.sleep(0.0001)
+        self.answers.wait(self.timeout)
+
+    def close(self) -> None:
+        self.answers.close()
 
 
 class KernelSync(Pacing):
@@ -112,20 +147,17 @@ class KernelSync(Pacing):
 
     def __init__(self, network: Any, axes: Sequence[CanopenAxis], period: float, timeout: float) -> None:
         self.network = network
-        self.axes = list(axes)
+        self.answers = _Answers(network, _cob_ids(axes))
         self.timeout = timeout
         network.sync.start(period)
         self._running = True
 
     def tick(self) -> None:
-        before = _stamps(self.axes)
-        deadline = time.monotonic() + self.timeout
-        while time.monotonic() < deadline:
-            if all(a != b for a, b in zip(_stamps(self.axes), before)):
-                return
-            time.sleep(0.00005)
+        self.answers.arm()
+        self.answers.wait(self.timeout)
 
     def close(self) -> None:
         if self._running:
             self._running = False
             self.network.sync.stop()
+            self.answers.close()

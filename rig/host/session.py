@@ -3,8 +3,8 @@
 ``Session(cfg, emulate=..., duration=... or cycles=...)`` builds, in this order, and moves nothing yet:
 the transports (the CAN bus, or with ``emulate`` the emulated world of
 ``rig.host.emulation``), the law (``rig.laws.make_law``), the axis drivers,
-the recorder (the configuration first, then every frame), and the pacing.
-``start()`` sets every axis up and enables it. ``run()`` runs the loop and then,
+the recorder (the configuration first, then every frame). ``start()`` sets every
+axis up, enables it, and makes the pacing and the loop. ``run()`` runs the loop and then,
 in this order, stops SYNC, stops the frames that feed the trace, and closes the
 recorder with the summary. ``close()`` disables and releases every axis and
 the transports; a session is a context manager. ``rig run``, ``rig identify``,
@@ -128,7 +128,6 @@ class Session:
         )
         self.recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": self.emulate})
         self._attach_trace()
-        self.pacing = self._pacing(period)
 
     def _profile(self, name: str, text: str) -> Callable[[float], float]:
         try:
@@ -164,7 +163,7 @@ class Session:
         if cfg.run.time == "lockstep":
             return WireLockstep(self.network, canopen_axes, timeout)
         if cfg.bus.interface == "socketcan":
-            return _Deferred(lambda: KernelSync(self.network, canopen_axes, period, timeout))
+            return KernelSync(self.network, canopen_axes, period, timeout)
         return HostSync(self.network)
 
     # --- running -------------------------------------------------------------------------------
@@ -175,8 +174,8 @@ class Session:
                 axis.setup()
             for axis, a in zip(self.axes, self.cfg.axes):
                 axis.enable(timeout=a.enable_timeout)
-            if isinstance(self.pacing, _Deferred):
-                self.pacing = self.pacing.make()
+            # after setup: it waits for the TPDOs the axes map; after enable: no SYNC during setup
+            self.pacing = self._pacing(self.period)
         except BaseException as exc:
             reason = f"setup failed: {exc}" if isinstance(exc, RigError) else "setup failed"
             for axis in self.axes:
@@ -237,10 +236,3 @@ class Session:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-class _Deferred(Pacing):
-    """A pacing made once the axes are enabled (the kernel's SYNC must not run during setup)."""
-
-    def __init__(self, make: Callable[[], Pacing]) -> None:
-        self.make = make
