@@ -113,7 +113,7 @@ class AxisLimits:
     position_min: float = -math.inf  #: [rad]
     position_max: float = math.inf  #: [rad]
     current: float = math.inf  #: [A]
-    watchdog_periods: int = 3  #: cycles without a new sample before the stop
+    watchdog_periods: int = 3  #: periods without a new sample before the stop (missed real-time cycles count)
     heartbeat_timeout: float = 0.0  #: [s]; 0: not supervised
 
 

@@ -36,7 +36,7 @@ from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.laws.base import Law
 
-__all__ = ["HostLoop", "StageTimes"]
+__all__ = ["HostLoop", "StageTimes", "missed_periods"]
 
 log = logging.getLogger(__name__)
 
@@ -110,6 +110,13 @@ class Wiring:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "commanded", self.commands + tuple(i for i, _ in self.profiles))
+
+
+def missed_periods(gap: float, period: float) -> int:
+    """SYNC periods [s] skipped between two ticks ``gap`` [s] apart when the bus sets the pace
+    (kernel SYNC): the loop skips them and counts them as overruns, so its cycle index, and with it
+    the watchdog, keeps to the bus's time."""
+    return max(0, round(gap / period) - 1)
 
 
 class HostLoop:
@@ -212,10 +219,12 @@ class HostLoop:
 
     def _cycles(self, progress: Callable[[int], None] | None) -> None:
         start = self._t_end = time.perf_counter()
-        deadline = last = start
+        deadline = start
         every = max(1, self.cycles // 100)
         k = 0
         pace = self.realtime and not self.pacing.paced_by_bus
+        by_bus = self.pacing.paced_by_bus
+        last_tick: float | None = None
         while k < self.cycles:
             if pace:
                 self._wait(deadline)
@@ -228,32 +237,39 @@ class HostLoop:
                     deadline += late * self.period
                     if k >= self.cycles:
                         break
-            self._cycle(k)
-            if self.pacing.paced_by_bus:  # the kernel's SYNC sets the pace: measure it at the TPDO
-                if k:
-                    self.times.period_error.append(self._t_end - last - self.period)
-                last = self._t_end
+            t0 = time.perf_counter()
+            self.pacing.tick()
+            if by_bus:
+                now = time.perf_counter()
+                if last_tick is not None:
+                    missed = missed_periods(now - last_tick, self.period)
+                    self.overruns += missed
+                    self.times.period_error.append(now - last_tick - (missed + 1) * self.period)
+                    k += missed
+                last_tick = now
+                if k >= self.cycles:
+                    break
+            self._cycle(k, t0)
             k += 1
             deadline += self.period
             if progress is not None and k % every == 0:
                 progress(k)
         self.elapsed = self._t_end - start
 
-    def _read(self) -> list[Feedback]:
+    def _read(self, k: int) -> list[Feedback]:
         now = self.pacing.now()
         samples = []
         for axis, guard in zip(self.axes, self.guards):
             fb = axis.feedback()
             axis.supervise(now)
-            guard.check_feedback(fb)
+            guard.check_feedback(fb, k)
             samples.append(fb)
         return samples
 
-    def _cycle(self, k: int) -> None:
+    def _cycle(self, k: int, t0: float) -> None:
+        """Cycle ``k``, whose tick started at ``t0`` (perf_counter s) and has returned."""
         t = k * self.period
-        t0 = time.perf_counter()
-        self.pacing.tick()
-        samples = self._read()
+        samples = self._read(k)
         t1 = time.perf_counter()
         wiring = self.wiring
         out = self.law.step(t, [samples[i] for i in wiring.reads])

@@ -1,7 +1,8 @@
 """Per-axis safety checks of the host loop: every violation becomes one ``SafetyStop`` naming the axis.
 
 ``AxisGuard.check_feedback`` runs every cycle on an axis's sample (the watchdog on
-its ``stamp``, NaN in a measured quantity, speed, a position jump no motor can
+its ``stamp``, counted in periods of the loop's cycle index, so a real-time cycle that
+waited several periods counts as all of them, NaN in a measured quantity, speed, a position jump no motor can
 make, the position window, current); ``check_command`` on the command about to
 be sent. The host loop turns any ``SafetyStop`` into the one safe-stop path.
 """
@@ -28,8 +29,10 @@ class AxisGuard:
         self.measures = axis.measures
         self.sample_name = getattr(axis, "sample_name", "sample")
         self._stale = 0
+        self._fresh_k = -1  #: the cycle index of the last new sample (-1: none yet)
         self._last_stamp: float | None = None
         self._last_position: float | None = None
+        self._position_k = 0  #: the cycle index of ``_last_position``
         speed = limits.speed if math.isfinite(limits.speed) else 1000.0
         #: a position step no motor makes within the speed limit: an encoder glitch or a lost count
         self.max_step = speed * period * 3.0
@@ -37,9 +40,10 @@ class AxisGuard:
     def _stop(self, text: str) -> SafetyStop:
         return SafetyStop(f"{self.who}: {text}")
 
-    def check_feedback(self, fb: Feedback) -> None:
+    def check_feedback(self, fb: Feedback, k: int) -> None:
+        """Check the sample of cycle ``k`` (the loop's cycle index, missed cycles included)."""
         c = self.limits
-        self._watchdog(fb.stamp)
+        self._watchdog(fb.stamp, k)
         for name in self.measures:
             value = getattr(fb, name)
             if not math.isfinite(value):
@@ -47,19 +51,21 @@ class AxisGuard:
         if abs(fb.velocity) > c.speed:
             raise self._stop(f"speed {fb.velocity:.4g} rad/s exceeds the limit {c.speed:g} rad/s")
         if "position" in self.measures:
-            self._check_position(fb.position)
+            self._check_position(fb.position, k)
         if abs(fb.current) > c.current:
             raise self._stop(f"current {fb.current:.4g} A exceeds the limit {c.current:g} A")
 
-    def _check_position(self, position: float) -> None:
+    def _check_position(self, position: float, k: int) -> None:
         c = self.limits
         last = self._last_position
-        if last is not None and abs(position - last) > self.max_step:
-            raise self._stop(
-                f"position jumped by {position - last:.4g} rad in one period "
-                f"(> {self.max_step:.3g} rad): encoder glitch?"
-            )
-        self._last_position = position
+        if last is not None:
+            periods = k - self._position_k
+            if abs(position - last) > self.max_step * periods:
+                raise self._stop(
+                    f"position jumped by {position - last:.4g} rad in {periods} period(s) "
+                    f"(> {self.max_step * periods:.3g} rad): encoder glitch?"
+                )
+        self._last_position, self._position_k = position, k
         if not c.position_min <= position <= c.position_max:
             raise self._stop(
                 f"position {position:.4g} rad outside [{c.position_min:g}, {c.position_max:g}] rad"
@@ -72,13 +78,14 @@ class AxisGuard:
         if size > self.limits.command:
             raise self._stop(f"command {size:.4g} exceeds the limit {self.limits.command:g}")
 
-    def _watchdog(self, stamp: float | None) -> None:
-        """Count cycles without a new sample; stop after ``watchdog_periods``."""
+    def _watchdog(self, stamp: float | None, k: int) -> None:
+        """Count the periods since the last new sample; stop after ``watchdog_periods``."""
         if stamp is not None and stamp != self._last_stamp:
             self._last_stamp = stamp
+            self._fresh_k = k
             self._stale = 0
             return
-        self._stale += 1
+        self._stale = k - self._fresh_k
         if self._stale >= self.limits.watchdog_periods:
             raise self._stop(
                 f"no {self.sample_name} for {self._stale} periods ({self._stale * self.period * 1e3:.3g} ms)"

@@ -1,0 +1,70 @@
+"""The per-axis guard's watchdog and position check count periods of the loop's cycle index."""
+
+from __future__ import annotations
+
+import types
+
+import pytest
+
+from drivers.base import Feedback
+from drivers.errors import SafetyStop
+from rig.config import AxisLimits
+from rig.host.loop import missed_periods
+from rig.host.safety import AxisGuard
+
+PERIOD = 1e-3
+
+
+def _guard(**limits: float) -> AxisGuard:
+    axis = types.SimpleNamespace(
+        name="motor", where="node 1", measures=frozenset({"position", "velocity"}), sample_name="TPDO"
+    )
+    return AxisGuard(axis, AxisLimits(**limits), PERIOD)  # type: ignore[arg-type]
+
+
+def test_watchdog_counts_the_periods_a_late_tick_spanned() -> None:
+    """A bus-paced tick that waited 1,000 SYNC periods for an answer that never came counts as
+    1,000 periods without a sample, not one (the vcan tier hung 120 s counting ticks)."""
+    guard = _guard(watchdog_periods=1000)
+    guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=1.0), 0)
+    guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=1.0), 999)  # 999 periods: still in
+    with pytest.raises(SafetyStop, match=r"no TPDO for 1000 periods \(1e\+03 ms\)"):
+        guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=1.0), 1000)
+
+
+def test_watchdog_counts_cycles_in_lockstep() -> None:
+    guard = _guard(watchdog_periods=3)
+    guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=1.0), 0)
+    for k in (1, 2):
+        guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=1.0), k)
+    with pytest.raises(SafetyStop, match="no TPDO for 3 periods"):
+        guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=1.0), 3)
+
+
+def test_watchdog_before_the_first_sample() -> None:
+    guard = _guard(watchdog_periods=2)
+    guard.check_feedback(Feedback(position=0.0, velocity=0.0), 0)
+    with pytest.raises(SafetyStop, match="no TPDO for 2 periods"):
+        guard.check_feedback(Feedback(position=0.0, velocity=0.0), 1)
+
+
+def test_fresh_samples_after_skipped_periods_pass() -> None:
+    guard = _guard(watchdog_periods=3)
+    for stamp, k in enumerate((0, 10, 20, 500)):
+        guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=float(stamp)), k)
+
+
+def test_position_step_allowed_per_period() -> None:
+    """The speed limit bounds the step per period; over skipped periods the bound grows with them."""
+    guard = _guard(speed=100.0)  # max step: 100 rad/s * 1 ms * 3 = 0.3 rad per period
+    guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=0.0), 0)
+    guard.check_feedback(Feedback(position=2.9, velocity=0.0, stamp=1.0), 10)  # 10 periods: 3 rad allowed
+    with pytest.raises(SafetyStop, match=r"position jumped by 0.4 rad in 1 period\(s\)"):
+        guard.check_feedback(Feedback(position=3.3, velocity=0.0, stamp=2.0), 11)
+
+
+@pytest.mark.parametrize(
+    ("gap", "missed"), [(1.0e-3, 0), (1.4e-3, 0), (1.6e-3, 1), (2.0e-3, 1), (1.0, 999), (0.2e-3, 0)]
+)
+def test_missed_periods(gap: float, missed: int) -> None:
+    assert missed_periods(gap, PERIOD) == missed
