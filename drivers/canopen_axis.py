@@ -102,6 +102,10 @@ class CanopenAxis(AxisDriver):
         self.emcy_log: list[str] = []
         self.node.emcy.add_callback(self._on_emcy)
         self._slots: list[TpdoSlot] = []
+        #: heartbeats since the host's last NMT command, and whether one of them was a boot-up
+        self._heartbeats = 0
+        self._booted = False
+        self.node.nmt.add_heartbeat_callback(self._on_heartbeat)
 
     @property
     def where(self) -> str:
@@ -149,7 +153,14 @@ class CanopenAxis(AxisDriver):
     # --- NMT, EMCY, heartbeat ----------------------------------------------------------------
     def nmt(self, state: str) -> None:
         """Command the node's NMT state (``OPERATIONAL``, ``PRE-OPERATIONAL``, ``STOPPED``)."""
+        self._heartbeats, self._booted = 0, False
         self.node.nmt.state = state
+
+    def _on_heartbeat(self, state: int) -> None:
+        """canopen's heartbeat callback (receive thread), before it updates the state."""
+        self._heartbeats += 1
+        if state == cia.BOOT_UP:
+            self._booted = True
 
     @property
     def nmt_state(self) -> str:
@@ -177,11 +188,16 @@ class CanopenAxis(AxisDriver):
         self._fault = None
 
     def supervise(self, now: float) -> None:
-        """EMCY fault, NMT state (must be OPERATIONAL) and heartbeat age (``heartbeat_timeout``)."""
+        """EMCY fault, NMT state (must be OPERATIONAL) and heartbeat age (``heartbeat_timeout``).
+
+        A heartbeat the node sent before it processed the host's NMT command can arrive after
+        the command: the first heartbeat after a command is not taken as the node's state
+        unless it is a boot-up; the next one is (one heartbeat period later).
+        """
         if self._fault is not None:
             raise self._fault
         state = self.node.nmt.state
-        if state != "OPERATIONAL":
+        if state != "OPERATIONAL" and (self._booted or self._heartbeats > 1):
             raise SafetyStop(f"node {self.node_id}: NMT state {state} (the node reset or was stopped)")
         timeout = self.heartbeat_timeout
         if timeout > 0.0:

@@ -16,7 +16,8 @@ import pytest
 from drivers.base import AxisDriver, AxisState
 from drivers.cia402 import Cia402Axis
 from drivers.cia406 import Cia406Axis
-from drivers.errors import CommunicationError, RigError
+from drivers.errors import CommunicationError, RigError, SafetyStop
+from drivers.maps import cia
 from drivers.maps import modbus_map
 from drivers.modbus_inverter import ModbusInverterAxis
 from plant_emulator.lockstep import LockstepBench
@@ -117,3 +118,25 @@ def test_a_device_that_does_not_answer_is_a_toolkit_error() -> None:
     with pytest.raises(CommunicationError, match=r"unit 1 at 127\.0\.0\.1:1"):
         nowhere.setup()
     nowhere.close()
+
+
+def test_a_heartbeat_sent_before_the_nmt_start_does_not_stop_the_run() -> None:
+    """A heartbeat in flight when the host sent NMT start (it still says PRE-OPERATIONAL) is not the
+    node's answer; the next heartbeat is; a boot-up is at once (seen on the vcan tier's slow VM)."""
+    bench = LockstepBench("dc-servo")
+    try:
+        axis = Cia402Axis("drive", bench.host, 1, mode="csv")
+        axis.setup()
+        device = bench.device_network
+        device.send_message(cia.COB_HEARTBEAT + 1, bytes([cia.NmtState.PRE_OPERATIONAL]))
+        axis.supervise(0.0)  # the stale one: tolerated
+        device.send_message(cia.COB_HEARTBEAT + 1, bytes([cia.NmtState.PRE_OPERATIONAL]))
+        with pytest.raises(SafetyStop, match="node 1: NMT state PRE-OPERATIONAL"):
+            axis.supervise(0.0)
+        axis.nmt("OPERATIONAL")
+        device.send_message(cia.COB_HEARTBEAT + 1, bytes([cia.BOOT_UP]))
+        with pytest.raises(SafetyStop, match="node 1: NMT state"):
+            axis.supervise(0.0)
+        axis.close()
+    finally:
+        bench.close()
