@@ -1,8 +1,16 @@
-"""Loading an object dictionary (EDS or DCF, CiA 306) with errors that name the file."""
+"""Loading an object dictionary (EDS or DCF, CiA 306) with errors that name the file.
+
+CiA 306 files are meant to be ASCII; real ones carry a degree or micro sign in
+a parameter name, in UTF-8 or, more often, in Windows-1252. The text is read as
+UTF-8 and, where that fails, as cp1252 (which decodes any byte but five), so
+both load, and canopen parses the text rather than opening the file with the
+locale's encoding.
+"""
 
 from __future__ import annotations
 
 import configparser
+import io
 import warnings
 from pathlib import Path
 from typing import Any
@@ -11,7 +19,16 @@ import canopen
 
 from drivers.errors import ConfigError
 
-__all__ = ["load_od"]
+__all__ = ["eds_text", "load_od"]
+
+
+def eds_text(path: str | Path) -> str:
+    """The text of an EDS/DCF: UTF-8, else Windows-1252 (see the module docstring)."""
+    data = Path(path).read_bytes()
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        return data.decode("cp1252")
 
 
 def load_od(path: str | Path, node_id: int) -> Any:
@@ -20,9 +37,12 @@ def load_od(path: str | Path, node_id: int) -> Any:
     if p.suffix.lower() not in (".eds", ".dcf"):
         raise ConfigError(f"{p}: an object dictionary must be an .eds or .dcf file")
     try:
+        text = eds_text(p)
+        source = io.StringIO(text)
+        source.name = str(p)  # canopen picks the parser by the name's suffix
         with warnings.catch_warnings():  # canopen's EDS parser calls the deprecated logger.warn
             warnings.simplefilter("ignore", DeprecationWarning)
-            od = canopen.import_od(str(p), node_id)
+            od = canopen.import_od(source, node_id)
     except FileNotFoundError:
         raise ConfigError(f"{p}: no such EDS/DCF file") from None
     except (

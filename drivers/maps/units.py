@@ -1,0 +1,85 @@
+"""CiA 402 unit objects: the SI unit codes of 0x60A8/0x60A9 and the factor group, as numbers.
+
+A CiA 402 drive states its position and velocity units in two ways:
+
+- the factor group: position encoder resolution 0x608F (increments per motor
+  revolution, sub 1 / sub 2), gear ratio 0x6091 (motor revolutions per driving
+  shaft revolution, sub 1 / sub 2) and feed constant 0x6092 (feed in position
+  units per driving shaft revolution, sub 1 / sub 2); without a unit object one
+  position unit is gear x resolution / feed increments: with no gear and a feed
+  of 1/1, one increment;
+- the SI unit objects (CiA 402-2 with the unit codes of CiA 303-2, now CiA 890):
+  0x60A8 position and 0x60A9 velocity, UNSIGNED32, bits 24-31 the prefix (a
+  signed power of ten), bits 16-23 the unit, bits 8-15 the time unit of the
+  denominator. 0xFF410000 is a tenth of a degree; 0x00B44700 is revolutions per
+  minute.
+
+``SiUnit.decode(code)`` gives a code's parts, and ``per_revolution`` /
+``per_revolution_per_second`` how many of it make one revolution or one
+revolution per second of the driving shaft. Acceleration is in velocity units
+per second. The host driver and the emulated drive both convert with these.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["ROTARY_UNITS", "TIME_UNITS", "SiUnit"]
+
+#: rotary units of CiA 303-2 (code: how many make one revolution)
+ROTARY_UNITS: dict[int, float] = {
+    0x10: 2.0 * math.pi,  # radian
+    0x40: 400.0,  # grade (gon)
+    0x41: 360.0,  # degree
+    0x42: 360.0 * 60.0,  # arcminute
+    0x43: 360.0 * 3600.0,  # arcsecond
+    0xB4: 1.0,  # revolution
+}
+#: the code for encoder increments (how many make a revolution: the encoder resolution)
+INCREMENTS = 0xB5
+#: time units (code: seconds)
+TIME_UNITS: dict[int, float] = {0x03: 1.0, 0x47: 60.0, 0x48: 3600.0, 0x49: 86400.0}
+_NAMES = {0x10: "rad", 0x40: "gon", 0x41: "deg", 0x42: "arcmin", 0x43: "arcsec", 0xB4: "rev", INCREMENTS: "inc"}
+_TIME_NAMES = {0x03: "s", 0x47: "min", 0x48: "h", 0x49: "d"}
+
+
+@dataclass(frozen=True)
+class SiUnit:
+    """One SI unit object value: ``prefix`` (power of ten), ``unit`` and ``per`` (time unit, 0: none)."""
+
+    prefix: int
+    unit: int
+    per: int = 0
+
+    @classmethod
+    def decode(cls, code: int) -> SiUnit:
+        """The parts of an 0x60A8/0x60A9 value; ValueError naming a unit this toolkit cannot convert."""
+        prefix = (code >> 24) & 0xFF
+        if prefix >= 0x80:
+            prefix -= 0x100
+        unit = cls(prefix, (code >> 16) & 0xFF, (code >> 8) & 0xFF)
+        if unit.unit not in ROTARY_UNITS and unit.unit != INCREMENTS:
+            raise ValueError(f"unit code 0x{code:08X}: unit 0x{unit.unit:02X} is not a rotary unit")
+        if unit.per and unit.per not in TIME_UNITS:
+            raise ValueError(f"unit code 0x{code:08X}: time unit 0x{unit.per:02X} is not known")
+        return unit
+
+    def encode(self) -> int:
+        """The UNSIGNED32 value of this unit."""
+        return (self.prefix & 0xFF) << 24 | self.unit << 16 | self.per << 8
+
+    def per_revolution(self, increments_per_rev: float) -> float:
+        """How many of this (position) unit make one revolution."""
+        base = increments_per_rev if self.unit == INCREMENTS else ROTARY_UNITS[self.unit]
+        return base * 10.0 ** (-self.prefix)
+
+    def per_revolution_per_second(self, increments_per_rev: float) -> float:
+        """How many of this (velocity) unit make one revolution per second."""
+        seconds = TIME_UNITS.get(self.per, 1.0)
+        return self.per_revolution(increments_per_rev) * seconds
+
+    def __str__(self) -> str:
+        scale = f"1e{self.prefix} " if self.prefix else ""
+        per = f"/{_TIME_NAMES[self.per]}" if self.per else ""
+        return f"{scale}{_NAMES.get(self.unit, hex(self.unit))}{per}"
