@@ -19,7 +19,10 @@ torque and current [per mille of 0x6076 / 0x6075], voltage [mV], dq current
 Faults (EMCY with 0x603F and 0x1001): over-current 0x2310 (|i| above 0x6073),
 over-speed 0x8400 (|omega| above 0x6080 rpm), following error 0x8611 (CSP,
 |error| above 0x6065 increments). The fault reaction (0x605E) and quick stop
-(0x605A) brake with the speed loop where the axis has one, or coast (option 0).
+(0x605A) brake with the speed loop along the ramp their option selects (0x6084,
+0x6085 or the current limit; ``plant_emulator.braking``) where the axis has a
+speed loop, or coast (option 0). A disable voltage in QUICK STOP ACTIVE cuts the
+ramp, as CiA 402 transition 12 does: the motor coasts.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from drivers.maps.cia import (
     SdoAbortCode,
 )
 from plant_emulator.axes import Axis
+from plant_emulator.braking import STOPPED_SPEED, Braking, deceleration
 from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
 from plant_emulator.cia402_state import PowerStateMachine
 from plant_emulator.shaft import Shaft, Timed
@@ -80,7 +84,6 @@ _STOPPED = (_FAULT, S.SWITCH_ON_DISABLED)
 _OVER_CURRENT, _OVER_SPEED, _FOLLOWING_ERROR = (
     int(c) for c in (EmcyCode.OVER_CURRENT, EmcyCode.OVER_SPEED, EmcyCode.FOLLOWING_ERROR)
 )
-_COAST = int(QuickStopOption.DISABLE_DRIVE)
 
 
 @dataclass(frozen=True)
@@ -129,6 +132,7 @@ class EmulatedDrive(EmulatedNode):
         self._dq_axis = hasattr(axis, "i_dq")  # reports dq current and frame angle
         self._speed_limited = Mode.DQ_VOLTAGE not in axis.modes  # a grid converter has no speed
         self.sm = PowerStateMachine()
+        self.braking = Braking()
         self._pending: list[Timed] = []
         self._t_sync = 0.0
         self.glitch_counts = 0  #: fault injection: added to the latched position [increments]
@@ -276,21 +280,34 @@ class EmulatedDrive(EmulatedNode):
             return []
         return pending
 
+    def _acceleration(self, index: int) -> float:
+        """An acceleration object (0x6083-0x6085, velocity units per second) in rad/s^2."""
+        return self.od.read(index, 0) / self.counts_per_rad  # type: ignore[no-any-return]
+
     def _stop_reaction(self) -> None:
-        """Quick stop (0x605A) or fault reaction (0x605E): brake with the speed loop to rest
-        [below 0.01 rad/s], or coast (option 0, or no speed loop)."""
+        """Quick stop (0x605A) or fault reaction (0x605E): brake along the option's ramp to rest
+        [below STOPPED_SPEED], or coast (option 0, or no speed loop); ``plant_emulator.braking``."""
         st = self.sm.state
         if st is not _QUICK_STOP_ACTIVE and st is not _REACTION:
+            self.braking.release()
             return
-        option = (
-            self.sm.quick_stop_option if st is _QUICK_STOP_ACTIVE else self.read(cia.FAULT_REACTION_OPTION)
-        )
-        if option == _COAST or _CSV not in self.axis.modes:
-            self.axis.coast()
-            self.sm.reaction_done()
-            return
-        self.axis.set_command(_CSV, 0.0)
-        if abs(self.axis.velocity) < 1e-2:
+        if not self.braking.active:
+            option = (
+                self.sm.quick_stop_option if st is _QUICK_STOP_ACTIVE else self.read(cia.FAULT_REACTION_OPTION)
+            )
+            rate = deceleration(
+                option,
+                profile=self._acceleration(cia.PROFILE_DECELERATION),
+                quick_stop=self._acceleration(cia.QUICK_STOP_DECELERATION),
+            )
+            if rate is None or _CSV not in self.axis.modes:
+                self.axis.coast()
+                self.sm.reaction_done()
+                return
+            self.braking.start(self.axis.velocity, rate)
+        ref = self.braking.step(self.period)
+        self.axis.set_command(_CSV, ref)
+        if ref == 0.0 and abs(self.axis.velocity) < STOPPED_SPEED:
             self.sm.reaction_done()
             if self.sm.state in _STOPPED:
                 self.axis.coast()

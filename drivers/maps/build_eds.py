@@ -188,6 +188,9 @@ CIA402_DRIVE: list[Obj] = [
     var(0x6078, Var("Current actual value", INT16, "ro", "0", pdo=True)),
     var(0x607A, Var("Target position", INT32, "rw", "0", pdo=True)),
     var(0x6080, Var("Max motor speed", UINT32, "rw", "6000")),
+    var(0x6083, Var("Profile acceleration", UINT32, "rw", "500000", pdo=True)),
+    var(0x6084, Var("Profile deceleration", UINT32, "rw", "500000", pdo=True)),
+    var(0x6085, Var("Quick stop deceleration", UINT32, "rw", "1000000", pdo=True)),
     record(
         0x608F,
         "Position encoder resolution",

@@ -1,0 +1,123 @@
+"""The emulated drive stops as CiA 402 says a drive does: along the ramp its option code selects.
+
+The peer is canopen's RemoteNode (SDO writes of the controlword), not drive-rig's driver.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import canopen
+import pytest
+
+from drivers.maps import CIA402_EDS
+from plant_emulator.cia402_drive import EmulatedDrive
+from plant_emulator.lockstep import LockstepBench
+from drivers.maps.cia import PowerState as S
+from tests.plant_emulator.test_canopen_devices import statusword_state
+
+CPR = 4096  #: the dc-servo preset's increments per revolution
+PERIOD = 0.4e-3
+V0 = 100.0  #: [rad/s]
+
+
+@pytest.fixture
+def running() -> Iterator[tuple[LockstepBench, canopen.RemoteNode, EmulatedDrive]]:
+    """The dc-servo drive in CSV at V0, enabled."""
+    bench = LockstepBench("dc-servo")
+    node = canopen.RemoteNode(1, CIA402_EDS)
+    bench.host.add_node(node)
+    node.nmt.state = "OPERATIONAL"
+    node.sdo[0x6060].raw = 9  # CSV
+    for cw in (0x06, 0x0F):
+        node.sdo[0x6040].raw = cw
+    node.sdo[0x60FF].raw = round(V0 * CPR / (2 * math.pi))
+    drive = bench.devices[0]
+    assert isinstance(drive, EmulatedDrive)
+    _run(bench, 0.3)
+    assert drive.axis.velocity == pytest.approx(V0, rel=1e-3)
+    yield bench, node, drive
+    bench.close()
+
+
+def _run(bench: LockstepBench, seconds: float) -> None:
+    for _ in range(round(seconds / PERIOD)):
+        bench.sync()
+
+
+def _state(node: canopen.RemoteNode) -> S:
+    return statusword_state(node.sdo[0x6041].raw)
+
+
+def _speeds(bench: LockstepBench, drive: EmulatedDrive, seconds: float) -> list[float]:
+    out = []
+    for _ in range(round(seconds / PERIOD)):
+        bench.sync()
+        out.append(drive.axis.velocity)
+    return out
+
+
+@pytest.mark.parametrize(("option", "index"), [(2, 0x6085), (1, 0x6084)])
+def test_quick_stop_brakes_along_the_ramp_then_disables(running, option: int, index: int) -> None:  # type: ignore[no-untyped-def]
+    """Options 1 and 2 of 0x605A: the speed falls at 0x6084 or 0x6085, then SWITCH ON DISABLED."""
+    bench, node, drive = running
+    decel = 2000.0  # rad/s^2
+    node.sdo[index].raw = round(decel * CPR / (2 * math.pi))
+    node.sdo[0x605A].raw = option
+    node.sdo[0x6040].raw = 0x0B  # quick stop (transition 11)
+    assert _state(node) is S.QUICK_STOP_ACTIVE
+    speeds = _speeds(bench, drive, 0.02)
+    # the speed loop follows the ramp: after 20 ms, 40 rad/s less (within its tracking lag)
+    assert speeds[-1] == pytest.approx(V0 - decel * 0.02, abs=3.0)
+    _run(bench, 0.1)  # the ramp ends at 50 ms; the speed loop settles within 40 ms more
+    assert abs(drive.axis.velocity) < 0.05
+    assert _state(node) is S.SWITCH_ON_DISABLED
+
+
+def test_quick_stop_option_6_holds_in_quick_stop_active(running) -> None:  # type: ignore[no-untyped-def]
+    bench, node, drive = running
+    node.sdo[0x605A].raw = 6
+    node.sdo[0x6040].raw = 0x0B
+    _run(bench, 0.2)
+    assert abs(drive.axis.velocity) < 0.05
+    assert _state(node) is S.QUICK_STOP_ACTIVE
+    node.sdo[0x6040].raw = 0x0F  # transition 16: back to OPERATION ENABLED
+    assert _state(node) is S.OPERATION_ENABLED
+
+
+def test_option_0_and_disable_during_the_ramp_coast(running) -> None:  # type: ignore[no-untyped-def]
+    """Option 0 switches the power off; so does disable voltage in QUICK STOP ACTIVE (transition 12):
+    the motor (no friction in the preset) keeps its speed. This is what a host that sends disable
+    right after quick stop gets."""
+    bench, node, drive = running
+    node.sdo[0x605A].raw = 2
+    node.sdo[0x6040].raw = 0x0B
+    node.sdo[0x6040].raw = 0x00  # disable voltage at once
+    assert _state(node) is S.SWITCH_ON_DISABLED
+    _run(bench, 0.1)
+    assert drive.axis.velocity == pytest.approx(V0, rel=1e-3)  # coasting, not braked
+
+
+def test_quick_stop_option_0_coasts(running) -> None:  # type: ignore[no-untyped-def]
+    bench, node, drive = running
+    node.sdo[0x605A].raw = 0
+    node.sdo[0x6040].raw = 0x0B
+    _run(bench, 0.1)
+    assert _state(node) is S.SWITCH_ON_DISABLED
+    assert drive.axis.velocity == pytest.approx(V0, rel=1e-3)
+
+
+def test_fault_reaction_brakes_along_0x605e_then_fault(running) -> None:  # type: ignore[no-untyped-def]
+    bench, node, drive = running
+    decel = 1000.0
+    node.sdo[0x6085].raw = round(decel * CPR / (2 * math.pi))
+    node.sdo[0x605E].raw = 2  # quick stop ramp
+    drive.raise_fault(0x8400)
+    assert _state(node) is S.FAULT_REACTION_ACTIVE
+    speeds = _speeds(bench, drive, 0.05)
+    assert speeds[-1] == pytest.approx(V0 - decel * 0.05, abs=3.0)
+    assert _state(node) is S.FAULT_REACTION_ACTIVE  # still braking
+    _run(bench, 0.1)
+    assert abs(drive.axis.velocity) < 0.05
+    assert _state(node) is S.FAULT
