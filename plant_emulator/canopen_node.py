@@ -12,7 +12,16 @@ mapping parameters (0x1400-0x1BFF) are read from the object dictionary, so a
 remap written through SDO takes effect at the next use.
 
 NMT gating (CiA 301, 7.3.2): PRE-OPERATIONAL: SDO, SYNC, EMCY, heartbeat;
-OPERATIONAL: all; STOPPED: NMT and heartbeat only.
+OPERATIONAL: all; STOPPED: NMT and heartbeat only. In lock-step a SYNC is also
+the step of emulated time: the device's own work (its physics and control)
+goes on in every NMT state; only the PDOs are gated.
+
+Supervision (``plant_emulator.supervision``): the heartbeat consumer 0x1016 and
+the RPDO deadlines (event timer of an RPDO). A loss is a communication error:
+EMCY 0x8130 (heartbeat) or 0x8250 (RPDO timeout), the NMT state 0x1029 sub 1
+selects (where the device has 0x1029), and the ``on_abort_connection`` hook (a
+drive's 0x6007). NMT stop or pre-operational of an OPERATIONAL node calls the
+hook too: the PDOs that carried its set-points have stopped.
 """
 
 from __future__ import annotations
@@ -33,6 +42,7 @@ from drivers.maps.cia import (
     COMMUNICATION_AREA,
     PDO_SYNC_MAX,
     EmcyCode,
+    ErrorBehavior,
     ErrorRegister,
     NmtCommand,
     NmtState,
@@ -40,6 +50,7 @@ from drivers.maps.cia import (
 from drivers.maps.od import load_od
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.pdo import PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
+from plant_emulator.supervision import Deadlines, HeartbeatConsumer, check_consumer_entry
 
 __all__ = ["EmulatedNode", "PdoConfig"]
 
@@ -98,6 +109,9 @@ class EmulatedNode:
         self._last_event: dict[int, bytes] = {}
         self._last_event_time: dict[int, float] = {}
         self._dirty = True
+        self.heartbeats = HeartbeatConsumer()  #: 0x1016
+        self.rpdo_deadlines = Deadlines()  #: RPDO number -> event timer
+        self._consumed: list[int] = []  #: COB-IDs of the heartbeats consumed
         self.rx_time = 0.0  #: timestamp [s] of the RPDO being handled
         self._power_on: dict[int, dict[int, bytes]] | None = None
 
@@ -126,8 +140,12 @@ class EmulatedNode:
         if len(data) != 2:
             log.warning("node %d: NMT frame of %d bytes ignored", self.node_id, len(data))
             return
+        before = self.nmt_state
         self.node.nmt.on_command(can_id, data, timestamp)
         self._after_nmt(can_id, data, timestamp)
+        if before == OPERATIONAL and self.nmt_state in (STOPPED, PRE_OPERATIONAL):
+            state = NmtState(self.nmt_state).text
+            self.on_abort_connection(f"NMT {state} while OPERATIONAL", EmcyCode.COMMUNICATION)
 
     def _after_nmt(self, can_id: int, data: bytes, timestamp: float) -> None:
         cmd, target = struct.unpack_from("BB", data)
@@ -165,6 +183,26 @@ class EmulatedNode:
             self._send(COB_HEARTBEAT + self.node_id, bytes([self.nmt_state]))
         if self.nmt_state == OPERATIONAL:
             self.event_tpdos(now)
+        for node in self.heartbeats.expired(now):
+            self.communication_error(f"heartbeat of node {node} lost", EmcyCode.HEARTBEAT)
+        for number in self.rpdo_deadlines.expired(now):
+            self.communication_error(f"RPDO{number + 1} timed out", EmcyCode.RPDO_TIMEOUT)
+
+    def communication_error(self, what: str, code: int) -> None:
+        """A lost heartbeat or RPDO: EMCY ``code``, the drive's reaction, then the NMT state of 0x1029."""
+        log.warning("node %d: %s", self.node_id, what)
+        self.emcy(code, ErrorRegister.GENERIC | ErrorRegister.COMMUNICATION)
+        self.on_abort_connection(what, code)
+        if cia.ERROR_BEHAVIOR not in self.node.object_dictionary:
+            return
+        behavior = self.od.read(cia.ERROR_BEHAVIOR, 1)
+        if behavior == ErrorBehavior.PRE_OPERATIONAL and self.nmt_state == OPERATIONAL:
+            self.node.nmt._state = PRE_OPERATIONAL
+        elif behavior == ErrorBehavior.STOPPED:
+            self.node.nmt._state = STOPPED
+
+    def _on_consumed_heartbeat(self, can_id: int, data: bytes, timestamp: float) -> None:
+        self.heartbeats.heard(can_id - COB_HEARTBEAT, self.clock)
 
     def event_tpdos(self, now: float) -> None:
         """TPDOs of type 254/255: sent when their data change or their event timer (sub 5) expires."""
@@ -179,6 +217,9 @@ class EmulatedNode:
     def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
         if index in PARAMETERS:
             check_mapping_write(self.od, index, subindex, data)
+            self._dirty = True
+        if index == cia.CONSUMER_HEARTBEAT and subindex:
+            check_consumer_entry(self._consumer_entries(), subindex, int.from_bytes(data, "little"))
             self._dirty = True
         if index == cia.COB_ID_SYNC:
             self._dirty = True
@@ -227,12 +268,31 @@ class EmulatedNode:
         self._rpdo_subscribed = list(self._rpdo_of_cob)
         for cob in self._rpdo_subscribed:
             self.network.subscribe(cob, self._on_rpdo_frame)
+        self.rpdo_deadlines.configure(
+            {p.number: p.event_timer_ms / 1000.0 for p in self._rpdo_of_cob.values()}  # ms -> s
+        )
+        self._configure_consumer()
         sync_cob = self._u(cia.COB_ID_SYNC, 0) & COB_ID_MASK
         if sync_cob != self._sync_cob:
             if self._sync_cob is not None:
                 self.network.unsubscribe(self._sync_cob, self._on_sync)
             self.network.subscribe(sync_cob, self._on_sync)
             self._sync_cob = sync_cob
+
+    def _consumer_entries(self) -> dict[int, int]:
+        """The sub-indices 1-n of 0x1016 (none where the device has no heartbeat consumer)."""
+        if cia.CONSUMER_HEARTBEAT not in self.node.object_dictionary:
+            return {}
+        count = self.od.read(cia.CONSUMER_HEARTBEAT, 0)
+        return {s: self.od.read(cia.CONSUMER_HEARTBEAT, s) for s in range(1, count + 1)}
+
+    def _configure_consumer(self) -> None:
+        self.heartbeats.configure_entries(list(self._consumer_entries().values()))
+        for cob in self._consumed:
+            self.network.unsubscribe(cob, self._on_consumed_heartbeat)
+        self._consumed = [COB_HEARTBEAT + node for node in self.heartbeats.times]
+        for cob in self._consumed:
+            self.network.subscribe(cob, self._on_consumed_heartbeat)
 
     def _on_rpdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
         if self.nmt_state != OPERATIONAL:
@@ -241,6 +301,7 @@ class EmulatedNode:
         pdo = self._rpdo_of_cob.get(can_id)
         if pdo is None:
             return
+        self.rpdo_deadlines.heard(pdo.number, self.clock)
         if len(data) != pdo.size:  # CiA 301: not processed, EMCY 0x8210 (too short) / 0x8220 (too long)
             log.warning(
                 "node %d: RPDO%d with %d bytes, mapped %d: ignored",
@@ -278,12 +339,13 @@ class EmulatedNode:
             self._send(pdo.cob_id, payload)
 
     def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
-        if self.nmt_state not in _SDO_SYNC_STATES:
-            return
         if self._dirty:
             self._configure()
+        self.on_sync_latch(timestamp)  # the device's work: in every NMT state (lock-step's time step)
+        if self.nmt_state not in _SDO_SYNC_STATES:
+            self.tick(timestamp)
+            return
         self._sync_count += 1
-        self.on_sync_latch(timestamp)
         if self.nmt_state == OPERATIONAL:
             send = self._send
             for pdo in self._sync_tpdos:
@@ -311,6 +373,9 @@ class EmulatedNode:
 
     def on_reset(self, *, application: bool) -> None:
         """NMT reset node (application) or power-on."""
+
+    def on_abort_connection(self, what: str, code: int) -> None:
+        """The connection to the host is lost (``what``; EMCY code ``code``): a drive's 0x6007."""
 
     def on_write(self, index: int, subindex: int, data: bytes) -> None:
         """An SDO or RPDO write of ``data`` to (index, subindex) is about to be stored; an

@@ -84,6 +84,20 @@ class PowerStateMachine:
             self.state = S.FAULT_REACTION_ACTIVE
         return self.state
 
+    def quick_stop(self) -> PowerState:
+        """The drive's own quick stop (transition 11, from OPERATION ENABLED only)."""
+        if self.state is S.OPERATION_ENABLED:
+            self.state = S.QUICK_STOP_ACTIVE
+            self._settled = None
+        return self.state
+
+    def disable_voltage(self) -> PowerState:
+        """The drive's own disable voltage (transitions 7, 9, 10, 12): the power stage off."""
+        if self.state in _VOLTAGE_ON:
+            self.state = S.SWITCH_ON_DISABLED
+            self._settled = None
+        return self.state
+
     def reaction_done(self) -> PowerState:
         """The stop ramp ended: transition 14 (to FAULT) or 12 (to SWITCH ON DISABLED, options 0-4)."""
         if self.state is S.FAULT_REACTION_ACTIVE:

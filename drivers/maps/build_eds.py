@@ -110,6 +110,12 @@ def _comm_objects(
         var(0x1008, Var("Manufacturer device name", VSTRING, "const", name)),
         var(0x100A, Var("Manufacturer software version", VSTRING, "const", "drive-rig emulator 1")),
         var(0x1014, Var("COB-ID EMCY", UINT32, "ro", "$NODEID+0x80")),
+        record(
+            0x1016,
+            "Consumer heartbeat time",
+            [(s, Var(f"Consumer heartbeat time {s}", UINT32, "rw", "0")) for s in (1, 2, 3, 4)],
+            kind=0x8,
+        ),
         var(0x1017, Var("Producer heartbeat time", UINT16, "rw", "100")),
         record(
             0x1018,
@@ -122,6 +128,7 @@ def _comm_objects(
             ],
         ),
     ]
+    objs.append(record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8))
     for n in range(4):
         objs.append(_pdo_comm(0x1400 + n, "R", n, enabled=bool(rpdo[n]), ttype=rpdo_types[n]))
     for n in range(4):
@@ -170,6 +177,7 @@ CIA402_DRIVE: list[Obj] = [
     ),
     var(0x2220, Var("Frame angle urad", INT32, "ro", "0", pdo=True)),
     var(0x2221, Var("Frame speed mrad/s", INT32, "ro", "0", pdo=True)),
+    var(0x6007, Var("Abort connection option code", INT16, "rw", "1")),
     var(0x603F, Var("Error code", UINT16, "ro", "0", pdo=True)),
     var(0x6040, Var("Controlword", UINT16, "rw", "0", pdo=True)),
     var(0x6041, Var("Statusword", UINT16, "ro", "0", pdo=True)),

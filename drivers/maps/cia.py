@@ -25,6 +25,8 @@ __all__ = [
     "COB_SYNC",
     "COB_TPDO",
     "COMMUNICATION_AREA",
+    "AbortConnectionOption",
+    "ErrorBehavior",
     "MODE_BITS",
     "MODE_NAMES",
     "NODE_IDS",
@@ -57,6 +59,7 @@ COB_ID_EMCY = 0x1014
 CONSUMER_HEARTBEAT = 0x1016  #: sub n: node id << 16 | time [ms]
 PRODUCER_HEARTBEAT = 0x1017  #: [ms]
 IDENTITY = 0x1018  #: sub 1 vendor, 2 product, 3 revision, 4 serial
+ERROR_BEHAVIOR = 0x1029  #: sub 1: NMT state on a communication error (ErrorBehavior)
 RPDO_COMM, RPDO_MAP = 0x1400, 0x1600  #: + n for RPDO n + 1
 TPDO_COMM, TPDO_MAP = 0x1800, 0x1A00  #: + n for TPDO n + 1
 PDO_COMM_COB_ID, PDO_COMM_TYPE, PDO_COMM_INHIBIT, PDO_COMM_EVENT_TIMER = 1, 2, 3, 5  #: subindices
@@ -95,6 +98,7 @@ class SdoAbortCode(enum.IntEnum):
     NO_SUBINDEX = 0x06090011
     VALUE_RANGE_EXCEEDED = 0x06090030  #: value range of parameter exceeded (write access)
     VALUE_TOO_HIGH = 0x06090031
+    PARAMETER_INCOMPATIBLE = 0x06040043  #: general parameter incompatibility
     DEVICE_STATE = 0x08000022  #: data cannot be stored because of the present device state
 
 
@@ -103,8 +107,11 @@ class EmcyCode(enum.IntEnum):
 
     NO_ERROR = 0x0000
     OVER_CURRENT = 0x2310  #: continuous over-current (device output side)
+    COMMUNICATION = 0x8100  #: communication (generic): here, NMT took the node out of OPERATIONAL
+    HEARTBEAT = 0x8130  #: life guard error or heartbeat error
     PDO_TOO_SHORT = 0x8210  #: PDO not processed due to length error
     PDO_TOO_LONG = 0x8220  #: PDO length exceeded
+    RPDO_TIMEOUT = 0x8250  #: RPDO timeout (its event timer expired)
     OVER_SPEED = 0x8400  #: velocity speed controller (CiA 402): over-speed
     FOLLOWING_ERROR = 0x8611  #: positioning controller: following error
 
@@ -157,7 +164,16 @@ class NmtState(enum.IntEnum):
         return self.name.replace("_", "-")
 
 
+class ErrorBehavior(enum.IntEnum):
+    """0x1029 sub 1 values: the NMT state a device takes on a communication error (CiA 301)."""
+
+    PRE_OPERATIONAL = 0  #: if it was OPERATIONAL
+    NO_CHANGE = 1
+    STOPPED = 2
+
+
 # --- CiA 402 drive profile --------------------------------------------------------------------
+ABORT_CONNECTION_OPTION = 0x6007  #: AbortConnectionOption: the drive's reaction to a lost host
 ERROR_CODE = 0x603F
 CONTROLWORD = 0x6040
 STATUSWORD = 0x6041
@@ -295,6 +311,15 @@ class QuickStopOption(enum.IntEnum):
     QUICK_STOP_RAMP_STAY = 6
     CURRENT_LIMIT_STAY = 7
     VOLTAGE_LIMIT_STAY = 8
+
+
+class AbortConnectionOption(enum.IntEnum):
+    """0x6007 values: what a drive does when its connection to the host is lost (CiA 402-2)."""
+
+    NO_ACTION = 0
+    FAULT = 1  #: fault signal: the fault reaction (0x605E), then FAULT
+    DISABLE_VOLTAGE = 2  #: the power stage off: the motor coasts
+    QUICK_STOP = 3  #: quick stop (0x605A)
 
 
 class Mode(enum.IntEnum):
