@@ -32,6 +32,7 @@ from typing import Any
 
 import can
 import canopen
+from canopen.sdo.exceptions import SdoAbortedError
 
 from drivers.maps import cia
 from drivers.maps.cia import (
@@ -46,10 +47,11 @@ from drivers.maps.cia import (
     ErrorRegister,
     NmtCommand,
     NmtState,
+    SdoAbortCode,
 )
 from drivers.maps.od import load_od
 from plant_emulator.od_store import ObjectStore, StoreNode
-from plant_emulator.pdo import PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
+from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
 from plant_emulator.supervision import Deadlines, HeartbeatConsumer, check_consumer_entry
 
 __all__ = ["EmulatedNode", "PdoConfig"]
@@ -95,6 +97,14 @@ class EmulatedNode:
         nmt.update_heartbeat = lambda: None
         self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
         self.node.add_write_callback(self._on_write)
+        forget = self.node.on_stored
+
+        def stored(index: int, subindex: int) -> None:
+            forget(index, subindex)
+            self.after_write(index)
+
+        self.node.on_stored = stored
+        self.fixed_mapping = False  #: the PDO mappings refuse every write (SDO abort 0x06010002)
         self.clock = 0.0  #: device time [s]
         self._last_heartbeat = -1e9
         self._sync_count = 0
@@ -216,6 +226,8 @@ class EmulatedNode:
 
     def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
         if index in PARAMETERS:
+            if self.fixed_mapping and any(index in r for r in MAPPINGS):
+                raise SdoAbortedError(SdoAbortCode.READ_ONLY)
             check_mapping_write(self.od, index, subindex, data)
             self._dirty = True
         if index == cia.CONSUMER_HEARTBEAT and subindex:
@@ -373,6 +385,9 @@ class EmulatedNode:
 
     def on_reset(self, *, application: bool) -> None:
         """NMT reset node (application) or power-on."""
+
+    def after_write(self, index: int) -> None:
+        """An SDO or RPDO write to ``index`` was stored."""
 
     def on_abort_connection(self, what: str, code: int) -> None:
         """The connection to the host is lost (``what``; EMCY code ``code``): a drive's 0x6007."""

@@ -1,40 +1,47 @@
-"""An emulated CiA 402 servo drive / converter on the bus, with an ``Axis`` behind it.
+"""An emulated CiA 402 drive on the bus: any EDS plus a device profile, with an ``Axis`` behind it.
+
+The drive is built from a device profile (``plant_emulator.device_profile``):
+its EDS gives the objects, the profile what the EDS cannot (modes where 0x6502
+is absent, units, fixed or remappable PDOs, timings, the stop reactions). The
+toolkit's own drive is the profile ``drive-rig`` (voltage mode -1 and dq voltage
+mode -2 beside CST, CSV, PV and CSP).
 
 Per SYNC (period ``period`` [s]): the physics advances one period with the
 commands in force (the drive's ``Shaft``, once for all the nodes on it), the
-drive checks its limits, latches the feedback into the object dictionary and
-sends its synchronous TPDOs. A drive whose power stage is off gives no
-commands and lets its axis coast; an NMT reset lets go of the axis (the shaft
-keeps its motion). Command timing is the two
-delay cases of the dq-current paper: a synchronous RPDO (type 0-240) is
-applied at the next SYNC (one period of delay: s-PWM-start); an event RPDO
-(type 254/255) is applied ``0x2001`` microseconds after receipt (a fraction
-of a period: s-PWM-middle with T_s/2). SDO writes of a target act at the next SYNC.
-
-Units on the wire (device units, converted here and in the driver from the
-same EDS objects): position [increments, 0x608F], velocity [increments/s],
-torque and current [per mille of 0x6076 / 0x6075], voltage [mV], dq current
-[mA], angle [urad].
+drive runs its own cycle (a pending mode switch, its limits, the stop ramps)
+and latches the feedback into the objects it has (``ProcessImage``, in its own
+units) before its synchronous TPDOs go out. A drive whose power stage is off
+gives no commands and lets its axis coast; an NMT reset lets go of the axis
+(the shaft keeps its motion). Command timing is the two delay cases of the
+dq-current paper: a synchronous RPDO (type 0-240) is applied at the next SYNC
+(one period of delay: s-PWM-start); an event RPDO (type 254/255) is applied a
+latency after receipt (the profile's ``pdo_latency``, or the toolkit's 0x2001
+[us]: s-PWM-middle with T_s/2). SDO writes of a target act at the next SYNC.
+A write of 0x6060 shows in 0x6061 after the profile's ``mode_switch`` time.
 
 Faults (EMCY with 0x603F and 0x1001): over-current 0x2310 (|i| above 0x6073),
 over-speed 0x8400 (|omega| above 0x6080 rpm), following error 0x8611 (CSP,
-|error| above 0x6065 increments). The fault reaction (0x605E) and quick stop
-(0x605A) brake with the speed loop along the ramp their option selects (0x6084,
-0x6085 or the current limit; ``plant_emulator.braking``) where the axis has a
-speed loop, or coast (option 0). A disable voltage in QUICK STOP ACTIVE cuts the
-ramp, as CiA 402 transition 12 does: the motor coasts.
+|error| above 0x6065). The fault reaction (0x605E) and quick stop (0x605A)
+brake with the speed loop along the ramp their option selects (0x6084, 0x6085
+or the current limit; ``plant_emulator.braking``) where the axis has a speed
+loop, or coast (option 0). A disable voltage in QUICK STOP ACTIVE cuts the
+ramp, as CiA 402 transition 12 does: the motor coasts. A lost host (heartbeat,
+RPDO deadline, NMT stop) gets the reaction of 0x6007.
+
+Writes to the profile's harmful manufacturer objects (e.g. a CAN bit rate at
+0x2001) are logged and kept in ``harmful_writes``, so a test can tell that a
+host wrote where it must not.
 """
 
 from __future__ import annotations
 
+import functools
 import logging
-import math
-from dataclasses import dataclass, replace
 
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drivers.maps import CIA402_EDS, cia
+from drivers.maps import cia
 from drivers.maps.cia import (
     MODE_BITS,
     SW_FOLLOWING_ERROR,
@@ -53,9 +60,11 @@ from plant_emulator.axes import Axis
 from plant_emulator.braking import STOPPED_SPEED, Braking, deceleration
 from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
 from plant_emulator.cia402_state import PowerStateMachine
+from plant_emulator.device_profile import DEVICES_DIR, DeviceProfile, load_profile
+from plant_emulator.process_image import UNIT_OBJECTS, ProcessImage, Ratings
 from plant_emulator.shaft import Shaft, Timed
 
-__all__ = ["FAULT_CODES", "EmulatedDrive", "Ratings"]
+__all__ = ["FAULT_CODES", "EmulatedDrive", "Ratings", "toolkit_profile"]
 
 log = logging.getLogger(__name__)
 
@@ -76,10 +85,8 @@ _QUICK_STOP_OPTIONS = frozenset(int(o) for o in QuickStopOption)
 S = PowerState
 # The per-SYNC path compares with these module globals: CPython 3.11 takes ~0.2 us to look an
 # enum member up on its class (and to hash an Enum), ~0.03 us for a global.
-_VOLTAGE, _DQ_VOLTAGE, _CST, _CSV, _PV, _CSP = (
-    int(m) for m in (Mode.VOLTAGE, Mode.DQ_VOLTAGE, Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY, Mode.CSP)
-)
-_CYCLIC = (_CSP, _CSV, _CST)
+_CSV, _CSP = int(Mode.CSV), int(Mode.CSP)
+_CYCLIC = (_CSP, _CSV, int(Mode.CST))
 _ENABLED, _QUICK_STOP_ACTIVE, _REACTION, _FAULT = (
     S.OPERATION_ENABLED,
     S.QUICK_STOP_ACTIVE,
@@ -92,29 +99,18 @@ _OVER_CURRENT, _OVER_SPEED, _FOLLOWING_ERROR = (
 )
 
 
-@dataclass(frozen=True)
-class Ratings:
-    """A drive's rated and maximum values (written to its object dictionary by ``EmulatedDrive.rate``)."""
-
-    rated_current: float  #: 0x6075 [A]
-    rated_torque: float  #: 0x6076 [N m]
-    max_current_permille: int  #: 0x6073 [per mille of the rated current]
-    max_speed_rpm: int  #: 0x6080 [rpm]
-
-    def as_stored(self) -> Ratings:
-        """These ratings as the object dictionary holds them (whole mA and mN m)."""
-        return replace(
-            self,
-            rated_current=round(self.rated_current * 1000) / 1000,
-            rated_torque=round(self.rated_torque * 1000) / 1000,
-        )
+@functools.lru_cache(maxsize=1)
+def toolkit_profile() -> DeviceProfile:
+    """The profile of the toolkit's own drive (``devices/drive-rig.toml``)."""
+    return load_profile(DEVICES_DIR / "drive-rig.toml")
 
 
 class EmulatedDrive(EmulatedNode):
     """A CiA 402 drive node with ``axis`` behind it; see the module docstring.
 
-    ``shaft``: the plant the axis is part of (``plant_emulator.shaft``), shared with the
-    other nodes on it; None gives the drive a shaft of its own.
+    ``profile``: the drive's device profile (default: the toolkit's own). ``shaft``: the plant
+    the axis is part of (``plant_emulator.shaft``), shared with the other nodes on it; None
+    gives the drive a shaft of its own.
     """
 
     def __init__(
@@ -124,7 +120,7 @@ class EmulatedDrive(EmulatedNode):
         axis: Axis,
         *,
         period: float,
-        eds: str = CIA402_EDS,
+        profile: DeviceProfile | None = None,
         shaft: Shaft | None = None,
     ) -> None:
         shaft = shaft or Shaft(axis, period=period)
@@ -132,23 +128,60 @@ class EmulatedDrive(EmulatedNode):
             raise ValueError("the drive's axis must be one of its shaft's axes")
         if period != shaft.period:
             raise ValueError(f"the drive's period {period!r} s is not its shaft's, {shaft.period!r} s")
+        self.profile = profile or toolkit_profile()
         self.axis = axis
         self.shaft = shaft
         self.period = period
-        self._dq_axis = hasattr(axis, "i_dq")  # reports dq current and frame angle
         self._speed_limited = Mode.DQ_VOLTAGE not in axis.modes  # a grid converter has no speed
         self.sm = PowerStateMachine()
         self.braking = Braking()
         self._pending: list[Timed] = []
         self._t_sync = 0.0
-        self.glitch_counts = 0  #: fault injection: added to the latched position [increments]
+        self.glitch_counts = 0  #: fault injection: added to the latched position [position units]
         self._sdo_target = False
         self._in_rpdo = False
         self.fault_code = 0
         self._pending_cw: int | None = None
-        super().__init__(node_id, eds, network)
-        self.write(cia.SUPPORTED_MODES, 0, sum(MODE_BITS[m] for m in axis.modes))
+        self._mode_switch: tuple[int, float] | None = None  #: (mode, device time [s] it shows)
+        self.harmful_writes: list[tuple[int, int, bytes]] = []  #: (index, subindex, data)
+        super().__init__(node_id, str(self.profile.eds), network)
+        self.fixed_mapping = self.profile.mapping == "fixed"
+        self._present = frozenset(self.node.object_dictionary.indices)
+        self.modes = self._modes()
+        self._latency_object = self.profile.role_object("command-latency")
+        ratings = Ratings(1.0, 1.0, 3000, 6000)  # until ``rate``: a preset rates every drive
+        self.image = ProcessImage(self.od, self._has, self.profile.units, ratings, dq=hasattr(axis, "i_dq"))
+        self._defaults()
         shaft.attach(self)
+
+    def _has(self, index: int) -> bool:
+        return index in self._present
+
+    def _modes(self) -> tuple[int, ...]:
+        """The profile's modes the physics can run (profile modes need the loops they use)."""
+        capable = set(self.axis.modes)
+        if Mode.CSP in capable:
+            capable |= {Mode.PROFILE_POSITION, Mode.HOMING}
+        modes = tuple(int(m) for m in self.profile.check_against(self.node.object_dictionary) if m in capable)
+        if self._has(cia.SUPPORTED_MODES):
+            self.write(cia.SUPPORTED_MODES, 0, sum(MODE_BITS[Mode(m)] for m in modes))
+        return modes
+
+    def _defaults(self) -> None:
+        """The profile's reaction codes into the objects the drive has (its power-on values)."""
+        r = self.profile.reactions
+        for index, value in (
+            (cia.QUICK_STOP_OPTION, r.quick_stop),
+            (cia.FAULT_REACTION_OPTION, r.fault),
+            (cia.ABORT_CONNECTION_OPTION, r.abort_connection),
+            (cia.HALT_OPTION, r.halt),
+        ):
+            if self._has(index):
+                self.write(index, 0, value)
+        self.sm.quick_stop_option = self._option(cia.QUICK_STOP_OPTION, r.quick_stop)
+
+    def _option(self, index: int, default: int) -> int:
+        return int(self.read(index)) if self._has(index) else default
 
     @property
     def lockstep(self) -> bool:
@@ -162,48 +195,29 @@ class EmulatedDrive(EmulatedNode):
         self.shaft.lockstep = value
 
     def rate(self, ratings: Ratings, *, counts_per_rev: int) -> None:
-        """Write the ratings and the position resolution [increments/rev] (device side, SI in)."""
-        self.write(cia.RATED_CURRENT, 0, round(ratings.rated_current * 1000))  # mA
-        self.write(cia.RATED_TORQUE, 0, round(ratings.rated_torque * 1000))  # mN m
-        self.write(cia.MAX_CURRENT, 0, ratings.max_current_permille)
-        self.write(cia.MAX_MOTOR_SPEED, 0, ratings.max_speed_rpm)
-        self.write(cia.POSITION_ENCODER_RESOLUTION, 1, counts_per_rev)
+        """Take the ratings and the position resolution [increments/rev] (device side, SI in)."""
+        self.image.rate(ratings, counts_per_rev)
 
-    # --- units ----------------------------------------------------------------
     @property
     def counts_per_rad(self) -> float:
-        read = self.od.read
-        res = cia.POSITION_ENCODER_RESOLUTION
-        return read(res, 1) / (read(res, 2) * 2.0 * math.pi)  # type: ignore[no-any-return]
-
-    def _rated_torque(self) -> float:
-        return self.od.read(cia.RATED_TORQUE, 0) / 1000.0  # type: ignore[no-any-return]  # mN m -> N m
-
-    def _rated_current(self) -> float:
-        return self.od.read(cia.RATED_CURRENT, 0) / 1000.0  # type: ignore[no-any-return]  # mA -> A
-
-    def _command(self, mode: int) -> complex:
-        """The present target of ``mode`` from the object dictionary, in SI."""
-        read = self.od.read
-        if mode == _VOLTAGE:
-            return complex(read(cia.TARGET_VOLTAGE, 0) / 1000.0)  # mV -> V
-        if mode == _DQ_VOLTAGE:
-            return complex(read(cia.DQ_VOLTAGE, 1), read(cia.DQ_VOLTAGE, 2)) / 1000.0
-        if mode == _CST:
-            return complex(read(cia.TARGET_TORQUE, 0) / 1000.0 * self._rated_torque())
-        if mode in (_CSV, _PV):
-            return complex(read(cia.TARGET_VELOCITY, 0) / self.counts_per_rad)
-        if mode == _CSP:
-            return complex(read(cia.TARGET_POSITION, 0) / self.counts_per_rad)
-        return 0j
+        """Position units per rad (increments for the toolkit's drive)."""
+        return self.image.units.position
 
     # --- object writes -----------------------------------------------------
     def on_write(self, index: int, subindex: int, data: bytes) -> None:
+        if index in self.profile.harmful:
+            log.warning(
+                "node %d: write of %s to 0x%04X:%d (%s)",
+                self.node_id,
+                data.hex(),
+                index,
+                subindex,
+                next(m.name for m in self.profile.manufacturer if m.index == index),
+            )
+            self.harmful_writes.append((index, subindex, bytes(data)))
         value = int.from_bytes(data, "little", signed=index in _SIGNED)
         if index == cia.MODES_OF_OPERATION:
-            if value not in self.axis.modes:
-                raise SdoAbortedError(SdoAbortCode.VALUE_RANGE_EXCEEDED)
-            self.write(cia.MODES_DISPLAY, 0, value)
+            self._select_mode(value)
         elif index == cia.QUICK_STOP_OPTION:
             if value not in _QUICK_STOP_OPTIONS:
                 raise SdoAbortedError(SdoAbortCode.VALUE_RANGE_EXCEEDED)
@@ -214,6 +228,22 @@ class EmulatedDrive(EmulatedNode):
                 self._apply_controlword(value)
         elif index in _TARGETS and not self._in_rpdo:
             self._sdo_target = True
+
+    def after_write(self, index: int) -> None:
+        if index in UNIT_OBJECTS:
+            self.image.refresh()
+
+    def _select_mode(self, mode: int) -> None:
+        """0x6060: a mode of 0x6502 (else SDO abort 0x06090030), shown in 0x6061 after the
+        profile's ``mode_switch`` time."""
+        if mode not in self.modes:
+            raise SdoAbortedError(SdoAbortCode.VALUE_RANGE_EXCEEDED)
+        delay = self.profile.timing.mode_switch
+        if delay > 0.0:
+            self._mode_switch = (mode, self.shaft.t + delay)
+        else:
+            self._mode_switch = None
+            self.write(cia.MODES_DISPLAY, 0, mode)
 
     def _unpack(self, pdo, data):  # type: ignore[no-untyped-def]
         self._in_rpdo = True
@@ -237,16 +267,10 @@ class EmulatedDrive(EmulatedNode):
         if after is S.OPERATION_ENABLED:
             mode = self.read(cia.MODES_DISPLAY)
             if mode in self.axis.modes:
-                self.axis.set_command(mode, self._hold_command(mode))
+                self.axis.set_command(mode, complex(self.axis.position) if mode == _CSP else 0j)
             else:  # no mode selected: enabled, but no torque
                 self.axis.coast()
         self._latch_status()
-
-    def _hold_command(self, mode: int) -> complex:
-        """On enable: hold the present position/speed rather than jump to a stale target."""
-        if mode == _CSP:
-            return complex(self.axis.position)
-        return 0j
 
     def on_rpdo(self, number: int, *, synchronous: bool) -> None:
         if self._pending_cw is not None:
@@ -257,21 +281,23 @@ class EmulatedDrive(EmulatedNode):
         mode = self.od.read(cia.MODES_DISPLAY, 0)
         if mode not in self.axis.modes:
             return
-        value = self._command(mode)
+        value = self.image.target(mode)
         if synchronous:
             self._pending.append((0.0, self.axis, mode, value, True))
+            return
+        if self._latency_object is not None:
+            latency = self._u(self._latency_object, 0) * 1e-6  # us -> s
         else:
-            latency = self._u(cia.COMMAND_LATENCY, 0) * 1e-6  # us -> s
-            arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
-            offset = min(arrival + latency, self.period)
-            self._pending.append((offset, self.axis, mode, value, False))
+            latency = self.profile.timing.pdo_latency
+        arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
+        self._pending.append((min(arrival + latency, self.period), self.axis, mode, value, False))
 
     def on_abort_connection(self, what: str, code: int) -> None:
         """The host is gone (heartbeat or RPDO lost, NMT stop): the reaction of 0x6007 (CiA 402),
         if the power stage is on."""
         if self.sm.state is not _ENABLED:
             return
-        option = self.read(cia.ABORT_CONNECTION_OPTION) if self._has(cia.ABORT_CONNECTION_OPTION) else 0
+        option = self._option(cia.ABORT_CONNECTION_OPTION, self.profile.reactions.abort_connection)
         log.warning("node %d: %s: abort connection option %d", self.node_id, what, option)
         if option == AbortConnectionOption.FAULT:
             self.raise_fault(code)
@@ -283,17 +309,17 @@ class EmulatedDrive(EmulatedNode):
             self.sm.quick_stop()
             self._latch_status()
 
-    def _has(self, index: int) -> bool:
-        return index in self.node.object_dictionary
-
     def on_reset(self, *, application: bool) -> None:
         """Power-on or NMT reset node: the drive lets go of its axis; the shaft keeps turning."""
         self.axis.release()
         self.sm = PowerStateMachine()
         self.sm.power_on()
-        self.sm.quick_stop_option = QuickStopOption.QUICK_STOP_RAMP
         self._pending.clear()
+        self._mode_switch = None
         self.fault_code = 0
+        if hasattr(self, "image"):  # (not yet at the first power-on)
+            self.image.refresh()
+            self.sm.quick_stop_option = self._option(cia.QUICK_STOP_OPTION, self.profile.reactions.quick_stop)
         self._latch_status()
 
     # --- the cycle ----------------------------------------------------------
@@ -306,10 +332,6 @@ class EmulatedDrive(EmulatedNode):
             return []
         return pending
 
-    def _acceleration(self, index: int) -> float:
-        """An acceleration object (0x6083-0x6085, velocity units per second) in rad/s^2."""
-        return self.od.read(index, 0) / self.counts_per_rad  # type: ignore[no-any-return]
-
     def _stop_reaction(self) -> None:
         """Quick stop (0x605A) or fault reaction (0x605E): brake along the option's ramp to rest
         [below STOPPED_SPEED], or coast (option 0, or no speed loop); ``plant_emulator.braking``."""
@@ -318,13 +340,16 @@ class EmulatedDrive(EmulatedNode):
             self.braking.release()
             return
         if not self.braking.active:
+            r = self.profile.reactions
             option = (
-                self.sm.quick_stop_option if st is _QUICK_STOP_ACTIVE else self.read(cia.FAULT_REACTION_OPTION)
+                self.sm.quick_stop_option
+                if st is _QUICK_STOP_ACTIVE
+                else self._option(cia.FAULT_REACTION_OPTION, r.fault)
             )
             rate = deceleration(
                 option,
-                profile=self._acceleration(cia.PROFILE_DECELERATION),
-                quick_stop=self._acceleration(cia.QUICK_STOP_DECELERATION),
+                profile=self.image.acceleration(cia.PROFILE_DECELERATION, r.profile_deceleration),
+                quick_stop=self.image.acceleration(cia.QUICK_STOP_DECELERATION, r.quick_stop_deceleration),
             )
             if rate is None or _CSV not in self.axis.modes:
                 self.axis.coast()
@@ -342,15 +367,18 @@ class EmulatedDrive(EmulatedNode):
         st = self.sm.state
         if st is _FAULT or st is _REACTION:
             return
-        read, ax = self.od.read, self.axis
+        ax, image = self.axis, self.image
         code = 0
-        i_max = read(cia.MAX_CURRENT, 0) / 1000.0 * self._rated_current()
-        w_max = read(cia.MAX_MOTOR_SPEED, 0) * (2.0 * math.pi / 60.0)  # rpm -> rad/s
-        if abs(ax.current) > i_max:
+        if abs(ax.current) > image.max_current:
             code = _OVER_CURRENT
-        elif self._speed_limited and abs(ax.velocity) > w_max:
+        elif self._speed_limited and abs(ax.velocity) > image.max_speed:
             code = _OVER_SPEED
-        elif st is _ENABLED and read(cia.MODES_DISPLAY, 0) == _CSP:
+        elif (
+            st is _ENABLED
+            and self._has(cia.FOLLOWING_ERROR_WINDOW)
+            and self.od.read(cia.MODES_DISPLAY, 0) == _CSP
+        ):
+            read = self.od.read
             error = read(cia.TARGET_POSITION, 0) - read(cia.POSITION_ACTUAL, 0)
             if abs(error) > read(cia.FOLLOWING_ERROR_WINDOW, 0):
                 code = _FOLLOWING_ERROR
@@ -363,7 +391,8 @@ class EmulatedDrive(EmulatedNode):
         self.fault_code = code
         self.sm.fault()
         self._latch_status()  # the statusword says so at once, not at the next SYNC
-        self.write(cia.ERROR_CODE, 0, code)
+        if self._has(cia.ERROR_CODE):
+            self.write(cia.ERROR_CODE, 0, code)
         register = ErrorRegister.GENERIC
         if code >> 12 == 0x2:  # 0x2xxx: current
             register |= ErrorRegister.CURRENT
@@ -376,14 +405,22 @@ class EmulatedDrive(EmulatedNode):
     def on_sync_latch(self, timestamp: float) -> None:
         self.shaft.sync(self, timestamp)  # the shaft at this SYNC, advanced once for all its nodes
         self._t_sync = timestamp
+        self._cycle()
+        self._latch()
+
+    def _cycle(self) -> None:
+        """The drive's own work once per period: a due mode switch, a target written by SDO,
+        its limits, the stop ramps."""
+        if self._mode_switch is not None and self.shaft.t >= self._mode_switch[1] - 1e-9:
+            self.write(cia.MODES_DISPLAY, 0, self._mode_switch[0])
+            self._mode_switch = None
         if self._sdo_target:
             self._sdo_target = False
             mode = self.read(cia.MODES_DISPLAY)
             if self.sm.state is _ENABLED and mode in self.axis.modes:
-                self._pending.append((0.0, self.axis, mode, self._command(mode), False))
+                self._pending.append((0.0, self.axis, mode, self.image.target(mode), False))
         self._check_limits()
         self._stop_reaction()
-        self._latch()
 
     def _latch_status(self) -> None:
         word = self.sm.statusword() | SW_REMOTE
@@ -394,21 +431,7 @@ class EmulatedDrive(EmulatedNode):
         self.od.write(cia.STATUSWORD, 0, word)
 
     def _latch(self) -> None:
-        ax, write = self.axis, self.od.write
-        cpr = self.counts_per_rad
-        pos = math.floor(ax.position * cpr) + self.glitch_counts
-        write(cia.POSITION_ACTUAL, 0, max(-(2**31), min(2**31 - 1, pos)))
-        write(cia.VELOCITY_ACTUAL, 0, max(-(2**31), min(2**31 - 1, round(ax.velocity * cpr))))
-        rated_t, rated_i = self._rated_torque(), self._rated_current()
-        write(cia.TORQUE_ACTUAL, 0, max(-32768, min(32767, round(ax.torque / rated_t * 1000.0))))
-        write(cia.CURRENT_ACTUAL, 0, max(-32768, min(32767, round(ax.current / rated_i * 1000.0))))
-        if self.od.read(cia.MODES_DISPLAY, 0) == _CSP:
-            write(cia.FOLLOWING_ERROR_ACTUAL, 0, self.od.read(cia.TARGET_POSITION, 0) - pos)
-        if self._dq_axis:
-            i_dq = ax.i_dq  # type: ignore[attr-defined]
-            write(cia.DQ_CURRENT, 1, round(i_dq.real * 1000.0))  # mA
-            write(cia.DQ_CURRENT, 2, round(i_dq.imag * 1000.0))
-            write(cia.FRAME_ANGLE, 0, round(ax.position * 1e6))  # urad
-            write(cia.FRAME_SPEED, 0, round(ax.velocity * 1000.0))  # mrad/s
-        ax.latch()
+        csp = self.od.read(cia.MODES_DISPLAY, 0) == _CSP
+        self.image.latch(self.axis, csp=csp, offset=self.glitch_counts)
+        self.axis.latch()
         self._latch_status()

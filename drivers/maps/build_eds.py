@@ -128,7 +128,9 @@ def _comm_objects(
             ],
         ),
     ]
-    objs.append(record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8))
+    objs.append(
+        record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8)
+    )
     for n in range(4):
         objs.append(_pdo_comm(0x1400 + n, "R", n, enabled=bool(rpdo[n]), ttype=rpdo_types[n]))
     for n in range(4):

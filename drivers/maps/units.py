@@ -16,8 +16,15 @@ A CiA 402 drive states its position and velocity units in two ways:
 
 ``SiUnit.decode(code)`` gives a code's parts, and ``per_revolution`` /
 ``per_revolution_per_second`` how many of it make one revolution or one
-revolution per second of the driving shaft. Acceleration is in velocity units
-per second. The host driver and the emulated drive both convert with these.
+revolution per second of the driving shaft. ``position_per_revolution`` and
+``velocity_per_revolution`` give a drive's units per revolution of its motor
+from whichever of these objects it has. Acceleration is in velocity units
+per second.
+
+Decision: CiA 402 scales positions by the factor group only where the drive
+has a feed constant 0x6092; a drive without 0x6092 and without 0x60A8 counts
+positions in increments (its 0x608F, if any, then only tells the encoder's
+resolution), as most drives without a factor group do.
 """
 
 from __future__ import annotations
@@ -25,7 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["ROTARY_UNITS", "TIME_UNITS", "SiUnit"]
+__all__ = ["ROTARY_UNITS", "TIME_UNITS", "SiUnit", "position_per_revolution", "velocity_per_revolution"]
 
 #: rotary units of CiA 303-2 (code: how many make one revolution)
 ROTARY_UNITS: dict[int, float] = {
@@ -40,7 +47,15 @@ ROTARY_UNITS: dict[int, float] = {
 INCREMENTS = 0xB5
 #: time units (code: seconds)
 TIME_UNITS: dict[int, float] = {0x03: 1.0, 0x47: 60.0, 0x48: 3600.0, 0x49: 86400.0}
-_NAMES = {0x10: "rad", 0x40: "gon", 0x41: "deg", 0x42: "arcmin", 0x43: "arcsec", 0xB4: "rev", INCREMENTS: "inc"}
+_NAMES = {
+    0x10: "rad",
+    0x40: "gon",
+    0x41: "deg",
+    0x42: "arcmin",
+    0x43: "arcsec",
+    0xB4: "rev",
+    INCREMENTS: "inc",
+}
 _TIME_NAMES = {0x03: "s", 0x47: "min", 0x48: "h", 0x49: "d"}
 
 
@@ -83,3 +98,28 @@ class SiUnit:
         scale = f"1e{self.prefix} " if self.prefix else ""
         per = f"/{_TIME_NAMES[self.per]}" if self.per else ""
         return f"{scale}{_NAMES.get(self.unit, hex(self.unit))}{per}"
+
+
+def position_per_revolution(
+    increments: float, *, gear: float = 1.0, feed: float | None = None, unit: int = 0
+) -> float:
+    """Position units per motor revolution: from the SI unit code ``unit`` (0x60A8) if given, else
+    from the feed constant ``feed`` (0x6092, units per driving shaft revolution) if the drive has
+    one, else increments. ``increments``: per motor revolution (0x608F); ``gear``: motor
+    revolutions per driving shaft revolution (0x6091)."""
+    if unit:
+        return SiUnit.decode(unit).per_revolution(increments) / gear
+    if feed is not None:
+        return feed / gear
+    return increments
+
+
+def velocity_per_revolution(
+    increments: float, *, gear: float = 1.0, feed: float | None = None, unit: int = 0, position_unit: int = 0
+) -> float:
+    """Velocity units per motor revolution per second: from the SI unit code ``unit`` (0x60A9) if
+    given, else position units (``position_unit``: 0x60A8, see ``position_per_revolution``) per
+    second."""
+    if unit:
+        return SiUnit.decode(unit).per_revolution_per_second(increments) / gear
+    return position_per_revolution(increments, gear=gear, feed=feed, unit=position_unit)

@@ -17,8 +17,7 @@ from drivers.base import AxisDriver, AxisState
 from drivers.cia402 import Cia402Axis
 from drivers.cia406 import Cia406Axis
 from drivers.errors import CommunicationError, RigError, SafetyStop
-from drivers.maps import cia
-from drivers.maps import modbus_map
+from drivers.maps import cia, modbus_map
 from drivers.modbus_inverter import ModbusInverterAxis
 from plant_emulator.lockstep import LockstepBench
 from plant_emulator.modbus_inverter import InverterModel, InverterServer

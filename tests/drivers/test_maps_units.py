@@ -54,8 +54,10 @@ def test_units_this_toolkit_cannot_convert_are_named(code: int, what: str) -> No
 
 def test_an_eds_in_cp1252_loads(tmp_path: pathlib.Path) -> None:
     """A degree sign as Windows-1252 writes it (one byte, 0xB0): not UTF-8, still an EDS."""
-    text = pathlib.Path(CIA402_EDS).read_text().replace(
-        "ParameterName=Position actual value", "ParameterName=Position actual value (0.1\u00b0)"
+    text = (
+        pathlib.Path(CIA402_EDS)
+        .read_text()
+        .replace("ParameterName=Position actual value", "ParameterName=Position actual value (0.1\u00b0)")
     )
     path = tmp_path / "drive.eds"
     path.write_bytes(text.encode("cp1252"))
@@ -66,5 +68,5 @@ def test_an_eds_in_cp1252_loads(tmp_path: pathlib.Path) -> None:
 def test_an_eds_that_is_no_text_is_named(tmp_path: pathlib.Path) -> None:
     path = tmp_path / "drive.eds"
     path.write_bytes(b"[FileInfo]\n\x81\x8d\n")  # bytes no code page decodes
-    with pytest.raises(ConfigError, match="drive.eds: not a valid EDS/DCF"):
+    with pytest.raises(ConfigError, match=r"drive\.eds: not a valid EDS/DCF"):
         load_od(path, 1)

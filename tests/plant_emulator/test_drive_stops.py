@@ -12,9 +12,9 @@ import canopen
 import pytest
 
 from drivers.maps import CIA402_EDS
+from drivers.maps.cia import PowerState as S
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.lockstep import LockstepBench
-from drivers.maps.cia import PowerState as S
 from tests.plant_emulator.test_canopen_devices import statusword_state
 
 CPR = 4096  #: the dc-servo preset's increments per revolution

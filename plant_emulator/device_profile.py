@@ -1,0 +1,416 @@
+"""Device profiles: what a drive's EDS cannot say, as data (TOML), to build its emulated twin.
+
+An EDS lists a drive's objects, their types, access, mappability and defaults.
+It does not say which modes the drive has where it lacks 0x6502, what its
+increments are where it lacks 0x608F, whether it lets its PDOs be remapped, how
+long it takes to answer, how it stops, or what the motor behind it is. A profile
+says that. One file per drive, next to its EDS::
+
+    [device]
+    name = "epos4"                     # what ``rig emulate --device`` takes
+    description = "one line for rig emulate --list"
+    modelled_on = "the published facts it follows, and which features are variants"
+    eds = "epos4.eds"                  # relative to this file
+    physics = "dc-servo"               # the preset whose motor is behind the drive
+    node_id = 1
+
+    [physics.params]                   # the preset's parameters by name (typed)
+    a_m = 16.0
+
+    [modes]
+    supported = ["pp", "pv", "hm", "csp", "csv"]   # only where the EDS has no 0x6502
+
+    [units]
+    counts_per_rev = 51200             # increments per motor revolution where 0x608F is absent
+    position = "0xFF410000"            # SI unit code (0x60A8) where the EDS lacks 0x60A8
+    velocity = "0x00B44700"            # SI unit code (0x60A9) where the EDS lacks 0x60A9
+
+    [pdo]
+    mapping = "remappable"             # or "fixed": mapping parameters refuse every write
+
+    [timing]                           # seconds
+    sdo_response = 0.0005
+    pdo_latency = 0.0                  # an event-driven RPDO acts this long after receipt
+    mode_switch = 0.002                # 0x6061 follows 0x6060 after this
+
+    [reactions]                        # defaults of 0x605A, 0x605E, 0x6007, 0x605D, and the
+    quick_stop = 2                     # decelerations [rad/s^2] where 0x6084/0x6085 are absent
+    fault = 2
+    abort_connection = 1
+    halt = 1
+    profile_deceleration = 1000.0
+    quick_stop_deceleration = 2000.0
+
+    [homing]
+    methods = [35, 37, 19]             # 0x6098 values it accepts
+    switch_position = 0.5              # [rad] the home switch (0x60FD bit 2) is on at angles >= this
+
+    [manufacturer.0x2001]              # objects 0x2000-0x5FFF with a meaning
+    name = "CAN bit rate"
+    harmful = true                     # a write here would be a host's mistake: logged and kept
+    role = ""                          # "command-latency": the toolkit's event-RPDO latency [us]
+
+    [emcy]
+    0x7380 = "resolver error"          # texts for manufacturer EMCY codes
+
+Every key is checked: an unknown key, a wrong type or a value out of range is a
+``ConfigError`` naming the file and the key. ``check_against(od)`` then checks
+the profile against its EDS (modes against 0x6502, increments where 0x608F is
+absent, a fixed mapping that the EDS would let be written).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from drivers.errors import ConfigError
+from drivers.maps import cia
+from drivers.maps.cia import MODE_BITS, MODE_NAMES, Mode
+from drivers.maps.units import SiUnit
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = [
+    "DEVICES_DIR",
+    "DeviceProfile",
+    "ManufacturerObject",
+    "device_profile",
+    "load_profile",
+    "zoo",
+]
+
+DEVICES_DIR = Path(__file__).resolve().parent / "devices"
+#: the mode names of a profile: the configuration's, and "hm" for homing
+PROFILE_MODES: dict[str, Mode] = {**MODE_NAMES, "hm": Mode.HOMING}
+ROLES = ("", "command-latency")
+
+
+@dataclass(frozen=True)
+class Units:
+    """What the EDS may not say about units (see the module docstring)."""
+
+    counts_per_rev: int = 0  #: increments per motor revolution where 0x608F is absent; 0: not given
+    position: int = 0  #: 0x60A8 code where the EDS lacks 0x60A8; 0: the factor group (increments)
+    velocity: int = 0  #: 0x60A9 code where the EDS lacks 0x60A9; 0: position units per second
+
+
+@dataclass(frozen=True)
+class Timing:
+    """How long the drive takes [s]; lock-step has no time between SYNCs, so there the SDO and
+    mode-switch times count in SYNC periods only where a SYNC passes."""
+
+    sdo_response: float = 0.0
+    pdo_latency: float = 0.0
+    mode_switch: float = 0.0
+
+
+@dataclass(frozen=True)
+class Reactions:
+    """Defaults of the stop option codes, and decelerations [rad/s^2] where their objects are absent."""
+
+    quick_stop: int = 2  #: 0x605A
+    fault: int = 2  #: 0x605E
+    abort_connection: int = 1  #: 0x6007
+    halt: int = 1  #: 0x605D
+    profile_deceleration: float = 1000.0
+    quick_stop_deceleration: float = 2000.0
+
+
+@dataclass(frozen=True)
+class Homing:
+    methods: tuple[int, ...] = (35, 37)  #: 0x6098 values the drive accepts
+    switch_position: float = 0.5  #: [rad] the home switch is on at shaft angles >= this
+
+
+@dataclass(frozen=True)
+class ManufacturerObject:
+    """An object in 0x2000-0x5FFF with the meaning the drive gives it."""
+
+    index: int
+    name: str
+    role: str = ""
+    harmful: bool = False
+
+
+@dataclass(frozen=True)
+class DeviceProfile:
+    """One drive's profile; see the module docstring."""
+
+    name: str
+    description: str
+    eds: Path
+    source: Path  #: the TOML file
+    modelled_on: str = ""
+    physics: str = "dc-servo"
+    params: Mapping[str, Any] = field(default_factory=dict)
+    node_id: int = 1
+    modes: tuple[Mode, ...] = ()
+    mapping: str = "remappable"
+    units: Units = Units()
+    timing: Timing = Timing()
+    reactions: Reactions = Reactions()
+    homing: Homing = Homing()
+    manufacturer: tuple[ManufacturerObject, ...] = ()
+    emcy: Mapping[int, str] = field(default_factory=dict)
+
+    def role_object(self, role: str) -> int | None:
+        """The manufacturer object that plays ``role``, or None."""
+        return next((m.index for m in self.manufacturer if m.role == role), None)
+
+    @property
+    def harmful(self) -> frozenset[int]:
+        return frozenset(m.index for m in self.manufacturer if m.harmful)
+
+    def check_against(self, od: Any) -> tuple[Mode, ...]:
+        """Check this profile against its object dictionary ``od``; the drive's modes."""
+        where = f"{self.source}"
+        modes = self.modes
+        if cia.SUPPORTED_MODES in od:
+            bits = _default(od[cia.SUPPORTED_MODES])
+            from_eds = tuple(m for m, bit in MODE_BITS.items() if bits & bit)
+            if modes and set(modes) != set(from_eds):
+                raise ConfigError(
+                    f"{where}: [modes] supported = {_names(modes)} but 0x6502 in {self.eds.name} "
+                    f"says {_names(from_eds)}; give one of them"
+                )
+            modes = from_eds
+        if not modes:
+            raise ConfigError(f"{where}: {self.eds.name} has no 0x6502: set [modes] supported")
+        if cia.POSITION_ENCODER_RESOLUTION not in od and not self.units.counts_per_rev:
+            raise ConfigError(f"{where}: {self.eds.name} has no 0x608F: set [units] counts_per_rev")
+        if self.mapping == "fixed":
+            for index in (cia.RPDO_MAP, cia.TPDO_MAP):
+                if index in od and _writable(od[index]):
+                    raise ConfigError(
+                        f'{where}: [pdo] mapping = "fixed" but 0x{index:04X} in {self.eds.name} is writable'
+                    )
+        return modes
+
+
+def _default(obj: Any) -> int:
+    value = obj.default if obj.default is not None else obj.value
+    return int(value or 0)
+
+
+def _writable(obj: Any) -> bool:
+    subs = obj.values() if hasattr(obj, "values") else [obj]
+    return any(s.writable for s in subs if getattr(s, "subindex", 1))
+
+
+def _names(modes: tuple[Mode, ...]) -> list[str]:
+    by_mode = {m: n for n, m in PROFILE_MODES.items()}
+    return [by_mode.get(m, str(int(m))) for m in modes]
+
+
+# --- loading ---------------------------------------------------------------------------------------
+class _Table:
+    """One TOML table of file ``path`` (``section``: its dotted name), for messages; every key read
+    is ticked off, and ``done`` names the keys nobody read."""
+
+    def __init__(self, data: Mapping[str, Any], path: Path, section: str = "") -> None:
+        self.data, self.path, self.section, self.read = data, path, section, set()
+        self.where = f"{path} [{section}]" if section else f"{path}:"
+
+    def get(self, key: str, kind: type | tuple[type, ...], default: Any = None) -> Any:
+        self.read.add(key)
+        if key not in self.data:
+            return default
+        value = self.data[key]
+        if kind is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            name = kind.__name__ if isinstance(kind, type) else " or ".join(k.__name__ for k in kind)
+            raise ConfigError(f"{self.where} {key} = {value!r}: must be {name}")
+        return value
+
+    def sub(self, key: str) -> _Table:
+        return _Table(self.get(key, dict, {}), self.path, f"{self.section}.{key}" if self.section else key)
+
+    def done(self) -> None:
+        unknown = sorted(set(self.data) - self.read)
+        if unknown:
+            raise ConfigError(f"{self.where}: unknown key(s) {', '.join(unknown)}")
+
+
+def _hex(text: str, where: str) -> int:
+    try:
+        return int(text, 0)
+    except ValueError:
+        raise ConfigError(f"{where}: {text!r} is not a number (write 0x2001)") from None
+
+
+def _nonnegative(table: _Table, key: str, default: float) -> float:
+    value = float(table.get(key, float, default))
+    if not (math.isfinite(value) and value >= 0.0):
+        raise ConfigError(f"{table.where} {key} = {value!r}: must be >= 0")
+    return value
+
+
+def _units(t: _Table) -> Units:
+    codes = {}
+    for key in ("position", "velocity"):
+        text = t.get(key, str, "")
+        codes[key] = _hex(text, f"{t.where} {key}") if text else 0
+        if codes[key]:
+            try:
+                SiUnit.decode(codes[key])
+            except ValueError as exc:
+                raise ConfigError(f"{t.where} {key}: {exc}") from None
+    cpr = t.get("counts_per_rev", int, 0)
+    if cpr < 0:
+        raise ConfigError(f"{t.where} counts_per_rev = {cpr}: must be > 0")
+    t.done()
+    return Units(cpr, codes["position"], codes["velocity"])
+
+
+def _reactions(t: _Table) -> Reactions:
+    r = Reactions(
+        t.get("quick_stop", int, 2),
+        t.get("fault", int, 2),
+        t.get("abort_connection", int, 1),
+        t.get("halt", int, 1),
+        _nonnegative(t, "profile_deceleration", 1000.0),
+        _nonnegative(t, "quick_stop_deceleration", 2000.0),
+    )
+    checks = (("quick_stop", r.quick_stop, 0, 8), ("fault", r.fault, 0, 4))
+    checks += (("abort_connection", r.abort_connection, 0, 3), ("halt", r.halt, 1, 4))
+    for key, value, low, high in checks:
+        if not low <= value <= high:
+            raise ConfigError(f"{t.where} {key} = {value}: must be {low}..{high}")
+    t.done()
+    return r
+
+
+def _manufacturer(t: _Table) -> tuple[ManufacturerObject, ...]:
+    out = []
+    for key in list(t.data):
+        index = _hex(key, f"{t.where} {key}")
+        if not 0x2000 <= index <= 0x5FFF:
+            raise ConfigError(f"{t.where} {key}: manufacturer objects are 0x2000-0x5FFF")
+        e = t.sub(key)
+        obj = ManufacturerObject(
+            index, e.get("name", str, ""), e.get("role", str, ""), e.get("harmful", bool, False)
+        )
+        if obj.role not in ROLES:
+            raise ConfigError(
+                f"{e.where} role = {obj.role!r}: known roles: {', '.join(r for r in ROLES if r)}"
+            )
+        e.done()
+        out.append(obj)
+    t.done()
+    return tuple(out)
+
+
+def _modes(t: _Table) -> tuple[Mode, ...]:
+    names = t.get("supported", list, [])
+    t.done()
+    unknown = [n for n in names if n not in PROFILE_MODES]
+    if unknown:
+        raise ConfigError(
+            f"{t.where} supported: unknown mode(s) {unknown}; known: {', '.join(PROFILE_MODES)}"
+        )
+    return tuple(PROFILE_MODES[n] for n in names)
+
+
+def load_profile(path: str | Path) -> DeviceProfile:
+    """The profile in the TOML file ``path``; ConfigError naming the file and the key on any defect."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: no such device profile") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{p}: not a valid TOML file: {exc}") from None
+    top = _Table(data, p)
+    device = top.sub("device")
+    name = device.get("name", str, p.stem)
+    eds_name = device.get("eds", str)
+    if not eds_name:
+        raise ConfigError(f"{p} [device] eds: the EDS/DCF file of the drive must be named")
+    physics = top.sub("physics")
+    params = dict(physics.get("params", dict, {}))
+    physics.done()
+    preset = device.get("physics", str, "dc-servo")
+    from plant_emulator.presets import preset_params  # presets build drives, drives load profiles
+
+    try:
+        preset_params(preset, params)
+    except ValueError as exc:
+        raise ConfigError(f"{p} [physics.params]: {exc}") from None
+    homing = top.sub("homing")
+    methods = tuple(homing.get("methods", list, [35, 37]))
+    profile = DeviceProfile(
+        name=name,
+        description=device.get("description", str, ""),
+        modelled_on=device.get("modelled_on", str, ""),
+        eds=(p.parent / eds_name).resolve(),
+        source=p,
+        physics=preset,
+        params=params,
+        node_id=device.get("node_id", int, 1),
+        modes=_modes(top.sub("modes")),
+        mapping=_pdo_mapping(top.sub("pdo")),
+        units=_units(top.sub("units")),
+        timing=_timing(top.sub("timing")),
+        reactions=_reactions(top.sub("reactions")),
+        homing=Homing(methods, _finite(homing, "switch_position", 0.5)),
+        manufacturer=_manufacturer(top.sub("manufacturer")),
+        emcy=_emcy(top.sub("emcy")),
+    )
+    homing.done()
+    device.done()
+    top.done()
+    if not 1 <= profile.node_id <= 127:
+        raise ConfigError(f"{p} [device] node_id = {profile.node_id}: must be 1..127")
+    return profile
+
+
+def _finite(t: _Table, key: str, default: float) -> float:
+    value = float(t.get(key, float, default))
+    if not math.isfinite(value):
+        raise ConfigError(f"{t.where} {key} = {value!r}: must be finite")
+    return value
+
+
+def _pdo_mapping(t: _Table) -> str:
+    mapping = t.get("mapping", str, "remappable")
+    t.done()
+    if mapping not in ("remappable", "fixed"):
+        raise ConfigError(f"{t.where} mapping = {mapping!r}: remappable or fixed")
+    return str(mapping)
+
+
+def _timing(t: _Table) -> Timing:
+    timing = Timing(*(_nonnegative(t, k, 0.0) for k in ("sdo_response", "pdo_latency", "mode_switch")))
+    t.done()
+    return timing
+
+
+def _emcy(t: _Table) -> dict[int, str]:
+    out = {_hex(k, f"{t.where} {k}"): t.get(k, str) for k in list(t.data)}
+    t.done()
+    return out
+
+
+def zoo() -> dict[str, Path]:
+    """The shipped profiles: name -> TOML file."""
+    return {p.stem: p for p in sorted(DEVICES_DIR.glob("*.toml"))}
+
+
+def device_profile(name_or_path: str | Path) -> DeviceProfile:
+    """A shipped profile by name, or a profile file by path; ConfigError naming the known ones."""
+    profiles = zoo()
+    if str(name_or_path) in profiles:
+        return load_profile(profiles[str(name_or_path)])
+    p = Path(name_or_path)
+    if p.suffix == ".toml":
+        return load_profile(p)
+    raise ConfigError(f"unknown device profile {str(name_or_path)!r}; known: {', '.join(profiles)}")
