@@ -20,76 +20,30 @@ Object indices follow CiA 301 (communication), CiA 402 (drives) and CiA 406
 from __future__ import annotations
 
 import pathlib
-from dataclasses import dataclass
 
-__all__ = ["CIA402_DRIVE", "CIA406_ENCODER", "eds_text", "write_all"]
+from drivers.maps.eds_writer import (
+    INT8,
+    INT16,
+    INT32,
+    UINT8,
+    UINT16,
+    UINT32,
+    VSTRING,
+    DeviceInfo,
+    Obj,
+    Var,
+    eds_text,
+    pdo_comm,
+    pdo_map,
+    record,
+    var,
+)
+from drivers.maps.eds_writer import mapped as _m
+
+__all__ = ["CIA402_DRIVE", "CIA406_ENCODER", "FILES", "eds_of", "write_all"]
 
 HERE = pathlib.Path(__file__).resolve().parent
-
-# CiA 301 data types
-BOOLEAN, INT8, INT16, INT32, UINT8, UINT16, UINT32, VSTRING = 0x1, 0x2, 0x3, 0x4, 0x5, 0x6, 0x7, 0x9
-
-
-@dataclass(frozen=True)
-class Var:
-    """One variable: (sub)index, name, type, access, default, PDO mappable."""
-
-    name: str
-    data_type: int
-    access: str = "rw"
-    default: str = "0"
-    pdo: bool = False
-
-
-@dataclass(frozen=True)
-class Obj:
-    """One object: a VAR (one entry in ``subs`` at subindex 0) or a RECORD/ARRAY."""
-
-    index: int
-    name: str
-    subs: tuple[tuple[int, Var], ...]
-    kind: int = 0x9  # 0x7 VAR, 0x8 ARRAY, 0x9 RECORD
-
-
-def var(index: int, v: Var) -> Obj:
-    return Obj(index, v.name, ((0, v),), 0x7)
-
-
-def record(index: int, name: str, entries: list[tuple[int, Var]], *, kind: int = 0x9) -> Obj:
-    highest = max(s for s, _ in entries)
-    return Obj(
-        index, name, ((0, Var("Highest sub-index supported", UINT8, "ro", str(highest))), *entries), kind
-    )
-
-
-def _pdo_comm(index: int, kind: str, n: int, *, enabled: bool, ttype: int) -> Obj:
-    base = (0x200 if kind == "R" else 0x180) + 0x100 * n
-    cob = f"$NODEID+0x{base:X}" if enabled else f"$NODEID+0x{0x80000000 + base:X}"
-    entries = [
-        (1, Var("COB-ID", UINT32, "rw", cob)),
-        (2, Var("Transmission type", UINT8, "rw", str(ttype))),
-        (3, Var("Inhibit time", UINT16, "rw", "0")),
-        (5, Var("Event timer", UINT16, "rw", "0")),
-    ]
-    if kind == "T":
-        entries.append((6, Var("SYNC start value", UINT8, "rw", "0")))
-    return record(index, f"{kind}PDO{n + 1} communication parameter", entries)
-
-
-def _pdo_map(index: int, kind: str, n: int, mapped: list[int]) -> Obj:
-    entries = [
-        (s + 1, Var(f"Mapped object {s + 1}", UINT32, "rw", f"0x{m:08X}")) for s, m in enumerate(mapped)
-    ]
-    entries += [
-        (s + 1, Var(f"Mapped object {s + 1}", UINT32, "rw", "0x00000000")) for s in range(len(mapped), 8)
-    ]
-    obj = record(index, f"{kind}PDO{n + 1} mapping parameter", entries)
-    head = (0, Var("Number of mapped objects", UINT8, "rw", str(len(mapped))))
-    return Obj(obj.index, obj.name, (head, *obj.subs[1:]), obj.kind)
-
-
-def _m(index: int, sub: int, bits: int) -> int:
-    return (index << 16) | (sub << 8) | bits
+VENDOR = 0x00000DB1  #: the toolkit's vendor id in its EDS files
 
 
 def _comm_objects(
@@ -121,24 +75,29 @@ def _comm_objects(
             0x1018,
             "Identity object",
             [
-                (1, Var("Vendor-ID", UINT32, "ro", "0x00000DB1")),
+                (1, Var("Vendor-ID", UINT32, "ro", f"0x{VENDOR:08X}")),
                 (2, Var("Product code", UINT32, "ro", f"0x{product:08X}")),
                 (3, Var("Revision number", UINT32, "ro", "0x00010000")),
                 (4, Var("Serial number", UINT32, "ro", "0x00000001")),
             ],
         ),
+        record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8),
     ]
-    objs.append(
-        record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8)
-    )
     for n in range(4):
-        objs.append(_pdo_comm(0x1400 + n, "R", n, enabled=bool(rpdo[n]), ttype=rpdo_types[n]))
+        objs.append(pdo_comm(0x1400 + n, "R", 0x200 + 0x100 * n, enabled=bool(rpdo[n]), ttype=rpdo_types[n]))
+        objs.append(pdo_map(0x1600 + n, "R", rpdo[n]))
     for n in range(4):
-        objs.append(_pdo_map(0x1600 + n, "R", n, rpdo[n]))
-    for n in range(4):
-        objs.append(_pdo_comm(0x1800 + n, "T", n, enabled=tpdo_enabled[n], ttype=tpdo_types[n]))
-    for n in range(4):
-        objs.append(_pdo_map(0x1A00 + n, "T", n, tpdo[n]))
+        objs.append(
+            pdo_comm(
+                0x1800 + n,
+                "T",
+                0x180 + 0x100 * n,
+                enabled=tpdo_enabled[n],
+                ttype=tpdo_types[n],
+                subs=(1, 2, 3, 5, 6),
+            )
+        )
+        objs.append(pdo_map(0x1A00 + n, "T", tpdo[n]))
     return objs
 
 
@@ -234,71 +193,26 @@ CIA406_ENCODER: list[Obj] = [
 ]
 
 
-def eds_text(objs: list[Obj], name: str) -> str:
-    """The EDS (CiA 306) text of ``objs``."""
-    out = [
-        "[FileInfo]",
-        f"FileName={name}.eds",
-        "FileVersion=1",
-        "FileRevision=0",
-        "EDSVersion=4.0",
-        f"Description=drive-rig {name}; generated by drivers/maps/build_eds.py",
-        "CreatedBy=drive-rig",
-        "",
-        "[DeviceInfo]",
-        "VendorName=drive-rig",
-        "VendorNumber=0x00000DB1",
-        f"ProductName={name}",
-        "BaudRate_250=1",
-        "BaudRate_500=1",
-        "BaudRate_1000=1",
-        "SimpleBootUpSlave=1",
-        "Granularity=8",
-        "NrOfRXPDO=4",
-        "NrOfTXPDO=4",
-        "LSS_Supported=0",
-        "",
-    ]
-    mandatory = (0x1000, 0x1001, 0x1018)
-    groups = {
-        "MandatoryObjects": [o for o in objs if o.index in mandatory],
-        "OptionalObjects": [o for o in objs if o.index not in mandatory and not 0x2000 <= o.index < 0x6000],
-        "ManufacturerObjects": [o for o in objs if 0x2000 <= o.index < 0x6000],
-    }
-    for section, members in groups.items():
-        out.append(f"[{section}]")
-        out.append(f"SupportedObjects={len(members)}")
-        out += [f"{n + 1}=0x{o.index:04X}" for n, o in enumerate(members)]
-        out.append("")
-    for o in objs:
-        if o.kind == 0x7:
-            out += [f"[{o.index:04X}]", *_var_lines(o.subs[0][1]), ""]
-            continue
-        out += [f"[{o.index:04X}]", f"ParameterName={o.name}", f"ObjectType=0x{o.kind:X}"]
-        out += [f"SubNumber={len(o.subs)}", ""]
-        for sub, v in o.subs:
-            out += [f"[{o.index:04X}sub{sub:X}]", *_var_lines(v), ""]
-    return "\n".join(out)
-
-
-def _var_lines(v: Var) -> list[str]:
-    return [
-        f"ParameterName={v.name}",
-        "ObjectType=0x7",
-        f"DataType=0x{v.data_type:04X}",
-        f"AccessType={v.access}",
-        f"DefaultValue={v.default}",
-        f"PDOMapping={int(v.pdo)}",
-    ]
-
-
 FILES = {"cia402_drive": CIA402_DRIVE, "cia406_encoder": CIA406_ENCODER}
+
+
+def eds_of(name: str) -> str:
+    """The EDS text of the toolkit's device ``name`` (a key of ``FILES``)."""
+    info = DeviceInfo(
+        "drive-rig",
+        VENDOR,
+        name,
+        0x402 if name == "cia402_drive" else 0x406,
+        f"drive-rig {name}; generated by drivers/maps/build_eds.py",
+        baud_rates=(250, 500, 1000),
+    )
+    return eds_text(FILES[name], f"{name}.eds", info)
 
 
 def write_all() -> None:
     """Write every EDS of ``FILES`` next to this module."""
-    for name, objs in FILES.items():
-        (HERE / f"{name}.eds").write_text(eds_text(objs, name))
+    for name in FILES:
+        (HERE / f"{name}.eds").write_text(eds_of(name))
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,0 +1,176 @@
+"""Writing an EDS (CiA 306) from a table of objects: the toolkit's own files and the emulator's zoo.
+
+A table is a list of ``Obj``: a VAR (``var``), or a RECORD/ARRAY of ``Var`` entries
+(``record``); ``pdo_comm``/``pdo_map`` make the PDO parameter records. ``eds_text``
+gives the file's text, sections in CiA 306 order, with the [DeviceInfo] of
+``DeviceInfo`` and the PDO counts taken from the table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+__all__ = [
+    "BOOLEAN",
+    "INT8",
+    "INT16",
+    "INT32",
+    "UINT8",
+    "UINT16",
+    "UINT32",
+    "VSTRING",
+    "DeviceInfo",
+    "Obj",
+    "Var",
+    "eds_text",
+    "mapped",
+    "pdo_comm",
+    "pdo_map",
+    "record",
+    "var",
+]
+
+# CiA 301 data types
+BOOLEAN, INT8, INT16, INT32, UINT8, UINT16, UINT32, VSTRING = 0x1, 0x2, 0x3, 0x4, 0x5, 0x6, 0x7, 0x9
+
+
+@dataclass(frozen=True)
+class Var:
+    """One variable: name, type, access, default, PDO mappable."""
+
+    name: str
+    data_type: int
+    access: str = "rw"
+    default: str = "0"
+    pdo: bool = False
+
+
+@dataclass(frozen=True)
+class Obj:
+    """One object: a VAR (one entry in ``subs`` at subindex 0) or a RECORD/ARRAY."""
+
+    index: int
+    name: str
+    subs: tuple[tuple[int, Var], ...]
+    kind: int = 0x9  # 0x7 VAR, 0x8 ARRAY, 0x9 RECORD
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    """The [DeviceInfo] of an EDS."""
+
+    vendor_name: str
+    vendor_number: int
+    product_name: str
+    product_number: int
+    description: str
+    baud_rates: tuple[int, ...] = (125, 250, 500, 1000)  #: [kbit/s]
+
+
+def var(index: int, v: Var) -> Obj:
+    return Obj(index, v.name, ((0, v),), 0x7)
+
+
+def record(index: int, name: str, entries: Sequence[tuple[int, Var]], *, kind: int = 0x9) -> Obj:
+    highest = max(s for s, _ in entries)
+    return Obj(
+        index, name, ((0, Var("Highest sub-index supported", UINT8, "ro", str(highest))), *entries), kind
+    )
+
+
+def mapped(index: int, sub: int, bits: int) -> int:
+    """A PDO mapping entry: index << 16 | subindex << 8 | bits."""
+    return (index << 16) | (sub << 8) | bits
+
+
+def pdo_comm(
+    index: int, kind: str, cob_id: int, *, enabled: bool, ttype: int, subs: Sequence[int] = (1, 2, 3, 5)
+) -> Obj:
+    """A PDO communication record (``kind`` "R" or "T") with sub-indices ``subs`` (1 COB-ID,
+    2 transmission type, 3 inhibit time, 5 event timer, 6 SYNC start value); ``cob_id`` is
+    added to $NODEID, with bit 31 set when not ``enabled``."""
+    n = index - (0x1400 if kind == "R" else 0x1800) + 1
+    cob = f"$NODEID+0x{cob_id if enabled else 0x80000000 + cob_id:X}"
+    known = {
+        1: Var("COB-ID", UINT32, "rw", cob),
+        2: Var("Transmission type", UINT8, "rw", str(ttype)),
+        3: Var("Inhibit time", UINT16, "rw", "0"),
+        5: Var("Event timer", UINT16, "rw", "0"),
+        6: Var("SYNC start value", UINT8, "rw", "0"),
+    }
+    return record(index, f"{kind}PDO{n} communication parameter", [(s, known[s]) for s in subs])
+
+
+def pdo_map(index: int, kind: str, entries: Sequence[int], *, access: str = "rw", slots: int = 8) -> Obj:
+    """A PDO mapping record with ``entries`` in the first of ``slots`` sub-indices; ``access`` "ro"
+    or "const" makes a fixed mapping."""
+    n = index - (0x1600 if kind == "R" else 0x1A00) + 1
+    subs = [(0, Var("Number of mapped objects", UINT8, access, str(len(entries))))]
+    subs += [
+        (
+            s + 1,
+            Var(f"Mapped object {s + 1}", UINT32, access, f"0x{entries[s] if s < len(entries) else 0:08X}"),
+        )
+        for s in range(slots)
+    ]
+    return Obj(index, f"{kind}PDO{n} mapping parameter", tuple(subs))
+
+
+def eds_text(objs: Sequence[Obj], file_name: str, info: DeviceInfo) -> str:
+    """The EDS (CiA 306) text of ``objs``."""
+    rpdos = sum(1 for o in objs if 0x1400 <= o.index < 0x1600)
+    tpdos = sum(1 for o in objs if 0x1800 <= o.index < 0x1A00)
+    out = [
+        "[FileInfo]",
+        f"FileName={file_name}",
+        "FileVersion=1",
+        "FileRevision=0",
+        "EDSVersion=4.0",
+        f"Description={info.description}",
+        "CreatedBy=drive-rig",
+        "",
+        "[DeviceInfo]",
+        f"VendorName={info.vendor_name}",
+        f"VendorNumber=0x{info.vendor_number:08X}",
+        f"ProductName={info.product_name}",
+        f"ProductNumber=0x{info.product_number:08X}",
+        *(f"BaudRate_{rate}=1" for rate in info.baud_rates),
+        "SimpleBootUpSlave=1",
+        "Granularity=8",
+        f"NrOfRXPDO={rpdos}",
+        f"NrOfTXPDO={tpdos}",
+        "LSS_Supported=0",
+        "",
+    ]
+    mandatory = (0x1000, 0x1001, 0x1018)
+    groups = {
+        "MandatoryObjects": [o for o in objs if o.index in mandatory],
+        "OptionalObjects": [o for o in objs if o.index not in mandatory and not 0x2000 <= o.index < 0x6000],
+        "ManufacturerObjects": [o for o in objs if 0x2000 <= o.index < 0x6000],
+    }
+    for section, members in groups.items():
+        out.append(f"[{section}]")
+        out.append(f"SupportedObjects={len(members)}")
+        out += [f"{n + 1}=0x{o.index:04X}" for n, o in enumerate(members)]
+        out.append("")
+    for o in sorted(objs, key=lambda o: o.index):
+        if o.kind == 0x7:
+            out += [f"[{o.index:04X}]", *_var_lines(o.subs[0][1]), ""]
+            continue
+        out += [f"[{o.index:04X}]", f"ParameterName={o.name}", f"ObjectType=0x{o.kind:X}"]
+        out += [f"SubNumber={len(o.subs)}", ""]
+        for sub, v in o.subs:
+            out += [f"[{o.index:04X}sub{sub:X}]", *_var_lines(v), ""]
+    return "\n".join(out)
+
+
+def _var_lines(v: Var) -> list[str]:
+    return [
+        f"ParameterName={v.name}",
+        "ObjectType=0x7",
+        f"DataType=0x{v.data_type:04X}",
+        f"AccessType={v.access}",
+        f"DefaultValue={v.default}",
+        f"PDOMapping={int(v.pdo)}",
+    ]
