@@ -41,6 +41,7 @@ from drivers.maps.cia import (
     COB_ID_MASK,
     COB_NMT,
     COMMUNICATION_AREA,
+    PDO_BLOCK,
     PDO_SYNC_MAX,
     EmcyCode,
     ErrorBehavior,
@@ -266,8 +267,17 @@ class EmulatedNode:
         if not self._dirty:
             return
         self._dirty = False
-        self._tpdos = [read_pdo(self.od, cia.TPDO_COMM + n, cia.TPDO_MAP + n, n) for n in range(4)]
-        self._rpdos = [read_pdo(self.od, cia.RPDO_COMM + n, cia.RPDO_MAP + n, n) for n in range(4)]
+        od = self.node.object_dictionary
+        self._tpdos = [
+            read_pdo(self.od, cia.TPDO_COMM + n, cia.TPDO_MAP + n, n)
+            for n in range(PDO_BLOCK)
+            if cia.TPDO_COMM + n in od and cia.TPDO_MAP + n in od
+        ]
+        self._rpdos = [
+            read_pdo(self.od, cia.RPDO_COMM + n, cia.RPDO_MAP + n, n)
+            for n in range(PDO_BLOCK)
+            if cia.RPDO_COMM + n in od and cia.RPDO_MAP + n in od
+        ]
         tpdos = [p for p in self._tpdos if p.valid and p.mapping]
         self._sync_tpdos = [p for p in tpdos if 1 <= p.ttype <= PDO_SYNC_MAX]
         self._event_tpdos = [p for p in tpdos if p.ttype > PDO_SYNC_MAX]
@@ -365,8 +375,9 @@ class EmulatedNode:
                     send(pdo.cob_id, self._pack(pdo))
             if self._pending_sync_rpdo:
                 pending, self._pending_sync_rpdo = self._pending_sync_rpdo, {}
+                rpdos = {p.number: p for p in self._rpdos}
                 for number, payload in sorted(pending.items()):
-                    self._unpack(self._rpdos[number], payload)
+                    self._unpack(rpdos[number], payload)
                     self.on_rpdo(number, synchronous=True)
         self.tick(timestamp)
 

@@ -194,8 +194,8 @@ class EmulatedDrive(EmulatedNode):
     def lockstep(self, value: bool) -> None:
         self.shaft.lockstep = value
 
-    def rate(self, ratings: Ratings, *, counts_per_rev: int) -> None:
-        """Take the ratings and the position resolution [increments/rev] (device side, SI in)."""
+    def rate(self, ratings: Ratings, *, counts_per_rev: int | None) -> None:
+        """Take the ratings and the position resolution [increments/rev; None: the drive's own]."""
         self.image.rate(ratings, counts_per_rev)
 
     @property

@@ -93,6 +93,14 @@ class ObjectStore:
             obj = self._objs[key] = self.node._find_object(index, subindex)
         return obj
 
+    def has(self, index: int, subindex: int = 0) -> bool:
+        """The object dictionary has (index, subindex)."""
+        od = self.node.object_dictionary
+        if index not in od:
+            return False
+        obj = od[index]
+        return subindex == 0 if not hasattr(obj, "subindices") else subindex in obj.subindices
+
     def _codec(self, key: tuple[int, int]) -> _Codec:
         codec = self._codecs.get(key)
         if codec is None:

@@ -62,12 +62,13 @@ def read_pdo(od: ObjectStore, comm: int, mapping: int, number: int) -> PdoConfig
     """PDO ``number`` (0-based) from its communication and mapping parameters."""
     cob = od.read(comm, cia.PDO_COMM_COB_ID)
     count = od.read(mapping, 0)
+    timer = od.read(comm, cia.PDO_COMM_EVENT_TIMER) if od.has(comm, cia.PDO_COMM_EVENT_TIMER) else 0
     return PdoConfig(
         number,
         cob & cia.COB_ID_MASK,
         not (cob & PDO_INVALID),
         od.read(comm, cia.PDO_COMM_TYPE),
-        od.read(comm, cia.PDO_COMM_EVENT_TIMER),
+        timer,
         tuple(split_map_entry(od.read(mapping, s)) for s in range(1, count + 1)),
     )
 

@@ -40,6 +40,7 @@ from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
+from plant_emulator.device_profile import DeviceProfile
 from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.dyno import DynoPreset, build_dyno
 from plant_emulator.induction_motor import ImAxis, ImParams
@@ -59,6 +60,7 @@ __all__ = [
     "GridConverterPreset",
     "ImDrivePreset",
     "build_preset",
+    "build_twin",
     "preset_params",
     "preset_period",
 ]
@@ -187,6 +189,38 @@ def build_preset(
     if isinstance(p, DynoPreset):
         return _dyno(p, network), p.period
     return _grid(p, network), p.period
+
+
+#: the presets a twin's profile may put behind its drive (one motor, one drive)
+TWIN_PHYSICS = ("dc-servo", "im-drive")
+
+
+def build_twin(
+    profile: DeviceProfile,
+    network: canopen.Network,
+    params: Mapping[str, object] | None = None,
+    *,
+    node_id: int | None = None,
+) -> tuple[list[EmulatedNode], float]:
+    """The virtual twin of ``profile``'s drive on ``network``: (its one drive, SYNC period [s]).
+
+    The motor is the profile's physics preset with the profile's ``[physics.params]`` and then
+    ``params`` applied; the drive keeps its own EDS's resolution (0x608F), and takes the motor's
+    ratings into the objects it has.
+    """
+    if profile.physics not in TWIN_PHYSICS:
+        raise ValueError(
+            f"{profile.source}: physics {profile.physics!r}: a twin runs {' or '.join(TWIN_PHYSICS)}"
+        )
+    p = preset_params(profile.physics, {**profile.params, **(params or {})})
+    axis: Axis
+    if isinstance(p, DcServoPreset):
+        axis, ratings = _dc_axis(p, period=p.period)
+    else:
+        axis, ratings = _im_axis(p)
+    drive = EmulatedDrive(node_id or profile.node_id, network, axis, period=p.period, profile=profile)
+    drive.rate(ratings, counts_per_rev=None)
+    return [drive], p.period
 
 
 def _dc_axis(p: DcServoPreset, *, period: float, j_load: float = 0.0) -> tuple[DcServoAxis, Ratings]:

@@ -142,8 +142,9 @@ class ProcessImage:
         """[rad/s] (0x6080 is in rpm)"""
         return self._object(cia.MAX_MOTOR_SPEED, float(self.ratings.max_speed_rpm)) * _TWO_PI / 60.0
 
-    def rate(self, ratings: Ratings, counts_per_rev: int) -> None:
-        """Take ``ratings`` and write them, and the resolution, into the objects the drive has."""
+    def rate(self, ratings: Ratings, counts_per_rev: int | None) -> None:
+        """Take ``ratings`` and write them, and the resolution (None: the drive's own), into the
+        objects the drive has."""
         self.ratings = ratings
         write = self.od.write
         for index, value in (
@@ -154,7 +155,7 @@ class ProcessImage:
         ):
             if self.has(index):
                 write(index, 0, value)
-        if self.has(cia.POSITION_ENCODER_RESOLUTION):
+        if counts_per_rev is not None and self.has(cia.POSITION_ENCODER_RESOLUTION):
             write(cia.POSITION_ENCODER_RESOLUTION, 1, counts_per_rev)
             write(cia.POSITION_ENCODER_RESOLUTION, 2, 1)
         self.refresh()

@@ -1,0 +1,408 @@
+"""Writes the EDS files of the emulator's zoo of drives from the tables below.
+
+Run ``python -m plant_emulator.devices.build`` after changing a table; a test checks that
+the committed files are what this module writes. Each drive's profile (``<name>.toml``,
+written by hand) says what the EDS cannot, and in ``modelled_on`` which published facts the
+twin follows and which of its features are variants not confirmed for the real drive.
+
+The tables are written here from published facts (which objects a drive has, their access
+and mappability, PDO counts and default mappings, units, manufacturer objects); the object
+names are CiA 402's. Nothing is taken from a vendor's file. Defaults given in SI below are
+converted to each drive's own units.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from drivers.maps.eds_writer import (
+    INT8,
+    INT16,
+    INT32,
+    UINT8,
+    UINT16,
+    UINT32,
+    VSTRING,
+    DeviceInfo,
+    Obj,
+    Var,
+    eds_text,
+    mapped,
+    pdo_comm,
+    pdo_map,
+    record,
+    var,
+)
+
+__all__ = ["ZOO", "Twin", "eds_of", "write_all"]
+
+HERE = Path(__file__).resolve().parent
+
+CW, SW = mapped(0x6040, 0, 16), mapped(0x6041, 0, 16)
+MODE, MODE_DISP = mapped(0x6060, 0, 8), mapped(0x6061, 0, 8)
+TARGET_POS, TARGET_VEL, TARGET_TQ = mapped(0x607A, 0, 32), mapped(0x60FF, 0, 32), mapped(0x6071, 0, 16)
+POS, VEL, TQ = mapped(0x6064, 0, 32), mapped(0x606C, 0, 32), mapped(0x6077, 0, 16)
+INPUTS = mapped(0x60FD, 0, 32)
+
+#: 0x6502 bits
+PP, PV, HM, CSP, CSV, CST = 1 << 0, 1 << 2, 1 << 5, 1 << 7, 1 << 8, 1 << 9
+
+
+@dataclass(frozen=True)
+class Twin:
+    """One zoo drive: identity, PDOs, which optional objects it has and its units."""
+
+    info: DeviceInfo
+    device_type: int
+    modes: int  #: 0x6502 (0: the drive has no 0x6502)
+    rpdo: tuple[tuple[int, ...], ...]  #: default mappings
+    tpdo: tuple[tuple[int, ...], ...]
+    rpdo_types: tuple[int, ...]
+    tpdo_types: tuple[int, ...]
+    objects: frozenset[int]  #: the optional CiA 402 objects it has (see ``_catalog``)
+    increments: int  #: per motor revolution (0x608F where it has one)
+    position_unit: int = 0  #: 0x60A8 default (0: no 0x60A8)
+    velocity_unit: int = 0  #: 0x60A9 default (0: no 0x60A9)
+    feed: int = 0  #: 0x6092 sub 1 (0: no 0x6092)
+    fixed_mapping: bool = False
+    rpdo_subs: tuple[int, ...] = (1, 2, 3, 5)  #: sub-indices of an RPDO communication record
+    manufacturer: tuple[Obj, ...] = ()
+    access: tuple[tuple[int, str], ...] = ()  #: (index, AccessType) overriding CiA 402's
+    names: tuple[tuple[int, str], ...] = ()  #: (index, ParameterName) overriding CiA 402's
+    heartbeat_ms: int = 0  #: 0x1017 default
+
+    def per_rad(self, velocity: bool) -> float:
+        """Device units per rad (or per rad/s), as ``drivers.maps.units`` reads them."""
+        from drivers.maps.units import position_per_revolution, velocity_per_revolution
+
+        kw = {"feed": float(self.feed) if self.feed else None}
+        if velocity:
+            per_rev = velocity_per_revolution(
+                self.increments, unit=self.velocity_unit, position_unit=self.position_unit, **kw
+            )
+        else:
+            per_rev = position_per_revolution(self.increments, unit=self.position_unit, **kw)
+        return per_rev / (2.0 * math.pi)
+
+
+def _catalog(t: Twin) -> dict[int, Obj]:
+    """CiA 402 objects with defaults in ``t``'s units (SI in the comments)."""
+    pos, vel = t.per_rad(False), t.per_rad(True)
+
+    def p(name: str, dtype: int, access: str, default: float, pdo: bool = False) -> Var:
+        return Var(name, dtype, access, str(round(default)), pdo)
+
+    return {
+        0x6007: var(0x6007, p("Abort connection option code", INT16, "rw", 1)),
+        0x603F: var(0x603F, p("Error code", UINT16, "ro", 0, True)),
+        0x605A: var(0x605A, p("Quick stop option code", INT16, "rw", 2)),
+        0x605D: var(0x605D, p("Halt option code", INT16, "rw", 1)),
+        0x605E: var(0x605E, p("Fault reaction option code", INT16, "rw", 2)),
+        0x6065: var(0x6065, p("Following error window", UINT32, "rw", 2.0 * pos)),  # 2 rad
+        0x6066: var(0x6066, p("Following error time out", UINT16, "rw", 10)),  # ms
+        0x6071: var(0x6071, p("Target torque", INT16, "rw", 0, True)),
+        0x6072: var(0x6072, p("Max torque", UINT16, "rw", 3000, True)),  # per mille
+        0x6073: var(0x6073, p("Max current", UINT16, "rw", 3000)),
+        0x6075: var(0x6075, p("Motor rated current", UINT32, "rw", 10000)),  # mA
+        0x6076: var(0x6076, p("Motor rated torque", UINT32, "rw", 235)),  # mN m
+        0x6077: var(0x6077, p("Torque actual value", INT16, "ro", 0, True)),
+        0x6078: var(0x6078, p("Current actual value", INT16, "ro", 0, True)),
+        0x607C: var(0x607C, p("Home offset", INT32, "rw", 0)),
+        0x607D: record(
+            0x607D,
+            "Software position limit",
+            [
+                (1, Var("Min position limit", INT32, "rw", str(-(2**31)))),
+                (2, Var("Max position limit", INT32, "rw", str(2**31 - 1))),
+            ],
+            kind=0x8,
+        ),
+        0x6080: var(0x6080, p("Max motor speed", UINT32, "rw", 6000)),  # rpm
+        0x6081: var(0x6081, p("Profile velocity", UINT32, "rw", 100.0 * vel, True)),  # 100 rad/s
+        0x6083: var(0x6083, p("Profile acceleration", UINT32, "rw", 1000.0 * vel, True)),  # rad/s^2
+        0x6084: var(0x6084, p("Profile deceleration", UINT32, "rw", 1000.0 * vel, True)),
+        0x6085: var(0x6085, p("Quick stop deceleration", UINT32, "rw", 2000.0 * vel, True)),
+        0x608F: record(
+            0x608F,
+            "Position encoder resolution",
+            [
+                (1, Var("Encoder increments", UINT32, "rw", str(t.increments))),
+                (2, Var("Motor revolutions", UINT32, "rw", "1")),
+            ],
+        ),
+        0x6091: record(
+            0x6091,
+            "Gear ratio",
+            [
+                (1, Var("Motor revolutions", UINT32, "rw", "1")),
+                (2, Var("Shaft revolutions", UINT32, "rw", "1")),
+            ],
+        ),
+        0x6092: record(
+            0x6092,
+            "Feed constant",
+            [
+                (1, Var("Feed", UINT32, "rw", str(t.feed or 1))),
+                (2, Var("Shaft revolutions", UINT32, "rw", "1")),
+            ],
+        ),
+        0x6098: var(0x6098, p("Homing method", INT8, "rw", 35)),
+        0x6099: record(
+            0x6099,
+            "Homing speeds",
+            [
+                (1, p("Speed during search for switch", UINT32, "rw", 20.0 * vel)),  # 20 rad/s
+                (2, p("Speed during search for zero", UINT32, "rw", 2.0 * vel)),
+            ],
+            kind=0x8,
+        ),
+        0x609A: var(0x609A, p("Homing acceleration", UINT32, "rw", 500.0 * vel)),
+        0x60A8: var(0x60A8, Var("SI unit position", UINT32, "rw", f"0x{t.position_unit:08X}")),
+        0x60A9: var(0x60A9, Var("SI unit velocity", UINT32, "rw", f"0x{t.velocity_unit:08X}")),
+        0x60F4: var(0x60F4, p("Following error actual value", INT32, "ro", 0, True)),
+        0x60FD: var(0x60FD, p("Digital inputs", UINT32, "ro", 0, True)),
+        0x60FE: record(
+            0x60FE,
+            "Digital outputs",
+            [(1, p("Physical outputs", UINT32, "rw", 0, True)), (2, p("Bit mask", UINT32, "rw", 0))],
+            kind=0x8,
+        ),
+    }
+
+
+#: objects every zoo drive has
+_ALWAYS = (
+    (0x6040, Var("Controlword", UINT16, "rw", "0", True)),
+    (0x6041, Var("Statusword", UINT16, "ro", "0", True)),
+    (0x6060, Var("Modes of operation", INT8, "rw", "0", True)),
+    (0x6061, Var("Modes of operation display", INT8, "ro", "0", True)),
+    (0x6064, Var("Position actual value", INT32, "ro", "0", True)),
+    (0x606C, Var("Velocity actual value", INT32, "ro", "0", True)),
+    (0x607A, Var("Target position", INT32, "rw", "0", True)),
+    (0x60FF, Var("Target velocity", INT32, "rw", "0", True)),
+)
+
+
+def _comm(t: Twin, name: str) -> list[Obj]:
+    info = t.info
+    objs = [
+        var(0x1000, Var("Device type", UINT32, "ro", f"0x{t.device_type:08X}")),
+        var(0x1001, Var("Error register", UINT8, "ro", "0", pdo=True)),
+        var(0x1005, Var("COB-ID SYNC", UINT32, "rw", "0x00000080")),
+        var(0x1008, Var("Manufacturer device name", VSTRING, "const", name)),
+        var(0x1014, Var("COB-ID EMCY", UINT32, "ro", "$NODEID+0x80")),
+        record(
+            0x1016,
+            "Consumer heartbeat time",
+            [(s, Var(f"Consumer heartbeat time {s}", UINT32, "rw", "0")) for s in (1, 2)],
+            kind=0x8,
+        ),
+        var(0x1017, Var("Producer heartbeat time", UINT16, "rw", str(t.heartbeat_ms))),
+        record(
+            0x1018,
+            "Identity object",
+            [
+                (1, Var("Vendor-ID", UINT32, "ro", f"0x{info.vendor_number:08X}")),
+                (2, Var("Product code", UINT32, "ro", f"0x{info.product_number:08X}")),
+                (3, Var("Revision number", UINT32, "ro", "0x00010000")),
+                (4, Var("Serial number", UINT32, "ro", "0x00000001")),
+            ],
+        ),
+        record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8),
+    ]
+    access = "const" if t.fixed_mapping else "rw"
+    for n, (entries, ttype) in enumerate(zip(t.rpdo, t.rpdo_types)):
+        objs.append(pdo_comm(0x1400 + n, "R", 0x200 + 0x100 * n, enabled=True, ttype=ttype, subs=t.rpdo_subs))
+        objs.append(pdo_map(0x1600 + n, "R", entries, access=access))
+    for n, (entries, ttype) in enumerate(zip(t.tpdo, t.tpdo_types)):
+        objs.append(
+            pdo_comm(
+                0x1800 + n, "T", 0x180 + 0x100 * n, enabled=bool(entries), ttype=ttype, subs=(1, 2, 3, 5, 6)
+            )
+        )
+        objs.append(pdo_map(0x1A00 + n, "T", entries, access=access))
+    return objs
+
+
+def _objects(t: Twin, name: str) -> list[Obj]:
+    catalog = _catalog(t)
+    access, names = dict(t.access), dict(t.names)
+    objs = _comm(t, name) + list(t.manufacturer)
+    objs += [var(index, v) for index, v in _ALWAYS]
+    objs += [catalog[i] for i in sorted(t.objects)]
+    if t.modes:
+        objs.append(var(0x6502, Var("Supported drive modes", UINT32, "ro", f"0x{t.modes:08X}")))
+    return [_override(o, access.get(o.index), names.get(o.index)) for o in objs]
+
+
+def _override(o: Obj, access: str | None, name: str | None) -> Obj:
+    if o.kind != 0x7 or (access is None and name is None):
+        return o
+    v = o.subs[0][1]
+    v = Var(name or v.name, v.data_type, access or v.access, v.default, v.pdo)
+    return Obj(o.index, v.name, ((0, v),), 0x7)
+
+
+def _twin(**kw: object) -> Twin:
+    return Twin(**kw)  # type: ignore[arg-type]
+
+
+_SERVO = frozenset(
+    {0x6007, 0x603F, 0x605A, 0x605D, 0x605E, 0x6065, 0x6066, 0x6071, 0x6072, 0x6073, 0x6075, 0x6076, 0x6077}
+    | {0x6078, 0x607C, 0x607D, 0x6080, 0x6081, 0x6083, 0x6084, 0x6085, 0x608F, 0x6098, 0x6099, 0x609A}
+    | {0x60F4, 0x60FD}
+)
+_NO_TORQUE = _SERVO - {0x6071, 0x6072, 0x6073, 0x6075, 0x6076, 0x6077, 0x6078}
+
+ZOO: dict[str, Twin] = {
+    "epos4": _twin(
+        info=DeviceInfo(
+            "maxon motor ag",
+            0xFB,
+            "EPOS4 twin",
+            0x65520000,
+            "twin of a maxon EPOS4 (drive-rig zoo)",
+            baud_rates=(20, 50, 125, 250, 500, 800, 1000),
+        ),
+        device_type=0x00020192,
+        modes=PP | PV | HM | CSP | CSV | CST,
+        rpdo=((CW, MODE), (CW, TARGET_POS), (CW, TARGET_VEL), (CW, TARGET_TQ)),
+        tpdo=((SW, MODE_DISP), (SW, POS), (SW, VEL), (SW, TQ)),
+        rpdo_types=(255, 255, 255, 255),
+        tpdo_types=(255, 255, 255, 255),
+        objects=_SERVO | {0x60A9},
+        increments=4096,
+        velocity_unit=0x00B44700,  # rpm
+        manufacturer=(
+            var(0x2000, Var("Node-ID", UINT8, "rw", "1")),
+            var(0x2001, Var("CAN bit rate", UINT16, "rw", "0")),  # 0 = 1 Mbit/s ... 9 = automatic
+        ),
+    ),
+    "nanotec-c5e": _twin(
+        info=DeviceInfo(
+            "Nanotec Electronic GmbH & Co. KG",
+            0x26C,
+            "C5-E twin",
+            0x10,
+            "twin of a Nanotec C5-E (drive-rig zoo)",
+        ),
+        device_type=0x00060192,
+        modes=PP | PV | HM | CSP | CSV | CST,
+        rpdo=((CW, MODE), (CW, TARGET_POS), (CW, TARGET_VEL), (CW, TARGET_TQ)),
+        tpdo=((SW, MODE_DISP), (SW, POS), (SW, VEL), (SW, TQ)),
+        rpdo_types=(255, 255, 255, 255),
+        tpdo_types=(255, 255, 255, 255),
+        objects=_SERVO | {0x6091, 0x6092, 0x60A8, 0x60A9},
+        increments=4000,
+        position_unit=0xFF410000,  # a tenth of a degree
+        velocity_unit=0x00B44700,  # rpm
+        feed=1,
+    ),
+    "tmcm-1160": _twin(
+        info=DeviceInfo(
+            "TRINAMIC Motion Control GmbH & Co. KG",
+            0x286,
+            "TMCM-1160 twin",
+            1160,
+            "twin of a TRINAMIC TMCM-1160 stepper module (drive-rig zoo)",
+        ),
+        device_type=0x00020192,
+        modes=PP | PV | HM | CSP | CSV,
+        rpdo=((CW,), (CW, MODE), (CW, TARGET_POS), (CW, TARGET_VEL)),
+        tpdo=((SW,), (SW, MODE_DISP), (SW, POS), (SW, VEL)),
+        rpdo_types=(255, 255, 255, 254),
+        tpdo_types=(255, 255, 255, 255),
+        objects=_NO_TORQUE - {0x608F},
+        increments=51200,  # 200 full steps x 256 microsteps (the profile says so: no 0x608F)
+        rpdo_subs=(1, 2),
+    ),
+    "faulhaber-mc5004": _twin(
+        info=DeviceInfo(
+            "Dr. Fritz Faulhaber GmbH & Co. KG",
+            0x147,
+            "MC 5004 twin",
+            0x5004,
+            "twin of a FAULHABER MC 5004 motion controller (drive-rig zoo)",
+        ),
+        device_type=0x00020192,
+        modes=PP | PV | HM | CSP | CSV | CST,
+        rpdo=((CW,), (CW, TARGET_POS), (CW, TARGET_VEL), (CW, TARGET_TQ)),
+        tpdo=((SW,), (SW, POS), (SW, VEL), (SW, TQ)),
+        rpdo_types=(255, 255, 255, 255),
+        tpdo_types=(255, 255, 255, 255),
+        objects=_SERVO | {0x6091, 0x6092},
+        increments=4096,
+        feed=4096,  # the feed constant in increments: a position unit is one increment
+    ),
+    "erl-pcs": _twin(
+        info=DeviceInfo(
+            "ERL Elektronik", 0, "PCS twin", 0, "twin of an ERL PCS drive, static PDO mapping (drive-rig zoo)"
+        ),
+        device_type=0x00020192,
+        modes=PP | PV | HM | CSP | CSV,
+        rpdo=((CW, mapped(0x60FE, 1, 32)), (CW, MODE), (CW, TARGET_POS), (CW, TARGET_VEL)),
+        tpdo=((SW, INPUTS), (SW, MODE_DISP), (SW, POS), (SW, VEL)),
+        rpdo_types=(1, 1, 1, 1),
+        tpdo_types=(1, 1, 1, 1),
+        objects=_NO_TORQUE | {0x60FE},
+        increments=4096,
+        fixed_mapping=True,
+    ),
+    "kollmorgen-s300": _twin(
+        info=DeviceInfo("Kollmorgen", 0x6A, "S306 twin", 306, "twin of a Kollmorgen S300 (drive-rig zoo)"),
+        device_type=0x00020192,
+        modes=PP | PV | HM | CSP | CSV | CST,
+        rpdo=((CW,), (CW, MODE), (CW, TARGET_POS), (CW, TARGET_VEL)),
+        tpdo=((SW,), (SW, MODE_DISP), (SW, POS), (SW, VEL)),
+        rpdo_types=(255, 255, 255, 255),
+        tpdo_types=(255, 255, 255, 255),
+        objects=_SERVO,
+        increments=1 << 20,
+        names=(
+            (0x6076, "Motor rated torque (mN\u00b7m)"),
+            (0x6077, "Torque actual value (\u2030 of rated torque)"),
+            (0x6080, "Max motor speed (U/min, Drehzahl-\u00dcberwachung)"),
+        ),
+    ),
+    "compact-2pdo": _twin(
+        info=DeviceInfo(
+            "drive-rig",
+            0xDB1,
+            "compact 2+2 PDO drive",
+            0x2202,
+            "a compact CiA 402 drive: two RPDOs, two TPDOs, 0x6060 write-only (drive-rig zoo)",
+        ),
+        device_type=0x00020192,
+        modes=PP | PV | CSP | CSV | CST,
+        rpdo=((CW, MODE, TARGET_POS), (CW, TARGET_VEL, TARGET_TQ)),
+        tpdo=((SW, MODE_DISP, POS), (VEL, TQ)),
+        rpdo_types=(1, 1),
+        tpdo_types=(1, 1),
+        objects=_SERVO - {0x6075, 0x6076, 0x6078, 0x6098, 0x6099, 0x609A, 0x60FD, 0x607C},
+        increments=2048,
+        access=((0x6060, "wo"),),
+    ),
+}
+
+
+def eds_of(name: str) -> str:
+    """The EDS text of zoo drive ``name``."""
+    twin = ZOO[name]
+    return eds_text(_objects(twin, twin.info.product_name), f"{name}.eds", twin.info)
+
+
+#: the drives whose EDS is written in Windows-1252 (as the vendor's own is)
+CP1252 = frozenset({"kollmorgen-s300"})
+
+
+def write_all() -> None:
+    """Write every zoo EDS next to this module."""
+    for name in ZOO:
+        encoding = "cp1252" if name in CP1252 else "ascii"
+        (HERE / f"{name}.eds").write_bytes(eds_of(name).encode(encoding))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    write_all()
