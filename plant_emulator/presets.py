@@ -40,8 +40,8 @@ from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
-from plant_emulator.device_profile import DeviceProfile
 from plant_emulator.dc_motor import DCMotorParams
+from plant_emulator.device_profile import DeviceProfile
 from plant_emulator.dyno import DynoPreset, build_dyno
 from plant_emulator.induction_motor import ImAxis, ImParams
 from plant_emulator.parameters import (
