@@ -254,7 +254,7 @@ def test_lockstep_runs_repeat_exactly() -> None:
 def test_committed_eds_files_are_what_the_generator_writes() -> None:
     from drivers.maps import build_eds
 
-    for name, objs in build_eds.FILES.items():
+    for name in build_eds.FILES:
         assert (build_eds.HERE / f"{name}.eds").read_text() == build_eds.eds_of(name), name
         od = canopen.import_od(str(build_eds.HERE / f"{name}.eds"), 5)
         assert od[0x1018][1].default == 0xDB1
