@@ -19,14 +19,10 @@ latency after receipt (the profile's ``pdo_latency``, or the toolkit's 0x2001
 [us]: s-PWM-middle with T_s/2). SDO writes of a target act at the next SYNC.
 A write of 0x6060 shows in 0x6061 after the profile's ``mode_switch`` time.
 
-Faults (EMCY with 0x603F and 0x1001): over-current 0x2310 (|i| above 0x6073),
-over-speed 0x8400 (|omega| above 0x6080 rpm), following error 0x8611 (CSP,
-|error| above 0x6065). The fault reaction (0x605E) and quick stop (0x605A)
-brake with the speed loop along the ramp their option selects (0x6084, 0x6085
-or the current limit; ``plant_emulator.braking``) where the axis has a speed
-loop, or coast (option 0). A disable voltage in QUICK STOP ACTIVE cuts the
-ramp, as CiA 402 transition 12 does: the motor coasts. A lost host (heartbeat,
-RPDO deadline, NMT stop) gets the reaction of 0x6007.
+How the drive protects and stops itself (limits, faults, the quick-stop and fault
+reaction ramps, the reaction to a lost host: 0x6007) is ``plant_emulator.drive_safety``;
+its profile modes (profile position and velocity, homing, halt) are
+``plant_emulator.profile_modes``; its units and process data ``plant_emulator.process_image``.
 
 Writes to the profile's harmful manufacturer objects (e.g. a CAN bit rate at
 0x2001) are logged and kept in ``harmful_writes``, so a test can tell that a
@@ -48,31 +44,26 @@ from drivers.maps.cia import (
     SW_FOLLOWS_COMMAND,
     SW_REMOTE,
     TARGET_OF_MODE,
-    AbortConnectionOption,
     EmcyCode,
-    ErrorRegister,
     Mode,
     PowerState,
     QuickStopOption,
     SdoAbortCode,
 )
 from plant_emulator.axes import Axis
-from plant_emulator.braking import STOPPED_SPEED, Braking, deceleration
+from plant_emulator.braking import Braking
 from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
 from plant_emulator.cia402_state import PowerStateMachine
 from plant_emulator.device_profile import DEVICES_DIR, DeviceProfile, load_profile
+from plant_emulator.drive_safety import FAULT_CODES, DriveSafety
 from plant_emulator.process_image import UNIT_OBJECTS, ProcessImage, Ratings
+from plant_emulator.profile_modes import HOME_SWITCH, PROFILE_MODES, ProfileModes
 from plant_emulator.shaft import Shaft, Timed
 
 __all__ = ["FAULT_CODES", "EmulatedDrive", "Ratings", "toolkit_profile"]
 
 log = logging.getLogger(__name__)
 
-FAULT_CODES: dict[int, str] = {
-    EmcyCode.OVER_CURRENT: "over-current",
-    EmcyCode.OVER_SPEED: "over-speed",
-    EmcyCode.FOLLOWING_ERROR: "following error",
-}
 #: objects holding a command: an SDO write of one takes effect at the next SYNC
 _TARGETS = {index for index, _ in TARGET_OF_MODE.values()} | {cia.DQ_VOLTAGE}
 _SIGNED = (
@@ -85,8 +76,8 @@ _QUICK_STOP_OPTIONS = frozenset(int(o) for o in QuickStopOption)
 S = PowerState
 # The per-SYNC path compares with these module globals: CPython 3.11 takes ~0.2 us to look an
 # enum member up on its class (and to hash an Enum), ~0.03 us for a global.
-_CSV, _CSP = int(Mode.CSV), int(Mode.CSP)
-_CYCLIC = (_CSP, _CSV, int(Mode.CST))
+_CSV, _CSP, _CST, _PP = int(Mode.CSV), int(Mode.CSP), int(Mode.CST), int(Mode.PROFILE_POSITION)
+_CYCLIC = (_CSP, _CSV, _CST)
 _ENABLED, _QUICK_STOP_ACTIVE, _REACTION, _FAULT = (
     S.OPERATION_ENABLED,
     S.QUICK_STOP_ACTIVE,
@@ -105,7 +96,7 @@ def toolkit_profile() -> DeviceProfile:
     return load_profile(DEVICES_DIR / "drive-rig.toml")
 
 
-class EmulatedDrive(EmulatedNode):
+class EmulatedDrive(DriveSafety, EmulatedNode):
     """A CiA 402 drive node with ``axis`` behind it; see the module docstring.
 
     ``profile``: the drive's device profile (default: the toolkit's own). ``shaft``: the plant
@@ -151,6 +142,8 @@ class EmulatedDrive(EmulatedNode):
         self._latency_object = self.profile.role_object("command-latency")
         ratings = Ratings(1.0, 1.0, 3000, 6000)  # until ``rate``: a preset rates every drive
         self.image = ProcessImage(self.od, self._has, self.profile.units, ratings, dq=hasattr(axis, "i_dq"))
+        self.profiles = ProfileModes(self.od, self._has, self.image, self.profile)
+        self._following_since: float | None = None  #: device time [s] the following error began
         self._defaults()
         shaft.attach(self)
 
@@ -223,6 +216,7 @@ class EmulatedDrive(EmulatedNode):
                 raise SdoAbortedError(SdoAbortCode.VALUE_RANGE_EXCEEDED)
             self.sm.quick_stop_option = value
         elif index == cia.CONTROLWORD:
+            self.profiles.controlword(value)
             self._pending_cw = value
             if not self._in_rpdo:
                 self._apply_controlword(value)
@@ -243,7 +237,25 @@ class EmulatedDrive(EmulatedNode):
             self._mode_switch = (mode, self.shaft.t + delay)
         else:
             self._mode_switch = None
-            self.write(cia.MODES_DISPLAY, 0, mode)
+            self._show_mode(mode)
+
+    def _show_mode(self, mode: int) -> None:
+        """0x6061 takes ``mode``; an enabled drive's generators start from the motor's state."""
+        self.write(cia.MODES_DISPLAY, 0, mode)
+        if self.sm.state is _ENABLED:
+            self._hold(mode)
+
+    def _hold(self, mode: int) -> None:
+        """Entering ``mode`` enabled: hold the present position (or zero speed/torque) rather than
+        jump to a stale target; profile modes start their generators here."""
+        ax = self.axis
+        if mode in PROFILE_MODES:
+            self.profiles.start(ax.position, ax.velocity)
+            ax.set_command(_CSP, complex(ax.position))
+        elif mode in ax.modes:
+            ax.set_command(mode, complex(ax.position) if mode == _CSP else 0j)
+        else:  # no mode selected: enabled, but no torque
+            ax.coast()
 
     def _unpack(self, pdo, data):  # type: ignore[no-untyped-def]
         self._in_rpdo = True
@@ -265,11 +277,7 @@ class EmulatedDrive(EmulatedNode):
             if self.nmt_state == OPERATIONAL:
                 self.node.emcy.reset()
         if after is S.OPERATION_ENABLED:
-            mode = self.read(cia.MODES_DISPLAY)
-            if mode in self.axis.modes:
-                self.axis.set_command(mode, complex(self.axis.position) if mode == _CSP else 0j)
-            else:  # no mode selected: enabled, but no torque
-                self.axis.coast()
+            self._hold(self.read(cia.MODES_DISPLAY))
         self._latch_status()
 
     def on_rpdo(self, number: int, *, synchronous: bool) -> None:
@@ -279,9 +287,9 @@ class EmulatedDrive(EmulatedNode):
         if self.sm.state is not _ENABLED:
             return
         mode = self.od.read(cia.MODES_DISPLAY, 0)
-        if mode not in self.axis.modes:
+        if mode not in self.axis.modes or mode in PROFILE_MODES:
             return
-        value = self.image.target(mode)
+        value = self._target(mode)
         if synchronous:
             self._pending.append((0.0, self.axis, mode, value, True))
             return
@@ -292,22 +300,16 @@ class EmulatedDrive(EmulatedNode):
         arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
         self._pending.append((min(arrival + latency, self.period), self.axis, mode, value, False))
 
-    def on_abort_connection(self, what: str, code: int) -> None:
-        """The host is gone (heartbeat or RPDO lost, NMT stop): the reaction of 0x6007 (CiA 402),
-        if the power stage is on."""
-        if self.sm.state is not _ENABLED:
-            return
-        option = self._option(cia.ABORT_CONNECTION_OPTION, self.profile.reactions.abort_connection)
-        log.warning("node %d: %s: abort connection option %d", self.node_id, what, option)
-        if option == AbortConnectionOption.FAULT:
-            self.raise_fault(code)
-        elif option == AbortConnectionOption.DISABLE_VOLTAGE:
-            self.sm.disable_voltage()
-            self.axis.coast()
-            self._latch_status()
-        elif option == AbortConnectionOption.QUICK_STOP:
-            self.sm.quick_stop()
-            self._latch_status()
+    def _target(self, mode: int) -> complex:
+        """The target of a cyclic mode in SI, within 0x607D (CSP) or 0x6072 (CST)."""
+        value = self.image.target(mode)
+        if mode == _CSP:
+            low, high = self.profiles.limits()
+            return complex(min(max(value.real, low), high))
+        if mode == _CST and self._has(cia.MAX_TORQUE):
+            limit = self.od.read(cia.MAX_TORQUE, 0) / 1000.0 * self.image.rated_torque
+            return complex(min(max(value.real, -limit), limit))
+        return value
 
     def on_reset(self, *, application: bool) -> None:
         """Power-on or NMT reset node: the drive lets go of its axis; the shaft keeps turning."""
@@ -332,76 +334,6 @@ class EmulatedDrive(EmulatedNode):
             return []
         return pending
 
-    def _stop_reaction(self) -> None:
-        """Quick stop (0x605A) or fault reaction (0x605E): brake along the option's ramp to rest
-        [below STOPPED_SPEED], or coast (option 0, or no speed loop); ``plant_emulator.braking``."""
-        st = self.sm.state
-        if st is not _QUICK_STOP_ACTIVE and st is not _REACTION:
-            self.braking.release()
-            return
-        if not self.braking.active:
-            r = self.profile.reactions
-            option = (
-                self.sm.quick_stop_option
-                if st is _QUICK_STOP_ACTIVE
-                else self._option(cia.FAULT_REACTION_OPTION, r.fault)
-            )
-            rate = deceleration(
-                option,
-                profile=self.image.acceleration(cia.PROFILE_DECELERATION, r.profile_deceleration),
-                quick_stop=self.image.acceleration(cia.QUICK_STOP_DECELERATION, r.quick_stop_deceleration),
-            )
-            if rate is None or _CSV not in self.axis.modes:
-                self.axis.coast()
-                self.sm.reaction_done()
-                return
-            self.braking.start(self.axis.velocity, rate)
-        ref = self.braking.step(self.period)
-        self.axis.set_command(_CSV, ref)
-        if ref == 0.0 and abs(self.axis.velocity) < STOPPED_SPEED:
-            self.sm.reaction_done()
-            if self.sm.state in _STOPPED:
-                self.axis.coast()
-
-    def _check_limits(self) -> None:
-        st = self.sm.state
-        if st is _FAULT or st is _REACTION:
-            return
-        ax, image = self.axis, self.image
-        code = 0
-        if abs(ax.current) > image.max_current:
-            code = _OVER_CURRENT
-        elif self._speed_limited and abs(ax.velocity) > image.max_speed:
-            code = _OVER_SPEED
-        elif (
-            st is _ENABLED
-            and self._has(cia.FOLLOWING_ERROR_WINDOW)
-            and self.od.read(cia.MODES_DISPLAY, 0) == _CSP
-        ):
-            read = self.od.read
-            error = read(cia.TARGET_POSITION, 0) - read(cia.POSITION_ACTUAL, 0)
-            if abs(error) > read(cia.FOLLOWING_ERROR_WINDOW, 0):
-                code = _FOLLOWING_ERROR
-        if code:
-            self.raise_fault(code)
-
-    def raise_fault(self, code: int) -> None:
-        """A device fault: state machine transition 13, 0x603F, 0x1001 and EMCY."""
-        log.warning("node %d: fault 0x%04X %s", self.node_id, code, FAULT_CODES.get(code, ""))
-        self.fault_code = code
-        self.sm.fault()
-        self._latch_status()  # the statusword says so at once, not at the next SYNC
-        if self._has(cia.ERROR_CODE):
-            self.write(cia.ERROR_CODE, 0, code)
-        register = ErrorRegister.GENERIC
-        if code >> 12 == 0x2:  # 0x2xxx: current
-            register |= ErrorRegister.CURRENT
-        elif code >> 8 in (0x81, 0x82):  # 0x81xx/0x82xx: communication (CiA 301)
-            register |= ErrorRegister.COMMUNICATION
-        elif code >> 12 == 0x8:  # 0x8xxx: monitoring (the profile's control loops)
-            register |= ErrorRegister.DEVICE_PROFILE
-        self.emcy(code, register)
-
     def on_sync_latch(self, timestamp: float) -> None:
         self.shaft.sync(self, timestamp)  # the shaft at this SYNC, advanced once for all its nodes
         self._t_sync = timestamp
@@ -412,26 +344,34 @@ class EmulatedDrive(EmulatedNode):
         """The drive's own work once per period: a due mode switch, a target written by SDO,
         its limits, the stop ramps."""
         if self._mode_switch is not None and self.shaft.t >= self._mode_switch[1] - 1e-9:
-            self.write(cia.MODES_DISPLAY, 0, self._mode_switch[0])
-            self._mode_switch = None
+            mode, self._mode_switch = self._mode_switch[0], None
+            self._show_mode(mode)
+        mode = self.od.read(cia.MODES_DISPLAY, 0)
         if self._sdo_target:
             self._sdo_target = False
-            mode = self.read(cia.MODES_DISPLAY)
-            if self.sm.state is _ENABLED and mode in self.axis.modes:
-                self._pending.append((0.0, self.axis, mode, self.image.target(mode), False))
+            if self.sm.state is _ENABLED and mode in self.axis.modes and mode not in PROFILE_MODES:
+                self._pending.append((0.0, self.axis, mode, self._target(mode), False))
+        if self.sm.state is _ENABLED and mode in PROFILE_MODES:
+            ax = self.axis
+            loop, value = self.profiles.cycle(mode, self.period, ax.position, ax.velocity)
+            ax.set_command(loop, value)
         self._check_limits()
         self._stop_reaction()
 
     def _latch_status(self) -> None:
         word = self.sm.statusword() | SW_REMOTE
-        if self.sm.state is _ENABLED and self.od.read(cia.MODES_DISPLAY, 0) in _CYCLIC:
-            word |= SW_FOLLOWS_COMMAND
+        if self.sm.state is _ENABLED:
+            mode = self.od.read(cia.MODES_DISPLAY, 0)
+            if mode in _CYCLIC:
+                word |= SW_FOLLOWS_COMMAND
+            elif mode in PROFILE_MODES:
+                word |= self.profiles.status
         if self.fault_code == _FOLLOWING_ERROR:
             word |= SW_FOLLOWING_ERROR
         self.od.write(cia.STATUSWORD, 0, word)
 
     def _latch(self) -> None:
-        csp = self.od.read(cia.MODES_DISPLAY, 0) == _CSP
-        self.image.latch(self.axis, csp=csp, offset=self.glitch_counts)
+        inputs = HOME_SWITCH if self.profiles.switch(self.axis.position) else 0
+        self.image.latch(self.axis, demand=self._demand(), inputs=inputs, offset=self.glitch_counts)
         self.axis.latch()
         self._latch_status()

@@ -216,7 +216,8 @@ class _Table:
     is ticked off, and ``done`` names the keys nobody read."""
 
     def __init__(self, data: Mapping[str, Any], path: Path, section: str = "") -> None:
-        self.data, self.path, self.section, self.read = data, path, section, set()
+        self.data, self.path, self.section = data, path, section
+        self.read: set[str] = set()
         self.where = f"{path} [{section}]" if section else f"{path}:"
 
     def get(self, key: str, kind: type | tuple[type, ...], default: Any = None) -> Any:
@@ -280,8 +281,12 @@ def _reactions(t: _Table) -> Reactions:
         _nonnegative(t, "profile_deceleration", 1000.0),
         _nonnegative(t, "quick_stop_deceleration", 2000.0),
     )
-    checks = (("quick_stop", r.quick_stop, 0, 8), ("fault", r.fault, 0, 4))
-    checks += (("abort_connection", r.abort_connection, 0, 3), ("halt", r.halt, 1, 4))
+    checks = (
+        ("quick_stop", r.quick_stop, 0, 8),
+        ("fault", r.fault, 0, 4),
+        ("abort_connection", r.abort_connection, 0, 3),
+        ("halt", r.halt, 1, 4),
+    )
     for key, value, low, high in checks:
         if not low <= value <= high:
             raise ConfigError(f"{t.where} {key} = {value}: must be {low}..{high}")

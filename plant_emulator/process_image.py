@@ -108,6 +108,8 @@ class ProcessImage:
         self.given = given
         self.ratings = ratings
         self.units = drive_units(od, has, given)
+        self.home_shift = 0  #: [position units] added to positions by homing (0x607C)
+        self._inputs = has(cia.DIGITAL_INPUTS)
         self._feedback = [
             i for i in (cia.TORQUE_ACTUAL, cia.CURRENT_ACTUAL, cia.FOLLOWING_ERROR_ACTUAL) if has(i)
         ]
@@ -173,7 +175,7 @@ class ProcessImage:
         if mode in (_CSV, _PV):
             return complex(read(cia.TARGET_VELOCITY, 0) / u.velocity)
         if mode == _CSP:
-            return complex(read(cia.TARGET_POSITION, 0) / u.position)
+            return complex((read(cia.TARGET_POSITION, 0) - self.home_shift) / u.position)
         return 0j
 
     def acceleration(self, index: int, default: float) -> float:
@@ -181,11 +183,12 @@ class ProcessImage:
         return float(self.od.read(index, 0)) / self.units.acceleration if self.has(index) else default
 
     # --- feedback -------------------------------------------------------------------------------
-    def latch(self, axis: Axis, *, csp: bool, offset: int = 0) -> int:
+    def latch(self, axis: Axis, *, demand: float | None, inputs: int = 0, offset: int = 0) -> int:
         """Write the axis's state into the feedback objects; the latched position [position units]
-        (``offset`` added: fault injection)."""
+        (``offset`` added: fault injection). ``demand``: the position set-point [rad] of a
+        position mode (for 0x60F4), else None; ``inputs``: 0x60FD."""
         write, u = self.od.write, self.units
-        pos = _clamp(math.floor(axis.position * u.position) + offset, 32)
+        pos = _clamp(math.floor(axis.position * u.position) + self.home_shift + offset, 32)
         write(cia.POSITION_ACTUAL, 0, pos)
         write(cia.VELOCITY_ACTUAL, 0, _clamp(round(axis.velocity * u.velocity), 32))
         for index in self._feedback:
@@ -193,8 +196,10 @@ class ProcessImage:
                 write(index, 0, _clamp(round(axis.torque / self.rated_torque * 1000.0), 16))
             elif index == cia.CURRENT_ACTUAL:
                 write(index, 0, _clamp(round(axis.current / self.rated_current * 1000.0), 16))
-            elif csp:
-                write(index, 0, _clamp(self.od.read(cia.TARGET_POSITION, 0) - pos, 32))
+            elif demand is not None:
+                write(index, 0, _clamp(round(demand * u.position) + self.home_shift - pos, 32))
+        if self._inputs:
+            write(cia.DIGITAL_INPUTS, 0, inputs)
         if self._dq:
             i_dq = axis.i_dq  # type: ignore[attr-defined]
             write(cia.DQ_CURRENT, 1, round(i_dq.real * 1000.0))  # mA

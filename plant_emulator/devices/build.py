@@ -77,13 +77,13 @@ class Twin:
         """Device units per rad (or per rad/s), as ``drivers.maps.units`` reads them."""
         from drivers.maps.units import position_per_revolution, velocity_per_revolution
 
-        kw = {"feed": float(self.feed) if self.feed else None}
+        feed = float(self.feed) if self.feed else None
         if velocity:
             per_rev = velocity_per_revolution(
-                self.increments, unit=self.velocity_unit, position_unit=self.position_unit, **kw
+                self.increments, feed=feed, unit=self.velocity_unit, position_unit=self.position_unit
             )
         else:
-            per_rev = position_per_revolution(self.increments, unit=self.position_unit, **kw)
+            per_rev = position_per_revolution(self.increments, feed=feed, unit=self.position_unit)
         return per_rev / (2.0 * math.pi)
 
 

@@ -81,6 +81,28 @@ class Twin:
             return node.sdo[0x6092][1].raw / node.sdo[0x6092][2].raw / (2 * math.pi)
         return increments / (2 * math.pi)
 
+    def per_rad(self) -> float:
+        """Position units per rad, from the drive's unit objects as CiA 402 defines them."""
+        node = self.node
+        if 0x60A8 in self.od:
+            code = node.sdo[0x60A8].raw
+            assert code == 0xFF410000, hex(code)  # the zoo's only position unit: 0.1 degree
+            return 3600.0 / (2 * math.pi)
+        if 0x6092 in self.od:
+            return node.sdo[0x6092][1].raw / node.sdo[0x6092][2].raw / (2 * math.pi)
+        if 0x608F in self.od:
+            return node.sdo[0x608F][1].raw / node.sdo[0x608F][2].raw / (2 * math.pi)
+        return self.profile.units.counts_per_rev / (2 * math.pi)
+
+    def enable(self, mode: int) -> None:
+        """OPERATIONAL, ``mode``, enabled."""
+        self.node.nmt.state = "OPERATIONAL"
+        self.node.sdo[0x6060].raw = mode
+        self.run(self.profile.timing.mode_switch + 2 * self.period)
+        for cw in (0x06, 0x07, 0x0F):
+            self.node.sdo[0x6040].raw = cw
+        assert self.state() is S.OPERATION_ENABLED
+
     def enable_csv(self, speed: float) -> None:
         """OPERATIONAL, CSV, enabled, at ``speed`` [rad/s]."""
         self.node.nmt.state = "OPERATIONAL"
@@ -231,3 +253,12 @@ def test_the_cp1252_eds_is_not_utf8() -> None:
     with pytest.raises(UnicodeDecodeError):
         path.read_bytes().decode("utf-8")
     assert "\u2030" in path.read_bytes().decode("cp1252")
+
+
+def test_committed_zoo_eds_files_are_what_the_generator_writes() -> None:
+    from plant_emulator.devices import build
+
+    for name in build.ZOO:
+        encoding = "cp1252" if name in build.CP1252 else "ascii"
+        assert (build.HERE / f"{name}.eds").read_bytes() == build.eds_of(name).encode(encoding), name
+        assert name in zoo(), f"{name}.eds has no profile {name}.toml"
