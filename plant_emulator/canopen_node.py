@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import logging
 import struct
+from collections.abc import Callable
 from typing import Any
 
 import can
@@ -107,6 +108,8 @@ class EmulatedNode:
         self.node.on_stored = stored
         self.fixed_mapping = False  #: the PDO mappings refuse every write (SDO abort 0x06010002)
         self.clock = 0.0  #: device time [s]
+        #: real time: the emulator's monotonic clock [s]; None: time is the SYNCs' (lock-step)
+        self.clock_source: Callable[[], float] | None = None
         self._last_heartbeat = -1e9
         self._sync_count = 0
         self._tpdos: list[PdoConfig] = []
@@ -364,8 +367,9 @@ class EmulatedNode:
         if self._dirty:
             self._configure()
         self.on_sync_latch(timestamp)  # the device's work: in every NMT state (lock-step's time step)
+        now = timestamp if self.clock_source is None else self.clock_source()
         if self.nmt_state not in _SDO_SYNC_STATES:
-            self.tick(timestamp)
+            self.tick(now)
             return
         self._sync_count += 1
         if self.nmt_state == OPERATIONAL:
@@ -379,7 +383,7 @@ class EmulatedNode:
                 for number, payload in sorted(pending.items()):
                     self._unpack(rpdos[number], payload)
                     self.on_rpdo(number, synchronous=True)
-        self.tick(timestamp)
+        self.tick(now)
 
     def emcy(self, code: int, register: int, data: bytes = b"") -> None:
         """Send an EMCY (not in STOPPED) and set 0x1001."""

@@ -278,6 +278,8 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
                 self.node.emcy.reset()
         if after is S.OPERATION_ENABLED:
             self._hold(self.read(cia.MODES_DISPLAY))
+            if before is not S.QUICK_STOP_ACTIVE:
+                self.shaft.enabled(self)
         self._latch_status()
 
     def on_rpdo(self, number: int, *, synchronous: bool) -> None:
@@ -291,14 +293,18 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
             return
         value = self._target(mode)
         if synchronous:
-            self._pending.append((0.0, self.axis, mode, value, True))
+            self._pending.append((self.shaft.t, self.axis, mode, value, True))
             return
         if self._latency_object is not None:
             latency = self._u(self._latency_object, 0) * 1e-6  # us -> s
         else:
             latency = self.profile.timing.pdo_latency
+        if self.shaft.clock is not None:  # real time: due a latency after it arrived
+            self._pending.append((self.shaft.clock() + latency, self.axis, mode, value, False))
+            return
         arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
-        self._pending.append((min(arrival + latency, self.period), self.axis, mode, value, False))
+        due = self.shaft.t + min(arrival + latency, self.period)
+        self._pending.append((due, self.axis, mode, value, False))
 
     def _target(self, mode: int) -> complex:
         """The target of a cyclic mode in SI, within 0x607D (CSP) or 0x6072 (CST)."""
@@ -325,20 +331,31 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         self._latch_status()
 
     # --- the cycle ----------------------------------------------------------
-    def take_timeline(self) -> list[Timed]:
-        """The commands of the period just ended, for the shaft; none (and the axis coasts)
-        when the power stage is off."""
-        pending, self._pending = self._pending, []
+    def take_timeline(self, t_start: float) -> list[Timed]:
+        """The commands of the period from ``t_start`` [s], for the shaft, at their offsets into it
+        (real time: those due by then, at its start); none (and the axis coasts) when the power
+        stage is off."""
         if not self.sm.power_stage_on:
+            self._pending = []
             self.axis.coast()
             return []
-        return pending
+        if self.shaft.clock is None:
+            pending, self._pending = self._pending, []
+            return [(due - t_start, *rest) for due, *rest in pending]  # type: ignore[misc]
+        due = [c for c in self._pending if c[0] <= t_start + 1e-12]
+        self._pending = [c for c in self._pending if c[0] > t_start + 1e-12]
+        return [(0.0, *rest) for _, *rest in due]  # type: ignore[misc]
 
     def on_sync_latch(self, timestamp: float) -> None:
         self.shaft.sync(self, timestamp)  # the shaft at this SYNC, advanced once for all its nodes
         self._t_sync = timestamp
-        self._cycle()
+        if self.shaft.clock is None:  # lock-step: the drive's cycle comes with the SYNC
+            self._cycle()
         self._latch()
+
+    def on_period(self) -> None:
+        """Real time: a period of the drive's own clock has passed (``Shaft.advance_to``)."""
+        self._cycle()
 
     def _cycle(self) -> None:
         """The drive's own work once per period: a due mode switch, a target written by SDO,
@@ -350,7 +367,7 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         if self._sdo_target:
             self._sdo_target = False
             if self.sm.state is _ENABLED and mode in self.axis.modes and mode not in PROFILE_MODES:
-                self._pending.append((0.0, self.axis, mode, self._target(mode), False))
+                self._pending.append((self.shaft.t, self.axis, mode, self._target(mode), False))
         if self.sm.state is _ENABLED and mode in PROFILE_MODES:
             ax = self.axis
             loop, value = self.profiles.cycle(mode, self.period, ax.position, ax.velocity)

@@ -45,6 +45,8 @@ class EmulatedEncoder(EmulatedNode):
         self.shaft = shaft
         self.period = period
         self._last: int | None = None
+        self._last_t = 0.0  #: shaft time [s] of the last latch
+        self._speed = 0  #: the last speed [increments/s]
 
     def on_reset(self, *, application: bool) -> None:
         self._last = None
@@ -59,9 +61,15 @@ class EmulatedEncoder(EmulatedNode):
         self.latch()
 
     def latch(self) -> None:
+        """Position and speed at this SYNC; the speed over the time since the last one (a SYNC
+        period in lock-step; the shaft's clock in real time, where SYNCs may come late)."""
         counts = self.counts()
-        speed = 0 if self._last is None else round((counts - self._last) / self.period)
-        self._last = counts
+        elapsed = self.period if self.shaft.clock is None else self.shaft.t - self._last_t
+        if self._last is None or elapsed <= 0.0:
+            speed = 0 if self._last is None else self._speed
+        else:
+            speed = round((counts - self._last) / elapsed)
+        self._last, self._last_t, self._speed = counts, self.shaft.t, speed
         self.write(ENCODER_POSITION, 0, counts % (self.od.read(ENCODER_RESOLUTION, 0) * _TURNS))
         self.write(ENCODER_SPEED, 1, max(-32768, min(32767, speed)))
 

@@ -19,6 +19,16 @@ drives were attached, so that order, not the handling order, breaks ties.
 A drive built without one (``EmulatedDrive(shaft=None)``) gets a shaft of its
 own: a solo drive and a coupled one step the same way. A node's NMT reset
 leaves the shaft as it is.
+
+Real time (``clock`` set: the emulator's own monotonic clock [s]): time is never
+tied to frames. ``advance_to(t)`` steps whole periods up to ``t``, each ending
+with every drive's own cycle (``on_period``); the emulator calls it often, and
+every node on a SYNC calls it before latching, so a lost or late SYNC changes
+only when feedback is latched. A command acts from the first period boundary at
+or after it is due. Lock-step (no clock) keeps its exact stepping per SYNC.
+
+Loads (``Axis.load``) run in seconds since the first attached drive last entered
+OPERATION ENABLED (``enabled``), not since the clock's epoch.
 """
 
 from __future__ import annotations
@@ -61,9 +71,11 @@ def run_period(
 
 
 class Coupled(Protocol):
-    """A drive on a shaft: it gives its command timeline of the period just ended."""
+    """A drive on a shaft: its commands for the period from ``t_start`` [s], and its own cycle."""
 
-    def take_timeline(self) -> list[Timed]: ...
+    def take_timeline(self, t_start: float) -> list[Timed]: ...
+
+    def on_period(self) -> None: ...
 
 
 class Shaft:
@@ -84,7 +96,10 @@ class Shaft:
         #: frame's arrival time is scheduling noise); False: the SYNC's timestamp
         self.lockstep = False
         self.syncs = 0  #: SYNCs seen; the shaft has been advanced syncs - 1 periods
-        self.t = 0.0  #: time of the latest SYNC [s]
+        self.t = 0.0  #: time of the latest SYNC [s] (real time: of the latest period boundary)
+        #: real time: the emulator's monotonic clock [s] (None: time steps with the SYNCs)
+        self.clock: Callable[[], float] | None = None
+        self.load_origin = 0.0  #: [s] loads run in t - load_origin
         self._drives: list[Coupled] = []
         self._seen: set[int] = set()
         self._stamp: float | None = None
@@ -111,6 +126,9 @@ class Shaft:
         has handled the latest one already; a new SYNC advances the period ending at it
         (none before the first). True when this call advanced the shaft.
         """
+        if self.clock is not None:
+            self.advance_to(self.clock())
+            return False
         key = id(node)
         if timestamp == self._stamp and key not in self._seen:
             self._seen.add(key)
@@ -124,13 +142,30 @@ class Shaft:
         self.t = now
         return True
 
+    def advance_to(self, t: float) -> int:
+        """Real time: advance whole periods up to ``t`` [s]; each ends with every drive's cycle.
+        The number of periods advanced."""
+        n = 0
+        while self.t + self.period <= t + 1e-12:
+            self._advance(self.t)
+            self.t += self.period
+            for drive in self._drives:
+                drive.on_period()
+            n += 1
+        return n
+
+    def enabled(self, drive: Coupled) -> None:
+        """``drive`` entered OPERATION ENABLED: the first drive's enable restarts the loads' time."""
+        if self._drives and drive is self._drives[0]:
+            self.load_origin = self.t
+
     def _advance(self, t: float) -> None:
         drives = self._drives
         if len(drives) == 1:
-            timeline = drives[0].take_timeline()
+            timeline = drives[0].take_timeline(t)
         else:
-            timeline = [c for d in drives for c in d.take_timeline()]
-        run_period(self._step, timeline, t, self.period)
+            timeline = [c for d in drives for c in d.take_timeline(t)]
+        run_period(self._step, timeline, t - self.load_origin, self.period)
 
     def _step_all(self, h: float, t: float) -> None:
         for axis in self.axes:

@@ -4,10 +4,12 @@ On a python-can bus (``--interface socketcan --channel vcan0``, or any other
 interface) the devices answer real frames; without kernel CAN, the emulator
 serves socketcand's rawmode on 127.0.0.1 (``--socketcand-port``), which
 python-can's ``socketcand`` interface speaks as a client. Time is real: the
-devices step their physics one period per SYNC the host sends, and send
-heartbeats on the wall clock. With ``--time lockstep`` an event RPDO counts as
-received at the SYNC it answers, so a host that waits for each answer gets
-exactly the in-process trajectory. Ctrl-C (or SIGTERM) stops it cleanly.
+devices run on their own monotonic clock (``plant_emulator.clock``), their
+physics in whole periods of the preset whether SYNCs come or not, and a SYNC
+latches the feedback. With ``--time lockstep`` time is the SYNCs': each steps
+one period, an event RPDO counts as received at the SYNC it answers, so a host
+that waits for each answer gets exactly the in-process trajectory. Ctrl-C (or
+SIGTERM) stops it cleanly.
 """
 
 from __future__ import annotations
@@ -15,7 +17,6 @@ from __future__ import annotations
 import logging
 import signal
 import threading
-import time
 from typing import Any
 
 import can
@@ -23,6 +24,7 @@ import canopen
 
 from drivers.errors import ConfigError
 from plant_emulator.canopen_node import EmulatedNode
+from plant_emulator.clock import WorldClock
 from plant_emulator.lockstep import SyncHub, attach_network
 from plant_emulator.presets import build_preset
 from plant_emulator.socketcand_server import SocketcandServer
@@ -30,6 +32,9 @@ from plant_emulator.socketcand_server import SocketcandServer
 __all__ = ["run_emulator", "run_modbus_emulator"]
 
 log = logging.getLogger(__name__)
+
+#: how often [s] the real-time emulator brings its devices to now (their period is the preset's)
+_TICK = 0.0005
 
 
 def _locked_notify(network: Any, lock: threading.RLock) -> None:
@@ -91,6 +96,7 @@ def run_emulator(
                 if hasattr(d, "lockstep"):
                     d.lockstep = lockstep
                 d.boot()
+            clock = None if lockstep else WorldClock(devices)
         if server is not None:
             server.start()
         nodes = [d.node_id for d in devices]
@@ -101,11 +107,10 @@ def run_emulator(
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
         while not stop.is_set():
-            with lock:
-                now = time.time()
-                for d in devices:
-                    d.tick(now)
-            stop.wait(0.01)
+            if clock is not None:  # real time: the devices' own clock runs, SYNC or not
+                with lock:
+                    clock.advance()
+            stop.wait(_TICK if clock is not None else 0.1)
     except KeyboardInterrupt:
         log.info("interrupted")
     finally:

@@ -51,9 +51,12 @@ class Drive:
     def __init__(self, timeline: list[Timed]) -> None:
         self.timeline = timeline
 
-    def take_timeline(self) -> list[Timed]:
+    def take_timeline(self, t_start: float) -> list[Timed]:
         out, self.timeline = self.timeline, []
         return out
+
+    def on_period(self) -> None:
+        pass
 
 
 def test_one_advance_per_sync_whichever_node_comes_first() -> None:

@@ -1,0 +1,114 @@
+"""Real time: the emulated world runs on its own clock (injected here), never on frame arrival."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import canopen
+import pytest
+
+from drivers.maps import CIA402_EDS
+from plant_emulator.cia402_drive import EmulatedDrive
+from plant_emulator.clock import WorldClock
+from plant_emulator.lockstep import SyncHub, attach_network
+from plant_emulator.presets import build_preset
+
+CPR = 4096
+
+
+class World:
+    """The dc-servo preset on an in-process bus, on a clock the test moves."""
+
+    def __init__(self, start: float = 0.0, **params: object) -> None:
+        self.time = start
+        self.hub = SyncHub()
+        self.host, self.dev = canopen.Network(), canopen.Network()
+        attach_network(self.host, self.hub.bus(queue=False, channel="host"))
+        attach_network(self.dev, self.hub.bus(queue=False, channel="device"))
+        self.frames: list[int] = []
+        self.hub.taps.append(lambda m: self.frames.append(m.arbitration_id))
+        devices, self.period = build_preset("dc-servo", self.dev, params)
+        for d in devices:
+            d.boot()
+        drive = devices[0]
+        assert isinstance(drive, EmulatedDrive)
+        self.drive = drive
+        self.clock = WorldClock(devices, lambda: self.time)
+        self.node = canopen.RemoteNode(1, CIA402_EDS)
+        self.host.add_node(self.node)
+
+    def wait(self, seconds: float, *, sync_every: float = 0.0) -> None:
+        """Let ``seconds`` pass in 1 ms steps of the emulator's loop; a SYNC every ``sync_every``."""
+        steps = round(seconds / 1e-3)
+        every = round(sync_every / 1e-3) if sync_every else 0
+        for k in range(steps):
+            self.time += 1e-3
+            self.hub.clock = self.time
+            self.clock.advance()
+            if every and k % every == 0:
+                self.host.send_message(0x80, b"")
+
+    def enable(self, mode: int) -> None:
+        self.node.nmt.state = "OPERATIONAL"
+        self.node.sdo[0x6060].raw = mode
+        for cw in (0x06, 0x0F):
+            self.node.sdo[0x6040].raw = cw
+
+    def close(self) -> None:
+        for net in (self.host, self.dev):
+            net.bus.shutdown()
+
+
+@pytest.fixture
+def world() -> Iterator[World]:
+    w = World()
+    yield w
+    w.close()
+
+
+def test_time_passes_without_a_sync(world: World) -> None:
+    """No SYNC at all: the motor still runs its second (after a SIGKILL of the host, a drive on
+    its own clock is where its clock says, and its supervision runs on that clock too)."""
+    world.enable(9)  # CSV
+    world.node.sdo[0x60FF].raw = round(50.0 * CPR / (2 * math.pi))
+    world.wait(1.0)
+    assert 0x80 not in world.frames
+    assert world.drive.axis.velocity == pytest.approx(50.0, rel=1e-3)
+    assert world.drive.axis.position == pytest.approx(50.0 * 1.0, abs=1.0)
+    beats = world.frames.count(0x701)
+    assert 9 <= beats <= 11  # 0x1017 = 100 ms, on the emulator's clock
+
+
+def test_syncs_only_latch(world: World) -> None:
+    """The same second with a SYNC every 2 ms, or every 50 ms: the same motion at the end."""
+    world.enable(-1)  # voltage
+    world.node.sdo[0x2100].raw = 5000  # mV
+    world.wait(0.5, sync_every=0.002)
+    fast = world.drive.axis.position
+    other = World()
+    try:
+        other.enable(-1)
+        other.node.sdo[0x2100].raw = 5000
+        other.wait(0.5, sync_every=0.05)
+        assert other.drive.axis.position == pytest.approx(fast, rel=1e-12)
+    finally:
+        other.close()
+    world.host.send_message(0x80, b"")  # a SYNC latches the state of the clock's last period
+    latched = world.node.sdo[0x6064].raw
+    assert latched == math.floor(world.drive.axis.position * CPR / (2 * math.pi))
+
+
+def test_a_load_profile_runs_from_operation_enabled() -> None:
+    """The clock reads 1000 s when the drive is enabled; the load's step at 1.5 s comes 1.5 s
+    after the enable, not at clock time 1.5 s (which is long past)."""
+    w = World(start=1000.0, load="step:0.02:1.5")
+    try:
+        w.wait(0.5)
+        w.enable(-1)  # 0 V: nothing moves the motor but the load
+        w.wait(1.4)
+        assert abs(w.drive.axis.velocity) < 1e-6
+        w.wait(0.2)
+        assert w.drive.axis.velocity < -1.0  # the load (against positive speed) spins it back
+    finally:
+        w.close()
