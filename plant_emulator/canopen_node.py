@@ -45,7 +45,6 @@ from drivers.maps.cia import (
     PDO_BLOCK,
     PDO_SYNC_MAX,
     EmcyCode,
-    ErrorBehavior,
     ErrorRegister,
     NmtCommand,
     NmtState,
@@ -54,7 +53,7 @@ from drivers.maps.cia import (
 from drivers.maps.od import load_od
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
-from plant_emulator.supervision import Deadlines, HeartbeatConsumer, check_consumer_entry
+from plant_emulator.supervision import Deadlines, HeartbeatConsumer, Supervision, check_consumer_entry
 
 __all__ = ["EmulatedNode", "PdoConfig"]
 
@@ -70,7 +69,7 @@ PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = (
 _SDO_SYNC_STATES = (PRE_OPERATIONAL, OPERATIONAL)
 
 
-class EmulatedNode:
+class EmulatedNode(Supervision):
     """A CiA 301 slave on ``network`` built from the EDS at ``eds``.
 
     Subclasses override ``on_sync_latch`` (update the process data before the
@@ -110,6 +109,8 @@ class EmulatedNode:
         self.clock = 0.0  #: device time [s]
         #: real time: the emulator's monotonic clock [s]; None: time is the SYNCs' (lock-step)
         self.clock_source: Callable[[], float] | None = None
+        self.sdo_delay = 0.0  #: [s] real time: an SDO request is answered this long after it came
+        self._deferred: list[tuple[float, int, bytes, float]] = []  #: (due [s], COB-ID, data, stamp)
         self._last_heartbeat = -1e9
         self._sync_count = 0
         self._tpdos: list[PdoConfig] = []
@@ -191,32 +192,15 @@ class EmulatedNode:
     def tick(self, now: float) -> None:
         """Advance the device clock to ``now`` [s]: heartbeat and event timers."""
         self.clock = now
+        if self._deferred:
+            self._answer_sdo(now)
         period = self.od.read(cia.PRODUCER_HEARTBEAT, 0) / 1000.0  # ms -> s
         if period > 0.0 and now - self._last_heartbeat >= period - 1e-9:
             self._last_heartbeat = now
             self._send(COB_HEARTBEAT + self.node_id, bytes([self.nmt_state]))
         if self.nmt_state == OPERATIONAL:
             self.event_tpdos(now)
-        for node in self.heartbeats.expired(now):
-            self.communication_error(f"heartbeat of node {node} lost", EmcyCode.HEARTBEAT)
-        for number in self.rpdo_deadlines.expired(now):
-            self.communication_error(f"RPDO{number + 1} timed out", EmcyCode.RPDO_TIMEOUT)
-
-    def communication_error(self, what: str, code: int) -> None:
-        """A lost heartbeat or RPDO: EMCY ``code``, the drive's reaction, then the NMT state of 0x1029."""
-        log.warning("node %d: %s", self.node_id, what)
-        self.emcy(code, ErrorRegister.GENERIC | ErrorRegister.COMMUNICATION)
-        self.on_abort_connection(what, code)
-        if cia.ERROR_BEHAVIOR not in self.node.object_dictionary:
-            return
-        behavior = self.od.read(cia.ERROR_BEHAVIOR, 1)
-        if behavior == ErrorBehavior.PRE_OPERATIONAL and self.nmt_state == OPERATIONAL:
-            self.node.nmt._state = PRE_OPERATIONAL
-        elif behavior == ErrorBehavior.STOPPED:
-            self.node.nmt._state = STOPPED
-
-    def _on_consumed_heartbeat(self, can_id: int, data: bytes, timestamp: float) -> None:
-        self.heartbeats.heard(can_id - COB_HEARTBEAT, self.clock)
+        self.supervise(now)
 
     def event_tpdos(self, now: float) -> None:
         """TPDOs of type 254/255: sent when their data change or their event timer (sub 5) expires."""
@@ -225,8 +209,19 @@ class EmulatedNode:
 
     # --- SDO -------------------------------------------------------------
     def _on_sdo(self, can_id: int, data: bytes, timestamp: float) -> None:
-        if self.nmt_state in _SDO_SYNC_STATES:
-            self.node.sdo.on_request(can_id, data, timestamp)
+        if self.nmt_state not in _SDO_SYNC_STATES:
+            return
+        if self.sdo_delay > 0.0 and self.clock_source is not None:  # real time: answer later
+            self._deferred.append((self.clock_source() + self.sdo_delay, can_id, bytes(data), timestamp))
+            return
+        self.node.sdo.on_request(can_id, data, timestamp)
+
+    def _answer_sdo(self, now: float) -> None:
+        """The SDO requests whose response time has passed, in order (real time)."""
+        while self._deferred and self._deferred[0][0] <= now:
+            _, can_id, data, timestamp = self._deferred.pop(0)
+            if self.nmt_state in _SDO_SYNC_STATES:
+                self.node.sdo.on_request(can_id, data, timestamp)
 
     def _on_write(self, index: int, subindex: int, od: Any, data: bytes) -> None:
         if index in PARAMETERS:
@@ -303,21 +298,6 @@ class EmulatedNode:
                 self.network.unsubscribe(self._sync_cob, self._on_sync)
             self.network.subscribe(sync_cob, self._on_sync)
             self._sync_cob = sync_cob
-
-    def _consumer_entries(self) -> dict[int, int]:
-        """The sub-indices 1-n of 0x1016 (none where the device has no heartbeat consumer)."""
-        if cia.CONSUMER_HEARTBEAT not in self.node.object_dictionary:
-            return {}
-        count = self.od.read(cia.CONSUMER_HEARTBEAT, 0)
-        return {s: self.od.read(cia.CONSUMER_HEARTBEAT, s) for s in range(1, count + 1)}
-
-    def _configure_consumer(self) -> None:
-        self.heartbeats.configure_entries(list(self._consumer_entries().values()))
-        for cob in self._consumed:
-            self.network.unsubscribe(cob, self._on_consumed_heartbeat)
-        self._consumed = [COB_HEARTBEAT + node for node in self.heartbeats.times]
-        for cob in self._consumed:
-            self.network.subscribe(cob, self._on_consumed_heartbeat)
 
     def _on_rpdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
         if self.nmt_state != OPERATIONAL:

@@ -137,6 +137,7 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         self.harmful_writes: list[tuple[int, int, bytes]] = []  #: (index, subindex, data)
         super().__init__(node_id, str(self.profile.eds), network)
         self.fixed_mapping = self.profile.mapping == "fixed"
+        self.sdo_delay = self.profile.timing.sdo_response
         self._present = frozenset(self.node.object_dictionary.indices)
         self.modes = self._modes()
         self._latency_object = self.profile.role_object("command-latency")
@@ -354,8 +355,10 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         self._latch()
 
     def on_period(self) -> None:
-        """Real time: a period of the drive's own clock has passed (``Shaft.advance_to``)."""
+        """Real time: a period of the drive's own clock has passed (``Shaft.advance_to``): its
+        cycle, and its objects show the new state (an SDO read needs no SYNC)."""
         self._cycle()
+        self._latch()
 
     def _cycle(self) -> None:
         """The drive's own work once per period: a due mode switch, a target written by SDO,

@@ -56,6 +56,12 @@ class EmulatedEncoder(EmulatedNode):
         per_rev: int = self.od.read(ENCODER_RESOLUTION, 0)
         return math.floor(self.shaft.position / (2.0 * math.pi) * per_rev)
 
+    def tick(self, now: float) -> None:
+        """Real time: the position object follows the shaft between SYNCs too."""
+        if self.clock_source is not None:
+            self.latch()
+        super().tick(now)
+
     def on_sync_latch(self, timestamp: float) -> None:
         self.shaft.sync(self, timestamp)
         self.latch()

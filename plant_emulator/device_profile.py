@@ -82,6 +82,7 @@ __all__ = [
     "DEVICES_DIR",
     "DeviceProfile",
     "ManufacturerObject",
+    "default_profile",
     "device_profile",
     "load_profile",
     "zoo",
@@ -403,6 +404,18 @@ def _emcy(t: _Table) -> dict[int, str]:
     out = {_hex(k, f"{t.where} {k}"): t.get(k, str) for k in list(t.data)}
     t.done()
     return out
+
+
+def default_profile(eds: Path) -> DeviceProfile:
+    """A profile for an EDS alone: the defaults of every key (the EDS must have 0x6502 and 0x608F)."""
+    if not eds.exists():
+        raise ConfigError(f"{eds}: no such EDS/DCF file")
+    return DeviceProfile(
+        name=eds.stem,
+        description=f"{eds.name} with the default profile",
+        eds=eds.resolve(),
+        source=eds,
+    )
 
 
 def zoo() -> dict[str, Path]:

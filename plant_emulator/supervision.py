@@ -16,11 +16,29 @@ Times are the device's clock [s].
 
 from __future__ import annotations
 
+import logging
+from typing import TYPE_CHECKING, Any
+
 from canopen.sdo.exceptions import SdoAbortedError
 
-from drivers.maps.cia import SdoAbortCode
+from drivers.maps import cia
+from drivers.maps.cia import (
+    COB_HEARTBEAT,
+    EmcyCode,
+    ErrorBehavior,
+    ErrorRegister,
+    NmtState,
+    SdoAbortCode,
+)
 
-__all__ = ["Deadlines", "HeartbeatConsumer", "check_consumer_entry", "split_consumer_entry"]
+__all__ = ["Deadlines", "HeartbeatConsumer", "Supervision", "check_consumer_entry", "split_consumer_entry"]
+
+log = logging.getLogger(__name__)
+PRE_OPERATIONAL, OPERATIONAL, STOPPED = (
+    int(NmtState.PRE_OPERATIONAL),
+    int(NmtState.OPERATIONAL),
+    int(NmtState.STOPPED),
+)
 
 
 def split_consumer_entry(entry: int) -> tuple[int, float]:
@@ -74,3 +92,63 @@ class HeartbeatConsumer(Deadlines):
             if 1 <= node <= 127 and time:
                 times[node] = time
         self.configure(times)
+
+
+class Supervision:
+    """The supervising part of ``EmulatedNode`` (a mixin): the consumer's configuration from
+    0x1016, the losses it and the RPDO deadlines find, and what a loss does (see the module
+    docstring)."""
+
+    node_id: int
+    node: Any
+    od: Any
+    network: Any
+    clock: float
+    heartbeats: HeartbeatConsumer
+    rpdo_deadlines: Deadlines
+    _consumed: list[int]
+
+    if TYPE_CHECKING:  # the node's own, used here
+
+        @property
+        def nmt_state(self) -> int: ...
+        def emcy(self, code: int, register: int, data: bytes = b"") -> None: ...
+        def on_abort_connection(self, what: str, code: int) -> None: ...
+
+    def supervise(self, now: float) -> None:
+        """Report the heartbeats and RPDOs lost by ``now`` [s]."""
+        for node in self.heartbeats.expired(now):
+            self.communication_error(f"heartbeat of node {node} lost", EmcyCode.HEARTBEAT)
+        for number in self.rpdo_deadlines.expired(now):
+            self.communication_error(f"RPDO{number + 1} timed out", EmcyCode.RPDO_TIMEOUT)
+
+    def communication_error(self, what: str, code: int) -> None:
+        """A lost heartbeat or RPDO: EMCY ``code``, the drive's reaction, then the NMT state of 0x1029."""
+        log.warning("node %d: %s", self.node_id, what)
+        self.emcy(code, ErrorRegister.GENERIC | ErrorRegister.COMMUNICATION)
+        self.on_abort_connection(what, code)
+        if cia.ERROR_BEHAVIOR not in self.node.object_dictionary:
+            return
+        behavior = self.od.read(cia.ERROR_BEHAVIOR, 1)
+        if behavior == ErrorBehavior.PRE_OPERATIONAL and self.nmt_state == OPERATIONAL:
+            self.node.nmt._state = PRE_OPERATIONAL
+        elif behavior == ErrorBehavior.STOPPED:
+            self.node.nmt._state = STOPPED
+
+    def _on_consumed_heartbeat(self, can_id: int, data: bytes, timestamp: float) -> None:
+        self.heartbeats.heard(can_id - COB_HEARTBEAT, self.clock)
+
+    def _consumer_entries(self) -> dict[int, int]:
+        """The sub-indices 1-n of 0x1016 (none where the device has no heartbeat consumer)."""
+        if cia.CONSUMER_HEARTBEAT not in self.node.object_dictionary:
+            return {}
+        count = self.od.read(cia.CONSUMER_HEARTBEAT, 0)
+        return {s: self.od.read(cia.CONSUMER_HEARTBEAT, s) for s in range(1, count + 1)}
+
+    def _configure_consumer(self) -> None:
+        self.heartbeats.configure_entries(list(self._consumer_entries().values()))
+        for cob in self._consumed:
+            self.network.unsubscribe(cob, self._on_consumed_heartbeat)
+        self._consumed = [COB_HEARTBEAT + node for node in self.heartbeats.times]
+        for cob in self._consumed:
+            self.network.subscribe(cob, self._on_consumed_heartbeat)

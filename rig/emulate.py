@@ -17,6 +17,7 @@ from __future__ import annotations
 import logging
 import signal
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import can
@@ -26,10 +27,9 @@ from drivers.errors import ConfigError
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.clock import WorldClock
 from plant_emulator.lockstep import SyncHub, attach_network
-from plant_emulator.presets import build_preset
 from plant_emulator.socketcand_server import SocketcandServer
 
-__all__ = ["run_emulator", "run_modbus_emulator"]
+__all__ = ["World", "run_emulator", "run_modbus_emulator"]
 
 log = logging.getLogger(__name__)
 
@@ -71,9 +71,13 @@ def _transport(
     return None, server, f"socketcand://{host}:{server.port}"
 
 
+#: what builds the emulated world on a network: (devices, SYNC period [s])
+World = Callable[[canopen.Network], tuple[list[EmulatedNode], float]]
+
+
 def run_emulator(
-    preset: str,
-    params: dict[str, Any],
+    world: World,
+    label: str,
     *,
     interface: str | None = None,
     channel: str | None = None,
@@ -91,7 +95,7 @@ def run_emulator(
     try:
         with lock:
             devices: list[EmulatedNode]
-            devices, period = build_preset(preset, network, params)
+            devices, period = world(network)
             for d in devices:
                 if hasattr(d, "lockstep"):
                     d.lockstep = lockstep
@@ -100,8 +104,8 @@ def run_emulator(
         if server is not None:
             server.start()
         nodes = [d.node_id for d in devices]
-        log.info("emulating %s (nodes %s, period %g s) on %s", preset, nodes, period, where)
-        print(f"rig emulate: {preset} on {where}; Ctrl-C stops", flush=True)
+        log.info("emulating %s (nodes %s, period %g s) on %s", label, nodes, period, where)
+        print(f"rig emulate: {label} on {where}; Ctrl-C stops", flush=True)
         if ready is not None:
             ready(server.port if server else 0)
         if threading.current_thread() is threading.main_thread():

@@ -21,6 +21,16 @@ def add_parser(sub: Any) -> None:
     )
     emulate.add_argument("--preset", help="dc-servo, im-drive, grid-converter or dyno (CANopen)")
     emulate.add_argument(
+        "--device",
+        metavar="PROFILE",
+        help="serve the virtual twin of a drive: a profile of the zoo (see --list) or a profile file (.toml)",
+    )
+    emulate.add_argument(
+        "--profile", metavar="FILE", help="your drive's device profile (TOML; see the README)"
+    )
+    emulate.add_argument("--eds", metavar="FILE", help="your drive's EDS/DCF (with --profile, or alone)")
+    emulate.add_argument("--list", action="store_true", help="list the zoo's device profiles and exit")
+    emulate.add_argument(
         "--modbus-map",
         metavar="NAME",
         help="serve an emulated Modbus inverter of this map instead (abb-drives-profile, delta-vfd-b)",
@@ -71,10 +81,50 @@ def _node_ids(preset: str, node_id: int | None, params: dict[str, str]) -> dict[
     return params
 
 
+def _list() -> int:
+    from plant_emulator.device_profile import load_profile, zoo
+
+    for name, path in zoo().items():
+        print(f"{name:18} {load_profile(path).description}")
+    return 0
+
+
+def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
+    """The world of ``--device`` or ``--profile``/``--eds``: (builder, label)."""
+    import dataclasses
+    import pathlib
+
+    from plant_emulator.device_profile import default_profile, device_profile
+    from plant_emulator.presets import build_twin
+    from rig.host.emulation import preset_params
+
+    if args.device and (args.profile or args.eds):
+        raise UsageError("rig emulate: --device takes a zoo profile; for your own drive give --profile/--eds")
+    if args.node_id is not None and not 1 <= args.node_id <= 127:
+        raise UsageError(f"rig emulate: --node-id {args.node_id}: must be 1..127")
+    if args.device:
+        profile = device_profile(args.device)
+    elif args.profile:
+        profile = device_profile(pathlib.Path(args.profile))
+        if args.eds:
+            profile = dataclasses.replace(profile, eds=pathlib.Path(args.eds).resolve())
+    else:
+        profile = default_profile(pathlib.Path(args.eds))
+    params = preset_params(profile.physics, items, f"rig emulate: --device {profile.name} --param")
+
+    def world(network: Any) -> Any:
+        return build_twin(profile, network, params, node_id=args.node_id)
+
+    return world, f"{profile.name} (node {args.node_id or profile.node_id})"
+
+
 def run(args: argparse.Namespace) -> int:
+    from plant_emulator.presets import build_preset
     from rig.emulate import run_emulator, run_modbus_emulator
     from rig.host.emulation import preset_params
 
+    if args.list:
+        return _list()
     if args.interface and not args.channel:
         raise UsageError("rig emulate: --interface needs --channel")
     items = parse_items(args.param, "rig emulate: --param")
@@ -82,13 +132,24 @@ def run(args: argparse.Namespace) -> int:
         return run_modbus_emulator(
             args.modbus_map, items, host=args.listen, port=args.modbus_port, serial=args.modbus_serial
         )
-    if not args.preset:
-        raise UsageError("rig emulate: give --preset (CANopen) or --modbus-map (Modbus)")
-    items = _node_ids(args.preset, args.node_id, items)
-    params = preset_params(args.preset, items, f"rig emulate: --preset {args.preset} --param")
+    if sum(bool(x) for x in (args.preset, args.device, args.profile or args.eds)) != 1:
+        raise UsageError(
+            "rig emulate: give one of --preset, --device (or --profile/--eds) for CANopen, or --modbus-map"
+        )
+    if args.preset:
+        items = _node_ids(args.preset, args.node_id, items)
+        params = preset_params(args.preset, items, f"rig emulate: --preset {args.preset} --param")
+        preset = args.preset
+
+        def world(network: Any) -> Any:
+            return build_preset(preset, network, params)
+
+        label = preset
+    else:
+        world, label = _twin(args, items)
     return run_emulator(
-        args.preset,
-        params,
+        world,
+        label,
         interface=args.interface,
         channel=args.channel,
         host=args.listen,

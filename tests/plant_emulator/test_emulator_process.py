@@ -69,3 +69,67 @@ def test_modbus_inverter_process_binds_localhost_by_default() -> None:
     finally:
         out, err = stop_rig(proc, timeout=10)
     assert "stopped" in out, err
+
+
+def test_a_zoo_twin_in_a_separate_process_runs_on_its_clock() -> None:
+    """``rig emulate --device epos4``: the twin answers a plain canopen client with its own
+    identity and units, and its motor runs in real time with no SYNC at all."""
+    import io
+    import time
+
+    from plant_emulator.device_profile import load_profile, zoo
+
+    proc, line = spawn_rig(
+        "emulate", "--device", "epos4", "--node-id", "3", "--socketcand-port", "0", stderr=True
+    )
+    try:
+        match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
+        assert match and "epos4 (node 3)" in line, line
+        bus = can.Bus(
+            interface="socketcand",
+            host="127.0.0.1",
+            port=int(match.group(1)),
+            channel="can0",
+            ignore_config=True,
+        )
+        network = canopen.Network(bus)
+        network.connect()
+        try:
+            eds = load_profile(zoo()["epos4"]).eds
+            source = io.StringIO(eds.read_text())
+            source.name = eds.name
+            node = canopen.RemoteNode(3, canopen.import_od(source, 3))
+            network.add_node(node)
+            assert node.sdo[0x1018][1].raw == 0xFB
+            assert node.sdo[0x60A9].raw == 0x00B44700  # rpm
+            node.nmt.state = "OPERATIONAL"
+            node.sdo[0x6060].raw = 9  # CSV
+            for _ in range(100):  # the mode-switch time passes on the twin's own clock
+                if node.sdo[0x6061].raw == 9:
+                    break
+                time.sleep(0.005)
+            for cw in (0x06, 0x07, 0x0F):
+                node.sdo[0x6040].raw = cw
+            node.sdo[0x60FF].raw = 300  # rpm
+            deadline = time.monotonic() + 5.0
+            while time.monotonic() < deadline and node.sdo[0x606C].raw < 290:
+                time.sleep(0.02)
+            assert 290 <= node.sdo[0x606C].raw <= 310  # no SYNC was sent
+            node.sdo[0x6040].raw = 0x00
+        finally:
+            network.disconnect()
+    finally:
+        _out, err = stop_rig(proc, timeout=10)
+    assert proc.returncode == 0, err
+
+
+def test_rig_emulate_lists_the_zoo_and_refuses_bad_devices(capsys) -> None:  # type: ignore[no-untyped-def]
+    from rig.cli import main
+
+    assert main(["emulate", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert {line.split()[0] for line in out.splitlines()} >= {"epos4", "nanotec-c5e", "erl-pcs", "drive-rig"}
+    assert main(["emulate", "--device", "nosuch"]) == 2
+    assert "unknown device profile 'nosuch'" in capsys.readouterr().err
+    assert main(["emulate", "--device", "epos4", "--param", "bogus=1"]) == 2
+    assert "unknown parameter 'bogus'" in capsys.readouterr().err

@@ -112,3 +112,33 @@ def test_a_load_profile_runs_from_operation_enabled() -> None:
         assert w.drive.axis.velocity < -1.0  # the load (against positive speed) spins it back
     finally:
         w.close()
+
+
+def test_the_sdo_answer_takes_the_profile_s_response_time() -> None:
+    """The epos4 twin answers an SDO request 0.5 ms (its profile) after it came, on its clock."""
+    from plant_emulator.device_profile import load_profile, zoo
+    from plant_emulator.presets import build_twin
+
+    t = [0.0]
+    hub = SyncHub()
+    host, dev = canopen.Network(), canopen.Network()
+    attach_network(host, hub.bus(queue=False, channel="host"))
+    attach_network(dev, hub.bus(queue=False, channel="device"))
+    frames: list[int] = []
+    hub.taps.append(lambda m: frames.append(m.arbitration_id))
+    try:
+        profile = load_profile(zoo()["epos4"])
+        assert profile.timing.sdo_response == 0.0005
+        devices, _ = build_twin(profile, dev)
+        devices[0].boot()
+        clock = WorldClock(devices, lambda: t[0])
+        host.send_message(0x601, bytes([0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]))  # upload 0x1000
+        t[0] = 0.0004
+        clock.advance()
+        assert 0x581 not in frames
+        t[0] = 0.0006
+        clock.advance()
+        assert 0x581 in frames
+    finally:
+        for net in (host, dev):
+            net.bus.shutdown()
