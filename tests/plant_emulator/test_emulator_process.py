@@ -111,10 +111,14 @@ def test_a_zoo_twin_in_a_separate_process_runs_on_its_clock() -> None:
             for cw in (0x06, 0x07, 0x0F):
                 node.sdo[0x6040].raw = cw
             node.sdo[0x60FF].raw = 300  # rpm
+            speeds: list[int] = []  # until five reads in a row show it at 300 rpm (it settles)
             deadline = time.monotonic() + 5.0
-            while time.monotonic() < deadline and node.sdo[0x606C].raw < 290:
+            while time.monotonic() < deadline and not (
+                len(speeds) >= 5 and all(290 <= v <= 310 for v in speeds[-5:])
+            ):
+                speeds.append(node.sdo[0x606C].raw)
                 time.sleep(0.02)
-            assert 290 <= node.sdo[0x606C].raw <= 310  # no SYNC was sent
+            assert all(290 <= v <= 310 for v in speeds[-5:]), speeds  # and no SYNC was ever sent
             node.sdo[0x6040].raw = 0x00
         finally:
             network.disconnect()
