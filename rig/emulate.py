@@ -33,8 +33,10 @@ __all__ = ["World", "run_emulator", "run_modbus_emulator"]
 
 log = logging.getLogger(__name__)
 
-#: how often [s] the real-time emulator brings its devices to now (their period is the preset's)
-_TICK = 0.0005
+#: how often [s] the real-time emulator brings its devices to now when no frame does (each SYNC
+#: does too); the physics always advances in whole periods of the preset, so this is only how
+#: stale an SDO read or a supervision check may be
+_TICK = 0.002
 
 
 def _locked_notify(network: Any, lock: threading.RLock) -> None:
