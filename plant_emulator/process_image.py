@@ -25,7 +25,7 @@ from plant_emulator.od_store import ObjectStore
 
 __all__ = ["UNIT_OBJECTS", "DriveUnits", "ProcessImage", "Ratings"]
 
-#: objects whose write changes the drive's units
+#: objects whose write changes the drive's units or ratings (``ProcessImage.refresh``)
 UNIT_OBJECTS = frozenset(
     {
         cia.POSITION_ENCODER_RESOLUTION,
@@ -34,11 +34,19 @@ UNIT_OBJECTS = frozenset(
         cia.SI_UNIT_POSITION,
         cia.SI_UNIT_VELOCITY,
     }
+    | {cia.RATED_TORQUE, cia.RATED_CURRENT, cia.MAX_CURRENT, cia.MAX_MOTOR_SPEED}
 )
 _VOLTAGE, _DQ_VOLTAGE, _CST, _CSV, _PV, _CSP = (
     int(m) for m in (Mode.VOLTAGE, Mode.DQ_VOLTAGE, Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY, Mode.CSP)
 )
 _TWO_PI = 2.0 * math.pi
+_I32_MIN, _I32_MAX = -(2**31), 2**31 - 1
+_POSITION_ACTUAL, _VELOCITY_ACTUAL = cia.POSITION_ACTUAL, cia.VELOCITY_ACTUAL
+_TORQUE_ACTUAL, _CURRENT_ACTUAL, _FOLLOWING = (
+    cia.TORQUE_ACTUAL,
+    cia.CURRENT_ACTUAL,
+    cia.FOLLOWING_ERROR_ACTUAL,
+)
 
 
 @dataclass(frozen=True)
@@ -107,42 +115,34 @@ class ProcessImage:
         self.has = has
         self.given = given
         self.ratings = ratings
-        self.units = drive_units(od, has, given)
         self.home_shift = 0  #: [position units] added to positions by homing (0x607C)
         self._inputs = has(cia.DIGITAL_INPUTS)
-        self._feedback = [
-            i for i in (cia.TORQUE_ACTUAL, cia.CURRENT_ACTUAL, cia.FOLLOWING_ERROR_ACTUAL) if has(i)
-        ]
+        self._torque = has(cia.TORQUE_ACTUAL)
+        self._current = has(cia.CURRENT_ACTUAL)
+        self._following = has(cia.FOLLOWING_ERROR_ACTUAL)
         self._dq = dq and has(cia.DQ_CURRENT) and has(cia.FRAME_ANGLE) and has(cia.FRAME_SPEED)
+        self.refresh()
 
     def refresh(self) -> None:
-        """The unit objects changed (an SDO write, an NMT reset)."""
+        """The unit or rating objects changed (an SDO write, an NMT reset, ``rate``): the values
+        every period uses are taken again."""
         self.units = drive_units(self.od, self.has, self.given)
+        self.rated_torque = self._object(cia.RATED_TORQUE, self.ratings.rated_torque, 1e-3)
+        self.rated_current = self._object(cia.RATED_CURRENT, self.ratings.rated_current, 1e-3)
+        permille = self._object(cia.MAX_CURRENT, float(self.ratings.max_current_permille))
+        self.max_current = permille / 1000.0 * self.rated_current
+        self.max_speed = self._object(cia.MAX_MOTOR_SPEED, float(self.ratings.max_speed_rpm)) * _TWO_PI / 60.0
 
     # --- ratings: the objects where the drive has them, else the physics' values ---------------
     def _object(self, index: int, default: float, scale: float = 1.0) -> float:
         return float(self.od.read(index, 0)) * scale if self.has(index) else default
 
-    @property
-    def rated_torque(self) -> float:
-        """[N m] (0x6076 is in mN m)"""
-        return self._object(cia.RATED_TORQUE, self.ratings.rated_torque, 1e-3)
-
-    @property
-    def rated_current(self) -> float:
-        """[A] (0x6075 is in mA)"""
-        return self._object(cia.RATED_CURRENT, self.ratings.rated_current, 1e-3)
-
-    @property
-    def max_current(self) -> float:
-        """[A] (0x6073 per mille of the rated current)"""
-        permille = self._object(cia.MAX_CURRENT, float(self.ratings.max_current_permille))
-        return permille / 1000.0 * self.rated_current
-
-    @property
-    def max_speed(self) -> float:
-        """[rad/s] (0x6080 is in rpm)"""
-        return self._object(cia.MAX_MOTOR_SPEED, float(self.ratings.max_speed_rpm)) * _TWO_PI / 60.0
+    #: rated_torque [N m] (0x6076 is mN m), rated_current [A] (0x6075 mA), max_current [A]
+    #: (0x6073 per mille of the rated current), max_speed [rad/s] (0x6080 rpm): set by ``refresh``
+    rated_torque: float
+    rated_current: float
+    max_current: float
+    max_speed: float
 
     def rate(self, ratings: Ratings, counts_per_rev: int | None) -> None:
         """Take ``ratings`` and write them, and the resolution (None: the drive's own), into the
@@ -188,16 +188,16 @@ class ProcessImage:
         (``offset`` added: fault injection). ``demand``: the position set-point [rad] of a
         position mode (for 0x60F4), else None; ``inputs``: 0x60FD."""
         write, u = self.od.write, self.units
-        pos = _clamp(math.floor(axis.position * u.position) + self.home_shift + offset, 32)
-        write(cia.POSITION_ACTUAL, 0, pos)
-        write(cia.VELOCITY_ACTUAL, 0, _clamp(round(axis.velocity * u.velocity), 32))
-        for index in self._feedback:
-            if index == cia.TORQUE_ACTUAL:
-                write(index, 0, _clamp(round(axis.torque / self.rated_torque * 1000.0), 16))
-            elif index == cia.CURRENT_ACTUAL:
-                write(index, 0, _clamp(round(axis.current / self.rated_current * 1000.0), 16))
-            elif demand is not None:
-                write(index, 0, _clamp(round(demand * u.position) + self.home_shift - pos, 32))
+        pos = math.floor(axis.position * u.position) + self.home_shift + offset
+        pos = _I32_MIN if pos < _I32_MIN else _I32_MAX if pos > _I32_MAX else pos
+        write(_POSITION_ACTUAL, 0, pos)
+        write(_VELOCITY_ACTUAL, 0, _clamp(round(axis.velocity * u.velocity), 32))
+        if self._torque:
+            write(_TORQUE_ACTUAL, 0, _clamp(round(axis.torque / self.rated_torque * 1000.0), 16))
+        if self._current:
+            write(_CURRENT_ACTUAL, 0, _clamp(round(axis.current / self.rated_current * 1000.0), 16))
+        if self._following and demand is not None:
+            write(_FOLLOWING, 0, _clamp(round(demand * u.position) + self.home_shift - pos, 32))
         if self._inputs:
             write(cia.DIGITAL_INPUTS, 0, inputs)
         if self._dq:

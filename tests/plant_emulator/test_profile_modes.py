@@ -163,3 +163,41 @@ def test_max_torque_limits_the_torque_target() -> None:
         assert not math.isnan(rated)
     finally:
         twin.close()
+
+
+def test_halt_stops_a_position_move_and_release_resumes_it(twin: Twin) -> None:
+    node = twin.node
+    twin.enable(PP)
+    _accel(twin, 0x6083, 500.0)
+    _accel(twin, 0x6084, 500.0)
+    node.sdo[0x6081].raw = round(50.0 * twin.per_rad_s())
+    node.sdo[0x605D].raw = 1  # halt on the profile deceleration
+    _new_setpoint(twin, 20.0)
+    twin.run(0.2)
+    node.sdo[0x6040].raw = 0x010F  # halt
+    twin.run(0.3)
+    halted = twin.drive.axis.position
+    assert abs(twin.drive.axis.velocity) < 0.5 and halted < 15.0
+    assert not _sw(twin) & BIT10
+    node.sdo[0x6040].raw = 0x000F
+    twin.run(1.0)
+    assert twin.drive.axis.position == pytest.approx(20.0, abs=0.01)
+    assert _sw(twin) & BIT10
+
+
+def test_following_error_in_profile_position() -> None:
+    """Profile position: a move the motor cannot follow (its position loop is too slow for a
+    2000 rad/s^2 profile at 0x6065 = 0.05 rad) faults with 0x8611."""
+    twin = Twin("faulhaber-mc5004")
+    try:
+        node = twin.node
+        node.sdo[0x6065].raw = round(0.05 * twin.per_rad())
+        node.sdo[0x6066].raw = 0
+        twin.enable(PP)
+        _accel(twin, 0x6083, 2000.0)
+        node.sdo[0x6081].raw = round(100.0 * twin.per_rad_s())
+        _new_setpoint(twin, 10.0)
+        twin.run(0.1)
+        assert node.sdo[0x603F].raw == 0x8611
+    finally:
+        twin.close()
