@@ -246,8 +246,10 @@ class EmulatedNode(Supervision):
         return self.od.read(index, subindex)
 
     def write(self, index: int, subindex: int, value: Any) -> None:
-        """Set an object's value from the device side (no access check, no callbacks)."""
+        """Set an object's value from the device side (no access check, no write callbacks; the
+        device takes note, as of any stored write: ``after_write``)."""
         self.od.write(index, subindex, value)
+        self.after_write(index)
 
     # --- PDO -------------------------------------------------------------
     def _pack(self, pdo: PdoConfig) -> bytes:
