@@ -87,7 +87,10 @@ class CanopenAxis(AxisDriver):
         *,
         eds: str,
         heartbeat_timeout: float = 0.0,
+        sdo_timeout: float | None = None,
+        sdo_retries: int | None = None,
     ) -> None:
+        """``sdo_timeout`` [s] and ``sdo_retries``: of every SDO transfer (None: the class's)."""
         super().__init__(name, mode)
         if not 1 <= node_id <= 127:
             raise ValueError(f"axis {name!r}: node id must be 1..127, got {node_id!r}")
@@ -95,8 +98,8 @@ class CanopenAxis(AxisDriver):
         self.heartbeat_timeout = heartbeat_timeout  #: [s]; 0: not supervised
         self.network = network
         self.node: Any = canopen.RemoteNode(node_id, load_od(eds, node_id))
-        self.node.sdo.RESPONSE_TIMEOUT = self.SDO_TIMEOUT
-        self.node.sdo.MAX_RETRIES = self.SDO_RETRIES
+        self.node.sdo.RESPONSE_TIMEOUT = self.SDO_TIMEOUT if sdo_timeout is None else sdo_timeout
+        self.node.sdo.MAX_RETRIES = self.SDO_RETRIES if sdo_retries is None else sdo_retries
         network.add_node(self.node)
         self._fault: DeviceFault | None = None
         self.emcy_log: list[str] = []
@@ -215,6 +218,13 @@ class CanopenAxis(AxisDriver):
         if pdo.on_message in self.network.subscribers.get(pdo.cob_id, ()):
             self.network.unsubscribe(pdo.cob_id, pdo.on_message)
         self.network.subscribe(pdo.cob_id, slot.on_frame)
+        self._slots.append(slot)
+        return slot
+
+    def receive_cob(self, cob_id: int, codec: struct.Struct) -> TpdoSlot:
+        """Receive the TPDO on ``cob_id`` into a slot decoded by ``codec`` (its mapping in force)."""
+        slot = TpdoSlot(self.node_id, cob_id, codec)
+        self.network.subscribe(cob_id, slot.on_frame)
         self._slots.append(slot)
         return slot
 

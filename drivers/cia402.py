@@ -1,17 +1,28 @@
-"""Host-side CiA 402 drive: an ``AxisDriver`` on canopen's ``RemoteNode``.
+"""Host-side CiA 402 drive: an ``AxisDriver`` on canopen's ``RemoteNode`` that adapts to the device.
 
-It builds on ``RemoteNode`` (SDO client, PDO maps, NMT, EMCY consumer), not on
-``BaseNode402``. BaseNode402's fault reset always waits about 400 ms (canopen
-#261), it asserts on the NMT state (#309), and a controlword mapped in a
-synchronous RPDO is only buffered until that RPDO is transmitted, which
-BaseNode402 does not do unless the RPDO runs periodically. Here the
-controlword goes by SDO during state changes, which is deterministic in
-lock-step and in real time, and the host loop transmits RPDO1 once per cycle.
+It builds on ``RemoteNode`` (SDO client, NMT, EMCY consumer), not on ``BaseNode402``:
+BaseNode402's fault reset always waits about 400 ms (canopen #261), it asserts on the NMT
+state (#309), and a controlword mapped in a synchronous RPDO is only buffered until that
+RPDO is transmitted. Here the controlword goes by SDO during state changes, and the host
+loop transmits the RPDO once per cycle.
 
-Units are converted in one place (``DriveUnits``) from the factors the device
-reports: 0x608F (increments per revolution), 0x6076 (rated torque, mN m),
-0x6075 (rated current, mA); where the device lacks one, from the axis
-configuration. Voltages in mV; dq currents in mA, frame angle in urad.
+Set-up takes the drive as it is (``setup``):
+
+- its identity (0x1000 must be a CiA 402 device, 0x1018) and modes (0x6502 where it has
+  one: the configured mode must be there before 0x6060 is written);
+- its units (``drivers.cia402_units``: 0x608F/0x6091/0x6092/0x60A8/0x60A9, 0x6075/0x6076,
+  else ``[axis.units]``);
+- the mode: 0x6060 written (never read first: it may be write-only), then 0x6061 awaited
+  for ``mode_timeout`` [s];
+- the process data (``drivers.cia402_pdo``): ``pdo="remap"`` writes a mapping that fits the
+  device (its PDOs, mappability, 64 bits) and falls back, with a warning, to
+  ``pdo="device"`` when the device refuses; ``pdo="device"`` uses the mapping in force.
+  Frames are decoded from the mapping in force (``drivers.cia402_process``).
+
+No manufacturer object (0x2000-0x5FFF) is written, except the toolkit's own drive's command
+latency 0x2001 on that drive (vendor 0xDB1, product 0x402). Every cycle ``supervise`` checks
+the statusword and, where mapped, 0x6061: a drive that leaves OPERATION ENABLED or changes
+mode stops the run, named.
 """
 
 from __future__ import annotations
@@ -20,13 +31,16 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import canopen
 
 from drivers.base import AxisState, Feedback
-from drivers.canopen_axis import CanopenAxis, TpdoSlot, pdo_codec
+from drivers.canopen_axis import CanopenAxis
+from drivers.cia402_pdo import Key, Pdo, disable, numbers, plan_rpdo, plan_tpdos, read_mapping, variable
+from drivers.cia402_pdo import write_mapping as write_pdo
+from drivers.cia402_process import ProcessData
+from drivers.cia402_units import DriveUnits, discover_units
 from drivers.errors import (
     CommunicationError,
     CommunicationTimeout,
@@ -37,7 +51,7 @@ from drivers.errors import (
     SdoAbort,
 )
 from drivers.maps import CIA402_EDS, cia
-from drivers.maps.cia import Controlword, Mode, PowerState
+from drivers.maps.cia import MODE_BITS, Controlword, Mode, PowerState
 
 __all__ = ["Cia402Axis", "DriveUnits", "power_state"]
 
@@ -56,9 +70,18 @@ _AXIS_STATE = {
     PowerState.FAULT_REACTION_ACTIVE: AxisState.STOPPING,
     PowerState.FAULT: AxisState.FAULT,
 }
-
-
 _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
+TOOLKIT_DRIVE = (0xDB1, 0x402)  #: (vendor, product) of the toolkit's own emulated drive
+
+SW: Key = (cia.STATUSWORD, 0)
+CW: Key = (cia.CONTROLWORD, 0)
+POSITION: Key = (cia.POSITION_ACTUAL, 0)
+VELOCITY: Key = (cia.VELOCITY_ACTUAL, 0)
+TORQUE: Key = (cia.TORQUE_ACTUAL, 0)
+CURRENT: Key = (cia.CURRENT_ACTUAL, 0)
+MODE_SHOWN: Key = (cia.MODES_DISPLAY, 0)
+_DQ_RX = [(cia.DQ_VOLTAGE, 1), (cia.DQ_VOLTAGE, 2)]
+_DQ_TX = [SW, (cia.FRAME_ANGLE, 0), (cia.FRAME_SPEED, 0), (cia.DQ_CURRENT, 1), (cia.DQ_CURRENT, 2)]
 
 
 def power_state(statusword: int) -> PowerState:
@@ -66,39 +89,14 @@ def power_state(statusword: int) -> PowerState:
     return cia.decode_statusword(statusword) or PowerState.NOT_READY_TO_SWITCH_ON
 
 
-@dataclass(frozen=True)
-class DriveUnits:
-    """Device unit <-> SI factors (from the drive, else from the configuration; NaN: unknown)."""
-
-    counts_per_rad: float
-    rated_torque: float  #: [N m]
-    rated_current: float  #: [A]
-
-    def command_raw(self, mode: Mode, value: float) -> int:
-        """SI command of ``mode`` -> the raw target value."""
-        if mode == Mode.VOLTAGE:
-            return round(value * 1000.0)  # V -> mV
-        if mode == Mode.CST:
-            return round(value / self.rated_torque * 1000.0)  # N m -> per mille
-        return round(value * self.counts_per_rad)  # rad/s -> inc/s, rad -> inc
-
-
-#: the units each mode's command needs: (DriveUnits field, object, [axis.units] key)
-_NEEDS = {
-    Mode.CST: ("rated_torque", cia.RATED_TORQUE, "rated_torque"),
-    Mode.CSV: ("counts_per_rad", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
-    Mode.PROFILE_VELOCITY: ("counts_per_rad", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
-    Mode.CSP: ("counts_per_rad", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
-}
-
-
 class Cia402Axis(CanopenAxis):
     """A CiA 402 drive at ``node_id`` in ``mode`` (``drivers.base.AXIS_MODES``); SI in and out.
 
-    ``units`` gives factors the device may lack: ``counts_per_rev``, ``rated_torque`` [N m],
-    ``rated_current`` [A] (0: not given). ``sync_rpdo``: RPDO1 applies at the next SYNC
-    (one period of delay); otherwise on receipt, ``latency`` [s] later (0x2001 of the
-    toolkit's drive).
+    ``units``: factors the device may lack (``counts_per_rev``, ``position_unit``,
+    ``velocity_unit``, ``rated_torque`` [N m], ``rated_current`` [A]). ``sync_rpdo``: the RPDO
+    acts at the next SYNC (one period of delay), else on receipt (``latency`` [s] later on the
+    toolkit's own drive). ``pdo``: "remap" or "device" (see the module docstring).
+    ``mode_timeout`` [s]: how long 0x6061 may take to follow 0x6060.
     """
 
     def __init__(
@@ -113,129 +111,218 @@ class Cia402Axis(CanopenAxis):
         sync_rpdo: bool = True,
         latency: float = 0.0,
         heartbeat_timeout: float = 0.0,
+        pdo: str = "remap",
+        mode_timeout: float = 1.0,
+        sdo_timeout: float | None = None,
+        sdo_retries: int | None = None,
     ) -> None:
         try:
             self.op_mode = cia.mode_code(mode)
         except ValueError as exc:
             raise ConfigError(f"axis {name!r}: {exc}") from None
-        super().__init__(name, mode, network, node_id, eds=eds, heartbeat_timeout=heartbeat_timeout)
+        if pdo not in ("remap", "device"):
+            raise ConfigError(f"axis {name!r}: pdo = {pdo!r}: remap or device")
+        super().__init__(
+            name,
+            mode,
+            network,
+            node_id,
+            eds=eds,
+            heartbeat_timeout=heartbeat_timeout,
+            sdo_timeout=sdo_timeout,
+            sdo_retries=sdo_retries,
+        )
         self.given_units = dict(units or {})
         self.sync_rpdo = sync_rpdo
         self.latency = latency
-        self.units = DriveUnits(math.nan, math.nan, math.nan)
+        self.pdo = pdo
+        self.mode_timeout = mode_timeout
+        self.units = DriveUnits(math.nan, math.nan, math.nan, math.nan, {})
         self.measures = frozenset()
+        self.identity: dict[str, int] = {}
+        self.supported_modes: frozenset[int] | None = None
+        self.data: ProcessData | None = None
         self._turns = 0
         self._angle: float | None = None
+        self._enabled_stamp: float | None = None
+        #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
+        self.idle: Callable[[], None] = lambda: time.sleep(0.001)
 
-    # --- setup ---------------------------------------------------------------------------------
+    # --- set-up ----------------------------------------------------------------------------------
     def setup(self) -> None:
-        """Device type, units, PRE-OPERATIONAL, mode, process data, OPERATIONAL (still disabled)."""
-        self.read_units()
+        """Identity, modes, units, PRE-OPERATIONAL, mode, process data, OPERATIONAL (still disabled)."""
+        self.discover()
         self.nmt("PRE-OPERATIONAL")
         self.set_mode(self.op_mode)
         self.map_process_data()
         self.nmt("OPERATIONAL")
 
     def _optional(self, index: int, subindex: int = 0) -> Any:
-        """An object the device may lack: its value, or None (any SDO abort)."""
-        if index not in self.node.object_dictionary:
+        """An object the device may lack: its value, or None (absent from the EDS, or refused)."""
+        if variable(self.node.object_dictionary, (index, subindex)) is None:
             return None
         try:
             return self.sdo_read(index, subindex)
         except SdoAbort:
             return None
 
-    def read_units(self) -> DriveUnits:
-        """Check 0x1000 and take the unit factors from the device or the configuration."""
+    def discover(self) -> DriveUnits:
+        """Device type and identity, supported modes (0x6502) against the mode, and units."""
         device_type = self.sdo_read(cia.DEVICE_TYPE)
         if device_type & 0xFFFF != cia.PROFILE_DRIVE:
             raise ConfigError(f"node {self.node_id} is not a CiA 402 drive (0x1000 = 0x{device_type:08X})")
-        given = self.given_units
-        increments = self._optional(cia.POSITION_ENCODER_RESOLUTION, 1)
-        revolutions = self._optional(cia.POSITION_ENCODER_RESOLUTION, 2) or 1
-        per_rev = increments / revolutions if increments else given.get("counts_per_rev", 0.0)
-        torque = self._optional(cia.RATED_TORQUE)
-        current = self._optional(cia.RATED_CURRENT)
-        self.units = DriveUnits(
-            per_rev / (2.0 * math.pi) if per_rev else math.nan,
-            torque / 1000.0 if torque else given.get("rated_torque", 0.0) or math.nan,
-            current / 1000.0 if current else given.get("rated_current", 0.0) or math.nan,
+        self.identity = {
+            k: v
+            for k, sub in (("vendor", 1), ("product", 2), ("revision", 3))
+            if (v := self._optional(0x1018, sub))
+        }
+        bits = self._optional(cia.SUPPORTED_MODES)
+        if bits is not None:
+            self.supported_modes = frozenset(int(m) for m, bit in MODE_BITS.items() if bits & bit)
+            if int(self.op_mode) not in self.supported_modes:
+                names = ", ".join(Mode(m).name for m in sorted(self.supported_modes))
+                raise ConfigError(
+                    f"axis {self.name!r} (node {self.node_id}): mode {self.mode} is not in 0x6502 "
+                    f"(0x{bits:08X}: {names})"
+                )
+        self.units = discover_units(
+            self._optional,
+            self.given_units,
+            where=f"{self.name!r} (node {self.node_id})",
+            mode=int(self.op_mode),
         )
-        need = _NEEDS.get(self.op_mode)
-        if need is not None and not math.isfinite(getattr(self.units, need[0])):
-            raise ConfigError(
-                f"axis {self.name!r} (node {self.node_id}): mode {self.mode} needs 0x{need[1]:04X}, which "
-                f"the drive does not give; set [axis.units] {need[2]}"
-            )
         return self.units
 
-    def set_mode(self, mode: Mode) -> None:
-        """Write 0x6060 and check 0x6061."""
-        self.sdo_write(cia.MODES_OF_OPERATION, 0, int(mode))
-        shown = self.sdo_read(cia.MODES_DISPLAY)
-        if shown != mode:
-            raise DeviceFault(f"mode {int(mode)} requested, 0x6061 shows {shown}", device=self.where)
+    @property
+    def toolkit_drive(self) -> bool:
+        """The toolkit's own emulated drive (whose manufacturer objects the host knows)."""
+        return (self.identity.get("vendor"), self.identity.get("product")) == TOOLKIT_DRIVE
 
-    def _map(self, rpdo: list[tuple[int, int]], tpdos: dict[int, list[tuple[int, int]]]) -> None:
-        """RPDO1 = ``rpdo``, the other RPDOs off; TPDO n = ``tpdos[n]`` on every SYNC (by SDO)."""
-        node = self.node
-        node.rpdo.read()
-        node.tpdo.read()
-        for n in (1, 2, 3, 4):
-            rp = node.rpdo[n]
-            rp.clear()
-            for index, sub in rpdo if n == 1 else ():
-                rp.add_variable(index, sub)
-            rp.trans_type = 1 if self.sync_rpdo else cia.PDO_EVENT_TYPES[-1]
-            rp.enabled = n == 1
-        for n, entries in tpdos.items():
-            tp = node.tpdo[n]
-            tp.clear()
-            for index, sub in entries:
-                tp.add_variable(index, sub)
-            tp.trans_type = 1
-            tp.enabled = True
-        self.save_pdos(node.rpdo, cia.RPDO_MAP)
-        self.save_pdos(node.tpdo, cia.TPDO_MAP)
-        if cia.COMMAND_LATENCY in node.object_dictionary:
-            self.sdo_write(cia.COMMAND_LATENCY, 0, 0 if self.sync_rpdo else round(self.latency * 1e6))
-        self._rpdo_cob = node.rpdo[1].cob_id
-        self._rpdo_codec = pdo_codec(node.rpdo[1])
+    def set_mode(self, mode: Mode) -> None:
+        """Write 0x6060 (no read first) and wait for 0x6061 to show it, ``mode_timeout`` [s]."""
+        self.sdo_write(cia.MODES_OF_OPERATION, 0, int(mode))
+        deadline = time.monotonic() + self.mode_timeout
+        while True:
+            shown = self.sdo_read(cia.MODES_DISPLAY)
+            if shown == mode:
+                return
+            if time.monotonic() > deadline:
+                raise DeviceFault(
+                    f"mode {int(mode)} requested, 0x6061 still shows {shown} after {self.mode_timeout:g} s",
+                    device=self.where,
+                )
+            self.idle()
+
+    # --- process data ----------------------------------------------------------------------------
+    def _wanted(self) -> tuple[list[Key], list[Key], list[Key]]:
+        """(RPDO keys, TPDO keys needed, TPDO keys wanted if there is room)."""
+        if self.op_mode == Mode.DQ_VOLTAGE:
+            return list(_DQ_RX), list(_DQ_TX), []
+        if self.op_mode not in cia.TARGET_OF_MODE:
+            raise ConfigError(f"axis {self.name!r}: mode {self.mode} has no cyclic target")
+        return [CW, cia.TARGET_OF_MODE[self.op_mode]], [SW, POSITION, VELOCITY], [MODE_SHOWN, TORQUE, CURRENT]
 
     def map_process_data(self) -> None:
-        """RPDO1 controlword + target (or u_dq in mode -2); TPDO2 position + velocity (frame angle +
-        speed), TPDO3 statusword + torque + current (statusword), TPDO4 i_dq in mode -2."""
+        """Set up the PDOs (``pdo``: remap, falling back to the device's own) and ``data``."""
+        od = self.node.object_dictionary
+        rx_keys, needed, optional = self._wanted()
+        rpdo: Pdo | None = None
+        tpdos: list[Pdo] = []
+        if self.pdo == "remap":
+            try:
+                rpdo, tpdos = self._remap(rx_keys, needed, optional)
+            except SdoAbort as exc:
+                log.warning(
+                    '%s: the drive refused the mapping (%s); using its own (pdo = "device")', self.where, exc
+                )
+                self.pdo = "device"
+        if self.pdo == "device":
+            rpdo, tpdos = self._device_mapping(rx_keys, needed + optional)
+        held = {e.key: self._held(e.key) for e in (rpdo.entries if rpdo else []) if e.key not in rx_keys}
+        self.data = ProcessData(od, tpdos, rpdo, receive=self.receive_cob, read=self.sdo_read, held=held)
+        for key in needed:
+            if not self.data.mapped(key):
+                if variable(od, key) is None or not variable(od, key).readable:
+                    raise ConfigError(
+                        f"{self.where}: 0x{key[0]:04X}:{key[1]:02X} is neither mapped nor readable"
+                    )
+                log.warning("%s: 0x%04X:%02X is in no TPDO: read by SDO every cycle", self.where, *key)
+        if self.toolkit_drive and cia.COMMAND_LATENCY in od:
+            self.sdo_write(cia.COMMAND_LATENCY, 0, 0 if self.sync_rpdo else round(self.latency * 1e6))
+        self._measures()
+
+    def _held(self, key: Key) -> int:
+        value = self._optional(*key)
+        return int(value) if value is not None else 0
+
+    def _remap(self, rx_keys: list[Key], needed: list[Key], optional: list[Key]) -> tuple[Pdo, list[Pdo]]:
+        od = self.node.object_dictionary
+        rpdo = plan_rpdo(od, rx_keys, ttype=1 if self.sync_rpdo else cia.PDO_EVENT)
+        tpdos, _left = plan_tpdos(od, needed + optional, ttype=1)
+        write = self._pdo_write
+        write_pdo(write, rpdo, node_id=self.node_id, od=od)
+        for pdo in tpdos:
+            write_pdo(write, pdo, node_id=self.node_id, od=od)
+        used = {(True, rpdo.number)} | {(False, p.number) for p in tpdos}
+        for receive in (True, False):
+            for n in numbers(od, receive=receive):
+                if (receive, n) not in used:
+                    cob = (cia.COB_RPDO if receive else cia.COB_TPDO)[n] + self.node_id if n < 4 else 0
+                    disable(write, n, receive=receive, cob_id=cob)
+        return rpdo, tpdos
+
+    def _pdo_write(self, index: int, subindex: int, value: int) -> None:
+        self.sdo_write(index, subindex, value)
+
+    def _device_mapping(self, rx_keys: list[Key], tx_keys: list[Key]) -> tuple[Pdo | None, list[Pdo]]:
+        """The mapping in force: the RPDO carrying the target, the TPDOs carrying what the host
+        reads (made valid and synchronous where the device lets them)."""
+        od = self.node.object_dictionary
+        rpdos = read_mapping(self.sdo_read, od, receive=True)
+        rpdo = next((p for p in rpdos if all(k in [e.key for e in p.entries] for k in rx_keys[1:])), None)
+        if rpdo is None:
+            raise ConfigError(
+                f"{self.where}: no RPDO of the drive carries 0x{rx_keys[-1][0]:04X} (the mode's target); "
+                "its mapping cannot be changed"
+            )
+        self._use(rpdo, ttype=1 if self.sync_rpdo else cia.PDO_EVENT)
+        tpdos = []
+        for pdo in read_mapping(self.sdo_read, od, receive=False):
+            if any(e.key in tx_keys for e in pdo.entries):
+                self._use(pdo, ttype=1)
+                tpdos.append(pdo)
+        return rpdo, tpdos
+
+    def _use(self, pdo: Pdo, *, ttype: int) -> None:
+        """Make a PDO of the device's own mapping valid with transmission type ``ttype``."""
+        cob = pdo.cob_id or ((cia.COB_RPDO if pdo.receive else cia.COB_TPDO)[pdo.number] + self.node_id)
+        pdo.cob_id = cob
+        if pdo.valid and pdo.ttype == ttype:
+            return
+        try:
+            self.sdo_write(pdo.comm, cia.PDO_COMM_COB_ID, cob | cia.PDO_INVALID)
+            self.sdo_write(pdo.comm, cia.PDO_COMM_TYPE, ttype)
+            self.sdo_write(pdo.comm, cia.PDO_COMM_COB_ID, cob)
+        except SdoAbort as exc:
+            if not pdo.valid:
+                raise ConfigError(f"{self.where}: {pdo.name} is needed but cannot be enabled: {exc}") from exc
+            log.warning("%s: %s keeps its transmission type %d: %s", self.where, pdo.name, pdo.ttype, exc)
+            return
+        pdo.ttype, pdo.valid = ttype, True
+
+    def _measures(self) -> None:
+        data = self.data
+        assert data is not None
         if self.op_mode == Mode.DQ_VOLTAGE:
-            self._map(
-                [(cia.DQ_VOLTAGE, 1), (cia.DQ_VOLTAGE, 2)],
-                {
-                    2: [(cia.FRAME_ANGLE, 0), (cia.FRAME_SPEED, 0)],
-                    3: [(cia.STATUSWORD, 0)],
-                    4: [(cia.DQ_CURRENT, 1), (cia.DQ_CURRENT, 2)],
-                },
-            )
             self.measures = frozenset({"position", "velocity", "current"})
-        else:
-            if self.op_mode not in cia.TARGET_OF_MODE:
-                raise ConfigError(f"axis {self.name!r}: mode {self.mode} has no cyclic target")
-            self._map(
-                [(cia.CONTROLWORD, 0), cia.TARGET_OF_MODE[self.op_mode]],
-                {
-                    2: [(cia.POSITION_ACTUAL, 0), (cia.VELOCITY_ACTUAL, 0)],
-                    3: [(cia.STATUSWORD, 0), (cia.TORQUE_ACTUAL, 0), (cia.CURRENT_ACTUAL, 0)],
-                },
-            )
-            u = self.units
-            self.measures = frozenset(
-                {"position", "velocity"}
-                | ({"torque"} if math.isfinite(u.rated_torque) else set())
-                | ({"current"} if math.isfinite(u.rated_current) else set())
-            )
-        tpdo = self.node.tpdo
-        self._motion: TpdoSlot = self.receive(tpdo[2])
-        self._status: TpdoSlot = self.receive(tpdo[3])
-        self._dq: TpdoSlot | None = self.receive(tpdo[4]) if self.op_mode == Mode.DQ_VOLTAGE else None
-        self._enabled_stamp: float | None = None
+            return
+        u = self.units
+        self.measures = frozenset(
+            {"position", "velocity"}
+            | ({"torque"} if math.isfinite(u.rated_torque) and data.mapped(TORQUE) else set())
+            | ({"current"} if math.isfinite(u.rated_current) and data.mapped(CURRENT) else set())
+        )
+        self._motion = data.slot_of(POSITION)
 
     # --- state machine ---------------------------------------------------------------------------
     def read_power_state(self) -> PowerState:
@@ -265,7 +352,8 @@ class Cia402Axis(CanopenAxis):
         """Shutdown, switch on, enable operation (transitions 2, 3, 4), within ``timeout`` [s]."""
         self.clear_fault()
         self._drive_to(PowerState.OPERATION_ENABLED, _TOWARDS_ENABLED.get, timeout)
-        self._enabled_stamp = self._status.timestamp
+        slot = self.data.slot_of(SW) if self.data else None
+        self._enabled_stamp = slot.timestamp if slot else None
 
     def fault_reset(self, *, timeout: float = 1.0) -> None:
         """Rising edge of controlword bit 7 (transition 15)."""
@@ -286,56 +374,65 @@ class Cia402Axis(CanopenAxis):
         """Disable voltage (transitions 7, 9, 10, 12)."""
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
 
-    # --- process data ---------------------------------------------------------------------------
+    # --- the cycle -------------------------------------------------------------------------------
     def feedback(self) -> Feedback:
         """The last TPDOs in SI (the frame angle unwrapped in mode -2)."""
-        if self._dq is not None:
-            return self._dq_feedback(self._dq)
-        u = self.units
-        position, velocity = self._motion.values()
-        _, torque, current = self._status.values()
+        data, u = self.data, self.units
+        assert data is not None
+        if self.op_mode == Mode.DQ_VOLTAGE:
+            return self._dq_feedback(data)
+        stamp = self._motion.timestamp if self._motion is not None else time.monotonic()
         return Feedback(
-            position / u.counts_per_rad,
-            velocity / u.counts_per_rad,
-            torque / 1000.0 * u.rated_torque,
-            current / 1000.0 * u.rated_current,
-            self._motion.timestamp,
+            data.value(POSITION) / u.position,
+            data.value(VELOCITY) / u.velocity,
+            data.value(TORQUE) / 1000.0 * u.rated_torque if "torque" in self.measures else math.nan,
+            data.value(CURRENT) / 1000.0 * u.rated_current if "current" in self.measures else math.nan,
+            stamp,
         )
 
-    def _dq_feedback(self, dq: TpdoSlot) -> Feedback:
-        i_d, i_q = dq.values()
-        angle, speed = self._motion.values()
-        angle *= 1e-6
+    def _dq_feedback(self, data: ProcessData) -> Feedback:
+        i_dq = complex(data.value((cia.DQ_CURRENT, 1)), data.value((cia.DQ_CURRENT, 2))) / 1000.0
+        angle = data.value((cia.FRAME_ANGLE, 0)) * 1e-6
         if self._angle is not None:  # unwrap: a position like any other
             self._turns += round((self._angle - angle) / (2.0 * math.pi))
         self._angle = angle
-        i_dq = complex(i_d, i_q) / 1000.0
-        return Feedback(
-            angle + 2.0 * math.pi * self._turns, speed * 1e-3, math.nan, abs(i_dq), dq.timestamp, i_dq
-        )
+        slot = data.slot_of((cia.DQ_CURRENT, 1))
+        stamp = slot.timestamp if slot else None
+        speed = data.value((cia.FRAME_SPEED, 0)) * 1e-3
+        return Feedback(angle + 2.0 * math.pi * self._turns, speed, math.nan, abs(i_dq), stamp, i_dq)
 
     def supervise(self, now: float) -> None:
-        """EMCY, NMT and heartbeat (``CanopenAxis``), and the statusword of the last TPDO3."""
+        """EMCY, NMT and heartbeat (``CanopenAxis``), the statusword and, where mapped, 0x6061."""
         super().supervise(now)
-        status = self._status
-        if status.timestamp is not None and status.timestamp != self._enabled_stamp:
-            word = status.values()[0]
-            if word & _ENABLED_MASK != _ENABLED_BITS:
-                raise SafetyStop(
-                    f"node {self.node_id}: the drive left OPERATION ENABLED: {power_state(word).value}"
-                )
+        data = self.data
+        assert data is not None
+        slot = data.slot_of(SW)
+        if slot is None or slot.timestamp is None or slot.timestamp == self._enabled_stamp:
+            return
+        word = data.value(SW)
+        if word & _ENABLED_MASK != _ENABLED_BITS:
+            raise SafetyStop(
+                f"node {self.node_id}: the drive left OPERATION ENABLED: {power_state(word).value}"
+            )
+        if data.mapped(MODE_SHOWN):
+            shown = data.value(MODE_SHOWN)
+            if shown != self.op_mode:
+                raise SafetyStop(f"node {self.node_id}: the drive changed its mode to {shown} (0x6061)")
 
     def command(self, value: float | complex) -> None:
-        """Send the SI command of the mode in RPDO1 (applied per its transmission type)."""
-        if self._dq is not None:
+        """Send the SI command of the mode in the RPDO (applied per its transmission type)."""
+        data = self.data
+        assert data is not None and data.rpdo is not None
+        if self.op_mode == Mode.DQ_VOLTAGE:
             u = complex(value)
-            data = self._rpdo_codec.pack(round(u.real * 1000.0), round(u.imag * 1000.0))
+            frame = data.frame({_DQ_RX[0]: round(u.real * 1000.0), _DQ_RX[1]: round(u.imag * 1000.0)})
         else:
+            target = cia.TARGET_OF_MODE[self.op_mode]
             raw = self.units.command_raw(self.op_mode, float(value))  # type: ignore[arg-type]
-            data = self._rpdo_codec.pack(int(Controlword.ENABLE_OPERATION), raw)
+            frame = data.frame({CW: int(Controlword.ENABLE_OPERATION), target: raw})
         try:
-            self.network.send_message(self._rpdo_cob, data)
+            self.network.send_message(data.rpdo.cob_id, frame)
         except RigError:
             raise
         except Exception as exc:  # python-can errors, a closed socket
-            raise CommunicationError(f"node {self.node_id}: RPDO1 not sent: {exc}") from exc
+            raise CommunicationError(f"node {self.node_id}: {data.rpdo.name} not sent: {exc}") from exc

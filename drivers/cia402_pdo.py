@@ -1,0 +1,194 @@
+"""The process data of a CiA 402 drive as the host sets it up: a mapping that respects the device,
+or the device's own.
+
+``plan`` places the objects the host needs into the PDOs the device has (their number from its
+EDS, at most 8 entries and 64 bits each, PDO-mappable objects only); ``write_mapping`` writes
+it by the CiA 301 protocol (COB-ID invalid, sub 0 = 0, the entries, sub 0 = n, COB-ID valid),
+and ``read_mapping`` reads the mapping in force from a device that keeps its own. Frames are
+then packed and unpacked by ``codec``, from the mapping actually in force.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from drivers.errors import ConfigError
+from drivers.maps import cia
+from drivers.maps.cia import PDO_INVALID, PDO_MAX_BITS, PDO_MAX_MAPPED, map_entry, split_map_entry
+
+__all__ = [
+    "Entry",
+    "Pdo",
+    "codec",
+    "disable",
+    "numbers",
+    "plan_rpdo",
+    "plan_tpdos",
+    "read_mapping",
+    "variable",
+    "write_mapping",
+]
+
+Key = tuple[int, int]  #: (index, subindex)
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One mapped object: (index, subindex) and its size [bits]."""
+
+    index: int
+    subindex: int
+    bits: int
+
+    @property
+    def key(self) -> Key:
+        return self.index, self.subindex
+
+
+@dataclass
+class Pdo:
+    """One PDO: ``number`` 0-based, ``receive`` for an RPDO (host -> device), its mapping."""
+
+    number: int
+    receive: bool
+    entries: list[Entry] = field(default_factory=list)
+    cob_id: int = 0
+    ttype: int = 1
+    valid: bool = True
+
+    @property
+    def bits(self) -> int:
+        return sum(e.bits for e in self.entries)
+
+    @property
+    def name(self) -> str:
+        return f"{'RPDO' if self.receive else 'TPDO'}{self.number + 1}"
+
+    @property
+    def comm(self) -> int:
+        return (cia.RPDO_COMM if self.receive else cia.TPDO_COMM) + self.number
+
+    @property
+    def mapping(self) -> int:
+        return (cia.RPDO_MAP if self.receive else cia.TPDO_MAP) + self.number
+
+
+def numbers(od: Any, *, receive: bool) -> list[int]:
+    """The 0-based numbers of the PDOs the EDS has (communication and mapping objects both)."""
+    comm, mapping = (cia.RPDO_COMM, cia.RPDO_MAP) if receive else (cia.TPDO_COMM, cia.TPDO_MAP)
+    return [n for n in range(cia.PDO_BLOCK) if comm + n in od and mapping + n in od]
+
+
+def variable(od: Any, key: Key) -> Any:
+    """The OD variable of ``key``, or None where the EDS lacks it."""
+    index, sub = key
+    if index not in od:
+        return None
+    obj = od[index]
+    if hasattr(obj, "subindices"):
+        return obj[sub] if sub in obj.subindices else None
+    return obj if sub == 0 else None
+
+
+def mappable(od: Any, key: Key) -> bool:
+    var = variable(od, key)
+    return var is not None and bool(var.pdo_mappable)
+
+
+def plan_rpdo(od: Any, keys: Sequence[Key], *, ttype: int) -> Pdo:
+    """The host's objects (controlword and target) together in the device's first RPDO: an RPDO
+    is sent whole, so they go in one or the plan fails (ConfigError naming the object)."""
+    free = numbers(od, receive=True)
+    if not free:
+        raise ConfigError("the device has no RPDO")
+    pdo = Pdo(free[0], True, ttype=ttype)
+    for key in keys:
+        var = variable(od, key)
+        if var is None or not var.pdo_mappable:
+            raise ConfigError(f"0x{key[0]:04X}:{key[1]:02X} cannot be mapped into an RPDO (EDS)")
+        pdo.entries.append(Entry(key[0], key[1], len(var)))
+    if pdo.bits > PDO_MAX_BITS or len(pdo.entries) > PDO_MAX_MAPPED:
+        raise ConfigError(f"{pdo.name}: {pdo.bits} bits in {len(pdo.entries)} objects do not fit one PDO")
+    return pdo
+
+
+def plan_tpdos(od: Any, keys: Sequence[Key], *, ttype: int) -> tuple[list[Pdo], list[Key]]:
+    """Place ``keys`` (the needed ones first) in the device's TPDOs, first fit in order, 64 bits
+    and 8 objects each: (the PDOs, the keys left out: not mappable, or no room left)."""
+    free = numbers(od, receive=False)
+    pdos: list[Pdo] = []
+    left: list[Key] = []
+    for key in keys:
+        var = variable(od, key)
+        if var is None or not var.pdo_mappable:
+            left.append(key)
+            continue
+        entry = Entry(key[0], key[1], len(var))
+        home = next(
+            (p for p in pdos if p.bits + entry.bits <= PDO_MAX_BITS and len(p.entries) < PDO_MAX_MAPPED), None
+        )
+        if home is None and free:
+            home = Pdo(free.pop(0), False, ttype=ttype)
+            pdos.append(home)
+        if home is None:
+            left.append(key)
+            continue
+        home.entries.append(entry)
+    return pdos, left
+
+
+def write_mapping(write: Callable[[int, int, int], None], pdo: Pdo, *, node_id: int, od: Any) -> None:
+    """Write ``pdo`` by the CiA 301 protocol: COB-ID with the invalid bit, transmission type,
+    sub 0 = 0, the entries, sub 0 = n, the COB-ID valid; SdoAbort when the device refuses."""
+    base = (cia.COB_RPDO if pdo.receive else cia.COB_TPDO)[pdo.number] + node_id if pdo.number < 4 else 0
+    cob = pdo.cob_id or base
+    if not cob:
+        raise ConfigError(f"{pdo.name}: no predefined COB-ID; the device must give one")
+    pdo.cob_id = cob
+    write(pdo.comm, cia.PDO_COMM_COB_ID, cob | PDO_INVALID)
+    if variable(od, (pdo.comm, cia.PDO_COMM_TYPE)) is not None:
+        write(pdo.comm, cia.PDO_COMM_TYPE, pdo.ttype)
+    write(pdo.mapping, 0, 0)
+    for sub, e in enumerate(pdo.entries, start=1):
+        write(pdo.mapping, sub, map_entry(e.index, e.subindex, e.bits))
+    write(pdo.mapping, 0, len(pdo.entries))
+    write(pdo.comm, cia.PDO_COMM_COB_ID, cob)
+
+
+def disable(write: Callable[[int, int, int], None], number: int, *, receive: bool, cob_id: int) -> None:
+    """Set the invalid bit of a PDO the host does not use."""
+    comm = (cia.RPDO_COMM if receive else cia.TPDO_COMM) + number
+    write(comm, cia.PDO_COMM_COB_ID, (cob_id & cia.COB_ID_MASK) | PDO_INVALID)
+
+
+def read_mapping(read: Callable[[int, int], Any], od: Any, *, receive: bool) -> list[Pdo]:
+    """The device's PDOs as they are now (valid or not), read by SDO."""
+    out = []
+    for n in numbers(od, receive=receive):
+        pdo = Pdo(n, receive)
+        cob = int(read(pdo.comm, cia.PDO_COMM_COB_ID))
+        pdo.cob_id = cob & cia.COB_ID_MASK
+        pdo.ttype = int(read(pdo.comm, cia.PDO_COMM_TYPE))
+        count = int(read(pdo.mapping, 0))
+        for sub in range(1, count + 1):
+            index, subindex, bits = split_map_entry(int(read(pdo.mapping, sub)))
+            pdo.entries.append(Entry(index, subindex, bits))
+        pdo.valid = not cob & PDO_INVALID
+        out.append(pdo)
+    return out
+
+
+def codec(od: Any, pdo: Pdo) -> struct.Struct:
+    """A struct for ``pdo``'s entries (CANopen is little-endian); ConfigError for an entry that is
+    not a number of its mapped size."""
+    formats = []
+    for e in pdo.entries:
+        var = variable(od, e.key)
+        fmt = var.STRUCT_TYPES.get(var.data_type) if var is not None else None
+        if fmt is None or fmt.size * 8 != e.bits:
+            raise ConfigError(f"{pdo.name}: 0x{e.index:04X}:{e.subindex:02X} is not a {e.bits}-bit number")
+        formats.append(fmt.format.lstrip("<"))
+    return struct.Struct("<" + "".join(formats))

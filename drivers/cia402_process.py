@@ -1,0 +1,80 @@
+"""The cyclic data of a CiA 402 axis, from the mapping in force: where each value is, and the RPDO frame.
+
+``ProcessData`` is built once the mapping is known (written by the host or the device's own):
+each value the host reads (statusword, position, velocity, ...) is found in the TPDO that
+carries it, decoded with that TPDO's own struct, or, where no TPDO carries it, read by SDO
+each time (slow; the set-up warns). The RPDO that carries the target is packed whole: the
+host's controlword and target, and every other object the device maps there with the value
+it held at set-up (so a fixed mapping's extra objects keep their value).
+"""
+
+from __future__ import annotations
+
+import logging
+import struct
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+from drivers.canopen_axis import TpdoSlot
+from drivers.cia402_pdo import Key, Pdo, codec
+
+__all__ = ["ProcessData"]
+
+log = logging.getLogger(__name__)
+
+
+class ProcessData:
+    """See the module docstring; ``read``/``write`` are the axis's SDO access for fallbacks."""
+
+    def __init__(
+        self,
+        od: Any,
+        tpdos: Sequence[Pdo],
+        rpdo: Pdo | None,
+        *,
+        receive: Callable[[int, struct.Struct], TpdoSlot],
+        read: Callable[[int, int], Any],
+        held: Mapping[Key, int],
+    ) -> None:
+        self._read = read
+        self.slots: list[TpdoSlot] = []
+        self._where: dict[Key, tuple[TpdoSlot, int]] = {}
+        for pdo in tpdos:
+            slot = receive(pdo.cob_id, codec(od, pdo))
+            self.slots.append(slot)
+            for pos, e in enumerate(pdo.entries):
+                self._where.setdefault(e.key, (slot, pos))
+        self.rpdo = rpdo
+        self._codec = codec(od, rpdo) if rpdo is not None else None
+        self._template = [held.get(e.key, 0) for e in rpdo.entries] if rpdo is not None else []
+        self._slots_of_rpdo = {e.key: i for i, e in enumerate(rpdo.entries)} if rpdo is not None else {}
+
+    def mapped(self, key: Key) -> bool:
+        return key in self._where
+
+    def slot_of(self, key: Key) -> TpdoSlot | None:
+        hit = self._where.get(key)
+        return hit[0] if hit else None
+
+    def value(self, key: Key) -> Any:
+        """The value of ``key`` in the last TPDO that carries it, or read now by SDO."""
+        hit = self._where.get(key)
+        if hit is None:
+            return self._read(*key)
+        slot, pos = hit
+        return slot.values()[pos]
+
+    def frame(self, values: Mapping[Key, int]) -> bytes:
+        """The RPDO's data with ``values`` in their places and the held values elsewhere."""
+        if self._codec is None:
+            raise RuntimeError("no RPDO carries the command")
+        data = list(self._template)
+        where = self._slots_of_rpdo
+        for key, value in values.items():
+            if key in where:
+                data[where[key]] = value
+        return self._codec.pack(*data)
+
+    def carries(self, key: Key) -> bool:
+        """The RPDO carries ``key``."""
+        return key in self._slots_of_rpdo

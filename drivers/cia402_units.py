@@ -1,0 +1,137 @@
+"""A CiA 402 drive's units, as the host finds them: from the drive's objects, else from configuration.
+
+The drive tells what it can: 0x608F (increments per motor revolution), 0x6091 (gear),
+0x6092 (feed constant), 0x60A8/0x60A9 (SI unit codes of position and velocity), 0x6076
+(rated torque, mN m) and 0x6075 (rated current, mA); ``drivers.maps.units`` turns them
+into factors. What the drive lacks comes from the axis's ``[axis.units]``:
+``counts_per_rev``, ``position_unit``/``velocity_unit`` (SI unit codes), ``rated_torque``
+[N m], ``rated_current`` [A]. A factor that the mode needs and nobody gives is a
+ConfigError naming the object and the key to set.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from drivers.errors import ConfigError
+from drivers.maps import cia
+from drivers.maps.cia import Mode
+from drivers.maps.units import SiUnit, position_per_revolution, velocity_per_revolution
+
+__all__ = ["DriveUnits", "discover_units"]
+
+_TWO_PI = 2.0 * math.pi
+
+
+@dataclass(frozen=True)
+class DriveUnits:
+    """Device unit <-> SI factors (NaN: unknown): ``position`` units per rad, ``velocity`` units
+    per rad/s, ``rated_torque`` [N m] and ``rated_current`` [A] (torque and current are per mille
+    of them); ``source`` says where each came from."""
+
+    position: float
+    velocity: float
+    rated_torque: float
+    rated_current: float
+    source: Mapping[str, str]
+
+    @property
+    def counts_per_rad(self) -> float:
+        """Position units per rad (an older name: increments for drives without a unit code)."""
+        return self.position
+
+    def command_raw(self, mode: int, value: float) -> int:
+        """SI command of ``mode`` -> the raw target value."""
+        if mode == Mode.VOLTAGE:
+            return round(value * 1000.0)  # V -> mV
+        if mode == Mode.CST:
+            return round(value / self.rated_torque * 1000.0)  # N m -> per mille
+        if mode in (Mode.CSV, Mode.PROFILE_VELOCITY):
+            return round(value * self.velocity)
+        return round(value * self.position)  # rad -> position units
+
+    def describe(self) -> dict[str, Any]:
+        """The units in force, for status reports."""
+        return {
+            "position_units_per_rad": self.position,
+            "velocity_units_per_rad_s": self.velocity,
+            "rated_torque_nm": self.rated_torque,
+            "rated_current_a": self.rated_current,
+            "from": dict(self.source),
+        }
+
+
+#: the factor each mode's command needs: (DriveUnits field, object, [axis.units] key)
+NEEDS = {
+    Mode.CST: ("rated_torque", cia.RATED_TORQUE, "rated_torque"),
+    Mode.CSV: ("velocity", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
+    Mode.PROFILE_VELOCITY: ("velocity", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
+    Mode.CSP: ("position", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
+}
+
+
+def _ratio(read: Callable[[int, int], Any], index: int) -> float | None:
+    num, den = read(index, 1), read(index, 2)
+    if num is None or den in (None, 0):
+        return None
+    return float(num) / float(den)
+
+
+def discover_units(
+    read: Callable[[int, int], Any], given: Mapping[str, float], *, where: str, mode: int
+) -> DriveUnits:
+    """The drive's units: ``read(index, sub)`` gives an object's value or None (the drive lacks it
+    or refused it); ``given`` the ``[axis.units]`` values (0 or absent: not given)."""
+    source: dict[str, str] = {}
+    increments = _ratio(read, cia.POSITION_ENCODER_RESOLUTION)
+    if increments:
+        source["increments"] = "0x608F"
+    elif given.get("counts_per_rev"):
+        increments = float(given["counts_per_rev"])
+        source["increments"] = "[axis.units] counts_per_rev"
+    gear = _ratio(read, cia.GEAR_RATIO) or 1.0
+    feed = _ratio(read, cia.FEED_CONSTANT)
+    pos_code = read(cia.SI_UNIT_POSITION, 0) or int(given.get("position_unit", 0))
+    vel_code = read(cia.SI_UNIT_VELOCITY, 0) or int(given.get("velocity_unit", 0))
+    for code, key in ((pos_code, "position_unit"), (vel_code, "velocity_unit")):
+        if code:
+            try:
+                SiUnit.decode(code)
+            except ValueError as exc:
+                raise ConfigError(f"axis {where}: {exc}; set [axis.units] {key}") from None
+    position = velocity = math.nan
+    rotary = pos_code and SiUnit.decode(pos_code).unit != 0xB5
+    if increments or rotary or feed:
+        position = (
+            position_per_revolution(increments or math.nan, gear=gear, feed=feed, unit=pos_code) / _TWO_PI
+        )
+        velocity = (
+            velocity_per_revolution(
+                increments or math.nan, gear=gear, feed=feed, unit=vel_code, position_unit=pos_code
+            )
+            / _TWO_PI
+        )
+        source["position"] = "0x60A8" if pos_code else ("0x6092" if feed else source.get("increments", ""))
+        source["velocity"] = "0x60A9" if vel_code else source["position"]
+    torque = read(cia.RATED_TORQUE, 0)
+    current = read(cia.RATED_CURRENT, 0)
+    rated_torque = torque / 1000.0 if torque else float(given.get("rated_torque", 0.0)) or math.nan
+    rated_current = current / 1000.0 if current else float(given.get("rated_current", 0.0)) or math.nan
+    source["rated_torque"] = "0x6076" if torque else ("[axis.units]" if given.get("rated_torque") else "")
+    source["rated_current"] = "0x6075" if current else ("[axis.units]" if given.get("rated_current") else "")
+    units = DriveUnits(position, velocity, rated_torque, rated_current, source)
+    need = NEEDS.get(Mode(mode)) if mode in {int(m) for m in Mode} else None
+    if need is not None and not math.isfinite(getattr(units, need[0])):
+        raise ConfigError(
+            f"axis {where}: mode {Mode(mode).name} needs 0x{need[1]:04X}, which the drive does not "
+            f"give; set [axis.units] {need[2]}"
+        )
+    if not math.isfinite(units.position):
+        raise ConfigError(
+            f"axis {where}: the drive gives no position resolution (0x608F, 0x60A8, 0x6092); "
+            "set [axis.units] counts_per_rev"
+        )
+    return units
