@@ -20,6 +20,7 @@ from typing import Any
 
 import canopen
 from canopen.emcy import EmcyError
+from canopen.sdo.base import SdoVariable
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drivers.base import AxisDriver
@@ -133,8 +134,10 @@ class CanopenAxis(AxisDriver):
             ) from exc
 
     def _entry(self, index: int, subindex: int) -> Any:
+        """The SDO variable of (index, subindex); no I/O (``hasattr(obj, "raw")`` would read it:
+        a write-only object aborts that read)."""
         obj = self.node.sdo[index]
-        return obj[subindex] if subindex or not hasattr(obj, "raw") else obj
+        return obj if isinstance(obj, SdoVariable) else obj[subindex]
 
     def sdo_read(self, index: int, subindex: int = 0) -> Any:
         """Read an object by SDO (raw bytes if the EDS lacks it); SdoAbort or CommunicationTimeout."""
