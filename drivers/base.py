@@ -9,7 +9,9 @@ only, never their protocol::
     fb = axis.feedback()          # SI: rad, rad/s, N m, A
     axis.supervise(now)           # raises when the device reports trouble
     axis.command(u)               # SI, in the unit of the axis's mode
-    axis.quick_stop(); axis.disable()
+    axis.quick_stop()             # the device's own ramp; then, once
+    axis.at_rest(fb)              # says its stop ended,
+    axis.disable()
     axis.close()                  # idempotent; leaves the device disabled
 
 Every library exception (canopen, pymodbus, python-can, OS) is translated into
@@ -133,6 +135,14 @@ class AxisDriver(abc.ABC):
         Called once per cycle after ``feedback``; ``now`` is the bus clock [s]
         (the clock of the frames' timestamps). The default checks nothing.
         """
+
+    #: below this speed [rad/s] a stopping axis counts as at rest
+    REST_SPEED: ClassVar[float] = 0.05
+
+    def at_rest(self, fb: Feedback) -> bool:
+        """After ``quick_stop``: True once the device's own stop has ended (``fb``: its latest
+        sample). The default: the speed it measures is below ``REST_SPEED`` (or it measures none)."""
+        return "velocity" not in self.measures or abs(fb.velocity) < self.REST_SPEED
 
     @abc.abstractmethod
     def read_state(self) -> AxisState:

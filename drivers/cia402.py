@@ -145,6 +145,7 @@ class Cia402Axis(CanopenAxis):
         self._turns = 0
         self._angle: float | None = None
         self._enabled_stamp: float | None = None
+        self._rest_stamp: float | None = None  #: the statusword TPDO's stamp at the last ``at_rest``
         #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
         self.idle: Callable[[], None] = lambda: time.sleep(0.001)
 
@@ -369,6 +370,22 @@ class Cia402Axis(CanopenAxis):
     def quick_stop(self) -> None:
         """Quick stop command (transition 11), by SDO so it acts now."""
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.QUICK_STOP))
+
+    def at_rest(self, fb: Feedback) -> bool:
+        """After a quick stop: the statusword shows the ramp ended (SWITCH ON DISABLED, FAULT), or
+        QUICK STOP ACTIVE with the motor at rest (0x605A options 5-8). The statusword of the last
+        TPDO, or read by SDO when no new TPDO came since the last call (TPDOs may have stopped)."""
+        data = self.data
+        slot = data.slot_of(SW) if data is not None else None
+        if slot is not None and slot.timestamp is not None and slot.timestamp != self._rest_stamp:
+            self._rest_stamp = slot.timestamp
+            word = data.value(SW)  # type: ignore[union-attr]
+        else:
+            word = self.sdo_read(cia.STATUSWORD)
+        state = power_state(word)
+        if state in (PowerState.SWITCH_ON_DISABLED, PowerState.FAULT, PowerState.NOT_READY_TO_SWITCH_ON):
+            return True
+        return state is PowerState.QUICK_STOP_ACTIVE and abs(fb.velocity) < self.REST_SPEED
 
     def disable(self) -> None:
         """Disable voltage (transitions 7, 9, 10, 12)."""

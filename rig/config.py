@@ -10,13 +10,15 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                  the emulated Modbus inverters (one per modbus axis)
     [[axis]]     name, kind (cia402 | modbus | cia406), and per kind:
                    cia402: node_id, mode (voltage | cst | csv | csp | pv | dq-voltage), sync_rpdo,
-                           latency [s], enable_timeout [s], eds (default: the toolkit's)
+                           latency [s], enable_timeout [s], stop_timeout [s], mode_timeout [s],
+                           pdo (remap | device), sdo_timeout [s], sdo_retries,
+                           eds (default: the toolkit's)
                    cia406: node_id, speed_from_position, eds
                    modbus: map, unit, host + port (TCP) or serial + baudrate (RTU), mode = "speed"
                  profile = "TERM + ..." commands the axis by a time profile instead of the law
                  (plant_emulator.profiles: const, step, pulse, sine);
-                 [axis.units] counts_per_rev, rated_torque [N m], rated_current [A]: where the
-                 device does not report them;
+                 [axis.units] counts_per_rev, rated_torque [N m], rated_current [A],
+                 position_unit, velocity_unit (SI unit codes): where the device does not report them;
                  [axis.limits] command, speed [rad/s], position_min/max [rad], current [A],
                  watchdog_periods, heartbeat_timeout [s] (0: off)
     [controller] kind (see ``rig.laws.LAWS``), reads = [axis names], commands = [axis names],
@@ -104,6 +106,8 @@ class AxisUnits:
     counts_per_rev: int = 0  #: position increments per revolution
     rated_torque: float = 0.0  #: [N m]
     rated_current: float = 0.0  #: [A]
+    position_unit: int = 0  #: SI unit code of positions (as 0x60A8), where the drive has no 0x60A8
+    velocity_unit: int = 0  #: SI unit code of velocities (as 0x60A9), where the drive has no 0x60A9
 
 
 @dataclass(frozen=True)
@@ -127,6 +131,11 @@ class AxisConfig:
     sync_rpdo: bool = True
     latency: float = 0.0  #: [s]
     enable_timeout: float = 1.0  #: [s]
+    stop_timeout: float = 3.0  #: [s] for the drive's own stop ramp to end
+    mode_timeout: float = 1.0  #: [s] for 0x6061 to show the mode written to 0x6060
+    pdo: str = "remap"  #: cia402: "remap" (the host's mapping, within the device's) or "device" (its own)
+    sdo_timeout: float = 0.0  #: [s] per SDO answer (0: the driver's default)
+    sdo_retries: int = -1  #: SDO retries (-1: the driver's default)
     eds: str = ""  #: the device's EDS/DCF ("" : the toolkit's)
     speed_from_position: bool = False  #: cia406: speed as the backward difference of the position
     map: str = ""  #: modbus register map
@@ -252,7 +261,9 @@ def _check_axis(path: str, where: str, a: AxisConfig) -> None:
         raise ConfigError(f"{path}: {where} needs map (abb-drives-profile, delta-vfd-b)")
     if a.profile and not a.mode:
         raise ConfigError(f"{path}: {where} has a profile but no mode to command it in")
-    for key in ("latency", "enable_timeout"):
+    if a.pdo not in ("remap", "device"):
+        raise ConfigError(f"{path}: {where} pdo = {a.pdo!r}: remap or device")
+    for key in ("latency", "enable_timeout", "stop_timeout", "mode_timeout", "sdo_timeout"):
         if not getattr(a, key) >= 0.0:
             raise ConfigError(f"{path}: {where} {key} = {getattr(a, key)!r}: must be >= 0 s")
     if a.limits.watchdog_periods < 1:

@@ -3,7 +3,8 @@
 Each subcommand module has ``add_parser(sub)``, which adds its parser and sets
 its handler with ``set_defaults(handler=...)``. Only this module configures
 logging. Exit codes: 0 done, 1 a failure of the rig (communication, device),
-2 a bad argument or configuration, 3 a safety stop, 130 interrupted.
+2 a bad argument or configuration, 3 a safety stop, 4 a stop the drives did not
+confirm (they may still be moving), 130 interrupted.
 """
 
 from __future__ import annotations

@@ -18,12 +18,14 @@ from rig.params import parse_items, typed_values
 
 __all__ = [
     "EXIT_STOPPED",
+    "EXIT_UNCONFIRMED",
     "EXIT_USAGE",
     "Parser",
     "UsageError",
     "add_bus_arguments",
     "add_json",
     "add_params",
+    "exit_code",
     "finite",
     "json_clean",
     "params_of",
@@ -32,6 +34,14 @@ __all__ = [
 
 EXIT_USAGE = 2
 EXIT_STOPPED = 3
+EXIT_UNCONFIRMED = 4  #: the drives' stop could not be confirmed: they may still be moving
+
+
+def exit_code(summary: dict[str, Any]) -> int:
+    """A run's exit code: 0 done, 3 a safe stop, 4 a stop not confirmed (never like a clean one)."""
+    if summary.get("stop_confirmed") is False:
+        return EXIT_UNCONFIRMED
+    return 0 if summary.get("safe_stop_reason") is None else EXIT_STOPPED
 
 
 class UsageError(Exception):

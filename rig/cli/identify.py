@@ -73,8 +73,9 @@ def _experiment(args: argparse.Namespace) -> str | None:
     summary = run_experiment(cfg, emulate=bool(args.emulate), progress=terminal_progress)
     if sys.stderr.isatty():
         sys.stderr.write("\n")
-    if summary["safe_stop_reason"]:
-        print(f"rig identify: the experiment stopped: {summary['safe_stop_reason']}", file=sys.stderr)
+    if summary["safe_stop_reason"] or summary.get("stop_confirmed") is False:
+        why = summary["safe_stop_reason"] or "the drive's stop was not confirmed"
+        print(f"rig identify: the experiment stopped: {why}", file=sys.stderr)
         return None
     return str(summary["run_dir"])
 

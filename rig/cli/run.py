@@ -6,7 +6,7 @@ import argparse
 import dataclasses
 from typing import Any
 
-from rig.cli.common import EXIT_STOPPED, UsageError, add_json, add_params, finite, params_of, print_json
+from rig.cli.common import UsageError, add_json, add_params, exit_code, finite, params_of, print_json
 
 __all__ = ["add_parser", "print_summary"]
 
@@ -17,7 +17,8 @@ def add_parser(sub: Any) -> None:
         help="run a configured control law over the wire (see examples/)",
         description="Run the rig of a configuration file (rig/config.py documents every key): every "
         "axis set up and enabled, the law on one SYNC per period, limits, watchdog and supervision per "
-        "axis, the one safe stop, and a run directory. Exit code 3 after a safe stop.",
+        "axis, the one safe stop, and a run directory. Exit code 3 after a safe stop, 4 when a "
+        "drive's stop could not be confirmed.",
     )
     run.add_argument("--config", required=True, metavar="FILE", help="the rig configuration (TOML)")
     run.add_argument("--emulate", action="store_true", help="run the configured emulator in this process")
@@ -41,6 +42,7 @@ def print_summary(summary: dict[str, Any]) -> None:
         "chattering_count",
         "overruns",
         "safe_stop_reason",
+        "stop_confirmed",
         "run_dir",
     ):
         print(f"{key:18s} {summary[key]}")
@@ -69,4 +71,4 @@ def execute(args: argparse.Namespace) -> int:
         print_json(summary)
     else:
         print_summary(summary)
-    return 0 if summary["safe_stop_reason"] is None else EXIT_STOPPED
+    return exit_code(summary)

@@ -32,6 +32,8 @@ def _units(a: AxisConfig) -> dict[str, float]:
             ("counts_per_rev", u.counts_per_rev),
             ("rated_torque", u.rated_torque),
             ("rated_current", u.rated_current),
+            ("position_unit", u.position_unit),
+            ("velocity_unit", u.velocity_unit),
         )
         if v
     }
@@ -41,7 +43,11 @@ def _arguments(a: AxisConfig, network: Any, period: float) -> tuple[tuple[Any, .
     hb = a.limits.heartbeat_timeout
     if a.kind == "cia402":
         kw = {"mode": a.mode, "eds": a.eds or CIA402_EDS, "units": _units(a), "sync_rpdo": a.sync_rpdo}
-        kw |= {"latency": a.latency, "heartbeat_timeout": hb}
+        kw |= {"latency": a.latency, "heartbeat_timeout": hb, "pdo": a.pdo, "mode_timeout": a.mode_timeout}
+        kw |= {
+            "sdo_timeout": a.sdo_timeout or None,
+            "sdo_retries": None if a.sdo_retries < 0 else a.sdo_retries,
+        }
         return (a.name, network, a.node_id), kw
     if a.kind == "cia406":
         kw = {"period": period, "eds": a.eds or CIA406_EDS, "heartbeat_timeout": hb}

@@ -10,15 +10,16 @@ real time (absolute deadlines on the monotonic clock, a short spin before each
 deadline, garbage collection frozen, missed cycles skipped and counted).
 
 Every way out (a limit, the watchdog, a lost heartbeat, an EMCY, a NaN or an
-exception from the law, Ctrl-C) goes through ``safe_stop``: zero command,
-quick stop, disable, on every axis. The loop does not close the recorder: the
-session does, after it has stopped the frames that feed the trace.
+exception from the law, Ctrl-C) goes through ``safe_stop``, and the end of a
+run through the same stop: zero command, quick stop, the drives' own ramps to
+rest (SYNC goes on meanwhile), disable, on every axis (``rig.host.stopping``).
+The loop does not close the recorder: the session does, after it has stopped
+the frames that feed the trace.
 """
 
 from __future__ import annotations
 
 import collections
-import functools
 import gc
 import logging
 import math
@@ -34,6 +35,7 @@ from drivers.errors import DeviceFault, RigError, SafetyStop
 from rig.host.pacing import Pacing
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
+from rig.host.stopping import bring_to_rest
 from rig.laws.base import Law
 
 __all__ = ["HostLoop", "StageTimes", "missed_periods"]
@@ -134,6 +136,7 @@ class HostLoop:
         period: float,
         cycles: int,
         realtime: bool = False,
+        stop_timeout: float = 3.0,
     ) -> None:
         self.axes = list(axes)
         self.guards = list(guards)
@@ -147,6 +150,8 @@ class HostLoop:
         self.times = StageTimes()
         self.overruns = 0
         self.safe_stop_reason: str | None = None
+        self.stop_timeout = stop_timeout  #: [s] for the drives' ramps at the end
+        self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
         self.done = 0
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
         self._sq_error = 0.0
@@ -210,7 +215,7 @@ class HostLoop:
             log.exception("exception in the control loop")
             self.safe_stop(f"exception in the control loop: {type(exc).__name__}: {exc}")
         else:
-            self._stop_axes(quick=False)  # a run ends with every axis disabled, too
+            self._stop_axes()  # a run ends with every axis at rest and disabled, too
         finally:
             if frozen:
                 gc.enable()
@@ -318,29 +323,21 @@ class HostLoop:
             peaks["command"] = max(peaks["command"], value)
 
     def safe_stop(self, reason: str) -> None:
-        """The one way out: zero command, quick stop, disable, on every axis."""
+        """The one way out: zero command, quick stop, the drives' ramps to rest, disable."""
         self.safe_stop_reason = reason
         log.warning("safe stop: %s", reason)
-        self._stop_axes(quick=True)
+        self._stop_axes()
 
-    def _stop_axes(self, *, quick: bool, tries: int = 5) -> None:
-        """Zero command (commanded axes), quick stop (on a stop), disable, on every axis; each step
-        retried, since the frame that carries it may be lost; a step that still fails is logged."""
-        commanded = [self.axes[i] for i in self.wiring.commanded]
-        steps: list[tuple[AxisDriver, Callable[[], object]]] = [
-            (a, functools.partial(a.command, 0j if a.mode == "dq-voltage" else 0.0)) for a in commanded
-        ]
-        if quick:
-            steps += [(a, a.quick_stop) for a in self.axes if a.commandable]
-        steps += [(a, a.disable) for a in self.axes if a.commandable]
-        for axis, step in steps:
-            for attempt in range(tries):
-                try:
-                    step()
-                    break
-                except Exception as exc:
-                    if attempt == tries - 1:
-                        log.error("stopping %s: a step failed %d times: %s", axis.where, tries, exc)
+    def _stop_axes(self) -> None:
+        """Bring every axis to rest by its own ramp, then disable it (``rig.host.stopping``)."""
+        self.stop_confirmed = bring_to_rest(
+            self.axes,
+            [self.axes[i] for i in self.wiring.commanded],
+            self.pacing,
+            period=self.period,
+            timeout=self.stop_timeout,
+            realtime=self.realtime,
+        )
 
     def summary(self) -> dict[str, Any]:
         n = self.done
@@ -352,6 +349,7 @@ class HostLoop:
             "overruns": self.overruns,
             "elapsed_s": self.elapsed,
             "safe_stop_reason": self.safe_stop_reason,
+            "stop_confirmed": self.stop_confirmed,
             "run_dir": str(self.recorder.dir),
             "timing": self.times.stats(),
             "axes": {name: {f"max_abs_{k}": v for k, v in p.items()} for name, p in self._peaks.items()},

@@ -199,6 +199,7 @@ class Session:
             period=self.period,
             cycles=self.cycles,
             realtime=cfg.run.time == "realtime",
+            stop_timeout=max(a.stop_timeout for a in cfg.axes),
         )
 
     def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:

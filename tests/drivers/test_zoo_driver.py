@@ -88,12 +88,11 @@ def test_every_zoo_drive_runs(rig: Rig, mode: str, command: float) -> None:
 def test_a_fixed_mapping_falls_back_to_the_drive_s_own(caplog: pytest.LogCaptureFixture) -> None:
     r = Rig("erl-pcs")
     try:
-        axis = r.axis("csv")
-        with caplog.at_level(logging.WARNING):
-            axis.setup()
-        assert axis.pdo == "device"
+        with r.axis("csv") as axis:
+            with caplog.at_level(logging.WARNING):
+                axis.setup()
+            assert axis.pdo == "device"
         assert "refused the mapping" in caplog.text
-        axis.close()
     finally:
         r.close()
 
@@ -102,28 +101,30 @@ def test_a_write_only_modes_of_operation_is_not_read() -> None:
     r = Rig("compact-2pdo")
     try:
         assert r.drive.od.node.object_dictionary[0x6060].access_type == "wo"
-        axis = r.axis("csp")
-        axis.setup()  # 0x6060 written, 0x6061 read back: no read of 0x6060
-        axis.close()
+        with r.axis("csp") as axis:
+            axis.setup()  # 0x6060 written, 0x6061 read back: no read of 0x6060
     finally:
         r.close()
+
+
+def _refused(r: Rig, mode: str, match: str, **kw: object) -> None:
+    """Set-up of ``mode`` fails with a ConfigError matching ``match``; the axis is closed."""
+    with r.axis(mode, **kw) as axis, pytest.raises(ConfigError, match=match):
+        axis.setup()
 
 
 def test_a_factor_nobody_gives_is_named() -> None:
     r = Rig("tmcm-1160")
     try:
-        with pytest.raises(ConfigError, match=r"mode CSV needs 0x608F.*set \[axis.units\] counts_per_rev"):
-            r.axis("csv", units={}).setup()
+        _refused(r, "csv", r"mode CSV needs 0x608F.*set \[axis.units\] counts_per_rev", units={})
     finally:
         r.close()
     r = Rig("compact-2pdo")
     try:
-        with pytest.raises(ConfigError, match=r"needs 0x6076.*set \[axis.units\] rated_torque"):
-            r.axis("cst").setup()
-        axis = r.axis("cst", units={"rated_torque": 0.235})
-        axis.setup()
-        assert axis.units.rated_torque == 0.235
-        axis.close()
+        _refused(r, "cst", r"needs 0x6076.*set \[axis.units\] rated_torque")
+        with r.axis("cst", units={"rated_torque": 0.235}) as axis:
+            axis.setup()
+            assert axis.units.rated_torque == 0.235
     finally:
         r.close()
 
@@ -131,9 +132,8 @@ def test_a_factor_nobody_gives_is_named() -> None:
 def test_a_mode_the_drive_does_not_offer_is_refused_before_0x6060() -> None:
     r = Rig("tmcm-1160")
     try:
-        with pytest.raises(ConfigError, match=r"mode cst is not in 0x6502"):
-            r.axis("cst").setup()
-        assert r.drive.od.read(0x6061) == 0  # nothing was written
+        _refused(r, "cst", r"mode cst is not in 0x6502")
+        assert r.drive.read(0x6061) == 0  # nothing was written
     finally:
         r.close()
 
@@ -142,11 +142,10 @@ def test_units_are_the_drive_s_own() -> None:
     """Nanotec's twin: position in 0.1 degree, velocity in rpm; found by the driver."""
     r = Rig("nanotec-c5e")
     try:
-        axis = r.axis("csv")
-        units = axis.discover()
+        with r.axis("csv") as axis:
+            units = axis.discover()
         assert units.position == pytest.approx(3600 / (2 * math.pi))
         assert units.velocity == pytest.approx(60 / (2 * math.pi))
         assert units.source["position"] == "0x60A8" and units.source["velocity"] == "0x60A9"
-        axis._forget()
     finally:
         r.close()

@@ -177,3 +177,47 @@ def test_the_old_single_drive_form_gets_one_line_naming_the_new(tmp_path: pathli
     assert (
         "\n" not in text and "old.toml: [drive] is the old single-drive form" in text and "[[axis]]" in text
     )
+
+
+def test_a_safe_stop_brakes_on_the_drive_s_ramp_and_does_not_coast(tmp_path: pathlib.Path) -> None:
+    """The host used to send disable right after quick stop, which cuts the drive's ramp (CiA 402
+    transition 12): 100 rad/s at the stop, 100 rad/s a second later. Now it waits for the ramp."""
+    cfg = load_config(EXAMPLE.with_name("dc_servo_speed_csv.toml"))
+    cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path)))
+    cfg = dataclasses.replace(cfg, faults=dataclasses.replace(cfg.faults, interrupt_at=0.5))
+    with Session(cfg, emulate=True) as session:
+        session.start()
+        drive = session.emulation.bench.devices[0]  # type: ignore[union-attr]
+        summary = session.run()
+        assert "Ctrl-C" in summary["safe_stop_reason"]
+        assert summary["stop_confirmed"] is True
+        assert abs(drive.axis.velocity) < 0.1  # type: ignore[attr-defined]
+        assert session.axes[0].read_power_state().value == "SWITCH ON DISABLED"  # type: ignore[attr-defined]
+        for _ in range(2500):  # one more second: nothing moves
+            session.emulation.bench.sync()  # type: ignore[union-attr]
+        assert abs(drive.axis.velocity) < 0.1  # type: ignore[attr-defined]
+
+
+def test_a_stop_that_cannot_be_confirmed_is_reported(tmp_path: pathlib.Path) -> None:
+    """The bus is cut when the stop begins: the host cannot see the drive stop. The summary says
+    so and ``rig run`` would exit 4, not 3."""
+    from rig.cli.common import exit_code
+
+    cfg = _cfg(tmp_path, faults={"interrupt_at": 0.1})
+    cfg = replace_axis(cfg, "motor", stop_timeout=0.05, sdo_timeout=0.01)
+    with Session(cfg, emulate=True, duration=0.4) as session:
+        session.start()
+        hub = session.emulation.bench.hub  # type: ignore[union-attr]
+        law = session.loop.law  # type: ignore[union-attr]
+        step = law.step
+
+        def cut_at_the_stop(t: float, samples: Any) -> Any:
+            if t >= 0.1 - 1e-9:
+                hub.drop = lambda m: True
+            return step(t, samples)
+
+        law.step = cut_at_the_stop  # type: ignore[method-assign]
+        summary = session.run()
+        hub.drop = None
+    assert summary["stop_confirmed"] is False
+    assert exit_code(summary) == 4 and exit_code({**summary, "stop_confirmed": True}) == 3
