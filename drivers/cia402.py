@@ -84,6 +84,15 @@ _DQ_RX = [(cia.DQ_VOLTAGE, 1), (cia.DQ_VOLTAGE, 2)]
 _DQ_TX = [SW, (cia.FRAME_ANGLE, 0), (cia.FRAME_SPEED, 0), (cia.DQ_CURRENT, 1), (cia.DQ_CURRENT, 2)]
 
 
+def interpolation_period(period: float) -> tuple[int, int]:
+    """0x60C2: ``period`` [s] as (value 0-255, power of ten -128..63)."""
+    for exponent in range(-6, 3):
+        value = period / 10.0**exponent
+        if value <= 255 and abs(value - round(value)) < 1e-6 * max(1.0, value):
+            return round(value), exponent
+    raise ConfigError(f"SYNC period {period!r} s cannot be written to 0x60C2 (value x 10^n, value <= 255)")
+
+
 def power_state(statusword: int) -> PowerState:
     """The state a statusword reports; DeviceFault-free: an undecodable word is NOT READY."""
     return cia.decode_statusword(statusword) or PowerState.NOT_READY_TO_SWITCH_ON
@@ -115,6 +124,9 @@ class Cia402Axis(CanopenAxis):
         mode_timeout: float = 1.0,
         sdo_timeout: float | None = None,
         sdo_retries: int | None = None,
+        host: tuple[int, float] | None = None,
+        abort_connection: int | None = None,
+        period: float = 0.0,
     ) -> None:
         try:
             self.op_mode = cia.mode_code(mode)
@@ -137,6 +149,10 @@ class Cia402Axis(CanopenAxis):
         self.latency = latency
         self.pdo = pdo
         self.mode_timeout = mode_timeout
+        self.host = host  #: (host node id, time [s]) the drive's heartbeat consumer watches
+        self.abort_connection = abort_connection  #: 0x6007 (None: the drive's own)
+        self.period = period  #: [s] the SYNC period (0x60C2, 0x1006), 0: not told
+        self._consumer_sub: int | None = None
         self.units = DriveUnits(math.nan, math.nan, math.nan, math.nan, {})
         self.measures = frozenset()
         self.identity: dict[str, int] = {}
@@ -156,7 +172,55 @@ class Cia402Axis(CanopenAxis):
         self.nmt("PRE-OPERATIONAL")
         self.set_mode(self.op_mode)
         self.map_process_data()
+        self.configure_supervision()
         self.nmt("OPERATIONAL")
+
+    def configure_supervision(self) -> None:
+        """Make the drive stop itself when the host dies, and tell it the cycle, where it can:
+        its heartbeat consumer 0x1016 watches the host (``host``), 0x6007 says how it reacts,
+        its producer 0x1017 beats for the host's own watch (``heartbeat_timeout``), and in the
+        cyclic synchronous modes 0x60C2 / 0x1006 give the SYNC period."""
+        od = self.node.object_dictionary
+        if self.host is not None and cia.CONSUMER_HEARTBEAT in od:
+            self._consumer_sub = self._watch_host(*self.host)
+        if self.abort_connection is not None and cia.ABORT_CONNECTION_OPTION in od:
+            self.sdo_write(cia.ABORT_CONNECTION_OPTION, 0, self.abort_connection)
+        if self.heartbeat_timeout > 0.0 and cia.PRODUCER_HEARTBEAT in od:
+            self.sdo_write(cia.PRODUCER_HEARTBEAT, 0, max(1, round(self.heartbeat_timeout / 3 * 1000)))  # ms
+        if self.period > 0.0 and self.op_mode in (Mode.CSP, Mode.CSV, Mode.CST):
+            if variable(od, (cia.INTERPOLATION_PERIOD, 2)) is not None:
+                value, exponent = interpolation_period(self.period)
+                self.sdo_write(cia.INTERPOLATION_PERIOD, 2, exponent)
+                self.sdo_write(cia.INTERPOLATION_PERIOD, 1, value)
+            if cia.COMM_CYCLE_PERIOD in od:
+                self.sdo_write(cia.COMM_CYCLE_PERIOD, 0, round(self.period * 1e6))  # us
+
+    def _watch_host(self, host_node: int, timeout: float) -> int | None:
+        """Put (host, timeout) in the consumer entry that has the host, or a free one; its sub."""
+        count = int(self.sdo_read(cia.CONSUMER_HEARTBEAT, 0))
+        entries = {s: int(self.sdo_read(cia.CONSUMER_HEARTBEAT, s)) for s in range(1, count + 1)}
+        sub = next((s for s, e in entries.items() if (e >> 16) & 0xFF == host_node), None)
+        sub = sub or next((s for s, e in entries.items() if not e & 0xFFFF or not (e >> 16) & 0xFF), None)
+        if sub is None:
+            log.warning(
+                "%s: no free heartbeat consumer entry (0x1016): the drive does not watch the host", self.where
+            )
+            return None
+        self.sdo_write(cia.CONSUMER_HEARTBEAT, sub, 0)
+        self.sdo_write(
+            cia.CONSUMER_HEARTBEAT, sub, host_node << 16 | max(1, min(0xFFFF, round(timeout * 1000)))
+        )
+        return sub
+
+    def _unwatch_host(self) -> None:
+        """Disabled on purpose: the drive stops watching the host (whose heartbeat ends with the
+        run; a drive that is disabled needs no watch). ``enable`` sets the watch again."""
+        if self._consumer_sub is not None:
+            sub, self._consumer_sub = self._consumer_sub, None
+            try:
+                self.sdo_write(cia.CONSUMER_HEARTBEAT, sub, 0)
+            except RigError as exc:
+                log.warning("%s: heartbeat consumer entry not cleared: %s", self.where, exc)
 
     def _optional(self, index: int, subindex: int = 0) -> Any:
         """An object the device may lack: its value, or None (absent from the EDS, or refused)."""
@@ -352,6 +416,9 @@ class Cia402Axis(CanopenAxis):
     def enable(self, *, timeout: float = 1.0) -> None:
         """Shutdown, switch on, enable operation (transitions 2, 3, 4), within ``timeout`` [s]."""
         self.clear_fault()
+        if self.host is not None and self._consumer_sub is None and self.data is not None:
+            if cia.CONSUMER_HEARTBEAT in self.node.object_dictionary:
+                self._consumer_sub = self._watch_host(*self.host)
         self._drive_to(PowerState.OPERATION_ENABLED, _TOWARDS_ENABLED.get, timeout)
         slot = self.data.slot_of(SW) if self.data else None
         self._enabled_stamp = slot.timestamp if slot else None
@@ -388,8 +455,9 @@ class Cia402Axis(CanopenAxis):
         return state is PowerState.QUICK_STOP_ACTIVE and abs(fb.velocity) < self.REST_SPEED
 
     def disable(self) -> None:
-        """Disable voltage (transitions 7, 9, 10, 12)."""
+        """Disable voltage (transitions 7, 9, 10, 12), then stop watching the host's heartbeat."""
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
+        self._unwatch_host()
 
     # --- the cycle -------------------------------------------------------------------------------
     def feedback(self) -> Feedback:

@@ -4,14 +4,16 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
 
     [run]        duration [s], time ("lockstep" | "realtime"), output (directory), name,
                  period [s] (default: the emulator preset's), trace (write trace.asc, default true)
-    [bus]        the CAN bus: interface, channel, bitrate, host, port (ignored with --emulate)
+    [bus]        the CAN bus: interface, channel, bitrate, host, port (ignored with --emulate);
+                 host_node (127), heartbeat [s] (0.1; 0: none): the host's heartbeat the drives watch
     [emulator]   preset (dc-servo | im-drive | grid-converter | dyno), and [emulator.params]
                  NAME = value (the preset's parameters); [emulator.inverter] NAME = value for
                  the emulated Modbus inverters (one per modbus axis)
     [[axis]]     name, kind (cia402 | modbus | cia406), and per kind:
                    cia402: node_id, mode (voltage | cst | csv | csp | pv | dq-voltage), sync_rpdo,
                            latency [s], enable_timeout [s], stop_timeout [s], mode_timeout [s],
-                           pdo (remap | device), sdo_timeout [s], sdo_retries,
+                           pdo (remap | device), sdo_timeout [s], sdo_retries, abort_connection
+                           (none | fault | disable-voltage | quick-stop | drive), host_timeout [s],
                            eds (default: the toolkit's)
                    cia406: node_id, speed_from_position, eds
                    modbus: map, unit, host + port (TCP) or serial + baudrate (RTU), mode = "speed"
@@ -48,7 +50,11 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
+#: ``abort_connection`` names: the value of 0x6007 (None: the drive's own setting)
+ABORT_CONNECTION = {"none": 0, "fault": 1, "disable-voltage": 2, "quick-stop": 3, "drive": None}
+
 __all__ = [
+    "ABORT_CONNECTION",
     "AXIS_KINDS",
     "AxisConfig",
     "AxisLimits",
@@ -90,6 +96,8 @@ class BusConfig:
     bitrate: int = 0
     host: str = "127.0.0.1"
     port: int = 29536
+    host_node: int = 127  #: the host's node id: the id of its heartbeat
+    heartbeat: float = 0.1  #: [s] the host's heartbeat period, which the drives watch (0: none)
 
 
 @dataclass(frozen=True)
@@ -136,6 +144,10 @@ class AxisConfig:
     pdo: str = "remap"  #: cia402: "remap" (the host's mapping, within the device's) or "device" (its own)
     sdo_timeout: float = 0.0  #: [s] per SDO answer (0: the driver's default)
     sdo_retries: int = -1  #: SDO retries (-1: the driver's default)
+    #: cia402: how the drive reacts when the host's heartbeat stops (0x6007): none, fault,
+    #: disable-voltage, quick-stop, or "drive" (leave the drive's setting)
+    abort_connection: str = "quick-stop"
+    host_timeout: float = 0.0  #: [s] the drive's watch of the host's heartbeat (0: 3 heartbeats)
     eds: str = ""  #: the device's EDS/DCF ("" : the toolkit's)
     speed_from_position: bool = False  #: cia406: speed as the backward difference of the position
     map: str = ""  #: modbus register map
@@ -261,9 +273,13 @@ def _check_axis(path: str, where: str, a: AxisConfig) -> None:
         raise ConfigError(f"{path}: {where} needs map (abb-drives-profile, delta-vfd-b)")
     if a.profile and not a.mode:
         raise ConfigError(f"{path}: {where} has a profile but no mode to command it in")
+    if a.abort_connection not in ABORT_CONNECTION:
+        raise ConfigError(
+            f"{path}: {where} abort_connection = {a.abort_connection!r}; known: {', '.join(ABORT_CONNECTION)}"
+        )
     if a.pdo not in ("remap", "device"):
         raise ConfigError(f"{path}: {where} pdo = {a.pdo!r}: remap or device")
-    for key in ("latency", "enable_timeout", "stop_timeout", "mode_timeout", "sdo_timeout"):
+    for key in ("latency", "enable_timeout", "stop_timeout", "mode_timeout", "sdo_timeout", "host_timeout"):
         if not getattr(a, key) >= 0.0:
             raise ConfigError(f"{path}: {where} {key} = {getattr(a, key)!r}: must be >= 0 s")
     if a.limits.watchdog_periods < 1:

@@ -213,6 +213,7 @@ HOMING_SPEEDS = 0x6099  #: sub 1 search for switch, sub 2 search for zero [veloc
 HOMING_ACCELERATION = 0x609A
 SI_UNIT_POSITION = 0x60A8
 SI_UNIT_VELOCITY = 0x60A9
+INTERPOLATION_PERIOD = 0x60C2  #: sub 1 value, sub 2 index: the period is value x 10^index s
 FOLLOWING_ERROR_ACTUAL = 0x60F4
 DIGITAL_INPUTS = 0x60FD  #: bit 0 negative limit switch, 1 positive limit switch, 2 home switch
 TARGET_VELOCITY = 0x60FF  #: [velocity units]

@@ -12,7 +12,7 @@ from typing import Any
 
 from drivers.base import AxisDriver
 from drivers.maps import CIA402_EDS, CIA406_EDS
-from rig.config import AxisConfig
+from rig.config import ABORT_CONNECTION, AxisConfig, BusConfig
 
 __all__ = ["AXIS_DRIVERS", "open_axis"]
 
@@ -39,14 +39,20 @@ def _units(a: AxisConfig) -> dict[str, float]:
     }
 
 
-def _arguments(a: AxisConfig, network: Any, period: float) -> tuple[tuple[Any, ...], dict[str, Any]]:
+def _arguments(
+    a: AxisConfig, network: Any, period: float, bus: BusConfig
+) -> tuple[tuple[Any, ...], dict[str, Any]]:
     hb = a.limits.heartbeat_timeout
     if a.kind == "cia402":
+        host = (bus.host_node, a.host_timeout or 3.0 * bus.heartbeat) if bus.heartbeat > 0.0 else None
         kw = {"mode": a.mode, "eds": a.eds or CIA402_EDS, "units": _units(a), "sync_rpdo": a.sync_rpdo}
         kw |= {"latency": a.latency, "heartbeat_timeout": hb, "pdo": a.pdo, "mode_timeout": a.mode_timeout}
         kw |= {
             "sdo_timeout": a.sdo_timeout or None,
             "sdo_retries": None if a.sdo_retries < 0 else a.sdo_retries,
+            "host": host,
+            "abort_connection": ABORT_CONNECTION[a.abort_connection],
+            "period": period,
         }
         return (a.name, network, a.node_id), kw
     if a.kind == "cia406":
@@ -56,9 +62,9 @@ def _arguments(a: AxisConfig, network: Any, period: float) -> tuple[tuple[Any, .
     return (a.name, a.map), kw | {"baudrate": a.baudrate}
 
 
-def open_axis(a: AxisConfig, *, network: Any, period: float) -> AxisDriver:
+def open_axis(a: AxisConfig, *, network: Any, period: float, bus: BusConfig | None = None) -> AxisDriver:
     """The driver of axis ``a`` (nothing is sent yet); CANopen axes join ``network``."""
     module, name = AXIS_DRIVERS[a.kind]
     cls: Callable[..., AxisDriver] = getattr(importlib.import_module(module), name)
-    args, kwargs = _arguments(a, network, period)
+    args, kwargs = _arguments(a, network, period, bus or BusConfig())
     return cls(*args, **kwargs)

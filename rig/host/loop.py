@@ -137,6 +137,7 @@ class HostLoop:
         cycles: int,
         realtime: bool = False,
         stop_timeout: float = 3.0,
+        heartbeat: Callable[[int], None] | None = None,
     ) -> None:
         self.axes = list(axes)
         self.guards = list(guards)
@@ -151,6 +152,7 @@ class HostLoop:
         self.overruns = 0
         self.safe_stop_reason: str | None = None
         self.stop_timeout = stop_timeout  #: [s] for the drives' ramps at the end
+        self.heartbeat = heartbeat  #: the host's heartbeat, ``heartbeat(k)`` every cycle (or None)
         self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
         self.done = 0
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
@@ -274,6 +276,8 @@ class HostLoop:
     def _cycle(self, k: int, t0: float) -> None:
         """Cycle ``k``, whose tick started at ``t0`` (perf_counter s) and has returned."""
         t = k * self.period
+        if self.heartbeat is not None:
+            self.heartbeat(k)
         samples = self._read(k)
         t1 = time.perf_counter()
         wiring = self.wiring
@@ -337,6 +341,7 @@ class HostLoop:
             period=self.period,
             timeout=self.stop_timeout,
             realtime=self.realtime,
+            heartbeat=self.heartbeat,
         )
 
     def summary(self) -> dict[str, Any]:

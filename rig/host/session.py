@@ -27,6 +27,7 @@ from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
 from rig.host.axes import open_axis
 from rig.host.emulation import Emulation
+from rig.host.heartbeat import HostHeartbeat
 from rig.host.loop import HostLoop, Wiring
 from rig.host.pacing import FreeRun, HostSync, InProcessLockstep, KernelSync, Pacing, WireLockstep
 from rig.host.recorder import Recorder
@@ -113,7 +114,7 @@ class Session:
         law = build_law(cfg, period)
         for a in cfg.axes:
             spec = self.emulation.endpoint(a) if self.emulation else a
-            self.axes.append(open_axis(spec, network=self.network, period=period))
+            self.axes.append(open_axis(spec, network=self.network, period=period, bus=cfg.bus))
         names = [a.name for a in cfg.axes]
         wiring = Wiring(
             tuple(names.index(n) for n in cfg.controller.reads),
@@ -200,7 +201,15 @@ class Session:
             cycles=self.cycles,
             realtime=cfg.run.time == "realtime",
             stop_timeout=max(a.stop_timeout for a in cfg.axes),
+            heartbeat=self._heartbeat(),
         )
+
+    def _heartbeat(self) -> Callable[[int], None] | None:
+        """The host's heartbeat where a CANopen axis watches it (``[bus] heartbeat`` > 0)."""
+        bus = self.cfg.bus
+        if bus.heartbeat <= 0.0 or not any(isinstance(a, CanopenAxis) for a in self.axes):
+            return None
+        return HostHeartbeat(self.network, bus.host_node, bus.heartbeat, self.period).beat
 
     def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
         """Run the loop (``start()`` first); stop SYNC and the trace; close the recorder; the summary."""

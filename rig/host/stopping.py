@@ -54,9 +54,11 @@ def bring_to_rest(
     period: float,
     timeout: float,
     realtime: bool,
+    heartbeat: Callable[[int], None] | None = None,
 ) -> bool:
     """See the module docstring; ``period`` [s] of the loop, ``realtime``: wait it between ticks
-    where the host keeps the pace. True when every axis confirmed its stop."""
+    where the host keeps the pace; ``heartbeat(k)``: the host's, beating on meanwhile. True
+    when every axis confirmed its stop."""
     ok = True
     for a in commanded:
         ok &= _retry(a, functools.partial(a.command, 0j if a.mode == "dq-voltage" else 0.0), "zero command")
@@ -65,9 +67,11 @@ def bring_to_rest(
         ok &= _retry(a, a.quick_stop, "quick stop")
     pending = list(stopping)
     deadline = time.monotonic() + timeout  # wall time too: a dead bus makes each check slow
-    for _ in range(max(1, math.ceil(timeout / period))):
+    for k in range(max(1, math.ceil(timeout / period))):
         if not pending or time.monotonic() > deadline:
             break
+        if heartbeat is not None:
+            heartbeat(k)
         if realtime and not pacing.paced_by_bus:
             time.sleep(period)
         try:
