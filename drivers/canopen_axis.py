@@ -26,6 +26,7 @@ from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 from drivers.base import AxisDriver
 from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault, SafetyStop, SdoAbort
 from drivers.maps import cia
+from drivers.maps.emcy import emcy_text
 from drivers.maps.od import load_od
 
 __all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec"]
@@ -104,6 +105,7 @@ class CanopenAxis(AxisDriver):
         network.add_node(self.node)
         self._fault: DeviceFault | None = None
         self.emcy_log: list[str] = []
+        self.emcy_texts: dict[int, str] = {}  #: the device's own EMCY texts (its profile's)
         self.node.emcy.add_callback(self._on_emcy)
         self._slots: list[TpdoSlot] = []
         #: heartbeats since the host's last NMT command, and whether one of them was a boot-up
@@ -180,7 +182,8 @@ class CanopenAxis(AxisDriver):
         return float(ts) if ts is not None else None
 
     def _on_emcy(self, err: EmcyError) -> None:
-        text = f"EMCY 0x{err.code:04X} ({err.get_desc() or 'unknown'}), error register 0x{err.register:02X}"
+        words = emcy_text(err.code, self.emcy_texts)
+        text = f"EMCY 0x{err.code:04X} ({words}), error register 0x{err.register:02X}"
         self.emcy_log.append(text)
         if err.code:
             log.warning("node %d: %s", self.node_id, text)

@@ -52,6 +52,7 @@ from drivers.errors import (
 )
 from drivers.maps import CIA402_EDS, cia
 from drivers.maps.cia import MODE_BITS, Controlword, Mode, PowerState
+from drivers.maps.emcy import emcy_text
 
 __all__ = ["Cia402Axis", "DriveUnits", "power_state"]
 
@@ -127,6 +128,8 @@ class Cia402Axis(CanopenAxis):
         host: tuple[int, float] | None = None,
         abort_connection: int | None = None,
         period: float = 0.0,
+        reset_fault: bool = False,
+        emcy_texts: Mapping[int, str] | None = None,
     ) -> None:
         try:
             self.op_mode = cia.mode_code(mode)
@@ -152,6 +155,8 @@ class Cia402Axis(CanopenAxis):
         self.host = host  #: (host node id, time [s]) the drive's heartbeat consumer watches
         self.abort_connection = abort_connection  #: 0x6007 (None: the drive's own)
         self.period = period  #: [s] the SYNC period (0x60C2, 0x1006), 0: not told
+        self.reset_fault = reset_fault  #: a drive found in FAULT at enable is reset (else refused)
+        self.emcy_texts = dict(emcy_texts or {})
         self._consumer_sub: int | None = None
         self.units = DriveUnits(math.nan, math.nan, math.nan, math.nan, {})
         self.measures = frozenset()
@@ -413,8 +418,26 @@ class Cia402Axis(CanopenAxis):
                     f"node {self.node_id}: still {state.value} after {timeout:g} s, wanted {target.value}"
                 )
 
+    def fault_text(self) -> str:
+        """What the drive's 0x603F holds, in words (or that it has none)."""
+        code = self._optional(cia.ERROR_CODE)
+        if code is None:
+            return "no 0x603F"
+        return f"0x603F = 0x{int(code):04X}, {emcy_text(int(code), self.emcy_texts)}"
+
     def enable(self, *, timeout: float = 1.0) -> None:
-        """Shutdown, switch on, enable operation (transitions 2, 3, 4), within ``timeout`` [s]."""
+        """Shutdown, switch on, enable operation (transitions 2, 3, 4), within ``timeout`` [s]; a
+        drive in FAULT is reset first with ``reset_fault``, else refused, saying what 0x603F holds."""
+        if self.read_power_state() is PowerState.FAULT:
+            what = self.fault_text()
+            if not self.reset_fault:
+                raise DeviceFault(
+                    f"the drive is in FAULT ({what}); set reset_fault = true on the axis "
+                    "(or rig run --reset-fault) to reset it",
+                    device=self.where,
+                )
+            log.warning("%s: the drive was in FAULT (%s): resetting it", self.where, what)
+            self.fault_reset(timeout=timeout)
         self.clear_fault()
         if self.host is not None and self._consumer_sub is None and self.data is not None:
             if cia.CONSUMER_HEARTBEAT in self.node.object_dictionary:

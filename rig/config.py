@@ -14,6 +14,7 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                            latency [s], enable_timeout [s], stop_timeout [s], mode_timeout [s],
                            pdo (remap | device), sdo_timeout [s], sdo_retries, abort_connection
                            (none | fault | disable-voltage | quick-stop | drive), host_timeout [s],
+                           reset_fault,
                            eds (default: the toolkit's)
                    cia406: node_id, speed_from_position, eds
                    modbus: map, unit, host + port (TCP) or serial + baudrate (RTU), mode = "speed"
@@ -148,6 +149,7 @@ class AxisConfig:
     #: disable-voltage, quick-stop, or "drive" (leave the drive's setting)
     abort_connection: str = "quick-stop"
     host_timeout: float = 0.0  #: [s] the drive's watch of the host's heartbeat (0: 3 heartbeats)
+    reset_fault: bool = False  #: cia402: a drive found in FAULT at enable is reset (else refused)
     eds: str = ""  #: the device's EDS/DCF ("" : the toolkit's)
     speed_from_position: bool = False  #: cia406: speed as the backward difference of the position
     map: str = ""  #: modbus register map

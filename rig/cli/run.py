@@ -23,6 +23,11 @@ def add_parser(sub: Any) -> None:
     run.add_argument("--config", required=True, metavar="FILE", help="the rig configuration (TOML)")
     run.add_argument("--emulate", action="store_true", help="run the configured emulator in this process")
     run.add_argument("--duration", type=finite, help="override [run] duration [s]")
+    run.add_argument(
+        "--reset-fault",
+        action="store_true",
+        help="reset a CiA 402 drive found in FAULT (as reset_fault = true on every such axis)",
+    )
     add_json(run, "print the summary as one JSON object")
     add_params(
         run,
@@ -66,6 +71,9 @@ def execute(args: argparse.Namespace) -> int:
                 f"rig run: --fault {', '.join(bus_faults)} needs --emulate (the emulator injects it)"
             )
         cfg = dataclasses.replace(cfg, faults=dataclasses.replace(cfg.faults, **faults))
+    if args.reset_fault:
+        axes = tuple(dataclasses.replace(a, reset_fault=True) if a.kind == "cia402" else a for a in cfg.axes)
+        cfg = dataclasses.replace(cfg, axes=axes)
     summary = run_config(cfg, emulate=args.emulate, duration=args.duration)
     if args.json:
         print_json(summary)

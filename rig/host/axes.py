@@ -7,12 +7,19 @@ drivers, and a CANopen rig never imports pymodbus.
 from __future__ import annotations
 
 import importlib
+import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from drivers.base import AxisDriver
 from drivers.maps import CIA402_EDS, CIA406_EDS
 from rig.config import ABORT_CONNECTION, AxisConfig, BusConfig
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
 
 __all__ = ["AXIS_DRIVERS", "open_axis"]
 
@@ -53,6 +60,8 @@ def _arguments(
             "host": host,
             "abort_connection": ABORT_CONNECTION[a.abort_connection],
             "period": period,
+            "reset_fault": a.reset_fault,
+            "emcy_texts": device_emcy_texts(a.eds),
         }
         return (a.name, network, a.node_id), kw
     if a.kind == "cia406":
@@ -60,6 +69,24 @@ def _arguments(
         return (a.name, network, a.node_id), kw | {"speed_from_position": a.speed_from_position}
     kw = {"unit": a.unit, "host": a.host or None, "port": a.port, "serial": a.serial or None}
     return (a.name, a.map), kw | {"baudrate": a.baudrate}
+
+
+def device_emcy_texts(eds: str) -> dict[int, str]:
+    """The ``[emcy]`` table of the device profile next to ``eds`` (same name, .toml), if any."""
+    if not eds:
+        return {}
+    profile = Path(eds).with_suffix(".toml")
+    try:
+        table = tomllib.loads(profile.read_text(encoding="utf-8")).get("emcy", {})
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
+        return {}
+    out: dict[int, str] = {}
+    for key, text in table.items():
+        try:
+            out[int(key, 0)] = str(text)
+        except ValueError:
+            continue
+    return out
 
 
 def open_axis(a: AxisConfig, *, network: Any, period: float, bus: BusConfig | None = None) -> AxisDriver:

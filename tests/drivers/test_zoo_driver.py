@@ -10,13 +10,15 @@ from __future__ import annotations
 
 import logging
 import math
+import pathlib
 from collections.abc import Iterator
 
 import canopen
 import pytest
 
 from drivers.cia402 import Cia402Axis
-from drivers.errors import ConfigError
+from drivers.errors import ConfigError, DeviceFault
+from drivers.maps.emcy import emcy_text
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.device_profile import DeviceProfile, load_profile, zoo
 from plant_emulator.lockstep import SyncHub, attach_network
@@ -147,5 +149,51 @@ def test_units_are_the_drive_s_own() -> None:
         assert units.position == pytest.approx(3600 / (2 * math.pi))
         assert units.velocity == pytest.approx(60 / (2 * math.pi))
         assert units.source["position"] == "0x60A8" and units.source["velocity"] == "0x60A9"
+    finally:
+        r.close()
+
+
+def test_a_drive_found_in_fault_is_refused_or_reset(caplog: pytest.LogCaptureFixture) -> None:
+    """A drive that starts in FAULT: enable refuses, saying what 0x603F holds, unless told to
+    reset it (rising edge of controlword bit 7, confirmed by the statusword)."""
+    r = Rig("epos4")
+    try:
+        r.drive.raise_fault(0x8611)
+        for _ in range(2000):  # the fault reaction's ramp (the motor is at rest: at once)
+            r.sync()
+        with r.axis("csv") as axis:
+            axis.setup()
+            with pytest.raises(
+                DeviceFault, match=r"in FAULT \(0x603F = 0x8611, following error\).*reset_fault"
+            ):
+                axis.enable()
+        with r.axis("csv", reset_fault=True) as axis, caplog.at_level(logging.WARNING):
+            axis.setup()
+            axis.enable()
+            assert axis.read_power_state().value == "OPERATION ENABLED"
+        assert "was in FAULT (0x603F = 0x8611, following error): resetting" in caplog.text
+    finally:
+        r.close()
+
+
+def test_emcy_codes_in_words_from_the_device_profile(tmp_path: pathlib.Path) -> None:
+    """The device's own EMCY texts (the [emcy] of the profile next to its EDS), else CiA's."""
+    from rig.host.axes import device_emcy_texts
+
+    eds = tmp_path / "mydrive.eds"
+    eds.write_bytes(load_profile(zoo()["epos4"]).eds.read_bytes())
+    (tmp_path / "mydrive.toml").write_text('[emcy]\n0x7380 = "resolver wire break"\n')
+    texts = device_emcy_texts(str(eds))
+    assert texts == {0x7380: "resolver wire break"}
+    assert emcy_text(0x7380, texts) == "resolver wire break"
+    assert emcy_text(0x7381, texts) == "sensor"  # the class, from CiA 301
+    assert emcy_text(0x8611) == "following error"
+    r = Rig("epos4")
+    try:
+        with r.axis("csv", emcy_texts=texts) as axis:
+            axis.setup()
+            axis.enable()
+            r.drive.emcy(0x7380, 0x81)
+            assert axis.fault is not None and "EMCY 0x7380 (resolver wire break)" in str(axis.fault)
     finally:
         r.close()
