@@ -23,7 +23,8 @@ import can
 import canopen
 
 from drivers.maps.cia import COB_SYNC
-from plant_emulator.presets import build_preset, preset_params
+from plant_emulator.device_profile import DeviceProfile
+from plant_emulator.presets import build_preset, build_twin, preset_params
 
 __all__ = ["LockstepBench", "SyncBus", "SyncHub", "attach_network"]
 
@@ -119,16 +120,24 @@ class LockstepBench:
     in the host's PDO maps.
     """
 
-    def __init__(self, preset: str, params: Mapping[str, object] | None = None) -> None:
-        """Preset ``preset`` with ``params`` (typed values by name, see ``build_preset``)."""
-        preset_params(preset, params)  # a bad parameter fails here, before any bus exists
+    def __init__(
+        self, preset: str, params: Mapping[str, object] | None = None, *, device: DeviceProfile | None = None
+    ) -> None:
+        """Preset ``preset`` with ``params`` (typed values by name, see ``build_preset``); with
+        ``device``, that drive's twin instead (``build_twin``: its physics preset and ``params``)."""
+        preset_params(
+            device.physics if device else preset, {**(device.params if device else {}), **(params or {})}
+        )
         self.hub = SyncHub()
         self.device_network = canopen.Network()
         attach_network(self.device_network, self.hub.bus(queue=False, channel="emulator"))
         self.host = canopen.Network()
         attach_network(self.host, self.hub.bus(queue=False, channel="host"))
         try:
-            self.devices, self.period = build_preset(preset, self.device_network, params)
+            if device is not None:
+                self.devices, self.period = build_twin(device, self.device_network, params)
+            else:
+                self.devices, self.period = build_preset(preset, self.device_network, params)
         except BaseException:
             self.close()
             raise

@@ -6,7 +6,8 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                  period [s] (default: the emulator preset's), trace (write trace.asc, default true)
     [bus]        the CAN bus: interface, channel, bitrate, host, port (ignored with --emulate);
                  host_node (127), heartbeat [s] (0.1; 0: none): the host's heartbeat the drives watch
-    [emulator]   preset (dc-servo | im-drive | grid-converter | dyno), and [emulator.params]
+    [emulator]   preset (dc-servo | im-drive | grid-converter | dyno) or device (a zoo drive's twin:
+                 rig emulate --list, or a device profile file), and [emulator.params]
                  NAME = value (the preset's parameters); [emulator.inverter] NAME = value for
                  the emulated Modbus inverters (one per modbus axis)
     [[axis]]     name, kind (cia402 | modbus | cia406), and per kind:
@@ -104,6 +105,7 @@ class BusConfig:
 @dataclass(frozen=True)
 class EmulatorConfig:
     preset: str = ""  #: the CANopen preset ("" : none)
+    device: str = ""  #: a drive's twin instead: a zoo profile's name or a profile file (.toml)
     params: dict[str, Any] = field(default_factory=dict)  #: the preset's parameters
     inverter: dict[str, Any] = field(default_factory=dict)  #: parameters of emulated Modbus inverters
 
@@ -308,18 +310,23 @@ def _controller(path: str, table: Any) -> ControllerConfig:
 
 def _emulator(path: str, table: Any) -> EmulatorConfig:
     table = dict(_table(path, "[emulator]", table))
-    known = {"preset", "params", "inverter"}
+    known = {"preset", "device", "params", "inverter"}
     unknown = set(table) - known
     if unknown:
         raise ConfigError(
             f"{path}: unknown key(s) {sorted(unknown)} in [emulator]; known: {', '.join(known)}"
         )
-    preset = table.get("preset", "")
-    if not isinstance(preset, str):
-        raise ConfigError(f"{path}: [emulator] preset = {preset!r}: expected a string")
+    preset, device = table.get("preset", ""), table.get("device", "")
+    for key, value in (("preset", preset), ("device", device)):
+        if not isinstance(value, str):
+            raise ConfigError(f"{path}: [emulator] {key} = {value!r}: expected a string")
+    if preset and device:
+        raise ConfigError(f"{path}: [emulator] has both preset and device: give one")
+    if device.endswith(".toml") and not Path(device).is_absolute():
+        device = str(Path(path).parent / device)
     params = _table(path, "[emulator.params]", table.get("params", {}))
     inverter = _table(path, "[emulator.inverter]", table.get("inverter", {}))
-    return EmulatorConfig(preset, dict(params), dict(inverter))
+    return EmulatorConfig(preset, device, dict(params), dict(inverter))
 
 
 def rig_config(doc: dict[str, Any], source: str) -> RigConfig:
@@ -399,12 +406,19 @@ def _check_rig(cfg: RigConfig) -> None:
 
 
 def replace_axis(
-    cfg: RigConfig, name: str, *, limits: dict[str, Any] | None = None, **changes: Any
+    cfg: RigConfig,
+    name: str,
+    *,
+    limits: dict[str, Any] | None = None,
+    units: dict[str, Any] | None = None,
+    **changes: Any,
 ) -> RigConfig:
-    """``cfg`` with the axis ``name`` changed (and its limits, by key)."""
+    """``cfg`` with the axis ``name`` changed (and its limits and units, by key)."""
     a = cfg.axis(name)
     if limits:
         changes["limits"] = replace(a.limits, **limits)
+    if units:
+        changes["units"] = replace(a.units, **units)
     axes = tuple(replace(x, **changes) if x.name == name else x for x in cfg.axes)
     return replace(cfg, axes=axes)
 

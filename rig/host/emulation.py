@@ -17,6 +17,7 @@ import canopen
 
 from drivers.errors import ConfigError
 from drivers.maps import modbus_map
+from plant_emulator.device_profile import device_profile
 from plant_emulator.faults import FaultInjector, FaultPlan
 from plant_emulator.lockstep import LockstepBench
 from plant_emulator.presets import PRESETS
@@ -53,17 +54,15 @@ class Emulation:
         self._links: list[Any] = []
         self._endpoints: dict[str, dict[str, Any]] = {}
         period = cfg.run.period
-        preset = cfg.emulator.preset
+        preset, device = cfg.emulator.preset, cfg.emulator.device
         canopen_axes = [a.name for a in cfg.axes if a.kind != "modbus"]
-        if preset:
-            params = preset_params(preset, cfg.emulator.params, f"{src}: [emulator.params]")
-            try:
-                self.bench = LockstepBench(preset, params)
-            except ValueError as exc:
-                raise ConfigError(f"{src}: [emulator] preset {preset}: {exc}") from exc
+        if preset or device:
+            self.bench = self._bench(cfg)
             period = period or self.bench.period
         elif canopen_axes:
-            raise ConfigError(f"{src}: --emulate needs [emulator] preset for the CANopen axes {canopen_axes}")
+            raise ConfigError(
+                f"{src}: --emulate needs [emulator] preset or device for the CANopen axes {canopen_axes}"
+            )
         if not period > 0.0:
             raise ConfigError(f"{src}: [run] period must be set (> 0 s): no preset gives one")
         self.period = period
@@ -76,6 +75,24 @@ class Emulation:
         except BaseException:
             self.close()
             raise
+
+    def _bench(self, cfg: RigConfig) -> LockstepBench:
+        """The preset's devices, or the twin of ``device`` (whose EDS its axis then uses)."""
+        src, preset = cfg.source, cfg.emulator.preset
+        try:
+            if cfg.emulator.device:
+                profile = device_profile(cfg.emulator.device)
+                params = preset_params(profile.physics, cfg.emulator.params, f"{src}: [emulator.params]")
+                bench = LockstepBench(profile.physics, params, device=profile)
+                for a in cfg.axes:
+                    if a.kind == "cia402" and a.node_id == profile.node_id and not a.eds:
+                        self._endpoints[a.name] = {"eds": str(profile.eds)}
+                return bench
+            params = preset_params(preset, cfg.emulator.params, f"{src}: [emulator.params]")
+            return LockstepBench(preset, params)
+        except ValueError as exc:
+            what = f"device {cfg.emulator.device}" if cfg.emulator.device else f"preset {preset}"
+            raise ConfigError(f"{src}: [emulator] {what}: {exc}") from exc
 
     def _start_inverter(self, cfg: RigConfig, a: AxisConfig) -> None:
         from plant_emulator.modbus_inverter import InverterModel, InverterServer

@@ -153,6 +153,15 @@ class Session:
         elif self.network.notifier is not None and tap in self.network.notifier.listeners:
             self.network.notifier.remove_listener(tap)
 
+    def _idle(self) -> Callable[[], None] | None:
+        """While set-up waits for a drive (0x6061 after 0x6060): in lock-step, a SYNC (time
+        passes only by SYNCs there); in real time, the drivers' own short sleep (None)."""
+        if self.emulation is not None:
+            return self.emulation.sync
+        if self.cfg.run.time == "lockstep" and self._bus is not None:
+            return self.network.sync.transmit  # type: ignore[no-any-return]
+        return None
+
     def _pacing(self, period: float) -> Pacing:
         cfg = self.cfg
         if self.emulation is not None:
@@ -171,7 +180,10 @@ class Session:
     def start(self) -> None:
         """Set every axis up and enable it (in configuration order); on failure, nothing stays enabled."""
         try:
+            idle = self._idle()
             for axis in self.axes:
+                if idle is not None and hasattr(axis, "idle"):
+                    axis.idle = idle  # waiting for a drive lets emulated time pass
                 axis.setup()
             for axis, a in zip(self.axes, self.cfg.axes):
                 axis.enable(timeout=a.enable_timeout)

@@ -25,6 +25,7 @@ LAWS: dict[str, tuple[str, str]] = {
     "cascade-position": ("rig.laws.cascade", "CascadePositionLaw"),
     "dq-current": ("rig.laws.dq_current", "DqCurrentLaw"),
     "speed-reference": ("rig.laws.open_loop", "SpeedReferenceLaw"),
+    "position-reference": ("rig.laws.open_loop", "PositionReferenceLaw"),
     "replay": ("rig.laws.open_loop", "ReplayLaw"),
 }
 

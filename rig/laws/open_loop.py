@@ -1,4 +1,5 @@
-"""Open-loop laws: ``speed-reference`` (the reference is the command) and ``replay`` (a recorded input)."""
+"""Open-loop laws: ``speed-reference`` and ``position-reference`` (the reference is the command, to
+the drive's own speed or position loop) and ``replay`` (a recorded input)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,14 @@ from drivers.base import Feedback
 from drivers.errors import SafetyStop
 from rig.laws.base import Law, LawStep, Reference
 
-__all__ = ["ReplayLaw", "ReplayParams", "SpeedReferenceLaw", "SpeedReferenceParams"]
+__all__ = [
+    "PositionReferenceLaw",
+    "PositionReferenceParams",
+    "ReplayLaw",
+    "ReplayParams",
+    "SpeedReferenceLaw",
+    "SpeedReferenceParams",
+]
 
 
 @dataclass(frozen=True)
@@ -26,6 +34,23 @@ class SpeedReferenceLaw(Law):
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         w_r, _ = self.reference(t)
         return LawStep((w_r,), w_r, feedback[0].velocity)
+
+
+@dataclass(frozen=True)
+class PositionReferenceParams:
+    """No parameters: the position reference is streamed to the drive's own loops (CSP)."""
+
+
+class PositionReferenceLaw(Law):
+    """Command = reference [rad], every cycle, to a drive in CSP (its position and speed loops
+    inside); measurement = the read axis's position."""
+
+    Params = PositionReferenceParams
+    modes = (frozenset({"csp"}),)
+
+    def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
+        theta_r, _ = self.reference(t)
+        return LawStep((theta_r,), theta_r, feedback[0].position)
 
 
 @dataclass(frozen=True)
