@@ -95,11 +95,17 @@ class CanopenAxis(AxisDriver):
         """``sdo_timeout`` [s] and ``sdo_retries``: of every SDO transfer (None: the class's)."""
         super().__init__(name, mode)
         if not 1 <= node_id <= 127:
+            self._forget()
             raise ValueError(f"axis {name!r}: node id must be 1..127, got {node_id!r}")
         self.node_id = node_id
         self.heartbeat_timeout = heartbeat_timeout  #: [s]; 0: not supervised
         self.network = network
-        self.node: Any = canopen.RemoteNode(node_id, load_od(eds, node_id))
+        try:
+            od = load_od(eds, node_id)
+        except BaseException:
+            self._forget()  # nothing was opened: not an unclosed axis
+            raise
+        self.node: Any = canopen.RemoteNode(node_id, od)
         self.node.sdo.RESPONSE_TIMEOUT = self.SDO_TIMEOUT if sdo_timeout is None else sdo_timeout
         self.node.sdo.MAX_RETRIES = self.SDO_RETRIES if sdo_retries is None else sdo_retries
         network.add_node(self.node)

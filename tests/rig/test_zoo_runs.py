@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from plant_emulator.device_profile import zoo
+from plant_emulator.device_profile import load_profile, zoo
 from rig.config import load_config, replace_axis
 from rig.host.session import Session
 
@@ -56,3 +56,40 @@ def test_the_position_move_on_every_zoo_drive(
     # the same trajectory: the difference is the drives' unit quantisation, not their behaviour
     tolerance = 3 * max(quantum, 2 * np.pi / 4096)
     assert np.max(np.abs(data["measurement"] - toolkit["measurement"])) < tolerance
+
+
+@pytest.mark.parametrize("device", sorted(zoo()))
+def test_every_zoo_drive_in_real_time_in_another_process(device: str, tmp_path: pathlib.Path) -> None:
+    """``rig emulate --device NAME`` (real time, its own clock) in another process, ``rig run``'s
+    session in real time over socketcand: the move arrives, and the stop is confirmed."""
+    import re
+
+    from rig.config import BusConfig
+    from rig.process import spawn_rig, stop_rig
+
+    proc, line = spawn_rig("emulate", "--device", device, "--socketcand-port", "0", stderr=True)
+    try:
+        match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
+        assert match, line
+        cfg = load_config(EXAMPLE)
+        eds = str(load_profile(zoo()[device]).eds)
+        cfg = dataclasses.replace(
+            cfg,
+            run=dataclasses.replace(
+                cfg.run, output=str(tmp_path), time="realtime", period=0.002, duration=0.8
+            ),
+            bus=BusConfig(interface="socketcand", channel="can0", port=int(match.group(1))),
+            reference=dataclasses.replace(cfg.reference, distance=2.0, duration=0.3),
+        )
+        cfg = replace_axis(cfg, "motor", eds=eds, enable_timeout=3.0, limits={"watchdog_periods": 100})
+        if device in UNITS:
+            cfg = replace_axis(cfg, "motor", units=UNITS[device])
+        with Session(cfg, emulate=False) as session:
+            session.start()
+            summary = session.run()
+        assert summary["safe_stop_reason"] is None and summary["stop_confirmed"] is True
+        data = np.genfromtxt(pathlib.Path(summary["run_dir"]) / "samples.csv", delimiter=",", names=True)
+        assert data["measurement"][-1] == pytest.approx(2.0, abs=0.02)
+    finally:
+        _out, err = stop_rig(proc, timeout=10)
+    assert proc.returncode == 0, err
