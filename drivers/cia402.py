@@ -244,7 +244,7 @@ class Cia402Axis(CanopenAxis):
         self.identity = {
             k: v
             for k, sub in (("vendor", 1), ("product", 2), ("revision", 3))
-            if (v := self._optional(0x1018, sub))
+            if (v := self._optional(0x1018, sub)) is not None
         }
         bits = self._optional(cia.SUPPORTED_MODES)
         if bits is not None:

@@ -17,6 +17,15 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--can-interface", help="python-can interface of a real bus (enables 'hardware' tests)")
     group.addoption("--can-channel", help="python-can channel of the real bus, e.g. can0")
     group.addoption("--drive-node", type=int, default=1, help="node id of the CiA 402 drive on the real bus")
+    group.addoption(
+        "--bitrate", type=int, default=0, help="bit rate of the real bus [bit/s] (0: the interface's)"
+    )
+    group.addoption("--eds", help="the drive's EDS/DCF (default: the toolkit's)")
+    group.addoption("--can-host", default="127.0.0.1", help="socketcand host")
+    group.addoption("--can-port", type=int, default=29536, help="socketcand port")
+    group.addoption(
+        "--axis-units", action="append", metavar="NAME=VALUE", help="a factor the drive lacks ([axis.units])"
+    )
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
