@@ -236,8 +236,9 @@ class Cia402Axis(CanopenAxis):
         except SdoAbort:
             return None
 
-    def discover(self) -> DriveUnits:
-        """Device type and identity, supported modes (0x6502) against the mode, and units."""
+    def discover(self, *, check_mode: bool = True) -> DriveUnits:
+        """Device type and identity, supported modes (0x6502) against the mode (unless not
+        ``check_mode``: commissioning, which picks its modes itself), and units."""
         device_type = self.sdo_read(cia.DEVICE_TYPE)
         if device_type & 0xFFFF != cia.PROFILE_DRIVE:
             raise ConfigError(f"node {self.node_id} is not a CiA 402 drive (0x1000 = 0x{device_type:08X})")
@@ -249,7 +250,7 @@ class Cia402Axis(CanopenAxis):
         bits = self._optional(cia.SUPPORTED_MODES)
         if bits is not None:
             self.supported_modes = frozenset(int(m) for m, bit in MODE_BITS.items() if bits & bit)
-            if int(self.op_mode) not in self.supported_modes:
+            if check_mode and int(self.op_mode) not in self.supported_modes:
                 names = ", ".join(Mode(m).name for m in sorted(self.supported_modes))
                 raise ConfigError(
                     f"axis {self.name!r} (node {self.node_id}): mode {self.mode} is not in 0x6502 "
@@ -259,7 +260,7 @@ class Cia402Axis(CanopenAxis):
             self._optional,
             self.given_units,
             where=f"{self.name!r} (node {self.node_id})",
-            mode=int(self.op_mode),
+            mode=int(self.op_mode) if check_mode else 0,
         )
         return self.units
 

@@ -10,8 +10,8 @@ control period, setting its speed or position loop.
   (set-point acknowledge) until bit 4 falls; with bit 5 (change set immediately) the move
   changes at once, else after the present move ends. The move obeys 0x6081, 0x6083, 0x6084
   and the software position limits 0x607D (bit 11 internal limit active when clamped). Bit 10
-  target reached when the set-point has arrived and the motor is within 0x6067 (or 0x6065,
-  or 0.01 rad) of it.
+  target reached when the set-point has arrived and the motor is within 0x6067 (or, where the
+  drive has none, 0.01 rad) of it.
 - Homing (6): a rising bit 4 starts the method of 0x6098; bit 12 homing attained, bit 13
   homing error, bit 10 target reached. Methods 35 and 37: the present position is the home
   position. Method 19: the home switch (0x60FD bit 2, on at shaft angles >= the profile's
@@ -161,8 +161,7 @@ class ProfileModes:
             ref = self._hold(h, self._halt_decel())
         else:
             ref = self.move.step(v_max, accel, decel, h)
-        window = self._read(cia.POSITION_WINDOW, 0, self._read(cia.FOLLOWING_ERROR_WINDOW, 0, 0.0))
-        window = window / self.image.units.position if window else 0.01
+        window = self._read(cia.POSITION_WINDOW, 0, 0.0) / self.image.units.position or 0.01
         reached = self.move.done and not halt and abs(position - self.move.target) <= window
         self.status = ack | (TARGET_REACHED if reached else 0) | (LIMIT_ACTIVE if self.limited else 0)
         return _CSP, ref

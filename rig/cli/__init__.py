@@ -15,12 +15,12 @@ from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, version
 
 from drivers.errors import ConfigError, RigError
-from rig.cli import bench, demo, design, emulate, faults, identify, reproduce, run, scan
+from rig.cli import bench, demo, design, drive, emulate, faults, identify, reproduce, run, scan
 from rig.cli.common import EXIT_USAGE, Parser, UsageError
 
 __all__ = ["main"]
 
-SUBCOMMANDS = (demo, design, reproduce, run, identify, scan, emulate, faults, bench)
+SUBCOMMANDS = (demo, design, reproduce, run, identify, scan, drive, emulate, faults, bench)
 
 
 def _version() -> str:

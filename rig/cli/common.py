@@ -28,6 +28,7 @@ __all__ = [
     "exit_code",
     "finite",
     "json_clean",
+    "open_network",
     "params_of",
     "print_json",
 ]
@@ -88,8 +89,29 @@ def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("CAN bus")
     group.add_argument("--interface", help="python-can interface (e.g. socketcan, socketcand, pcan)")
     group.add_argument("--channel", help="python-can channel (e.g. vcan0, can0)")
+    group.add_argument(
+        "--bitrate", type=int, help="bit rate [bit/s] where the interface sets it (e.g. 500000)"
+    )
     group.add_argument("--host", default="127.0.0.1", help="socketcand host (default 127.0.0.1)")
     group.add_argument("--port", type=int, default=29536, help="socketcand port (default 29536)")
+
+
+def open_network(args: argparse.Namespace, who: str) -> Any:
+    """A connected canopen network on the bus of ``add_bus_arguments``' options."""
+    import canopen
+
+    from drivers.bus import open_bus
+
+    if not (args.interface and (args.channel or args.interface == "socketcand")):
+        raise UsageError(f"{who}: give --interface and --channel, or --emulate")
+    if args.bitrate is not None and args.bitrate <= 0:
+        raise UsageError(f"{who}: argument --bitrate: must be > 0 bit/s, got {args.bitrate}")
+    if not 0 < args.port < 65536:
+        raise UsageError(f"{who}: argument --port: must be 1..65535, got {args.port}")
+    extra = {"host": args.host, "port": args.port} if args.interface == "socketcand" else {}
+    network = canopen.Network(open_bus(args.interface, args.channel or "can0", bitrate=args.bitrate, **extra))
+    network.connect()
+    return network
 
 
 def json_clean(value: Any) -> Any:

@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from rig.cli.common import UsageError, add_bus_arguments, add_json, finite
+from rig.cli.common import UsageError, add_bus_arguments, add_json, finite, open_network
 
 __all__ = ["add_parser"]
 
@@ -46,16 +46,9 @@ def _emulated(preset: str, seconds: float) -> list[dict[str, Any]]:
 
 
 def _on_bus(args: argparse.Namespace) -> list[dict[str, Any]]:
-    import canopen
-
-    from drivers.bus import open_bus
     from rig.scan import scan, wall_listen
 
-    if not (args.interface and (args.channel or args.interface == "socketcand")):
-        raise UsageError("rig scan: give --interface and --channel, or --emulate PRESET")
-    extra = {"host": args.host, "port": args.port} if args.interface == "socketcand" else {}
-    network = canopen.Network(open_bus(args.interface, args.channel or "can0", **extra))
-    network.connect()
+    network = open_network(args, "rig scan")
     try:
         return scan(network, listen=wall_listen(args.listen))
     finally:

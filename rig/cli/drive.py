@@ -1,0 +1,155 @@
+"""``rig drive``: commission one CiA 402 node on any bus (``rig.commission``)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from rig.cli.common import (
+    EXIT_STOPPED,
+    EXIT_UNCONFIRMED,
+    UsageError,
+    add_bus_arguments,
+    add_json,
+    add_params,
+    finite,
+    open_network,
+    print_json,
+)
+
+__all__ = ["add_parser"]
+
+
+def add_parser(sub: Any) -> None:
+    drive = sub.add_parser(
+        "drive",
+        help="commission one CiA 402 drive: status, enable/disable/reset, SDO, jog, home, move",
+        description="Talks to one CiA 402 node by SDO: its status (state, mode, statusword bits, 0x603F, "
+        "last EMCY, units and PDO mapping in force), its state machine, its objects by index[:sub] or EDS "
+        "name, and short moves on its own profile modes. A move ends, as Ctrl-C does, with the drive's "
+        "quick stop ramp to rest and then disable. Exit code 3 when a move was stopped, 4 when the stop "
+        "was not confirmed.",
+    )
+    add_bus_arguments(drive)
+    drive.add_argument("--node", type=int, default=1, help="the drive's node id (default 1)")
+    drive.add_argument("--eds", metavar="FILE", help="the drive's EDS/DCF (default: the toolkit's)")
+    drive.add_argument(
+        "--emulate", metavar="DEVICE", help="a zoo twin in this process instead (rig emulate --list)"
+    )
+    add_params(drive, "a unit the drive lacks, as [axis.units] (counts_per_rev=51200)", flag="--units")
+    add_json(drive, "print one JSON document")
+    actions = drive.add_subparsers(dest="action", required=True, parser_class=type(drive))
+    actions.add_parser("status", help="what the drive is and how it is set up")
+    actions.add_parser("enable", help="operational and OPERATION ENABLED (no motion is commanded)")
+    actions.add_parser("disable", help="disable voltage")
+    actions.add_parser("reset", help="fault reset (rising edge of controlword bit 7)")
+    sdo = actions.add_parser("sdo", help="read or write one object")
+    ops = sdo.add_subparsers(dest="op", required=True, parser_class=type(drive))
+    ops.add_parser("read").add_argument("object", help="index[:sub] (0x6060, 0x1018:1) or EDS name")
+    write = ops.add_parser("write")
+    write.add_argument("object", help="index[:sub] or EDS name")
+    write.add_argument("value", help="an integer (0x.. allowed) or a number")
+    jog = actions.add_parser("jog", help="profile velocity for a while")
+    jog.add_argument("speed", type=finite, help="[rad/s]")
+    jog.add_argument("--for", dest="seconds", type=finite, required=True, help="[s]")
+    jog.add_argument("--limit", type=finite, default=20.0, help="largest |speed| allowed [rad/s] (20)")
+    home = actions.add_parser("home", help="homing")
+    home.add_argument("--method", type=int, help="0x6098 homing method (default: the drive's)")
+    move = actions.add_parser("move", help="profile position to a position")
+    move.add_argument("position", type=finite, help="[rad], absolute")
+    move.add_argument("--limit", type=finite, default=10.0, help="largest move allowed [rad] (10)")
+    drive.set_defaults(handler=run)
+
+
+def _check(args: argparse.Namespace) -> None:
+    if not 1 <= args.node <= 127:
+        raise UsageError(f"rig drive: argument --node: must be 1..127, got {args.node}")
+    if args.action == "jog" and not 0.0 < args.seconds <= 60.0:
+        raise UsageError(f"rig drive jog: argument --for: must be in (0, 60] s, got {args.seconds:g}")
+    if args.action == "home" and args.method is not None and not -128 <= args.method <= 127:
+        raise UsageError(f"rig drive home: argument --method: must be -128..127, got {args.method}")
+
+
+def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
+    """(the DriveTool, a closer) on the bus or on an in-process twin."""
+    from drivers.cia402 import Cia402Axis
+    from drivers.maps import CIA402_EDS
+    from rig.cli.common import params_of
+    from rig.commission import DriveTool
+    from rig.config import AxisUnits
+
+    units = {k: float(v) for k, v in params_of(args.units, AxisUnits, "rig drive: --units").items()}
+    if args.emulate:
+        from plant_emulator.device_profile import device_profile
+        from plant_emulator.lockstep import LockstepBench
+
+        profile = device_profile(args.emulate)
+        bench = LockstepBench(profile.physics, device=profile)
+        network, eds, idle, period = bench.host, args.eds or str(profile.eds), bench.sync, bench.period
+        close = bench.close
+    else:
+        network = open_network(args, "rig drive")
+        eds, idle, period, close = args.eds or CIA402_EDS, None, 0.01, network.disconnect
+    axis = Cia402Axis("drive", network, args.node, mode="csp", eds=eds, units=units)
+
+    def done() -> None:
+        axis._forget()  # the tool leaves the drive as its command left it (enable: enabled)
+        close()
+
+    return DriveTool(axis, idle=idle, period=period), done
+
+
+def _value(text: str) -> int | float:
+    try:
+        return int(text, 0)
+    except ValueError:
+        try:
+            return float(text)
+        except ValueError:
+            raise UsageError(f"rig drive sdo write: value {text!r} is not a number") from None
+
+
+def _act(tool: Any, args: argparse.Namespace) -> Any:
+    from rig.commission import parse_object
+
+    a = tool.axis
+    if args.action == "status":
+        return tool.status()
+    if args.action in ("enable", "disable", "reset"):
+        return {"state": getattr(tool, args.action)()}
+    if args.action == "sdo":
+        index, sub = parse_object(args.object, a.node.object_dictionary)
+        if args.op == "read":
+            value = a.sdo_read(index, sub)
+            return {
+                "object": f"0x{index:04X}:{sub:02X}",
+                "value": value if not isinstance(value, bytes) else value.hex(),
+            }
+        a.sdo_write(index, sub, _value(args.value))
+        return {"object": f"0x{index:04X}:{sub:02X}", "written": _value(args.value)}
+    if args.action == "jog":
+        return tool.jog(args.speed, args.seconds, limit=args.limit)
+    if args.action == "home":
+        return tool.home(args.method)
+    return tool.move(args.position, limit=args.limit)
+
+
+def run(args: argparse.Namespace) -> int:
+    _check(args)
+    tool, close = _tool(args)
+    try:
+        result = _act(tool, args)
+    finally:
+        close()
+    if args.json:
+        print_json(result)
+    else:
+        for key, value in result.items():
+            print(f"{key:16s} {value}")
+    if isinstance(result, dict) and result.get("stop_confirmed") is False:
+        print("rig drive: the drive's stop was not confirmed", file=sys.stderr)
+        return EXIT_UNCONFIRMED
+    if isinstance(result, dict) and str(result.get("result", "done")) != "done":
+        return EXIT_STOPPED
+    return 0

@@ -1,0 +1,252 @@
+"""Commissioning one CiA 402 drive by SDO (``rig drive``): its status, its state machine, its
+objects, and short moves on its own profile generators, each within limits and ending in
+the drive's own stop.
+
+``DriveTool`` wraps the driver (``drivers.cia402.Cia402Axis``) for what a lab engineer does
+with a new drive before any control law runs: read what it is and how it is set up, enable
+and disable it, reset a fault, read and write an object by index or by its EDS name, jog it
+in profile velocity, home it, and move it in profile position. A move ends the way every
+stop of the toolkit ends: quick stop, the drive's ramp to rest (watched by SDO), disable; so
+does Ctrl-C. Time passes through ``idle`` (a sleep on a real bus; a SYNC in lock-step).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+from drivers.cia402 import Cia402Axis, power_state
+from drivers.cia402_pdo import read_mapping
+from drivers.errors import ConfigError, DeviceFault, SafetyStop
+from drivers.maps import cia
+from drivers.maps.cia import Controlword, Mode, PowerState
+
+__all__ = ["STATUS_BITS", "DriveTool", "parse_object"]
+
+#: statusword bits 0-15 by name (CiA 402-2)
+STATUS_BITS = (
+    "ready to switch on",
+    "switched on",
+    "operation enabled",
+    "fault",
+    "voltage enabled",
+    "quick stop",
+    "switch on disabled",
+    "warning",
+    "manufacturer 8",
+    "remote",
+    "target reached",
+    "internal limit active",
+    "operation mode 12",
+    "operation mode 13",
+    "manufacturer 14",
+    "manufacturer 15",
+)
+_NEW_SETPOINT, _HALT = 0x10, 0x100
+_BIT12, _HOMING_ERROR, _TARGET_REACHED = 1 << 12, 1 << 13, 1 << 10  #: bit 12: set-point ack / attained
+
+
+def parse_object(text: str, od: Any) -> tuple[int, int]:
+    """``0x6060``, ``0x1018:1``, ``6060sub0`` or an EDS name (``Modes of operation``,
+    ``Identity object.Vendor-ID``) -> (index, subindex); ConfigError naming ``text``."""
+    t = text.strip()
+    index_text, _, sub_text = t.replace("sub", ":").partition(":")
+    try:
+        index = int(index_text, 16)
+        sub = int(sub_text, 0) if sub_text else 0
+    except ValueError:
+        name, _, sub_name = t.partition(".")
+        if name not in od:
+            raise ConfigError(f"object {text!r}: neither index[:sub] nor a name in the EDS") from None
+        obj = od[name]
+        if not sub_name:
+            return obj.index, 0
+        if not hasattr(obj, "names") or sub_name not in obj.names:
+            raise ConfigError(f"object {text!r}: {name!r} has no entry {sub_name!r}") from None
+        return obj.index, obj[sub_name].subindex
+    if not 0 <= index <= 0xFFFF or not 0 <= sub <= 0xFF:
+        raise ConfigError(f"object {text!r}: index 0..0xFFFF, sub-index 0..255")
+    return index, sub
+
+
+class DriveTool:
+    """See the module docstring; ``axis`` is a driver that has not been set up."""
+
+    def __init__(
+        self, axis: Cia402Axis, *, idle: Callable[[], None] | None = None, period: float = 0.01
+    ) -> None:
+        self.axis = axis
+        self.idle = idle or (lambda: time.sleep(period))
+        self.period = period  #: [s] between two looks at the drive
+        axis.idle = self.idle
+
+    # --- what the drive is ----------------------------------------------------------------------
+    def status(self) -> dict[str, Any]:
+        """State, mode, statusword bits, 0x603F, last EMCY, units in force, PDO mapping in force."""
+        a = self.axis
+        units = a.discover(check_mode=False)
+        word = int(a.sdo_read(cia.STATUSWORD))
+        od = a.node.object_dictionary
+        mapping = {}
+        for receive in (True, False):
+            for pdo in read_mapping(a.sdo_read, od, receive=receive):
+                mapping[pdo.name] = {
+                    "valid": pdo.valid,
+                    "cob_id": f"0x{pdo.cob_id:03X}",
+                    "type": pdo.ttype,
+                    "entries": [f"0x{e.index:04X}:{e.subindex:02X}/{e.bits}" for e in pdo.entries],
+                }
+        return {
+            "node": a.node_id,
+            "identity": {k: f"0x{v:08X}" for k, v in a.identity.items()},
+            "state": power_state(word).value,
+            "statusword": f"0x{word:04X}",
+            "statusword_bits": [name for bit, name in enumerate(STATUS_BITS) if word >> bit & 1],
+            "mode": a.sdo_read(cia.MODES_DISPLAY),
+            "supported_modes": sorted(Mode(m).name for m in a.supported_modes or ()),
+            "error_code": a.fault_text(),
+            "last_emcy": a.emcy_log[-1] if a.emcy_log else None,
+            "units": units.describe(),
+            "pdo_mapping": mapping,
+        }
+
+    # --- the state machine ----------------------------------------------------------------------
+    def enable(self, *, timeout: float = 2.0) -> str:
+        self.axis.nmt("OPERATIONAL")
+        self.axis.enable(timeout=timeout)
+        return self.axis.read_power_state().value
+
+    def disable(self) -> str:
+        self.axis.disable()
+        return self.axis.read_power_state().value
+
+    def reset(self, *, timeout: float = 2.0) -> str:
+        was = self.axis.fault_text()
+        self.axis.fault_reset(timeout=timeout)
+        return f"{self.axis.read_power_state().value} (was: {was})"
+
+    # --- moves ----------------------------------------------------------------------------------
+    def _mode(self, mode: Mode) -> None:
+        if self.axis.supported_modes is not None and int(mode) not in self.axis.supported_modes:
+            raise ConfigError(f"{self.axis.where}: the drive has no {mode.name} mode (0x6502)")
+        self.axis.set_mode(mode)
+
+    def _until(self, done: Callable[[], bool], seconds: float, what: str) -> None:
+        deadline = time.monotonic() + seconds
+        for _ in range(max(1, math.ceil(seconds / self.period))):
+            if done():
+                return
+            if time.monotonic() > deadline:
+                break
+            self.idle()
+        if not done():
+            raise SafetyStop(f"{self.axis.where}: {what} not within {seconds:g} s")
+
+    def _run(
+        self, mode: Mode, start: Callable[[], None], done: Callable[[], bool], seconds: float, what: str
+    ) -> dict[str, Any]:
+        """Enable in ``mode``, ``start``, wait for ``done`` (``seconds``), then the stop; the stop
+        also on any error or Ctrl-C."""
+        a = self.axis
+        a.discover(check_mode=False)
+        a.nmt("OPERATIONAL")
+        self._mode(mode)
+        a.enable(timeout=2.0)
+        confirmed, result = False, "done"
+        try:
+            start()
+            self._until(done, seconds, what)
+        except KeyboardInterrupt:
+            result = "interrupted (Ctrl-C)"
+        except (SafetyStop, DeviceFault) as exc:
+            result = f"stopped: {exc}"
+        finally:
+            confirmed = self.stop()
+        return {
+            "result": result,
+            "position_rad": a.sdo_read(cia.POSITION_ACTUAL) / a.units.position,
+            "velocity_rad_s": a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity,
+            "stop_confirmed": confirmed,
+            "state": a.read_power_state().value,
+        }
+
+    def stop(self, *, seconds: float = 3.0) -> bool:
+        """Quick stop, the drive's ramp to rest (statusword and 0x606C by SDO), disable; True
+        when the ramp was seen to end."""
+        a = self.axis
+        a.quick_stop()
+
+        def at_rest() -> bool:
+            state = a.read_power_state()
+            if state in (PowerState.SWITCH_ON_DISABLED, PowerState.FAULT):
+                return True
+            return bool(abs(a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity) < a.REST_SPEED)
+
+        try:
+            self._until(at_rest, seconds, "the drive's stop")
+            confirmed = True
+        except SafetyStop:
+            confirmed = False
+        a.disable()
+        return confirmed
+
+    def jog(self, speed: float, seconds: float, *, limit: float) -> dict[str, Any]:
+        """Profile velocity at ``speed`` [rad/s] for ``seconds``; |speed| <= ``limit``."""
+        if not abs(speed) <= limit:
+            raise ConfigError(f"jog speed {speed:g} rad/s exceeds the limit {limit:g} rad/s (--limit)")
+        a = self.axis
+        end = time.monotonic() + seconds
+        ticks = [0]
+
+        def elapsed() -> bool:
+            ticks[0] += 1
+            return ticks[0] * self.period >= seconds or time.monotonic() >= end
+
+        return self._run(
+            Mode.PROFILE_VELOCITY,
+            lambda: a.sdo_write(cia.TARGET_VELOCITY, 0, round(speed * a.units.velocity)),
+            elapsed,
+            seconds + 1.0,
+            "the jog",
+        )
+
+    def move(self, position: float, *, limit: float, seconds: float = 30.0) -> dict[str, Any]:
+        """Profile position to ``position`` [rad] (absolute); |move| <= ``limit`` [rad]."""
+        a = self.axis
+        a.discover(check_mode=False)
+        here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
+        if not abs(position - here) <= limit:
+            raise ConfigError(f"move of {position - here:g} rad exceeds the limit {limit:g} rad (--limit)")
+
+        def start() -> None:
+            a.sdo_write(cia.TARGET_POSITION, 0, round(position * a.units.position))
+            a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
+            self._until(lambda: bool(a.sdo_read(cia.STATUSWORD) & _BIT12), 1.0, "the set-point acknowledge")
+            a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION))
+
+        return self._run(
+            Mode.PROFILE_POSITION,
+            start,
+            lambda: bool(a.sdo_read(cia.STATUSWORD) & _TARGET_REACHED),
+            seconds,
+            "the target",
+        )
+
+    def home(self, method: int | None, *, seconds: float = 30.0) -> dict[str, Any]:
+        """Homing with ``method`` (0x6098; None: the drive's); attained or an error."""
+        a = self.axis
+
+        def start() -> None:
+            if method is not None:
+                a.sdo_write(cia.HOMING_METHOD, 0, method)
+            a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
+
+        def done() -> bool:
+            word = int(a.sdo_read(cia.STATUSWORD))
+            if word & _HOMING_ERROR:
+                raise DeviceFault(f"homing error (method {method})", device=a.where)
+            return bool(word & _BIT12 and word & _TARGET_REACHED)
+
+        return self._run(Mode.HOMING, start, done, seconds, "homing")
