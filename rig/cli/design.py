@@ -35,11 +35,13 @@ def add_parser(sub: Any) -> None:
 
 def _design(args: argparse.Namespace) -> DTSMDesign:
     a_m, b_m = args.a_m, args.b_m
+    args.input = "voltage"
     if args.from_identify:
         try:
             with open(args.from_identify) as f:
                 doc = json.load(f)
             a_m, b_m = float(doc["a_m"]), float(doc["b_m"])
+            args.input = str(doc.get("input", "voltage"))
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise UsageError(f"rig design dtsm: --from-identify {args.from_identify}: {exc}") from exc
     if a_m is None or b_m is None:
@@ -58,12 +60,14 @@ def _design(args: argparse.Namespace) -> DTSMDesign:
 def run(args: argparse.Namespace) -> int:
     d = _design(args)
     if args.json:
-        print(json.dumps(d.as_dict()))
+        extra = {"input": args.input} if args.from_identify else {}  # the model's input, when known
+        print(json.dumps({**d.as_dict(), **extra}))
         return 0
     print(
         "\n".join(
             [
-                f"DTSM design, T = {d.dt:g} s (eqs. 6.9, 6.16-6.19)",
+                f"DTSM design, T = {d.dt:g} s (eqs. 6.9, 6.16-6.19), input u: {args.input} "
+                f"(the run must command the axis in {'CST' if args.input == 'torque' else 'voltage mode'})",
                 f"  A_delta         = {[list(r) for r in d.A_delta]}",
                 f"  b_delta         = {list(d.b_delta)}",
                 f"  lambda_delta    = {d.lambda_delta:.10g} 1/s",

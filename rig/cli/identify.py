@@ -28,8 +28,16 @@ def add_parser(sub: Any) -> None:
     ident.add_argument("--excitation", choices=("prbs", "steps"), default="prbs")
     ident.add_argument("--duration", type=finite, default=5.0, help="experiment length [s]")
     ident.add_argument("--seed", type=int, default=0, help="PRBS seed")
-    ident.add_argument("--u0", type=finite, default=3.0, help="operating point [V] (speed of one sign)")
-    ident.add_argument("--amplitude", type=finite, default=2.0, help="excitation amplitude [V], < u0")
+    ident.add_argument(
+        "--input",
+        choices=("voltage", "torque"),
+        default="voltage",
+        help="what u is: the armature voltage (mode -1) or, on a commercial drive, the torque (CST)",
+    )
+    ident.add_argument(
+        "--u0", type=finite, help="operating point [V or N m] (one sign of speed; 3 V, 0.01 N m)"
+    )
+    ident.add_argument("--amplitude", type=finite, help="excitation amplitude, < u0 (2 V, 0.006 N m)")
     ident.add_argument("--clock", type=finite, default=0.02, help="PRBS bit time [s], a few times < 1/a_m")
     add_json(ident, "print one JSON object")
     ident.add_argument("--plot", metavar="FILE", help="write measured and model speed to FILE")
@@ -45,6 +53,11 @@ def _experiment(args: argparse.Namespace) -> str | None:
     from rig.identify import excitation
     from rig.identify.experiment import experiment_config, run_experiment, terminal_progress
 
+    torque = args.input == "torque"
+    if args.u0 is None:
+        args.u0 = 0.01 if torque else 3.0
+    if args.amplitude is None:
+        args.amplitude = 0.006 if torque else 2.0
     if not 0.0 < args.amplitude < args.u0:
         raise UsageError(f"rig identify: need 0 < --amplitude ({args.amplitude:g}) < --u0 ({args.u0:g})")
     if args.emulate:
@@ -69,7 +82,7 @@ def _experiment(args: argparse.Namespace) -> str | None:
         duration=args.duration,
         seed=args.seed,
     )
-    cfg = experiment_config(base, u, preset=args.emulate, params=params)
+    cfg = experiment_config(base, u, preset=args.emulate, params=params, input=args.input)
     summary = run_experiment(cfg, emulate=bool(args.emulate), progress=terminal_progress)
     if sys.stderr.isatty():
         sys.stderr.write("\n")
@@ -100,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     r = result
     print(f"identified (3.5) from {r.samples} samples at T = {r.dt:g} s ({run_dir}):")
-    for name, unit in (("a_m", "1/s"), ("b_m", "rad/(V s^2)")):
+    print(f"  input u: {r.input} [{r.input_unit}]")
+    for name, unit in (("a_m", "1/s"), ("b_m", r.b_m_unit)):
         value, err, (low, high) = getattr(r, name), getattr(r, f"{name}_stderr"), getattr(r, f"{name}_ci95")
         print(f"  {name} = {value:.5g} {unit}, stderr {err:.2g}, 95 %: {low:.5g} .. {high:.5g}")
     print(f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2")

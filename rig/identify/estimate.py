@@ -33,6 +33,7 @@ import scipy.optimize
 import scipy.signal
 
 __all__ = [
+    "INPUTS",
     "IdentResult",
     "IdentificationError",
     "estimate",
@@ -40,6 +41,11 @@ __all__ = [
     "simulate_positions",
     "virtual_experiment",
 ]
+
+
+#: the inputs an experiment can replay: (unit of u, unit of b_m); with a torque, dw/dt =
+#: -a_m w + b_m T holds with b_m = 1/J (and a_m = B/J)
+INPUTS = {"voltage": ("V", "rad/(V s^2)"), "torque": ("N m", "1/(kg m^2)")}
 
 
 class IdentificationError(ValueError):
@@ -61,9 +67,19 @@ class IdentResult:
     fit_percent: float
     dt: float
     samples: int
+    input: str = "voltage"  #: what u was: "voltage" [V] (mode -1) or "torque" [N m] (CST)
+
+    @property
+    def input_unit(self) -> str:
+        return INPUTS[self.input][0]
+
+    @property
+    def b_m_unit(self) -> str:
+        """b_m per unit of the input: rad/(V s^2), or 1/(kg m^2) (b_m = 1/J) for a torque."""
+        return INPUTS[self.input][1]
 
     def as_dict(self) -> dict[str, object]:
-        return asdict(self)
+        return {**asdict(self), "input_unit": self.input_unit, "b_m_unit": self.b_m_unit}
 
 
 def excitation(
@@ -183,9 +199,18 @@ def _output_error(
 
 
 def estimate(
-    u: np.ndarray, theta: np.ndarray, dt: float, *, max_delay: int = 5, holdout: float = 0.3
+    u: np.ndarray,
+    theta: np.ndarray,
+    dt: float,
+    *,
+    max_delay: int = 5,
+    holdout: float = 0.3,
+    input: str = "voltage",
 ) -> IdentResult:
-    """Identify (3.5) from the command u [V] and the measured position theta [rad] per sample."""
+    """Identify (3.5) from the command u [V, or N m with ``input="torque"``] and the measured
+    position theta [rad] per sample."""
+    if input not in INPUTS:
+        raise IdentificationError(f"input {input!r}: voltage or torque")
     u = np.asarray(u, dtype=float)
     theta = np.asarray(theta, dtype=float)
     if u.shape != theta.shape:
@@ -214,6 +239,7 @@ def estimate(
         fit_percent=fit_pct,
         dt=dt,
         samples=len(u),
+        input=input,
     )
 
 

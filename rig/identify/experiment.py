@@ -26,17 +26,23 @@ __all__ = ["experiment_config", "identify_from_log", "run_experiment", "terminal
 
 
 def experiment_config(
-    cfg: RigConfig, u: np.ndarray, *, preset: str | None = None, params: dict[str, Any] | None = None
+    cfg: RigConfig,
+    u: np.ndarray,
+    *,
+    preset: str | None = None,
+    params: dict[str, Any] | None = None,
+    input: str = "voltage",
 ) -> RigConfig:
-    """``cfg`` made into an identification run of ``u`` (one value [V] per period): name ``identify``;
-    the law ``replay`` on the axis ``cfg``'s law commands, in voltage mode with a synchronous RPDO
-    (the delay is estimated), no position window, a speed limit of 1000 rad/s;
+    """``cfg`` made into an identification run of ``u`` (one value per period, [V] or, with
+    ``input="torque"``, [N m]): name ``identify``; the law ``replay`` on the axis ``cfg``'s law
+    commands, in voltage mode (or CST for a torque: a commercial drive's) with a synchronous
+    RPDO (the delay is estimated), no position window, a speed limit of 1000 rad/s;
     ``preset``/``params`` replace the emulator's."""
     target = cfg.controller.commands[0]
     axes = tuple(
         dataclasses.replace(
             a,
-            mode="voltage",
+            mode="cst" if input == "torque" else "voltage",
             sync_rpdo=True,
             limits=dataclasses.replace(a.limits, position_min=-math.inf, position_max=math.inf, speed=1000.0),
         )
@@ -46,7 +52,7 @@ def experiment_config(
     )
     return dataclasses.replace(
         cfg,
-        run=dataclasses.replace(cfg.run, name="identify"),
+        run=dataclasses.replace(cfg.run, name=f"identify-{input}"),
         emulator=dataclasses.replace(
             cfg.emulator,
             preset=preset or cfg.emulator.preset,
@@ -76,9 +82,23 @@ def run_experiment(
 
 
 def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult:
-    """Estimate from a recorded run: ``samples.csv`` (command, measurement) and its period."""
+    """Estimate from a recorded run: ``samples.csv`` (command, measurement) and its period; the
+    input is the commanded axis's mode in its ``config.json`` (CST: a torque)."""
     u, theta, period = read_run(run_dir)
-    return estimate(u, theta, period, max_delay=max_delay)
+    return estimate(u, theta, period, max_delay=max_delay, input=run_input(run_dir))
+
+
+def run_input(run_dir: str | Path) -> str:
+    """ "torque" when the run's commanded axis was in CST, else "voltage"."""
+    import json
+
+    try:
+        cfg = json.loads((Path(run_dir) / "config.json").read_text())
+        commanded = cfg["controller"]["commands"][0]
+        mode = next(a["mode"] for a in cfg["axes"] if a["name"] == commanded)
+    except (OSError, ValueError, KeyError, IndexError, StopIteration, TypeError):
+        return "voltage"
+    return "torque" if mode == "cst" else "voltage"
 
 
 def terminal_progress(fraction: float) -> None:

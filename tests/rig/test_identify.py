@@ -86,3 +86,26 @@ def test_offline_from_a_run_directory_and_design_from_the_result(
 def test_bad_excitation_amplitude_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["identify", "--emulate", "dc-servo", "--u0", "1", "--amplitude", "2"]) == 2
     assert "--amplitude" in capsys.readouterr().err
+
+
+def test_identify_in_cst_on_a_torque_input(
+    capsys: pytest.CaptureFixture[str], tmp_path: pathlib.Path
+) -> None:
+    """A commercial drive has no voltage mode: the experiment replays a torque in CST, and the
+    result is (3.5) with u a torque: a_m = B/J, b_m = 1/J in 1/(kg m^2), said in the result."""
+    from plant_emulator.dc_motor import DCMotorParams
+
+    motor = DCMotorParams.from_am_bm(a_m=16.0, b_m=680.0, r_r=1.0, tau_e=1e-4, b=7e-5)
+    argv = ["identify", "--emulate", "dc-servo", "--input", "torque", "--param", "friction=7e-5", "--json"]
+    assert main([*argv, "--duration", "5"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["input"] == "torque" and r["input_unit"] == "N m" and r["b_m_unit"] == "1/(kg m^2)"
+    assert r["b_m"] == pytest.approx(1.0 / motor.j, rel=0.01)
+    assert r["a_m"] == pytest.approx(motor.b / motor.j, rel=0.05)
+    result = tmp_path / "ident.json"
+    result.write_text(json.dumps(r))
+    assert (
+        main(["design", "dtsm", "--from-identify", str(result), "--dt", "0.4e-3", "--lam", "-15", "--json"])
+        == 0
+    )
+    assert json.loads(capsys.readouterr().out)["input"] == "torque"
