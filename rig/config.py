@@ -5,7 +5,8 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
     [run]        duration [s], time ("lockstep" | "realtime"), output (directory), name,
                  period [s] (default: the emulator preset's), trace (write trace.asc, default true)
     [bus]        the CAN bus: interface, channel, bitrate, host, port (ignored with --emulate);
-                 host_node (127), heartbeat [s] (0.1; 0: none): the host's heartbeat the drives watch
+                 host_node (127), heartbeat [s] (0.1; 0: none): the host's heartbeat the drives watch;
+                 sync ("host" | "external": another device sends SYNC; real time only)
     [emulator]   preset (dc-servo | im-drive | grid-converter | dyno) or device (a zoo drive's twin:
                  rig emulate --list, or a device profile file), and [emulator.params]
                  NAME = value (the preset's parameters); [emulator.inverter] NAME = value for
@@ -100,6 +101,7 @@ class BusConfig:
     port: int = 29536
     host_node: int = 127  #: the host's node id: the id of its heartbeat
     heartbeat: float = 0.1  #: [s] the host's heartbeat period, which the drives watch (0: none)
+    sync: str = "host"  #: who produces SYNC: the host, or "external" (another device; real time only)
 
 
 @dataclass(frozen=True)
@@ -377,6 +379,19 @@ def _default_roles(cfg: RigConfig) -> RigConfig:
 
 def _check_rig(cfg: RigConfig) -> None:
     src = cfg.source
+    b = cfg.bus
+    if b.sync not in ("host", "external"):
+        raise ConfigError(f"{src}: [bus] sync = {b.sync!r}: host or external")
+    if b.sync == "external" and cfg.run.time != "realtime":
+        raise ConfigError(
+            f'{src}: [bus] sync = "external" needs [run] time = "realtime" (lock-step is the host\'s SYNC)'
+        )
+    if not 1 <= b.host_node <= 127:
+        raise ConfigError(f"{src}: [bus] host_node = {b.host_node}: must be 1..127")
+    if not b.heartbeat >= 0.0:
+        raise ConfigError(f"{src}: [bus] heartbeat = {b.heartbeat!r}: must be >= 0 s")
+    if b.host_node in [a.node_id for a in cfg.axes if a.kind != "modbus"]:
+        raise ConfigError(f"{src}: [bus] host_node = {b.host_node} is also an axis's node_id")
     names = [a.name for a in cfg.axes]
     for name in names:
         if names.count(name) > 1:

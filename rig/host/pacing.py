@@ -13,6 +13,8 @@ the clock the frames' timestamps are on (heartbeat ages are measured on it).
 - ``HostSync``: real time; the host sends SYNC at each deadline.
 - ``KernelSync``: real time on SocketCAN; the kernel's broadcast manager sends
   SYNC every period; ``tick`` waits for the answering TPDO.
+- ``ExternalSync``: real time, another device sends SYNC; ``tick`` waits for the
+  answering TPDOs.
 - ``FreeRun``: real time without SYNC (Modbus-only rigs).
 """
 
@@ -25,7 +27,7 @@ from typing import Any
 
 from drivers.canopen_axis import CanopenAxis
 
-__all__ = ["FreeRun", "HostSync", "InProcessLockstep", "KernelSync", "Pacing", "WireLockstep"]
+__all__ = ["ExternalSync", "FreeRun", "HostSync", "InProcessLockstep", "KernelSync", "Pacing", "WireLockstep"]
 
 
 class Pacing:
@@ -139,17 +141,16 @@ class WireLockstep(HostSync):
         self.answers.close()
 
 
-class KernelSync(Pacing):
-    """SYNC from the kernel's broadcast manager every ``period`` [s] (SocketCAN); ``tick`` waits
-    (up to ``timeout`` [s]) until every CANopen axis has answered the next SYNC."""
+class ExternalSync(Pacing):
+    """Another device produces SYNC (``[bus] sync = "external"``): ``tick`` waits (up to
+    ``timeout`` [s]) until every CANopen axis has answered the next SYNC; the host sends none."""
 
     paced_by_bus = True
 
-    def __init__(self, network: Any, axes: Sequence[CanopenAxis], period: float, timeout: float) -> None:
+    def __init__(self, network: Any, axes: Sequence[CanopenAxis], timeout: float) -> None:
         self.network = network
         self.answers = _Answers(network, _cob_ids(axes))
         self.timeout = timeout
-        network.sync.start(period)
         self._running = True
 
     def tick(self) -> None:
@@ -159,5 +160,18 @@ class KernelSync(Pacing):
     def close(self) -> None:
         if self._running:
             self._running = False
-            self.network.sync.stop()
             self.answers.close()
+
+
+class KernelSync(ExternalSync):
+    """SYNC from the kernel's broadcast manager every ``period`` [s] (SocketCAN); ``tick`` waits
+    for the answers as ``ExternalSync`` does."""
+
+    def __init__(self, network: Any, axes: Sequence[CanopenAxis], period: float, timeout: float) -> None:
+        super().__init__(network, axes, timeout)
+        network.sync.start(period)
+
+    def close(self) -> None:
+        if self._running:
+            self.network.sync.stop()
+        super().close()

@@ -29,7 +29,15 @@ from rig.host.axes import open_axis
 from rig.host.emulation import Emulation
 from rig.host.heartbeat import HostHeartbeat
 from rig.host.loop import HostLoop, Wiring
-from rig.host.pacing import FreeRun, HostSync, InProcessLockstep, KernelSync, Pacing, WireLockstep
+from rig.host.pacing import (
+    ExternalSync,
+    FreeRun,
+    HostSync,
+    InProcessLockstep,
+    KernelSync,
+    Pacing,
+    WireLockstep,
+)
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.laws import Law, make_law
@@ -170,6 +178,8 @@ class Session:
         if not canopen_axes:
             return FreeRun()
         timeout = min(a.limits.watchdog_periods for a in cfg.axes) * period
+        if cfg.bus.sync == "external":
+            return ExternalSync(self.network, canopen_axes, timeout)
         if cfg.run.time == "lockstep":
             return WireLockstep(self.network, canopen_axes, timeout)
         if cfg.bus.interface == "socketcan":

@@ -93,3 +93,49 @@ def test_every_zoo_drive_in_real_time_in_another_process(device: str, tmp_path: 
     finally:
         _out, err = stop_rig(proc, timeout=10)
     assert proc.returncode == 0, err
+
+
+def test_sync_from_another_device(tmp_path: pathlib.Path) -> None:
+    """``[bus] sync = "external"``: a third party sends SYNC; the host sends none and keeps to it."""
+    import re
+
+    import can
+
+    from rig.config import BusConfig
+    from rig.process import spawn_rig, stop_rig
+
+    proc, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
+    try:
+        port = int(re.search(r"socketcand://127\.0\.0\.1:(\d+)", line).group(1))  # type: ignore[union-attr]
+        producer = can.Bus(
+            interface="socketcand", host="127.0.0.1", port=port, channel="can0", ignore_config=True
+        )
+        syncs_seen: list[float] = []  # by the producer: SYNCs it did not send itself
+        notifier = can.Notifier(
+            producer, [lambda m: syncs_seen.append(m.timestamp) if m.arbitration_id == 0x80 else None]
+        )
+        task = producer.send_periodic(can.Message(arbitration_id=0x80, data=b"", is_extended_id=False), 0.002)
+        cfg = load_config(EXAMPLE)
+        cfg = dataclasses.replace(
+            cfg,
+            run=dataclasses.replace(
+                cfg.run, output=str(tmp_path), time="realtime", period=0.002, duration=0.8
+            ),
+            bus=BusConfig(interface="socketcand", channel="can0", port=port, sync="external"),
+            reference=dataclasses.replace(cfg.reference, distance=2.0, duration=0.3),
+        )
+        eds = str(load_profile(zoo()["epos4"]).eds)
+        cfg = replace_axis(cfg, "motor", eds=eds, enable_timeout=3.0, limits={"watchdog_periods": 100})
+        with Session(cfg, emulate=False) as session:
+            session.start()
+            summary = session.run()
+        task.stop()
+        notifier.stop()
+        producer.shutdown()
+        assert syncs_seen == []  # the host sent no SYNC
+        assert summary["safe_stop_reason"] is None and summary["stop_confirmed"] is True
+        data = np.genfromtxt(pathlib.Path(summary["run_dir"]) / "samples.csv", delimiter=",", names=True)
+        assert data["measurement"][-1] == pytest.approx(2.0, abs=0.02)
+    finally:
+        _out, err = stop_rig(proc, timeout=10)
+    assert proc.returncode == 0, err
