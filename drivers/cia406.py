@@ -18,7 +18,7 @@ import canopen
 from drivers.base import AxisState, Feedback
 from drivers.canopen_axis import CanopenAxis, TpdoSlot
 from drivers.errors import ConfigError
-from drivers.maps import CIA406_EDS, cia
+from drivers.maps import CIA406_EDS, cia, cia406
 
 __all__ = ["Cia406Axis"]
 
@@ -56,7 +56,7 @@ class Cia406Axis(CanopenAxis):
         device_type = self.sdo_read(cia.DEVICE_TYPE)
         if device_type & 0xFFFF != cia.PROFILE_ENCODER:
             raise ConfigError(f"node {self.node_id} is not a CiA 406 encoder (0x1000 = 0x{device_type:08X})")
-        per_rev = self.sdo_read(cia.ENCODER_RESOLUTION)
+        per_rev = self.sdo_read(cia406.ENCODER_RESOLUTION)
         if not per_rev:
             raise ConfigError(f"node {self.node_id}: 0x6001 measuring units per revolution is 0")
         self.counts_per_rad = per_rev / (2.0 * math.pi)
@@ -71,11 +71,11 @@ class Cia406Axis(CanopenAxis):
             if (
                 pdo.enabled
                 and 1 <= (pdo.trans_type or 0) <= cia.PDO_SYNC_MAX
-                and ((cia.ENCODER_POSITION, 0) in entries)
+                and ((cia406.ENCODER_POSITION, 0) in entries)
             ):
                 self._slot: TpdoSlot = self.receive(pdo)
-                self._position_at = entries.index((cia.ENCODER_POSITION, 0))
-                speed = (cia.ENCODER_SPEED, 1)
+                self._position_at = entries.index((cia406.ENCODER_POSITION, 0))
+                speed = (cia406.ENCODER_SPEED, 1)
                 self._speed_at = entries.index(speed) if speed in entries else None
                 return
         raise ConfigError(f"node {self.node_id}: no synchronous TPDO maps the position 0x6004")

@@ -78,16 +78,8 @@ S = PowerState
 # enum member up on its class (and to hash an Enum), ~0.03 us for a global.
 _CSV, _CSP, _CST, _PP = int(Mode.CSV), int(Mode.CSP), int(Mode.CST), int(Mode.PROFILE_POSITION)
 _CYCLIC = (_CSP, _CSV, _CST)
-_ENABLED, _QUICK_STOP_ACTIVE, _REACTION, _FAULT = (
-    S.OPERATION_ENABLED,
-    S.QUICK_STOP_ACTIVE,
-    S.FAULT_REACTION_ACTIVE,
-    S.FAULT,
-)
-_STOPPED = (_FAULT, S.SWITCH_ON_DISABLED)
-_OVER_CURRENT, _OVER_SPEED, _FOLLOWING_ERROR = (
-    int(c) for c in (EmcyCode.OVER_CURRENT, EmcyCode.OVER_SPEED, EmcyCode.FOLLOWING_ERROR)
-)
+_ENABLED = S.OPERATION_ENABLED
+_FOLLOWING_ERROR = int(EmcyCode.FOLLOWING_ERROR)
 
 
 @functools.lru_cache(maxsize=1)

@@ -15,7 +15,7 @@ import math
 import canopen
 
 from drivers.maps import CIA406_EDS
-from drivers.maps.cia import (
+from drivers.maps.cia406 import (
     ENCODER_CYCLIC_TIMER,
     ENCODER_POSITION,
     ENCODER_RESOLUTION,

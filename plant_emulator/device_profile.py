@@ -4,54 +4,17 @@ An EDS lists a drive's objects, their types, access, mappability and defaults.
 It does not say which modes the drive has where it lacks 0x6502, what its
 increments are where it lacks 0x608F, whether it lets its PDOs be remapped, how
 long it takes to answer, how it stops, or what the motor behind it is. A profile
-says that. One file per drive, next to its EDS::
-
-    [device]
-    name = "epos4"                     # what ``rig emulate --device`` takes
-    description = "one line for rig emulate --list"
-    modelled_on = "the published facts it follows, and which features are variants"
-    eds = "epos4.eds"                  # relative to this file
-    physics = "dc-servo"               # the preset whose motor is behind the drive
-    node_id = 1
-
-    [physics.params]                   # the preset's parameters by name (typed)
-    a_m = 16.0
-
-    [modes]
-    supported = ["pp", "pv", "hm", "csp", "csv"]   # only where the EDS has no 0x6502
-
-    [units]
-    counts_per_rev = 51200             # increments per motor revolution where 0x608F is absent
-    position = "0xFF410000"            # SI unit code (0x60A8) where the EDS lacks 0x60A8
-    velocity = "0x00B44700"            # SI unit code (0x60A9) where the EDS lacks 0x60A9
-
-    [pdo]
-    mapping = "remappable"             # or "fixed": mapping parameters refuse every write
-
-    [timing]                           # seconds
-    sdo_response = 0.0005
-    pdo_latency = 0.0                  # an event-driven RPDO acts this long after receipt
-    mode_switch = 0.002                # 0x6061 follows 0x6060 after this
-
-    [reactions]                        # defaults of 0x605A, 0x605E, 0x6007, 0x605D, and the
-    quick_stop = 2                     # decelerations [rad/s^2] where 0x6084/0x6085 are absent
-    fault = 2
-    abort_connection = 1
-    halt = 1
-    profile_deceleration = 1000.0
-    quick_stop_deceleration = 2000.0
-
-    [homing]
-    methods = [35, 37, 19]             # 0x6098 values it accepts
-    switch_position = 0.5              # [rad] the home switch (0x60FD bit 2) is on at angles >= this
-
-    [manufacturer.0x2001]              # objects 0x2000-0x5FFF with a meaning
-    name = "CAN bit rate"
-    harmful = true                     # a write here would be a host's mistake: logged and kept
-    role = ""                          # "command-latency": the toolkit's event-RPDO latency [us]
-
-    [emcy]
-    0x7380 = "resolver error"          # texts for manufacturer EMCY codes
+says that. One file per drive, next to its EDS; its sections (every key optional but
+``[device] eds``; the README's "A twin of your own drive" shows them all): ``[device]`` name,
+description, modelled_on, eds, physics (the preset whose motor is behind the drive),
+node_id; ``[physics.params]`` the preset's parameters; ``[modes] supported`` (only where the
+EDS has no 0x6502); ``[units]`` counts_per_rev, position, velocity (where the EDS lacks
+0x608F, 0x60A8, 0x60A9); ``[pdo] mapping`` (remappable | fixed); ``[timing]`` sdo_response,
+pdo_latency, mode_switch [s]; ``[reactions]`` quick_stop, fault, abort_connection, halt (the
+defaults of 0x605A, 0x605E, 0x6007, 0x605D) and profile_deceleration,
+quick_stop_deceleration [rad/s^2] (where 0x6084/0x6085 are absent); ``[homing]`` methods,
+switch_position [rad]; ``[manufacturer.0xIIII]`` name, harmful, role
+("command-latency": the toolkit's event-RPDO latency [us]); ``[emcy]`` code = text.
 
 Every key is checked: an unknown key, a wrong type or a value out of range is a
 ``ConfigError`` naming the file and the key. ``check_against(od)`` then checks

@@ -37,7 +37,7 @@ from typing import Literal, TypeVar
 
 import canopen
 
-from drivers.maps import cia
+from drivers.maps import cia, cia406
 from drivers.maps.cia import Mode
 from plant_emulator.axes import Axis, LoadProfile
 from plant_emulator.canopen_node import EmulatedNode
@@ -204,7 +204,7 @@ def build_dyno(p: DynoPreset, network: canopen.Network, motor: Axis, ratings: Ra
     drive = EmulatedDrive(p.drive_node, network, motor, period=p.period, shaft=shaft)
     drive.rate(ratings, counts_per_rev=p.counts_per_rev)
     encoder = EmulatedEncoder(p.encoder_node, network, shaft, period=p.period)
-    encoder.write(cia.ENCODER_RESOLUTION, 0, p.counts_per_rev)
+    encoder.write(cia406.ENCODER_RESOLUTION, 0, p.counts_per_rev)
     load = EmulatedDrive(p.load_node, network, machine, period=p.period, shaft=shaft)
     load.rate(load_ratings, counts_per_rev=p.counts_per_rev)
     # CST selected where the drive has no voltage mode (the load machine, the IM's FOC drive)

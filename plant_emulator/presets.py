@@ -34,7 +34,7 @@ from typing import Any, Literal
 
 import canopen
 
-from drivers.maps import cia
+from drivers.maps import cia, cia406
 from drivers.maps.cia import Mode, map_entry
 from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
@@ -247,7 +247,7 @@ def _with_encoder(
     drive: EmulatedDrive, p: DcServoPreset | ImDrivePreset, network: canopen.Network
 ) -> list[EmulatedNode]:
     encoder = EmulatedEncoder(p.encoder_node, network, drive.shaft, period=p.period)
-    encoder.write(cia.ENCODER_RESOLUTION, 0, p.counts_per_rev)
+    encoder.write(cia406.ENCODER_RESOLUTION, 0, p.counts_per_rev)
     return [drive, encoder]
 
 

@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from drivers.errors import ConfigError
+from rig.axis_config import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
 from rig.params import typed_values
 
 if sys.version_info >= (3, 11):
@@ -53,8 +54,6 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-#: ``abort_connection`` names: the value of 0x6007 (None: the drive's own setting)
-ABORT_CONNECTION = {"none": 0, "fault": 1, "disable-voltage": 2, "quick-stop": 3, "drive": None}
 
 __all__ = [
     "ABORT_CONNECTION",
@@ -73,13 +72,6 @@ __all__ = [
     "replace_axis",
     "rig_config",
 ]
-
-#: axis kinds and the modes each takes ("" : feedback only)
-AXIS_KINDS = {
-    "cia402": ("voltage", "cst", "csv", "csp", "pv", "dq-voltage"),
-    "modbus": ("speed",),
-    "cia406": ("",),
-}
 
 
 @dataclass(frozen=True)
@@ -110,60 +102,6 @@ class EmulatorConfig:
     device: str = ""  #: a drive's twin instead: a zoo profile's name or a profile file (.toml)
     params: dict[str, Any] = field(default_factory=dict)  #: the preset's parameters
     inverter: dict[str, Any] = field(default_factory=dict)  #: parameters of emulated Modbus inverters
-
-
-@dataclass(frozen=True)
-class AxisUnits:
-    """Unit factors for a device that does not report them (0: the device's own)."""
-
-    counts_per_rev: int = 0  #: position increments per revolution
-    rated_torque: float = 0.0  #: [N m]
-    rated_current: float = 0.0  #: [A]
-    position_unit: int = 0  #: SI unit code of positions (as 0x60A8), where the drive has no 0x60A8
-    velocity_unit: int = 0  #: SI unit code of velocities (as 0x60A9), where the drive has no 0x60A9
-
-
-@dataclass(frozen=True)
-class AxisLimits:
-    command: float = math.inf  #: |command| in the unit of the mode
-    speed: float = math.inf  #: [rad/s]
-    position_min: float = -math.inf  #: [rad]
-    position_max: float = math.inf  #: [rad]
-    current: float = math.inf  #: [A]
-    watchdog_periods: int = 3  #: periods without a new sample before the stop (missed real-time cycles count)
-    heartbeat_timeout: float = 0.0  #: [s]; 0: not supervised
-
-
-@dataclass(frozen=True)
-class AxisConfig:
-    name: str
-    kind: str
-    node_id: int = 0  #: CANopen node id
-    mode: str = ""
-    profile: str = ""  #: command by this time profile instead of the law
-    sync_rpdo: bool = True
-    latency: float = 0.0  #: [s]
-    enable_timeout: float = 1.0  #: [s]
-    stop_timeout: float = 3.0  #: [s] for the drive's own stop ramp to end
-    mode_timeout: float = 1.0  #: [s] for 0x6061 to show the mode written to 0x6060
-    pdo: str = "remap"  #: cia402: "remap" (the host's mapping, within the device's) or "device" (its own)
-    sdo_timeout: float = 0.0  #: [s] per SDO answer (0: the driver's default)
-    sdo_retries: int = -1  #: SDO retries (-1: the driver's default)
-    #: cia402: how the drive reacts when the host's heartbeat stops (0x6007): none, fault,
-    #: disable-voltage, quick-stop, or "drive" (leave the drive's setting)
-    abort_connection: str = "quick-stop"
-    host_timeout: float = 0.0  #: [s] the drive's watch of the host's heartbeat (0: 3 heartbeats)
-    reset_fault: bool = False  #: cia402: a drive found in FAULT at enable is reset (else refused)
-    eds: str = ""  #: the device's EDS/DCF ("" : the toolkit's)
-    speed_from_position: bool = False  #: cia406: speed as the backward difference of the position
-    map: str = ""  #: modbus register map
-    unit: int = 1  #: modbus unit id
-    host: str = ""  #: modbus TCP host
-    port: int = 502  #: modbus TCP port
-    serial: str = ""  #: modbus RTU serial device
-    baudrate: int = 19200
-    units: AxisUnits = field(default_factory=AxisUnits)
-    limits: AxisLimits = field(default_factory=AxisLimits)
 
 
 @dataclass(frozen=True)
@@ -250,50 +188,6 @@ def _table(path: str, where: str, value: Any) -> dict[str, Any]:
     return value
 
 
-def _axis(path: str, n: int, table: Any) -> AxisConfig:
-    where = f"[[axis]] #{n + 1}"
-    table = dict(_table(path, where, table))
-    name = table.get("name")
-    if not isinstance(name, str) or not name:
-        raise ConfigError(f"{path}: {where} needs a name (a string)")
-    where = f"[[axis]] {name!r}"
-    units = typed_values(AxisUnits, _table(path, where, table.pop("units", {})), f"{path}: {where} units")
-    limits = typed_values(AxisLimits, _table(path, where, table.pop("limits", {})), f"{path}: {where} limits")
-    values = typed_values(AxisConfig, table, f"{path}: {where}", fixed=("units", "limits"))
-    if "kind" not in values:
-        raise ConfigError(f"{path}: {where} needs kind ({', '.join(AXIS_KINDS)})")
-    axis = AxisConfig(**values, units=AxisUnits(**units), limits=AxisLimits(**limits))
-    _check_axis(path, where, axis)
-    return axis
-
-
-def _check_axis(path: str, where: str, a: AxisConfig) -> None:
-    if a.kind not in AXIS_KINDS:
-        raise ConfigError(f"{path}: {where} kind = {a.kind!r}; known: {', '.join(AXIS_KINDS)}")
-    if a.mode not in AXIS_KINDS[a.kind]:
-        modes = ", ".join(m for m in AXIS_KINDS[a.kind] if m) or "none (a feedback-only axis)"
-        raise ConfigError(f"{path}: {where} mode = {a.mode!r} for kind {a.kind}; expected {modes}")
-    if a.kind in ("cia402", "cia406") and not 1 <= a.node_id <= 127:
-        raise ConfigError(f"{path}: {where} node_id = {a.node_id}: must be 1..127")
-    if a.kind == "modbus" and not a.map:
-        raise ConfigError(f"{path}: {where} needs map (abb-drives-profile, delta-vfd-b)")
-    if a.profile and not a.mode:
-        raise ConfigError(f"{path}: {where} has a profile but no mode to command it in")
-    if a.abort_connection not in ABORT_CONNECTION:
-        raise ConfigError(
-            f"{path}: {where} abort_connection = {a.abort_connection!r}; known: {', '.join(ABORT_CONNECTION)}"
-        )
-    if a.pdo not in ("remap", "device"):
-        raise ConfigError(f"{path}: {where} pdo = {a.pdo!r}: remap or device")
-    for key in ("latency", "enable_timeout", "stop_timeout", "mode_timeout", "sdo_timeout", "host_timeout"):
-        if not getattr(a, key) >= 0.0:
-            raise ConfigError(f"{path}: {where} {key} = {getattr(a, key)!r}: must be >= 0 s")
-    if a.limits.watchdog_periods < 1:
-        raise ConfigError(
-            f"{path}: {where} limits watchdog_periods = {a.limits.watchdog_periods}: must be >= 1"
-        )
-
-
 def _controller(path: str, table: Any) -> ControllerConfig:
     table = dict(_table(path, "[controller]", table))
     kind = table.pop("kind", None)
@@ -347,7 +241,7 @@ def rig_config(doc: dict[str, Any], source: str) -> RigConfig:
     raw_axes = doc.get("axis", [])
     if not isinstance(raw_axes, list) or not raw_axes:
         raise ConfigError(f"{source}: describe at least one device as an [[axis]] table")
-    axes = tuple(_axis(source, n, t) for n, t in enumerate(raw_axes))
+    axes = tuple(axis_config(source, n, t) for n, t in enumerate(raw_axes))
     if "controller" not in doc:
         raise ConfigError(f"{source}: [controller] is missing: name the law (kind) and its axes")
     cfg = RigConfig(

@@ -25,16 +25,14 @@ from drivers.maps.eds_writer import (
     INT8,
     INT16,
     INT32,
-    UINT8,
     UINT16,
     UINT32,
-    VSTRING,
     DeviceInfo,
     Obj,
     Var,
+    cia301_objects,
     eds_text,
-    pdo_comm,
-    pdo_map,
+    pdo_objects,
     record,
     var,
 )
@@ -57,48 +55,23 @@ def _comm_objects(
     rpdo_types: list[int],
     tpdo_enabled: list[bool],
 ) -> list[Obj]:
-    objs = [
-        var(0x1000, Var("Device type", UINT32, "ro", f"0x{device_type:08X}")),
-        var(0x1001, Var("Error register", UINT8, "ro", "0", pdo=True)),
-        var(0x1005, Var("COB-ID SYNC", UINT32, "rw", "0x00000080")),
-        var(0x1008, Var("Manufacturer device name", VSTRING, "const", name)),
-        var(0x100A, Var("Manufacturer software version", VSTRING, "const", "drive-rig emulator 1")),
-        var(0x1014, Var("COB-ID EMCY", UINT32, "ro", "$NODEID+0x80")),
-        record(
-            0x1016,
-            "Consumer heartbeat time",
-            [(s, Var(f"Consumer heartbeat time {s}", UINT32, "rw", "0")) for s in (1, 2, 3, 4)],
-            kind=0x8,
-        ),
-        var(0x1017, Var("Producer heartbeat time", UINT16, "rw", "100")),
-        record(
-            0x1018,
-            "Identity object",
-            [
-                (1, Var("Vendor-ID", UINT32, "ro", f"0x{VENDOR:08X}")),
-                (2, Var("Product code", UINT32, "ro", f"0x{product:08X}")),
-                (3, Var("Revision number", UINT32, "ro", "0x00010000")),
-                (4, Var("Serial number", UINT32, "ro", "0x00000001")),
-            ],
-        ),
-        record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8),
-    ]
-    for n in range(4):
-        objs.append(pdo_comm(0x1400 + n, "R", 0x200 + 0x100 * n, enabled=bool(rpdo[n]), ttype=rpdo_types[n]))
-        objs.append(pdo_map(0x1600 + n, "R", rpdo[n]))
-    for n in range(4):
-        objs.append(
-            pdo_comm(
-                0x1800 + n,
-                "T",
-                0x180 + 0x100 * n,
-                enabled=tpdo_enabled[n],
-                ttype=tpdo_types[n],
-                subs=(1, 2, 3, 5, 6),
-            )
-        )
-        objs.append(pdo_map(0x1A00 + n, "T", tpdo[n]))
-    return objs
+    objs = cia301_objects(
+        device_type=device_type,
+        name=name,
+        vendor=VENDOR,
+        product=product,
+        heartbeat_ms=100,
+        consumers=4,
+        software="drive-rig emulator 1",
+    )
+    return objs + pdo_objects(
+        rpdo,
+        tpdo,
+        rpdo_types=rpdo_types,
+        tpdo_types=tpdo_types,
+        rpdo_enabled=[bool(r) for r in rpdo],
+        tpdo_enabled=tpdo_enabled,
+    )
 
 
 CW, SW, MODE, MODE_DISP = _m(0x6040, 0, 16), _m(0x6041, 0, 16), _m(0x6060, 0, 8), _m(0x6061, 0, 8)

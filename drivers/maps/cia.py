@@ -1,4 +1,4 @@
-"""CANopen wire constants: CiA 301 (communication), CiA 402 (drives), CiA 406 (encoders).
+"""CANopen wire constants: CiA 301 (communication) and CiA 402 (drives); CiA 406 in ``cia406``.
 
 One definition for both sides of the wire: the host drivers (``drivers/``) and
 the emulated devices (``plant_emulator/``) import these names, so neither
@@ -6,8 +6,7 @@ writes an object index, a statusword mask, a mode number or an NMT code as a
 literal. Object indices are module constants (the hot paths read them every
 cycle); states, modes and commands are enums.
 
-Manufacturer objects (0x2000-0x5FFF) are those of the toolkit's own emulated
-drive (``drivers/maps/build_eds.py``); a commercial drive has other ones.
+The manufacturer objects (0x2000-0x5FFF) here are the toolkit drive's own (``build_eds.py``).
 """
 
 from __future__ import annotations
@@ -398,13 +397,4 @@ def mode_code(mode: str | int) -> Mode:
     raise ValueError(f"unknown CiA 402 mode {mode!r}; known: {', '.join(MODE_NAMES)}")
 
 
-# --- CiA 406 encoder profile ------------------------------------------------------------------
-ENCODER_OPERATING_PARAMETERS = 0x6000
-ENCODER_RESOLUTION = 0x6001  #: measuring units per revolution
-ENCODER_POSITION = 0x6004  #: [increments]
-ENCODER_SPEED = 0x6030  #: sub 1: speed value channel 1 [increments/s], INTEGER16
-ENCODER_CYCLIC_TIMER = 0x6200  #: [ms]
-ENCODER_SINGLETURN_RESOLUTION = 0x6501
-
-#: device profile numbers in the low word of DEVICE_TYPE
-PROFILE_DRIVE, PROFILE_ENCODER = 402, 406
+PROFILE_DRIVE, PROFILE_ENCODER = 402, 406  #: device profile numbers in the low word of DEVICE_TYPE

@@ -23,10 +23,12 @@ __all__ = [
     "DeviceInfo",
     "Obj",
     "Var",
+    "cia301_objects",
     "eds_text",
     "mapped",
     "pdo_comm",
     "pdo_map",
+    "pdo_objects",
     "record",
     "var",
 ]
@@ -115,6 +117,91 @@ def pdo_map(index: int, kind: str, entries: Sequence[int], *, access: str = "rw"
         for s in range(slots)
     ]
     return Obj(index, f"{kind}PDO{n} mapping parameter", tuple(subs))
+
+
+def cia301_objects(
+    *,
+    device_type: int,
+    name: str,
+    vendor: int,
+    product: int,
+    heartbeat_ms: int,
+    consumers: int,
+    software: str = "",
+) -> list[Obj]:
+    """The CiA 301 objects of a device: type, error register, SYNC and EMCY COB-IDs, name
+    (and software version), ``consumers`` heartbeat consumer entries, producer heartbeat,
+    identity, error behaviour."""
+    objs = [
+        var(0x1000, Var("Device type", UINT32, "ro", f"0x{device_type:08X}")),
+        var(0x1001, Var("Error register", UINT8, "ro", "0", pdo=True)),
+        var(0x1005, Var("COB-ID SYNC", UINT32, "rw", "0x00000080")),
+        var(0x1008, Var("Manufacturer device name", VSTRING, "const", name)),
+    ]
+    if software:
+        objs.append(var(0x100A, Var("Manufacturer software version", VSTRING, "const", software)))
+    objs += [
+        var(0x1014, Var("COB-ID EMCY", UINT32, "ro", "$NODEID+0x80")),
+        record(
+            0x1016,
+            "Consumer heartbeat time",
+            [(s, Var(f"Consumer heartbeat time {s}", UINT32, "rw", "0")) for s in range(1, consumers + 1)],
+            kind=0x8,
+        ),
+        var(0x1017, Var("Producer heartbeat time", UINT16, "rw", str(heartbeat_ms))),
+        record(
+            0x1018,
+            "Identity object",
+            [
+                (1, Var("Vendor-ID", UINT32, "ro", f"0x{vendor:08X}")),
+                (2, Var("Product code", UINT32, "ro", f"0x{product:08X}")),
+                (3, Var("Revision number", UINT32, "ro", "0x00010000")),
+                (4, Var("Serial number", UINT32, "ro", "0x00000001")),
+            ],
+        ),
+        record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8),
+    ]
+    return objs
+
+
+def pdo_objects(
+    rpdo: Sequence[Sequence[int]],
+    tpdo: Sequence[Sequence[int]],
+    *,
+    rpdo_types: Sequence[int],
+    tpdo_types: Sequence[int],
+    rpdo_enabled: Sequence[bool],
+    tpdo_enabled: Sequence[bool],
+    rpdo_subs: Sequence[int] = (1, 2, 3, 5),
+    access: str = "rw",
+) -> list[Obj]:
+    """The communication and mapping records of the RPDOs and TPDOs (predefined COB-IDs)."""
+    objs = []
+    for n, entries in enumerate(rpdo):
+        objs.append(
+            pdo_comm(
+                0x1400 + n,
+                "R",
+                0x200 + 0x100 * n,
+                enabled=rpdo_enabled[n],
+                ttype=rpdo_types[n],
+                subs=rpdo_subs,
+            )
+        )
+        objs.append(pdo_map(0x1600 + n, "R", entries, access=access))
+    for n, entries in enumerate(tpdo):
+        objs.append(
+            pdo_comm(
+                0x1800 + n,
+                "T",
+                0x180 + 0x100 * n,
+                enabled=tpdo_enabled[n],
+                ttype=tpdo_types[n],
+                subs=(1, 2, 3, 5, 6),
+            )
+        )
+        objs.append(pdo_map(0x1A00 + n, "T", entries, access=access))
+    return objs
 
 
 def eds_text(objs: Sequence[Obj], file_name: str, info: DeviceInfo) -> str:

@@ -19,22 +19,20 @@ from pathlib import Path
 
 from drivers.maps.eds_writer import (
     INT8,
-    INT16,
     INT32,
     UINT8,
     UINT16,
     UINT32,
-    VSTRING,
     DeviceInfo,
     Obj,
     Var,
+    cia301_objects,
     eds_text,
     mapped,
-    pdo_comm,
-    pdo_map,
-    record,
+    pdo_objects,
     var,
 )
+from plant_emulator.devices.catalog import catalog as make_catalog
 
 __all__ = ["ZOO", "Twin", "eds_of", "write_all"]
 
@@ -61,7 +59,7 @@ class Twin:
     tpdo: tuple[tuple[int, ...], ...]
     rpdo_types: tuple[int, ...]
     tpdo_types: tuple[int, ...]
-    objects: frozenset[int]  #: the optional CiA 402 objects it has (see ``_catalog``)
+    objects: frozenset[int]  #: the optional CiA 402 objects it has (see ``plant_emulator.devices.catalog``)
     increments: int  #: per motor revolution (0x608F where it has one)
     position_unit: int = 0  #: 0x60A8 default (0: no 0x60A8)
     velocity_unit: int = 0  #: 0x60A9 default (0: no 0x60A9)
@@ -87,91 +85,6 @@ class Twin:
         return per_rev / (2.0 * math.pi)
 
 
-def _catalog(t: Twin) -> dict[int, Obj]:
-    """CiA 402 objects with defaults in ``t``'s units (SI in the comments)."""
-    pos, vel = t.per_rad(False), t.per_rad(True)
-
-    def p(name: str, dtype: int, access: str, default: float, pdo: bool = False) -> Var:
-        return Var(name, dtype, access, str(round(default)), pdo)
-
-    return {
-        0x6007: var(0x6007, p("Abort connection option code", INT16, "rw", 1)),
-        0x603F: var(0x603F, p("Error code", UINT16, "ro", 0, True)),
-        0x605A: var(0x605A, p("Quick stop option code", INT16, "rw", 2)),
-        0x605D: var(0x605D, p("Halt option code", INT16, "rw", 1)),
-        0x605E: var(0x605E, p("Fault reaction option code", INT16, "rw", 2)),
-        0x6065: var(0x6065, p("Following error window", UINT32, "rw", 2.0 * pos)),  # 2 rad
-        0x6066: var(0x6066, p("Following error time out", UINT16, "rw", 10)),  # ms
-        0x6071: var(0x6071, p("Target torque", INT16, "rw", 0, True)),
-        0x6072: var(0x6072, p("Max torque", UINT16, "rw", 3000, True)),  # per mille
-        0x6073: var(0x6073, p("Max current", UINT16, "rw", 3000)),
-        0x6075: var(0x6075, p("Motor rated current", UINT32, "rw", 10000)),  # mA
-        0x6076: var(0x6076, p("Motor rated torque", UINT32, "rw", 235)),  # mN m
-        0x6077: var(0x6077, p("Torque actual value", INT16, "ro", 0, True)),
-        0x6078: var(0x6078, p("Current actual value", INT16, "ro", 0, True)),
-        0x607C: var(0x607C, p("Home offset", INT32, "rw", 0)),
-        0x607D: record(
-            0x607D,
-            "Software position limit",
-            [
-                (1, Var("Min position limit", INT32, "rw", str(-(2**31)))),
-                (2, Var("Max position limit", INT32, "rw", str(2**31 - 1))),
-            ],
-            kind=0x8,
-        ),
-        0x6080: var(0x6080, p("Max motor speed", UINT32, "rw", 6000)),  # rpm
-        0x6081: var(0x6081, p("Profile velocity", UINT32, "rw", 100.0 * vel, True)),  # 100 rad/s
-        0x6083: var(0x6083, p("Profile acceleration", UINT32, "rw", 1000.0 * vel, True)),  # rad/s^2
-        0x6084: var(0x6084, p("Profile deceleration", UINT32, "rw", 1000.0 * vel, True)),
-        0x6085: var(0x6085, p("Quick stop deceleration", UINT32, "rw", 2000.0 * vel, True)),
-        0x608F: record(
-            0x608F,
-            "Position encoder resolution",
-            [
-                (1, Var("Encoder increments", UINT32, "rw", str(t.increments))),
-                (2, Var("Motor revolutions", UINT32, "rw", "1")),
-            ],
-        ),
-        0x6091: record(
-            0x6091,
-            "Gear ratio",
-            [
-                (1, Var("Motor revolutions", UINT32, "rw", "1")),
-                (2, Var("Shaft revolutions", UINT32, "rw", "1")),
-            ],
-        ),
-        0x6092: record(
-            0x6092,
-            "Feed constant",
-            [
-                (1, Var("Feed", UINT32, "rw", str(t.feed or 1))),
-                (2, Var("Shaft revolutions", UINT32, "rw", "1")),
-            ],
-        ),
-        0x6098: var(0x6098, p("Homing method", INT8, "rw", 35)),
-        0x6099: record(
-            0x6099,
-            "Homing speeds",
-            [
-                (1, p("Speed during search for switch", UINT32, "rw", 20.0 * vel)),  # 20 rad/s
-                (2, p("Speed during search for zero", UINT32, "rw", 2.0 * vel)),
-            ],
-            kind=0x8,
-        ),
-        0x609A: var(0x609A, p("Homing acceleration", UINT32, "rw", 500.0 * vel)),
-        0x60A8: var(0x60A8, Var("SI unit position", UINT32, "rw", f"0x{t.position_unit:08X}")),
-        0x60A9: var(0x60A9, Var("SI unit velocity", UINT32, "rw", f"0x{t.velocity_unit:08X}")),
-        0x60F4: var(0x60F4, p("Following error actual value", INT32, "ro", 0, True)),
-        0x60FD: var(0x60FD, p("Digital inputs", UINT32, "ro", 0, True)),
-        0x60FE: record(
-            0x60FE,
-            "Digital outputs",
-            [(1, p("Physical outputs", UINT32, "rw", 0, True)), (2, p("Bit mask", UINT32, "rw", 0))],
-            kind=0x8,
-        ),
-    }
-
-
 #: objects every zoo drive has
 _ALWAYS = (
     (0x6040, Var("Controlword", UINT16, "rw", "0", True)),
@@ -187,47 +100,28 @@ _ALWAYS = (
 
 def _comm(t: Twin, name: str) -> list[Obj]:
     info = t.info
-    objs = [
-        var(0x1000, Var("Device type", UINT32, "ro", f"0x{t.device_type:08X}")),
-        var(0x1001, Var("Error register", UINT8, "ro", "0", pdo=True)),
-        var(0x1005, Var("COB-ID SYNC", UINT32, "rw", "0x00000080")),
-        var(0x1008, Var("Manufacturer device name", VSTRING, "const", name)),
-        var(0x1014, Var("COB-ID EMCY", UINT32, "ro", "$NODEID+0x80")),
-        record(
-            0x1016,
-            "Consumer heartbeat time",
-            [(s, Var(f"Consumer heartbeat time {s}", UINT32, "rw", "0")) for s in (1, 2)],
-            kind=0x8,
-        ),
-        var(0x1017, Var("Producer heartbeat time", UINT16, "rw", str(t.heartbeat_ms))),
-        record(
-            0x1018,
-            "Identity object",
-            [
-                (1, Var("Vendor-ID", UINT32, "ro", f"0x{info.vendor_number:08X}")),
-                (2, Var("Product code", UINT32, "ro", f"0x{info.product_number:08X}")),
-                (3, Var("Revision number", UINT32, "ro", "0x00010000")),
-                (4, Var("Serial number", UINT32, "ro", "0x00000001")),
-            ],
-        ),
-        record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8),
-    ]
-    access = "const" if t.fixed_mapping else "rw"
-    for n, (entries, ttype) in enumerate(zip(t.rpdo, t.rpdo_types)):
-        objs.append(pdo_comm(0x1400 + n, "R", 0x200 + 0x100 * n, enabled=True, ttype=ttype, subs=t.rpdo_subs))
-        objs.append(pdo_map(0x1600 + n, "R", entries, access=access))
-    for n, (entries, ttype) in enumerate(zip(t.tpdo, t.tpdo_types)):
-        objs.append(
-            pdo_comm(
-                0x1800 + n, "T", 0x180 + 0x100 * n, enabled=bool(entries), ttype=ttype, subs=(1, 2, 3, 5, 6)
-            )
-        )
-        objs.append(pdo_map(0x1A00 + n, "T", entries, access=access))
-    return objs
+    objs = cia301_objects(
+        device_type=t.device_type,
+        name=name,
+        vendor=info.vendor_number,
+        product=info.product_number,
+        heartbeat_ms=t.heartbeat_ms,
+        consumers=2,
+    )
+    return objs + pdo_objects(
+        t.rpdo,
+        t.tpdo,
+        rpdo_types=t.rpdo_types,
+        tpdo_types=t.tpdo_types,
+        rpdo_enabled=[True] * len(t.rpdo),
+        tpdo_enabled=[bool(e) for e in t.tpdo],
+        rpdo_subs=t.rpdo_subs,
+        access="const" if t.fixed_mapping else "rw",
+    )
 
 
 def _objects(t: Twin, name: str) -> list[Obj]:
-    catalog = _catalog(t)
+    catalog = make_catalog(t)
     access, names = dict(t.access), dict(t.names)
     objs = _comm(t, name) + list(t.manufacturer)
     objs += [var(index, v) for index, v in _ALWAYS]
