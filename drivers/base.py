@@ -125,6 +125,19 @@ class AxisDriver(abc.ABC):
     def feedback(self) -> Feedback:
         """The latest sample in SI (from the last process data, or read now)."""
 
+    def neutral_command(self) -> float | complex | None:
+        """The command that asks for no effort, sent before the quick stop: 0 (V, N m, rad/s),
+        0j in dq; None for a position (CSP): 0 rad is a place, not a stop; the last target
+        stands and the drive's quick-stop ramp starts from it."""
+        if self.mode == "csp":
+            return None
+        return 0j if self.mode == "dq-voltage" else 0.0
+
+    def has_sample(self) -> bool:
+        """Every value ``feedback`` gives has come from the device at least once (not the
+        placeholder zeros of a TPDO still to arrive). The default: feedback reads the device."""
+        return True
+
     def command(self, value: float | complex) -> None:
         """Send ``value`` in the SI unit of the mode (``AXIS_MODES``)."""
         raise NotImplementedError(f"{self!r} takes no commands")

@@ -240,6 +240,10 @@ class CanopenAxis(AxisDriver):
         self._slots.append(slot)
         return slot
 
+    def has_sample(self) -> bool:
+        """Every TPDO the axis receives has arrived at least once."""
+        return all(slot.timestamp is not None for slot in self._slots)
+
     def tpdo_cob_ids(self) -> Sequence[int]:
         """The COB-IDs of the TPDOs the axis receives (a pacing waits for them after a SYNC)."""
         return [s.cob_id for s in self._slots]

@@ -191,7 +191,9 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
 
     def enable(self, *, timeout: float = 1.0) -> None:
         """Shutdown, switch on, enable operation (transitions 2, 3, 4), within ``timeout`` [s]; a
-        drive in FAULT is reset first with ``reset_fault``, else refused, saying what 0x603F holds."""
+        drive in FAULT is reset first with ``reset_fault``, else refused, saying what 0x603F holds.
+        In CSP, 0x607A is set to the position the drive reads first (0x6064), so it enables
+        where it stands, not at a target left from before."""
         if self.read_power_state() is PowerState.FAULT:
             what = self.fault_text()
             if not self.reset_fault:
@@ -206,6 +208,8 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         if self.host is not None and self._consumer_sub is None and self.data is not None:
             if cia.CONSUMER_HEARTBEAT in self.node.object_dictionary:
                 self._consumer_sub = self._watch_host(*self.host)
+        if self.op_mode == Mode.CSP:  # 0x607A is absolute: enabled, the drive goes for it
+            self.sdo_write(cia.TARGET_POSITION, 0, int(self.sdo_read(cia.POSITION_ACTUAL)))
         self._drive_to(PowerState.OPERATION_ENABLED, _TOWARDS_ENABLED.get, timeout)
         slot = self.data.slot_of(SW) if self.data else None
         self._enabled_stamp = slot.timestamp if slot else None
@@ -286,7 +290,8 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
             raise SafetyStop(
                 f"node {self.node_id}: the drive left OPERATION ENABLED: {power_state(word).value}"
             )
-        if data.mapped(MODE_SHOWN):
+        mode_slot = data.slot_of(MODE_SHOWN)
+        if mode_slot is not None and mode_slot.timestamp is not None:  # not zeros before its first TPDO
             shown = data.value(MODE_SHOWN)
             if shown != self.op_mode:
                 raise SafetyStop(f"node {self.node_id}: the drive changed its mode to {shown} (0x6061)")

@@ -239,14 +239,19 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
             self._hold(mode)
 
     def _hold(self, mode: int) -> None:
-        """Entering ``mode`` enabled: hold the present position (or zero speed/torque) rather than
-        jump to a stale target; profile modes start their generators here."""
+        """Entering ``mode`` enabled: CSP goes for 0x607A (absolute, CiA 402; a host that left a
+        stale target there sees the motor go for it) or, with the profile's ``csp_enable =
+        "hold"``, holds where it stands; the other cyclic modes start from zero speed/torque;
+        profile modes start their generators here."""
         ax = self.axis
         if mode in PROFILE_MODES:
             self.profiles.start(ax.position, ax.velocity)
             ax.set_command(_CSP, complex(ax.position))
+        elif mode == _CSP and mode in ax.modes:
+            hold = self.profile.csp_enable == "hold"
+            ax.set_command(mode, complex(ax.position) if hold else self._target(_CSP))
         elif mode in ax.modes:
-            ax.set_command(mode, complex(ax.position) if mode == _CSP else 0j)
+            ax.set_command(mode, 0j)
         else:  # no mode selected: enabled, but no torque
             ax.coast()
 

@@ -8,7 +8,9 @@ says that. One file per drive, next to its EDS; its sections (every key optional
 ``[device] eds``; the README's "A twin of your own drive" shows them all): ``[device]`` name,
 description, modelled_on, eds, physics (the preset whose motor is behind the drive),
 node_id; ``[physics.params]`` the preset's parameters; ``[modes] supported`` (only where the
-EDS has no 0x6502); ``[units]`` counts_per_rev, position, velocity (where the EDS lacks
+EDS has no 0x6502), csp_enable ("target": enabled in CSP, the drive goes for 0x607A,
+absolute, as CiA 402 has it; "hold": it holds where it stands until a new target comes);
+``[units]`` counts_per_rev, position, velocity (where the EDS lacks
 0x608F, 0x60A8, 0x60A9); ``[pdo] mapping`` (remappable | fixed); ``[timing]`` sdo_response,
 pdo_latency, mode_switch [s]; ``[reactions]`` quick_stop, fault, abort_connection, halt (the
 defaults of 0x605A, 0x605E, 0x6007, 0x605D) and profile_deceleration,
@@ -117,6 +119,7 @@ class DeviceProfile:
     params: Mapping[str, Any] = field(default_factory=dict)
     node_id: int = 1
     modes: tuple[Mode, ...] = ()
+    csp_enable: str = "target"  #: enabled in CSP: go for 0x607A ("target") or hold ("hold")
     mapping: str = "remappable"
     units: Units = Units()
     timing: Timing = Timing()
@@ -278,15 +281,18 @@ def _manufacturer(t: _Table) -> tuple[ManufacturerObject, ...]:
     return tuple(out)
 
 
-def _modes(t: _Table) -> tuple[Mode, ...]:
+def _modes(t: _Table) -> tuple[tuple[Mode, ...], str]:
     names = t.get("supported", list, [])
+    csp_enable = t.get("csp_enable", str, "target")
     t.done()
+    if csp_enable not in ("target", "hold"):
+        raise ConfigError(f'{t.where} csp_enable = {csp_enable!r}: "target" or "hold"')
     unknown = [n for n in names if n not in PROFILE_MODES]
     if unknown:
         raise ConfigError(
             f"{t.where} supported: unknown mode(s) {unknown}; known: {', '.join(PROFILE_MODES)}"
         )
-    return tuple(PROFILE_MODES[n] for n in names)
+    return tuple(PROFILE_MODES[n] for n in names), csp_enable
 
 
 def load_profile(path: str | Path) -> DeviceProfile:
@@ -314,6 +320,7 @@ def load_profile(path: str | Path) -> DeviceProfile:
         preset_params(preset, params)
     except ValueError as exc:
         raise ConfigError(f"{p} [physics.params]: {exc}") from None
+    modes, csp_enable = _modes(top.sub("modes"))
     homing = top.sub("homing")
     methods = tuple(homing.get("methods", list, [35, 37]))
     profile = DeviceProfile(
@@ -325,7 +332,8 @@ def load_profile(path: str | Path) -> DeviceProfile:
         physics=preset,
         params=params,
         node_id=device.get("node_id", int, 1),
-        modes=_modes(top.sub("modes")),
+        modes=modes,
+        csp_enable=csp_enable,
         mapping=_pdo_mapping(top.sub("pdo")),
         units=_units(top.sub("units")),
         timing=_timing(top.sub("timing")),

@@ -146,8 +146,10 @@ class DriveSafety:
     def _demand(self) -> float | None:
         """The position set-point [rad] of a position mode (CSP, PP), else None."""
         mode = self.od.read(cia.MODES_DISPLAY, 0)
-        if mode == _CSP:
-            return self._target(_CSP).real
+        if mode == _CSP:  # the set-point the position loop follows (a held one, or 0x607A's)
+            ax = self.axis
+            held = getattr(ax, "command", None) if getattr(ax, "mode", None) == _CSP else None
+            return float(held) if held is not None else self._target(_CSP).real
         if mode == _PP:
             return self.profiles.move.position
         return None

@@ -40,7 +40,7 @@ class AxisUnits:
 
 @dataclass(frozen=True)
 class AxisLimits:
-    command: float = math.inf  #: |command| in the unit of the mode
+    command: float = math.inf  #: |command| in the unit of the mode (csp: the travel from the start [rad])
     speed: float = math.inf  #: [rad/s]
     position_min: float = -math.inf  #: [rad]
     position_max: float = math.inf  #: [rad]

@@ -120,6 +120,8 @@ class ReferenceConfig:
     start: float = 0.0  #: [s]
     value: float = 0.0
     profile: str = ""
+    #: a position reference: "start" = from where the read axis stands at the first cycle; "zero" = absolute
+    origin: Literal["start", "zero"] = "start"
 
 
 @dataclass(frozen=True)

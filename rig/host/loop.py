@@ -11,7 +11,7 @@ deadline, garbage collection frozen, missed cycles skipped and counted).
 
 Every way out (a limit, the watchdog, a lost heartbeat, an EMCY, a NaN or an
 exception from the law, Ctrl-C) goes through ``safe_stop``, and the end of a
-run through the same stop: zero command, quick stop, the drives' own ramps to
+run through the same stop: a neutral command (none in CSP), quick stop, the drives' own ramps to
 rest (SYNC goes on meanwhile), disable, on every axis (``rig.host.stopping``).
 The loop does not close the recorder: the session does, after it has stopped
 the frames that feed the trace.
@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from drivers.base import AxisDriver, Feedback
-from drivers.errors import DeviceFault, RigError, SafetyStop
+from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
 from rig.host.pacing import Pacing
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
@@ -155,6 +155,7 @@ class HostLoop:
         self.heartbeat = heartbeat  #: the host's heartbeat, ``heartbeat(k)`` every cycle (or None)
         self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
         self.done = 0
+        self._begun = False
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
         self._sq_error = 0.0
         self._max_error = 0.0
@@ -204,6 +205,7 @@ class HostLoop:
             frozen = True
         self.recorder.mark_start()
         try:
+            self._prime()
             self._cycles(progress)
         except KeyboardInterrupt:
             self.safe_stop("Ctrl-C")
@@ -223,6 +225,33 @@ class HostLoop:
                 gc.enable()
                 gc.unfreeze()
         return self.summary()
+
+    def _prime(self) -> None:
+        """Real time with the host's SYNC: SYNC a period apart until every axis has sent its
+        first sample (a TPDO answers a SYNC, after it), at most max(1 s, the watchdog's time),
+        so cycle 0 reads the drives, not the zeros of TPDOs still to come. The other pacings
+        bring them with cycle 0's own tick (``_begin`` checks)."""
+        if not self.realtime or self.pacing.paced_by_bus:
+            return
+        watchdog = max((g.limits.watchdog_periods for g in self.guards), default=0) * self.period
+        deadline = time.perf_counter() + max(1.0, watchdog)
+        n = 0
+        while not all(axis.has_sample() for axis in self.axes) and time.perf_counter() < deadline:
+            if self.heartbeat is not None:
+                self.heartbeat(n)
+            self.pacing.tick()
+            time.sleep(self.period)
+            n += 1
+
+    def _begin(self, samples: list[Feedback]) -> None:
+        """Cycle 0: every axis has sent a sample (else CommunicationError naming the silent ones,
+        before any command); the law gets the first samples (``Law.begin``: a position
+        reference's origin)."""
+        silent = [axis.where for axis in self.axes if not axis.has_sample()]
+        if silent:
+            raise CommunicationError(f"no process data from {', '.join(silent)} after the first SYNC")
+        self.law.begin([samples[i] for i in self.wiring.reads])
+        self._begun = True
 
     def _cycles(self, progress: Callable[[int], None] | None) -> None:
         start = self._t_end = time.perf_counter()
@@ -279,6 +308,8 @@ class HostLoop:
         if self.heartbeat is not None:
             self.heartbeat(k)
         samples = self._read(k)
+        if not self._begun:
+            self._begin(samples)
         t1 = time.perf_counter()
         wiring = self.wiring
         out = self.law.step(t, [samples[i] for i in wiring.reads])
@@ -327,7 +358,7 @@ class HostLoop:
             peaks["command"] = max(peaks["command"], value)
 
     def safe_stop(self, reason: str) -> None:
-        """The one way out: zero command, quick stop, the drives' ramps to rest, disable."""
+        """The one way out: a neutral command, quick stop, the drives' ramps to rest, disable."""
         self.safe_stop_reason = reason
         log.warning("safe stop: %s", reason)
         self._stop_axes()

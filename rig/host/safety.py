@@ -4,7 +4,10 @@
 its ``stamp``, counted in periods of the loop's cycle index, so a real-time cycle that
 waited several periods counts as all of them, NaN in a measured quantity, speed, a position jump no motor can
 make, the position window, current); ``check_command`` on the command about to
-be sent. The host loop turns any ``SafetyStop`` into the one safe-stop path.
+be sent: its size, or, for a position command (CSP), its travel from where the axis
+stood at the first sample, the position window, and its step from the last command (the
+first from the measured position), which no motor within the speed limit makes in a
+period. The host loop turns any ``SafetyStop`` into the one safe-stop path.
 """
 
 from __future__ import annotations
@@ -33,6 +36,9 @@ class AxisGuard:
         self._last_stamp: float | None = None
         self._last_position: float | None = None
         self._position_k = 0  #: the cycle index of ``_last_position``
+        self.position_command = getattr(axis, "mode", None) == "csp"
+        self.origin: float | None = None  #: [rad] the first measured position
+        self._last_command: float | None = None  #: [rad] the last position command
         speed = limits.speed if math.isfinite(limits.speed) else 1000.0
         #: a position step no motor makes within the speed limit: an encoder glitch or a lost count
         self.max_step = speed * period * 3.0
@@ -66,6 +72,8 @@ class AxisGuard:
                     f"(> {self.max_step * periods:.3g} rad): encoder glitch?"
                 )
         self._last_position, self._position_k = position, k
+        if self.origin is None:
+            self.origin = position
         if not c.position_min <= position <= c.position_max:
             raise self._stop(
                 f"position {position:.4g} rad outside [{c.position_min:g}, {c.position_max:g}] rad"
@@ -75,8 +83,31 @@ class AxisGuard:
         size = abs(command)
         if not math.isfinite(size):
             raise SafetyStop(f"controller output is {command!r}")
-        if size > self.limits.command:
+        if self.position_command:
+            self._check_position_command(float(command))  # type: ignore[arg-type]
+        elif size > self.limits.command:
             raise self._stop(f"command {size:.4g} exceeds the limit {self.limits.command:g}")
+
+    def _check_position_command(self, x: float) -> None:
+        c = self.limits
+        origin = self.origin if self.origin is not None else 0.0
+        if abs(x - origin) > c.command:
+            raise self._stop(
+                f"position command {x:.6g} rad is {x - origin:.4g} rad from the start ({origin:.6g} rad), "
+                f"beyond the limit {c.command:g} rad"
+            )
+        if not c.position_min <= x <= c.position_max:
+            raise self._stop(
+                f"position command {x:.6g} rad outside [{c.position_min:g}, {c.position_max:g}] rad"
+            )
+        last = self._last_command if self._last_command is not None else self._last_position
+        if last is not None and abs(x - last) > self.max_step:
+            what = "the last command" if self._last_command is not None else "the measured position"
+            raise self._stop(
+                f"position command {x:.6g} rad steps {x - last:.4g} rad from {what} "
+                f"(> {self.max_step:.3g} rad a period at the speed limit)"
+            )
+        self._last_command = x
 
     def _watchdog(self, stamp: float | None, k: int) -> None:
         """Count the periods since the last new sample; stop after ``watchdog_periods``."""

@@ -60,7 +60,12 @@ def build_law(cfg: RigConfig, period: float) -> Law:
     """The law of ``[controller]`` at ``period`` [s], checked against the axes it reads and commands."""
     c = cfg.controller
     law = make_law(
-        c.kind, c.params, period=period, reference=reference_of(cfg.reference, cfg.source), source=cfg.source
+        c.kind,
+        c.params,
+        period=period,
+        reference=reference_of(cfg.reference, cfg.source),
+        source=cfg.source,
+        origin=cfg.reference.origin,
     )
     if len(c.reads) != law.reads or len(c.commands) != len(law.modes):
         raise ConfigError(

@@ -1,6 +1,7 @@
 """How the host brings its axes to rest: the one way every run ends, a safe stop or not.
 
-``bring_to_rest``: zero command on the commanded axes, quick stop on every commandable
+``bring_to_rest``: the neutral command on the commanded axes (zero voltage, torque or
+speed; none for a position, ``AxisDriver.neutral_command``), quick stop on every commandable
 axis, then SYNC cycles (the drives need them for their feedback, and in lock-step to let
 time pass) until every axis reports its own stop ended (``AxisDriver.at_rest``: a CiA 402
 drive in SWITCH ON DISABLED or FAULT after its ramp, or at rest in QUICK STOP ACTIVE), or
@@ -61,7 +62,9 @@ def bring_to_rest(
     when every axis confirmed its stop."""
     ok = True
     for a in commanded:
-        ok &= _retry(a, functools.partial(a.command, 0j if a.mode == "dq-voltage" else 0.0), "zero command")
+        neutral = a.neutral_command()
+        if neutral is not None:
+            ok &= _retry(a, functools.partial(a.command, neutral), "zero command")
     stopping = [a for a in axes if a.commandable]
     for a in stopping:
         ok &= _retry(a, a.quick_stop, "quick stop")

@@ -41,15 +41,24 @@ def law_class(kind: str, source: str = "") -> type[Law]:
 
 
 def make_law(
-    kind: str, params: Mapping[str, Any], *, period: float, reference: Reference, source: str = ""
+    kind: str,
+    params: Mapping[str, Any],
+    *,
+    period: float,
+    reference: Reference,
+    source: str = "",
+    origin: str = "start",
 ) -> Law:
-    """Build the law ``kind`` with ``params`` (typed against its Params) at ``period`` [s]."""
+    """Build the law ``kind`` with ``params`` (typed against its Params) at ``period`` [s]; a
+    position reference's ``origin`` ("start" or "zero", ``Law.begin``)."""
     cls = law_class(kind, source)
     names = {f.name for f in dataclasses.fields(cls.Params)}
     fixed = {k: period for k in ("dt", "ts") if k in names}
     where = f"{source}: [controller] {kind}"
     typed = build(cls.Params, params, where, **fixed)
     try:
-        return cls(typed, period=period, reference=reference)
+        law = cls(typed, period=period, reference=reference)
     except ValueError as exc:
         raise ConfigError(f"{where}: {exc}") from exc
+    law.origin = origin
+    return law

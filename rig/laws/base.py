@@ -6,7 +6,10 @@ the loop period and the reference, and is never changed afterwards. Each cycle
 ``[controller] reads`` names them) and returns a ``LawStep``: one command per
 axis it commands (in the order of ``[controller] commands``), the reference and
 the measured value of the controlled variable, and its internals (the columns
-``internals`` names).
+``internals`` names). Before the first step, ``begin(feedback)`` gets the first samples:
+a law whose reference is a position (``position_reference``) puts the reference's zero
+where the read axis stands (``[reference] origin = "start"``, the default: a move by
+``distance`` from there), or keeps it absolute (``origin = "zero"``, after homing).
 """
 
 from __future__ import annotations
@@ -45,12 +48,30 @@ class Law(abc.ABC):
     reads: ClassVar[int] = 1
     #: names of the internal columns the recorder keeps
     internals: ClassVar[tuple[str, ...]] = ()
+    #: the reference is a position [rad] of the read axis (``begin`` may move its zero)
+    position_reference: ClassVar[bool] = False
+    #: "start": a position reference is relative to the first sample; "zero": absolute
+    origin: str = "start"
+    #: the position [rad] added to a position reference (set by ``begin``)
+    offset: float = 0.0
 
     def __init__(self, params: Any, *, period: float, reference: Reference) -> None:
         self.params = params
         self.period = period  #: [s]
         self.reference = reference
 
+    def begin(self, feedback: Sequence[Feedback]) -> None:
+        """Called once with the first samples, before the first ``step``."""
+        if self.position_reference and self.origin == "start":
+            offset = self.offset = feedback[0].position
+            if offset != 0.0:
+                reference = self.reference
+                self.reference = lambda t: _shifted(reference(t), offset)
+
     @abc.abstractmethod
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         """One cycle at time ``t`` [s]; must not do I/O."""
+
+
+def _shifted(value: tuple[float, float], offset: float) -> tuple[float, float]:
+    return value[0] + offset, value[1]

@@ -30,6 +30,7 @@ class CascadeParams:
 class CascadePositionLaw(Law):
     Params = CascadeParams
     modes = (frozenset({"cst"}),)
+    position_reference = True
     internals = ("omega_ref", "i_q_ref")
 
     def __init__(self, params: CascadeParams, *, period: float, reference: Reference) -> None:

@@ -33,6 +33,10 @@ class FaultyLaw(Law):
         self.internals = inner.internals  # type: ignore[misc]
         self._half = inner.period / 2.0
 
+    def begin(self, feedback: Sequence[Feedback]) -> None:
+        self.inner.begin(feedback)
+        self.offset = self.inner.offset
+
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         f, t = self.faults, t + self._half  # a fault at time a acts in the cycle nearest to a
         if t >= f.interrupt_at:

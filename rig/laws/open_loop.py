@@ -47,6 +47,7 @@ class PositionReferenceLaw(Law):
 
     Params = PositionReferenceParams
     modes = (frozenset({"csp"}),)
+    position_reference = True
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         theta_r, _ = self.reference(t)

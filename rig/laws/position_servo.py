@@ -34,6 +34,7 @@ class PositionServoLaw(Law):
 
     Params = ServoParams
     modes = (frozenset({"voltage", "cst"}),)
+    position_reference = True
     internals = ("g", "u_i")
 
     def __init__(self, params: ServoParams, *, period: float, reference: Reference) -> None:

@@ -99,6 +99,34 @@ def test_a_fixed_mapping_falls_back_to_the_drive_s_own(caplog: pytest.LogCapture
         r.close()
 
 
+def test_a_tpdo_not_yet_received_is_not_read_as_zeros() -> None:
+    """With the drive's own mapping, 0x6061 travels in another TPDO than the statusword; until
+    that TPDO first arrives (real time: a frame later), its zeros are not a mode change."""
+    from drivers.cia402_setup import MODE_SHOWN, SW
+    from drivers.errors import SafetyStop
+
+    r = Rig("erl-pcs")
+    try:
+        with r.axis("csv") as axis:
+            axis.setup()
+            axis.enable()
+            assert axis.data is not None
+            mode_slot = axis.data.slot_of(MODE_SHOWN)
+            assert mode_slot is not None and mode_slot is not axis.data.slot_of(SW)
+            for _ in range(3):  # statusword TPDOs arrive; the mode's is held back
+                axis.command(0.0)
+                r.host.send_message(0x80, b"")
+                mode_slot.timestamp, mode_slot.data = None, bytes(mode_slot.codec.size)
+                axis.supervise(r.hub.clock)
+            r.sync()
+            axis.supervise(r.hub.clock)  # now received: the drive's mode
+            mode_slot.data = bytes(mode_slot.codec.size)  # a received 0: a real change
+            with pytest.raises(SafetyStop, match="changed its mode to 0"):
+                axis.supervise(r.hub.clock)
+    finally:
+        r.close()
+
+
 def test_a_write_only_modes_of_operation_is_not_read() -> None:
     r = Rig("compact-2pdo")
     try:
@@ -195,5 +223,51 @@ def test_emcy_codes_in_words_from_the_device_profile(tmp_path: pathlib.Path) -> 
             axis.enable()
             r.drive.emcy(0x7380, 0x81)
             assert axis.fault is not None and "EMCY 0x7380 (resolver wire break)" in str(axis.fault)
+    finally:
+        r.close()
+
+
+@pytest.mark.parametrize("csp_enable", ["target", "hold"])
+def test_csp_enables_where_the_drive_stands(csp_enable: str) -> None:
+    """0x607A is absolute: a drive enabled in CSP goes for whatever it holds (CiA 402; the twin's
+    ``csp_enable = "target"``). The driver sets it to the position the drive reads first, so
+    a target left from before (here 10 rev away) moves nothing."""
+    import dataclasses
+
+    r = Rig("epos4")
+    r.drive.profile = dataclasses.replace(r.drive.profile, csp_enable=csp_enable)
+    try:
+        r.drive.shaft.motion.x[0] = 3.0  # type: ignore[attr-defined]
+        stale = round(r.drive.counts_per_rad * 2 * math.pi * 10)
+        r.drive.od.write(0x607A, 0, stale)
+        with r.axis("csp") as axis:
+            axis.setup()
+            axis.enable()
+            for _ in range(200):  # no command from the host yet: the drive keeps its target
+                r.sync()
+                axis.supervise(r.hub.clock)
+            assert r.drive.fault_code == 0
+            assert r.drive.shaft.position == pytest.approx(3.0, abs=2e-3)
+    finally:
+        r.close()
+
+
+def test_a_stale_csp_target_moves_the_twin() -> None:
+    """The twin is true to that danger: enabled in CSP with a stale 0x607A by a host that does
+    not set it, it goes for it (and its following-error supervision trips)."""
+    r = Rig("epos4")
+    try:
+        node = canopen.RemoteNode(1, str(r.profile.eds))
+        r.host.add_node(node)
+        node.nmt.state = "OPERATIONAL"
+        node.sdo[0x6060].raw = 8
+        r.sync()
+        node.sdo[0x607A].raw = round(r.drive.counts_per_rad * 2.0)  # 2 rad
+        for cw in (0x06, 0x07, 0x0F):
+            node.sdo[0x6040].raw = cw
+        for _ in range(300):
+            r.sync()
+        moved = r.drive.shaft.position
+        assert moved > 0.5 or r.drive.fault_code == 0x8611, moved
     finally:
         r.close()

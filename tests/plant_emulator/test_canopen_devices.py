@@ -301,6 +301,7 @@ def test_emcy_on_following_error_and_over_current() -> None:
     for cw in (0x06, 0x0F):
         node.sdo[0x6040].raw = cw
     node.sdo[0x607A].raw = 40960  # 10 rev away at once
+    bench.sync()  # taken at this SYNC; the position loop follows it from there
     bench.sync()
     assert node.sdo[0x603F].raw == 0x8611
     assert node.sdo[0x6041].raw & 0x2000  # statusword bit 13

@@ -61,7 +61,8 @@ def test_the_position_move_on_every_zoo_drive(
 @pytest.mark.parametrize("device", sorted(zoo()))
 def test_every_zoo_drive_in_real_time_in_another_process(device: str, tmp_path: pathlib.Path) -> None:
     """``rig emulate --device NAME`` (real time, its own clock) in another process, ``rig run``'s
-    session in real time over socketcand: the move arrives, and the stop is confirmed."""
+    session in real time over socketcand, twice: the move arrives, the stop is confirmed, and
+    the second move starts where the first ended."""
     import re
 
     from rig.config import BusConfig
@@ -84,12 +85,16 @@ def test_every_zoo_drive_in_real_time_in_another_process(device: str, tmp_path: 
         cfg = replace_axis(cfg, "motor", eds=eds, enable_timeout=3.0, limits={"watchdog_periods": 100})
         if device in UNITS:
             cfg = replace_axis(cfg, "motor", units=UNITS[device])
-        with Session(cfg, emulate=False) as session:
-            session.start()
-            summary = session.run()
-        assert summary["safe_stop_reason"] is None and summary["stop_confirmed"] is True
-        data = np.genfromtxt(pathlib.Path(summary["run_dir"]) / "samples.csv", delimiter=",", names=True)
-        assert data["measurement"][-1] == pytest.approx(2.0, abs=0.02)
+        for start in (0.0, 2.0):  # the second run starts where the first left the shaft
+            with Session(cfg, emulate=False) as session:
+                session.start()
+                summary = session.run()
+            assert summary["safe_stop_reason"] is None and summary["stop_confirmed"] is True
+            data = np.genfromtxt(pathlib.Path(summary["run_dir"]) / "samples.csv", delimiter=",", names=True)
+            # cycle 0 reads the drive (its TPDOs awaited), not zeros; the move is from there
+            assert data["measurement"][0] == pytest.approx(start, abs=0.02)
+            assert data["reference"][0] == data["measurement"][0]
+            assert data["measurement"][-1] == pytest.approx(start + 2.0, abs=0.02)
     finally:
         _out, err = stop_rig(proc, timeout=10)
     assert proc.returncode == 0, err
