@@ -102,6 +102,8 @@ class EmulatedNode(Supervision):
 
         def stored(index: int, subindex: int) -> None:
             forget(index, subindex)
+            if index == cia.CONSUMER_HEARTBEAT:  # the watch changes at once, not at the next SYNC
+                self._configure_consumer()
             self.after_write(index)
 
         self.node.on_stored = stored

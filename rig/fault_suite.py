@@ -36,6 +36,16 @@ DURATION = 0.8  #: s: length of each CANopen run
 NO_TORQUE = ("SWITCH ON DISABLED", "READY TO SWITCH ON", "SWITCHED ON", "FAULT", "FAULT REACTION ACTIVE")
 
 
+def _last_t(run_dir: str) -> float:
+    """The time [s] of the last complete row of ``samples.csv`` (0 when there is none)."""
+    with (Path(run_dir) / "samples.csv").open() as f:
+        lines = [line for line in f.read().splitlines()[1:] if line]
+    for line in reversed(lines):
+        with contextlib.suppress(ValueError):
+            return float(line.split(",", 1)[0])
+    return 0.0
+
+
 def _rows(run_dir: str) -> int:
     with (Path(run_dir) / "samples.csv").open() as f:
         return sum(1 for _ in f) - 1
@@ -146,7 +156,8 @@ def _sigkill(out: str) -> dict[str, Any]:
             "message": "the run did not start within 60 s",
         }
     ran = int((killed_at - started) / 0.001)
-    lost = max(0, ran - _rows(str(marks[0].parent)))
+    # the time not on disk: from the last row's t (skipped real-time cycles count in t) to the kill
+    lost = max(0, round((killed_at - started - _last_t(str(marks[0].parent))) / 0.001))
     return {
         "detected_after_cycles": None,
         "drive_disabled": False,  # the host is dead: only the drive's own supervision can stop it now

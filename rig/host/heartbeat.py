@@ -28,7 +28,13 @@ class HostHeartbeat:
         self.cob_id = COB_HEARTBEAT + node_id
         self.every = max(1, round(period / loop_period))
         self._data = bytes([NmtState.OPERATIONAL])
+        self._slot: int | None = None  #: the ``k // every`` of the last beat
 
     def beat(self, k: int) -> None:
-        if k % self.every == 0:
+        """Beat when ``k`` enters a new slot of ``every`` cycles: a real-time loop that skipped
+        cycles (``k`` jumped over a multiple) still beats, and a count that starts again (the
+        stop's cycles after the loop's) beats at once."""
+        slot = k // self.every
+        if slot != self._slot:
+            self._slot = slot
             self.network.send_message(self.cob_id, self._data)

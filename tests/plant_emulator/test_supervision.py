@@ -152,3 +152,14 @@ def test_an_rpdo_that_stops_coming_times_out(rig: Rig) -> None:
     assert 0x8250 in rig.emcy_codes()
     rig.run(0.2)
     assert rig.state() is S.SWITCH_ON_DISABLED
+
+
+def test_a_consumer_entry_written_takes_effect_at_once(rig: Rig) -> None:
+    """A write to 0x1016 changes the watch when it is stored, not at the next SYNC: a host that
+    clears its entry and leaves (no SYNC after it) is not reported lost later (real time)."""
+    rig.enable()
+    _consume(rig, 50)
+    assert rig.drive.heartbeats.times == {HOST: 0.05}
+    rig.run(0.01, beat_every=0.005)
+    _consume(rig, 0)
+    assert rig.drive.heartbeats.times == {}

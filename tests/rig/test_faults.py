@@ -53,6 +53,7 @@ def test_one_percent_frame_loss_is_ridden_through(table) -> None:  # type: ignor
     assert row["detected_after_cycles"] is None and row["drive_disabled"] and row["samples_lost"] == 0
 
 
+@pytest.mark.timing
 def test_sigkill_loses_at_most_100_ms(table) -> None:  # type: ignore[no-untyped-def]
     row = table["sigkill-host"]
     assert row["samples_lost"] is not None and row["samples_lost"] <= 100, row
