@@ -3,17 +3,47 @@
 ``open_bus`` wraps ``can.Bus`` with ``ignore_config=True``, so nothing is read
 from ``~/.canrc`` or ``CAN_*`` environment variables by surprise, and turns a
 failure into ``CommunicationError`` naming the interface and channel.
+``ReceiveWatch`` keeps python-can's receive thread from dying with a traceback when the
+bus goes away (a socketcand link reset, an interface down): the error is logged once and
+kept in the notifier's ``exception``, where the axes' supervision finds it.
 """
 
 from __future__ import annotations
 
+import logging
+import time
 from typing import Any
 
 import can
 
 from drivers.errors import CommunicationError
 
-__all__ = ["open_bus"]
+__all__ = ["ReceiveWatch", "brief", "open_bus"]
+
+log = logging.getLogger(__name__)
+
+
+def brief(exc: BaseException) -> str:
+    """An exception's words without the traceback text python-can puts in some of them."""
+    return str(exc).split("Traceback (most recent call last)")[0].strip()
+
+
+class ReceiveWatch(can.Listener):
+    """A notifier listener that handles receive errors: logged once, then the receive thread
+    retries every ``pause`` [s] (not a busy loop) until it is stopped."""
+
+    def __init__(self, pause: float = 0.05) -> None:
+        self.pause = pause
+        self.error: Exception | None = None
+
+    def on_message_received(self, msg: can.Message) -> None:
+        """Frames are for the other listeners."""
+
+    def on_error(self, exc: Exception) -> None:
+        if self.error is None:
+            self.error = exc
+            log.error("the bus is lost: %s", brief(exc))
+        time.sleep(self.pause)
 
 
 def open_bus(

@@ -24,6 +24,7 @@ from canopen.sdo.base import SdoVariable
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drivers.base import AxisDriver
+from drivers.bus import brief
 from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault, SafetyStop, SdoAbort
 from drivers.maps import cia
 from drivers.maps.emcy import emcy_text
@@ -211,6 +212,9 @@ class CanopenAxis(AxisDriver):
         """
         if self._fault is not None:
             raise self._fault
+        lost = getattr(self.network.notifier, "exception", None)  # python-can's receive thread
+        if lost is not None:
+            raise CommunicationError(f"node {self.node_id}: the bus is lost: {brief(lost)}")
         state = self.node.nmt.state
         if state != "OPERATIONAL" and (self._booted or self._heartbeats > 1):
             raise SafetyStop(f"node {self.node_id}: NMT state {state} (the node reset or was stopped)")

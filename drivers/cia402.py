@@ -35,6 +35,7 @@ from collections.abc import Callable, Mapping
 import canopen
 
 from drivers.base import AxisState, Feedback
+from drivers.bus import brief
 from drivers.canopen_axis import CanopenAxis
 from drivers.cia402_process import ProcessData
 from drivers.cia402_setup import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY, Cia402Setup
@@ -312,4 +313,4 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         except RigError:
             raise
         except Exception as exc:  # python-can errors, a closed socket
-            raise CommunicationError(f"node {self.node_id}: {data.rpdo.name} not sent: {exc}") from exc
+            raise CommunicationError(f"node {self.node_id}: {data.rpdo.name} not sent: {brief(exc)}") from exc

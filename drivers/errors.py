@@ -14,6 +14,7 @@ It lives in the lowest layer that raises it (``drivers``), so that ``drivers``,
      |    +-- ModbusExceptionResponse       ``.code`` (Modbus exception code)
      +-- DeviceFault                        the device reports a fault (EMCY, ...)
      +-- SafetyStop                         the host stopped the drive on purpose
+     +-- StorageError                       the run directory could not be written
 
 Library exceptions are translated at the driver boundary with
 ``raise ... from exc``.
@@ -30,6 +31,7 @@ __all__ = [
     "RigError",
     "SafetyStop",
     "SdoAbort",
+    "StorageError",
 ]
 
 
@@ -88,3 +90,7 @@ class SafetyStop(RigError):
     def __init__(self, reason: str):
         super().__init__(reason)
         self.reason = reason
+
+
+class StorageError(RigError):
+    """A file of the run directory could not be written (disk full, directory removed, ...)."""

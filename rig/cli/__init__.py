@@ -30,6 +30,22 @@ def _version() -> str:
         return "unknown"
 
 
+FORMAT = "%(levelname)s %(name)s: %(message)s"
+
+
+class BriefFormatter(logging.Formatter):
+    """One line per record: an exception's type and words instead of its traceback (``rig -v``
+    shows tracebacks), whichever library logged it."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        text = record.getMessage().split("Traceback (most recent call last)")[0].rstrip()
+        brief = logging.makeLogRecord({**record.__dict__, "msg": text, "args": (), "exc_info": None})
+        if record.exc_info and record.exc_info[1] is not None:
+            exc = record.exc_info[1]
+            return f"{super().format(brief)}: {type(exc).__name__}: {exc}"
+        return super().format(brief)
+
+
 def build_parser() -> Parser:
     parser = Parser(prog="rig", description="drive-rig: electrical-drive lab rig toolkit.")
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages to stderr")
@@ -45,11 +61,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
-        logging.basicConfig(
-            level=logging.DEBUG if args.verbose else logging.WARNING,
-            stream=sys.stderr,
-            format="%(levelname)s %(name)s: %(message)s",
-        )
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter((logging.Formatter if args.verbose else BriefFormatter)(FORMAT))
+        logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, handlers=[handler])
         return int(args.handler(args))
     except UsageError as exc:
         print(str(exc), file=sys.stderr)

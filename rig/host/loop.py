@@ -28,13 +28,16 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import can
 import numpy as np
 
 from drivers.base import AxisDriver, Feedback
+from drivers.bus import brief
 from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
 from rig.host.pacing import Pacing
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
+from rig.host.signals import stop_reason
 from rig.host.stopping import bring_to_rest
 from rig.laws.base import Law
 
@@ -138,6 +141,7 @@ class HostLoop:
         realtime: bool = False,
         stop_timeout: float = 3.0,
         heartbeat: Callable[[int], None] | None = None,
+        on_stop: Callable[[], None] | None = None,
     ) -> None:
         self.axes = list(axes)
         self.guards = list(guards)
@@ -153,10 +157,12 @@ class HostLoop:
         self.safe_stop_reason: str | None = None
         self.stop_timeout = stop_timeout  #: [s] for the drives' ramps at the end
         self.heartbeat = heartbeat  #: the host's heartbeat, ``heartbeat(k)`` every cycle (or None)
+        self.on_stop = on_stop  #: called as the stop begins (later stop signals do not cut it)
         self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
         self.done = 0
         self._begun = False
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
+        self._t_start = self._t_end = 0.0  #: perf_counter [s] of the first cycle, the last one's end
         self._sq_error = 0.0
         self._max_error = 0.0
         self._chatter = _ChatterCounter(tol=1e-9)
@@ -203,18 +209,20 @@ class HostLoop:
             gc.freeze()
             gc.disable()
             frozen = True
-        self.recorder.mark_start()
         try:
+            self.recorder.mark_start()
             self._prime()
             self._cycles(progress)
-        except KeyboardInterrupt:
-            self.safe_stop("Ctrl-C")
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP (``rig.host.signals``)
+            self.safe_stop(stop_reason(exc))
         except SafetyStop as exc:
             self.safe_stop(str(exc))
         except DeviceFault as exc:
             self.safe_stop(f"device fault: {exc}")
         except RigError as exc:
             self.safe_stop(f"{type(exc).__name__}: {exc}")
+        except (OSError, can.CanError) as exc:  # a send on a bus that went away
+            self.safe_stop(f"the bus is lost: {type(exc).__name__}: {brief(exc)}")
         except Exception as exc:
             log.exception("exception in the control loop")
             self.safe_stop(f"exception in the control loop: {type(exc).__name__}: {exc}")
@@ -254,13 +262,14 @@ class HostLoop:
         self._begun = True
 
     def _cycles(self, progress: Callable[[int], None] | None) -> None:
-        start = self._t_end = time.perf_counter()
+        start = self._t_start = self._t_end = time.perf_counter()
         deadline = start
         every = max(1, self.cycles // 100)
         k = 0
         pace = self.realtime and not self.pacing.paced_by_bus
         by_bus = self.pacing.paced_by_bus
         last_tick: float | None = None
+        previous: int | None = None  #: the cycle of the last tick
         while k < self.cycles:
             if pace:
                 self._wait(deadline)
@@ -285,29 +294,32 @@ class HostLoop:
                 last_tick = now
                 if k >= self.cycles:
                     break
-            self._cycle(k, t0)
+            # the host's SYNC: the TPDOs read now answer the previous tick's (a stall between the
+            # two ticks is in the drive's sample); the bus's SYNC: this tick's
+            self._cycle(k, t0, previous if pace and previous is not None else k)
+            previous = k
             k += 1
             deadline += self.period
             if progress is not None and k % every == 0:
                 progress(k)
-        self.elapsed = self._t_end - start
 
-    def _read(self, k: int) -> list[Feedback]:
+    def _read(self, k: int, sample_k: int) -> list[Feedback]:
         now = self.pacing.now()
         samples = []
         for axis, guard in zip(self.axes, self.guards):
             fb = axis.feedback()
             axis.supervise(now)
-            guard.check_feedback(fb, k)
+            guard.check_feedback(fb, k, sample_k)
             samples.append(fb)
         return samples
 
-    def _cycle(self, k: int, t0: float) -> None:
-        """Cycle ``k``, whose tick started at ``t0`` (perf_counter s) and has returned."""
+    def _cycle(self, k: int, t0: float, sample_k: int | None = None) -> None:
+        """Cycle ``k``, whose tick started at ``t0`` (perf_counter s) and has returned; its
+        samples were taken at the SYNC of cycle ``sample_k`` (default ``k``)."""
         t = k * self.period
         if self.heartbeat is not None:
             self.heartbeat(k)
-        samples = self._read(k)
+        samples = self._read(k, k if sample_k is None else sample_k)
         if not self._begun:
             self._begin(samples)
         t1 = time.perf_counter()
@@ -340,7 +352,7 @@ class HostLoop:
             ],
             (t1 - t0, t2 - t1, t3 - t2),
         )
-        self.done = k + 1
+        self.done += 1  #: cycles run (skipped ones are under ``overruns``)
 
     def _account(self, ref: float, y: float, values: list[Any], samples: list[Feedback]) -> None:
         """Streaming metrics: nothing grows with the run's length."""
@@ -365,6 +377,9 @@ class HostLoop:
 
     def _stop_axes(self) -> None:
         """Bring every axis to rest by its own ramp, then disable it (``rig.host.stopping``)."""
+        if self.on_stop is not None:
+            self.on_stop()
+        self.elapsed = self._t_end - self._t_start  # a safe stop's too
         self.stop_confirmed = bring_to_rest(
             self.axes,
             [self.axes[i] for i in self.wiring.commanded],

@@ -5,36 +5,70 @@ Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
 - ``config.json``: the resolved configuration;
 - ``started.json``: the wall-clock time the cycles started;
 - ``samples.csv``: one row per cycle (time, reference, measurement, command,
-  controller internals, loop timing), flushed every ``flush_every`` rows and on close;
+  controller internals, loop timing), flushed every ``flush_period`` [s] of run time
+  and on close;
 - ``samples.mat``: the same columns for MATLAB (scipy.io.savemat), written on close;
 - ``trace.asc``: the CAN trace in Vector ASCII (python-can's ``ASCWriter``), which
   CANalyzer, SavvyCAN, asammdf and python-can read; left out with ``[run] trace = false``;
 - ``summary.json``: the metrics and how the run ended;
 - ``plot.png`` when matplotlib is installed.
 
+The JSON files and ``samples.mat`` are written whole or not at all (a temporary file,
+then a rename). A write that fails while the run goes on (disk full, the directory
+removed) raises ``StorageError`` from ``sample``: the loop makes it a safe stop. The
+close never raises: it writes what it can (a removed directory is made again, the
+samples copied from the open file) and lists what it could not under ``warnings``.
+
 Frames reach ``on_frame`` from the bus's receive thread (python-can's notifier)
 while the loop writes samples; a lock orders the trace against ``close``, and a
 frame that arrives after the close is dropped and counted
-(``trace_frames_dropped`` in the summary), never an exception in that thread.
+(``trace_frames_dropped`` in the summary), never an exception in that thread: a
+trace that cannot be written is stopped, and the next ``sample`` raises its error.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime
+import io
 import json
+import logging
 import math
+import os
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 import can
 import numpy as np
 
+from drivers.errors import StorageError
 from rig.host.trace import AscTrace
 
-__all__ = ["Recorder"]
+__all__ = ["Recorder", "write_atomic"]
+
+log = logging.getLogger(__name__)
+
+
+def write_atomic(path: Path, write: Callable[[Any], None], *, binary: bool = False) -> None:
+    """``write(file)`` into a temporary file beside ``path``, then rename it to ``path``: the
+    file is there whole or not at all (OSError when it cannot be written)."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        with tmp.open("wb" if binary else "w") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _json(data: dict[str, Any]) -> Callable[[Any], None]:
+    return lambda f: f.write(json.dumps(data, indent=2) + "\n")
 
 
 class Recorder:
@@ -45,7 +79,7 @@ class Recorder:
         output: str | Path,
         name: str,
         *,
-        flush_every: int = 100,
+        flush_period: float = 0.05,
         trace: bool = True,
     ) -> None:
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -57,14 +91,15 @@ class Recorder:
         path.mkdir(parents=True)
         self.dir = path
         self.columns: list[str] = []
-        self._file = (path / "samples.csv").open("w", newline="")
+        self._file = (path / "samples.csv").open("w+", newline="")
         self._count = 0
-        self._flush_every = flush_every
-        self._pending = 0
+        self._flush_period = flush_period  #: [s] of run time (the rows' t)
+        self._flush_at = 0.0
         self.trace = AscTrace(str(path / "trace.asc")) if trace else None
         self.closed = False
         self._trace_lock = threading.Lock()
         self.frames_dropped = 0  #: frames that arrived after the close
+        self.error: StorageError | None = None  #: a write that failed (raised by the next ``sample``)
 
     def begin(self, columns: Sequence[str]) -> None:
         """The samples' columns (known once the axes are set up): the CSV header."""
@@ -72,11 +107,21 @@ class Recorder:
         self._file.write(",".join(self.columns) + "\n")
 
     def write_config(self, config: dict[str, Any]) -> None:
-        (self.dir / "config.json").write_text(json.dumps(config, indent=2) + "\n")
+        self._write_json("config.json", config)
 
     def mark_start(self) -> None:
         """Write ``started.json`` with the wall-clock time the cycles start (for post-mortems)."""
-        (self.dir / "started.json").write_text(json.dumps({"wall_time": time.time()}) + "\n")
+        self._write_json("started.json", {"wall_time": time.time()})
+
+    def _write_json(self, name: str, data: dict[str, Any]) -> None:
+        try:
+            write_atomic(self.dir / name, _json(data))
+        except OSError as exc:
+            raise self._failed(name, exc) from exc
+
+    def _failed(self, name: str, exc: OSError) -> StorageError:
+        what = exc.strerror or str(exc)
+        return StorageError(f"{self.dir / name}: {what}")
 
     def on_frame(self, msg: can.Message) -> None:
         """A CAN frame for the trace (a bus listener, any thread); after the close it is counted."""
@@ -86,60 +131,103 @@ class Recorder:
             if self.closed:
                 self.frames_dropped += 1
                 return
-            self.trace.on_message_received(msg)
+            try:
+                self.trace.on_message_received(msg)
+            except Exception as exc:  # never into the bus's receive thread
+                self._drop_trace(exc)
+
+    def _drop_trace(self, exc: Exception) -> None:
+        """The trace cannot be written: stop it; the next ``sample`` raises the error."""
+        trace, self.trace = self.trace, None
+        error = self._failed("trace.asc", exc) if isinstance(exc, OSError) else None
+        self.error = self.error or error or StorageError(f"{self.dir / 'trace.asc'}: {exc}")
+        log.error("%s", self.error)
+        try:
+            if trace is not None:
+                trace.file.close()
+        except Exception as close_exc:
+            log.debug("trace not closed: %s", close_exc)
 
     def sample(self, row: Sequence[float], timing: Sequence[float] = ()) -> None:
-        """One cycle's values in ``columns`` order, then its stage durations [s] (written in us,
-        to 0.1 us); the values at full precision (``repr``: they read back exactly)."""
+        """One cycle's values in ``columns`` order (``row[0]``: its time [s]), then its stage
+        durations [s] (written in us, to 0.1 us); the values at full precision (``repr``: they
+        read back exactly). StorageError when the run directory cannot be written."""
+        if self.error is not None:
+            error, self.error = self.error, None
+            raise error
         line = ",".join(map(repr, map(float, row)))
         if timing:
             line += "," + ",".join(["%.1f" % (d * 1e6) for d in timing])
-        self._file.write(line + "\n")
+        flush = row[0] >= self._flush_at
+        if flush and not self.dir.is_dir():
+            raise StorageError(f"{self.dir}: the run directory was removed")
+        try:
+            self._file.write(line + "\n")
+            if flush:
+                self._flush_at = row[0] + self._flush_period
+                self._file.flush()
+        except OSError as exc:
+            raise self._failed("samples.csv", exc) from exc
         self._count += 1
-        self._pending += 1
-        if self._pending >= self._flush_every:
-            self._file.flush()
-            self._pending = 0
 
     @property
     def samples(self) -> int:
         return self._count
 
+    def _text(self) -> str:
+        """Everything written to samples.csv, from the open file (there even if the file's
+        directory was removed)."""
+        f = self._file
+        if not f.closed:
+            with _suppressed("samples.csv not flushed"):
+                f.flush()
+            f.seek(0)
+            text = f.read()
+            f.seek(0, io.SEEK_END)
+            return text
+        return (self.dir / "samples.csv").read_text()
+
     def array(self) -> np.ndarray:
-        """The samples read back from samples.csv (nothing is held in memory during the run)."""
+        """The samples read back (nothing is held in memory during the run)."""
         if not self._count:
             return np.empty((0, len(self.columns)))
-        if not self._file.closed:
-            self._file.flush()
-        data = np.loadtxt(self.dir / "samples.csv", delimiter=",", skiprows=1, ndmin=2)
+        lines = self._text().splitlines()[1 : self._count + 1]
+        data = np.loadtxt(lines, delimiter=",", ndmin=2)
         return data.reshape(-1, len(self.columns))
 
     def close(self, summary: dict[str, Any]) -> None:
-        """Flush everything, write .mat, summary.json and the plot; safe to call twice."""
+        """Flush everything, write .mat, summary.json and the plot; safe to call twice; never
+        raises (what could not be written is listed under ``warnings`` and logged)."""
         if self.closed:
             return
         with self._trace_lock:
             self.closed = True
             if self.trace is not None:
-                self.trace.stop()
+                with _suppressed("trace.asc not closed", summary):
+                    self.trace.stop()
         summary["trace_frames_dropped"] = self.frames_dropped
-        self._file.flush()
+        text = self._text()
         self._file.close()
+        if not self.dir.is_dir():  # removed during the run: made again, the samples with it
+            with _suppressed("the run directory could not be made again", summary):
+                self.dir.mkdir(parents=True)
+                write_atomic(self.dir / "samples.csv", lambda f: f.write(text))
+                summary.setdefault("warnings", []).append(
+                    f"{self.dir} was removed during the run: made again with samples.csv"
+                )
         data = self.array()
-        try:
+        with _suppressed("samples.mat not written", summary):
             import scipy.io
 
-            scipy.io.savemat(
-                self.dir / "samples.mat",
-                {c.replace(".", "_"): data[:, i] for i, c in enumerate(self.columns)},
-            )
-        except Exception as exc:
-            summary.setdefault("warnings", []).append(f"samples.mat not written: {exc}")
+            columns = {c.replace(".", "_"): data[:, i] for i, c in enumerate(self.columns)}
+            write_atomic(self.dir / "samples.mat", lambda f: scipy.io.savemat(f, columns), binary=True)
         clean = {
             k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()
         }
-        (self.dir / "summary.json").write_text(json.dumps(clean, indent=2) + "\n")
-        self._plot(data)
+        with _suppressed("summary.json not written", summary):
+            write_atomic(self.dir / "summary.json", _json(clean))
+        with _suppressed("plot.png not written", summary):
+            self._plot(data)
 
     def _plot(self, data: np.ndarray) -> None:
         try:
@@ -163,3 +251,15 @@ class Recorder:
         fig.tight_layout()
         fig.savefig(self.dir / "plot.png")
         plt.close(fig)
+
+
+@contextlib.contextmanager
+def _suppressed(what: str, summary: dict[str, Any] | None = None) -> Iterator[None]:
+    """An exception inside is logged and, with a summary, listed under its ``warnings``; the
+    close goes on."""
+    try:
+        yield
+    except Exception as exc:
+        log.error("%s: %s", what, exc)
+        if summary is not None:
+            summary.setdefault("warnings", []).append(f"{what}: {exc}")

@@ -46,8 +46,10 @@ class AxisGuard:
     def _stop(self, text: str) -> SafetyStop:
         return SafetyStop(f"{self.who}: {text}")
 
-    def check_feedback(self, fb: Feedback, k: int) -> None:
-        """Check the sample of cycle ``k`` (the loop's cycle index, missed cycles included)."""
+    def check_feedback(self, fb: Feedback, k: int, sample_k: int | None = None) -> None:
+        """Check the sample of cycle ``k`` (the loop's cycle index, missed cycles included),
+        taken at the SYNC of cycle ``sample_k`` (default ``k``; the position step is bounded
+        by the periods between the samples' SYNCs)."""
         c = self.limits
         self._watchdog(fb.stamp, k)
         for name in self.measures:
@@ -57,7 +59,7 @@ class AxisGuard:
         if abs(fb.velocity) > c.speed:
             raise self._stop(f"speed {fb.velocity:.4g} rad/s exceeds the limit {c.speed:g} rad/s")
         if "position" in self.measures:
-            self._check_position(fb.position, k)
+            self._check_position(fb.position, k if sample_k is None else sample_k)
         if abs(fb.current) > c.current:
             raise self._stop(f"current {fb.current:.4g} A exceeds the limit {c.current:g} A")
 

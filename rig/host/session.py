@@ -20,7 +20,7 @@ from typing import Any
 import canopen
 
 from drivers.base import AxisDriver
-from drivers.bus import open_bus
+from drivers.bus import ReceiveWatch, open_bus
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import ConfigError, RigError
 from plant_emulator.profiles import parse_profile
@@ -40,6 +40,7 @@ from rig.host.pacing import (
 )
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
+from rig.host.signals import StopRequests
 from rig.laws import Law, make_law
 from rig.laws.injected import with_injected_faults
 from rig.laws.references import reference_of
@@ -96,6 +97,8 @@ class Session:
         self._tap: Callable[[Any], None] | None = None
         self.pacing: Pacing = Pacing()
         self.loop: HostLoop | None = None
+        self.signals = StopRequests()  #: SIGINT, SIGTERM, SIGHUP: the one safe stop
+        self.signals.install()
         try:
             self._build(duration, cycles)
         except BaseException:
@@ -118,6 +121,7 @@ class Session:
             self._bus = open_bus(b.interface, b.channel, bitrate=b.bitrate or None, **extra)
             self.network.bus = self._bus
             self.network.connect()
+            self.network.notifier.add_listener(ReceiveWatch())  # a lost bus: a safe stop, not a dead thread
         return cfg.run.period
 
     def _build(self, duration: float | None, cycles: int | None) -> None:
@@ -136,10 +140,8 @@ class Session:
         )
         self.law, self.wiring = law, wiring
         self.cycles = cycles or round((duration or cfg.run.duration) / period)
-        # flushed at least every 50 ms of run time: a killed host loses at most that
-        self.recorder = Recorder(
-            cfg.run.output, cfg.run.name, flush_every=max(1, round(0.05 / period)), trace=cfg.run.trace
-        )
+        # flushed every 50 ms of run time: a killed host loses at most that
+        self.recorder = Recorder(cfg.run.output, cfg.run.name, flush_period=0.05, trace=cfg.run.trace)
         self.recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": self.emulate})
         self._attach_trace()
 
@@ -205,6 +207,7 @@ class Session:
             # after setup: it waits for the TPDOs the axes map; after enable: no SYNC during setup
             self.pacing = self._pacing(self.period)
         except BaseException as exc:
+            self.signals.stopping()
             reason = f"setup failed: {exc}" if isinstance(exc, RigError) else "setup failed"
             for axis in self.axes:
                 axis.close()
@@ -229,6 +232,7 @@ class Session:
             realtime=cfg.run.time == "realtime",
             stop_timeout=max(a.stop_timeout for a in cfg.axes),
             heartbeat=self._heartbeat(),
+            on_stop=self.signals.stopping,
         )
 
     def _heartbeat(self) -> Callable[[int], None] | None:
@@ -256,14 +260,25 @@ class Session:
         self.recorder.close(summary)
 
     def close(self) -> None:
-        """Disable and release every axis, the bus and the emulated world (idempotent)."""
+        """Disable and release every axis, the bus and the emulated world (idempotent); then the
+        previous signal handlers."""
+        self.signals.stopping()
+        try:
+            self._close()
+        finally:
+            self.signals.restore()
+
+    def _close(self) -> None:
         for axis in self.axes:
             axis.close()
         recorder = getattr(self, "recorder", None)
         if recorder is not None and not recorder.closed:
             self._finish({"cycles": 0, "safe_stop_reason": "not run", "run_dir": str(recorder.dir)})
         if self._bus is not None:
-            self.network.disconnect()
+            try:
+                self.network.disconnect()
+            except Exception as exc:  # the bus was lost: its error is in the summary already
+                log.warning("the bus did not close cleanly: %s", exc)
             self._bus = None
         if self.emulation is not None:
             self.emulation.close()

@@ -74,7 +74,11 @@ def bring_to_rest(
         if not pending or time.monotonic() > deadline:
             break
         if heartbeat is not None:
-            heartbeat(k)
+            try:
+                heartbeat(k)
+            except Exception as exc:  # the bus is gone: the stop goes on as far as it can
+                log.error("the host's heartbeat not sent while stopping: %s", exc)
+                heartbeat = None
         if realtime and not pacing.paced_by_bus:
             time.sleep(period)
         try:

@@ -10,6 +10,7 @@ host is dead (two SDO clients on one server would mix their transfers), then rea
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import pathlib
@@ -79,6 +80,7 @@ def test_a_killed_host_leaves_a_drive_that_stops_itself(tmp_path: pathlib.Path) 
     eds = load_profile(zoo()["epos4"]).eds
     emulator, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
     host: subprocess.Popen[bytes] | None = None
+    stack = contextlib.ExitStack()
     try:
         match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
         assert match, line
@@ -97,13 +99,20 @@ def test_a_killed_host_leaves_a_drive_that_stops_itself(tmp_path: pathlib.Path) 
             network.subscribe(cob, seen)
         config = tmp_path / "run.toml"
         config.write_text(CONFIG.format(out=tmp_path, port=port, eds=eds))
+        host_err = stack.enter_context((tmp_path / "host.err").open("w"))
         host = subprocess.Popen(
             [sys.executable, "-m", "rig.cli", "run", "--config", str(config)],
             stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
+            stderr=host_err,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )
-        _wait(lambda: sum(1 for c, _ in frames if c in (0x181, 0x281)) > 200, 30.0, "the run's TPDOs")
+        running = host
+
+        def turning() -> bool:
+            return sum(1 for c, _ in frames if c in (0x181, 0x281)) > 200 or running.poll() is not None
+
+        _wait(turning, 60.0, "the run's TPDOs")
+        assert host.poll() is None, (tmp_path / "host.err").read_text()[-3000:]
         host.send_signal(signal.SIGKILL)
         host.wait(timeout=10)
         _wait(lambda: any(c == 0x81 and d[:2] == b"\x30\x81" for c, d in frames), 5.0, "EMCY 0x8130")
@@ -118,5 +127,7 @@ def test_a_killed_host_leaves_a_drive_that_stops_itself(tmp_path: pathlib.Path) 
     finally:
         if host is not None and host.poll() is None:
             host.kill()
+            host.wait(timeout=10)
+        stack.close()
         _out, err = stop_rig(emulator, timeout=10)
     assert emulator.returncode == 0, err

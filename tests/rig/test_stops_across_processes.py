@@ -1,0 +1,141 @@
+"""SIGTERM, SIGHUP and Ctrl-C (twice in quick succession too) are the one safe stop, across
+real processes and sockets: ``rig emulate --device epos4`` and ``rig run`` (real time, CSV at
+50 rad/s over socketcand) in processes of their own; the signal goes to ``rig run`` once its
+drive turns. It exits 3 with its summary, summary.json and samples.mat are whole on disk, and
+the drive is disabled at rest. Nothing is decided by a sleep: each wait is for a condition.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import re
+import signal
+import subprocess
+import sys
+import threading
+
+import can
+import canopen
+import pytest
+import scipy.io
+
+from plant_emulator.device_profile import load_profile, zoo
+from rig.process import spawn_rig, stop_rig
+from tests.rig.test_host_death import CONFIG, _wait
+
+#: this test is about the signals: a drive that watches the host with some slack (a loaded
+#: machine stalls the host's loop for more than the death test's 0.15 s)
+RELAXED = CONFIG.replace("heartbeat = 0.05", "heartbeat = 0.1").replace(
+    'abort_connection = "quick-stop"', 'abort_connection = "quick-stop"\nhost_timeout = 1.0'
+)
+
+
+@pytest.mark.parametrize(
+    ("signals", "reason"),
+    [
+        ((signal.SIGTERM,), "SIGTERM (terminate)"),
+        ((signal.SIGHUP,), "SIGHUP (hang-up)"),
+        ((signal.SIGINT, signal.SIGINT), "Ctrl-C (SIGINT)"),
+    ],
+    ids=["sigterm", "sighup", "double-ctrl-c"],
+)
+def test_a_stop_signal_is_the_safe_stop(
+    tmp_path: pathlib.Path, signals: tuple[signal.Signals, ...], reason: str
+) -> None:
+    eds = load_profile(zoo()["epos4"]).eds
+    emulator, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
+    host: subprocess.Popen[str] | None = None
+    try:
+        match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
+        assert match, line
+        port = int(match.group(1))
+        bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="can0", ignore_config=True)
+        network = canopen.Network(bus)
+        network.connect()
+        tpdos = [0]
+        lock = threading.Lock()
+
+        def seen(cob: int, data: bytearray, ts: float) -> None:
+            with lock:
+                tpdos[0] += 1
+
+        for cob in (0x181, 0x281):
+            network.subscribe(cob, seen)
+        config = tmp_path / "run.toml"
+        config.write_text(RELAXED.format(out=tmp_path, port=port, eds=eds))
+        host = subprocess.Popen(
+            [sys.executable, "-m", "rig.cli", "run", "--config", str(config), "--json"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
+        _wait(lambda: tpdos[0] > 200 or host.poll() is not None, 60.0, "the run's TPDOs")  # type: ignore[union-attr]
+        assert host.poll() is None, host.communicate()[1][-3000:]
+        for sig in signals:
+            host.send_signal(sig)
+        out, err = host.communicate(timeout=30)
+        assert host.returncode == 3, err[-3000:]
+        assert "Traceback" not in err, err[-3000:]
+        summary = json.loads(out)
+        assert summary["safe_stop_reason"] == reason and summary["stop_confirmed"] is True, summary
+        run_dir = pathlib.Path(summary["run_dir"])
+        assert json.loads((run_dir / "summary.json").read_text())["cycles"] == summary["cycles"]
+        mat = scipy.io.loadmat(run_dir / "samples.mat")
+        assert mat["t"].size == summary["cycles"]
+        assert not [p.name for p in run_dir.iterdir() if p.name.endswith(".tmp")]
+        node = canopen.RemoteNode(1, str(eds))
+        network.add_node(node)
+        assert node.sdo[0x6041].raw & 0x4F == 0x40  # SWITCH ON DISABLED
+        assert abs(node.sdo[0x606C].raw) <= 1  # rpm: at rest
+        network.disconnect()
+    finally:
+        if host is not None and host.poll() is None:
+            host.kill()
+        _out, emulator_err = stop_rig(emulator, timeout=10)
+    assert emulator.returncode == 0, emulator_err
+
+
+def test_a_lost_bus_is_a_safe_stop_not_a_traceback(tmp_path: pathlib.Path) -> None:
+    """The emulator (the far end of the socketcand link) is killed mid-run: ``rig run`` stops
+    through the one stop with its summary and says the bus is lost; it cannot confirm the
+    drive's stop over a dead link, so the exit code is 4 (the drive's own supervision takes
+    over on real iron: test_host_death)."""
+    eds = load_profile(zoo()["epos4"]).eds
+    emulator, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
+    host: subprocess.Popen[str] | None = None
+    try:
+        match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
+        assert match, line
+        config = tmp_path / "run.toml"
+        config.write_text(RELAXED.format(out=tmp_path, port=int(match.group(1)), eds=eds))
+        host = subprocess.Popen(
+            [sys.executable, "-m", "rig.cli", "run", "--config", str(config), "--json"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
+        running = host
+        _wait(lambda: any(tmp_path.glob("*/started.json")) or running.poll() is not None, 60.0, "the run")
+        assert host.poll() is None, host.communicate()[1][-3000:]
+        emulator.kill()
+        emulator.communicate(timeout=10)
+        out, err = host.communicate(timeout=60)
+        assert host.returncode == 4, err[-3000:]
+        assert "Traceback" not in err, err[-3000:]
+        summary = json.loads(out)
+        reason = summary["safe_stop_reason"]  # the send or the receive that failed first
+        assert "Connection reset" in reason or "Broken pipe" in reason, summary
+        assert "Traceback" not in reason
+        assert summary["stop_confirmed"] is False
+        run_dir = pathlib.Path(summary["run_dir"])
+        assert json.loads((run_dir / "summary.json").read_text())["cycles"] == summary["cycles"]
+    finally:
+        if host is not None and host.poll() is None:
+            host.kill()
+        if emulator.poll() is None:
+            emulator.kill()
+        emulator.communicate(timeout=10)
