@@ -46,6 +46,8 @@ class AxisLimits:
     position_max: float = math.inf  #: [rad]
     current: float = math.inf  #: [A]
     watchdog_periods: int = 3  #: periods without a new sample before the stop (missed real-time cycles count)
+    #: [s] in real time, the watchdog is at least this long (a PC's and a socket's jitter is not a period's)
+    watchdog: float = 0.1
     heartbeat_timeout: float = 0.0  #: [s]; 0: not supervised
 
 
@@ -130,3 +132,5 @@ def _check_axis(path: str, where: str, a: AxisConfig) -> None:
         raise ConfigError(
             f"{path}: {where} limits watchdog_periods = {a.limits.watchdog_periods}: must be >= 1"
         )
+    if not (math.isfinite(a.limits.watchdog) and a.limits.watchdog >= 0.0):
+        raise ConfigError(f"{path}: {where} limits watchdog = {a.limits.watchdog!r}: must be a time >= 0 s")

@@ -3,7 +3,8 @@
 A rig is a set of named axes and one control law (SI units; see ``examples/``)::
 
     [run]        duration [s], time ("lockstep" | "realtime"), output (directory), name,
-                 period [s] (default: the emulator preset's), trace (write trace.asc, default true)
+                 period [s] (default: the emulator preset's), trace (write trace.asc, default true),
+                 missed_sample ("hold" | "zero": a cycle without a new sample from a read axis)
     [bus]        the CAN bus: interface, channel, bitrate, host, port (ignored with --emulate);
                  host_node (127), heartbeat [s] (0.1; 0: none): the host's heartbeat the drives watch;
                  sync ("host" | "external": another device sends SYNC; real time only)
@@ -25,7 +26,8 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                  [axis.units] counts_per_rev, rated_torque [N m], rated_current [A],
                  position_unit, velocity_unit (SI unit codes): where the device does not report them;
                  [axis.limits] command, speed [rad/s], position_min/max [rad], current [A],
-                 watchdog_periods, heartbeat_timeout [s] (0: off)
+                 watchdog_periods (lock-step), watchdog [s] (real time: max of the two),
+                 heartbeat_timeout [s] (0: off)
     [controller] kind (see ``rig.laws.LAWS``), reads = [axis names], commands = [axis names],
                  and the law's parameters
     [reference]  kind (smooth-move | step | constant | profile), distance, duration, start, value, profile
@@ -82,6 +84,9 @@ class RunConfig:
     name: str = "run"
     period: float = 0.0  #: [s]; 0: the emulator preset's period
     trace: bool = True  #: write the CAN trace (trace.asc)
+    #: a cycle whose samples did not all come new (a TPDO missed): "hold" the law's last
+    #: commands (nothing new is sent; the law is not stepped on stale feedback) or send "zero"
+    missed_sample: Literal["hold", "zero"] = "hold"
 
 
 @dataclass(frozen=True)

@@ -179,6 +179,13 @@ def _realtime(out: str, seconds: float) -> list[Figure]:
             ("period_error_p99_us", "p99"),
             ("period_error_max_us", "max"),
         )
+    ] + [
+        {  # the host's response: the drive's TPDO on the bus to the RPDO the host sends in answer
+            "name": f"realtime_1khz_response_{name}",
+            "value": round(timing.get(f"response_{name}_us", math.nan), 1),
+            "unit": "us",
+        }
+        for name in ("median", "p99", "max")
     ]
     return [
         *figures,

@@ -52,6 +52,7 @@ class Emulation:
         self.injector: FaultInjector | None = None
         self.inverters: dict[str, tuple[Any, Any]] = {}  #: axis name -> (InverterModel, InverterServer)
         self._links: list[Any] = []
+        self._taps: dict[Callable[[Any], None], Callable[[Any], None]] = {}
         self._endpoints: dict[str, dict[str, Any]] = {}
         period = cfg.run.period
         preset, device = cfg.emulator.preset, cfg.emulator.device
@@ -143,12 +144,20 @@ class Emulation:
         return self.bench.devices if self.bench else []
 
     def add_tap(self, tap: Callable[[Any], None]) -> None:
+        """``tap`` sees every frame on the hub; the host's marked Tx, the devices' Rx."""
         if self.bench is not None:
-            self.bench.hub.taps.append(tap)
+
+            def directed(msg: Any) -> None:
+                msg.is_rx = msg.channel != "host"
+                tap(msg)
+
+            self._taps[tap] = directed
+            self.bench.hub.taps.append(directed)
 
     def remove_tap(self, tap: Callable[[Any], None]) -> None:
-        if self.bench is not None and tap in self.bench.hub.taps:
-            self.bench.hub.taps.remove(tap)
+        directed = self._taps.pop(tap, None)
+        if self.bench is not None and directed in self.bench.hub.taps:
+            self.bench.hub.taps.remove(directed)
 
     def close(self) -> None:
         """Stop the inverters, the fault injector and the bus (idempotent)."""

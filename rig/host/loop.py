@@ -19,7 +19,6 @@ the frames that feed the trace.
 
 from __future__ import annotations
 
-import collections
 import gc
 import logging
 import math
@@ -29,19 +28,20 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import can
-import numpy as np
 
 from drivers.base import AxisDriver, Feedback
 from drivers.bus import brief
+from drivers.canopen_axis import CanopenAxis
 from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
+from rig.host.loop_stats import ChatterCounter, StageTimes
 from rig.host.pacing import Pacing
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.host.signals import stop_reason
 from rig.host.stopping import bring_to_rest
-from rig.laws.base import Law
+from rig.laws.base import Law, LawStep
 
-__all__ = ["HostLoop", "StageTimes", "missed_periods"]
+__all__ = ["HostLoop", "StageTimes", "Wiring", "missed_periods"]
 
 log = logging.getLogger(__name__)
 
@@ -52,55 +52,6 @@ FIELDS = ("position", "velocity", "torque", "current")
 def _scalar(value: float | complex) -> float:
     """A command as recorded: itself, or the magnitude of a complex (dq) one."""
     return abs(value) if isinstance(value, complex) else value
-
-
-class _Window(collections.deque):  # type: ignore[type-arg]
-    """The last ``WINDOW`` values: timing statistics without growing memory on long runs."""
-
-    WINDOW = 20_000
-
-    def __init__(self) -> None:
-        super().__init__(maxlen=self.WINDOW)
-
-
-@dataclass
-class StageTimes:
-    """Per-stage durations [s] of the last 20,000 cycles (read, update, write) and period errors."""
-
-    read: _Window = field(default_factory=_Window)
-    update: _Window = field(default_factory=_Window)
-    write: _Window = field(default_factory=_Window)
-    period_error: _Window = field(default_factory=_Window)
-
-    def stats(self) -> dict[str, float]:
-        out: dict[str, float] = {}
-        for name in ("read", "update", "write", "period_error"):
-            a = np.abs(np.array(getattr(self, name))) * 1e6
-            if a.size:
-                out[f"{name}_median_us"] = float(np.median(a))
-                out[f"{name}_p99_us"] = float(np.percentile(a, 99))
-                out[f"{name}_max_us"] = float(a.max())
-        return out
-
-
-class _ChatterCounter:
-    """``rig.metrics.chattering_count`` computed as the samples arrive."""
-
-    def __init__(self, tol: float) -> None:
-        self.tol = tol
-        self.count = 0
-        self._last: float | None = None
-        self._sign = 0.0
-
-    def add(self, u: float) -> None:
-        if self._last is not None:
-            du = u - self._last
-            if abs(du) > self.tol:
-                sign = 1.0 if du > 0 else -1.0
-                if self._sign and sign != self._sign:
-                    self.count += 1
-                self._sign = sign
-        self._last = u
 
 
 @dataclass(frozen=True)
@@ -142,6 +93,7 @@ class HostLoop:
         stop_timeout: float = 3.0,
         heartbeat: Callable[[int], None] | None = None,
         on_stop: Callable[[], None] | None = None,
+        missed_sample: str = "hold",
     ) -> None:
         self.axes = list(axes)
         self.guards = list(guards)
@@ -158,6 +110,12 @@ class HostLoop:
         self.stop_timeout = stop_timeout  #: [s] for the drives' ramps at the end
         self.heartbeat = heartbeat  #: the host's heartbeat, ``heartbeat(k)`` every cycle (or None)
         self.on_stop = on_stop  #: called as the stop begins (later stop signals do not cut it)
+        self.missed_sample = missed_sample  #: "hold" | "zero" (``_step``)
+        self.held = 0  #: cycles in which a read axis had no new sample
+        self._last_out: LawStep | None = None
+        self._stamps: list[float | None] = []
+        #: the read axes' sample stamps are bus receive times on the wall clock (real time, CANopen)
+        self._wall_stamps = realtime and all(isinstance(axes[i], CanopenAxis) for i in wiring.reads)
         self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
         self.done = 0
         self._begun = False
@@ -165,7 +123,7 @@ class HostLoop:
         self._t_start = self._t_end = 0.0  #: perf_counter [s] of the first cycle, the last one's end
         self._sq_error = 0.0
         self._max_error = 0.0
-        self._chatter = _ChatterCounter(tol=1e-9)
+        self._chatter = ChatterCounter(tol=1e-9)
         self._peaks = {a.name: dict.fromkeys(("velocity", "current", "command"), 0.0) for a in self.axes}
         #: per axis, its peaks and the measured quantities whose peak is kept
         self._peak_fields = [
@@ -241,7 +199,7 @@ class HostLoop:
         bring them with cycle 0's own tick (``_begin`` checks)."""
         if not self.realtime or self.pacing.paced_by_bus:
             return
-        watchdog = max((g.limits.watchdog_periods for g in self.guards), default=0) * self.period
+        watchdog = max((g.watchdog_periods for g in self.guards), default=0) * self.period
         deadline = time.perf_counter() + max(1.0, watchdog)
         n = 0
         while not all(axis.has_sample() for axis in self.axes) and time.perf_counter() < deadline:
@@ -324,16 +282,22 @@ class HostLoop:
             self._begin(samples)
         t1 = time.perf_counter()
         wiring = self.wiring
-        out = self.law.step(t, [samples[i] for i in wiring.reads])
+        reads = [samples[i] for i in wiring.reads]
+        out, send = self._step(t, reads)
         values = [*out.commands, *(profile(t) for _, profile in wiring.profiles)]
-        targets = wiring.commanded
+        skip = 0 if send else len(out.commands)  # held: the law's commands are not sent again
+        targets = wiring.commanded[skip:]
         guards, axes = self.guards, self.axes
-        for i, value in zip(targets, values):
+        for i, value in zip(targets, values[skip:]):
             guards[i].check_command(value)
         t2 = time.perf_counter()
-        for i, value in zip(targets, values):
+        for i, value in zip(targets, values[skip:]):
             axes[i].command(value)
         t3 = time.perf_counter()
+        if self.realtime and send and self._wall_stamps:
+            newest = max((fb.stamp for fb in reads if fb.stamp is not None), default=None)
+            if newest is not None:  # the TPDO's time on the bus to the RPDO's
+                self.times.response.append(time.time() - newest)
         self._account(out.reference, out.measurement, values, samples)
         self.times.read.append(t1 - t0)
         self.times.update.append(t2 - t1)
@@ -353,6 +317,25 @@ class HostLoop:
             (t1 - t0, t2 - t1, t3 - t2),
         )
         self.done += 1  #: cycles run (skipped ones are under ``overruns``)
+
+    def _step(self, t: float, reads: list[Feedback]) -> tuple[LawStep, bool]:
+        """The law's step on new samples, and whether to send its commands. A cycle in which a
+        read axis has no new sample (a TPDO missed or late) does not step the law on stale
+        feedback: ``missed_sample = "hold"`` keeps the last commands (nothing is sent: the
+        drives hold them, and no backlog builds up), "zero" sends the neutral ones."""
+        stamps = [fb.stamp for fb in reads]
+        last = self._last_out
+        fresh = last is None or all(s is not None and s != p for s, p in zip(stamps, self._stamps))
+        self._stamps = stamps
+        if fresh or last is None:
+            self._last_out = self.law.step(t, reads)
+            return self._last_out, True
+        self.held += 1
+        if self.missed_sample == "hold":
+            return last, False
+        neutral = [self.axes[i].neutral_command() for i in self.wiring.commands]
+        commands = tuple(c if n is None else n for c, n in zip(last.commands, neutral))
+        return LawStep(commands, last.reference, last.measurement, last.internals), True
 
     def _account(self, ref: float, y: float, values: list[Any], samples: list[Feedback]) -> None:
         """Streaming metrics: nothing grows with the run's length."""
@@ -398,6 +381,7 @@ class HostLoop:
             "max_error": self._max_error if n else math.nan,
             "chattering_count": self._chatter.count,
             "overruns": self.overruns,
+            "held_cycles": self.held,
             "elapsed_s": self.elapsed,
             "safe_stop_reason": self.safe_stop_reason,
             "stop_confirmed": self.stop_confirmed,

@@ -24,10 +24,16 @@ __all__ = ["AxisGuard"]
 class AxisGuard:
     """The configured limits of one axis, with its watchdog state; ``period`` [s] is the loop's."""
 
-    def __init__(self, axis: AxisDriver, limits: AxisLimits, period: float) -> None:
+    def __init__(
+        self, axis: AxisDriver, limits: AxisLimits, period: float, *, realtime: bool = False
+    ) -> None:
         self.axis = axis
         self.limits = limits
         self.period = period
+        #: periods without a new sample before the stop: in real time, at least ``limits.watchdog`` [s]
+        self.watchdog_periods = limits.watchdog_periods
+        if realtime:
+            self.watchdog_periods = max(self.watchdog_periods, math.ceil(limits.watchdog / period - 1e-9))
         self.who = f"{axis.name}, {axis.where}"
         self.measures = axis.measures
         self.sample_name = getattr(axis, "sample_name", "sample")
@@ -112,14 +118,14 @@ class AxisGuard:
         self._last_command = x
 
     def _watchdog(self, stamp: float | None, k: int) -> None:
-        """Count the periods since the last new sample; stop after ``watchdog_periods``."""
+        """Count the periods since the last new sample; stop after ``self.watchdog_periods``."""
         if stamp is not None and stamp != self._last_stamp:
             self._last_stamp = stamp
             self._fresh_k = k
             self._stale = 0
             return
         self._stale = k - self._fresh_k
-        if self._stale >= self.limits.watchdog_periods:
+        if self._stale >= self.watchdog_periods:
             raise self._stop(
                 f"no {self.sample_name} for {self._stale} periods ({self._stale * self.period * 1e3:.3g} ms)"
             )

@@ -17,8 +17,6 @@ import logging
 from collections.abc import Callable
 from typing import Any
 
-import canopen
-
 from drivers.base import AxisDriver
 from drivers.bus import ReceiveWatch, open_bus
 from drivers.canopen_axis import CanopenAxis
@@ -41,6 +39,7 @@ from rig.host.pacing import (
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
+from rig.host.trace import TracedNetwork
 from rig.laws import Law, make_law
 from rig.laws.injected import with_injected_faults
 from rig.laws.references import reference_of
@@ -114,7 +113,7 @@ class Session:
             return self.emulation.period
         if not cfg.run.period > 0.0:
             raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s) when not emulating")
-        self.network = canopen.Network()
+        self.network = TracedNetwork()
         if any(a.kind != "modbus" for a in cfg.axes):
             b = cfg.bus
             extra = {"host": b.host, "port": b.port} if b.interface == "socketcand" else {}
@@ -156,8 +155,10 @@ class Session:
         tap = self._tap = self.recorder.on_frame
         if self.emulation is not None:
             self.emulation.add_tap(tap)
-        elif self.network.notifier is not None:
-            self.network.notifier.add_listener(tap)  # the trace: every frame received
+        else:
+            self.network.tx_tap = tap  # the trace: every frame sent,
+            if self.network.notifier is not None:
+                self.network.notifier.add_listener(tap)  # and every frame received
 
     def _detach_trace(self) -> None:
         tap, self._tap = self._tap, None
@@ -165,7 +166,9 @@ class Session:
             return
         if self.emulation is not None:
             self.emulation.remove_tap(tap)
-        elif self.network.notifier is not None and tap in self.network.notifier.listeners:
+            return
+        self.network.tx_tap = None
+        if self.network.notifier is not None and tap in self.network.notifier.listeners:
             self.network.notifier.remove_listener(tap)
 
     def _idle(self) -> Callable[[], None] | None:
@@ -218,7 +221,10 @@ class Session:
     def _loop(self) -> HostLoop:
         """The host loop over the set-up axes (what each measures is known now)."""
         cfg = self.cfg
-        guards = [AxisGuard(axis, a.limits, self.period) for axis, a in zip(self.axes, cfg.axes)]
+        realtime = cfg.run.time == "realtime"
+        guards = [
+            AxisGuard(axis, a.limits, self.period, realtime=realtime) for axis, a in zip(self.axes, cfg.axes)
+        ]
         self.recorder.begin(HostLoop.columns(self.axes, self.law, self.wiring))
         return HostLoop(
             self.axes,
@@ -233,6 +239,7 @@ class Session:
             stop_timeout=max(a.stop_timeout for a in cfg.axes),
             heartbeat=self._heartbeat(),
             on_stop=self.signals.stopping,
+            missed_sample=cfg.run.missed_sample,
         )
 
     def _heartbeat(self) -> Callable[[int], None] | None:

@@ -7,16 +7,28 @@ classic data frame with an 11-bit id is written as the same line from its
 timestamp, a head made once per (channel, id, direction, length) and its data. A test
 keeps the two writers' lines equal, and reads the trace back with python-can's
 ``ASCReader``.
+
+Two things python-can's writer gets wrong are set right here: the milliseconds of the
+header's dates are written with three digits (``.062``, not ``.62``, which readers take
+for 620 ms), and ``TracedNetwork`` gives the trace the frames the host sends (a bus
+delivers only what the others send): SYNC, RPDOs, SDO requests, NMT, heartbeat, each
+marked Tx; the frames received are Rx. SYNCs the kernel's broadcast manager sends
+(``[bus] interface = "socketcan"`` in real time) do not pass through the host and are
+not in the trace.
 """
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
+from datetime import datetime
 from typing import Any
 
 import can
+import canopen
 from can.util import channel2int
 
-__all__ = ["AscTrace"]
+__all__ = ["AscTrace", "TracedNetwork"]
 
 
 class AscTrace(can.ASCWriter):
@@ -25,6 +37,10 @@ class AscTrace(can.ASCWriter):
     def __init__(self, file: Any, channel: int = 1) -> None:
         super().__init__(file, channel=channel)
         self._heads: dict[tuple[Any, int, bool, int], str] = {}
+
+    def _format_header_datetime(self, dt: datetime) -> str:
+        """The header's date with its milliseconds in three digits (CANoe's form)."""
+        return dt.strftime(f"%a %b %d %H:%M:%S.{dt.microsecond // 1000:03d} %Y")
 
     def _head(self, msg: can.Message) -> str:
         """The part of the line between the timestamp and the data, made once per kind of frame."""
@@ -51,3 +67,27 @@ class AscTrace(can.ASCWriter):
             return
         stamp = "%9.6f" % (msg.timestamp - self.started)
         self.file.write(stamp + self._head(msg) + msg.data.hex(" ").upper() + "\n")
+
+
+class TracedNetwork(canopen.Network):
+    """canopen's ``Network`` whose every frame sent also goes to ``tx_tap`` as a Tx frame,
+    stamped with the wall clock [s] (the clock of the frames received)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.tx_tap: Callable[[can.Message], None] | None = None
+
+    def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        super().send_message(can_id, data, remote)
+        tap = self.tx_tap
+        if tap is not None:
+            tap(
+                can.Message(
+                    timestamp=time.time(),
+                    arbitration_id=can_id,
+                    data=bytes(data),
+                    is_extended_id=can_id > 0x7FF,
+                    is_remote_frame=remote,
+                    is_rx=False,
+                )
+            )

@@ -43,3 +43,78 @@ def test_the_fast_path_writes_python_cans_lines(tmp_path: pathlib.Path) -> None:
         m.arbitration_id for m in FRAMES if not m.is_error_frame
     ]
     assert read[1].data == bytes(range(8)) and abs(read[1].timestamp - 0.0004) < 1e-9
+
+
+def test_the_header_s_milliseconds_have_three_digits(tmp_path: pathlib.Path) -> None:
+    """python-can writes .62 for 62 ms, which its reader takes for 620 ms; ours writes .062."""
+    path = tmp_path / "t.asc"
+    start = 1_790_000_000.062  # [s] a wall-clock time 62 ms into its second
+    writer = AscTrace(str(path))
+    writer.on_message_received(can.Message(timestamp=start, arbitration_id=0x80, is_extended_id=False))
+    writer.on_message_received(can.Message(timestamp=start + 0.5, arbitration_id=0x181, data=b"\x01"))
+    writer.stop()
+    assert ".062 " in next(line for line in path.read_text().splitlines() if line.startswith("Begin"))
+    read = list(can.ASCReader(str(path), relative_timestamp=False))
+    assert abs(read[0].timestamp - start) < 1e-3 and abs(read[1].timestamp - start - 0.5) < 1e-3
+
+
+def test_an_emulated_run_s_trace_has_both_directions(tmp_path: pathlib.Path) -> None:
+    import dataclasses
+
+    from rig.config import load_config
+    from rig.host.session import Session
+
+    cfg = load_config(pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml")
+    cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path), duration=0.1))
+    with Session(cfg, emulate=True) as session:
+        session.start()
+        summary = session.run()
+    frames = list(can.ASCReader(str(pathlib.Path(summary["run_dir"]) / "trace.asc")))
+    tx = {m.arbitration_id for m in frames if not m.is_rx}
+    rx = {m.arbitration_id for m in frames if m.is_rx}
+    assert {0x80, 0x201, 0x601, 0x000} <= tx  # SYNC, RPDO1, SDO requests, NMT: the host's
+    assert {0x181, 0x581} <= rx and not tx & {0x181, 0x581}  # TPDO1, SDO responses: the drive's
+
+
+def test_a_trace_over_a_real_bus_holds_the_host_s_frames_at_the_right_time(tmp_path: pathlib.Path) -> None:
+    """``rig run`` in real time over socketcand to ``rig emulate`` in another process: the
+    frames the host sends (its SYNC every period, RPDOs, SDO requests) are in the trace as Tx,
+    the drive's as Rx, at absolute times within the run."""
+    import dataclasses
+    import json
+    import re
+
+    from plant_emulator.device_profile import load_profile, zoo
+    from rig.config import BusConfig, load_config, replace_axis
+    from rig.host.session import Session
+    from rig.process import spawn_rig, stop_rig
+
+    proc, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
+    try:
+        port = int(re.search(r"socketcand://127\.0\.0\.1:(\d+)", line).group(1))  # type: ignore[union-attr]
+        cfg = load_config(pathlib.Path(__file__).resolve().parents[2] / "examples" / "zoo_csp_position.toml")
+        cfg = dataclasses.replace(
+            cfg,
+            run=dataclasses.replace(
+                cfg.run, output=str(tmp_path), time="realtime", period=0.002, duration=0.4
+            ),
+            bus=BusConfig(interface="socketcand", channel="can0", port=port),
+            reference=dataclasses.replace(cfg.reference, distance=1.0, duration=0.2),
+        )
+        eds = str(load_profile(zoo()["epos4"]).eds)
+        cfg = replace_axis(cfg, "motor", eds=eds, enable_timeout=3.0, limits={"watchdog_periods": 100})
+        with Session(cfg, emulate=False) as session:
+            session.start()
+            summary = session.run()
+    finally:
+        stop_rig(proc, timeout=10)
+    run_dir = pathlib.Path(summary["run_dir"])
+    frames = list(can.ASCReader(str(run_dir / "trace.asc"), relative_timestamp=False))
+    syncs = [m for m in frames if m.arbitration_id == 0x80]
+    assert syncs and all(not m.is_rx for m in syncs)
+    assert len(syncs) >= summary["cycles"]  # one per cycle, and those of the stop
+    assert any(not m.is_rx and m.arbitration_id == 0x601 for m in frames)  # SDO requests
+    assert any(m.is_rx and m.arbitration_id == 0x581 for m in frames)  # SDO responses
+    started = json.loads((run_dir / "started.json").read_text())["wall_time"]
+    first_sync = next(m for m in syncs).timestamp
+    assert started - 30.0 < frames[0].timestamp <= first_sync <= started + 30.0  # the right date
