@@ -351,7 +351,7 @@ class EmulatedNode(Supervision):
         if self._dirty:
             self._configure()
         self.on_sync_latch(timestamp)  # the device's work: in every NMT state (lock-step's time step)
-        now = timestamp if self.clock_source is None else self.clock_source()
+        now = self.sync_time(timestamp)
         if self.nmt_state not in _SDO_SYNC_STATES:
             self.tick(now)
             return
@@ -376,6 +376,13 @@ class EmulatedNode(Supervision):
             self.node.emcy.send(code, register, data)
 
     # --- hooks -------------------------------------------------------------
+    def sync_time(self, timestamp: float) -> float:
+        """The device time [s] at a SYNC stamped ``timestamp`` [s], after ``on_sync_latch``:
+        the emulator's clock in real time, else the stamp. A device whose time is the SYNC
+        count (lock-step across processes, where a stamp is the host's wall clock) overrides
+        it, so its heartbeat consumer and RPDO deadlines count SYNCs as the host does."""
+        return timestamp if self.clock_source is None else self.clock_source()
+
     def on_sync_latch(self, timestamp: float) -> None:
         """SYNC arrived at ``timestamp`` [s]: advance and latch process data."""
 

@@ -344,6 +344,9 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         self._pending = [c for c in self._pending if c[0] > t_start + 1e-12]
         return [(0.0, *rest) for _, *rest in due]  # type: ignore[misc]
 
+    def sync_time(self, timestamp: float) -> float:
+        return self.shaft.t if self.shaft.lockstep else super().sync_time(timestamp)
+
     def on_sync_latch(self, timestamp: float) -> None:
         self.shaft.sync(self, timestamp)  # the shaft at this SYNC, advanced once for all its nodes
         self._t_sync = timestamp

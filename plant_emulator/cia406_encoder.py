@@ -62,6 +62,9 @@ class EmulatedEncoder(EmulatedNode):
             self.latch()
         super().tick(now)
 
+    def sync_time(self, timestamp: float) -> float:
+        return self.shaft.t if self.shaft.lockstep else super().sync_time(timestamp)
+
     def on_sync_latch(self, timestamp: float) -> None:
         self.shaft.sync(self, timestamp)
         self.latch()

@@ -163,3 +163,28 @@ def test_a_consumer_entry_written_takes_effect_at_once(rig: Rig) -> None:
     rig.run(0.01, beat_every=0.005)
     _consume(rig, 0)
     assert rig.drive.heartbeats.times == {}
+
+
+@pytest.mark.parametrize("gap", [1.0, 1e-6])
+def test_in_lockstep_the_consumer_counts_syncs_not_their_stamps(rig: Rig, gap: float) -> None:
+    """``rig emulate --time lockstep`` across processes: a SYNC's stamp is the bus's wall clock
+    (slow or fast host alike), the device's time is the SYNC count. A host beating every 20 ms of
+    SYNCs is never lost, whatever the stamps; 100 ms of SYNCs without a beat is a loss."""
+    rig.drive.lockstep = True
+    _consume(rig, 50)
+    rig.enable()
+    net = rig.bench.device_network
+    stamp = 0.0
+
+    def syncs(n: int, *, beat: bool) -> None:
+        nonlocal stamp
+        for k in range(n):
+            stamp += gap
+            net.notify(0x80, b"", stamp)
+            if beat and k % 50 == 0:
+                net.notify(0x700 + HOST, b"\x05", stamp)
+
+    syncs(1000, beat=True)  # 0.4 s of SYNCs, a beat every 20 ms
+    assert 0x8130 not in rig.emcy_codes()
+    syncs(250, beat=False)  # 100 ms of SYNCs in silence
+    assert 0x8130 in rig.emcy_codes()
