@@ -7,13 +7,11 @@ through ``InverterContext``: an unknown register, or a write to a read-only
 one, is answered with exception 02 (illegal data address); a reference out of
 the map's range with 03 (illegal data value).
 
-Behind the registers: a V/f drive with a linear speed ramp (``accel`` rad/s^2)
-feeding an induction motor whose speed follows the ramp with the slip of the
-load torque: omega = omega_ramp - sgn(omega_ramp) slip T_L / T_rated, smoothed with ``tau``
-[s]; the current is I_0 + (I_rated - I_0) |T_L| / T_rated. ``step(dt)`` advances it;
-``serve_tcp`` / ``serve_rtu`` run it on the wall clock in an asyncio loop; ``InverterServer``
-is a handle that serves it from a thread of its own, with the physics on the wall clock
-or stepped by its owner (lock-step).
+Behind the registers: ``InverterModel`` (``plant_emulator.inverter_model``), with
+its communication-loss trip. ``serve_tcp`` / ``serve_rtu`` run it on the wall
+clock in an asyncio loop; ``InverterServer`` is a handle that serves it from a
+thread of its own, with the physics on the wall clock or stepped by its owner
+(lock-step).
 """
 
 from __future__ import annotations
@@ -21,77 +19,30 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 from pymodbus.constants import ExcCodes
 from pymodbus.datastore import ModbusServerContext
 from pymodbus.datastore.context import ModbusBaseDeviceContext
 
-from drivers.maps import ModbusMap, modbus_map
+from drivers.maps import modbus_map
+from plant_emulator.inverter_model import COMM_LOSS, OVERSPEED, InverterModel
 
-__all__ = ["InverterContext", "InverterModel", "InverterServer", "default_model", "serve_rtu", "serve_tcp"]
+__all__ = [
+    "COMM_LOSS",
+    "OVERSPEED",
+    "InverterContext",
+    "InverterModel",
+    "InverterServer",
+    "default_model",
+    "serve_rtu",
+    "serve_tcp",
+]
 
 log = logging.getLogger(__name__)
-OVERSPEED = 0x7310  # fault code used by the emulator for over-speed (ABB 7310 'overspeed')
-COMM_LOSS = 0x6681  # communication loss of the embedded fieldbus (ABB 6681 'EFB comm loss')
-
-
-@dataclass
-class InverterModel:
-    """The drive and motor behind the registers (SI units)."""
-
-    regmap: ModbusMap
-    accel: float = 100.0  #: ramp [rad/s^2]
-    slip: float = 5.0  #: speed drop at rated torque [rad/s]
-    tau: float = 0.05  #: mechanical lag [s]
-    rated_torque: float = 10.0  #: [N m]
-    rated_current: float = 8.0  #: [A]
-    no_load_current: float = 2.5  #: [A]
-    max_speed: float = 200.0  #: over-speed trip [rad/s]
-    load: Callable[[float], float] = lambda t: 0.0
-    running: bool = False
-    fault: int = 0
-    reference: float = 0.0
-    ramp: float = 0.0
-    speed: float = 0.0
-    current: float = 0.0
-    t: float = 0.0
-    comm_loss_timeout: float = math.inf  #: trip if no request arrives this long while running [s] (inf: off)
-    last_request: float = 0.0  #: model time of the last request [s]
-
-    def step(self, dt: float) -> None:
-        """Advance dt [s]."""
-        self.t += dt
-        if self.running and not self.fault and self.t - self.last_request > self.comm_loss_timeout:
-            log.warning(
-                "inverter: no request for %.3g s, communication-loss trip", self.t - self.last_request
-            )
-            self.fault = COMM_LOSS
-            self.running = False
-        target = self.reference if (self.running and not self.fault) else 0.0
-        delta = max(-self.accel * dt, min(self.accel * dt, target - self.ramp))
-        self.ramp += delta
-        t_load = self.load(self.t)
-        # a braking load (same sign as the speed) slows the motor by the slip; a driving one speeds it up
-        goal = (
-            self.ramp - math.copysign(1.0, self.ramp) * self.slip * t_load / self.rated_torque
-            if self.ramp
-            else 0.0
-        )
-        self.speed += (goal - self.speed) * (1.0 - math.exp(-dt / self.tau))
-        excitation = self.no_load_current if (self.running or abs(self.ramp) > 0) and not self.fault else 0.0
-        self.current = (
-            excitation + (self.rated_current - self.no_load_current) * abs(t_load) / self.rated_torque
-        )
-        if abs(self.speed) > self.max_speed and not self.fault:
-            log.warning("inverter: over-speed %.1f rad/s, trip", self.speed)
-            self.fault = OVERSPEED
-            self.running = False
 
 
 class InverterContext(ModbusBaseDeviceContext):
