@@ -3,9 +3,18 @@
 The register semantics follow the shipped map (``abb-drives-profile`` or
 ``delta-vfd-b``): control word (run, stop, fault reset), speed reference,
 status word, actual speed, current and fault code. Reads and writes go
-through ``InverterContext``: an unknown register, or a write to a read-only
-one, is answered with exception 02 (illegal data address); a reference out of
-the map's range with 03 (illegal data value).
+through ``InverterContext``, in the order of the application protocol's
+request diagrams: a function other than the holding/input registers' gets
+exception 01, a read of a quantity not 1..125 03, an unknown register or a
+write to a read-only one 02 (illegal data address), a reference out of the
+map's range 03 (illegal data value).
+
+Addressing: on TCP the unit configured, 0 and 0xFF are this server (the TCP/IP
+implementation guide's unit identifier of a directly addressed server); another
+unit gets exception 0B, as from a gateway. On RTU the server answers its unit
+only, stays silent for any other, and applies a broadcast (address 0) without
+answering. The framing (several requests in one TCP segment, resynchronisation
+after line noise) is ``plant_emulator.modbus_framing``'s.
 
 Behind the registers: ``InverterModel`` (``plant_emulator.inverter_model``), with
 its communication-loss trip. ``serve_tcp`` / ``serve_rtu`` run it on the wall
@@ -43,6 +52,7 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+MAX_READ = 125  #: registers in one read request (application protocol 6.3, 6.4)
 
 
 class InverterContext(ModbusBaseDeviceContext):
@@ -116,6 +126,8 @@ class InverterContext(ModbusBaseDeviceContext):
             return injected
         if func_code not in (3, 4, 6, 16, 22, 23):  # holding/input registers (6, 16: read-back after write)
             return ExcCodes.ILLEGAL_FUNCTION
+        if not 1 <= count <= MAX_READ:
+            return ExcCodes.ILLEGAL_VALUE
         out = []
         for a in range(address, address + count):
             reg = self.by_address.get(a)
@@ -164,9 +176,19 @@ class InverterContext(ModbusBaseDeviceContext):
         return None
 
 
-def _context(model: InverterModel, unit: int, context: InverterContext | None = None) -> Any:
+def _context(unit: int, context: InverterContext, tcp: bool) -> Any:
+    """The server's units: ``unit`` (and on TCP 0 and 0xFF, the directly addressed server's)."""
     make: Any = ModbusServerContext
-    return make(devices={unit: context or InverterContext(model)}, single=False)
+    units = {unit, 0, 0xFF} if tcp else {unit}
+    return make(devices=dict.fromkeys(units, context), single=False)
+
+
+def _check_unit(unit: int, tcp: bool) -> None:
+    """ValueError naming ``unit`` when the server cannot be it (RTU: 1..247; TCP: 0..255)."""
+    lo, hi = (0, 255) if tcp else (1, 247)
+    if not lo <= unit <= hi:
+        line = "TCP" if tcp else "RTU (0 is the broadcast address)"
+        raise ValueError(f"Modbus inverter unit {unit!r}: not {lo}..{hi} on {line}")
 
 
 async def _physics(model: InverterModel, dt: float) -> None:
@@ -184,11 +206,15 @@ async def _physics(model: InverterModel, dt: float) -> None:
 
 def _server(model: InverterModel, unit: int, context: InverterContext | None, **where: Any) -> Any:
     """A pymodbus server of the inverter: TCP on ``address`` (host, port), or RTU with ``port``
-    a serial device (and ``baudrate`` etc.)."""
-    from pymodbus.server import ModbusSerialServer, ModbusTcpServer
+    a serial device (and ``baudrate`` etc.); ValueError for a unit it cannot be."""
+    from plant_emulator.modbus_framing import SpecSerialServer, SpecTcpServer
 
-    make = ModbusTcpServer if "address" in where else ModbusSerialServer
-    return make(_context(model, unit, context), **where)
+    tcp = "address" in where
+    _check_unit(unit, tcp)
+    devices = _context(unit, context or InverterContext(model), tcp)
+    if tcp:
+        return SpecTcpServer(devices, **where)
+    return SpecSerialServer(devices, ignore_missing_devices=True, broadcast_enable=True, **where)
 
 
 async def _serve(
@@ -251,6 +277,7 @@ class InverterServer:
     ``model.step(dt)`` itself (lock-step); with ``dt`` [s] it runs as ``serve_tcp``.
     ``start()`` returns when the server listens (OSError if it cannot, TimeoutError
     after ``timeout`` [s]); ``stop()`` is idempotent; a context manager starts and stops it.
+    ValueError for a ``unit`` the server cannot be (RTU 1..247, TCP 0..255).
     """
 
     def __init__(
@@ -266,6 +293,7 @@ class InverterServer:
         context: InverterContext | None = None,
         timeout: float = 10.0,
     ) -> None:
+        _check_unit(unit, serial is None)
         self.model = model
         self.context = context or InverterContext(model)
         self._where = (host, port, serial, baudrate, unit)
