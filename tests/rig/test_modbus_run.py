@@ -4,6 +4,8 @@ and real time, with the inverter's communication-loss trip on (its default)."""
 from __future__ import annotations
 
 import dataclasses
+import gc
+import time
 from pathlib import Path
 
 import numpy as np
@@ -49,3 +51,28 @@ def test_a_period_the_inverter_would_trip_in_is_refused(tmp_path: Path) -> None:
     with Session(slow, emulate=True, duration=1.0) as session:
         session.start()
         assert session.run()["safe_stop_reason"] is None
+
+
+def test_a_large_heap_does_not_trip_the_inverter_in_real_time(tmp_path: Path) -> None:
+    """The host's full garbage collection before its first cycle comes before the enable: on
+    a heap that takes longer to collect than the inverter's communication-loss time, the run
+    still polls in time (it tripped with the collection between enable and the first poll)."""
+    timeout = 0.2  # [s] the inverter's, so that a heap of a few million objects is enough
+    cfg = load_config(EXAMPLE)
+    emulator = dataclasses.replace(cfg.emulator, inverter={"comm_loss_timeout": timeout})
+    run = dataclasses.replace(cfg.run, output=str(tmp_path), time="realtime")
+    cfg = dataclasses.replace(cfg, run=run, emulator=emulator)
+    heap: list[list[int]] = []
+    while True:  # until a full collection takes 1.5 timeouts (the test's premise, checked)
+        heap.extend([i] for i in range(500_000))
+        start = time.perf_counter()
+        gc.collect()
+        if time.perf_counter() - start > 1.5 * timeout or len(heap) >= 10_000_000:
+            break
+    assert time.perf_counter() - start > 1.5 * timeout
+    with Session(cfg, emulate=True, duration=0.5) as session:
+        session.start()
+        summary = session.run()
+        model, _ = session.emulation.inverters["inverter"]  # type: ignore[union-attr]
+    assert summary["safe_stop_reason"] is None and model.fault == 0
+    del heap
