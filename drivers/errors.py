@@ -23,6 +23,7 @@ Library exceptions are translated at the driver boundary with
 from __future__ import annotations
 
 __all__ = [
+    "MODBUS_EXCEPTIONS",
     "CommunicationError",
     "CommunicationTimeout",
     "ConfigError",
@@ -65,11 +66,26 @@ class SdoAbort(CommunicationError):
         self.subindex = subindex
 
 
+#: Modbus exception codes and their names (Modbus Application Protocol V1.1b3, section 7)
+MODBUS_EXCEPTIONS = {
+    0x01: "illegal function",
+    0x02: "illegal data address",
+    0x03: "illegal data value",
+    0x04: "server device failure",
+    0x05: "acknowledge",
+    0x06: "server device busy",
+    0x08: "memory parity error",
+    0x0A: "gateway path unavailable",
+    0x0B: "gateway target device failed to respond",
+}
+
+
 class ModbusExceptionResponse(CommunicationError):
     """A Modbus device answered with an exception; ``code`` is the exception code."""
 
     def __init__(self, message: str, *, code: int, unit: int, register: int):
-        super().__init__(f"{message} (unit {unit}, register {register}, exception code {code})")
+        name = MODBUS_EXCEPTIONS.get(code, "not a code of the specification")
+        super().__init__(f"{message} (unit {unit}, register {register}, exception code {code}: {name})")
         self.code = code
         self.unit = unit
         self.register = register

@@ -6,8 +6,15 @@ Mode ``speed``: the command is the speed reference [rad/s]; the feedback is
 the actual speed [rad/s] and current [A]; the state comes from the status word
 as the family's map defines it. Registers are read in as few requests as the
 map allows (adjacent registers in one request). A Modbus exception answer
-becomes ``ModbusExceptionResponse`` with its code, unit and register; no answer
-becomes ``CommunicationTimeout``. The client is pymodbus' synchronous one.
+becomes ``ModbusExceptionResponse`` naming the registers' roles, the first
+register, the unit and the code with its name; no answer becomes
+``CommunicationTimeout``. The client is pymodbus' synchronous one.
+
+The unit is the configured one (default 1, what drives ship with as their
+address). On RTU it is 1..247: 0 is the broadcast address, which no server
+answers. On TCP it is 0..255: a device directly on TCP/IP is normally addressed
+as 0xFF (or 0), one behind a gateway by its serial address; many drives accept
+their own address only, so the default stays 1.
 """
 
 from __future__ import annotations
@@ -55,33 +62,44 @@ class ModbusInverterAxis(AxisDriver):
         baudrate: int = 19200,
         timeout: float = 1.0,
     ) -> None:
-        super().__init__(name, "speed")
         try:
-            self.map: ModbusMap = modbus_map(family)
+            regmap = modbus_map(family)
         except ValueError as exc:
             raise ConfigError(f"axis {name!r}: {exc}") from None
-        if not 0 <= unit <= 247:
-            raise ConfigError(f"axis {name!r}: Modbus unit {unit!r} is not 0..247")
-        self.unit = unit
+        missing = [
+            r for r in (*_FEEDBACK_ROLES, "control_word", "speed_reference") if r not in regmap.registers
+        ]
+        if missing:
+            raise ConfigError(f"axis {name!r}: map {family!r} lacks the register roles {missing}")
+        if not host and not serial:
+            raise ConfigError(f"axis {name!r}: a Modbus axis needs host (TCP) or serial (RTU)")
+        self.unit = self._check_unit(name, unit, tcp=bool(host))
+        super().__init__(name, "speed")  # checked first: an axis that is not made needs no close
+        self.map: ModbusMap = regmap
         self.client: Any
         if host:
             self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=1)
             self._where = f"unit {unit} at {host}:{port}"
-        elif serial:
+        else:
+            assert serial  # checked above
             self.client = ModbusSerialClient(
                 serial, framer=FramerType.RTU, baudrate=baudrate, timeout=timeout, retries=1
             )
             self._where = f"unit {unit} on {serial}"
-        else:
-            raise ConfigError(f"axis {name!r}: a Modbus axis needs host (TCP) or serial (RTU)")
-        missing = [
-            r for r in (*_FEEDBACK_ROLES, "control_word", "speed_reference") if r not in self.map.registers
-        ]
-        if missing:
-            raise ConfigError(f"axis {name!r}: map {family!r} lacks the register roles {missing}")
         self._groups = self._contiguous([self.map[r] for r in _FEEDBACK_ROLES])
         self._count = 0
         self._status: int | None = None  #: the status word of the last feedback
+
+    @staticmethod
+    def _check_unit(name: str, unit: int, *, tcp: bool) -> int:
+        """``unit``, or ConfigError: RTU 1..247 (0 is the broadcast address, which no server
+        answers); TCP 0..255 (0xFF or 0 address a server directly on TCP/IP, 1..247 one behind
+        a gateway or a device that wants its own address)."""
+        lo, hi = (0, 255) if tcp else (1, 247)
+        if not lo <= unit <= hi:
+            line = "TCP" if tcp else "RTU (0 is the broadcast address: no server answers it)"
+            raise ConfigError(f"axis {name!r}: Modbus unit {unit!r} is not {lo}..{hi} on {line}")
+        return unit
 
     @property
     def where(self) -> str:
@@ -100,14 +118,22 @@ class ModbusInverterAxis(AxisDriver):
         return groups
 
     # --- registers ---------------------------------------------------------------------------
-    def _check(self, rr: Any, register: int, count: int = 1) -> list[int]:
+    def _exception(self, rr: Any, what: str, register: int) -> ModbusExceptionResponse:
+        """The toolkit error for the exception answer ``rr`` to ``what`` (``reading status_word``)."""
+        raw = getattr(rr, "exception_code", 0)
+        code = raw if isinstance(raw, int) else 0
+        return ModbusExceptionResponse(
+            f"{self.map.name} at {self.where}: exception answer {what}",
+            code=code,
+            unit=self.unit,
+            register=register,
+        )
+
+    def _check(self, rr: Any, what: str, register: int, count: int = 1) -> list[int]:
         if rr is None:
-            raise CommunicationTimeout(f"{self.where}: no answer for register {register}")
+            raise CommunicationTimeout(f"{self.where}: no answer {what} (register {register})")
         if rr.isError():
-            code = getattr(rr, "exception_code", 0)
-            raise ModbusExceptionResponse(
-                f"{self.map.name} at {self.where}", code=code, unit=self.unit, register=register
-            )
+            raise self._exception(rr, what, register)
         registers = getattr(rr, "registers", None)
         if (
             not isinstance(registers, list)
@@ -115,20 +141,20 @@ class ModbusInverterAxis(AxisDriver):
             or not all(isinstance(v, int) and 0 <= v <= 0xFFFF for v in registers[:count])
         ):
             raise CommunicationError(
-                f"{self.map.name} at {self.where}: the answer for register {register} holds no "
+                f"{self.map.name} at {self.where}: the answer {what} (register {register}) holds no "
                 f"{count} 16-bit register value(s): {registers!r}"
             )
         return registers[:count]
 
     def _read_group(self, group: list[Register]) -> dict[str, float]:
         start = group[0].address
+        what = "reading " + ", ".join(r.role for r in group)
         try:
             rr = self.client.read_holding_registers(start, count=len(group), device_id=self.unit)
         except ModbusException as exc:
-            roles = ", ".join(r.role for r in group)
             span = f"register {start}" if len(group) == 1 else f"registers {start}-{group[-1].address}"
-            raise CommunicationTimeout(f"{self.where}: no answer reading {roles} ({span})") from exc
-        raw = self._check(rr, start, len(group))
+            raise CommunicationTimeout(f"{self.where}: no answer {what} ({span})") from exc
+        raw = self._check(rr, what, start, len(group))
         return {reg.role: reg.to_si(v) for reg, v in zip(group, raw)}
 
     def read(self, role: str) -> float:
@@ -157,12 +183,7 @@ class ModbusInverterAxis(AxisDriver):
         if rr is None:
             raise CommunicationTimeout(f"{self.where}: no answer writing {role} (register {reg.address})")
         if rr.isError():
-            raise ModbusExceptionResponse(
-                f"{self.map.name} at {self.where}",
-                code=getattr(rr, "exception_code", 0),
-                unit=self.unit,
-                register=reg.address,
-            )
+            raise self._exception(rr, f"writing {role}", reg.address)
 
     # --- the axis contract ------------------------------------------------------------------------
     def setup(self) -> None:

@@ -3,17 +3,24 @@
 The register semantics follow the shipped map (``abb-drives-profile`` or
 ``delta-vfd-b``): control word (run, stop, fault reset), speed reference,
 status word, actual speed, current and fault code. Reads and writes go
-through ``InverterContext``: an unknown register, or a write to a read-only
-one, is answered with exception 02 (illegal data address); a reference out of
-the map's range with 03 (illegal data value).
+through ``InverterContext``, in the order of the application protocol's
+request diagrams: a function other than the holding/input registers' gets
+exception 01, a read of a quantity not 1..125 03, an unknown register or a
+write to a read-only one 02 (illegal data address), a reference out of the
+map's range 03 (illegal data value).
 
-Behind the registers: a V/f drive with a linear speed ramp (``accel`` rad/s^2)
-feeding an induction motor whose speed follows the ramp with the slip of the
-load torque: omega = omega_ramp - sgn(omega_ramp) slip T_L / T_rated, smoothed with ``tau``
-[s]; the current is I_0 + (I_rated - I_0) |T_L| / T_rated. ``step(dt)`` advances it;
-``serve_tcp`` / ``serve_rtu`` run it on the wall clock in an asyncio loop; ``InverterServer``
-is a handle that serves it from a thread of its own, with the physics on the wall clock
-or stepped by its owner (lock-step).
+Addressing: on TCP the unit configured, 0 and 0xFF are this server (the TCP/IP
+implementation guide's unit identifier of a directly addressed server); another
+unit gets exception 0B, as from a gateway. On RTU the server answers its unit
+only, stays silent for any other, and applies a broadcast (address 0) without
+answering. The framing (several requests in one TCP segment, resynchronisation
+after line noise) is ``plant_emulator.modbus_framing``'s.
+
+Behind the registers: ``InverterModel`` (``plant_emulator.inverter_model``), with
+its communication-loss trip. ``serve_tcp`` / ``serve_rtu`` run it on the wall
+clock in an asyncio loop; ``InverterServer`` is a handle that serves it from a
+thread of its own, with the physics on the wall clock or stepped by its owner
+(lock-step).
 """
 
 from __future__ import annotations
@@ -21,77 +28,31 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 from pymodbus.constants import ExcCodes
 from pymodbus.datastore import ModbusServerContext
 from pymodbus.datastore.context import ModbusBaseDeviceContext
 
-from drivers.maps import ModbusMap, modbus_map
+from drivers.maps import modbus_map
+from plant_emulator.inverter_model import COMM_LOSS, OVERSPEED, InverterModel
 
-__all__ = ["InverterContext", "InverterModel", "InverterServer", "default_model", "serve_rtu", "serve_tcp"]
+__all__ = [
+    "COMM_LOSS",
+    "OVERSPEED",
+    "InverterContext",
+    "InverterModel",
+    "InverterServer",
+    "default_model",
+    "serve_rtu",
+    "serve_tcp",
+]
 
 log = logging.getLogger(__name__)
-OVERSPEED = 0x7310  # fault code used by the emulator for over-speed (ABB 7310 'overspeed')
-COMM_LOSS = 0x6681  # communication loss of the embedded fieldbus (ABB 6681 'EFB comm loss')
-
-
-@dataclass
-class InverterModel:
-    """The drive and motor behind the registers (SI units)."""
-
-    regmap: ModbusMap
-    accel: float = 100.0  #: ramp [rad/s^2]
-    slip: float = 5.0  #: speed drop at rated torque [rad/s]
-    tau: float = 0.05  #: mechanical lag [s]
-    rated_torque: float = 10.0  #: [N m]
-    rated_current: float = 8.0  #: [A]
-    no_load_current: float = 2.5  #: [A]
-    max_speed: float = 200.0  #: over-speed trip [rad/s]
-    load: Callable[[float], float] = lambda t: 0.0
-    running: bool = False
-    fault: int = 0
-    reference: float = 0.0
-    ramp: float = 0.0
-    speed: float = 0.0
-    current: float = 0.0
-    t: float = 0.0
-    comm_loss_timeout: float = math.inf  #: trip if no request arrives this long while running [s] (inf: off)
-    last_request: float = 0.0  #: model time of the last request [s]
-
-    def step(self, dt: float) -> None:
-        """Advance dt [s]."""
-        self.t += dt
-        if self.running and not self.fault and self.t - self.last_request > self.comm_loss_timeout:
-            log.warning(
-                "inverter: no request for %.3g s, communication-loss trip", self.t - self.last_request
-            )
-            self.fault = COMM_LOSS
-            self.running = False
-        target = self.reference if (self.running and not self.fault) else 0.0
-        delta = max(-self.accel * dt, min(self.accel * dt, target - self.ramp))
-        self.ramp += delta
-        t_load = self.load(self.t)
-        # a braking load (same sign as the speed) slows the motor by the slip; a driving one speeds it up
-        goal = (
-            self.ramp - math.copysign(1.0, self.ramp) * self.slip * t_load / self.rated_torque
-            if self.ramp
-            else 0.0
-        )
-        self.speed += (goal - self.speed) * (1.0 - math.exp(-dt / self.tau))
-        excitation = self.no_load_current if (self.running or abs(self.ramp) > 0) and not self.fault else 0.0
-        self.current = (
-            excitation + (self.rated_current - self.no_load_current) * abs(t_load) / self.rated_torque
-        )
-        if abs(self.speed) > self.max_speed and not self.fault:
-            log.warning("inverter: over-speed %.1f rad/s, trip", self.speed)
-            self.fault = OVERSPEED
-            self.running = False
+MAX_READ = 125  #: registers in one read request (application protocol 6.3, 6.4)
 
 
 class InverterContext(ModbusBaseDeviceContext):
@@ -165,6 +126,8 @@ class InverterContext(ModbusBaseDeviceContext):
             return injected
         if func_code not in (3, 4, 6, 16, 22, 23):  # holding/input registers (6, 16: read-back after write)
             return ExcCodes.ILLEGAL_FUNCTION
+        if not 1 <= count <= MAX_READ:
+            return ExcCodes.ILLEGAL_VALUE
         out = []
         for a in range(address, address + count):
             reg = self.by_address.get(a)
@@ -213,9 +176,19 @@ class InverterContext(ModbusBaseDeviceContext):
         return None
 
 
-def _context(model: InverterModel, unit: int, context: InverterContext | None = None) -> Any:
+def _context(unit: int, context: InverterContext, tcp: bool) -> Any:
+    """The server's units: ``unit`` (and on TCP 0 and 0xFF, the directly addressed server's)."""
     make: Any = ModbusServerContext
-    return make(devices={unit: context or InverterContext(model)}, single=False)
+    units = {unit, 0, 0xFF} if tcp else {unit}
+    return make(devices=dict.fromkeys(units, context), single=False)
+
+
+def _check_unit(unit: int, tcp: bool) -> None:
+    """ValueError naming ``unit`` when the server cannot be it (RTU: 1..247; TCP: 0..255)."""
+    lo, hi = (0, 255) if tcp else (1, 247)
+    if not lo <= unit <= hi:
+        line = "TCP" if tcp else "RTU (0 is the broadcast address)"
+        raise ValueError(f"Modbus inverter unit {unit!r}: not {lo}..{hi} on {line}")
 
 
 async def _physics(model: InverterModel, dt: float) -> None:
@@ -233,11 +206,15 @@ async def _physics(model: InverterModel, dt: float) -> None:
 
 def _server(model: InverterModel, unit: int, context: InverterContext | None, **where: Any) -> Any:
     """A pymodbus server of the inverter: TCP on ``address`` (host, port), or RTU with ``port``
-    a serial device (and ``baudrate`` etc.)."""
-    from pymodbus.server import ModbusSerialServer, ModbusTcpServer
+    a serial device (and ``baudrate`` etc.); ValueError for a unit it cannot be."""
+    from plant_emulator.modbus_framing import SpecSerialServer, SpecTcpServer
 
-    make = ModbusTcpServer if "address" in where else ModbusSerialServer
-    return make(_context(model, unit, context), **where)
+    tcp = "address" in where
+    _check_unit(unit, tcp)
+    devices = _context(unit, context or InverterContext(model), tcp)
+    if tcp:
+        return SpecTcpServer(devices, **where)
+    return SpecSerialServer(devices, ignore_missing_devices=True, broadcast_enable=True, **where)
 
 
 async def _serve(
@@ -300,6 +277,7 @@ class InverterServer:
     ``model.step(dt)`` itself (lock-step); with ``dt`` [s] it runs as ``serve_tcp``.
     ``start()`` returns when the server listens (OSError if it cannot, TimeoutError
     after ``timeout`` [s]); ``stop()`` is idempotent; a context manager starts and stops it.
+    ValueError for a ``unit`` the server cannot be (RTU 1..247, TCP 0..255).
     """
 
     def __init__(
@@ -315,6 +293,7 @@ class InverterServer:
         context: InverterContext | None = None,
         timeout: float = 10.0,
     ) -> None:
+        _check_unit(unit, serial is None)
         self.model = model
         self.context = context or InverterContext(model)
         self._where = (host, port, serial, baudrate, unit)

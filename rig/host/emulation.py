@@ -105,13 +105,24 @@ class Emulation:
             model = InverterModel(modbus_map(a.map), **values)
         except ValueError as exc:
             raise ConfigError(f"{where}: {exc}") from exc
-        if a.serial:  # RTU: the inverter on one end of a pty pair, the axis on the other
-            link = PtyLink()
-            self._links.append(link)
-            server = InverterServer(model, serial=link.port_b, baudrate=a.baudrate, unit=a.unit, dt=self._dt)
-            self._endpoints[a.name] = {"serial": link.port_a, "host": ""}
-        else:
-            server = InverterServer(model, unit=a.unit, dt=self._dt)
+        if not self.period < model.comm_loss_timeout:  # the host polls once a period, on either clock
+            raise ConfigError(
+                f"{cfg.source}: [run] period {self.period:g} s is not shorter than the emulated inverter's "
+                f"comm_loss_timeout {model.comm_loss_timeout:g} s: it would trip between two cycles "
+                "(raise [emulator.inverter] comm_loss_timeout)"
+            )
+        try:
+            if a.serial:  # RTU: the inverter on one end of a pty pair, the axis on the other
+                link = PtyLink()
+                self._links.append(link)
+                server = InverterServer(
+                    model, serial=link.port_b, baudrate=a.baudrate, unit=a.unit, dt=self._dt
+                )
+                self._endpoints[a.name] = {"serial": link.port_a, "host": ""}
+            else:
+                server = InverterServer(model, unit=a.unit, dt=self._dt)
+        except ValueError as exc:
+            raise ConfigError(f"{cfg.source}: [[axis]] {a.name!r}: {exc}") from exc
         server.start()
         if not a.serial:
             self._endpoints[a.name] = {"host": "127.0.0.1", "port": server.port, "serial": ""}

@@ -13,6 +13,7 @@ the benchmarks and the fault suite all run through here.
 
 from __future__ import annotations
 
+import gc
 import logging
 from collections.abc import Callable
 from typing import Any
@@ -98,6 +99,7 @@ class Session:
         self.loop: HostLoop | None = None
         self.signals = StopRequests()  #: SIGINT, SIGTERM, SIGHUP: the one safe stop
         self.signals.install()
+        self._frozen = False  #: start() froze the heap (real time) and nothing has unfrozen it
         try:
             self._build(duration, cycles)
         except BaseException:
@@ -205,6 +207,13 @@ class Session:
                 if idle is not None and hasattr(axis, "idle"):
                     axis.idle = idle  # waiting for a drive lets emulated time pass
                 axis.setup()
+            if self.cfg.run.time == "realtime":
+                # the loop's full collection before its first cycle, done before anything is
+                # enabled: on a large heap it takes longer than a drive's communication-loss time
+                # (a Modbus inverter's), and frozen objects are not traversed again (HostLoop.run)
+                gc.collect()
+                gc.freeze()
+                self._frozen = True
             for axis, a in zip(self.axes, self.cfg.axes):
                 axis.enable(timeout=a.enable_timeout)
             # after setup: it waits for the TPDOs the axes map; after enable: no SYNC during setup
@@ -212,6 +221,7 @@ class Session:
         except BaseException as exc:
             self.signals.stopping()
             reason = f"setup failed: {exc}" if isinstance(exc, RigError) else "setup failed"
+            self._thaw()
             for axis in self.axes:
                 axis.close()
             self._finish({"cycles": 0, "safe_stop_reason": reason, "run_dir": str(self.recorder.dir)})
@@ -258,6 +268,7 @@ class Session:
         try:
             summary = loop.run(progress)
         finally:
+            self._frozen = False  # the loop's run unfroze the heap
             self._finish(summary or loop.summary())
         return summary
 
@@ -265,6 +276,12 @@ class Session:
         self.pacing.close()
         self._detach_trace()
         self.recorder.close(summary)
+
+    def _thaw(self) -> None:
+        """Undo ``start``'s ``gc.freeze`` where the loop's run has not (it unfreezes at its end)."""
+        if self._frozen:
+            self._frozen = False
+            gc.unfreeze()
 
     def close(self) -> None:
         """Disable and release every axis, the bus and the emulated world (idempotent); then the
@@ -276,6 +293,7 @@ class Session:
             self.signals.restore()
 
     def _close(self) -> None:
+        self._thaw()
         for axis in self.axes:
             axis.close()
         recorder = getattr(self, "recorder", None)

@@ -15,6 +15,7 @@ from pymodbus.framer import FramerType
 
 from drivers.maps import modbus_map
 from plant_emulator.modbus_inverter import (
+    OVERSPEED,
     InverterContext,
     InverterServer,
     default_model,
@@ -33,6 +34,7 @@ def test_register_semantics_lock_step() -> None:
     assert ctx.setValues(6, 0, [0x047F]) is None  # run
     for _ in range(100):
         model.step(0.01)
+        ctx.getValues(3, 3)  # the host's poll every cycle keeps the communication-loss trip away
     speed = modbus_map("abb-drives-profile")["actual_speed"]
     assert speed.to_si(ctx.getValues(3, speed.address)[0]) == pytest.approx(50.0, abs=0.01)
     status = ctx.getValues(3, 3)[0]
@@ -54,10 +56,13 @@ def test_delta_map_runs_and_trips() -> None:
     ctx.setValues(6, reg["control_word"].address, [0x12])  # run forward
     for _ in range(200):
         model.step(0.01)
+        ctx.getValues(3, reg["status_word"].address)  # the host's poll
     assert ctx.getValues(3, reg["status_word"].address)[0] & 0x3 == 0x3
     model.load = lambda t: -10.0  # a driving load pushes the motor over its limit
     for _ in range(100):
         model.step(0.01)
+        ctx.getValues(3, reg["status_word"].address)
+    assert model.fault == OVERSPEED
     assert ctx.getValues(3, reg["fault_code"].address)[0] != 0
     ctx.setValues(6, reg["fault_control"].address, [0x2])  # reset
     assert ctx.getValues(3, reg["fault_code"].address)[0] == 0
@@ -134,7 +139,8 @@ def test_inverter_server_handle_over_tcp_in_lock_step() -> None:
         assert not client.write_register(0, 0x047F, device_id=1).isError()  # run
         assert client.read_holding_registers(speed.address, count=1, device_id=1).registers == [0]
         for _ in range(100):
-            model.step(0.01)  # the owner's lock-step
+            model.step(0.01)  # the owner's lock-step, a poll each cycle as the host makes
+            assert not client.read_holding_registers(3, count=1, device_id=1).isError()
         reading = speed.to_si(client.read_holding_registers(speed.address, count=1, device_id=1).registers[0])
         assert reading == pytest.approx(model.speed, abs=0.01) and model.speed > 10.0
         client.close()
