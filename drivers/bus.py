@@ -6,6 +6,8 @@ failure into ``CommunicationError`` naming the interface and channel.
 ``ReceiveWatch`` keeps python-can's receive thread from dying with a traceback when the
 bus goes away (a socketcand link reset, an interface down): the error is logged once and
 kept in the notifier's ``exception``, where the axes' supervision finds it.
+python-can's socketcand client warns "Got incomplete message" whenever a TCP segment ends
+inside a frame, which is ordinary TCP; that line is demoted to debug (``_Fragments``).
 """
 
 from __future__ import annotations
@@ -46,12 +48,28 @@ class ReceiveWatch(can.Listener):
         time.sleep(self.pause)
 
 
+class _Fragments(logging.Filter):
+    """Demotes python-can socketcand's warning for a frame split across TCP segments (the rest
+    comes in the next segment: nothing is lost) to debug."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno == logging.WARNING and record.getMessage().startswith("Got incomplete message"):
+            record.levelno, record.levelname = logging.DEBUG, "DEBUG"
+            return logging.getLogger(record.name).isEnabledFor(logging.DEBUG)
+        return True
+
+
+_SOCKETCAND_LOG = logging.getLogger("can.interfaces.socketcand.socketcand")
+
+
 def open_bus(
     interface: str, channel: str | int | None, *, bitrate: int | None = None, **options: Any
 ) -> can.BusABC:
     """A python-can bus on ``interface``/``channel`` (e.g. socketcan/vcan0, socketcand/can0)."""
     kwargs = dict(options)
     if interface == "socketcand":
+        if not any(isinstance(f, _Fragments) for f in _SOCKETCAND_LOG.filters):
+            _SOCKETCAND_LOG.addFilter(_Fragments())
         kwargs.setdefault("tcp_tune", True)  # TCP_NODELAY/QUICKACK: no 40 ms Nagle/delayed-ACK stalls
     if bitrate is not None:
         kwargs["bitrate"] = bitrate

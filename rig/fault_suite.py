@@ -2,23 +2,24 @@
 
 CANopen scenarios run the section VII.B servo (``rig.demo.demo_config``) over
 the emulated bus in lock-step with a fault injected at ``AT`` seconds; host
-scenarios break the controller, a limit, Ctrl-C and SIGKILL; Modbus scenarios
-make the emulated inverter time out or answer with an exception.
+scenarios break the controller, a limit and Ctrl-C; Modbus scenarios make the
+emulated inverter time out or answer with an exception. The cross-process
+scenarios (``rig.fault_wire``: emulator and host in processes of their own, real
+time over socketcand) kill, freeze and cut them, fill the disk and add a client
+that never reads.
 
 Each row: ``scenario``; ``detected_after_cycles`` (cycles from the injection to
 the stop; null when nothing had to be stopped); ``drive_disabled`` (the drive's
 final state produces no torque); ``samples_lost`` (cycles run minus rows in
-samples.csv; for SIGKILL, the cycles the clock says ran minus the rows on disk);
-``message`` (what the operator is told).
+samples.csv); ``message`` (what the operator is told); ``motor_speed_after_1s``
+(rad/s, the emulated drive's 1 s after the injection); ``stop_confirmed`` (the
+host saw every axis at rest and disabled by its stop).
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import json
 import math
-import signal
 import tempfile
 import time
 from collections.abc import Callable
@@ -26,29 +27,15 @@ from pathlib import Path
 from typing import Any
 
 from drivers.errors import CommunicationTimeout, ModbusExceptionResponse, RigError
+from drivers.maps.cia import PowerState
+from plant_emulator.cia402_drive import EmulatedDrive
 from rig.config import FaultsConfig, replace_axis
-from rig.process import spawn_rig
+from rig.fault_wire import AFTER, WIRE_SCENARIOS, rows_on_disk
 
-__all__ = ["AT", "SCENARIOS", "run_faults"]
+__all__ = ["AT", "LOCKSTEP", "SCENARIOS", "run_faults"]
 
 AT = 0.3  #: s: when the fault is injected
 DURATION = 0.8  #: s: length of each CANopen run
-NO_TORQUE = ("SWITCH ON DISABLED", "READY TO SWITCH ON", "SWITCHED ON", "FAULT", "FAULT REACTION ACTIVE")
-
-
-def _last_t(run_dir: str) -> float:
-    """The time [s] of the last complete row of ``samples.csv`` (0 when there is none)."""
-    with (Path(run_dir) / "samples.csv").open() as f:
-        lines = [line for line in f.read().splitlines()[1:] if line]
-    for line in reversed(lines):
-        with contextlib.suppress(ValueError):
-            return float(line.split(",", 1)[0])
-    return 0.0
-
-
-def _rows(run_dir: str) -> int:
-    with (Path(run_dir) / "samples.csv").open() as f:
-        return sum(1 for _ in f) - 1
 
 
 def _canopen(
@@ -67,6 +54,13 @@ def _canopen(
     with Session(cfg, emulate=True, duration=DURATION) as session:
         session.start()
         summary = session.run()
+        assert session.emulation is not None and session.emulation.bench is not None
+        bench = session.emulation.bench
+        while bench.syncs * bench.period < AT + AFTER - 1e-9:  # the emulated world goes on to AT + 1 s
+            bench.sync()
+        emulated = bench.devices[0]
+        assert isinstance(emulated, EmulatedDrive)
+        speed = emulated.axis.velocity
         drive = session.axes[0]
         state = "unknown"
         for _ in range(5):  # the SDO may be lost under frame loss
@@ -89,80 +83,11 @@ def _canopen(
     stopped = summary["safe_stop_reason"] is not None
     return {
         "detected_after_cycles": summary["cycles"] - injected if stopped else None,
-        "drive_disabled": state in NO_TORQUE,
-        "samples_lost": summary["cycles"] - _rows(summary["run_dir"]),
+        "drive_disabled": state != "unknown" and PowerState(state).torque_off,
+        "samples_lost": summary["cycles"] - rows_on_disk(Path(summary["run_dir"])),
         "message": summary["safe_stop_reason"] or "completed without a stop",
-    }
-
-
-_KILL_CONFIG = """
-[run]
-time = "realtime"
-period = 0.001
-output = "{out}"
-name = "sigkill"
-
-[emulator]
-preset = "dc-servo"
-
-[emulator.params]
-period = "0.001"
-
-[[axis]]
-name = "motor"
-kind = "cia402"
-node_id = 1
-mode = "voltage"
-sync_rpdo = false
-
-[axis.limits]
-command = 48.0
-speed = 300.0
-watchdog_periods = 1000
-
-[controller]
-kind = "position-servo"
-u0 = 48.0
-
-[reference]
-kind = "smooth-move"
-distance = 10.0
-duration = 1.0
-"""
-
-
-def _sigkill(out: str) -> dict[str, Any]:
-    """``rig run`` in its own process, real time at 1 kHz, killed with SIGKILL after about 1 s."""
-    config = Path(out) / "rt.toml"
-    config.write_text(_KILL_CONFIG.format(out=Path(out) / "kill"))
-    proc, _ = spawn_rig("run", "--config", str(config), "--emulate", "--duration", "5", quiet=True)
-    started, marks = None, []
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and started is None:
-        marks = list((Path(out) / "kill").glob("*/started.json"))
-        if marks:
-            with contextlib.suppress(ValueError, KeyError):
-                started = float(json.loads(marks[0].read_text())["wall_time"])
-        time.sleep(0.01)
-    time.sleep(1.0)
-    killed_at = time.time()
-    proc.send_signal(signal.SIGKILL)
-    proc.wait(timeout=10)
-    if started is None:
-        return {
-            "detected_after_cycles": None,
-            "drive_disabled": False,
-            "samples_lost": None,
-            "message": "the run did not start within 60 s",
-        }
-    ran = int((killed_at - started) / 0.001)
-    # the time not on disk: from the last row's t (skipped real-time cycles count in t) to the kill
-    lost = max(0, round((killed_at - started - _last_t(str(marks[0].parent))) / 0.001))
-    return {
-        "detected_after_cycles": None,
-        "drive_disabled": False,  # the host is dead: only the drive's own supervision can stop it now
-        "samples_lost": lost,
-        "message": f"host killed after about {ran} cycles; {lost} samples ({lost} ms at 1 kHz) not on disk",
+        "motor_speed_after_1s": round(speed, 3),
+        "stop_confirmed": bool(summary["stop_confirmed"]),
     }
 
 
@@ -194,7 +119,8 @@ def _modbus(mode: str) -> dict[str, Any]:
                     except (CommunicationTimeout, ModbusExceptionResponse):
                         pass
                     break
-            time.sleep(0.8)  # past the drive's communication-loss time
+            time.sleep(AFTER)  # past the drive's communication-loss time
+            speed = model.speed
         finally:
             drive.close()
     return {
@@ -202,6 +128,8 @@ def _modbus(mode: str) -> dict[str, Any]:
         "drive_disabled": not model.running,
         "samples_lost": 0,
         "message": message + (f"; drive tripped 0x{model.fault:04X}" if model.fault else ""),
+        "motor_speed_after_1s": round(speed, 3),
+        "stop_confirmed": False,  # no answer: the host cannot confirm; the drive's own trip stops it
     }
 
 
@@ -220,8 +148,10 @@ SCENARIOS: dict[str, Callable[[str], dict[str, Any]]] = {
     "ctrl-c": lambda out: _canopen(out, faults={"interrupt_at": AT}),
     "modbus-timeout": lambda out: _modbus("timeout"),
     "modbus-exception": lambda out: _modbus("exception"),
-    "sigkill-host": _sigkill,
 }
+#: the scenarios in one process, lock-step (deterministic): the default test run's
+LOCKSTEP = list(SCENARIOS)
+SCENARIOS.update(WIRE_SCENARIOS)
 
 
 def run_faults(names: list[str] | None = None) -> list[dict[str, Any]]:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
 
-__all__ = ["spawn_rig", "stop_rig"]
+__all__ = ["spawn_emulator", "spawn_rig", "stop_rig"]
 
 
 def spawn_rig(*args: str, quiet: bool = False, stderr: bool = False) -> tuple[subprocess.Popen[str], str]:
@@ -30,3 +31,14 @@ def stop_rig(proc: subprocess.Popen[str], *, timeout: float = 60.0) -> tuple[str
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=timeout)
     return out or "", err or ""
+
+
+def spawn_emulator(*args: str) -> tuple[subprocess.Popen[str], int]:
+    """``rig emulate ARGS`` on a free socketcand port of 127.0.0.1: the process and the port."""
+    proc, line = spawn_rig("emulate", *args, "--socketcand-port", "0", stderr=True)
+    match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
+    if match is None:
+        proc.kill()
+        _out, err = proc.communicate()
+        raise RuntimeError(f"rig emulate {' '.join(args)} did not start: {line.strip()} {err[-2000:]}")
+    return proc, int(match.group(1))

@@ -256,6 +256,16 @@ class PowerState(enum.Enum):
         """Statusword bits 0-6 of this state."""
         return _STATUS[self][1]
 
+    @property
+    def torque_off(self) -> bool:
+        """The drive function is disabled: no torque (all states but OPERATION ENABLED, QUICK
+        STOP ACTIVE and FAULT REACTION ACTIVE, which may still brake; CiA 402-2, 6.2)."""
+        return self not in (
+            PowerState.OPERATION_ENABLED,
+            PowerState.QUICK_STOP_ACTIVE,
+            PowerState.FAULT_REACTION_ACTIVE,
+        )
+
 
 #: statusword (mask, value) of each state: ready, switched on, operation enabled, fault,
 #: voltage enabled (ignored), quick stop, switch on disabled

@@ -21,10 +21,20 @@ def _soak() -> list[Figure]:
     return bench_soak()
 
 
+def _stops() -> list[Figure]:
+    from rig.bench.stops import bench_stops
+
+    return bench_stops()
+
+
 _loop.__doc__ = (
     "full-chain lock-step cycles/s (one axis, the dyno, the bare canopen exchange), 1 kHz real time"
 )
 _soak.__doc__ = "1,000,000 lock-step cycles with 1 % frame loss: memory growth and stops (minutes)"
+_stops.__doc__ = (
+    "false stops in 20 real-time runs of 10 s at 1 kHz of examples/dc_servo_position.toml against "
+    "rig emulate over socketcand (minutes)"
+)
 
 #: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}
 BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
@@ -34,4 +44,5 @@ BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "loop": _loop,
     "identify": bench_identify,
     "soak": _soak,
+    "stops": _stops,
 }

@@ -18,7 +18,8 @@ def add_parser(sub: Any) -> None:
         "faults",
         help="run every fault scenario over the whole chain and print the table",
         description="Runs each scenario (" + ", ".join(SCENARIOS) + ") and prints when it was detected, "
-        "whether the drive ended disabled, the samples lost and the operator's message.",
+        "whether the drive ended disabled, the samples lost, the motor's speed 1 s after the fault, "
+        "whether the host confirmed its stop, and the operator's message.",
     )
     add_json(faults, "print a list of JSON objects")
     faults.add_argument("--scenario", action="append", default=[], metavar="NAME", help="run only these")
@@ -35,9 +36,17 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(rows))
         return 0
-    print(f"{'scenario':18s} {'detected':>9s} {'disabled':>9s} {'lost':>5s}  message")
+    print(
+        f"{'scenario':18s} {'detected':>9s} {'disabled':>9s} {'lost':>5s} {'rad/s@1s':>9s} "
+        f"{'confirmed':>9s}  message"
+    )
     for r in rows:
-        detected = "-" if r["detected_after_cycles"] is None else str(r["detected_after_cycles"])
-        lost = "-" if r["samples_lost"] is None else str(r["samples_lost"])
-        print(f"{r['scenario']:18s} {detected:>9s} {r['drive_disabled']!s:>9s} {lost:>5s}  {r['message']}")
+        detected, lost, disabled, speed = (
+            "-" if r[k] is None else str(r[k])
+            for k in ("detected_after_cycles", "samples_lost", "drive_disabled", "motor_speed_after_1s")
+        )
+        print(
+            f"{r['scenario']:18s} {detected:>9s} {disabled:>9s} {lost:>5s} {speed:>9s} "
+            f"{r['stop_confirmed']!s:>9s}  {r['message']}"
+        )
     return 0

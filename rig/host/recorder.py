@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import contextlib
 import datetime
-import io
 import json
 import logging
 import math
@@ -174,24 +173,29 @@ class Recorder:
     def samples(self) -> int:
         return self._count
 
-    def _text(self) -> str:
-        """Everything written to samples.csv, from the open file (there even if the file's
-        directory was removed)."""
+    def _text(self, summary: dict[str, Any] | None = None) -> str:
+        """Every whole line of samples.csv, read from the open file's descriptor (there even if
+        the file's directory was removed; what a full disk refused stays out, and no seek
+        retries its flush)."""
         f = self._file
         if not f.closed:
-            with _suppressed("samples.csv not flushed"):
+            with _suppressed("samples.csv not flushed", summary):
                 f.flush()
-            f.seek(0)
-            text = f.read()
-            f.seek(0, io.SEEK_END)
-            return text
-        return (self.dir / "samples.csv").read_text()
+            chunks, offset = [], 0
+            while chunk := os.pread(f.fileno(), 1 << 20, offset):
+                chunks.append(chunk)
+                offset += len(chunk)
+            text = b"".join(chunks).decode("utf-8", errors="replace")
+        else:
+            text = (self.dir / "samples.csv").read_text()
+        return text[: text.rfind("\n") + 1]  # a row torn by a full disk is no row
 
-    def array(self) -> np.ndarray:
-        """The samples read back (nothing is held in memory during the run)."""
+    def array(self, text: str | None = None) -> np.ndarray:
+        """The samples read back (nothing is held in memory during the run), from samples.csv's
+        ``text`` if given."""
         if not self._count:
             return np.empty((0, len(self.columns)))
-        lines = self._text().splitlines()[1 : self._count + 1]
+        lines = (self._text() if text is None else text).splitlines()[1 : self._count + 1]
         data = np.loadtxt(lines, delimiter=",", ndmin=2)
         return data.reshape(-1, len(self.columns))
 
@@ -206,8 +210,9 @@ class Recorder:
                 with _suppressed("trace.asc not closed", summary):
                     self.trace.stop()
         summary["trace_frames_dropped"] = self.frames_dropped
-        text = self._text()
-        self._file.close()
+        text = self._text(summary)
+        with _suppressed("samples.csv not closed", summary):
+            self._file.close()  # its last buffer, where the disk is full, is refused again
         if not self.dir.is_dir():  # removed during the run: made again, the samples with it
             with _suppressed("the run directory could not be made again", summary):
                 self.dir.mkdir(parents=True)
@@ -215,7 +220,7 @@ class Recorder:
                 summary.setdefault("warnings", []).append(
                     f"{self.dir} was removed during the run: made again with samples.csv"
                 )
-        data = self.array()
+        data = self.array(text)
         with _suppressed("samples.mat not written", summary):
             import scipy.io
 

@@ -57,14 +57,14 @@ class AxisGuard:
         taken at the SYNC of cycle ``sample_k`` (default ``k``; the position step is bounded
         by the periods between the samples' SYNCs)."""
         c = self.limits
-        self._watchdog(fb.stamp, k)
+        fresh = self._watchdog(fb.stamp, k)
         for name in self.measures:
             value = getattr(fb, name)
             if not math.isfinite(value):
                 raise self._stop(f"{name} feedback is {value!r}")
         if abs(fb.velocity) > c.speed:
             raise self._stop(f"speed {fb.velocity:.4g} rad/s exceeds the limit {c.speed:g} rad/s")
-        if "position" in self.measures:
+        if "position" in self.measures and fresh:  # a repeated sample is no step (nor its time)
             self._check_position(fb.position, k if sample_k is None else sample_k)
         if abs(fb.current) > c.current:
             raise self._stop(f"current {fb.current:.4g} A exceeds the limit {c.current:g} A")
@@ -117,15 +117,17 @@ class AxisGuard:
             )
         self._last_command = x
 
-    def _watchdog(self, stamp: float | None, k: int) -> None:
-        """Count the periods since the last new sample; stop after ``self.watchdog_periods``."""
+    def _watchdog(self, stamp: float | None, k: int) -> bool:
+        """Count the periods since the last new sample; stop after ``self.watchdog_periods``.
+        True when the sample is new."""
         if stamp is not None and stamp != self._last_stamp:
             self._last_stamp = stamp
             self._fresh_k = k
             self._stale = 0
-            return
+            return True
         self._stale = k - self._fresh_k
         if self._stale >= self.watchdog_periods:
             raise self._stop(
                 f"no {self.sample_name} for {self._stale} periods ({self._stale * self.period * 1e3:.3g} ms)"
             )
+        return False

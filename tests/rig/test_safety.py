@@ -68,3 +68,17 @@ def test_position_step_allowed_per_period() -> None:
 )
 def test_missed_periods(gap: float, missed: int) -> None:
     assert missed_periods(gap, PERIOD) == missed
+
+
+def test_a_stall_is_not_a_position_jump() -> None:
+    """The drive stalled (its process held up): the host saw the same sample for 40 cycles, then
+    one 40 periods of motion further on. The step is bounded by the periods since the last new
+    sample, not since the last repeat (the link-drop scenario stopped on "position jumped by
+    2.2 rad in 1 period")."""
+    guard = _guard(speed=100.0, watchdog_periods=100)  # 0.3 rad a period
+    guard.check_feedback(Feedback(position=0.0, velocity=50.0, stamp=0.0), 0)
+    for k in range(1, 41):
+        guard.check_feedback(Feedback(position=0.0, velocity=50.0, stamp=0.0), k)  # repeated
+    guard.check_feedback(Feedback(position=2.0, velocity=50.0, stamp=1.0), 41)  # 41 periods on
+    with pytest.raises(SafetyStop, match=r"position jumped by 0.4 rad in 1 period\(s\)"):
+        guard.check_feedback(Feedback(position=2.4, velocity=50.0, stamp=2.0), 42)

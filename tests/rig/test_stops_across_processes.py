@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import os
 import pathlib
-import re
 import signal
 import subprocess
 import sys
@@ -22,14 +21,18 @@ import pytest
 import scipy.io
 
 from plant_emulator.device_profile import load_profile, zoo
-from rig.process import spawn_rig, stop_rig
-from tests.rig.test_host_death import CONFIG, _wait
+from rig.fault_wire import wait_for
+from rig.process import spawn_emulator, stop_rig
+from tests.rig.test_host_death import run_config
 
-#: this test is about the signals: a drive that watches the host with some slack (a loaded
-#: machine stalls the host's loop for more than the death test's 0.15 s)
-RELAXED = CONFIG.replace("heartbeat = 0.05", "heartbeat = 0.1").replace(
-    'abort_connection = "quick-stop"', 'abort_connection = "quick-stop"\nhost_timeout = 1.0'
-)
+
+def relaxed(out: pathlib.Path, port: int, eds: pathlib.Path) -> str:
+    """test_host_death's run with a drive that watches the host with some slack: this test is
+    about the signals (a loaded machine stalls the host's loop for more than 0.3 s)."""
+    text = run_config(out, port, eds)
+    return text.replace(
+        'abort_connection = "quick-stop"', 'abort_connection = "quick-stop"\nhost_timeout = 1.0'
+    )
 
 
 @pytest.mark.parametrize(
@@ -45,12 +48,9 @@ def test_a_stop_signal_is_the_safe_stop(
     tmp_path: pathlib.Path, signals: tuple[signal.Signals, ...], reason: str
 ) -> None:
     eds = load_profile(zoo()["epos4"]).eds
-    emulator, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
+    emulator, port = spawn_emulator("--device", "epos4")
     host: subprocess.Popen[str] | None = None
     try:
-        match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
-        assert match, line
-        port = int(match.group(1))
         bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="can0", ignore_config=True)
         network = canopen.Network(bus)
         network.connect()
@@ -64,7 +64,7 @@ def test_a_stop_signal_is_the_safe_stop(
         for cob in (0x181, 0x281):
             network.subscribe(cob, seen)
         config = tmp_path / "run.toml"
-        config.write_text(RELAXED.format(out=tmp_path, port=port, eds=eds))
+        config.write_text(relaxed(tmp_path, port, eds))
         host = subprocess.Popen(
             [sys.executable, "-m", "rig.cli", "run", "--config", str(config), "--json"],
             stdout=subprocess.PIPE,
@@ -72,7 +72,7 @@ def test_a_stop_signal_is_the_safe_stop(
             text=True,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )
-        _wait(lambda: tpdos[0] > 200 or host.poll() is not None, 60.0, "the run's TPDOs")  # type: ignore[union-attr]
+        wait_for(lambda: tpdos[0] > 200 or host.poll() is not None, 60.0, "the run's TPDOs")  # type: ignore[union-attr]
         assert host.poll() is None, host.communicate()[1][-3000:]
         for sig in signals:
             host.send_signal(sig)
@@ -104,13 +104,11 @@ def test_a_lost_bus_is_a_safe_stop_not_a_traceback(tmp_path: pathlib.Path) -> No
     drive's stop over a dead link, so the exit code is 4 (the drive's own supervision takes
     over on real iron: test_host_death)."""
     eds = load_profile(zoo()["epos4"]).eds
-    emulator, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
+    emulator, port = spawn_emulator("--device", "epos4")
     host: subprocess.Popen[str] | None = None
     try:
-        match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
-        assert match, line
         config = tmp_path / "run.toml"
-        config.write_text(RELAXED.format(out=tmp_path, port=int(match.group(1)), eds=eds))
+        config.write_text(relaxed(tmp_path, port, eds))
         host = subprocess.Popen(
             [sys.executable, "-m", "rig.cli", "run", "--config", str(config), "--json"],
             stdout=subprocess.PIPE,
@@ -119,7 +117,7 @@ def test_a_lost_bus_is_a_safe_stop_not_a_traceback(tmp_path: pathlib.Path) -> No
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )
         running = host
-        _wait(lambda: any(tmp_path.glob("*/started.json")) or running.poll() is not None, 60.0, "the run")
+        wait_for(lambda: any(tmp_path.glob("*/started.json")) or running.poll() is not None, 60.0, "the run")
         assert host.poll() is None, host.communicate()[1][-3000:]
         emulator.kill()
         emulator.communicate(timeout=10)

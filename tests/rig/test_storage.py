@@ -119,3 +119,33 @@ def test_rig_run_on_a_full_disk_is_a_safe_stop_with_its_summary(tmp_path: pathli
     assert summary["stop_confirmed"] is True
     run_dir = pathlib.Path(summary["run_dir"])
     assert json.loads((run_dir / "summary.json").read_text())["cycles"] == summary["cycles"]
+
+
+def test_a_full_disk_at_the_close_keeps_the_whole_rows(tmp_path: pathlib.Path) -> None:
+    """The disk fills while samples.csv still has rows in its buffer: the close neither raises
+    (no seek or close retries the refused flush into a traceback) nor reads a torn row; the
+    summary lists what could not be written (found by the disk-full scenario on a 512 KiB
+    tmpfs: a traceback at the close, no summary)."""
+    from rig.host.recorder import Recorder
+
+    recorder = Recorder(str(tmp_path), "full", flush_period=1e9)  # the buffer is flushed at the close
+    recorder.begin(["t", "x"])
+    for k in range(20_000):
+        recorder.sample([k * 1e-3, 1.0 + k])
+    on_disk = (recorder.dir / "samples.csv").stat().st_size
+    limit = on_disk + 1000  # the close's flush passes it mid-row
+    old_handler = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))
+    try:
+        summary: dict[str, object] = {"cycles": 20_000}
+        recorder.close(summary)  # must not raise
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+        signal.signal(signal.SIGXFSZ, old_handler)
+    assert any("samples.csv" in w for w in summary["warnings"]), summary  # type: ignore[attr-defined]
+    rows = (recorder.dir / "samples.csv").read_text().splitlines()[1:]
+    assert 0 < len(rows) < 20_000
+    whole = [r for r in rows if r.count(",") == 1]
+    assert len(whole) >= len(rows) - 1  # at most the last one torn on disk
+    assert json.loads((recorder.dir / "summary.json").read_text())["cycles"] == 20_000

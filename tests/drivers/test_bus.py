@@ -1,0 +1,28 @@
+"""Opening a bus: python-can's socketcand client on a socketcand server of ours."""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+import pytest
+
+from drivers.bus import open_bus
+from plant_emulator.lockstep import SyncHub
+from plant_emulator.socketcand_server import SocketcandServer
+
+
+def test_a_frame_split_across_tcp_segments_is_no_warning(caplog: pytest.LogCaptureFixture) -> None:
+    """python-can warns "Got incomplete message" for ordinary TCP fragmentation; once a
+    socketcand bus is opened through open_bus that line is debug, every other warning stays."""
+    server = SocketcandServer(SyncHub(), threading.RLock(), port=0)
+    server.start()
+    try:
+        open_bus("socketcand", "can0", host="127.0.0.1", port=server.port).shutdown()
+    finally:
+        server.stop()
+    log = logging.getLogger("can.interfaces.socketcand.socketcand")
+    with caplog.at_level(logging.INFO, logger=log.name):
+        log.warning("Got incomplete message => waiting for more data")
+        log.warning("Incomplete message exceeds 200 chars => Discarding")
+    assert [r.getMessage() for r in caplog.records] == ["Incomplete message exceeds 200 chars => Discarding"]
