@@ -42,20 +42,14 @@ naming the file and the key.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal
 
 from drivers.errors import ConfigError
+from drivers.files import read_toml
 from rig.axis_config import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
 from rig.params import typed_values
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
-
 
 __all__ = [
     "ABORT_CONNECTION",
@@ -340,12 +334,7 @@ def replace_axis(
 
 
 def load_config(path: str | Path) -> RigConfig:
-    """Load and check a rig configuration file."""
+    """Load and check a rig configuration file (``drivers.files.read_toml``: a regular file of at
+    most ``CONFIG_LIMIT``, UTF-8, not nested deeper than ``MAX_DEPTH``)."""
     p = Path(path)
-    try:
-        doc = tomllib.loads(p.read_text())
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read: {exc.strerror}") from exc
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc}") from exc
-    return rig_config(doc, str(p))
+    return rig_config(read_toml(p, what="rig configuration"), str(p))

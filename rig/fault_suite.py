@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import json
 import math
 import signal
 import tempfile
@@ -26,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.errors import CommunicationTimeout, ModbusExceptionResponse, RigError
+from drivers.files import read_json
 from rig.config import FaultsConfig, replace_axis
 from rig.process import spawn_rig
 
@@ -142,7 +142,7 @@ def _sigkill(out: str) -> dict[str, Any]:
         marks = list((Path(out) / "kill").glob("*/started.json"))
         if marks:
             with contextlib.suppress(ValueError, KeyError):
-                started = float(json.loads(marks[0].read_text())["wall_time"])
+                started = float(read_json(marks[0], what="run's start")["wall_time"])
         time.sleep(0.01)
     time.sleep(1.0)
     killed_at = time.time()

@@ -18,13 +18,15 @@ from typing import Any
 import canopen
 
 from drivers.errors import ConfigError
+from drivers.files import EDS_LIMIT, read_bytes
 
 __all__ = ["eds_text", "load_od"]
 
 
 def eds_text(path: str | Path) -> str:
-    """The text of an EDS/DCF: UTF-8, else Windows-1252 (see the module docstring)."""
-    data = Path(path).read_bytes()
+    """The text of an EDS/DCF (a regular file of at most ``EDS_LIMIT``, ``drivers.files``):
+    UTF-8, else Windows-1252 (see the module docstring)."""
+    data = read_bytes(path, limit=EDS_LIMIT, what="EDS/DCF file")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError:
@@ -43,8 +45,8 @@ def load_od(path: str | Path, node_id: int) -> Any:
         with warnings.catch_warnings():  # canopen's EDS parser calls the deprecated logger.warn
             warnings.simplefilter("ignore", DeprecationWarning)
             od = canopen.import_od(source, node_id)
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such EDS/DCF file") from None
+    except ConfigError:
+        raise
     except (
         configparser.Error,
         ValueError,
