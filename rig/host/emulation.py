@@ -32,13 +32,14 @@ EMULATOR_FAULTS = tuple(f.name for f in dataclasses.fields(FaultPlan))
 _MODEL_FIXED = ("regmap", "load")
 
 
-def preset_params(name: str, params: dict[str, Any], source: str) -> dict[str, Any]:
-    """``params`` typed against the preset ``name``'s parameters; ConfigError naming the bad one."""
+def preset_params(name: str, params: dict[str, Any], source: str, *, text: bool = False) -> dict[str, Any]:
+    """``params`` typed against the preset ``name``'s parameters (``text``: command-line text);
+    ConfigError naming the bad one."""
     if name not in PRESETS:
         raise ConfigError(f"{source}: unknown preset {name!r}; known: {', '.join(PRESETS)}")
     schema = PRESETS[name]
     aliases = {f"plant.{k}": k for k in field_types(schema)}
-    return typed_values(schema, params, source, aliases=aliases)
+    return typed_values(schema, params, source, aliases=aliases, text=text)
 
 
 class Emulation:
