@@ -65,11 +65,11 @@ _KINDS = (
 
 def _not_regular(path: Path, mode: int, what: str) -> ConfigError:
     kind = next((name for test, name in _KINDS if test(mode)), "not a regular file")
-    return ConfigError(f"{path}: {kind}, not a file: a {what} must be a regular file")
+    return ConfigError(f"{path}: {kind}, not a regular file ({what})")
 
 
 def _too_large(path: Path, size: int, limit: int, what: str) -> ConfigError:
-    return ConfigError(f"{path}: {size / MiB:.1f} MiB, larger than a {what} may be ({limit / MiB:g} MiB)")
+    return ConfigError(f"{path}: {size / MiB:.1f} MiB: too large ({what}: at most {limit / MiB:g} MiB)")
 
 
 def _read(p: Path, limit: int, what: str) -> bytes:
@@ -85,7 +85,7 @@ def _read(p: Path, limit: int, what: str) -> bytes:
             raise _too_large(p, st.st_size, limit, what)
         data = f.read(limit + 1)
     if len(data) > limit:  # grew while being read, or says it has no size (as /proc does)
-        raise ConfigError(f"{p}: larger than a {what} may be ({limit / MiB:g} MiB)")
+        raise ConfigError(f"{p}: too large ({what}: at most {limit / MiB:g} MiB)")
     return data
 
 
@@ -103,8 +103,9 @@ def read_bytes(path: str | Path, *, limit: int, what: str = "file") -> bytes:
         raise ConfigError(f"{p}: cannot read the {what}: {reason}") from None
 
 
-def read_text(path: str | Path, *, limit: int, what: str = "file") -> str:
-    """The UTF-8 text of ``path`` (``read_bytes``); ConfigError naming the line of a bad byte."""
+def read_text(path: str | Path, *, limit: int, what: str = "file", fallback: str = "") -> str:
+    """The UTF-8 text of ``path`` (``read_bytes``), else (``fallback``) in that 8-bit encoding;
+    ConfigError naming the line of a bad byte."""
     p = Path(path)
     data = read_bytes(p, limit=limit, what=what)
     if data.startswith((codecs.BOM_UTF32_LE, codecs.BOM_UTF32_BE)):
@@ -118,10 +119,17 @@ def read_text(path: str | Path, *, limit: int, what: str = "file") -> str:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        line = data.count(b"\n", 0, exc.start) + 1
-        raise ConfigError(
-            f"{p}: line {line}: byte 0x{data[exc.start]:02X} is not UTF-8: the {what} must be UTF-8 text"
-        ) from None
+        if not fallback:
+            raise _bad_byte(p, data, exc, what, "is not UTF-8 text") from None
+    try:
+        return data.decode(fallback)
+    except UnicodeDecodeError as exc:
+        raise _bad_byte(p, data, exc, what, f"is neither UTF-8 nor {fallback}") from None
+
+
+def _bad_byte(p: Path, data: bytes, exc: UnicodeDecodeError, what: str, rule: str) -> ConfigError:
+    line = data.count(b"\n", 0, exc.start) + 1
+    return ConfigError(f"{p}: not a valid {what}: line {line}: byte 0x{data[exc.start]:02X} {rule}")
 
 
 #: what can nest in TOML or JSON text: strings (whose brackets do not count), comments, brackets
