@@ -49,6 +49,7 @@ from typing import Any, Literal
 from drivers.errors import ConfigError
 from drivers.files import read_toml
 from rig.axis_config import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
+from rig.config_checks import check_bus, check_faults, check_reference, check_run
 from rig.params import typed_values
 
 __all__ = [
@@ -283,8 +284,6 @@ def _check_rig(cfg: RigConfig) -> None:
         )
     if not 1 <= b.host_node <= 127:
         raise ConfigError(f"{src}: [bus] host_node = {b.host_node}: must be 1..127")
-    if not b.heartbeat >= 0.0:
-        raise ConfigError(f"{src}: [bus] heartbeat = {b.heartbeat!r}: must be >= 0 s")
     if b.host_node in [a.node_id for a in cfg.axes if a.kind != "modbus"]:
         raise ConfigError(f"{src}: [bus] host_node = {b.host_node} is also an axis's node_id")
     names = [a.name for a in cfg.axes]
@@ -309,10 +308,10 @@ def _check_rig(cfg: RigConfig) -> None:
                 f"{src}: [controller] commands {name!r}, which has "
                 + ("a profile" if a.profile else "no mode (a feedback-only axis)")
             )
-    if cfg.run.duration <= 0.0:
-        raise ConfigError(f"{src}: [run] duration = {cfg.run.duration!r}: must be > 0 s")
-    if cfg.run.period < 0.0:
-        raise ConfigError(f"{src}: [run] period = {cfg.run.period!r}: must be > 0 s (or 0: the preset's)")
+    check_run(src, cfg.run)
+    check_bus(src, b)
+    check_reference(src, cfg.reference)
+    check_faults(f"{src}: [faults]", cfg.faults)
 
 
 def replace_axis(

@@ -106,7 +106,7 @@ name = "sigkill"
 preset = "dc-servo"
 
 [emulator.params]
-period = "0.001"
+period = 0.001
 
 [[axis]]
 name = "motor"
