@@ -28,6 +28,11 @@ def _junk(p: pathlib.Path) -> pathlib.Path:
     return p
 
 
+def _junk_10mb(p: pathlib.Path) -> pathlib.Path:
+    p.write_bytes(random.Random(16).randbytes(10 << 20))
+    return p
+
+
 def _utf16(p: pathlib.Path) -> pathlib.Path:
     p.write_text('[run]\nduration = 1.0\nname = "x"\n', encoding="utf-16")
     return p
@@ -39,12 +44,12 @@ def _fifo(p: pathlib.Path) -> pathlib.Path:
 
 
 def _deep(p: pathlib.Path) -> pathlib.Path:
-    p.write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    p.write_text("a = " + "[" * 10_000 + "]" * 10_000 + "\n")
     return p
 
 
 def _deep_json(p: pathlib.Path) -> pathlib.Path:
-    p.write_text('{"a_m": ' + "[" * 5000 + "]" * 5000 + "}")
+    p.write_text('{"a_m": ' + "[" * 10_000 + "]" * 10_000 + "}")
     return p
 
 
@@ -64,6 +69,7 @@ def _directory(p: pathlib.Path) -> pathlib.Path:
 
 HOSTILE: dict[str, Callable[[pathlib.Path], pathlib.Path]] = {
     "junk": _junk,
+    "junk-10mb": _junk_10mb,
     "utf16": _utf16,
     "fifo": _fifo,
     "dev-zero": _zero,
@@ -71,7 +77,14 @@ HOSTILE: dict[str, Callable[[pathlib.Path], pathlib.Path]] = {
     "huge": _huge,
     "directory": _directory,
 }
-needs_fifo = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+
+
+def _skip_unless_here(kind: str) -> None:
+    """Skip where the system has no FIFOs or no /dev/zero."""
+    if kind == "fifo" and not hasattr(os, "mkfifo"):
+        pytest.skip("no FIFOs here")
+    if kind == "dev-zero" and not pathlib.Path("/dev/zero").exists():
+        pytest.skip("no /dev/zero here")
 
 
 def _one_line_naming(capsys: pytest.CaptureFixture[str], path: pathlib.Path) -> str:
@@ -83,36 +96,41 @@ def _one_line_naming(capsys: pytest.CaptureFixture[str], path: pathlib.Path) -> 
     return lines[0]
 
 
-@pytest.fixture
-def no_bus(monkeypatch: pytest.MonkeyPatch) -> list[str]:
-    """Fail loudly if a run opens a bus or builds the emulated world; the list of what was opened."""
-    opened: list[str] = []
-
-    def refuse(what: str) -> Callable[..., None]:
-        def opener(*args: object, **kwargs: object) -> None:
-            opened.append(what)
-            raise AssertionError(f"{what} opened before the input was checked")
-
-        return opener
-
-    monkeypatch.setattr("rig.host.session.open_bus", refuse("bus"))
-    monkeypatch.setattr("rig.host.session.Emulation", refuse("emulation"))
-    return opened
-
-
 @pytest.mark.timeout(20)
 @pytest.mark.parametrize("kind", sorted(HOSTILE))
 def test_hostile_configuration(
-    kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], no_bus: list[str]
+    kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
 ) -> None:
-    if kind == "fifo" and not hasattr(os, "mkfifo"):
-        pytest.skip("no FIFOs here")
-    if kind == "dev-zero" and not pathlib.Path("/dev/zero").exists():
-        pytest.skip("no /dev/zero here")
+    _skip_unless_here(kind)
     path = HOSTILE[kind](tmp_path / "rig.toml")
     assert main(["run", "--config", str(path), "--emulate"]) == 2
     _one_line_naming(capsys, path)
-    assert not no_bus and not (tmp_path / "runs").exists()
+    assert not opened and not (tmp_path / "runs").exists()
+
+
+@pytest.mark.timeout(20)
+@pytest.mark.parametrize("kind", ["fifo", "dev-zero", "junk-10mb", "directory"])
+def test_what_is_not_a_small_regular_file_is_never_read(
+    kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A FIFO, a device or a directory is not even opened (a FIFO's open would wait for a
+    writer); a file over the limit is opened but not read past its size."""
+    _skip_unless_here(kind)
+    path = HOSTILE[kind](tmp_path / "rig.toml")
+    files_opened: list[str] = []
+    real_open = os.open
+
+    def watching_open(file: object, *args: object, **kwargs: object) -> int:
+        files_opened.append(os.fsdecode(file))  # type: ignore[arg-type]
+        return real_open(file, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(os, "open", watching_open)
+    with pytest.raises(ConfigError, match=r"too large|not a regular file") as caught:
+        read_toml(path)
+    assert str(caught.value).startswith(f"{path}: ")
+    assert files_opened == ([str(path)] if kind == "junk-10mb" else [])
+    assert main(["run", "--config", str(path)]) == 2
+    _one_line_naming(capsys, path)
 
 
 def _config_with(tmp_path: pathlib.Path, old: str, new: str) -> pathlib.Path:
@@ -126,34 +144,30 @@ def _config_with(tmp_path: pathlib.Path, old: str, new: str) -> pathlib.Path:
 @pytest.mark.timeout(20)
 @pytest.mark.parametrize("kind", ["junk", "utf16", "fifo", "deep", "huge", "directory"])
 def test_hostile_device_profile(
-    kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], no_bus: list[str]
+    kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
 ) -> None:
-    if kind == "fifo" and not hasattr(os, "mkfifo"):
-        pytest.skip("no FIFOs here")
+    _skip_unless_here(kind)
     profile = HOSTILE[kind](tmp_path / "drive.toml")
     config = _config_with(tmp_path, 'preset = "dc-servo"', f'device = "{profile}"')
     assert main(["run", "--config", str(config), "--emulate"]) == 2
     line = _one_line_naming(capsys, profile)
     assert str(config) in line and "[emulator] device" in line
-    assert not no_bus
+    assert not opened
 
 
 @pytest.mark.timeout(20)
 @pytest.mark.parametrize("kind", ["junk", "utf16", "fifo", "dev-zero", "directory"])
 def test_hostile_eds_is_refused_before_the_bus_opens(
-    kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], no_bus: list[str]
+    kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
 ) -> None:
-    if kind == "fifo" and not hasattr(os, "mkfifo"):
-        pytest.skip("no FIFOs here")
-    if kind == "dev-zero" and not pathlib.Path("/dev/zero").exists():
-        pytest.skip("no /dev/zero here")
+    _skip_unless_here(kind)
     eds = pathlib.Path("/dev/zero") if kind == "dev-zero" else HOSTILE[kind](tmp_path / "drive.eds")
     config = _config_with(tmp_path, "latency = 0.0", f'latency = 0.0\neds = "{eds}"\n')
     config.write_text(config.read_text().replace("[run]", "[run]\nperiod = 0.001", 1))
     assert main(["run", "--config", str(config)]) == 2  # a real bus: not opened
     line = _one_line_naming(capsys, config)
     assert "'motor' eds" in line and (kind == "dev-zero" or str(eds) in line)
-    assert not no_bus
+    assert not opened
 
 
 def test_a_huge_eds_is_refused(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -172,8 +186,7 @@ def test_a_huge_eds_is_refused(tmp_path: pathlib.Path, capsys: pytest.CaptureFix
 def test_hostile_run_directory(
     name: str, kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    if kind == "fifo" and not hasattr(os, "mkfifo"):
-        pytest.skip("no FIFOs here")
+    _skip_unless_here(kind)
     run = tmp_path / "run"
     run.mkdir()
     (run / "config.json").write_text(json.dumps({"resolved_period": 0.001}))
@@ -189,8 +202,7 @@ def test_hostile_run_directory(
 def test_hostile_identify_result(
     kind: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    if kind == "fifo" and not hasattr(os, "mkfifo"):
-        pytest.skip("no FIFOs here")
+    _skip_unless_here(kind)
     path = tmp_path / "model.json"
     if kind == "not-a-number":
         path.write_text(json.dumps({"a_m": "16", "b_m": 680.0}))
