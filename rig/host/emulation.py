@@ -25,7 +25,7 @@ from plant_emulator.presets import preset_params as plant_preset_params
 from rig.config import AxisConfig, RigConfig
 from rig.params import field_types, typed_values
 
-__all__ = ["Emulation", "emulated_period", "preset_params"]
+__all__ = ["Emulation", "emulated_period", "inverter_model", "preset_params"]
 
 #: the fields of FaultsConfig that the emulator injects (the others are host-side)
 EMULATOR_FAULTS = tuple(f.name for f in dataclasses.fields(FaultPlan))
@@ -75,10 +75,35 @@ def emulated_period(cfg: RigConfig) -> float:
             )
         if not cfg.run.period > 0.0:
             raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s): no preset gives one")
-        return cfg.run.period
-    name, params, profile = _physics(cfg)
-    merged = {**(profile.params if profile else {}), **params}
-    return cfg.run.period or float(plant_preset_params(name, merged).period)
+        period = cfg.run.period
+    else:
+        name, params, profile = _physics(cfg)
+        merged = {**(profile.params if profile else {}), **params}
+        period = cfg.run.period or float(plant_preset_params(name, merged).period)
+    for a in cfg.axes:
+        if a.kind == "modbus":
+            inverter_model(cfg, a, period)  # its values checked before anything is built
+    return period
+
+
+def inverter_model(cfg: RigConfig, a: AxisConfig, period: float) -> Any:
+    """The emulated inverter of Modbus axis ``a`` (``[emulator.inverter]``), polled every
+    ``period`` [s]; ConfigError naming the file, the key and the value."""
+    from plant_emulator.modbus_inverter import InverterModel
+
+    where = f"{cfg.source}: [emulator.inverter]"
+    values = typed_values(InverterModel, cfg.emulator.inverter, where, fixed=_MODEL_FIXED)
+    try:
+        model = InverterModel(modbus_map(a.map), **values)
+    except ValueError as exc:
+        raise ConfigError(f"{where}: {exc}") from exc
+    if not period < model.comm_loss_timeout:  # the host polls once a period, on either clock
+        raise ConfigError(
+            f"{cfg.source}: [run] period {period:g} s is not shorter than the emulated inverter's "
+            f"comm_loss_timeout {model.comm_loss_timeout:g} s: it would trip between two cycles "
+            "(raise [emulator.inverter] comm_loss_timeout)"
+        )
+    return model
 
 
 class Emulation:
@@ -124,21 +149,10 @@ class Emulation:
         return bench
 
     def _start_inverter(self, cfg: RigConfig, a: AxisConfig) -> None:
-        from plant_emulator.modbus_inverter import InverterModel, InverterServer
+        from plant_emulator.modbus_inverter import InverterServer
         from plant_emulator.pty_link import PtyLink
 
-        where = f"{cfg.source}: [emulator.inverter]"
-        values = typed_values(InverterModel, cfg.emulator.inverter, where, fixed=_MODEL_FIXED)
-        try:
-            model = InverterModel(modbus_map(a.map), **values)
-        except ValueError as exc:
-            raise ConfigError(f"{where}: {exc}") from exc
-        if not self.period < model.comm_loss_timeout:  # the host polls once a period, on either clock
-            raise ConfigError(
-                f"{cfg.source}: [run] period {self.period:g} s is not shorter than the emulated inverter's "
-                f"comm_loss_timeout {model.comm_loss_timeout:g} s: it would trip between two cycles "
-                "(raise [emulator.inverter] comm_loss_timeout)"
-            )
+        model = inverter_model(cfg, a, self.period)
         try:
             if a.serial:  # RTU: the inverter on one end of a pty pair, the axis on the other
                 link = PtyLink()

@@ -218,3 +218,27 @@ def test_a_bad_duration_on_the_command_line_is_one_line(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--duration" in err and "Traceback" not in err, err
     assert not opened and not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize(
+    ("value", "needle"),
+    [
+        ("accel = -5.0", "[emulator.inverter]: accel -5.0 must be finite and > 0"),
+        ("accel = inf", "[emulator.inverter]: accel inf must be finite and > 0"),
+        ("slip = -1.0", "[emulator.inverter]: slip -1.0 must be finite and >= 0"),
+        ("comm_loss_timeout = -1.0", "[emulator.inverter]: comm_loss_timeout -1.0 s must be > 0"),
+        (
+            "comm_loss_timeout = 0.001",
+            "is not shorter than the emulated inverter's comm_loss_timeout 0.001 s",
+        ),
+        ('accel = "fast"', "[emulator.inverter]: accel = 'fast': expected float, not a string"),
+    ],
+)
+def test_a_bad_emulated_inverter_value_opens_nothing(
+    value: str, needle: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
+) -> None:
+    path = _config(tmp_path, "accel = 100.0", value, example=EXAMPLES / "modbus_inverter_speed.toml")
+    assert main(["run", "--config", str(path), "--emulate"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"rig: {path}: ") and needle in err, err
+    assert not opened and not (tmp_path / "runs").exists()
