@@ -27,21 +27,16 @@ absent, a fixed mapping that the EDS would let be written).
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from drivers.errors import ConfigError
+from drivers.files import read_toml
 from drivers.maps import cia
 from drivers.maps.cia import MODE_BITS, MODE_NAMES, Mode
 from drivers.maps.units import SiUnit
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 __all__ = [
     "DEVICES_DIR",
@@ -298,13 +293,7 @@ def _modes(t: _Table) -> tuple[tuple[Mode, ...], str]:
 def load_profile(path: str | Path) -> DeviceProfile:
     """The profile in the TOML file ``path``; ConfigError naming the file and the key on any defect."""
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such device profile") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: not a valid TOML file: {exc}") from None
-    top = _Table(data, p)
+    top = _Table(read_toml(p, what="device profile"), p)
     device = top.sub("device")
     name = device.get("name", str, p.stem)
     eds_name = device.get("eds", str)

@@ -43,7 +43,13 @@ from plant_emulator.axes import Axis, LoadProfile
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
-from plant_emulator.parameters import load_torque, require_nodes, require_nonnegative, require_positive
+from plant_emulator.parameters import (
+    load_torque,
+    require_fits,
+    require_nodes,
+    require_nonnegative,
+    require_positive,
+)
 from plant_emulator.shaft import Shaft
 
 __all__ = ["DynoPreset", "LoadMachineAxis", "build_dyno"]
@@ -86,6 +92,7 @@ class DynoPreset:
             self, *(n for n in _MOTOR_DEFAULTED + _LOAD_DEFAULTED if getattr(self, n) is not None)
         )
         require_nonnegative(self, "j_load", "load_torque_lag")
+        require_fits(self)
         require_nodes(self, "drive_node", "encoder_node", "load_node")
         load_torque(self.load)
 

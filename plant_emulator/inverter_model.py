@@ -63,6 +63,10 @@ class InverterModel:
     last_request: float = 0.0  #: model time of the last request processed [s]
 
     def __post_init__(self) -> None:
+        for name in ("accel", "tau", "rated_torque", "rated_current", "max_speed", "slip", "no_load_current"):
+            value, may_be_zero = getattr(self, name), name in ("slip", "no_load_current")
+            if not (math.isfinite(value) and (value >= 0.0 if may_be_zero else value > 0.0)):
+                raise ValueError(f"{name} {value!r} must be finite and {'>= 0' if may_be_zero else '> 0'}")
         if not self.comm_loss_timeout > 0.0:
             raise ValueError(
                 f"comm_loss_timeout {self.comm_loss_timeout!r} s must be > 0 (inf turns the supervision off)"

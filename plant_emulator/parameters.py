@@ -24,6 +24,7 @@ from plant_emulator.profiles import Profile, parse_profile
 __all__ = [
     "field_types",
     "load_torque",
+    "require_fits",
     "require_nodes",
     "require_nonnegative",
     "require_positive",
@@ -112,6 +113,20 @@ def require_nonnegative(obj: object, *names: str) -> None:
         value = getattr(obj, name)
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"preset parameter {name} must be >= 0, got {value!r}")
+
+
+#: the largest value of the objects the integer parameters go to (0x6073 per mille is 16 bits,
+#: 0x6080 rpm 32 bits, 0x608F increments per revolution give 32-bit signed positions)
+OBJECT_RANGE = {"_permille": 0xFFFF, "_rpm": 0xFFFF_FFFF, "counts_per_rev": 0x7FFF_FFFF}
+
+
+def require_fits(obj: object) -> None:
+    """Each integer field named as in ``OBJECT_RANGE`` fits its object; ValueError naming it."""
+    for f in dataclasses.fields(obj):  # type: ignore[arg-type]
+        value = getattr(obj, f.name)
+        high = next((h for end, h in OBJECT_RANGE.items() if f.name.endswith(end)), None)
+        if high is not None and isinstance(value, int) and value > high:
+            raise ValueError(f"preset parameter {f.name} must be <= {high}, got {value!r}")
 
 
 def require_nodes(obj: object, *names: str) -> None:

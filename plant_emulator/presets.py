@@ -46,6 +46,7 @@ from plant_emulator.dyno import DynoPreset, build_dyno
 from plant_emulator.induction_motor import ImAxis, ImParams
 from plant_emulator.parameters import (
     load_torque,
+    require_fits,
     require_nodes,
     require_nonnegative,
     require_positive,
@@ -93,6 +94,7 @@ class DcServoPreset:
         )
         require_positive(self, "max_current_permille", "max_speed_rpm", "speed_bandwidth_hz")
         require_nonnegative(self, "friction", "coulomb")
+        require_fits(self)
         require_nodes(self, "drive_node", "encoder_node")
         load_torque(self.load)
 
@@ -115,6 +117,7 @@ class GridConverterPreset:
     def __post_init__(self) -> None:
         require_positive(self, "L1", "R1", "f_line", "ratio", "u_dc", "rated_current", "max_current_permille")
         require_nonnegative(self, "u_line_rms")
+        require_fits(self)
         require_nodes(self, "drive_node")
         if self.strategy not in ("s-pwm-start", "s-pwm-middle"):
             raise ValueError(f"preset parameter strategy={self.strategy!r}: use s-pwm-start or s-pwm-middle")
@@ -143,6 +146,7 @@ class ImDrivePreset:
     def __post_init__(self) -> None:
         require_positive(self, "period", "counts_per_rev", "rated_torque", "rated_current")
         require_positive(self, "max_current_permille", "max_speed_rpm", "i_ds_ref")
+        require_fits(self)
         require_nodes(self, "drive_node", "encoder_node")
         load_torque(self.load)
 

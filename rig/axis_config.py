@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.errors import ConfigError
+from rig.config_checks import check_axis_values
 from rig.params import typed_values
 
 __all__ = ["ABORT_CONNECTION", "AXIS_KINDS", "AxisConfig", "AxisLimits", "AxisUnits", "axis_config"]
@@ -125,12 +126,4 @@ def _check_axis(path: str, where: str, a: AxisConfig) -> None:
         )
     if a.pdo not in ("remap", "device"):
         raise ConfigError(f"{path}: {where} pdo = {a.pdo!r}: remap or device")
-    for key in ("latency", "enable_timeout", "stop_timeout", "mode_timeout", "sdo_timeout", "host_timeout"):
-        if not getattr(a, key) >= 0.0:
-            raise ConfigError(f"{path}: {where} {key} = {getattr(a, key)!r}: must be >= 0 s")
-    if a.limits.watchdog_periods < 1:
-        raise ConfigError(
-            f"{path}: {where} limits watchdog_periods = {a.limits.watchdog_periods}: must be >= 1"
-        )
-    if not (math.isfinite(a.limits.watchdog) and a.limits.watchdog >= 0.0):
-        raise ConfigError(f"{path}: {where} limits watchdog = {a.limits.watchdog!r}: must be a time >= 0 s")
+    check_axis_values(f"{path}: {where}", a)

@@ -42,20 +42,15 @@ naming the file and the key.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal
 
 from drivers.errors import ConfigError
+from drivers.files import read_toml
 from rig.axis_config import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
+from rig.config_checks import check_bus, check_faults, check_reference, check_run
 from rig.params import typed_values
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
-
 
 __all__ = [
     "ABORT_CONNECTION",
@@ -289,8 +284,6 @@ def _check_rig(cfg: RigConfig) -> None:
         )
     if not 1 <= b.host_node <= 127:
         raise ConfigError(f"{src}: [bus] host_node = {b.host_node}: must be 1..127")
-    if not b.heartbeat >= 0.0:
-        raise ConfigError(f"{src}: [bus] heartbeat = {b.heartbeat!r}: must be >= 0 s")
     if b.host_node in [a.node_id for a in cfg.axes if a.kind != "modbus"]:
         raise ConfigError(f"{src}: [bus] host_node = {b.host_node} is also an axis's node_id")
     names = [a.name for a in cfg.axes]
@@ -315,10 +308,10 @@ def _check_rig(cfg: RigConfig) -> None:
                 f"{src}: [controller] commands {name!r}, which has "
                 + ("a profile" if a.profile else "no mode (a feedback-only axis)")
             )
-    if cfg.run.duration <= 0.0:
-        raise ConfigError(f"{src}: [run] duration = {cfg.run.duration!r}: must be > 0 s")
-    if cfg.run.period < 0.0:
-        raise ConfigError(f"{src}: [run] period = {cfg.run.period!r}: must be > 0 s (or 0: the preset's)")
+    check_run(src, cfg.run)
+    check_bus(src, b)
+    check_reference(src, cfg.reference)
+    check_faults(f"{src}: [faults]", cfg.faults)
 
 
 def replace_axis(
@@ -340,12 +333,7 @@ def replace_axis(
 
 
 def load_config(path: str | Path) -> RigConfig:
-    """Load and check a rig configuration file."""
+    """Load and check a rig configuration file (``drivers.files.read_toml``: a regular file of at
+    most ``CONFIG_LIMIT``, UTF-8, not nested deeper than ``MAX_DEPTH``)."""
     p = Path(path)
-    try:
-        doc = tomllib.loads(p.read_text())
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read: {exc.strerror}") from exc
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc}") from exc
-    return rig_config(doc, str(p))
+    return rig_config(read_toml(p, what="rig configuration"), str(p))

@@ -147,7 +147,7 @@ def run_modbus_emulator(
     from plant_emulator.modbus_inverter import InverterModel, default_model, serve_rtu, serve_tcp
     from rig.params import typed_values
 
-    values = typed_values(InverterModel, params, "rig emulate: --param", fixed=("regmap", "load"))
+    values = typed_values(InverterModel, params, "rig emulate: --param", fixed=("regmap", "load"), text=True)
     try:
         model = default_model(family, **values)
     except ValueError as exc:

@@ -3,12 +3,14 @@
 ``typed_values(schema, items, source)`` checks names against the fields of a
 dataclass ``schema`` and converts each value to the field's type:
 
-- text (from the command line) is parsed: ``int`` (``0x`` allowed), ``float``
-  (a fraction such as ``1/27`` allowed), ``bool`` (true/false, yes/no, on/off,
-  1/0), ``str``, a ``Literal`` of choices, a tuple of floats (``1,2``), a tuple
-  of tuples of floats (row-major ``1,0;0,1``), and ``X | None`` (``none``);
 - values that already have a type (from TOML) are checked: an int is a float,
-  a bool is never a number, a list is a tuple.
+  a bool is never a number, a list is a tuple, and a string is only a string
+  (``period = "0"`` is an error, not a period);
+- with ``text=True`` (``--param`` and the like, from the command line) text is
+  parsed: ``int`` (``0x`` allowed), ``float`` (a fraction such as ``1/27``
+  allowed), ``bool`` (true/false, yes/no, on/off, 1/0), ``str``, a ``Literal``
+  of choices, a tuple of floats (``1,2``), a tuple of tuples of floats
+  (row-major ``1,0;0,1``), and ``X | None`` (``none``).
 
 An unknown name or a bad value is a ``ConfigError`` naming the item, where it
 came from (``source``: a file and table, or an option) and what is expected.
@@ -50,43 +52,43 @@ def _number(text: str) -> float:
     return float(num) / float(den) if slash else float(num)
 
 
-def _convert(kind: Any, value: Any) -> Any:
-    """``value`` as ``kind``; ValueError with what is expected."""
+def _convert(kind: Any, value: Any, text: bool) -> Any:
+    """``value`` as ``kind`` (parsed from a string where ``text``); ValueError with what is expected."""
     origin, args = typing.get_origin(kind), typing.get_args(kind)
     if origin in (typing.Union, types.UnionType):
-        if value is None or (isinstance(value, str) and value.lower() == "none"):
+        if value is None or (text and isinstance(value, str) and value.lower() == "none"):
             if type(None) in args:
                 return None
         inner = [a for a in args if a is not type(None)]
-        return _convert(inner[0], value)
+        return _convert(inner[0], value, text)
     if origin is typing.Literal:
         if value not in args:
             raise _Expected(f"one of {', '.join(map(str, args))}")
         return value
     if origin is tuple:
-        if isinstance(value, str):
+        if text and isinstance(value, str):
             value = [row.split(",") for row in value.split(";")] if ";" in value else value.split(",")
         if not isinstance(value, (list, tuple)):
             raise _Expected("a list")
         element: Any = args[0] if args else float
-        return tuple(_convert(element, v) for v in value)
+        return tuple(_convert(element, v, text) for v in value)
     if kind is bool:
-        if isinstance(value, str) and value.lower() in _TRUE + _FALSE:
+        if text and isinstance(value, str) and value.lower() in _TRUE + _FALSE:
             return value.lower() in _TRUE
         if not isinstance(value, bool):
             raise _Expected("true or false")
         return value
     if kind is int:
-        if isinstance(value, str):
+        if text and isinstance(value, str):
             return int(value, 0)
         if isinstance(value, bool) or not isinstance(value, int):
-            raise _Expected("an integer")
+            raise _Expected("int, not a string" if isinstance(value, str) else "an integer")
         return value
     if kind is float:
-        if isinstance(value, str):
+        if text and isinstance(value, str):
             value = _number(value)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise _Expected("a number")
+            raise _Expected("float, not a string" if isinstance(value, str) else "a number")
         if math.isnan(value):
             raise _Expected("a number, not NaN")
         return float(value)
@@ -110,11 +112,12 @@ def typed_values(
     *,
     aliases: Mapping[str, str] | None = None,
     fixed: Iterable[str] = (),
+    text: bool = False,
 ) -> dict[str, Any]:
     """``items`` converted to the field types of dataclass ``schema`` (see the module docstring).
 
     ``aliases`` maps other spellings to field names; ``fixed`` names fields the caller
-    sets itself (giving one is an error too).
+    sets itself (giving one is an error too); ``text``: the values are command-line text.
     """
     kinds = field_types(schema)
     settable = {k: v for k, v in kinds.items() if k not in set(fixed)}
@@ -124,7 +127,7 @@ def typed_values(
         if name not in settable:
             raise ConfigError(f"{source}: unknown parameter {given!r}; known: {', '.join(settable)}")
         try:
-            out[name] = _convert(settable[name], value)
+            out[name] = _convert(settable[name], value, text)
         except (ValueError, ZeroDivisionError, TypeError) as exc:
             expected = str(exc) if isinstance(exc, _Expected) else _expected(settable[name])
             raise ConfigError(f"{source}: {given} = {value!r}: expected {expected}") from None

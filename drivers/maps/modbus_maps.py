@@ -10,11 +10,12 @@ electrical frequency, turned into mechanical rad/s with the pole pairs (Delta).
 
 from __future__ import annotations
 
-import json
 import math
 import pathlib
 from dataclasses import dataclass
 from typing import Any
+
+from drivers.files import read_json
 
 __all__ = ["MODBUS_MAPS", "ModbusMap", "Register", "modbus_map"]
 
@@ -75,7 +76,7 @@ def modbus_map(name: str) -> ModbusMap:
     if name not in MODBUS_MAPS:
         raise ValueError(f"unknown Modbus map {name!r}; known: {', '.join(MODBUS_MAPS)}")
     path = HERE / MODBUS_MAPS[name]
-    doc = json.loads(path.read_text())
+    doc = read_json(path, what="Modbus map")
     if "speed_full_scale_rpm" in doc:
         speed = doc["speed_full_scale_rpm"] / doc["speed_full_scale_raw"] * 2.0 * math.pi / 60.0
     else:

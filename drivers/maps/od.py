@@ -18,17 +18,15 @@ from typing import Any
 import canopen
 
 from drivers.errors import ConfigError
+from drivers.files import EDS_LIMIT, read_text
 
 __all__ = ["eds_text", "load_od"]
 
 
 def eds_text(path: str | Path) -> str:
-    """The text of an EDS/DCF: UTF-8, else Windows-1252 (see the module docstring)."""
-    data = Path(path).read_bytes()
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        return data.decode("cp1252")
+    """The text of an EDS/DCF (a regular file of at most ``EDS_LIMIT``, ``drivers.files``):
+    UTF-8, else Windows-1252 (see the module docstring)."""
+    return read_text(path, limit=EDS_LIMIT, what="EDS/DCF file", fallback="cp1252")
 
 
 def load_od(path: str | Path, node_id: int) -> Any:
@@ -43,8 +41,8 @@ def load_od(path: str | Path, node_id: int) -> Any:
         with warnings.catch_warnings():  # canopen's EDS parser calls the deprecated logger.warn
             warnings.simplefilter("ignore", DeprecationWarning)
             od = canopen.import_od(source, node_id)
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such EDS/DCF file") from None
+    except ConfigError:
+        raise
     except (
         configparser.Error,
         ValueError,
@@ -56,7 +54,8 @@ def load_od(path: str | Path, node_id: int) -> Any:
         UnicodeDecodeError,
         canopen.ObjectDictionaryError,
     ) as exc:
-        raise ConfigError(f"{p}: not a valid EDS/DCF: {type(exc).__name__}: {exc}") from exc
+        detail = " ".join(str(exc).split())[:300]  # configparser's messages span lines
+        raise ConfigError(f"{p}: not a valid EDS/DCF: {type(exc).__name__}: {detail}") from exc
     for index in (0x1000, 0x1018):
         if index not in od:
             raise ConfigError(f"{p}: lacks the mandatory object 0x{index:04X}")

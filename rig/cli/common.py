@@ -79,7 +79,7 @@ def add_params(parser: argparse.ArgumentParser, help: str, *, flag: str = "--par
 def params_of(items: Sequence[str], schema: type, source: str, **kw: Any) -> dict[str, Any]:
     """``--param`` items typed against ``schema`` (``rig.params.typed_values``); UsageError when bad."""
     try:
-        return typed_values(schema, parse_items(items, source), source, **kw)
+        return typed_values(schema, parse_items(items, source), source, text=True, **kw)
     except ConfigError as exc:
         raise UsageError(str(exc)) from None
 

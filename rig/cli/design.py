@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from typing import Any
 
 from controllers.design import DTSMDesign, design_dtsm
+from drivers.errors import ConfigError
+from drivers.files import read_json
 from rig.cli.common import Parser, UsageError, add_json, finite
 
 __all__ = ["add_parser"]
@@ -33,17 +36,28 @@ def add_parser(sub: Any) -> None:
     dtsm.set_defaults(handler=run)
 
 
+def _from_identify(path: str) -> tuple[float, float, str]:
+    """(a_m, b_m, input) of a ``rig identify --json`` result; ConfigError naming the file and key."""
+    doc = read_json(path, what="rig identify result")
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{path}: not a JSON object (the output of rig identify --json)")
+    values = []
+    for key in ("a_m", "b_m"):
+        v = doc.get(key)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ConfigError(f"{path}: {key} = {v!r}: expected a finite number (from rig identify --json)")
+        values.append(float(v))
+    source = doc.get("input", "voltage")
+    if source not in ("voltage", "torque"):
+        raise ConfigError(f"{path}: input = {source!r}: expected voltage or torque")
+    return values[0], values[1], source
+
+
 def _design(args: argparse.Namespace) -> DTSMDesign:
     a_m, b_m = args.a_m, args.b_m
     args.input = "voltage"
     if args.from_identify:
-        try:
-            with open(args.from_identify) as f:
-                doc = json.load(f)
-            a_m, b_m = float(doc["a_m"]), float(doc["b_m"])
-            args.input = str(doc.get("input", "voltage"))
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise UsageError(f"rig design dtsm: --from-identify {args.from_identify}: {exc}") from exc
+        a_m, b_m, args.input = _from_identify(args.from_identify)
     if a_m is None or b_m is None:
         raise UsageError("rig design dtsm: give --a-m and --b-m, or --from-identify RESULT.json")
     if args.dt <= 0.0:

@@ -110,7 +110,7 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
             profile = dataclasses.replace(profile, eds=pathlib.Path(args.eds).resolve())
     else:
         profile = default_profile(pathlib.Path(args.eds))
-    params = preset_params(profile.physics, items, f"rig emulate: --device {profile.name} --param")
+    params = preset_params(profile.physics, items, f"rig emulate: --device {profile.name} --param", text=True)
 
     def world(network: Any) -> Any:
         return build_twin(profile, network, params, node_id=args.node_id)
@@ -138,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.preset:
         items = _node_ids(args.preset, args.node_id, items)
-        params = preset_params(args.preset, items, f"rig emulate: --preset {args.preset} --param")
+        params = preset_params(args.preset, items, f"rig emulate: --preset {args.preset} --param", text=True)
         preset = args.preset
 
         def world(network: Any) -> Any:

@@ -63,7 +63,7 @@ def _experiment(args: argparse.Namespace) -> str | None:
     if args.emulate:
         where = "rig identify: --param"
         params = preset_params(
-            args.emulate, parse_items(args.param, where), f"rig identify: --emulate {args.emulate}"
+            args.emulate, parse_items(args.param, where), f"rig identify: --emulate {args.emulate}", text=True
         )
         base, period = demo_config(), preset_period(args.emulate, params)
     else:

@@ -28,6 +28,13 @@ def add_parser(sub: Any) -> None:
         action="store_true",
         help="reset a CiA 402 drive found in FAULT (as reset_fault = true on every such axis)",
     )
+    run.add_argument(
+        "--no-limits",
+        action="store_true",
+        help="run an axis the law or a profile commands even though [axis.limits] gives it no command, "
+        "speed, position or current limit (refused without this option); the watchdog and the "
+        "drive's own limits still apply",
+    )
     add_json(run, "print the summary as one JSON object")
     add_params(
         run,
@@ -56,7 +63,9 @@ def print_summary(summary: dict[str, Any]) -> None:
 
 
 def execute(args: argparse.Namespace) -> int:
+    from drivers.errors import ConfigError
     from rig.config import FaultsConfig, load_config
+    from rig.config_checks import check_faults, require_limits
     from rig.host.emulation import EMULATOR_FAULTS
     from rig.host.session import run_config
 
@@ -71,6 +80,12 @@ def execute(args: argparse.Namespace) -> int:
                 f"rig run: --fault {', '.join(bus_faults)} needs --emulate (the emulator injects it)"
             )
         cfg = dataclasses.replace(cfg, faults=dataclasses.replace(cfg.faults, **faults))
+        try:
+            check_faults("rig run: --fault", cfg.faults)
+        except ConfigError as exc:
+            raise UsageError(str(exc)) from None
+    if not args.no_limits:
+        require_limits(cfg)
     if args.reset_fault:
         axes = tuple(dataclasses.replace(a, reset_fault=True) if a.kind == "cia402" else a for a in cfg.axes)
         cfg = dataclasses.replace(cfg, axes=axes)

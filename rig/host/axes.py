@@ -7,21 +7,20 @@ drivers, and a CANopen rig never imports pymodbus.
 from __future__ import annotations
 
 import importlib
-import sys
-from collections.abc import Callable
+import logging
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
 from drivers.base import AxisDriver
+from drivers.errors import ConfigError
+from drivers.files import read_toml
 from drivers.maps import CIA402_EDS, CIA406_EDS
 from rig.config import ABORT_CONNECTION, AxisConfig, BusConfig
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
+__all__ = ["AXIS_DRIVERS", "check_object_dictionaries", "open_axis"]
 
-__all__ = ["AXIS_DRIVERS", "open_axis"]
+log = logging.getLogger(__name__)
 
 #: ``[[axis]] kind`` -> (module, class)
 AXIS_DRIVERS = {
@@ -76,9 +75,14 @@ def device_emcy_texts(eds: str) -> dict[int, str]:
     if not eds:
         return {}
     profile = Path(eds).with_suffix(".toml")
+    if not profile.exists():
+        return {}
     try:
-        table = tomllib.loads(profile.read_text(encoding="utf-8")).get("emcy", {})
-    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
+        table = read_toml(profile, what="device profile").get("emcy", {})
+    except ConfigError as exc:  # the texts only explain EMCY codes: the run goes on without them
+        log.warning("EMCY texts not read: %s", exc)
+        return {}
+    if not isinstance(table, dict):
         return {}
     out: dict[int, str] = {}
     for key, text in table.items():
@@ -87,6 +91,19 @@ def device_emcy_texts(eds: str) -> dict[int, str]:
         except ValueError:
             continue
     return out
+
+
+def check_object_dictionaries(axes: Iterable[AxisConfig], source: str) -> None:
+    """Load the EDS/DCF each CANopen axis names (``eds``), so that a bad one is an error naming
+    the file and the axis before any bus is opened (the driver loads it again)."""
+    from drivers.maps.od import load_od  # canopen: only where a CANopen axis is
+
+    for a in axes:
+        if a.kind != "modbus" and a.eds:
+            try:
+                load_od(a.eds, a.node_id)
+            except ConfigError as exc:
+                raise ConfigError(f"{source}: [[axis]] {a.name!r} eds: {exc}") from None
 
 
 def open_axis(a: AxisConfig, *, network: Any, period: float, bus: BusConfig | None = None) -> AxisDriver:

@@ -17,14 +17,15 @@ import canopen
 
 from drivers.errors import ConfigError
 from drivers.maps import modbus_map
-from plant_emulator.device_profile import device_profile
+from plant_emulator.device_profile import DeviceProfile, device_profile
 from plant_emulator.faults import FaultInjector, FaultPlan
 from plant_emulator.lockstep import LockstepBench
 from plant_emulator.presets import PRESETS
+from plant_emulator.presets import preset_params as plant_preset_params
 from rig.config import AxisConfig, RigConfig
 from rig.params import field_types, typed_values
 
-__all__ = ["Emulation", "preset_params"]
+__all__ = ["Emulation", "emulated_period", "inverter_model", "preset_params"]
 
 #: the fields of FaultsConfig that the emulator injects (the others are host-side)
 EMULATOR_FAULTS = tuple(f.name for f in dataclasses.fields(FaultPlan))
@@ -32,20 +33,83 @@ EMULATOR_FAULTS = tuple(f.name for f in dataclasses.fields(FaultPlan))
 _MODEL_FIXED = ("regmap", "load")
 
 
-def preset_params(name: str, params: dict[str, Any], source: str) -> dict[str, Any]:
-    """``params`` typed against the preset ``name``'s parameters; ConfigError naming the bad one."""
+def preset_params(name: str, params: dict[str, Any], source: str, *, text: bool = False) -> dict[str, Any]:
+    """``params`` typed against the preset ``name``'s parameters (``text``: command-line text);
+    ConfigError naming the bad one."""
     if name not in PRESETS:
         raise ConfigError(f"{source}: unknown preset {name!r}; known: {', '.join(PRESETS)}")
     schema = PRESETS[name]
     aliases = {f"plant.{k}": k for k in field_types(schema)}
-    return typed_values(schema, params, source, aliases=aliases)
+    return typed_values(schema, params, source, aliases=aliases, text=text)
+
+
+def _physics(cfg: RigConfig) -> tuple[str, dict[str, Any], DeviceProfile | None]:
+    """(preset, typed ``[emulator.params]``, the twin's profile or None) of ``cfg``; ConfigError
+    naming the file, the key and the value (the preset's own range checks included)."""
+    src, device = cfg.source, cfg.emulator.device
+    profile = None
+    if device:
+        try:
+            profile = device_profile(device)
+        except ConfigError as exc:
+            raise ConfigError(f"{src}: [emulator] device = {device!r}: {exc}") from None
+    name = profile.physics if profile else cfg.emulator.preset
+    params = preset_params(name, cfg.emulator.params, f"{src}: [emulator.params]")
+    try:
+        plant_preset_params(name, {**(profile.params if profile else {}), **params})
+    except ValueError as exc:
+        what = f"device {device}" if device else f"preset {name}"
+        raise ConfigError(f"{src}: [emulator.params] of {what}: {exc}") from None
+    return name, params, profile
+
+
+def emulated_period(cfg: RigConfig) -> float:
+    """The period [s] of ``cfg`` run with ``--emulate``: ``[run] period``, else the preset's (or
+    the twin's), known before anything is built; ConfigError when there is none."""
+    canopen_axes = [a.name for a in cfg.axes if a.kind != "modbus"]
+    if not (cfg.emulator.preset or cfg.emulator.device):
+        if canopen_axes:
+            raise ConfigError(
+                f"{cfg.source}: --emulate needs [emulator] preset or device for the CANopen axes "
+                f"{canopen_axes}"
+            )
+        if not cfg.run.period > 0.0:
+            raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s): no preset gives one")
+        period = cfg.run.period
+    else:
+        name, params, profile = _physics(cfg)
+        merged = {**(profile.params if profile else {}), **params}
+        period = cfg.run.period or float(plant_preset_params(name, merged).period)
+    for a in cfg.axes:
+        if a.kind == "modbus":
+            inverter_model(cfg, a, period)  # its values checked before anything is built
+    return period
+
+
+def inverter_model(cfg: RigConfig, a: AxisConfig, period: float) -> Any:
+    """The emulated inverter of Modbus axis ``a`` (``[emulator.inverter]``), polled every
+    ``period`` [s]; ConfigError naming the file, the key and the value."""
+    from plant_emulator.modbus_inverter import InverterModel
+
+    where = f"{cfg.source}: [emulator.inverter]"
+    values = typed_values(InverterModel, cfg.emulator.inverter, where, fixed=_MODEL_FIXED)
+    try:
+        model = InverterModel(modbus_map(a.map), **values)
+    except ValueError as exc:
+        raise ConfigError(f"{where}: {exc}") from exc
+    if not period < model.comm_loss_timeout:  # the host polls once a period, on either clock
+        raise ConfigError(
+            f"{cfg.source}: [run] period {period:g} s is not shorter than the emulated inverter's "
+            f"comm_loss_timeout {model.comm_loss_timeout:g} s: it would trip between two cycles "
+            "(raise [emulator.inverter] comm_loss_timeout)"
+        )
+    return model
 
 
 class Emulation:
     """See the module docstring; ``close`` stops everything it started."""
 
     def __init__(self, cfg: RigConfig) -> None:
-        src = cfg.source
         #: lock-step: the inverters' physics is stepped by the host; real time: on the wall clock
         self._dt = None if cfg.run.time == "lockstep" else 0.005
         self.bench: LockstepBench | None = None
@@ -54,19 +118,9 @@ class Emulation:
         self._links: list[Any] = []
         self._taps: dict[Callable[[Any], None], Callable[[Any], None]] = {}
         self._endpoints: dict[str, dict[str, Any]] = {}
-        period = cfg.run.period
-        preset, device = cfg.emulator.preset, cfg.emulator.device
-        canopen_axes = [a.name for a in cfg.axes if a.kind != "modbus"]
-        if preset or device:
+        self.period = emulated_period(cfg)
+        if cfg.emulator.preset or cfg.emulator.device:
             self.bench = self._bench(cfg)
-            period = period or self.bench.period
-        elif canopen_axes:
-            raise ConfigError(
-                f"{src}: --emulate needs [emulator] preset or device for the CANopen axes {canopen_axes}"
-            )
-        if not period > 0.0:
-            raise ConfigError(f"{src}: [run] period must be set (> 0 s): no preset gives one")
-        self.period = period
         self.network: Any = self.bench.host if self.bench else canopen.Network()
         try:
             for a in cfg.axes:
@@ -79,38 +133,26 @@ class Emulation:
 
     def _bench(self, cfg: RigConfig) -> LockstepBench:
         """The preset's devices, or the twin of ``device`` (whose EDS its axis then uses)."""
-        src, preset = cfg.source, cfg.emulator.preset
+        name, params, profile = _physics(cfg)
         try:
-            if cfg.emulator.device:
-                profile = device_profile(cfg.emulator.device)
-                params = preset_params(profile.physics, cfg.emulator.params, f"{src}: [emulator.params]")
-                bench = LockstepBench(profile.physics, params, device=profile)
-                for a in cfg.axes:
-                    if a.kind == "cia402" and a.node_id == profile.node_id and not a.eds:
-                        self._endpoints[a.name] = {"eds": str(profile.eds)}
-                return bench
-            params = preset_params(preset, cfg.emulator.params, f"{src}: [emulator.params]")
-            return LockstepBench(preset, params)
-        except ValueError as exc:
-            what = f"device {cfg.emulator.device}" if cfg.emulator.device else f"preset {preset}"
-            raise ConfigError(f"{src}: [emulator] {what}: {exc}") from exc
+            bench = LockstepBench(name, params, device=profile)
+        except ConfigError:
+            raise
+        except (ValueError, OverflowError) as exc:  # a value the devices cannot hold, found building them
+            what = f"device {cfg.emulator.device}" if profile else f"preset {name}"
+            given = ", ".join(f"{k} = {v!r}" for k, v in cfg.emulator.params.items())
+            raise ConfigError(f"{cfg.source}: [emulator.params] of {what} ({given}): {exc}") from exc
+        if profile is not None:
+            for a in cfg.axes:
+                if a.kind == "cia402" and a.node_id == profile.node_id and not a.eds:
+                    self._endpoints[a.name] = {"eds": str(profile.eds)}
+        return bench
 
     def _start_inverter(self, cfg: RigConfig, a: AxisConfig) -> None:
-        from plant_emulator.modbus_inverter import InverterModel, InverterServer
+        from plant_emulator.modbus_inverter import InverterServer
         from plant_emulator.pty_link import PtyLink
 
-        where = f"{cfg.source}: [emulator.inverter]"
-        values = typed_values(InverterModel, cfg.emulator.inverter, where, fixed=_MODEL_FIXED)
-        try:
-            model = InverterModel(modbus_map(a.map), **values)
-        except ValueError as exc:
-            raise ConfigError(f"{where}: {exc}") from exc
-        if not self.period < model.comm_loss_timeout:  # the host polls once a period, on either clock
-            raise ConfigError(
-                f"{cfg.source}: [run] period {self.period:g} s is not shorter than the emulated inverter's "
-                f"comm_loss_timeout {model.comm_loss_timeout:g} s: it would trip between two cycles "
-                "(raise [emulator.inverter] comm_loss_timeout)"
-            )
+        model = inverter_model(cfg, a, self.period)
         try:
             if a.serial:  # RTU: the inverter on one end of a pty pair, the axis on the other
                 link = PtyLink()

@@ -43,10 +43,11 @@ from typing import Any
 import can
 import numpy as np
 
-from drivers.errors import StorageError
+from drivers.errors import ConfigError, StorageError
+from rig.config_checks import check_run_name
 from rig.host.trace import AscTrace
 
-__all__ = ["Recorder", "write_atomic"]
+__all__ = ["Recorder", "check_output", "write_atomic"]
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +71,20 @@ def _json(data: dict[str, Any]) -> Callable[[Any], None]:
     return lambda f: f.write(json.dumps(data, indent=2) + "\n")
 
 
+def check_output(output: str | Path, name: str, where: str = "[run]") -> Path:
+    """The folder ``output`` that run ``name`` goes to; ConfigError (``where``: the file and table)
+    when ``name`` is not a plain name or ``output`` (or the nearest part of it that exists) is a file."""
+    check_run_name(where, name)
+    out = Path(output)
+    for p in (out, *out.parents):
+        if p.exists():
+            if not p.is_dir():
+                what = "is a file" if p == out else f"is below the file {p}"
+                raise ConfigError(f"{where} output = {str(output)!r}: {what}, not a folder")
+            break
+    return out
+
+
 class Recorder:
     """A fresh run directory under ``output``; ``begin(columns)``, then one ``sample`` per cycle."""
 
@@ -81,13 +96,21 @@ class Recorder:
         flush_period: float = 0.05,
         trace: bool = True,
     ) -> None:
+        out = check_output(output, name)
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
-        base = Path(output) / f"{name}-{stamp}"
+        base = out / f"{name}-{stamp}"
         path, n = base, 1
         while path.exists():
             n += 1
             path = Path(f"{base}-{n}")
-        path.mkdir(parents=True)
+        if path.resolve().parent != out.resolve():  # check_output's name cannot leave it: stay sure
+            raise ConfigError(
+                f"[run] name = {name!r}: the run directory {path} leaves output {str(output)!r}"
+            )
+        try:
+            path.mkdir(parents=True)
+        except OSError as exc:
+            raise ConfigError(f"[run] output = {str(output)!r}: cannot make {path}: {exc.strerror}") from exc
         self.dir = path
         self.columns: list[str] = []
         self._file = (path / "samples.csv").open("w+", newline="")

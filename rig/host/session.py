@@ -1,9 +1,11 @@
 """A run of a configured rig: the one public path from a configuration to a running host loop.
 
 ``Session(cfg, emulate=..., duration=... or cycles=...)`` builds, in this order, and moves nothing yet:
+first what needs no bus, so that a bad value opens nothing (the period, the law of
+``rig.laws.make_law``, the profiles, the output folder, the EDS files the axes name); then
 the transports (the CAN bus, or with ``emulate`` the emulated world of
-``rig.host.emulation``), the law (``rig.laws.make_law``), the axis drivers,
-the recorder (the configuration first, then every frame). ``start()`` sets every
+``rig.host.emulation``), the axis drivers, the recorder (the configuration first, then every
+frame). ``start()`` sets every
 axis up, enables it, and makes the pacing and the loop. ``run()`` runs the loop and then,
 in this order, stops SYNC, stops the frames that feed the trace, and closes the
 recorder with the summary. ``close()`` disables and releases every axis and
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 import gc
 import logging
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -24,8 +27,9 @@ from drivers.canopen_axis import CanopenAxis
 from drivers.errors import ConfigError, RigError
 from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
-from rig.host.axes import open_axis
-from rig.host.emulation import Emulation
+from rig.config_checks import check_period
+from rig.host.axes import check_object_dictionaries, open_axis
+from rig.host.emulation import Emulation, emulated_period
 from rig.host.heartbeat import HostHeartbeat
 from rig.host.loop import HostLoop, Wiring
 from rig.host.pacing import (
@@ -37,7 +41,7 @@ from rig.host.pacing import (
     Pacing,
     WireLockstep,
 )
-from rig.host.recorder import Recorder
+from rig.host.recorder import Recorder, check_output
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
 from rig.host.trace import TracedNetwork
@@ -107,14 +111,37 @@ class Session:
             raise
 
     # --- building ------------------------------------------------------------------------------
-    def _transports(self) -> float:
+    def _period(self) -> float:
+        """The run's period [s], known before anything is opened: [run] period or the preset's."""
+        cfg = self.cfg
+        if self.emulate:
+            period = emulated_period(cfg)
+        elif not cfg.run.period > 0.0:
+            raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s) when not emulating")
+        else:
+            period = cfg.run.period
+        if cfg.run.period:
+            check_period(f"{cfg.source}: [run]", "period", period)
+        else:
+            check_period(f"{cfg.source}: [emulator]", "the preset's period", period)
+        return period
+
+    def _cycles(self, duration: float | None, cycles: int | None) -> int:
+        if cycles is not None:
+            if cycles < 1:
+                raise ConfigError(f"{self.cfg.source}: cycles = {cycles!r}: must be >= 1")
+            return cycles
+        d = self.cfg.run.duration if duration is None else duration
+        if not (math.isfinite(d) and d > 0.0):
+            raise ConfigError(f"{self.cfg.source}: duration = {d!r}: must be a finite time > 0 s")
+        return round(d / self.period)
+
+    def _transports(self) -> None:
         cfg = self.cfg
         if self.emulate:
             self.emulation = Emulation(cfg)
             self.network: Any = self.emulation.network
-            return self.emulation.period
-        if not cfg.run.period > 0.0:
-            raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s) when not emulating")
+            return
         self.network = TracedNetwork()
         if any(a.kind != "modbus" for a in cfg.axes):
             b = cfg.bus
@@ -123,16 +150,13 @@ class Session:
             self.network.bus = self._bus
             self.network.connect()
             self.network.notifier.add_listener(ReceiveWatch())  # a lost bus: a safe stop, not a dead thread
-        return cfg.run.period
 
     def _build(self, duration: float | None, cycles: int | None) -> None:
         cfg = self.cfg
-        period = self._transports()
-        self.period = period
+        # first what needs no bus: a bad value is one error and nothing was opened
+        period = self.period = self._period()
+        self.cycles = self._cycles(duration, cycles)
         law = build_law(cfg, period)
-        for a in cfg.axes:
-            spec = self.emulation.endpoint(a) if self.emulation else a
-            self.axes.append(open_axis(spec, network=self.network, period=period, bus=cfg.bus))
         names = [a.name for a in cfg.axes]
         wiring = Wiring(
             tuple(names.index(n) for n in cfg.controller.reads),
@@ -140,7 +164,13 @@ class Session:
             tuple((names.index(a.name), self._profile(a.name, a.profile)) for a in cfg.axes if a.profile),
         )
         self.law, self.wiring = law, wiring
-        self.cycles = cycles or round((duration or cfg.run.duration) / period)
+        check_output(cfg.run.output, cfg.run.name, f"{cfg.source}: [run]")
+        check_object_dictionaries(cfg.axes, cfg.source)
+        # then the bus (or the emulated world), the axes on it, the recorder
+        self._transports()
+        for a in cfg.axes:
+            spec = self.emulation.endpoint(a) if self.emulation else a
+            self.axes.append(open_axis(spec, network=self.network, period=period, bus=cfg.bus))
         # flushed every 50 ms of run time: a killed host loses at most that
         self.recorder = Recorder(cfg.run.output, cfg.run.name, flush_period=0.05, trace=cfg.run.trace)
         self.recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": self.emulate})

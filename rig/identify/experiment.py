@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from drivers.files import read_json
 from rig.config import RigConfig
 from rig.host.rundir import read_run
 from rig.host.session import Session
@@ -90,10 +91,8 @@ def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult
 
 def run_input(run_dir: str | Path) -> str:
     """ "torque" when the run's commanded axis was in CST, else "voltage"."""
-    import json
-
     try:
-        cfg = json.loads((Path(run_dir) / "config.json").read_text())
+        cfg = read_json(Path(run_dir) / "config.json", what="run configuration")
         commanded = cfg["controller"]["commands"][0]
         mode = next(a["mode"] for a in cfg["axes"] if a["name"] == commanded)
     except (OSError, ValueError, KeyError, IndexError, StopIteration, TypeError):

@@ -57,7 +57,7 @@ def test_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_param_overrides_and_errors(capsys: pytest.CaptureFixture[str]) -> None:
     items = parse_items(["phi=0.8", "S=2,1", "Q=2,0;0,1", "H=solved", "disturbance_amplitude=0"], "--param")
-    ex = DismcExample(**typed_values(DismcExample, items, "--param", aliases=ALIASES, fixed=FIXED))
+    ex = DismcExample(**typed_values(DismcExample, items, "--param", aliases=ALIASES, fixed=FIXED, text=True))
     assert (ex.phi, ex.S, ex.Q, ex.H, ex.amplitude) == (
         0.8,
         (2.0, 1.0),

@@ -1,0 +1,244 @@
+"""Bad values in a rig configuration: one line naming the file, the key and the value, exit code 2,
+and nothing opened (no bus, no emulated world, no run directory); runs without limits."""
+
+from __future__ import annotations
+
+import pathlib
+import re
+
+import pytest
+
+from drivers.errors import ConfigError
+from rig.cli import main
+from rig.config import load_config
+from rig.config_checks import require_limits
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
+EXAMPLE = EXAMPLES / "dc_servo_position.toml"
+
+#: (what the example says, what the bad configuration says instead, what the error line must contain)
+BAD = {
+    "period-as-string": (
+        "[run]\n",
+        '[run]\nperiod = "0"\n',
+        "[run]: period = '0': expected float, not a string",
+    ),
+    "period-inf": ("[run]\n", "[run]\nperiod = inf\n", "[run] period = inf"),
+    "period-tiny": ("[run]\n", "[run]\nperiod = 1e-300\n", "[run] period = 1e-300"),
+    "duration-inf": ("duration = 3.0", "duration = inf", "[run] duration = inf"),
+    "duration-nan": ("duration = 3.0", "duration = nan", "[run]: duration = nan: expected a number, not NaN"),
+    "period-nan": ("[run]\n", "[run]\nperiod = nan\n", "[run]: period = nan: expected a number, not NaN"),
+    "period-zero-string": ("[run]\n", '[run]\nperiod = "0.001"\n', "[run]: period = '0.001': expected float"),
+    "missed-sample": ("[run]\n", '[run]\nmissed_sample = "skip"\n', "missed_sample = 'skip'"),
+    "duration-zero": ("duration = 3.0", "duration = 0.0", "[run] duration = 0.0"),
+    "name-escapes": ('name = "dc-servo-position"', 'name = "../../escaped"', "[run] name = '../../escaped'"),
+    "name-absolute": ('name = "dc-servo-position"', 'name = "/tmp/escaped"', "[run] name = '/tmp/escaped'"),
+    "name-backslash": ('name = "dc-servo-position"', 'name = "..\\\\x"', "[run] name = '..\\\\x'"),
+    "sync-rpdo-as-string": ("sync_rpdo = false", 'sync_rpdo = "false"', "sync_rpdo = 'false': expected true"),
+    "heartbeat-timeout-negative": (
+        "heartbeat_timeout = 0.0",
+        "heartbeat_timeout = -1.0",
+        "[[axis]] 'motor' limits heartbeat_timeout = -1.0",
+    ),
+    "heartbeat-timeout-inf": (
+        "heartbeat_timeout = 0.0",
+        "heartbeat_timeout = inf",
+        "[[axis]] 'motor' limits heartbeat_timeout = inf",
+    ),
+    "host-timeout-negative": ("latency = 0.0", "host_timeout = -0.5", "[[axis]] 'motor' host_timeout = -0.5"),
+    "enable-timeout-inf": ("latency = 0.0", "enable_timeout = inf", "[[axis]] 'motor' enable_timeout = inf"),
+    "sdo-timeout-negative": ("latency = 0.0", "sdo_timeout = -1.0", "[[axis]] 'motor' sdo_timeout = -1.0"),
+    "latency-inf": ("latency = 0.0", "latency = inf", "[[axis]] 'motor' latency = inf"),
+    "bus-heartbeat-inf": ("port = 29536", "port = 29536\nheartbeat = inf", "[bus] heartbeat = inf"),
+    "bus-heartbeat-negative": ("port = 29536", "port = 29536\nheartbeat = -0.1", "[bus] heartbeat = -0.1"),
+    "bus-port": ("port = 29536", "port = 70000", "[bus] port = 70000"),
+    "command-limit-zero": ("command = 48.0", "command = 0.0", "limits command = 0.0"),
+    "command-limit-negative": ("command = 48.0", "command = -48.0", "limits command = -48.0"),
+    "speed-limit-negative": ("speed = 300.0", "speed = -300.0", "limits speed = -300.0"),
+    "current-limit-zero": ("current = 30.0", "current = 0.0", "limits current = 0.0"),
+    "position-window-empty": ("position_min = -1.0", "position_min = 12.0", "limits position_min = 12.0"),
+    "position-window-inverted": ("position_max = 12.0", "position_max = -2.0", "position_max = -2.0"),
+    "watchdog-negative": (
+        "watchdog_periods = 3",
+        "watchdog_periods = 3\nwatchdog = -0.1",
+        "[[axis]] 'motor' limits watchdog = -0.1",
+    ),
+    "watchdog-inf": ("watchdog_periods = 3", "watchdog_periods = 3\nwatchdog = inf", "limits watchdog = inf"),
+    "watchdog-nan": (
+        "watchdog_periods = 3",
+        "watchdog_periods = 3\nwatchdog = nan",
+        "limits: watchdog = nan: expected a number",
+    ),
+    "heartbeat-timeout-nan": (
+        "heartbeat_timeout = 0.0",
+        "heartbeat_timeout = nan",
+        "[[axis]] 'motor' limits: heartbeat_timeout = nan",
+    ),
+    "watchdog-zero": ("watchdog_periods = 3", "watchdog_periods = 0", "limits watchdog_periods = 0"),
+    "reference-duration-nan": ("duration = 1.0 ", "duration = nan ", "[reference]: duration = nan"),
+    "reference-duration-inf": ("duration = 1.0 ", "duration = inf ", "[reference] duration = inf"),
+    "reference-distance-inf": ("distance = 10.0", "distance = inf", "[reference] distance = inf"),
+    "frame-loss": ("[controller]", "[faults]\nframe_loss = 2.0\n\n[controller]", "[faults] frame_loss = 2.0"),
+    "fault-time-negative": (
+        "[controller]",
+        "[faults]\ntpdo_stall_at = -1.0\n\n[controller]",
+        "tpdo_stall_at = -1.0",
+    ),
+    "emulator-param-string": (
+        'load = "step:0.0346:1.5"',
+        'a_m = "16"',
+        "[emulator.params]: a_m = '16': expected float, not a string",
+    ),
+    "emulator-param-negative": (
+        'load = "step:0.0346:1.5"',
+        "a_m = -16.0",
+        "parameter a_m must be > 0, got -16.0",
+    ),
+    "emulator-param-load": ('load = "step:0.0346:1.5"', 'load = "step:x"', "parameter load='step:x'"),
+    "emulator-param-period": ('load = "step:0.0346:1.5"', "period = 1e-300", "the preset's period = 1e-300"),
+    "emulator-param-huge-int": (
+        'load = "step:0.0346:1.5"',
+        "counts_per_rev = 100000000000",
+        "counts_per_rev must be <= 2147483647, got 100000000000",
+    ),
+    "emulator-param-table": (
+        'load = "step:0.0346:1.5"',
+        "a_m = {x = 1}",
+        "a_m = {'x': 1}: expected a number",
+    ),
+}
+
+
+def _config(
+    tmp_path: pathlib.Path, old: str = "", new: str = "", example: pathlib.Path = EXAMPLE
+) -> pathlib.Path:
+    text = example.read_text().replace('output = "runs"', f'output = "{tmp_path / "runs"}"')
+    assert old in text, old
+    path = tmp_path / "rig.toml"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_a_bad_value_is_one_line_naming_it_and_opens_nothing(
+    case: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
+) -> None:
+    old, new, needle = BAD[case]
+    path = _config(tmp_path, old, new)
+    assert main(["run", "--config", str(path), "--emulate"]) == 2
+    out = capsys.readouterr()
+    assert out.out == "" and len(out.err.splitlines()) == 1, out.err
+    assert out.err.startswith(f"rig: {path}: ") and needle in out.err
+    assert not opened and not (tmp_path / "runs").exists()
+    assert not list(tmp_path.parent.glob("escaped*")) and not list(pathlib.Path("/tmp").glob("escaped-*"))
+
+
+def test_an_output_that_is_a_file_is_named(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
+) -> None:
+    out = tmp_path / "runs"
+    out.write_text("a file where the runs would go\n")
+    path = _config(tmp_path)
+    assert main(["run", "--config", str(path), "--emulate"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"rig: {path}: [run] output = '{out}': is a file, not a folder\n"
+    below = _config(tmp_path, f'output = "{out}"', f'output = "{out / "deeper"}"')
+    assert main(["run", "--config", str(below), "--emulate"]) == 2
+    assert f"is below the file {out}, not a folder" in capsys.readouterr().err
+    assert not opened
+
+
+def test_a_run_stays_in_its_output_folder(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = _config(tmp_path, 'name = "dc-servo-position"', 'name = "..-odd but plain"')
+    assert main(["run", "--config", str(path), "--emulate", "--duration", "0.02", "--json"]) == 0
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    assert run_dir.name.startswith("..-odd but plain-") and (run_dir / "summary.json").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rig.toml", "runs"]
+
+
+def _without_limits(tmp_path: pathlib.Path) -> pathlib.Path:
+    example = EXAMPLES / "dc_servo_speed_csv.toml"
+    text = re.sub(r"\[axis\.limits\][^\[]*", "", example.read_text())
+    assert "limits" not in text
+    path = tmp_path / "bare.toml"
+    path.write_text(text.replace('output = "runs"', f'output = "{tmp_path / "runs"}"'))
+    return path
+
+
+def test_a_commanded_axis_without_limits_needs_no_limits(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _without_limits(tmp_path)
+    assert main(["run", "--config", str(path), "--emulate", "--duration", "0.05"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(path) in err and "'motor': commanded without any limit" in err
+    assert "--no-limits" in err and not (tmp_path / "runs").exists()
+    assert main(["run", "--config", str(path), "--emulate", "--duration", "0.05", "--no-limits"]) == 0
+
+
+def test_one_limit_is_enough_and_feedback_axes_need_none(tmp_path: pathlib.Path) -> None:
+    path = _without_limits(tmp_path)
+    path.write_text(path.read_text().replace("[controller]", "[axis.limits]\nspeed = 250.0\n\n[controller]"))
+    require_limits(load_config(path))
+    dyno = load_config(EXAMPLES / "dyno_speed_load.toml")  # the encoder is read, never commanded
+    require_limits(dyno)
+
+
+def test_a_profile_commanded_axis_needs_limits_too(tmp_path: pathlib.Path) -> None:
+    text = (EXAMPLES / "dyno_speed_load.toml").read_text()
+    path = tmp_path / "dyno.toml"
+    path.write_text(text.replace("command = 0.5           # N m\nspeed = 300.0", "watchdog_periods = 3"))
+    with pytest.raises(ConfigError, match=r"\[\[axis\]\] 'load': commanded without any limit"):
+        require_limits(load_config(path))
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in EXAMPLES.glob("*.toml")))
+def test_every_example_has_limits(name: str) -> None:
+    """``rig run --config examples/...`` (the README's commands) needs no --no-limits."""
+    require_limits(load_config(EXAMPLES / name))
+
+
+def test_faults_from_the_command_line_are_text_and_checked(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--fault stays text (a fraction such as 1/100 is fine); its values are checked like the file's."""
+    path = _config(tmp_path)
+    assert main(["run", "--config", str(path), "--fault", "frame_loss=2", "--emulate"]) == 2
+    assert capsys.readouterr().err == "rig run: --fault frame_loss = 2.0: must be a fraction in [0, 1)\n"
+    argv = ["run", "--config", str(path), "--fault", "frame_loss=1/100", "--emulate", "--duration", "0.02"]
+    assert main(argv) == 0
+
+
+@pytest.mark.parametrize("duration", ["inf", "nan", "0", "-1"])
+def test_a_bad_duration_on_the_command_line_is_one_line(
+    duration: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
+) -> None:
+    path = _config(tmp_path)
+    assert main(["run", "--config", str(path), "--emulate", "--duration", duration]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--duration" in err and "Traceback" not in err, err
+    assert not opened and not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize(
+    ("value", "needle"),
+    [
+        ("accel = -5.0", "[emulator.inverter]: accel -5.0 must be finite and > 0"),
+        ("accel = inf", "[emulator.inverter]: accel inf must be finite and > 0"),
+        ("slip = -1.0", "[emulator.inverter]: slip -1.0 must be finite and >= 0"),
+        ("comm_loss_timeout = -1.0", "[emulator.inverter]: comm_loss_timeout -1.0 s must be > 0"),
+        (
+            "comm_loss_timeout = 0.001",
+            "is not shorter than the emulated inverter's comm_loss_timeout 0.001 s",
+        ),
+        ('accel = "fast"', "[emulator.inverter]: accel = 'fast': expected float, not a string"),
+    ],
+)
+def test_a_bad_emulated_inverter_value_opens_nothing(
+    value: str, needle: str, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
+) -> None:
+    path = _config(tmp_path, "accel = 100.0", value, example=EXAMPLES / "modbus_inverter_speed.toml")
+    assert main(["run", "--config", str(path), "--emulate"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"rig: {path}: ") and needle in err, err
+    assert not opened and not (tmp_path / "runs").exists()
