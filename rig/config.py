@@ -29,7 +29,8 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                  watchdog_periods (lock-step), watchdog [s] (real time: max of the two),
                  heartbeat_timeout [s] (0: off)
     [controller] kind (see ``rig.laws.LAWS``), reads = [axis names], commands = [axis names],
-                 and the law's parameters
+                 the law's parameters, and design = "FILE" (a_m, b_m and lam from rig identify's
+                 identification.json or rig design dtsm --json; ``rig.identify.model_file``)
     [reference]  kind (smooth-move | step | constant | profile), distance, duration, start, value, profile
     [faults]     fault injection: on the emulated bus (--emulate): frame_loss, seed, tpdo_stall_at,
                  heartbeat_loss_at, node_reset_at, overcurrent_at, encoder_glitch_at [s],
@@ -50,6 +51,7 @@ from drivers.errors import ConfigError
 from drivers.files import read_toml
 from rig.axis_config import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
 from rig.config_checks import check_bus, check_faults, check_reference, check_run
+from rig.identify.model_file import Model, read_model
 from rig.params import typed_values
 
 __all__ = [
@@ -110,6 +112,7 @@ class ControllerConfig:
     reads: tuple[str, ...] = ()
     commands: tuple[str, ...] = ()
     params: dict[str, Any] = field(default_factory=dict)  #: the law's, typed by its Params
+    design: Model | None = None  #: ``design = "FILE"``: the model its a_m, b_m (and lam) came from
 
 
 @dataclass(frozen=True)
@@ -203,7 +206,30 @@ def _controller(path: str, table: Any) -> ControllerConfig:
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
             raise ConfigError(f"{path}: [controller] {key} = {value!r}: expected a list of axis names")
         roles[key] = tuple(value)
-    return ControllerConfig(kind, roles["reads"], roles["commands"], table)
+    model = None
+    if "design" in table:
+        model = _design(path, table)
+    return ControllerConfig(kind, roles["reads"], roles["commands"], table, model)
+
+
+def _design(path: str, table: dict[str, Any]) -> Model:
+    """``design = "FILE"`` (a path relative to the configuration's folder): its a_m, b_m and,
+    from a design file, lam go into ``table``; a key also given in ``table`` is an error."""
+    design = table.pop("design")
+    where = f"{path}: [controller] design = {design!r}"
+    if not isinstance(design, str) or not design:
+        raise ConfigError(
+            f"{where}: expected the path of rig identify's identification.json (or its run "
+            "directory) or of rig design dtsm --json's output"
+        )
+    file = Path(design) if Path(design).is_absolute() else Path(path).parent / design
+    model = read_model(file, where=where)
+    given = {"a_m": model.a_m, "b_m": model.b_m, **({} if model.lam is None else {"lam": model.lam})}
+    both = sorted(set(given) & set(table))
+    if both:
+        raise ConfigError(f"{where}: {', '.join(both)} also given in [controller]: give each once")
+    table.update(given)
+    return model
 
 
 def _emulator(path: str, table: Any) -> EmulatorConfig:
@@ -308,10 +334,31 @@ def _check_rig(cfg: RigConfig) -> None:
                 f"{src}: [controller] commands {name!r}, which has "
                 + ("a profile" if a.profile else "no mode (a feedback-only axis)")
             )
+    if c.design is not None:
+        _check_design(cfg, c.design)
     check_run(src, cfg.run)
     check_bus(src, b)
     check_reference(src, cfg.reference)
     check_faults(f"{src}: [faults]", cfg.faults)
+
+
+def _check_design(cfg: RigConfig, model: Model) -> None:
+    """The model's input is what the commanded axes take (voltage mode, or CST for a torque); a
+    design (it has lam) was made for the run's period."""
+    where = f"{cfg.source}: [controller] design ({model.source})"
+    mode = "cst" if model.input == "torque" else "voltage"
+    for name in cfg.controller.commands:
+        if cfg.axis(name).mode != mode:
+            raise ConfigError(
+                f"{where}: its input is a {model.input}, so axis {name!r} must be in mode = {mode!r}, "
+                f"not {cfg.axis(name).mode!r}"
+            )
+    period = cfg.run.period
+    if model.lam is not None and period > 0.0 and abs(model.dt - period) > 1e-9 * period:
+        raise ConfigError(
+            f"{where}: designed for T = {model.dt:g} s, but [run] period = {period:g} s: design it again "
+            "with --dt"
+        )
 
 
 def replace_axis(

@@ -36,6 +36,7 @@ __all__ = [
 EXIT_USAGE = 2
 EXIT_STOPPED = 3
 EXIT_UNCONFIRMED = 4  #: the drives' stop could not be confirmed: they may still be moving
+EXIT_UNTRUSTED = 5  #: rig identify --strict: closed-loop data or a poor held-out fit
 
 
 def exit_code(summary: dict[str, Any]) -> int:

@@ -8,9 +8,8 @@ import math
 from typing import Any
 
 from controllers.design import DTSMDesign, design_dtsm
-from drivers.errors import ConfigError
-from drivers.files import read_json
 from rig.cli.common import Parser, UsageError, add_json, finite
+from rig.identify.model_file import read_model
 
 __all__ = ["add_parser"]
 
@@ -22,12 +21,18 @@ def add_parser(sub: Any) -> None:
         "dtsm",
         help="DTSM sliding vector, eqs. (6.9), (6.16)-(6.19)",
         description="Design the delta-domain DTSM for dw/dt = -a_m w + b_m u with position "
-        "(3.7), or the error-space model (7.28) with --error-space.",
+        "(3.7), or the error-space model (7.28) with --error-space. --json prints the design with "
+        'a_m, b_m, lam, dt and input, a file [controller] design = "FILE" accepts. Example: '
+        "rig design dtsm --from-identify runs/identify-voltage-... --lam -15 --error-space --json",
     )
     dtsm.add_argument("--a-m", type=finite, help="a_m [1/s] (or --from-identify)")
     dtsm.add_argument("--b-m", type=finite, help="b_m [rad/(V s^2)] (or --from-identify)")
-    dtsm.add_argument("--from-identify", metavar="RESULT.json", help="take a_m, b_m from rig identify --json")
-    dtsm.add_argument("--dt", type=finite, required=True, help="sample period T [s], > 0")
+    dtsm.add_argument(
+        "--from-identify",
+        metavar="FILE|RUN_DIR",
+        help="take a_m, b_m (and dt unless --dt) from rig identify's identification.json or run directory",
+    )
+    dtsm.add_argument("--dt", type=finite, help="sample period T [s], > 0 (default: --from-identify's)")
     dtsm.add_argument("--lam", type=finite, required=True, help="sliding eigenvalue lambda [1/s], < 0")
     dtsm.add_argument(
         "--error-space", action="store_true", help="use (7.28): e = [theta_r - theta, de/dt], b = [0, -b_m]"
@@ -36,34 +41,23 @@ def add_parser(sub: Any) -> None:
     dtsm.set_defaults(handler=run)
 
 
-def _from_identify(path: str) -> tuple[float, float, str]:
-    """(a_m, b_m, input) of a ``rig identify --json`` result; ConfigError naming the file and key."""
-    doc = read_json(path, what="rig identify result")
-    if not isinstance(doc, dict):
-        raise ConfigError(f"{path}: not a JSON object (the output of rig identify --json)")
-    values = []
-    for key in ("a_m", "b_m"):
-        v = doc.get(key)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ConfigError(f"{path}: {key} = {v!r}: expected a finite number (from rig identify --json)")
-        values.append(float(v))
-    source = doc.get("input", "voltage")
-    if source not in ("voltage", "torque"):
-        raise ConfigError(f"{path}: input = {source!r}: expected voltage or torque")
-    return values[0], values[1], source
-
-
 def _design(args: argparse.Namespace) -> DTSMDesign:
     a_m, b_m = args.a_m, args.b_m
     args.input = "voltage"
     if args.from_identify:
-        a_m, b_m, args.input = _from_identify(args.from_identify)
+        model = read_model(args.from_identify, where="rig design dtsm: --from-identify")
+        a_m, b_m, args.input = model.a_m, model.b_m, model.input
+        if args.dt is None:
+            args.dt = model.dt  # the experiment's sample period, unless given
     if a_m is None or b_m is None:
-        raise UsageError("rig design dtsm: give --a-m and --b-m, or --from-identify RESULT.json")
+        raise UsageError("rig design dtsm: give --a-m and --b-m, or --from-identify FILE|RUN_DIR")
+    if args.dt is None or math.isnan(args.dt):
+        raise UsageError("rig design dtsm: give --dt (the sample period T [s])")
     if args.dt <= 0.0:
         raise UsageError(f"rig design dtsm: argument --dt: must be > 0 s, got {args.dt:g}")
     if args.lam >= 0.0:
         raise UsageError(f"rig design dtsm: argument --lam: must be < 0 1/s, got {args.lam:g}")
+    args.a_m, args.b_m = a_m, b_m
     b = -b_m if args.error_space else b_m
     try:
         return design_dtsm(A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, b], dt=args.dt, lam=args.lam)
@@ -73,9 +67,9 @@ def _design(args: argparse.Namespace) -> DTSMDesign:
 
 def run(args: argparse.Namespace) -> int:
     d = _design(args)
-    if args.json:
-        extra = {"input": args.input} if args.from_identify else {}  # the model's input, when known
-        print(json.dumps({**d.as_dict(), **extra}))
+    if args.json:  # the model with the design: [controller] design = "FILE" reads it back
+        model = {"a_m": args.a_m, "b_m": args.b_m, "lam": args.lam, "dt": d.dt, "input": args.input}
+        print(json.dumps({**d.as_dict(), **model}))
         return 0
     print(
         "\n".join(

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
 
-from rig.cli.common import EXIT_STOPPED, UsageError, add_json, add_params, finite, print_json
+from rig.cli.common import EXIT_STOPPED, EXIT_UNTRUSTED, UsageError, add_json, add_params, finite, print_json
 from rig.params import parse_items
 
 __all__ = ["add_parser"]
@@ -18,7 +19,10 @@ def add_parser(sub: Any) -> None:
         help="identify a_m, b_m of (3.5) from a PRBS experiment on the drive, or from a run log",
         description="Replays u = u0 + amplitude prbs(t) (or steps) in voltage mode on the axis the "
         "configuration's law commands, through the session like any rig run, and estimates (3.5) with "
-        "a delay and an offset (rig/identify/estimate.py).",
+        "a delay and an offset (rig/identify/estimate.py). The result is written to identification.json "
+        "in the run directory (rig design dtsm --from-identify and [controller] design take it). It "
+        "warns when the data were taken in closed loop or the held-out fit is below 70 %; with --strict "
+        "that exits 5. Example: rig identify --emulate dc-servo --param plant.a_m=23.5",
     )
     source = ident.add_mutually_exclusive_group(required=True)
     source.add_argument("--config", metavar="FILE", help="the rig configuration (bus, axis, limits)")
@@ -41,6 +45,9 @@ def add_parser(sub: Any) -> None:
     ident.add_argument("--clock", type=finite, default=0.02, help="PRBS bit time [s], a few times < 1/a_m")
     add_json(ident, "print one JSON object")
     ident.add_argument("--plot", metavar="FILE", help="write measured and model speed to FILE")
+    ident.add_argument(
+        "--strict", action="store_true", help="exit 5 when a warning says the result is not to be trusted"
+    )
     ident.set_defaults(handler=run)
 
 
@@ -94,8 +101,10 @@ def _experiment(args: argparse.Namespace) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from drivers.files import read_json
     from rig.identify import IdentificationError
-    from rig.identify.experiment import identify_from_log
+    from rig.identify.experiment import identify_from_log, run_controller
+    from rig.identify.model_file import FILE, checks, write_identification
 
     try:
         run_dir = args.from_log or _experiment(args)
@@ -104,13 +113,21 @@ def run(args: argparse.Namespace) -> int:
         result = identify_from_log(run_dir)
     except IdentificationError as exc:
         raise UsageError(f"rig identify: {exc}") from exc
+    closed_loop, warnings = checks(result, run_controller(run_dir))
+    try:
+        path = write_identification(Path(run_dir), result, closed_loop, warnings)
+    except OSError as exc:
+        raise UsageError(f"rig identify: {Path(run_dir) / FILE}: cannot be written: {exc}") from exc
+    for warning in warnings:
+        print(f"rig identify: warning: {warning}", file=sys.stderr)
     if args.plot:
         from rig.plots import plot_identify
 
         plot_identify(run_dir, result, args.plot)
+    code = EXIT_UNTRUSTED if args.strict and warnings else 0
     if args.json:
-        print_json({**result.as_dict(), "run_dir": str(run_dir)})
-        return 0
+        print_json(read_json(path, what="identification"))
+        return code
     r = result
     print(f"identified (3.5) from {r.samples} samples at T = {r.dt:g} s ({run_dir}):")
     print(f"  input u: {r.input} [{r.input_unit}]")
@@ -119,4 +136,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {name} = {value:.5g} {unit}, stderr {err:.2g}, 95 %: {low:.5g} .. {high:.5g}")
     print(f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2")
     print(f"  fit on held-out data {r.fit_percent:.1f} %")
-    return 0
+    print(f"  written to {path}")
+    return code

@@ -23,7 +23,7 @@ from rig.host.rundir import read_run
 from rig.host.session import Session
 from rig.identify.estimate import IdentResult, estimate
 
-__all__ = ["experiment_config", "identify_from_log", "run_experiment", "terminal_progress"]
+__all__ = ["experiment_config", "identify_from_log", "run_controller", "run_experiment", "terminal_progress"]
 
 
 def experiment_config(
@@ -89,15 +89,34 @@ def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult
     return estimate(u, theta, period, max_delay=max_delay, input=run_input(run_dir))
 
 
+def _run_config(run_dir: str | Path) -> dict[str, Any] | None:
+    """The run's config.json (None where it is missing or unreadable)."""
+    try:
+        cfg = read_json(Path(run_dir) / "config.json", what="run configuration")
+    except (OSError, ValueError):
+        return None
+    return cfg if isinstance(cfg, dict) else None
+
+
 def run_input(run_dir: str | Path) -> str:
     """ "torque" when the run's commanded axis was in CST, else "voltage"."""
     try:
-        cfg = read_json(Path(run_dir) / "config.json", what="run configuration")
+        cfg: Any = _run_config(run_dir)
         commanded = cfg["controller"]["commands"][0]
         mode = next(a["mode"] for a in cfg["axes"] if a["name"] == commanded)
-    except (OSError, ValueError, KeyError, IndexError, StopIteration, TypeError):
+    except (KeyError, IndexError, StopIteration, TypeError):
         return "voltage"
     return "torque" if mode == "cst" else "voltage"
+
+
+def run_controller(run_dir: str | Path) -> str | None:
+    """The kind of the run's law ("replay": the open-loop experiment); None where unknown."""
+    try:
+        cfg: Any = _run_config(run_dir)
+        kind = cfg["controller"]["kind"]
+    except (KeyError, TypeError):
+        return None
+    return kind if isinstance(kind, str) else None
 
 
 def terminal_progress(fraction: float) -> None:

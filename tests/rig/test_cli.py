@@ -37,6 +37,11 @@ def test_design_dtsm_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
         "k_delta",
         "c_delta",
         "c_delta_A_delta",
+        "a_m",  # the model with the design, for [controller] design = "FILE"
+        "b_m",
+        "lam",
+        "dt",
+        "input",
     }
     assert [round(v, 4) for v in doc["A_delta"][1]] == [0.0, -15.9489]
     assert round(doc["b_delta"][1], 6) == -677.828635

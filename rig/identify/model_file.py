@@ -1,0 +1,115 @@
+"""The model (3.5) on disk: ``identification.json``, written by ``rig identify`` into its run
+directory, and the ``rig design dtsm --json`` file; read back by ``rig design dtsm
+--from-identify`` and by ``[controller] design = "FILE"``, so no number is copied by hand.
+
+``identification.json`` holds a_m [1/s], b_m (per unit of the input: rad/(V s^2), or
+1/(kg m^2) for a torque), their standard errors and 95 % intervals, dt [s] (the experiment's
+sample period), delay [s] and delay_samples, offset [rad/s^2], fit_percent (held out),
+samples, input, input_unit, b_m_unit, closed_loop and warnings (see ``checks``). A design
+file adds the delta-domain design of (6.9), (6.16)-(6.19) and carries a_m, b_m, lam, dt and
+input. ``read_model`` takes either file, or a run directory holding identification.json.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from drivers.errors import ConfigError
+from drivers.files import read_json
+
+if TYPE_CHECKING:
+    from rig.identify.estimate import IdentResult
+
+__all__ = ["FILE", "FIT_MIN", "Model", "checks", "read_model", "write_identification"]
+
+FILE = "identification.json"
+#: [%] a held-out fit below this is poor: the model does not predict the data it was not fitted to
+FIT_MIN = 70.0
+
+
+@dataclass(frozen=True)
+class Model:
+    """(3.5) as read from a file: a_m [1/s], b_m, the input u is ("voltage" | "torque"), dt [s]
+    of the data or the design, lam [1/s] of a design (None: an identification)."""
+
+    a_m: float
+    b_m: float
+    input: str
+    dt: float
+    lam: float | None
+    source: str
+
+
+def checks(result: IdentResult, controller: str | None) -> tuple[bool | None, list[str]]:
+    """(closed_loop, warnings) of an identification from a run whose law was ``controller``
+    (None: unknown). Closed loop: the law was not the experiment's open-loop ``replay``, so the
+    input depends on the output and least squares is biased; a held-out fit below FIT_MIN %."""
+    warnings = []
+    closed = None if controller is None else controller != "replay"
+    if closed:
+        warnings.append(
+            f"the data were taken in closed loop (controller {controller!r}): the input depends on the "
+            "output, so the estimate is biased; identify from an open-loop experiment (rig identify "
+            "--config or --emulate)"
+        )
+    if not result.fit_percent >= FIT_MIN:
+        warnings.append(
+            f"the held-out fit is {result.fit_percent:.1f} % (< {FIT_MIN:g} %): the model does not "
+            "predict the data it was not fitted to"
+        )
+    return closed, warnings
+
+
+def write_identification(
+    run_dir: Path, result: IdentResult, closed_loop: bool | None, warnings: list[str]
+) -> Path:
+    """``run_dir``/identification.json (atomically); its path."""
+    from rig.host.recorder import write_atomic
+
+    doc: dict[str, Any] = {
+        **result.as_dict(),
+        "delay": result.delay_samples * result.dt,
+        "closed_loop": closed_loop,
+        "warnings": warnings,
+        "run_dir": str(run_dir),
+    }
+    path = Path(run_dir) / FILE
+    write_atomic(path, lambda f: f.write(json.dumps(doc, indent=1) + "\n"))
+    return path
+
+
+def _number(doc: dict[str, Any], key: str, where: str) -> float:
+    v = doc.get(key)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise ConfigError(f"{where}: {key} = {v!r}: expected a finite number")
+    return float(v)
+
+
+def read_model(path: str | Path, *, where: str = "") -> Model:
+    """The model in ``path``: identification.json, a ``rig design dtsm --json`` file, or a run
+    directory with identification.json. ConfigError naming ``where`` (what named the file: a
+    key, an option), the file and the key."""
+    p = Path(path)
+    if p.is_dir():
+        p = p / FILE
+    before = f"{where}: " if where else ""
+    try:
+        doc = read_json(p, what="identification or design")
+    except ConfigError as exc:
+        raise ConfigError(f"{before}{exc}") from None
+    at = f"{before}{p}"
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{at}: not a JSON object (rig identify's {FILE} or rig design dtsm --json)")
+    a_m, b_m = _number(doc, "a_m", at), _number(doc, "b_m", at)
+    dt = _number(doc, "dt", at) if "dt" in doc else math.nan
+    if "dt" in doc and not dt > 0.0:
+        raise ConfigError(f"{at}: dt = {dt!r}: expected a period > 0 s")
+    lam = _number(doc, "lam", at) if "lam" in doc else None
+    source = doc.get("input", "voltage")
+    if source not in ("voltage", "torque"):
+        raise ConfigError(f"{at}: input = {source!r}: expected voltage or torque")
+    return Model(a_m, b_m, source, dt, lam, str(p))
