@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 from controllers.design import design_dtsm
 from controllers.position_servo import PositionServo, PositionServoParams
+from controllers.speed_observer import SpeedObserver
 from drivers.base import Feedback
 from rig.laws.base import Law, LawStep, Reference
 from rig.papers import drives
@@ -27,6 +28,11 @@ class ServoParams:
     rho: float = drives.RHO  #: speed-error threshold of the integral [rad/s]
     h: float = drives.H  #: integral gain [1/s], 0 <= h < 1/T
     u0: float = math.inf  #: output limit [V]
+    #: the speed the law uses: "drive" (the axis's velocity feedback) or "observer" (estimated
+    #: from the position by ``controllers.speed_observer`` on this model, for quantised encoders)
+    speed: str = "drive"
+    observer_bandwidth: float = 500.0  #: [rad/s] the observer's poles
+    observer_delay: int = 0  #: [periods] from the law's command to the drive applying it
 
 
 class PositionServoLaw(Law):
@@ -44,10 +50,20 @@ class PositionServoLaw(Law):
         self.servo = PositionServo(
             PositionServoParams(design=design, sigma=p.sigma, q=p.q, rho=p.rho, h=p.h, u0=p.u0)
         )
+        if p.speed not in ("drive", "observer"):
+            raise ValueError(f"speed = {p.speed!r}: drive or observer")
+        self.observer = (
+            SpeedObserver(p.a_m, p.b_m, dt=period, bandwidth=p.observer_bandwidth, delay=p.observer_delay)
+            if p.speed == "observer"
+            else None
+        )
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         theta_r, omega_r = self.reference(t)
         fb = feedback[0]
-        servo = self.servo
-        u = servo.step(theta_r - fb.position, omega_r - fb.velocity)
+        servo, observer = self.servo, self.observer
+        omega = fb.velocity if observer is None else observer.update(fb.position)
+        u = servo.step(theta_r - fb.position, omega_r - omega)
+        if observer is not None:
+            observer.command(u)
         return LawStep((u,), theta_r, fb.position, (servo.g, servo.u_i))

@@ -25,6 +25,7 @@ from controllers.compensators import FirstOrderCompensator, SecondOrderCompensat
 from controllers.design import design_dtsm
 from controllers.dtsm import DTSM, DTSMParams
 from controllers.position_servo import PositionServo, PositionServoParams
+from controllers.speed_observer import SpeedObserver
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.encoder import Encoder
 from rig.laws.references import smooth_move
@@ -88,13 +89,15 @@ def position_servo_run(
     law: str = "7.30",
     counts_per_rev: int | None = None,
     full_motor: bool = False,
+    observer_bandwidth: float | None = None,
 ) -> Trajectory:
     """The DC position servo of section VII.B: design (7.31) and law (7.30) on (3.7).
 
     ``load`` is the load as the disturbance f = T_L/J [rad/s^2] of (7.28), stepped on at
     ``load_time`` [s]. ``law="relay"`` replaces (7.30) by the sampled sign law
     u = -c A e - sigma sgn(g) (6.8) for comparison. ``counts_per_rev`` measures
-    through an encoder (Euler-backward speed); ``full_motor`` uses (3.4) with
+    through an encoder (Euler-backward speed, or with ``observer_bandwidth`` [rad/s] the
+    ``SpeedObserver`` on the encoder's position); ``full_motor`` uses (3.4) with
     an electrical time constant of 0.1 ms instead of (3.7).
     """
     design = design_dtsm(A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, -b_m], dt=dt, lam=lam)
@@ -107,6 +110,9 @@ def position_servo_run(
         raise ValueError(f"law must be '7.30' or 'relay', got {law!r}")
     motor, j = _dc_motor(a_m, b_m, dt, full=full_motor)
     encoder = Encoder(counts_per_rev, dt=dt) if counts_per_rev else None
+    observer = (
+        None if observer_bandwidth is None else SpeedObserver(a_m, b_m, dt=dt, bandwidth=observer_bandwidth)
+    )
     ref = smooth_move(distance, move_time)
     n = round(t_end / dt)
     t = np.arange(n) * dt
@@ -117,7 +123,11 @@ def position_servo_run(
         theta, omega = motor.theta, motor.omega
         if encoder is not None:
             theta, omega = encoder.sample(theta)
+        if observer is not None:
+            omega = observer.update(theta)
         u = ctl.step(theta_r - theta, omega_r - omega)
+        if observer is not None:
+            observer.command(u)
         out["ref"][k], out["y"][k], out["u"][k] = theta_r, motor.theta, u
         out["g"][k] = ctl.g
         out["u_i"][k] = getattr(ctl, "u_i", 0.0)

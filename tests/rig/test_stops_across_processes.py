@@ -25,6 +25,8 @@ from rig.fault_wire import wait_for
 from rig.process import spawn_emulator, stop_rig
 from tests.rig.test_host_death import run_config
 
+pytestmark = pytest.mark.timing  #: real time across processes: wall-clock bound
+
 
 def relaxed(out: pathlib.Path, port: int, eds: pathlib.Path) -> str:
     """test_host_death's run with a drive that watches the host with some slack: this test is

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pathlib
 
 import can
+import pytest
 
 from rig.host.trace import AscTrace
 
@@ -76,6 +77,7 @@ def test_an_emulated_run_s_trace_has_both_directions(tmp_path: pathlib.Path) -> 
     assert {0x181, 0x581} <= rx and not tx & {0x181, 0x581}  # TPDO1, SDO responses: the drive's
 
 
+@pytest.mark.timing
 def test_a_trace_over_a_real_bus_holds_the_host_s_frames_at_the_right_time(tmp_path: pathlib.Path) -> None:
     """``rig run`` in real time over socketcand to ``rig emulate`` in another process: the
     frames the host sends (its SYNC every period, RPDOs, SDO requests) are in the trace as Tx,

@@ -58,6 +58,7 @@ def test_the_position_move_on_every_zoo_drive(
     assert np.max(np.abs(data["measurement"] - toolkit["measurement"])) < tolerance
 
 
+@pytest.mark.timing
 @pytest.mark.parametrize("device", sorted(zoo()))
 def test_every_zoo_drive_in_real_time_in_another_process(device: str, tmp_path: pathlib.Path) -> None:
     """``rig emulate --device NAME`` (real time, its own clock) in another process, ``rig run``'s
@@ -100,6 +101,7 @@ def test_every_zoo_drive_in_real_time_in_another_process(device: str, tmp_path: 
     assert proc.returncode == 0, err
 
 
+@pytest.mark.timing
 def test_sync_from_another_device(tmp_path: pathlib.Path) -> None:
     """``[bus] sync = "external"``: a third party sends SYNC; the host sends none and keeps to it."""
     import re
