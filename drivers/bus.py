@@ -7,12 +7,15 @@ failure into ``CommunicationError`` naming the interface and channel.
 bus goes away (a socketcand link reset, an interface down): the error is logged once and
 kept in the notifier's ``exception``, where the axes' supervision finds it.
 python-can's socketcand client warns "Got incomplete message" whenever a TCP segment ends
-inside a frame, which is ordinary TCP; that line is demoted to debug (``_Fragments``).
+inside a frame, which is ordinary TCP; that line is demoted to debug (``_Fragments``). A
+socketcand server is reached once first (``_reach``): where nothing listens, one line names
+host:port at once instead of python-can's 10 s of retries.
 """
 
 from __future__ import annotations
 
 import logging
+import socket
 import time
 from typing import Any
 
@@ -60,6 +63,17 @@ class _Fragments(logging.Filter):
 
 
 _SOCKETCAND_LOG = logging.getLogger("can.interfaces.socketcand.socketcand")
+SOCKETCAND_PORT = 29536  #: python-can's and socketcand's default port
+
+
+def _reach(host: str, port: int, timeout: float = 3.0) -> None:
+    """One TCP connect to a socketcand server before python-can's own, which retries for 10 s
+    logging a warning per try (hundreds of thousands of lines): CommunicationError naming
+    host:port when nothing answers within ``timeout`` [s]."""
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise CommunicationError(f"cannot reach a socketcand server at {host}:{port}: {exc}") from None
 
 
 def open_bus(
@@ -70,6 +84,7 @@ def open_bus(
     if interface == "socketcand":
         if not any(isinstance(f, _Fragments) for f in _SOCKETCAND_LOG.filters):
             _SOCKETCAND_LOG.addFilter(_Fragments())
+        _reach(str(kwargs.get("host", "")), int(kwargs.get("port", SOCKETCAND_PORT)))
         kwargs.setdefault("tcp_tune", True)  # TCP_NODELAY/QUICKACK: no 40 ms Nagle/delayed-ACK stalls
     if bitrate is not None:
         kwargs["bitrate"] = bitrate
