@@ -4,12 +4,16 @@ Each subcommand module has ``add_parser(sub)``, which adds its parser and sets
 its handler with ``set_defaults(handler=...)``. Only this module configures
 logging. Exit codes: 0 done, 1 a failure of the rig (communication, device),
 2 a bad argument or configuration, 3 a safety stop, 4 a stop the drives did not
-confirm (they may still be moving), 130 interrupted.
+confirm (they may still be moving), 5 ``rig identify --strict`` warned, 130 interrupted,
+141 the reader of stdout left (``rig ... | head``). ``-v`` goes before or after the
+subcommand.
 """
 
 from __future__ import annotations
 
+import argparse
 import logging
+import os
 import sys
 from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, version
@@ -53,7 +57,23 @@ def build_parser() -> Parser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for module in SUBCOMMANDS:
         module.add_parser(sub)
+    _verbose_everywhere(parser)
     return parser
+
+
+def _verbose_everywhere(parser: argparse.ArgumentParser) -> None:
+    """``-v`` after any subcommand too (``rig run -v ...`` as ``rig -v run ...``)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                child.add_argument(
+                    "-v",
+                    "--verbose",
+                    action="store_true",
+                    default=argparse.SUPPRESS,
+                    help="log debug messages to stderr, with tracebacks",
+                )
+                _verbose_everywhere(child)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -64,6 +84,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         handler = logging.StreamHandler(sys.stderr)
         handler.setFormatter((logging.Formatter if args.verbose else BriefFormatter)(FORMAT))
         logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, handlers=[handler])
+        if not args.verbose:  # the Modbus driver says what failed in its own words (unit, register)
+            logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
         return int(args.handler(args))
     except UsageError as exc:
         print(str(exc), file=sys.stderr)
@@ -77,3 +99,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("rig: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # ``rig ... | head``: the reader left; no traceback at exit either
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + 13  # as a process SIGPIPE ended

@@ -137,3 +137,38 @@ def test_run_json_summary_contract(tmp_path: pathlib.Path, capsys: pytest.Captur
     assert main(["run", "--config", str(tmp_path / "missing.toml"), "--emulate"]) == 2
     assert "missing.toml" in capsys.readouterr().err
     assert set(summary["axes"]) == {"motor"} and summary["axes"]["motor"]["max_abs_velocity"] > 0
+
+
+def test_verbose_after_the_subcommand_and_quiet_libraries() -> None:
+    """``-v`` is accepted after any subcommand (also a nested one); without it pymodbus's own
+    error lines (raw frames) stay out: the Modbus driver says what failed in its words."""
+    import logging
+
+    from rig.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["run", "--config", "x.toml", "-v"]).verbose is True
+    assert parser.parse_args(["-v", "run", "--config", "x.toml"]).verbose is True
+    assert parser.parse_args(["design", "dtsm", "-v", "--lam", "-1"]).verbose is True
+    assert parser.parse_args(["run", "--config", "x.toml"]).verbose is False
+    assert main(["design", "dtsm", "--a-m", "16", "--b-m", "680", "--dt", "4e-4", "--lam", "-15"]) == 0
+    assert logging.getLogger("pymodbus").level == logging.CRITICAL
+
+
+def test_a_reader_that_leaves_is_no_traceback() -> None:
+    """``rig design dtsm ... | true`` (the reader gone before rig writes): exit 141 and nothing
+    on stderr."""
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-m", "rig.cli", "design", "dtsm", "--a-m", "16", "--b-m", "680"]
+    shell = subprocess.run(
+        f'{" ".join(cmd)} --dt 4e-4 --lam -15 | true; echo " ${{PIPESTATUS[0]}}"',
+        shell=True,
+        executable="/bin/bash",
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=60,
+    )
+    assert shell.stderr == "" and shell.stdout.endswith(" 141\n"), (shell.stdout, shell.stderr)
