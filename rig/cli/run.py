@@ -45,21 +45,36 @@ def add_parser(sub: Any) -> None:
     run.set_defaults(handler=execute)
 
 
+#: the unit each axis peak is in
+_PEAK_UNITS = {"max_abs_velocity": "rad/s", "max_abs_current": "A", "max_abs_position": "rad"}
+
+
 def print_summary(summary: dict[str, Any]) -> None:
-    """The summary for a person: the law's figures, then each axis's peaks."""
-    for key in (
-        "cycles",
-        "rms_error",
-        "max_error",
-        "chattering_count",
-        "overruns",
-        "safe_stop_reason",
-        "stop_confirmed",
-        "run_dir",
-    ):
-        print(f"{key:18s} {summary[key]}")
+    """The summary for a person, with units: the law's figures, the stop in words, each axis's
+    peaks (``--json`` has the same keys as numbers)."""
+    unit = summary.get("error_unit", "")
+    rows = [
+        ("cycles", f"{summary['cycles']} run, {summary['overruns']} skipped (real time)"),
+        ("rms error", f"{summary['rms_error']:.4g} {unit}".rstrip()),
+        ("max error", f"{summary['max_error']:.4g} {unit}".rstrip()),
+        ("chattering", f"{summary['chattering_count']} sign alternations of the command increment"),
+        ("stop", summary["safe_stop_reason"] or "none: the run ended at its duration, every axis stopped"),
+        (
+            "stop confirmed",
+            {True: "yes", False: "NO: an axis may still be moving", None: "-"}[summary["stop_confirmed"]],
+        ),
+        ("run directory", summary["run_dir"]),
+    ]
+    for key, text in rows:
+        print(f"{key:15s} {text}")
     for name, peaks in summary.get("axes", {}).items():
-        print(f"axis {name:13s} " + ", ".join(f"{k} {v:.4g}" for k, v in peaks.items()))
+        print(
+            f"axis {name:10s} "
+            + ", ".join(
+                f"{k.removeprefix('max_abs_')} {v:.4g} {_PEAK_UNITS.get(k, '')}".rstrip()
+                for k, v in peaks.items()
+            )
+        )
 
 
 def execute(args: argparse.Namespace) -> int:

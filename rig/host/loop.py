@@ -379,6 +379,7 @@ class HostLoop:
             "cycles": n,
             "rms_error": math.sqrt(self._sq_error / n) if n else math.nan,
             "max_error": self._max_error if n else math.nan,
+            "error_unit": self.law.error_unit,
             "chattering_count": self._chatter.count,
             "overruns": self.overruns,
             "held_cycles": self.held,

@@ -50,6 +50,8 @@ class Law(abc.ABC):
     internals: ClassVar[tuple[str, ...]] = ()
     #: the reference is a position [rad] of the read axis (``begin`` may move its zero)
     position_reference: ClassVar[bool] = False
+    #: the unit of the reference, the measurement and so of the error (summary and columns)
+    error_unit: ClassVar[str] = "rad/s"
     #: "start": a position reference is relative to the first sample; "zero": absolute
     origin: str = "start"
     #: the position [rad] added to a position reference (set by ``begin``)

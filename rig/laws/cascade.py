@@ -29,6 +29,7 @@ class CascadeParams:
 
 class CascadePositionLaw(Law):
     Params = CascadeParams
+    error_unit = "rad"
     modes = (frozenset({"cst"}),)
     position_reference = True
     internals = ("omega_ref", "i_q_ref")

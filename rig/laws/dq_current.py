@@ -32,6 +32,7 @@ class DqLawParams:
 
 class DqCurrentLaw(Law):
     Params = DqLawParams
+    error_unit = "A"
     modes = (frozenset({"dq-voltage"}),)
     internals = ("i_d", "u_d", "u_q")
 

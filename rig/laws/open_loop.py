@@ -46,6 +46,7 @@ class PositionReferenceLaw(Law):
     inside); measurement = the read axis's position."""
 
     Params = PositionReferenceParams
+    error_unit = "rad"
     modes = (frozenset({"csp"}),)
     position_reference = True
 
@@ -67,6 +68,7 @@ class ReplayLaw(Law):
 
     Params = ReplayParams
     modes = (frozenset({"voltage", "cst"}),)
+    error_unit = ""  #: the command against a position: no error in one unit
 
     def __init__(self, params: ReplayParams, *, period: float, reference: Reference) -> None:
         super().__init__(params, period=period, reference=reference)

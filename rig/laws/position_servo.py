@@ -39,6 +39,7 @@ class PositionServoLaw(Law):
     """theta_r - theta and omega_r - omega of the read axis -> u (7.30) of the commanded axis."""
 
     Params = ServoParams
+    error_unit = "rad"
     modes = (frozenset({"voltage", "cst"}),)
     position_reference = True
     internals = ("g", "u_i")
