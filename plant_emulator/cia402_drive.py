@@ -170,6 +170,11 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         return int(self.read(index)) if self._has(index) else default
 
     @property
+    def enabled(self) -> bool:
+        """OPERATION ENABLED (or stopping in QUICK STOP ACTIVE): the drive has its axis."""
+        return self.sm.state in (_ENABLED, S.QUICK_STOP_ACTIVE)
+
+    @property
     def lockstep(self) -> bool:
         """True: an event RPDO counts as received at its SYNC and time is the SYNC count (lock-step
         across processes, where a frame's real arrival time is scheduling noise); False: arrival

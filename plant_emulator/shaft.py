@@ -105,6 +105,14 @@ class Shaft:
         self._stamp: float | None = None
         self._step = motion.advance if not self.sources else self._step_all
 
+    def rest(self) -> None:
+        """The plant back to its initial state: every axis at rest at angle zero with its
+        controller state cleared, the loads' time from now (an emulator control between runs,
+        ``rig emulate``'s SIGUSR1; no CANopen command does this, as none moves a real shaft)."""
+        for axis in self.axes:
+            axis.reset()
+        self.load_origin = self.t
+
     def attach(self, drive: Coupled) -> None:
         """Take ``drive``'s commands into every period from now on."""
         self._drives.append(drive)

@@ -80,7 +80,18 @@ class DriveTool:
         self.axis = axis
         self.idle = idle or (lambda: time.sleep(period))
         self.period = period  #: [s] between two looks at the drive
+        #: lock-step (``idle`` given: a SYNC): time is the count of idles, never the wall clock,
+        #: which a loaded machine would run ahead of the drive's
+        self.emulated = idle is not None
         axis.idle = self.idle
+
+    def _deadline(self, seconds: float) -> Callable[[], bool]:
+        """A predicate, true once ``seconds`` [s] have passed: on the wall clock on a real bus;
+        in lock-step never (the callers count their idles)."""
+        if self.emulated:
+            return lambda: False
+        end = time.monotonic() + seconds
+        return lambda: time.monotonic() >= end
 
     # --- what the drive is ----------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
@@ -134,11 +145,11 @@ class DriveTool:
         self.axis.set_mode(mode)
 
     def _until(self, done: Callable[[], bool], seconds: float, what: str) -> None:
-        deadline = time.monotonic() + seconds
+        late = self._deadline(seconds)
         for _ in range(max(1, math.ceil(seconds / self.period))):
             if done():
                 return
-            if time.monotonic() > deadline:
+            if late():
                 break
             self.idle()
         if not done():
@@ -197,12 +208,12 @@ class DriveTool:
         if not abs(speed) <= limit:
             raise ConfigError(f"jog speed {speed:g} rad/s exceeds the limit {limit:g} rad/s (--limit)")
         a = self.axis
-        end = time.monotonic() + seconds
+        late = self._deadline(seconds)
         ticks = [0]
 
         def elapsed() -> bool:
             ticks[0] += 1
-            return ticks[0] * self.period >= seconds or time.monotonic() >= end
+            return ticks[0] * self.period >= seconds or late()
 
         return self._run(
             Mode.PROFILE_VELOCITY,

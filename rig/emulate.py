@@ -9,7 +9,9 @@ physics in whole periods of the preset whether SYNCs come or not, and a SYNC
 latches the feedback. With ``--time lockstep`` time is the SYNCs': each steps
 one period, an event RPDO counts as received at the SYNC it answers, so a host
 that waits for each answer gets exactly the in-process trajectory. Ctrl-C (or
-SIGTERM) stops it cleanly.
+SIGTERM) stops it cleanly; SIGUSR1 puts the plant back at rest at angle zero between
+runs (``rest_plants``: refused while a drive is enabled). A drive's NMT reset does not:
+it lets go of its axis and the shaft keeps turning, as a real drive's does.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from plant_emulator.clock import WorldClock
 from plant_emulator.lockstep import SyncHub, attach_network
 from plant_emulator.socketcand_server import SocketcandServer
 
-__all__ = ["World", "run_emulator", "run_modbus_emulator"]
+__all__ = ["World", "rest_plants", "run_emulator", "run_modbus_emulator"]
 
 log = logging.getLogger(__name__)
 
@@ -105,14 +107,20 @@ def run_emulator(
             clock = None if lockstep else WorldClock(devices)
         if server is not None:
             server.start()
+        rest = threading.Event()
+        if threading.current_thread() is threading.main_thread():  # before anyone is told we serve
+            signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+            signal.signal(signal.SIGUSR1, lambda signum, frame: rest.set())
         nodes = [d.node_id for d in devices]
         log.info("emulating %s (nodes %s, period %g s) on %s", label, nodes, period, where)
-        print(f"rig emulate: {label} on {where}; Ctrl-C stops", flush=True)
+        print(f"rig emulate: {label} on {where}; Ctrl-C stops, SIGUSR1 puts the plant at rest", flush=True)
         if ready is not None:
             ready(server.port if server else 0)
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
         while not stop.is_set():
+            if rest.is_set():
+                rest.clear()
+                with lock:
+                    rest_plants(devices)
             if clock is not None:  # real time: the devices' own clock runs, SYNC or not
                 with lock:
                     clock.advance()
@@ -128,6 +136,21 @@ def run_emulator(
             bus.shutdown()
         print("rig emulate: stopped", flush=True)
     return 0
+
+
+def rest_plants(devices: list[EmulatedNode]) -> bool:
+    """Every shaft of ``devices`` back to rest at angle zero (``Shaft.rest``), unless a drive on
+    one is enabled (a turning motor is not zeroed under its drive): then nothing, and a warning
+    naming the nodes. True when done."""
+    enabled = [d.node_id for d in devices if getattr(d, "enabled", False)]
+    if enabled:
+        log.warning("plant reset refused: node(s) %s enabled; disable them first", enabled)
+        return False
+    shafts = {id(s): s for d in devices if (s := getattr(d, "shaft", None)) is not None}
+    for shaft in shafts.values():
+        shaft.rest()
+    print("rig emulate: the plant is back at rest (angle 0, speed 0)", flush=True)
+    return True
 
 
 def run_modbus_emulator(
