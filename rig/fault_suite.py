@@ -154,12 +154,17 @@ LOCKSTEP = list(SCENARIOS)
 SCENARIOS.update(WIRE_SCENARIOS)
 
 
-def run_faults(names: list[str] | None = None) -> list[dict[str, Any]]:
-    """Run the scenarios (all by default); one row each."""
+def run_faults(
+    names: list[str] | None = None, *, progress: Callable[[int, int], None] | None = None
+) -> list[dict[str, Any]]:
+    """Run the scenarios (all by default); one row each; ``progress(done, total)`` after each."""
     rows = []
+    names = names or list(SCENARIOS)
     with tempfile.TemporaryDirectory() as out:
-        for name in names or list(SCENARIOS):
+        for name in names:
             sub = Path(out) / name.replace("%", "pc")
             sub.mkdir()
             rows.append({"scenario": name, **SCENARIOS[name](str(sub))})
+            if progress is not None:
+                progress(len(rows), len(names))
     return rows

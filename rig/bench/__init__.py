@@ -6,7 +6,10 @@ from collections.abc import Callable
 
 from rig.bench.micro import Figure, bench_controllers, bench_identify, bench_physics, bench_plant
 
-__all__ = ["BENCHMARKS", "Figure"]
+__all__ = ["BENCHMARKS", "LONG", "Figure"]
+
+#: ``progress(done, total)`` of a long benchmark
+Progress = Callable[[int, int], None]
 
 
 def _loop() -> list[Figure]:
@@ -15,16 +18,16 @@ def _loop() -> list[Figure]:
     return bench_loop()
 
 
-def _soak() -> list[Figure]:
+def _soak(progress: Progress | None = None) -> list[Figure]:
     from rig.bench.soak import bench_soak
 
-    return bench_soak()
+    return bench_soak(progress=progress)
 
 
-def _stops() -> list[Figure]:
+def _stops(progress: Progress | None = None) -> list[Figure]:
     from rig.bench.stops import bench_stops
 
-    return bench_stops()
+    return bench_stops(progress=progress)
 
 
 _loop.__doc__ = (
@@ -46,3 +49,5 @@ BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "soak": _soak,
     "stops": _stops,
 }
+#: the benchmarks that take minutes and take a ``progress`` callback
+LONG = {"soak": _soak, "stops": _stops}

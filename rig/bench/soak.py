@@ -7,6 +7,7 @@ import gc
 import os
 import tempfile
 import time
+from collections.abc import Callable
 
 from rig.bench.micro import Figure
 from rig.config import replace_axis
@@ -25,13 +26,17 @@ def _rss_bytes() -> int:
         return 0
 
 
-def bench_soak(*, cycles: int = 1_000_000, frame_loss: float = 0.01) -> list[Figure]:
+def bench_soak(
+    *, cycles: int = 1_000_000, frame_loss: float = 0.01, progress: Callable[[int, int], None] | None = None
+) -> list[Figure]:
     """The lock-step soak: the section VII.B servo over the emulated bus for ``cycles`` cycles with
     ``frame_loss`` of the frames lost (about 2-3 minutes). Memory is the RSS at 10 % of the run and
     at its last cycle; the watchdog tolerates 10 lost TPDOs in a row, so a stop would be a real one."""
     rss: dict[str, int] = {}
 
     def measure(k: int) -> None:
+        if progress is not None:
+            progress(k, cycles)
         if k in (cycles // 10, cycles):  # the end is measured before the recorder's close
             gc.collect()
             rss["early" if k == cycles // 10 else "end"] = _rss_bytes()

@@ -14,6 +14,7 @@ import dataclasses
 import logging
 import statistics
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -48,14 +49,18 @@ def _run(out: str, seconds: float) -> dict[str, Any]:
         stop_rig(proc, timeout=10)
 
 
-def bench_stops(*, runs: int = 20, seconds: float = 10.0) -> list[Figure]:
-    """See the module docstring."""
+def bench_stops(
+    *, runs: int = 20, seconds: float = 10.0, progress: Callable[[int, int], None] | None = None
+) -> list[Figure]:
+    """See the module docstring; ``progress(run, runs)`` after each run."""
     summaries = []
     with tempfile.TemporaryDirectory() as out:
         for n in range(runs):
             summary = _run(out, seconds)
             summaries.append(summary)
             log.info("run %d/%d: %s", n + 1, runs, summary["safe_stop_reason"] or "no stop")
+            if progress is not None:
+                progress(n + 1, runs)
     stops = [s["safe_stop_reason"] for s in summaries if s["safe_stop_reason"]]
 
     def median(key: str) -> float:

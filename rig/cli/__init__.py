@@ -58,7 +58,28 @@ def build_parser() -> Parser:
     for module in SUBCOMMANDS:
         module.add_parser(sub)
     _verbose_everywhere(parser)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, child in action.choices.items():
+                if name in EXAMPLES:
+                    child.epilog = f"Example: {EXAMPLES[name]}"
     return parser
+
+
+#: the example each subcommand's --help ends with (commands the README runs too)
+EXAMPLES = {
+    "demo": "rig demo",
+    "design": "rig design dtsm --a-m 16 --b-m 680 --dt 0.4e-3 --lam -15 --error-space --json",
+    "reproduce": "rig reproduce dismc --json",
+    "run": "rig run --config examples/dc_servo_position.toml --emulate",
+    "identify": "rig identify --emulate dc-servo --param plant.a_m=23.5 --param plant.b_m=412",
+    "scan": "rig scan --emulate dc-servo   (a real bus: rig scan --interface socketcan --channel can0)",
+    "drive": "rig drive --emulate epos4 status   (then enable, jog 10 --for 1, disable, ...)",
+    "emulate": "rig emulate --preset dc-servo   (then, in another terminal, rig scan --interface "
+    "socketcand --channel can0)",
+    "faults": "rig faults --scenario tpdo-stall --scenario host-sigkill",
+    "bench": "rig bench loop --json",
+}
 
 
 def _verbose_everywhere(parser: argparse.ArgumentParser) -> None:

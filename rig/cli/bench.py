@@ -28,9 +28,17 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rig.bench import BENCHMARKS
+    from rig.bench import BENCHMARKS, LONG
+    from rig.cli.progress import Progress
 
-    figures = BENCHMARKS[args.name]()
+    if args.name in LONG:
+        bar = Progress(f"rig bench {args.name}", 0, "", json=args.json)
+        try:
+            figures = LONG[args.name](progress=bar.cycles)
+        finally:
+            bar.close()
+    else:
+        figures = BENCHMARKS[args.name]()
     if args.json:
         print(json.dumps(figures))
     else:

@@ -27,12 +27,17 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rig.cli.progress import Progress
     from rig.fault_suite import SCENARIOS, run_faults
 
     unknown = [n for n in args.scenario if n not in SCENARIOS]
     if unknown:
         raise UsageError(f"rig faults: unknown scenario(s) {unknown}; known: {', '.join(SCENARIOS)}")
-    rows = run_faults(args.scenario or None)
+    bar = Progress("rig faults", 0, "scenarios", json=args.json)
+    try:
+        rows = run_faults(args.scenario or None, progress=bar.cycles)
+    finally:
+        bar.close()
     if args.json:
         print(json.dumps(rows))
         return 0

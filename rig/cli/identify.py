@@ -54,11 +54,12 @@ def add_parser(sub: Any) -> None:
 def _experiment(args: argparse.Namespace) -> str | None:
     """Run the experiment; its run directory, or None after a safe stop."""
     from plant_emulator.presets import preset_period
+    from rig.cli.progress import Progress
     from rig.config import load_config
     from rig.demo import demo_config
     from rig.host.emulation import preset_params
     from rig.identify import excitation
-    from rig.identify.experiment import experiment_config, run_experiment, terminal_progress
+    from rig.identify.experiment import experiment_config, run_experiment
 
     torque = args.input == "torque"
     if args.u0 is None:
@@ -90,9 +91,11 @@ def _experiment(args: argparse.Namespace) -> str | None:
         seed=args.seed,
     )
     cfg = experiment_config(base, u, preset=args.emulate, params=params, input=args.input)
-    summary = run_experiment(cfg, emulate=bool(args.emulate), progress=terminal_progress)
-    if sys.stderr.isatty():
-        sys.stderr.write("\n")
+    bar = Progress("rig identify: experiment", 0, "cycles", json=args.json)
+    try:
+        summary = run_experiment(cfg, emulate=bool(args.emulate), progress=bar.cycles)
+    finally:
+        bar.close()
     if summary["safe_stop_reason"] or summary.get("stop_confirmed") is False:
         why = summary["safe_stop_reason"] or "the drive's stop was not confirmed"
         print(f"rig identify: the experiment stopped: {why}", file=sys.stderr)

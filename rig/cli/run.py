@@ -7,6 +7,7 @@ import dataclasses
 from typing import Any
 
 from rig.cli.common import UsageError, add_json, add_params, exit_code, finite, params_of, print_json
+from rig.cli.progress import Progress
 
 __all__ = ["add_parser", "print_summary"]
 
@@ -104,7 +105,11 @@ def execute(args: argparse.Namespace) -> int:
     if args.reset_fault:
         axes = tuple(dataclasses.replace(a, reset_fault=True) if a.kind == "cia402" else a for a in cfg.axes)
         cfg = dataclasses.replace(cfg, axes=axes)
-    summary = run_config(cfg, emulate=args.emulate, duration=args.duration)
+    bar = Progress("rig run", 0, "cycles", json=args.json)
+    try:
+        summary = run_config(cfg, emulate=args.emulate, duration=args.duration, progress=bar.cycles)
+    finally:
+        bar.close()
     if args.json:
         print_json(summary)
     else:

@@ -54,11 +54,19 @@ __all__ = ["Session", "build_law", "run_config"]
 log = logging.getLogger(__name__)
 
 
-def run_config(cfg: RigConfig, *, emulate: bool, duration: float | None = None) -> dict[str, Any]:
-    """Build, start and run ``cfg``; returns the summary (``cycles``, ``rms_error``, ..., ``run_dir``)."""
+def run_config(
+    cfg: RigConfig,
+    *,
+    emulate: bool,
+    duration: float | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, Any]:
+    """Build, start and run ``cfg``; returns the summary (``cycles``, ``rms_error``, ..., ``run_dir``).
+    ``progress(k, cycles)`` every 1 % of the run."""
     with Session(cfg, emulate=emulate, duration=duration) as session:
         session.start()
-        return session.run()
+        n = session.cycles
+        return session.run(None if progress is None else lambda k: progress(k, n))
 
 
 def build_law(cfg: RigConfig, period: float) -> Law:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -23,7 +22,7 @@ from rig.host.rundir import read_run
 from rig.host.session import Session
 from rig.identify.estimate import IdentResult, estimate
 
-__all__ = ["experiment_config", "identify_from_log", "run_controller", "run_experiment", "terminal_progress"]
+__all__ = ["experiment_config", "identify_from_log", "run_controller", "run_experiment"]
 
 
 def experiment_config(
@@ -71,13 +70,14 @@ def experiment_config(
 
 
 def run_experiment(
-    cfg: RigConfig, *, emulate: bool, progress: Callable[[float], None] | None = None
+    cfg: RigConfig, *, emulate: bool, progress: Callable[[int, int], None] | None = None
 ) -> dict[str, Any]:
-    """Run the experiment configuration ``cfg`` (``experiment_config``); returns the run summary."""
+    """Run the experiment configuration ``cfg`` (``experiment_config``); returns the run summary.
+    ``progress(k, cycles)`` every 1 % of it."""
     n = len(cfg.controller.params["u"])
     with Session(cfg, emulate=emulate, cycles=n) as session:
         session.start()
-        summary = session.run(None if progress is None else lambda k: progress(k / n))
+        summary = session.run(None if progress is None else lambda k: progress(k, n))
         summary["period"] = session.period
     return summary
 
@@ -117,10 +117,3 @@ def run_controller(run_dir: str | Path) -> str | None:
     except (KeyError, TypeError):
         return None
     return kind if isinstance(kind, str) else None
-
-
-def terminal_progress(fraction: float) -> None:
-    """A progress line on stderr when it is a terminal."""
-    if sys.stderr.isatty():
-        sys.stderr.write(f"\ridentify: experiment {100 * fraction:5.1f} %")
-        sys.stderr.flush()

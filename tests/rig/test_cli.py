@@ -172,3 +172,18 @@ def test_a_reader_that_leaves_is_no_traceback() -> None:
         timeout=60,
     )
     assert shell.stderr == "" and shell.stdout.endswith(" 141\n"), (shell.stdout, shell.stderr)
+
+
+def test_every_subcommand_s_help_ends_with_an_example_that_parses(capsys: pytest.CaptureFixture[str]) -> None:
+    from rig.cli import EXAMPLES, SUBCOMMANDS, build_parser
+
+    parser = build_parser()
+    names = set(EXAMPLES)
+    assert len(names) == len(SUBCOMMANDS)
+    for name, example in EXAMPLES.items():
+        with pytest.raises(SystemExit):
+            main([name, "--help"])
+        assert f"Example: {example.split()[0]}" in capsys.readouterr().out
+        argv = example.split("(")[0].split()
+        assert argv[0] == "rig" and argv[1] == name
+        parser.parse_args(argv[1:])  # the example is a valid command line
