@@ -113,6 +113,7 @@ class Recorder:
             raise ConfigError(f"[run] output = {str(output)!r}: cannot make {path}: {exc.strerror}") from exc
         self.dir = path
         self.columns: list[str] = []
+        self.docs: dict[str, dict[str, str]] = {}  #: column -> unit and meaning
         self._file = (path / "samples.csv").open("w+", newline="")
         self._count = 0
         self._flush_period = flush_period  #: [s] of run time (the rows' t)
@@ -123,10 +124,14 @@ class Recorder:
         self.frames_dropped = 0  #: frames that arrived after the close
         self.error: StorageError | None = None  #: a write that failed (raised by the next ``sample``)
 
-    def begin(self, columns: Sequence[str]) -> None:
-        """The samples' columns (known once the axes are set up): the CSV header."""
+    def begin(self, columns: Sequence[str], docs: dict[str, dict[str, str]] | None = None) -> None:
+        """The samples' columns (known once the axes are set up): the CSV header; ``docs``
+        (column -> unit and meaning) go to columns.json and into samples.mat."""
         self.columns = list(columns)
+        self.docs = docs or {}
         self._file.write(",".join(self.columns) + "\n")
+        if self.docs:
+            self._write_json("columns.json", self.docs)
 
     def write_config(self, config: dict[str, Any]) -> None:
         self._write_json("config.json", config)
@@ -247,7 +252,9 @@ class Recorder:
         with _suppressed("samples.mat not written", summary):
             import scipy.io
 
-            columns = {c.replace(".", "_"): data[:, i] for i, c in enumerate(self.columns)}
+            columns: dict[str, Any] = {c.replace(".", "_"): data[:, i] for i, c in enumerate(self.columns)}
+            for key in ("unit", "meaning"):  # MATLAB structs: column_unit.t = 's', ...
+                columns[f"column_{key}"] = {c.replace(".", "_"): d[key] for c, d in self.docs.items()}
             write_atomic(self.dir / "samples.mat", lambda f: scipy.io.savemat(f, columns), binary=True)
         clean = {
             k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()

@@ -29,6 +29,7 @@ from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
 from rig.config_checks import check_period
 from rig.host.axes import check_object_dictionaries, open_axis
+from rig.host.columns import describe_columns
 from rig.host.emulation import Emulation, emulated_period
 from rig.host.heartbeat import HostHeartbeat
 from rig.host.loop import HostLoop, Wiring
@@ -273,7 +274,8 @@ class Session:
         guards = [
             AxisGuard(axis, a.limits, self.period, realtime=realtime) for axis, a in zip(self.axes, cfg.axes)
         ]
-        self.recorder.begin(HostLoop.columns(self.axes, self.law, self.wiring))
+        columns = HostLoop.columns(self.axes, self.law, self.wiring)
+        self.recorder.begin(columns, describe_columns(columns, self.axes, self.law))
         return HostLoop(
             self.axes,
             guards,

@@ -1,0 +1,69 @@
+"""What each column of a run's samples means: name -> unit and meaning, for ``columns.json``
+beside samples.csv and for the ``columns`` of samples.mat."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from drivers.base import AxisDriver
+from rig.laws.base import Law
+
+__all__ = ["MODE_UNITS", "describe_columns"]
+
+#: the unit of an axis's command in each mode
+MODE_UNITS = {
+    "voltage": "V",
+    "cst": "N m",
+    "csv": "rad/s",
+    "pv": "rad/s",
+    "speed": "rad/s",
+    "csp": "rad",
+    "dq-voltage": "V",
+}
+#: (unit, meaning) of a law's internal columns, by name
+INTERNALS = {
+    "g": ("V s", "the switching function g_k = c_delta e_k of (7.30b) (|g|/T is in V)"),
+    "u_i": ("V", "the switching integral u_I,k of (7.30c)"),
+    "omega_ref": ("rad/s", "the position loop's speed reference of the cascade (VII.D)"),
+    "i_q_ref": ("A", "the speed loop's q-current reference of the cascade (VII.D)"),
+    "i_d": ("A", "the measured d-axis current"),
+    "u_d": ("V", "the d-axis voltage command"),
+    "u_q": ("V", "the q-axis voltage command"),
+    "integral": ("", "the speed law's integral state"),
+}
+_FIELDS = {
+    "position": ("rad", "the axis's position"),
+    "velocity": ("rad/s", "the axis's speed"),
+    "torque": ("N m", "the axis's torque"),
+    "current": ("A", "the axis's current"),
+}
+
+
+def describe_columns(
+    columns: Sequence[str], axes: Sequence[AxisDriver], law: Law
+) -> dict[str, dict[str, str]]:
+    """{column: {"unit", "meaning"}} for the recorder's ``columns`` (``HostLoop.columns``)."""
+    by_name = {a.name: a for a in axes}
+    first = next((a for a in axes if a.mode is not None), None)
+    known = {
+        "t": ("s", "the time of the cycle: its index times the period"),
+        "reference": (law.error_unit, "the law's reference for the measured variable"),
+        "measurement": (law.error_unit, "the measured variable the law controls"),
+        "command": (MODE_UNITS.get(first.mode or "", "") if first else "", "the law's first command"),
+        "read_us": ("us", "time to read every axis's feedback in this cycle"),
+        "update_us": ("us", "time to compute the law and check the commands"),
+        "write_us": ("us", "time to send the commands"),
+    }
+    docs: dict[str, dict[str, str]] = {}
+    for column in columns:
+        axis, _, field = column.partition(".")
+        if column in known:
+            unit, meaning = known[column]
+        elif field == "command" and axis in by_name:
+            unit, meaning = MODE_UNITS.get(by_name[axis].mode or "", ""), f"the command sent to axis {axis}"
+        elif field in _FIELDS:
+            unit, meaning = _FIELDS[field][0], f"{_FIELDS[field][1]} ({axis})"
+        else:
+            unit, meaning = INTERNALS.get(column, ("", "an internal of the law"))
+        docs[column] = {"unit": unit, "meaning": meaning}
+    return docs
