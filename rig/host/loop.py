@@ -19,11 +19,13 @@ the frames that feed the trace.
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import logging
 import math
 import time
 from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -94,6 +96,7 @@ class HostLoop:
         heartbeat: Callable[[int], None] | None = None,
         on_stop: Callable[[], None] | None = None,
         missed_sample: str = "hold",
+        held: AbstractContextManager[None] | None = None,
     ) -> None:
         self.axes = list(axes)
         self.guards = list(guards)
@@ -110,6 +113,8 @@ class HostLoop:
         self.stop_timeout = stop_timeout  #: [s] for the drives' ramps at the end
         self.heartbeat = heartbeat  #: the host's heartbeat, ``heartbeat(k)`` every cycle (or None)
         self.on_stop = on_stop  #: called as the stop begins (later stop signals do not cut it)
+        #: the section a stop signal waits for (``StopRequests.held``): a cycle's row and count
+        self.uncut = held if held is not None else contextlib.nullcontext()
         self.missed_sample = missed_sample  #: "hold" | "zero" (``_step``)
         self.held = 0  #: cycles in which a read axis had no new sample
         self._last_out: LawStep | None = None
@@ -304,19 +309,18 @@ class HostLoop:
         self.times.write.append(t3 - t2)
         self._t_end = t3
         u = _scalar(values[0]) if values else 0.0
-        self.recorder.sample(
-            [
-                t,
-                out.reference,
-                out.measurement,
-                u,
-                *out.internals,
-                *(getattr(samples[i], f) for i, fields in self._recorded for f in fields),
-                *(_scalar(v) for v in values),
-            ],
-            (t1 - t0, t2 - t1, t3 - t2),
-        )
-        self.done += 1  #: cycles run (skipped ones are under ``overruns``)
+        row = [
+            t,
+            out.reference,
+            out.measurement,
+            u,
+            *out.internals,
+            *(getattr(samples[i], f) for i, fields in self._recorded for f in fields),
+            *(_scalar(v) for v in values),
+        ]
+        with self.uncut:  # a stop signal waits: the row on disk and the count agree
+            self.recorder.sample(row, (t1 - t0, t2 - t1, t3 - t2))
+            self.done += 1  #: cycles run (skipped ones are under ``overruns``)
 
     def _step(self, t: float, reads: list[Feedback]) -> tuple[LawStep, bool]:
         """The law's step on new samples, and whether to send its commands. A cycle in which a

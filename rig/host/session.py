@@ -289,6 +289,7 @@ class Session:
             stop_timeout=max(a.stop_timeout for a in cfg.axes),
             heartbeat=self._heartbeat(),
             on_stop=self.signals.stopping,
+            held=self.signals.held,
             missed_sample=cfg.run.missed_sample,
         )
 

@@ -5,8 +5,10 @@ these signals into ``StopRequested``, raised where the main thread is; it is a
 ``KeyboardInterrupt``, so every path that brings the drives to rest on Ctrl-C does so
 for each of them. Once the stop has begun (``stopping()``), further signals are logged
 and ignored: a second Ctrl-C in quick succession cannot cut the drives' ramps, the
-disable or the recorder's close. SIGKILL cannot be caught: then the drive's own
-supervision (its heartbeat consumer 0x1016 and 0x6007) stops it.
+disable or the recorder's close. Inside ``held`` (a cycle's row and its count) the first
+signal waits for the section's end, so the rows on disk and the cycles counted agree.
+SIGKILL cannot be caught: then the drive's own supervision (its heartbeat consumer 0x1016
+and 0x6007) stops it.
 """
 
 from __future__ import annotations
@@ -49,6 +51,9 @@ class StopRequests:
     def __init__(self) -> None:
         self._previous: dict[int, Any] = {}
         self._armed = False
+        self._holding = False
+        self._pending: str | None = None
+        self.held = _Held(self)  #: ``with requests.held:`` a signal inside raises at its end
 
     def install(self) -> None:
         if threading.current_thread() is not threading.main_thread() or self._previous:
@@ -72,5 +77,26 @@ class StopRequests:
         if self._armed:
             self._armed = False
             log.warning("%s: stopping the drives", reason)
+            if self._holding:  # a cycle's record is being written: the stop comes at its end
+                self._pending = reason
+                return
             raise StopRequested(reason)
         log.warning("%s while stopping: the stop goes on (the drives' ramps, then the recorder)", reason)
+
+
+class _Held:
+    """The section a stop request may not cut (a cycle's row and its count): a signal in it
+    raises ``StopRequested`` when it ends, unless an exception already ends it."""
+
+    def __init__(self, requests: StopRequests) -> None:
+        self.requests = requests
+
+    def __enter__(self) -> None:
+        self.requests._holding = True
+
+    def __exit__(self, kind: type[BaseException] | None, *rest: Any) -> None:
+        r = self.requests
+        r._holding = False
+        reason, r._pending = r._pending, None
+        if reason is not None and kind is None:
+            raise StopRequested(reason)

@@ -8,6 +8,7 @@ import can
 import pytest
 
 from rig.host.trace import AscTrace
+from tests.rig.test_zoo_runs import SLACK
 
 FRAMES = [
     can.Message(timestamp=100.0, arbitration_id=0x80, data=b"", is_extended_id=False, channel="host"),
@@ -104,7 +105,7 @@ def test_a_trace_over_a_real_bus_holds_the_host_s_frames_at_the_right_time(tmp_p
             reference=dataclasses.replace(cfg.reference, distance=1.0, duration=0.2),
         )
         eds = str(load_profile(zoo()["epos4"]).eds)
-        cfg = replace_axis(cfg, "motor", eds=eds, enable_timeout=3.0, limits={"watchdog_periods": 100})
+        cfg = replace_axis(cfg, "motor", eds=eds, enable_timeout=3.0, sdo_timeout=2.0, limits=SLACK)
         with Session(cfg, emulate=False) as session:
             session.start()
             summary = session.run()
