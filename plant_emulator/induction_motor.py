@@ -15,18 +15,22 @@ signs differ), so the standard model above is used; in the flux frame it is (4.1
 The drive: indirect FOC with slip (4.5) and the flux set-point (4.7), PI
 current controllers of Table III at 0.1 ms (u = K_p e + K_i sum e, per axis,
 limited to the converter's U_DC/sqrt(3)), integrated with RK4 on 4 sub-steps
-per control step. Modes: CST (torque -> i_qs* = T*/k_t, (4.8)), CSV/PV (the
-speed PI of Table III at the SYNC period), CSP (position P on top).
+per control step (compiled: ``plant_emulator.im_kernel``). Modes: CST (torque ->
+i_qs* = T*/k_t, (4.8)), CSV/PV (the speed PI of Table III at the SYNC period), CSP
+(position P on top).
 """
 
 from __future__ import annotations
 
-import cmath
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from drivers.maps.cia import Mode
+from plant_emulator import im_kernel as kernel
 from plant_emulator.axes import Axis, LoadProfile
+from plant_emulator.im_kernel import foc_periods
 
 __all__ = ["ImAxis", "ImParams"]
 
@@ -72,6 +76,9 @@ class ImAxis(Axis):
         self.sigma = 1.0 - p.l_m**2 / (p.l_s * p.l_r)
         self.t_r = p.l_r / p.r_r
         self.r_sigma = p.r_s + p.r_r * p.l_m**2 / p.l_r**2
+        self._k = self._constants()
+        self._x = np.zeros(9)  #: the kernel's state (``im_kernel``)
+        self._loads: dict[int, np.ndarray] = {}  #: T_L [N m] per FOC step, by steps per piece
         self.reset()
 
     def reset(self) -> None:
@@ -106,49 +113,33 @@ class ImAxis(Axis):
         self.mode, self.command = mode, float(value.real if isinstance(value, complex) else value)
         self._enabled = True
 
-    def _derivatives(self, i_s: complex, psi: complex, w: float, u: complex, t_load: float):  # type: ignore[no-untyped-def]
-        p = self.p
-        k = complex(1.0 / self.t_r, -p.p_p * w)
-        di = (u - self.r_sigma * i_s + p.l_m / p.l_r * k * psi) / (self.sigma * p.l_s)
-        dpsi = p.l_m / self.t_r * i_s - k * psi
-        torque = 1.5 * p.p_p * p.l_m / p.l_r * (psi.real * i_s.imag - psi.imag * i_s.real)
-        dw = (torque - p.b * w - t_load) / p.j
-        return di, dpsi, dw
-
-    def _integrate(self, u: complex, t_load: float, h: float) -> None:
-        """RK4 over h with u (stationary frame) held."""
-        i, psi, w = self.i_s, self.psi_r, self.omega
-        k1 = self._derivatives(i, psi, w, u, t_load)
-        k2 = self._derivatives(i + h / 2 * k1[0], psi + h / 2 * k1[1], w + h / 2 * k1[2], u, t_load)
-        k3 = self._derivatives(i + h / 2 * k2[0], psi + h / 2 * k2[1], w + h / 2 * k2[2], u, t_load)
-        k4 = self._derivatives(i + h * k3[0], psi + h * k3[1], w + h * k3[2], u, t_load)
-        self.i_s = i + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        self.psi_r = psi + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-        self.omega = w + h / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
-        self.theta += h / 6 * (w + 2 * (w + h / 2 * k1[2]) + 2 * (w + h / 2 * k2[2]) + w + h * k3[2])
-
-    def _foc_step(self, i_q_ref: float) -> complex:
-        """One 0.1 ms FOC step: slip (4.5), PI current loops (Table III) -> stationary voltage."""
-        p = self.p
-        limit = p.i_max * 0.9
-        i_q_ref = max(-limit, min(limit, i_q_ref))
-        rot = cmath.exp(-1j * self.theta_e)
-        i_dq = self.i_s * rot
-        e_d, e_q = p.i_ds_ref - i_dq.real, i_q_ref - i_dq.imag
-        u_max = p.u_dc / math.sqrt(3.0)
-        u_d = p.current_kp * e_d + self._int_d + p.current_ki * e_d
-        u_q = p.current_kp * e_q + self._int_q + p.current_ki * e_q
-        mag = math.hypot(u_d, u_q)
-        if mag <= u_max:  # conditional integration (anti-windup)
-            self._int_d += p.current_ki * e_d
-            self._int_q += p.current_ki * e_q
-        else:
-            u_d, u_q = u_d * u_max / mag, u_q * u_max / mag
-        slip = p.l_m * i_q_ref / (self.t_r * p.l_m * p.i_ds_ref)  # (4.5) with psi_r = L_m i_ds* (4.7)
-        omega_e = p.p_p * self.omega + slip
-        u = complex(u_d, u_q) * cmath.exp(1j * self.theta_e)
-        self.theta_e = math.remainder(self.theta_e + omega_e * p.foc_dt, math.tau)
-        return u
+    def _constants(self) -> np.ndarray:
+        """The kernel's constants (``im_kernel``'s indices), from the parameters."""
+        p, k = self.p, np.zeros(kernel.N)
+        k[kernel.R_SIGMA], k[kernel.SIGMA_LS], k[kernel.LM_LR], k[kernel.T_R] = (
+            self.r_sigma,
+            self.sigma * p.l_s,
+            p.l_m / p.l_r,
+            self.t_r,
+        )
+        k[kernel.PP], k[kernel.B], k[kernel.J], k[kernel.KP], k[kernel.KI] = (
+            p.p_p,
+            p.b,
+            p.j,
+            p.current_kp,
+            p.current_ki,
+        )
+        k[kernel.I_DS], k[kernel.U_MAX], k[kernel.I_LIMIT] = (
+            p.i_ds_ref,
+            p.u_dc / math.sqrt(3.0),
+            p.i_max * 0.9,
+        )
+        k[kernel.SLIP], k[kernel.FOC_DT], k[kernel.LM_TR] = (
+            1.0 / (self.t_r * p.i_ds_ref),
+            p.foc_dt,
+            p.l_m / self.t_r,
+        )
+        return k
 
     def _i_q_ref(self) -> float:
         """i_qs* [A]: T*/k_t (4.8) in CST; else the speed PI of Table III, sampled once per SYNC
@@ -170,17 +161,22 @@ class ImAxis(Axis):
     def advance(self, h: float, t: float) -> None:
         if h <= 0.0:
             return
-        p = self.p
-        n = max(1, round(h / p.foc_dt))
+        n = max(1, round(h / self.p.foc_dt))
         hs = h / n
         i_q_ref = self._i_q_ref() if self._enabled else 0.0
-        for k in range(n):
-            t_load = 0.0 if self.load is None else self.load(t + k * hs)
-            u = self._foc_step(i_q_ref) if self._enabled else 0j
-            if not self._enabled:
-                self.i_s = 0j  # inverter off: no stator current
-            for _ in range(4):
-                self._integrate(u, t_load, hs / 4)
+        loads = self._loads.get(n)
+        if loads is None:
+            loads = self._loads[n] = np.zeros(n)
+        if self.load is not None:
+            for k in range(n):
+                loads[k] = self.load(t + k * hs)
+        x = self._x
+        x[0], x[1], x[2], x[3] = self.i_s.real, self.i_s.imag, self.psi_r.real, self.psi_r.imag
+        x[4], x[5], x[6], x[7], x[8] = self.omega, self.theta, self.theta_e, self._int_d, self._int_q
+        foc_periods(x, self._k, i_q_ref, self._enabled, hs, loads)
+        self.i_s, self.psi_r = complex(x[0], x[1]), complex(x[2], x[3])
+        self.omega, self.theta, self.theta_e = float(x[4]), float(x[5]), float(x[6])
+        self._int_d, self._int_q = float(x[7]), float(x[8])
 
     @property
     def position(self) -> float:
