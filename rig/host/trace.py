@@ -12,7 +12,10 @@ Two things python-can's writer gets wrong are set right here: the milliseconds o
 header's dates are written with three digits (``.062``, not ``.62``, which readers take
 for 620 ms), and ``TracedNetwork`` gives the trace the frames the host sends (a bus
 delivers only what the others send): SYNC, RPDOs, SDO requests, NMT, heartbeat, each
-marked Tx; the frames received are Rx. SYNCs the kernel's broadcast manager sends
+marked Tx; the frames received are Rx (``received``: python-can's socketcan marks a frame another
+socket of the same machine sent as Tx, as every frame of a vcan or of an emulator on the
+host's own can0 is; candump and the host's trace then disagreed on the direction of every
+frame the host received). SYNCs the kernel's broadcast manager sends
 (``[bus] interface = "socketcan"`` in real time) do not pass through the host and are
 not in the trace.
 """
@@ -28,7 +31,7 @@ import can
 import canopen
 from can.util import channel2int
 
-__all__ = ["AscTrace", "TracedNetwork"]
+__all__ = ["AscTrace", "TracedNetwork", "received"]
 
 
 class AscTrace(can.ASCWriter):
@@ -91,3 +94,15 @@ class TracedNetwork(canopen.Network):
                     is_rx=False,
                 )
             )
+
+
+def received(tap: Callable[[can.Message], None]) -> Callable[[can.Message], None]:
+    """A bus listener that gives ``tap`` every frame it receives marked Rx: what the host's own
+    socket receives was sent by another node, whatever the kernel says about where it came from."""
+
+    def on_received(msg: can.Message) -> None:
+        if not msg.is_rx:
+            msg.is_rx = True
+        tap(msg)
+
+    return on_received

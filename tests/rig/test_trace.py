@@ -120,3 +120,16 @@ def test_a_trace_over_a_real_bus_holds_the_host_s_frames_at_the_right_time(tmp_p
     started = json.loads((run_dir / "started.json").read_text())["wall_time"]
     first_sync = next(m for m in syncs).timestamp
     assert started - 30.0 < frames[0].timestamp <= first_sync <= started + 30.0  # the right date
+
+
+def test_a_frame_the_host_receives_is_rx_whatever_the_kernel_says() -> None:
+    """python-can's socketcan marks a frame that another socket of the same machine sent (every
+    frame on a vcan, an emulator on the host's own can0) ``is_rx=False``: the trace wrote the
+    drive's answers as Tx, and candump disagreed (found by the interop tier)."""
+    from rig.host.trace import received
+
+    seen: list[can.Message] = []
+    listener = received(seen.append)
+    listener(can.Message(arbitration_id=0x581, data=bytes(8), is_extended_id=False, is_rx=False))
+    listener(can.Message(arbitration_id=0x181, data=bytes(4), is_extended_id=False))
+    assert [m.is_rx for m in seen] == [True, True]
