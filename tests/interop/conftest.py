@@ -153,6 +153,9 @@ class CanDump:
         self.proc.terminate()
         self.proc.wait(timeout=10)
         self._reader.join(timeout=10)
+        for pipe in (self.proc.stdout, self.proc.stderr):
+            if pipe is not None:
+                pipe.close()
 
 
 def cansend(channel: str, frame: str) -> None:

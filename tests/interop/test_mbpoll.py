@@ -32,7 +32,7 @@ from plant_emulator.pty_link import PtyLink
 from rig.process import spawn_rig, stop_rig
 from tests.interop.conftest import need_tools, wait_for
 
-pytestmark = pytest.mark.interop
+pytestmark = [pytest.mark.interop, pytest.mark.timeout(600)]  # the VM is slow
 
 MAPS = ["abb-drives-profile", "delta-vfd-b"]
 COMM_LOSS_TIMEOUT = 0.3  #: [s] for the trip test; the silence that trips it is three times as long
