@@ -200,7 +200,7 @@ class Session:
         else:
             self.network.tx_tap = tap  # the trace: every frame sent,
             if self.network.notifier is not None:
-                self._rx_tap = received(tap)
+                self._rx_tap = received(tap, self.network.trace_lock)
                 self.network.notifier.add_listener(self._rx_tap)  # and every frame received
 
     def _detach_trace(self) -> None:

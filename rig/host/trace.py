@@ -22,6 +22,7 @@ not in the trace.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from datetime import datetime
@@ -74,35 +75,52 @@ class AscTrace(can.ASCWriter):
 
 class TracedNetwork(canopen.Network):
     """canopen's ``Network`` whose every frame sent also goes to ``tx_tap`` as a Tx frame,
-    stamped with the wall clock [s] (the clock of the frames received)."""
+    stamped with the wall clock [s] (the clock of the frames received).
+
+    A frame is sent and traced under ``trace_lock``, which the listener of the frames received
+    (``received``) takes too: an answer cannot be traced before the request it answers. (Traced
+    after the send without the lock, a drive's SDO answer was now and then written before the
+    request: the receive thread got it while the sender was between its send and its tap.)"""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.tx_tap: Callable[[can.Message], None] | None = None
+        self.trace_lock = threading.Lock()
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
-        super().send_message(can_id, data, remote)
-        tap = self.tx_tap
-        if tap is not None:
-            tap(
-                can.Message(
-                    timestamp=time.time(),
-                    arbitration_id=can_id,
-                    data=bytes(data),
-                    is_extended_id=can_id > 0x7FF,
-                    is_remote_frame=remote,
-                    is_rx=False,
+        if self.tx_tap is None:
+            super().send_message(can_id, data, remote)
+            return
+        with self.trace_lock:
+            super().send_message(can_id, data, remote)
+            tap = self.tx_tap
+            if tap is not None:
+                tap(
+                    can.Message(
+                        timestamp=time.time(),
+                        arbitration_id=can_id,
+                        data=bytes(data),
+                        is_extended_id=can_id > 0x7FF,
+                        is_remote_frame=remote,
+                        is_rx=False,
+                    )
                 )
-            )
 
 
-def received(tap: Callable[[can.Message], None]) -> Callable[[can.Message], None]:
+def received(
+    tap: Callable[[can.Message], None], lock: threading.Lock | None = None
+) -> Callable[[can.Message], None]:
     """A bus listener that gives ``tap`` every frame it receives marked Rx: what the host's own
-    socket receives was sent by another node, whatever the kernel says about where it came from."""
+    socket receives was sent by another node, whatever the kernel says about where it came from.
+    With ``lock`` (``TracedNetwork.trace_lock``), after any frame being sent has been traced."""
 
     def on_received(msg: can.Message) -> None:
         if not msg.is_rx:
             msg.is_rx = True
-        tap(msg)
+        if lock is None:
+            tap(msg)
+            return
+        with lock:
+            tap(msg)
 
     return on_received

@@ -133,3 +133,30 @@ def test_a_frame_the_host_receives_is_rx_whatever_the_kernel_says() -> None:
     listener(can.Message(arbitration_id=0x581, data=bytes(8), is_extended_id=False, is_rx=False))
     listener(can.Message(arbitration_id=0x181, data=bytes(4), is_extended_id=False))
     assert [m.is_rx for m in seen] == [True, True]
+
+
+def test_an_answer_is_traced_after_the_request_it_answers() -> None:
+    """The drive's answer reaches the receive thread while the sender is between its send and
+    its tap: the answer must still come after the request in the trace (the interop tier saw
+    an SDO answer before its request; candump had them the right way round)."""
+    import threading
+
+    from rig.host.trace import TracedNetwork, received
+
+    trace: list[tuple[int, bool]] = []
+    network = TracedNetwork()
+    network.tx_tap = lambda m: trace.append((m.arbitration_id, m.is_rx))
+    on_received = received(network.tx_tap, network.trace_lock)
+
+    class Bus:  # the answer arrives during the send: a receive thread traces it at once
+        def send(self, msg: can.Message, timeout: float | None = None) -> None:
+            answer = can.Message(arbitration_id=0x581, data=bytes(8), is_extended_id=False)
+            receiver = threading.Thread(target=on_received, args=(answer,))
+            receiver.start()
+            receiver.join(timeout=0.5)  # it cannot trace before the request: it waits for the lock
+            self.receiver = receiver
+
+    bus = network.bus = Bus()  # type: ignore[assignment]
+    network.send_message(0x601, bytes(8))
+    bus.receiver.join(timeout=10)
+    assert trace == [(0x601, False), (0x581, True)]
