@@ -23,8 +23,9 @@ from dataclasses import dataclass
 
 import pytest
 
-from rig.process import spawn_rig, stop_rig
-from tests.vcan.conftest import vcan_unavailable
+from tests.vcan.conftest import start_emulator, vcan_unavailable
+
+__all__ = ["start_emulator"]  # rig emulate on vcan0, stopped after the test (the vcan tier's fixture)
 
 REQUIRED = os.environ.get("RIG_INTEROP_REQUIRE") == "1"
 #: [s] how long any condition of this tier is waited for (the VM's CPU is 10-25x slower)
@@ -176,25 +177,6 @@ def candump(can_tools: None) -> Iterator[CanDump]:
     dump = CanDump()
     yield dump
     dump.close()
-
-
-@pytest.fixture
-def start_emulator() -> Iterator[Callable[..., subprocess.Popen[str]]]:
-    """Start ``rig emulate ARGS`` on vcan0; stopped (SIGINT) after the test, which must exit 0."""
-    procs: list[subprocess.Popen[str]] = []
-
-    def start(*args: str) -> subprocess.Popen[str]:
-        proc, line = spawn_rig(
-            "emulate", "--interface", "socketcan", "--channel", "vcan0", *args, stderr=True
-        )
-        procs.append(proc)
-        assert "socketcan:vcan0" in line, line
-        return proc
-
-    yield start
-    for proc in procs:
-        _out, err = stop_rig(proc)
-        assert proc.returncode == 0, err
 
 
 @pytest.fixture(autouse=True)
