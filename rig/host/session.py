@@ -45,7 +45,7 @@ from rig.host.pacing import (
 from rig.host.recorder import Recorder, check_output
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
-from rig.host.trace import TracedNetwork, received
+from rig.host.trace import TracedNetwork, attach_received, detach_received
 from rig.laws import Law, make_law
 from rig.laws.injected import with_injected_faults
 from rig.laws.references import reference_of
@@ -199,9 +199,7 @@ class Session:
             self.emulation.add_tap(tap)
         else:
             self.network.tx_tap = tap  # the trace: every frame sent,
-            if self.network.notifier is not None:
-                self._rx_tap = received(tap, self.network.trace_lock)
-                self.network.notifier.add_listener(self._rx_tap)  # and every frame received
+            self._rx_tap = attach_received(self.network, tap)  # and every frame received
 
     def _detach_trace(self) -> None:
         tap, self._tap = self._tap, None
@@ -212,8 +210,8 @@ class Session:
             return
         self.network.tx_tap = None
         rx_tap, self._rx_tap = self._rx_tap, None
-        if self.network.notifier is not None and rx_tap in self.network.notifier.listeners:
-            self.network.notifier.remove_listener(rx_tap)
+        if rx_tap is not None:
+            detach_received(self.network, rx_tap)
 
     def _idle(self) -> Callable[[], None] | None:
         """While set-up waits for a drive (0x6061 after 0x6060): in lock-step, a SYNC (time

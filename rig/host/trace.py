@@ -32,7 +32,7 @@ import can
 import canopen
 from can.util import channel2int
 
-__all__ = ["AscTrace", "TracedNetwork", "received"]
+__all__ = ["AscTrace", "TracedNetwork", "attach_received", "detach_received", "received"]
 
 
 class AscTrace(can.ASCWriter):
@@ -124,3 +124,23 @@ def received(
             tap(msg)
 
     return on_received
+
+
+def attach_received(
+    network: TracedNetwork, tap: Callable[[can.Message], None]
+) -> Callable[[can.Message], None]:
+    """Give ``tap`` every frame ``network`` receives (``received``), ahead of canopen's own
+    listener: canopen's wakes the SDO client, which may send its next request before a listener
+    after it has traced the answer. The list is replaced, not changed, under the receive thread's
+    loop. Returns the listener, for ``detach_received``."""
+    listener = received(tap, network.trace_lock)
+    notifier = network.notifier
+    if notifier is not None:
+        notifier.listeners = [listener, *notifier.listeners]
+    return listener
+
+
+def detach_received(network: TracedNetwork, listener: Callable[[can.Message], None]) -> None:
+    notifier = network.notifier
+    if notifier is not None:
+        notifier.listeners = [x for x in notifier.listeners if x is not listener]

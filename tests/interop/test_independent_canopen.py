@@ -27,6 +27,7 @@ import json
 import math
 import subprocess
 import threading
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -37,7 +38,7 @@ from drivers.bus import open_bus
 from drivers.cia406 import Cia406Axis
 from drivers.maps import cia
 from rig.cli import main
-from tests.interop.conftest import need_vcan, unavailable, wait_for
+from tests.interop.conftest import DEADLINE, need_vcan, unavailable, wait_for
 
 pytestmark = [pytest.mark.interop, pytest.mark.timeout(600)]  # the VM is slow
 
@@ -203,7 +204,8 @@ def test_oze_canopen_is_a_client_of_the_emulated_drive(
         # gets a transfer wrong never gets there, and the test fails.
         async def until(step: Callable[[], Any], done: Callable[[Any], bool], what: str) -> Any:
             last: Any = None
-            for _ in range(100):
+            deadline = time.monotonic() + 3 * DEADLINE
+            while time.monotonic() < deadline:
                 try:
                     last = await step()
                 except RuntimeError as exc:

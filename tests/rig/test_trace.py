@@ -160,3 +160,21 @@ def test_an_answer_is_traced_after_the_request_it_answers() -> None:
     network.send_message(0x601, bytes(8))
     bus.receiver.join(timeout=10)
     assert trace == [(0x601, False), (0x581, True)]
+
+
+def test_the_trace_hears_a_frame_before_canopen_does() -> None:
+    """canopen's listener wakes the SDO client, which sends its next request at once: a trace
+    listener after it wrote that request before the answer that caused it (the interop tier saw
+    it against candump). The trace's listener goes first, and leaves no trace of itself."""
+    from rig.host.trace import TracedNetwork, attach_received, detach_received
+
+    network = TracedNetwork()
+    network.connect(interface="virtual", channel="trace-order", receive_own_messages=False)
+    try:
+        canopen_listeners = list(network.notifier.listeners)
+        listener = attach_received(network, lambda m: None)
+        assert network.notifier.listeners == [listener, *canopen_listeners]
+        detach_received(network, listener)
+        assert network.notifier.listeners == canopen_listeners
+    finally:
+        network.disconnect()
