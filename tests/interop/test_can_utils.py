@@ -11,7 +11,6 @@ Needs vcan0 (the VM of ``.ci/run``, or ``modprobe vcan`` on Linux) and ``apt-get
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import pathlib
 import subprocess
@@ -27,10 +26,9 @@ from drivers.cia402 import Cia402Axis
 from drivers.maps import CIA402_EDS, CIA406_EDS
 from drivers.maps.cia import PowerState
 from rig.cli import main
-from rig.config import BusConfig, RigConfig, replace_axis
-from rig.demo import demo_config
 from rig.host.session import Session
 from tests.interop.conftest import CanDump, Frame, cansend, need_tools, parse_log_line
+from tests.vcan.conftest import lockstep_servo
 
 pytestmark = [pytest.mark.interop, pytest.mark.timeout(600)]  # the VM is slow
 
@@ -82,19 +80,6 @@ def classify(frame: Frame, pdos: dict[int, int], nodes: set[int]) -> str:
     raise AssertionError(f"{frame}: no CANopen service of this bus uses this COB-ID")
 
 
-def lockstep_servo(start_emulator: Callable[..., subprocess.Popen[str]], out: pathlib.Path) -> RigConfig:
-    """The demo's servo on the dc-servo preset in lock-step on vcan0: the host's configuration."""
-    cfg = demo_config(str(out))
-    params = [arg for k, v in cfg.emulator.params.items() for arg in ("--param", f"{k}={v}")]
-    start_emulator("--preset", "dc-servo", "--time", "lockstep", *params)
-    wire = dataclasses.replace(
-        cfg,
-        run=dataclasses.replace(cfg.run, period=0.4e-3),
-        bus=BusConfig(interface="socketcan", channel="vcan0"),
-    )
-    return replace_axis(wire, "motor", enable_timeout=10.0, limits={"watchdog_periods": 10_000})
-
-
 def test_candump_decodes_scan_and_run_and_the_trace_reads_back(
     candump: CanDump,
     start_emulator: Callable[..., subprocess.Popen[str]],
@@ -108,7 +93,7 @@ def test_candump_decodes_scan_and_run_and_the_trace_reads_back(
     heartbeat)."""
     need_tools("asc2log")
     start = candump.mark()
-    wire = lockstep_servo(start_emulator, tmp_path)
+    _, wire = lockstep_servo(start_emulator, str(tmp_path))
 
     assert main(["scan", "--interface", "socketcan", "--channel", "vcan0", "--listen", "1.5", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
@@ -300,7 +285,7 @@ def test_cangen_noise_at_the_running_chain(
     of the slow VM is not cangen's error) at the host
     running the servo against the emulator, after set-up: the emulator keeps answering SDOs, the run ends
     through its safe-stop path (or completes), and the drive ends disabled."""
-    wire = lockstep_servo(start_emulator, tmp_path)
+    _, wire = lockstep_servo(start_emulator, str(tmp_path))
     answers: list[int] = []
     failures: list[str] = []
     stop = threading.Event()
