@@ -45,7 +45,7 @@ from rig.host.pacing import (
 from rig.host.recorder import Recorder, check_output
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
-from rig.host.trace import TracedNetwork
+from rig.host.trace import TracedNetwork, attach_received, detach_received
 from rig.laws import Law, make_law
 from rig.laws.injected import with_injected_faults
 from rig.laws.references import reference_of
@@ -108,6 +108,7 @@ class Session:
         self.axes: list[AxisDriver] = []
         self._bus: Any = None
         self._tap: Callable[[Any], None] | None = None
+        self._rx_tap: Callable[[Any], None] | None = None  #: the trace's listener of frames received
         self.pacing: Pacing = Pacing()
         self.loop: HostLoop | None = None
         self.signals = StopRequests()  #: SIGINT, SIGTERM, SIGHUP: the one safe stop
@@ -198,8 +199,7 @@ class Session:
             self.emulation.add_tap(tap)
         else:
             self.network.tx_tap = tap  # the trace: every frame sent,
-            if self.network.notifier is not None:
-                self.network.notifier.add_listener(tap)  # and every frame received
+            self._rx_tap = attach_received(self.network, tap)  # and every frame received
 
     def _detach_trace(self) -> None:
         tap, self._tap = self._tap, None
@@ -209,8 +209,9 @@ class Session:
             self.emulation.remove_tap(tap)
             return
         self.network.tx_tap = None
-        if self.network.notifier is not None and tap in self.network.notifier.listeners:
-            self.network.notifier.remove_listener(tap)
+        rx_tap, self._rx_tap = self._rx_tap, None
+        if rx_tap is not None:
+            detach_received(self.network, rx_tap)
 
     def _idle(self) -> Callable[[], None] | None:
         """While set-up waits for a drive (0x6061 after 0x6060): in lock-step, a SYNC (time

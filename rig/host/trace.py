@@ -12,13 +12,17 @@ Two things python-can's writer gets wrong are set right here: the milliseconds o
 header's dates are written with three digits (``.062``, not ``.62``, which readers take
 for 620 ms), and ``TracedNetwork`` gives the trace the frames the host sends (a bus
 delivers only what the others send): SYNC, RPDOs, SDO requests, NMT, heartbeat, each
-marked Tx; the frames received are Rx. SYNCs the kernel's broadcast manager sends
+marked Tx; the frames received are Rx (``received``: python-can's socketcan marks a frame another
+socket of the same machine sent as Tx, as every frame of a vcan or of an emulator on the
+host's own can0 is; candump and the host's trace then disagreed on the direction of every
+frame the host received). SYNCs the kernel's broadcast manager sends
 (``[bus] interface = "socketcan"`` in real time) do not pass through the host and are
 not in the trace.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from datetime import datetime
@@ -28,7 +32,7 @@ import can
 import canopen
 from can.util import channel2int
 
-__all__ = ["AscTrace", "TracedNetwork"]
+__all__ = ["AscTrace", "TracedNetwork", "attach_received", "detach_received", "received"]
 
 
 class AscTrace(can.ASCWriter):
@@ -71,23 +75,72 @@ class AscTrace(can.ASCWriter):
 
 class TracedNetwork(canopen.Network):
     """canopen's ``Network`` whose every frame sent also goes to ``tx_tap`` as a Tx frame,
-    stamped with the wall clock [s] (the clock of the frames received)."""
+    stamped with the wall clock [s] (the clock of the frames received).
+
+    A frame is sent and traced under ``trace_lock``, which the listener of the frames received
+    (``received``) takes too: an answer cannot be traced before the request it answers. (Traced
+    after the send without the lock, a drive's SDO answer was now and then written before the
+    request: the receive thread got it while the sender was between its send and its tap.)"""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.tx_tap: Callable[[can.Message], None] | None = None
+        self.trace_lock = threading.Lock()
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
-        super().send_message(can_id, data, remote)
-        tap = self.tx_tap
-        if tap is not None:
-            tap(
-                can.Message(
-                    timestamp=time.time(),
-                    arbitration_id=can_id,
-                    data=bytes(data),
-                    is_extended_id=can_id > 0x7FF,
-                    is_remote_frame=remote,
-                    is_rx=False,
+        if self.tx_tap is None:
+            super().send_message(can_id, data, remote)
+            return
+        with self.trace_lock:
+            super().send_message(can_id, data, remote)
+            tap = self.tx_tap
+            if tap is not None:
+                tap(
+                    can.Message(
+                        timestamp=time.time(),
+                        arbitration_id=can_id,
+                        data=bytes(data),
+                        is_extended_id=can_id > 0x7FF,
+                        is_remote_frame=remote,
+                        is_rx=False,
+                    )
                 )
-            )
+
+
+def received(
+    tap: Callable[[can.Message], None], lock: threading.Lock | None = None
+) -> Callable[[can.Message], None]:
+    """A bus listener that gives ``tap`` every frame it receives marked Rx: what the host's own
+    socket receives was sent by another node, whatever the kernel says about where it came from.
+    With ``lock`` (``TracedNetwork.trace_lock``), after any frame being sent has been traced."""
+
+    def on_received(msg: can.Message) -> None:
+        if not msg.is_rx:
+            msg.is_rx = True
+        if lock is None:
+            tap(msg)
+            return
+        with lock:
+            tap(msg)
+
+    return on_received
+
+
+def attach_received(
+    network: TracedNetwork, tap: Callable[[can.Message], None]
+) -> Callable[[can.Message], None]:
+    """Give ``tap`` every frame ``network`` receives (``received``), ahead of canopen's own
+    listener: canopen's wakes the SDO client, which may send its next request before a listener
+    after it has traced the answer. The list is replaced, not changed, under the receive thread's
+    loop. Returns the listener, for ``detach_received``."""
+    listener = received(tap, network.trace_lock)
+    notifier = network.notifier
+    if notifier is not None:
+        notifier.listeners = [listener, *notifier.listeners]
+    return listener
+
+
+def detach_received(network: TracedNetwork, listener: Callable[[can.Message], None]) -> None:
+    notifier = network.notifier
+    if notifier is not None:
+        notifier.listeners = [x for x in notifier.listeners if x is not listener]

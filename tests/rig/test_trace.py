@@ -121,3 +121,61 @@ def test_a_trace_over_a_real_bus_holds_the_host_s_frames_at_the_right_time(tmp_p
     started = json.loads((run_dir / "started.json").read_text())["wall_time"]
     first_sync = next(m for m in syncs).timestamp
     assert started - 30.0 < frames[0].timestamp <= first_sync <= started + 30.0  # the right date
+
+
+def test_a_frame_the_host_receives_is_rx_whatever_the_kernel_says() -> None:
+    """python-can's socketcan marks a frame that another socket of the same machine sent (every
+    frame on a vcan, an emulator on the host's own can0) ``is_rx=False``: the trace wrote the
+    drive's answers as Tx, and candump disagreed (found by the interop tier)."""
+    from rig.host.trace import received
+
+    seen: list[can.Message] = []
+    listener = received(seen.append)
+    listener(can.Message(arbitration_id=0x581, data=bytes(8), is_extended_id=False, is_rx=False))
+    listener(can.Message(arbitration_id=0x181, data=bytes(4), is_extended_id=False))
+    assert [m.is_rx for m in seen] == [True, True]
+
+
+def test_an_answer_is_traced_after_the_request_it_answers() -> None:
+    """The drive's answer reaches the receive thread while the sender is between its send and
+    its tap: the answer must still come after the request in the trace (the interop tier saw
+    an SDO answer before its request; candump had them the right way round)."""
+    import threading
+
+    from rig.host.trace import TracedNetwork, received
+
+    trace: list[tuple[int, bool]] = []
+    network = TracedNetwork()
+    network.tx_tap = lambda m: trace.append((m.arbitration_id, m.is_rx))
+    on_received = received(network.tx_tap, network.trace_lock)
+
+    class Bus:  # the answer arrives during the send: a receive thread traces it at once
+        def send(self, msg: can.Message, timeout: float | None = None) -> None:
+            answer = can.Message(arbitration_id=0x581, data=bytes(8), is_extended_id=False)
+            receiver = threading.Thread(target=on_received, args=(answer,))
+            receiver.start()
+            receiver.join(timeout=0.5)  # it cannot trace before the request: it waits for the lock
+            self.receiver = receiver
+
+    bus = network.bus = Bus()  # type: ignore[assignment]
+    network.send_message(0x601, bytes(8))
+    bus.receiver.join(timeout=10)
+    assert trace == [(0x601, False), (0x581, True)]
+
+
+def test_the_trace_hears_a_frame_before_canopen_does() -> None:
+    """canopen's listener wakes the SDO client, which sends its next request at once: a trace
+    listener after it wrote that request before the answer that caused it (the interop tier saw
+    it against candump). The trace's listener goes first, and leaves no trace of itself."""
+    from rig.host.trace import TracedNetwork, attach_received, detach_received
+
+    network = TracedNetwork()
+    network.connect(interface="virtual", channel="trace-order", receive_own_messages=False)
+    try:
+        canopen_listeners = list(network.notifier.listeners)
+        listener = attach_received(network, lambda m: None)
+        assert network.notifier.listeners == [listener, *canopen_listeners]
+        detach_received(network, listener)
+        assert network.notifier.listeners == canopen_listeners
+    finally:
+        network.disconnect()

@@ -8,6 +8,8 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from rig.config import BusConfig, RigConfig, replace_axis
+from rig.demo import demo_config
 from rig.process import spawn_rig, stop_rig
 
 
@@ -50,3 +52,22 @@ def start_emulator() -> Iterator[Callable[..., subprocess.Popen[str]]]:
     for proc in procs:
         _out, err = stop_rig(proc)
         assert proc.returncode == 0, err
+
+
+def lockstep_servo(
+    start_emulator: Callable[..., subprocess.Popen[str]], out: str
+) -> tuple[RigConfig, RigConfig]:
+    """The demo's servo: ``rig emulate`` of the dc-servo preset in lock-step on vcan0 with the
+    demo's parameters; (the demo's in-process configuration, the host's over vcan0)."""
+    import dataclasses
+
+    cfg = demo_config(out)
+    params = [arg for k, v in cfg.emulator.params.items() for arg in ("--param", f"{k}={v}")]
+    start_emulator("--preset", "dc-servo", "--time", "lockstep", *params)
+    wire = dataclasses.replace(
+        cfg,
+        run=dataclasses.replace(cfg.run, period=0.4e-3),
+        bus=BusConfig(interface="socketcan", channel="vcan0"),
+    )
+    # the VM is slow, not the drive
+    return cfg, replace_axis(wire, "motor", enable_timeout=10.0, limits={"watchdog_periods": 10_000})

@@ -21,6 +21,7 @@ from rig.cli import main
 from rig.config import BusConfig, RigConfig, replace_axis
 from rig.demo import demo_config
 from rig.host.session import Session
+from tests.vcan.conftest import lockstep_servo
 
 pytestmark = pytest.mark.vcan
 
@@ -59,16 +60,7 @@ def _samples(run_dir: str) -> np.ndarray:
 
 
 def test_lockstep_servo_over_vcan_equals_the_in_process_run(start_emulator, tmp_path: pathlib.Path) -> None:  # type: ignore[no-untyped-def]
-    cfg = demo_config(str(tmp_path))
-    params = [arg for k, v in cfg.emulator.params.items() for arg in ("--param", f"{k}={v}")]
-    start_emulator("--preset", "dc-servo", "--time", "lockstep", *params)
-    wire_cfg = dataclasses.replace(
-        cfg,
-        run=dataclasses.replace(cfg.run, period=0.4e-3),
-        bus=BusConfig(interface="socketcan", channel="vcan0"),
-    )
-    # the VM is slow, not the drive
-    wire_cfg = replace_axis(wire_cfg, "motor", enable_timeout=10.0, limits={"watchdog_periods": 10_000})
+    cfg, wire_cfg = lockstep_servo(start_emulator, str(tmp_path))
     wire = _run(wire_cfg, emulate=False, duration=0.2)
     here = _run(cfg, emulate=True, duration=0.2)
     assert wire["safe_stop_reason"] is None and wire["cycles"] == here["cycles"] == 500
