@@ -133,6 +133,11 @@ class AxisDriver(abc.ABC):
             return None
         return 0j if self.mode == "dq-voltage" else 0.0
 
+    def quanta(self) -> tuple[float, float]:
+        """The resolution of the measurement: (one position count [rad], one speed unit [rad/s]);
+        0 where the axis does not say or does not measure (after ``setup``)."""
+        return (0.0, 0.0)
+
     def has_sample(self) -> bool:
         """Every value ``feedback`` gives has come from the device at least once (not the
         placeholder zeros of a TPDO still to arrive). The default: feedback reads the device."""

@@ -230,6 +230,15 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         """Quick stop command (transition 11), by SDO so it acts now."""
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.QUICK_STOP))
 
+    def quanta(self) -> tuple[float, float]:
+        """One position increment [rad] and one velocity unit [rad/s] of the drive (0x608F/0x60A8,
+        0x60A9 or ``[axis.units]``; 0 where not known)."""
+        u = self.units
+        return (
+            1.0 / u.position if math.isfinite(u.position) and u.position else 0.0,
+            1.0 / u.velocity if math.isfinite(u.velocity) and u.velocity else 0.0,
+        )
+
     def at_rest(self, fb: Feedback) -> bool:
         """After a quick stop: the statusword shows the ramp ended (SWITCH ON DISABLED, FAULT), or
         QUICK STOP ACTIVE with the motor at rest (0x605A options 5-8). The statusword of the last

@@ -80,6 +80,13 @@ class Cia406Axis(CanopenAxis):
                 return
         raise ConfigError(f"node {self.node_id}: no synchronous TPDO maps the position 0x6004")
 
+    def quanta(self) -> tuple[float, float]:
+        """One count [rad] (0x6001) and the speed one count makes over a period [rad/s]."""
+        if not (math.isfinite(self.counts_per_rad) and self.counts_per_rad > 0.0):
+            return (0.0, 0.0)
+        q = 1.0 / self.counts_per_rad
+        return (q, q / self.period)
+
     def enable(self, *, timeout: float = 1.0) -> None:
         """An encoder has nothing to enable."""
 

@@ -12,8 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "ROUNDING",
     "LoopMargins",
+    "chattering_amplitude",
     "chattering_count",
+    "count_threshold",
     "loop_margins",
     "max_abs",
     "overshoot",
@@ -23,6 +26,9 @@ __all__ = [
 ]
 
 Samples = Sequence[float] | np.ndarray
+
+#: An increment at or below this [unit of u] is rounding, never chattering.
+ROUNDING = 1e-9
 
 
 def rms(x: Samples) -> float:
@@ -37,17 +43,46 @@ def max_abs(x: Samples) -> float:
     return float(np.max(np.abs(a))) if a.size else math.nan
 
 
-def chattering_count(u: Samples, *, tol: float = 0.0) -> int:
-    """Number of sign alternations of the control increment du_k = u_k - u_k-1.
+def chattering_count(u: Samples, *, threshold: float = 0.0) -> int:
+    """Chattering as engineers mean it: sign alternations of the command increment
+    du_k = u_k - u_k-1 that are larger than the measurement can explain.
 
-    Increments with |du_k| <= ``tol`` are treated as zero and skipped, so a
-    rounding-level wiggle is not counted; an alternation is a pair of
-    consecutive non-zero increments of opposite sign. A smooth (or monotone
-    piecewise) control gives 0; a relay limit cycle gives about one per sample.
+    Only increments with |du_k| > ``threshold`` take part; an alternation is a pair of
+    consecutive such increments of opposite sign. ``threshold`` [unit of u] is the
+    change of u that one count of the measurement can cause through the law
+    (``count_threshold``), so a one-count limit cycle of a quantised encoder is not
+    counted and a relay's 2 sigma switching is; for exact measurements (a pure
+    simulation) it is 0 and ``ROUNDING`` (1e-9) is used so rounding is not counted.
+    A smooth or monotone control gives 0; a relay limit cycle about one per sample.
     """
+    tol = max(threshold, ROUNDING)
     du = np.diff(np.asarray(u, dtype=float))
     signs = np.sign(du[np.abs(du) > tol])
     return int(np.count_nonzero(signs[1:] != signs[:-1]))
+
+
+def chattering_amplitude(u: Samples) -> float:
+    """RMS of the command increment du_k = u_k - u_k-1 [unit of u] over the samples given
+    (the steady state); NaN for fewer than two samples."""
+    a = np.asarray(u, dtype=float)
+    return rms(np.diff(a)) if a.size > 1 else math.nan
+
+
+def count_threshold(
+    sensitivity: tuple[float, float], *, position_quantum: float, velocity_quantum: float
+) -> float:
+    """The change of a law's command that one count of measurement can cause [unit of u].
+
+    ``sensitivity`` is (|du/dtheta|, |du/domega|) of the law's continuous part (its
+    gradient in linear operation, ``Law.sensitivity``); ``position_quantum`` [rad] is one
+    encoder count and ``velocity_quantum`` [rad/s] the change of the speed measurement one
+    count can cause: a speed taken from the same encoder by a backward difference over one
+    period T moves by a count over T, so it is at least position_quantum / T (what a drive's
+    0x606C or a CiA 406 speed can resolve at best). Both 0 for exact measurements.
+
+        threshold = |du/dtheta| q_theta + |du/domega| q_omega
+    """
+    return sensitivity[0] * position_quantum + sensitivity[1] * velocity_quantum
 
 
 def rise_time(e: Samples, *, dt: float, low: float = 0.05, high: float = 0.95) -> float:

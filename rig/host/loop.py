@@ -42,6 +42,7 @@ from rig.host.safety import AxisGuard
 from rig.host.signals import stop_reason
 from rig.host.stopping import bring_to_rest
 from rig.laws.base import Law, LawStep
+from rig.metrics import count_threshold
 
 __all__ = ["HostLoop", "StageTimes", "Wiring", "missed_periods"]
 
@@ -68,6 +69,18 @@ class Wiring:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "commanded", self.commands + tuple(i for i, _ in self.profiles))
+
+
+def chatter_threshold(law: Law, axis: AxisDriver | None, period: float) -> float:
+    """The change of the law's first command that one count of the first read axis's measurement
+    can cause (``rig.metrics.count_threshold``): the law's ``sensitivity`` times the axis's
+    ``quanta``, with the speed quantum at least a count per period [unit of the command]."""
+    if axis is None:
+        return 0.0
+    q_theta, q_omega = axis.quanta()
+    return count_threshold(
+        law.sensitivity(), position_quantum=q_theta, velocity_quantum=max(q_omega, q_theta / period)
+    )
 
 
 def missed_periods(gap: float, period: float) -> int:
@@ -128,7 +141,11 @@ class HostLoop:
         self._t_start = self._t_end = 0.0  #: perf_counter [s] of the first cycle, the last one's end
         self._sq_error = 0.0
         self._max_error = 0.0
-        self._chatter = ChatterCounter(tol=1e-9)
+        self.chatter_threshold = chatter_threshold(
+            law, axes[wiring.reads[0]] if wiring.reads else None, period
+        )
+        #: chattering in the steady state, taken as the run's second half (README "Chattering")
+        self._chatter = ChatterCounter(self.chatter_threshold, start=cycles // 2)
         self._peaks = {a.name: dict.fromkeys(("velocity", "current", "command"), 0.0) for a in self.axes}
         #: per axis, its peaks and the measured quantities whose peak is kept
         self._peak_fields = [
@@ -385,6 +402,8 @@ class HostLoop:
             "max_error": self._max_error if n else math.nan,
             "error_unit": self.law.error_unit,
             "chattering_count": self._chatter.count,
+            "chattering_amplitude": self._chatter.amplitude,
+            "chattering_threshold": self.chatter_threshold,
             "overruns": self.overruns,
             "held_cycles": self.held,
             "elapsed_s": self.elapsed,

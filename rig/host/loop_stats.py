@@ -4,9 +4,12 @@ chattering count, kept as the cycles go (nothing grows with the run's length).""
 from __future__ import annotations
 
 import collections
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from rig.metrics import ROUNDING
 
 __all__ = ["ChatterCounter", "StageTimes"]
 
@@ -43,18 +46,37 @@ class StageTimes:
 
 
 class ChatterCounter:
-    """``rig.metrics.chattering_count`` computed as the samples arrive."""
+    """``rig.metrics.chattering_count`` and ``chattering_amplitude`` computed as the samples arrive.
 
-    def __init__(self, tol: float) -> None:
-        self.tol = tol
+    Only the samples from index ``start`` on (the steady state) count; ``threshold`` is
+    ``rig.metrics.count_threshold`` for the law and the read axis (``ROUNDING`` at least).
+    """
+
+    def __init__(self, threshold: float, *, start: int = 0) -> None:
+        self.threshold = max(threshold, ROUNDING)
+        self.start = start  #: the first sample of the steady state
         self.count = 0
+        self._n = 0
+        self._sq = 0.0
+        self._increments = 0
         self._last: float | None = None
         self._sign = 0.0
 
+    @property
+    def amplitude(self) -> float:
+        """RMS of the command increment over the steady state [unit of u]; NaN before two samples."""
+        return math.sqrt(self._sq / self._increments) if self._increments else math.nan
+
     def add(self, u: float) -> None:
+        n = self._n
+        self._n = n + 1
+        if n < self.start:
+            return
         if self._last is not None:
             du = u - self._last
-            if abs(du) > self.tol:
+            self._sq += du * du
+            self._increments += 1
+            if abs(du) > self.threshold:
                 sign = 1.0 if du > 0 else -1.0
                 if self._sign and sign != self._sign:
                     self.count += 1

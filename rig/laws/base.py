@@ -70,6 +70,15 @@ class Law(abc.ABC):
                 reference = self.reference
                 self.reference = lambda t: _shifted(reference(t), offset)
 
+    def sensitivity(self) -> tuple[float, float]:
+        """(|du/dtheta| [unit of u per rad], |du/domega| [unit of u per rad/s]): how far the first
+        command moves per unit of the first read axis's position and speed, the gradient of the
+        law's continuous part in linear operation (a relay's switching is not part of it: it is
+        the chattering to be counted). With the axis's quanta it gives the chattering threshold
+        (``rig.metrics.count_threshold``). The default (0, 0): not stated, every alternation above
+        rounding counts."""
+        return (0.0, 0.0)
+
     @abc.abstractmethod
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         """One cycle at time ``t`` [s]; must not do I/O."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from controllers.cascade import TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoop
+from controllers.cascade import TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoop, CascadeLoopParams
 from drivers.base import Feedback
 from rig.laws.base import Law, LawStep, Reference
 from rig.papers import drives
@@ -39,6 +39,21 @@ class CascadePositionLaw(Law):
         self.position, self.speed = CascadeLoop(TABLE_V_POSITION), CascadeLoop(TABLE_V_SPEED)
         self._k = 0
         self._omega_ref = 0.0
+
+    def sensitivity(self) -> tuple[float, float]:
+        """The torque command's gradient in the boundary layers of the reconstructed (6.36): a
+        loop's output moves per unit of its j-th measurement by
+        |k_j| + k_r1 |c_j| / T + k_int T |c_j| / (|c_1| beta) (equivalent control, linear
+        reaching, one step of the integral of sat(g / (c_1 beta))); the speed loop's (times
+        k_t) per rad/s, and through the position loop's speed reference per rad."""
+        pos, spd = self.position.params, self.speed.params
+
+        def gain(p: CascadeLoopParams, j: int) -> float:
+            c = abs(p.c_s[j])
+            return abs(p.k_s[j]) + p.k_r1 * c / p.dt + p.k_int * p.dt * c / (abs(p.c_s[0]) * p.beta)
+
+        g_w = self.params.k_t * gain(spd, 0)
+        return (g_w * gain(pos, 0), g_w * (1.0 + gain(pos, 1)))
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         theta_r, _ = self.reference(t)

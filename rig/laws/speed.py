@@ -30,6 +30,11 @@ class PiSpeedLaw(Law):
         super().__init__(params, period=period, reference=reference)
         self.pi = PI(params)
 
+    def sensitivity(self) -> tuple[float, float]:
+        """(0, |k_p| + k_i T): the PI's output per rad/s of speed in one period [unit of u/(rad/s)]."""
+        p = self.params
+        return (0.0, abs(p.kp) + p.ki * p.dt)
+
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         w_r, _ = self.reference(t)
         w = feedback[0].velocity
@@ -50,6 +55,11 @@ class IdtsmSpeedLaw(Law):
     def __init__(self, params: IDTSMParams, *, period: float, reference: Reference) -> None:
         super().__init__(params, period=period, reference=reference)
         self.idtsm = IDTSM(params)
+
+    def sensitivity(self) -> tuple[float, float]:
+        """(0, |1/(b_delta T) + K_eq|): (6.20)-(6.21) move u by that per rad/s of speed in one period."""
+        c = self.idtsm
+        return (0.0, abs(1.0 / (c.b_delta * self.params.dt) + c.k_eq))
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         w_r, _ = self.reference(t)

@@ -24,7 +24,7 @@ def servo_h16() -> object:
 def test_7_30_tracks_smooth_move_without_chattering(servo_h16: object) -> None:
     tr = servo_h16
     steady = tr.window(2.5)  # type: ignore[attr-defined]
-    assert chattering_count(tr.u[steady], tol=TOL) == 0  # type: ignore[attr-defined]
+    assert chattering_count(tr.u[steady], threshold=TOL) == 0  # type: ignore[attr-defined]
     assert np.max(np.abs(tr.error[tr.window(0.0, 1.5)])) < 2e-3  # type: ignore[attr-defined]
 
 
@@ -45,12 +45,12 @@ def test_7_30_without_h_has_the_theoretical_load_error() -> None:
     printed = d.dt * c2 * LOAD / c1
     assert tr.error[-1] == pytest.approx(exact, rel=1e-9)
     assert tr.error[-1] == pytest.approx(printed, rel=1e-2)
-    assert chattering_count(tr.u[tr.window(2.5)], tol=TOL) == 0
+    assert chattering_count(tr.u[tr.window(2.5)], threshold=TOL) == 0
 
 
 def test_the_sign_law_chatters_by_the_same_metric() -> None:
     tr = position_servo_run(load=LOAD, law="relay")
-    assert chattering_count(tr.u[tr.window(2.5)], tol=TOL) > 100
+    assert chattering_count(tr.u[tr.window(2.5)], threshold=TOL) > 100
 
 
 def test_full_motor_agrees_with_reduced_model() -> None:
@@ -103,7 +103,7 @@ def test_cascade_zero_steady_state_error_under_constant_load_and_no_chattering(
     tr = cascade
     steady = tr.window(3.5)  # type: ignore[attr-defined]
     assert np.max(np.abs(tr.error[steady])) < 1e-9  # type: ignore[attr-defined]
-    assert chattering_count(tr.u[steady], tol=TOL) == 0  # type: ignore[attr-defined]
+    assert chattering_count(tr.u[steady], threshold=TOL) == 0  # type: ignore[attr-defined]
     # the load is carried by the current: i_q = T_L / k_t
     k_t = 340.7439 * 0.0035
     assert tr.extra["i_q"][-1] == pytest.approx(5.0 / k_t, rel=1e-6)  # type: ignore[attr-defined]
