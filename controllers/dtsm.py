@@ -45,12 +45,20 @@ class DTSMParams:
       output of every law, compensation included;
     - ``"relay"``: u = -c A x - sigma sgn(g), the sampled discontinuous law
       (6.8). It chatters; it is here as the counter-example for the metrics.
+
+    ``compensate`` says when a compensator (6.25) acts. The paper does not say how the
+    compensators (6.30b), (6.35) combine with the bounded reaching of (6.15a): during reaching
+    g_k is far from T d_k, (6.29) reads the reaching as a disturbance, and the second-order
+    compensator winds up and diverges (a 100 rad/s step at sigma = 10 V, Fig. 9's set-up).
+    ``"always"``: every step; ``"linear"``: only while (6.15a) is in its linear mode,
+    |g_k| <= T sigma, and reset to zero otherwise, as (7.30c) does with its integral u_I.
     """
 
     design: DTSMDesign  #: delta model and sliding vector, (6.9), (6.16)
     law: Law = "bounded"  #: which control law, see above
     sigma: float = math.inf  #: reaching-control bound of (6.15a) / relay gain [control unit]
     u0: float = math.inf  #: output limit U0 of (6.15b) [control unit]
+    compensate: Literal["always", "linear"] = "always"  #: when the compensator acts, see above
 
     def __post_init__(self) -> None:
         if self.law not in _LAWS:
@@ -61,6 +69,8 @@ class DTSMParams:
             raise ValueError(f"sigma must be > 0, got {self.sigma!r}")
         if not self.u0 > 0.0:
             raise ValueError(f"u0 must be > 0, got {self.u0!r}")
+        if self.compensate not in ("always", "linear"):
+            raise ValueError(f"compensate must be 'always' or 'linear', got {self.compensate!r}")
         if self.law == "relay" and not math.isfinite(self.sigma):
             raise ValueError("the relay law needs a finite sigma")
 
@@ -86,6 +96,7 @@ class DTSM:
         self._law = _LAWS.index(self.params.law)
         self._sigma = self.params.sigma
         self._u0 = self.params.u0
+        self._linear_only = self.params.compensate == "linear"
 
     def reset(self) -> None:
         """Restore the initial state (and the compensator's)."""
@@ -109,8 +120,12 @@ class DTSM:
             u = u_eq - g * self._inv_dt
         else:  # relay, (6.8) sampled
             u = u_eq - (self._sigma if g > 0.0 else -self._sigma if g < 0.0 else 0.0)
-        if self.compensator is not None:
-            u += self.compensator.step(g)
+        comp = self.compensator
+        if comp is not None:
+            if self._linear_only and abs(g) * self._inv_dt > self._sigma:
+                comp.reset()  # reaching: no compensation, as u_I of (7.30c)
+            else:
+                u += comp.step(g)
         if u > self._u0:
             return self._u0
         if u < -self._u0:

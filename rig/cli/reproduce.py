@@ -1,4 +1,4 @@
-"""``rig reproduce dismc|dq-current``: a paper's numerical study, with --json, --plot and --param."""
+"""``rig reproduce dismc|dq-current|drives``: a paper's numerical study, with --json, --plot and --param."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import numpy as np
 from rig.cli.common import Parser, UsageError, add_json, add_params, json_clean, params_of, print_json
 from rig.papers.dismc import ALIASES, FIXED, PARAM_NAMES, DismcExample, run_dismc
 from rig.papers.dq_current import DQ_FIXED, DQ_PARAM_NAMES, PRINTED_TABLES, DqStudy, dq_study
+from rig.papers.drives_study import DRIVES_FIXED, DRIVES_PARAM_NAMES, DrivesStudy, drives_study
 
 __all__ = ["add_parser"]
 
@@ -41,6 +42,21 @@ def add_parser(sub: Any) -> None:
     dq.add_argument("--plot", metavar="FILE", help="write q-step responses in dq (Fig. 9(b)-like) to FILE")
     add_params(dq, "override: ratio (e.g. 1/27), L1 [H], R1 [Ohm], gamma, strategy, plant (exact|fine)")
     dq.set_defaults(handler=_dq)
+    drives = rsub.add_parser(
+        "drives",
+        help="the drives paper: (7.31), Table V, Figs. 9-10, the VII.B servo, VII.C IM speed, VII.D cascade",
+        description="Designs (7.31) and Table V; runs the speed loop of Figs. 9-10 on the VII.B DC "
+        "platform (section VII.A's text is missing), the VII.B position servo, the VII.C IM speed "
+        "control and the VII.D cascade as pure simulations and over the emulated bus (lock-step; the "
+        "IM on the emulated dyno). About 45 s in full. Parameters: " + ", ".join(DRIVES_PARAM_NAMES) + ".",
+    )
+    add_json(
+        drives,
+        'print one object {"design", "table_v", "speed_loop", "position_servo", "im_speed", "cascade"}',
+    )
+    drives.add_argument("--plot", metavar="DIR", help="write one figure per experiment into DIR")
+    add_params(drives, "override: horizons speed_t_end, servo_t_end, im_t_end [s], substeps, load [N m], bus")
+    drives.set_defaults(handler=_drives)
 
 
 def _dismc(args: argparse.Namespace) -> int:
@@ -125,3 +141,67 @@ def _print_dq(study: DqStudy, rows: list[dict[str, Any]], cross: list[dict[str, 
             f"  {c['strategy']:13s} w_k/w_s = 1/{1 / c['ratio']:<5.4g} gamma {c['gamma']:.2f} "
             f"{c['controller']:13s} {c['peak_id']:.4f}"
         )
+
+
+def _drives(args: argparse.Namespace) -> int:
+    where = "rig reproduce drives: --param"
+    values = params_of(args.param, DrivesStudy, where, fixed=DRIVES_FIXED)
+    try:
+        study = dataclasses.replace(DrivesStudy(), **values)
+    except ValueError as exc:
+        raise UsageError(f"{where}: {exc}") from exc
+    if args.plot:
+        from rig.plots import _pyplot
+
+        _pyplot()  # no matplotlib: say so before the runs
+    doc, signals = drives_study(study)
+    if args.plot:
+        from rig.plots import plot_drives
+
+        plot_drives(signals, args.plot)
+    if args.json:
+        print_json(doc)
+        return 0
+    _print_drives(json_clean(doc))
+    return 0
+
+
+def _cell(value: Any, fmt: str) -> str:
+    return "-" if value is None else format(value, fmt)
+
+
+def _print_drives(doc: dict[str, Any]) -> None:
+    d = doc["design"]
+    print("Drives paper. (7.31), a_m = 16, b_m = 680, T = 0.4 ms, lambda = -15:")
+    for key in ("A_delta", "b_delta", "c_delta", "c_delta_A_delta"):
+        print(f"  {key:16s} {d[key]}  printed {d['printed'][key]}")
+    print("Table V: designed (6.16) | printed | used")
+    for r in doc["table_v"]:
+        print(
+            f"  {r['name']:9s} k_s {r['k_s_designed']} | {r['k_s_printed']} | {r['k_s_used']};"
+            f" c_s {r['c_s_designed']} | {r['c_s_printed']} | {r['c_s_used']}"
+        )
+        print(f"            {r['decision']}")
+    print("Figs. 9-10 (VII.A's text is missing: the VII.B DC platform), speed-error amplitude over 2.5-5 s:")
+    print(f"  {'':26s} {'sim rad/s':>11s} {'theory':>11s}")
+    for r in doc["speed_loop"]:
+        print(f"  {r['name']:26s} {_cell(r['error_amplitude'], '11.4g')} {_cell(r['theory'], '11.4g')}")
+    head = (
+        f"  {'':34s} {'bus':>3s} {'rms e':>9s} {'max |e|':>9s} {'e_ss':>10s} {'chatter':>7s} {'du rms':>9s}"
+    )
+    for key, title in (
+        ("position_servo", "Section VII.B position servo [rad; u in V]:"),
+        ("im_speed", "Section VII.C IM speed under the VII.D load [rad/s; torque in N m]:"),
+        ("cascade", "Section VII.D cascade [rad; i_q* in A]:"),
+    ):
+        print(title)
+        print(head)
+        for r in doc[key]:
+            print(
+                f"  {r['name']:34s} {'yes' if r['over_bus'] else 'no':>3s} {_cell(r['rms_error'], '9.3g')}"
+                f" {_cell(r['max_error'], '9.3g')} {_cell(r['steady_state_error'], '10.2e')}"
+                f" {r['chattering_count']:7d} {_cell(r['chattering_amplitude'], '9.2e')}"
+            )
+    print(
+        "chatter: sign alternations of the command increment beyond one count's effect (README, Chattering)"
+    )

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -146,10 +147,18 @@ def speed_loop_run(
     disturbance: Callable[[float], float] | None = None,
     substeps: int = 20,
     held_disturbance: bool = False,
+    law: Literal["deadbeat", "bounded"] = "deadbeat",
+    sigma: float = math.inf,
+    speed_step: float = 0.0,
 ) -> Trajectory:
-    """Speed regulation of (3.5) at zero reference under a matched disturbance (Fig. 9).
+    """Speed control of (3.5) under a matched disturbance (Fig. 9).
 
-    DTSM (6.14) on the first-order design (c_delta = 1/b_delta) with compensator
+    The reference is ``speed_step`` [rad/s] from t = 0 (0: regulation at zero); the DTSM
+    works on x = omega - omega_ref, so the reference enters (3.5) as the constant matched
+    term a_m omega_ref / b_m, which the compensators remove and the law alone does not.
+    DTSM ``law`` (6.14) ("deadbeat") or (6.15a) ("bounded", reaching bound ``sigma`` [V])
+    on the first-order design (c_delta = 1/b_delta), with (6.15a) the compensator acting in its
+    linear mode only (``DTSMParams.compensate``), with compensator
     ``"none"``, ``"first"`` (6.30b, gain ``alpha``) or ``"second"`` (6.35). The
     disturbance f(t) [V] defaults to 5 h(t-2) sin(5t); the plant integrates it
     with ``substeps`` exact sub-steps per sample, or holds f(kT) over each
@@ -167,14 +176,15 @@ def speed_loop_run(
         comp = SecondOrderCompensator(dt=dt)
     else:
         raise ValueError(f"compensator must be 'none', 'first' or 'second', got {compensator!r}")
-    ctl = DTSM(DTSMParams(design=design, law="deadbeat"), compensator=comp)
+    compensate: Literal["always", "linear"] = "linear" if law == "bounded" else "always"
+    ctl = DTSM(DTSMParams(design=design, law=law, sigma=sigma, compensate=compensate), compensator=comp)
     sub = 1 if held_disturbance else substeps
     motor = ReducedDCMotor(a_m=a_m, b_m=b_m, dt=dt / sub)
     n = round(t_end / dt)
     t = np.arange(n) * dt
     y, u_out, g, d = (np.empty(n) for _ in range(4))
     for k in range(n):
-        u = ctl.step(motor.omega)
+        u = ctl.step(motor.omega - speed_step)
         y[k], u_out[k], g[k] = motor.omega, u, ctl.g
         if held_disturbance:
             d[k] = f(k * dt)
@@ -183,7 +193,7 @@ def speed_loop_run(
             d[k] = math.nan
             for i in range(sub):
                 motor.step(u, f=f((k + (i + 0.5) / sub) * dt))
-    return Trajectory(t, np.zeros(n), y, u_out, g, {"d": d})
+    return Trajectory(t, np.full(n, speed_step), y, u_out, g, {"d": d})
 
 
 def cascade_run(
@@ -201,14 +211,16 @@ def cascade_run(
     t_end: float = 3.0,
     load: Callable[[float], float] | None = None,
     counts_per_rev: int | None = None,
+    move_start: float = 0.0,
 ) -> Trajectory:
     """The IM cascade of section VII.D on the field-oriented reduced model (4.9).
 
     With rotor-flux orientation and decoupling, (4.9) is a DC motor without
     back-EMF: i_q' = a_i i_q + b_i u_q, omega' = a_w omega + b_w i_q - T_L/J,
     theta' = omega, with Table V's a_i, b_i, a_w, b_w and J of Table II.
-    ``load(t)`` [N m] defaults to zero. Sampled every 0.1 ms (current loop); speed every
-    0.5 ms, position every 1 ms. ``counts_per_rev``: an encoder, speed by Euler backward.
+    ``load(t)`` [N m] defaults to zero; the move starts at ``move_start`` [s]. Sampled every
+    0.1 ms (current loop); speed every 0.5 ms, position every 1 ms. ``counts_per_rev``: an
+    encoder, speed by Euler backward.
     """
     dt = current.dt
     motor = DCMotor(
@@ -222,7 +234,7 @@ def cascade_run(
         position_every=round(position.dt / dt),
     )
     encoder = Encoder(counts_per_rev, dt=speed.dt) if counts_per_rev else None
-    ref = smooth_move(distance, move_time)
+    ref = smooth_move(distance, move_time, move_start)
     load = load or (lambda t: 0.0)
     n = round(t_end / dt)
     t = np.arange(n) * dt

@@ -1,0 +1,546 @@
+"""``rig reproduce drives``: the drives paper's experiments, designed, simulated and run over the bus.
+
+Six parts, one per key of the JSON document:
+
+- ``design``: the delta model and sliding vector of the DC servo, (7.31), against the printed ones;
+- ``table_v``: the three loops of Table V, the design (6.16)-(6.19) against the printed k_s, c_s
+  (position row: lambda = -25 1/s; current row: printed k_eq truncated; speed row: its printed
+  c_s, k_eq do not follow from a_w, b_w and are used as printed, ``controllers.cascade``);
+- ``speed_loop``: Figs. 9-10. The text of section VII.A, where they belong, is missing; they are
+  run on the DC platform of section VII.B, (3.5) with a_m = 16 1/s, b_m = 680 rad/(V s^2),
+  T = 0.4 ms, under f(t) = 5 h(t-2) sin(5t) V in the control channel and a 100 rad/s speed step
+  at t = 0, with the DTSM (6.15a) (sigma = 10 V, c_delta = 1/b_delta) alone, with the
+  compensator (6.30b) for alpha = 0.1, 0.5, 1 and with (6.35). ``error_amplitude`` is half the
+  peak-to-peak of the speed error over 2.5-5 s; ``theory`` is what the delta-model analysis
+  predicts for a sinusoid through the switching-function dynamics, ``speed_error_theory``;
+- ``position_servo``: section VII.B, (7.30) with h = 16 and h = 0 and the sign law (6.8), as pure
+  simulations (the DC motor (3.4), exact measurements) and over the emulated CAN bus (``rig
+  run``'s Session, dc-servo preset, 4096-count encoder, lock-step, as ``rig demo``);
+- ``im_speed``: section VII.C, the IDTSM (6.20)-(6.21) (Table IV) against the PI (Table III) on
+  IM1 (Table II), speed step 100 rad/s at 0.3 s, under the load of section VII.D,
+  T_L = 5 [h(t-2) - h(t-4) + h(t-8) sin(4 pi t)] N m; pure: the field-oriented mechanics
+  J dw/dt = T - B w - T_L with the torque as commanded (ideal FOC); over the bus: the emulated
+  dyno, the motor under test (IM1 under FOC, CST) and the load machine applying -T_L as two
+  drives on one shaft;
+- ``cascade``: section VII.D, the position/speed/current cascade of Table V (reconstructed (6.36))
+  under the same load, 10 rad in 1 s from 0.3 s; pure: ``scenarios.cascade_run`` on (4.9)
+  with its current loop; over the bus: the position and speed loops on the dyno, the drive's
+  FOC in place of the current loop.
+
+Chattering figures follow ``rig.metrics``: the amplitude is the RMS of the command increment in
+the steady-state window, the count the sign alternations larger than one count of measurement
+can cause through the law (0 threshold for the pure simulations' exact measurements; over the
+bus, the summary's ``chattering_threshold``).
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+import tempfile
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from controllers.cascade import TABLE_V_CURRENT, TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoopParams
+from controllers.design import design_dtsm
+from controllers.idtsm import IDTSM, IDTSMParams
+from controllers.pi import PI, PIParams
+from plant_emulator.profiles import parse_profile
+from rig.config import rig_config
+from rig.demo import DEMO_LOAD, demo_doc
+from rig.host.rundir import read_samples
+from rig.host.session import run_config
+from rig.metrics import chattering_amplitude, chattering_count, max_abs, rms
+from rig.papers import drives
+from rig.papers.scenarios import Trajectory, cascade_run, position_servo_run, speed_loop_run
+
+__all__ = [
+    "DRIVES_FIXED",
+    "DRIVES_PARAM_NAMES",
+    "DrivesStudy",
+    "Signals",
+    "drives_study",
+    "speed_error_theory",
+]
+
+#: (7.31) and the text after it, as printed
+PRINTED_7_31 = {
+    "A_delta": [[0.0, 0.9968], [0.0, -15.9489]],
+    "b_delta": [-0.13571, -677.828635],
+    "c_delta": [-0.0221, -0.0015],
+    "c_delta_A_delta": [0.0, 0.0015],
+}
+#: Table V as printed: a, b of each plant and the k_s (k_eq), c_s of its controller
+PRINTED_TABLE_V: dict[str, dict[str, Any]] = {
+    "current": {"a": -233.8936, "b": 42.8992, "k_s": [-5.4521], "c_s": [0.0236]},
+    "speed": {"a": -0.6286, "b": 340.7439, "k_s": [-0.0015], "c_s": [0.0025]},
+    "position": {"a": -500.0, "b": 500.0, "k_s": [0.0, -0.9373], "c_s": [0.0627, 0.0025]},
+}
+#: Table III's speed PI in torque units (examples/im_speed_pi.toml): K_p,w k_t, K_i,w k_t / T
+PI_KP = 0.673  #: [N m s/rad]
+PI_KI = 60.0  #: [N m/rad]
+IM_TORQUE_LIMIT = 10.0  #: [N m] both speed laws' output limit
+#: [N m s] the limit of the IDTSM's integrator "Int 1" of section VII.C (+-0.01); without it the
+#: 100 rad/s step winds it up while the torque is at its limit: 58 % overshoot
+IDTSM_G_LIMIT = 0.01
+#: The dyno's encoder and drives: 16 bits per revolution (examples/dyno_speed_load.toml), a speed
+#: quantum of 0.19 rad/s over 0.5 ms; 4096 counts would make it 3.1 rad/s
+DYNO_COUNTS = 65536
+#: The speed-loop study's compensators: (name, compensator, alpha)
+SPEED_CASES: tuple[tuple[str, str, float | None], ...] = (
+    ("DTSM (6.15a)", "none", None),
+    ("DTSM + (6.30b) alpha=0.1", "first", 0.1),
+    ("DTSM + (6.30b) alpha=0.5", "first", 0.5),
+    ("DTSM + (6.30b) alpha=1", "first", 1.0),
+    ("DTSM + (6.35)", "second", None),
+)
+
+
+@dataclass(frozen=True)
+class DrivesStudy:
+    """What ``--param`` may change: horizons [s] (shorter ones for quick runs), the sub-steps of
+    the speed loop's disturbance, the load T [N m] of section VII.D, and whether to run over the bus."""
+
+    speed_t_end: float = 5.0  #: Figs. 9-10 horizon; the amplitude is taken over 2.5 s .. this
+    substeps: int = 20  #: exact plant sub-steps per sample for f(t) in the speed loop
+    servo_t_end: float = 3.0  #: section VII.B horizon (move 0-1 s, load step at 1.5 s)
+    servo_settle: float = 2.5  #: start of the servo's steady-state window [s]
+    im_t_end: float = 10.0  #: sections VII.C/D horizon (load 2-4 s, sine from 8 s)
+    load: float = 5.0  #: T of the load profile [N m]
+    bus: bool = True  #: also run over the emulated bus
+
+    def __post_init__(self) -> None:
+        for name in ("speed_t_end", "servo_t_end", "im_t_end"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0.0 < value <= 60.0):
+                raise ValueError(f"{name} must be in (0, 60] s, got {value!r}")
+        if not 1 <= self.substeps <= 1000:
+            raise ValueError(f"substeps must be in 1..1000, got {self.substeps!r}")
+        if not (math.isfinite(self.load) and abs(self.load) <= 10.0):
+            raise ValueError(f"load must be within +-10 N m, got {self.load!r}")
+        if not (math.isfinite(self.servo_settle) and 0.0 <= self.servo_settle < self.servo_t_end):
+            raise ValueError(f"servo_settle must be in [0, servo_t_end), got {self.servo_settle!r}")
+
+
+DRIVES_PARAM_NAMES = tuple(f for f in DrivesStudy.__dataclass_fields__)
+DRIVES_FIXED: dict[str, str] = {}
+
+
+@dataclass
+class Signals:
+    """One run's signals for the plots: time [s] and named arrays (SI)."""
+
+    name: str
+    t: np.ndarray
+    series: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def speed_error_theory(
+    compensator: str,
+    alpha: float | None,
+    *,
+    a_m: float = drives.A_M,
+    b_m: float = drives.B_M,
+    dt: float = drives.T_SERVO,
+    amplitude: float = 5.0,
+    omega: float = 5.0,
+) -> float:
+    """Amplitude [rad/s] of the speed error the delta-model analysis predicts for
+    f = ``amplitude`` sin(``omega`` t) [V] in the control channel of (3.5).
+
+    d_k of (6.22a), normalised so that delta x = a_delta x + b_delta (u + d), has the amplitude
+    F |int_0^T e^{-a_m tau} b_m e^{-j omega tau} dtau| / (T b_delta). The switching function
+    follows it through g(z) = H(z) d(z): (6.23) H = T z^-1 for the law alone (its linear mode,
+    |d| < sigma); (6.34) H = T (z - 1) / (z (z - (1 - alpha))) with (6.30b); with (6.35) (as
+    read in ``controllers.compensators``) g_{k+1} = T (d_k - 2 d_k-1 + d_k-2), H = T (z-1)^2 z^-3.
+    The speed error is e = -x = -b_delta g (c_delta = 1/b_delta), so its amplitude is
+    b_delta |H(e^{j omega T})| |d|.
+    """
+    design = design_dtsm(A=[[-a_m]], b=[b_m], dt=dt, lam=-1.0)
+    b_delta = float(design.b_delta[0])
+    # int_0^T e^{-(a_m + j omega) tau} dtau, closed form
+    s = a_m + 1j * omega
+    integral = b_m * (1.0 - cmath.exp(-s * dt)) / s
+    d_amp = amplitude * abs(integral) / (dt * b_delta)
+    z = cmath.exp(1j * omega * dt)
+    if compensator == "none":
+        h = dt / z
+    elif compensator == "first":
+        if alpha is None:
+            raise ValueError("the first-order compensator needs alpha")
+        h = dt * (z - 1.0) / (z * (z - (1.0 - alpha)))
+    elif compensator == "second":
+        h = dt * (z - 1.0) ** 2 / z**3
+    else:
+        raise ValueError(f"compensator must be none, first or second, got {compensator!r}")
+    return b_delta * abs(h) * d_amp
+
+
+def _design_part() -> dict[str, Any]:
+    d = design_dtsm(
+        A=[[0.0, 1.0], [0.0, -drives.A_M]], b=[0.0, -drives.B_M], dt=drives.T_SERVO, lam=drives.LAMBDA_SERVO
+    )
+    return {
+        "equation": "(7.31)",
+        "a_m": drives.A_M,
+        "b_m": drives.B_M,
+        "T": drives.T_SERVO,
+        "lambda": drives.LAMBDA_SERVO,
+        "A_delta": [list(row) for row in d.A_delta],
+        "b_delta": list(d.b_delta),
+        "c_delta": list(d.c_delta),
+        "c_delta_A_delta": list(d.c_delta_A_delta),
+        "printed": PRINTED_7_31,
+    }
+
+
+def _table_v_part() -> list[dict[str, Any]]:
+    loops: tuple[tuple[str, CascadeLoopParams, float], ...] = (
+        ("current", TABLE_V_CURRENT, -1.0),
+        ("speed", TABLE_V_SPEED, -1.0),
+        ("position", TABLE_V_POSITION, -25.0),
+    )
+    rows = []
+    for name, used, lam in loops:
+        printed = PRINTED_TABLE_V[name]
+        a, b = printed["a"], printed["b"]
+        if name == "position":
+            design = design_dtsm(A=[[0.0, 1.0], [0.0, a]], b=[0.0, b], dt=used.dt, lam=lam)
+        else:
+            design = design_dtsm(A=[[a]], b=[b], dt=used.dt, lam=lam)
+        decision = {
+            "current": "designed k_eq = -5.45217 printed truncated as -5.4521; used as printed",
+            "speed": "c_s, k_eq do not follow from a_w, b_w by (6.16); used as printed (c_s b_delta = 0.85)",
+            "position": "(6.16)-(6.19) with lambda = -25 1/s reproduce the printed k_s, c_s",
+        }[name]
+        rows.append(
+            {
+                "name": name,
+                "T": used.dt,
+                "a": a,
+                "b": b,
+                "lambda": lam if name == "position" else None,
+                "k_s_designed": list(design.c_delta_A_delta),
+                "c_s_designed": list(design.c_delta),
+                "k_s_printed": printed["k_s"],
+                "c_s_printed": printed["c_s"],
+                "k_s_used": list(used.k_s),
+                "c_s_used": list(used.c_s),
+                "c_s_b_delta": float(np.dot(used.c_s, design.b_delta)),
+                "kappa": used.kappa,
+                "decision": decision,
+            }
+        )
+    return rows
+
+
+def _amplitude(tr: Trajectory, t0: float, t1: float) -> float:
+    e = tr.error[tr.window(t0, t1)]
+    return float((e.max() - e.min()) / 2.0) if e.size else math.nan
+
+
+def _speed_part(study: DrivesStudy, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
+    rows = []
+    for name, comp, alpha in SPEED_CASES:
+        tr = speed_loop_run(
+            compensator=comp,
+            alpha=alpha if alpha is not None else 1.0,
+            dt=drives.T_SERVO,
+            t_end=study.speed_t_end,
+            substeps=study.substeps,
+            law="bounded",
+            sigma=drives.SIGMA,
+            speed_step=100.0,
+        )
+        rows.append(
+            {
+                "name": name,
+                "alpha": alpha,
+                "error_amplitude": _amplitude(tr, 2.5, 5.0),
+                "theory": speed_error_theory(comp, alpha),
+                "final_speed": float(tr.y[-1]),
+            }
+        )
+        plots.setdefault("speed_loop", []).append(
+            Signals(name, tr.t, {"omega_ref": tr.ref, "omega": tr.y, "g": tr.g})
+        )
+    return rows
+
+
+def _servo_metrics(
+    t: np.ndarray, e: np.ndarray, u: np.ndarray, settle: float, threshold: float
+) -> dict[str, float | int]:
+    steady = t >= settle
+    return {
+        "rms_error": rms(e),
+        "max_error": max_abs(e),
+        "steady_state_error": float(np.mean(e[steady])) if steady.any() else math.nan,
+        "chattering_count": chattering_count(u[steady], threshold=threshold),
+        "chattering_amplitude": chattering_amplitude(u[steady]),
+    }
+
+
+def _bus_run(cfg: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    summary = run_config(cfg, emulate=True)
+    _, columns = read_samples(summary["run_dir"])
+    return summary, columns
+
+
+def _servo_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
+    cases: tuple[tuple[str, str, float], ...] = (
+        ("(7.30) h=16", "7.30", 16.0),
+        ("(7.30) h=0", "7.30", 0.0),
+        ("sign law (6.8)", "sign", drives.H),
+    )
+    rows = []
+    for name, law, h in cases:
+        tr = position_servo_run(
+            load=DEMO_LOAD,
+            full_motor=True,
+            t_end=study.servo_t_end,
+            h=h,
+            law="relay" if law == "sign" else "7.30",
+        )
+        row = {"name": name, "law": law, "h": h if law == "7.30" else None, "over_bus": False}
+        row |= _servo_metrics(tr.t, tr.error, tr.u, study.servo_settle, 0.0)
+        rows.append(row)
+        plots.setdefault("position_servo", []).append(
+            Signals(name, tr.t, {"theta_r": tr.ref, "theta": tr.y, "u": tr.u})
+        )
+        if not study.bus:
+            continue
+        doc = demo_doc(output)
+        doc["run"] |= {"duration": study.servo_t_end, "name": f"drives-servo-{law}-h{h:g}"}
+        doc["controller"] |= {"h": h, "law": law}
+        summary, c = _bus_run(rig_config(doc, "rig reproduce drives"))
+        t, e = c["t"], c["reference"] - c["measurement"]
+        row = {"name": name, "law": law, "h": h if law == "7.30" else None, "over_bus": True}
+        row |= _servo_metrics(t, e, c["command"], study.servo_settle, summary["chattering_threshold"])
+        row["chattering_threshold"] = summary["chattering_threshold"]
+        row["safe_stop_reason"] = summary["safe_stop_reason"]
+        rows.append(row)
+        plots["position_servo"].append(
+            Signals(
+                f"{name} over the bus",
+                t,
+                {"theta_r": c["reference"], "theta": c["measurement"], "u": c["command"]},
+            )
+        )
+    return rows
+
+
+def _load_of(study: DrivesStudy) -> Any:
+    return parse_profile(drives.vii_d_load(study.load))
+
+
+def _windows(t_end: float) -> tuple[float, float, float]:
+    """(start of the error figures, steady window start, end): after the step; under the
+    constant load of 2-4 s, its last second (the last quarter of a shorter run)."""
+    return 1.0 if t_end > 2.0 else 0.5 * t_end, min(3.0, 0.75 * t_end), min(4.0, t_end)
+
+
+def _im_metrics(
+    t: np.ndarray, e: np.ndarray, u: np.ndarray, t_end: float, threshold: float
+) -> dict[str, float | int]:
+    t0, s0, s1 = _windows(t_end)
+    after = t >= t0
+    steady = (t >= s0) & (t < s1)
+    return {
+        "rms_error": rms(e[after]),
+        "max_error": max_abs(e[after]),
+        "steady_state_error": float(np.mean(e[steady])) if steady.any() else math.nan,
+        "chattering_count": chattering_count(u[steady], threshold=threshold),
+        "chattering_amplitude": chattering_amplitude(u[steady]),
+    }
+
+
+def im_speed_run(law: str, *, t_end: float, load: Any, dt: float = drives.T_SPEED) -> Signals:
+    """IDTSM or PI speed control of IM1 under ideal FOC: J dw/dt = T - B w - T_L (Table II),
+    the torque command held over each period (exact ZOH), a 100 rad/s step at 0.3 s."""
+    a = -drives.B_IM / drives.J_IM
+    b = 1.0 / drives.J_IM
+    ctl: IDTSM | PI
+    if law == "idtsm":
+        ctl = IDTSM(
+            IDTSMParams(a=a, b=b, dt=dt, lam=drives.LAMBDA_IDTSM, g_limit=IDTSM_G_LIMIT, u0=IM_TORQUE_LIMIT)
+        )
+    else:
+        ctl = PI(PIParams(kp=PI_KP, ki=PI_KI, dt=dt, u_max=IM_TORQUE_LIMIT, u_min=-IM_TORQUE_LIMIT))
+    n = round(t_end / dt)
+    t = np.arange(n) * dt
+    phi = math.exp(a * dt)
+    gain = (phi - 1.0) / a
+    w = 0.0
+    ref, y, u_out, tl = (np.empty(n) for _ in range(4))
+    for k in range(n):
+        tk = k * dt
+        w_r = 100.0 if tk >= 0.3 else 0.0
+        u = ctl.step(w_r - w)
+        torque_load = load(tk + 0.5 * dt)
+        ref[k], y[k], u_out[k], tl[k] = w_r, w, u, torque_load
+        w = phi * w + gain * b * (u - torque_load)
+    return Signals(law, t, {"omega_ref": ref, "omega": y, "torque": u_out, "T_L": tl})
+
+
+def _dyno_doc(study: DrivesStudy, output: str, name: str, controller: dict[str, Any]) -> dict[str, Any]:
+    load = -study.load
+    return {
+        "run": {"duration": study.im_t_end, "output": output, "name": name},
+        "emulator": {
+            "preset": "dyno",
+            "params": {"motor": "im", "period": drives.T_SPEED, "counts_per_rev": DYNO_COUNTS},
+        },
+        "axis": [
+            {
+                "name": "motor",
+                "kind": "cia402",
+                "node_id": 1,
+                "mode": "cst",
+                "sync_rpdo": False,  # applied on receipt, as the pure simulation's torque
+                "limits": {"command": 12.0, "speed": 320.0, "current": 12.0},
+            },
+            {
+                "name": "load",
+                "kind": "cia402",
+                "node_id": 3,
+                "mode": "cst",
+                "sync_rpdo": True,
+                "profile": drives.vii_d_load(load),
+                "limits": {"command": abs(load) * 1.2 + 0.1, "speed": 320.0},
+            },
+        ],
+        "controller": {"reads": ["motor"], "commands": ["motor"], **controller},
+    }
+
+
+def _im_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
+    rows = []
+    load = _load_of(study)
+    laws = (
+        ("IDTSM (6.20)-(6.21), Table IV", "idtsm"),
+        ("PI, Table III", "pi"),
+    )
+    for name, law in laws:
+        sig = im_speed_run(law, t_end=study.im_t_end, load=load)
+        e = sig.series["omega_ref"] - sig.series["omega"]
+        row = {"name": name, "law": law, "over_bus": False}
+        row |= _im_metrics(sig.t, e, sig.series["torque"], study.im_t_end, 0.0)
+        rows.append(row)
+        sig.name = name
+        plots.setdefault("im_speed", []).append(sig)
+        if not study.bus:
+            continue
+        if law == "idtsm":
+            controller = {
+                "kind": "idtsm-speed",
+                "a": -drives.B_IM / drives.J_IM,
+                "b": 1.0 / drives.J_IM,
+                "lam": drives.LAMBDA_IDTSM,
+                "g_limit": IDTSM_G_LIMIT,
+                "u0": IM_TORQUE_LIMIT,
+            }
+        else:
+            controller = {
+                "kind": "pi-speed",
+                "kp": PI_KP,
+                "ki": PI_KI,
+                "u_max": IM_TORQUE_LIMIT,
+                "u_min": -IM_TORQUE_LIMIT,
+            }
+        doc = _dyno_doc(study, output, f"drives-im-{law}", controller)
+        doc["reference"] = {"kind": "step", "value": 100.0, "start": 0.3}
+        summary, c = _bus_run(rig_config(doc, "rig reproduce drives"))
+        row = {"name": name, "law": law, "over_bus": True}
+        e = c["reference"] - c["measurement"]
+        row |= _im_metrics(c["t"], e, c["command"], study.im_t_end, summary["chattering_threshold"])
+        row["chattering_threshold"] = summary["chattering_threshold"]
+        row["safe_stop_reason"] = summary["safe_stop_reason"]
+        rows.append(row)
+        plots["im_speed"].append(
+            Signals(
+                f"{name} over the dyno",
+                c["t"],
+                {
+                    "omega_ref": c["reference"],
+                    "omega": c["measurement"],
+                    "torque": c["command"],
+                    "T_L": -c["load.command"],
+                },
+            )
+        )
+    return rows
+
+
+def _cascade_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
+    load = _load_of(study)
+    tr = cascade_run(t_end=study.im_t_end, load=load, move_start=0.3)
+    name = "cascade (6.36*), Table V"
+    row: dict[str, Any] = {"name": name, "law": "cascade", "over_bus": False}
+    row |= _im_metrics(tr.t, tr.error, tr.extra["i_ref"], study.im_t_end, 0.0)
+    row["command_unit"] = "A (q-current reference)"
+    rows = [row]
+    plots.setdefault("cascade", []).append(
+        Signals(
+            name,
+            tr.t,
+            {
+                "theta_r": tr.ref,
+                "theta": tr.y,
+                "omega_ref": tr.extra["omega_ref"],
+                "omega": tr.extra["omega"],
+                "i_ref": tr.extra["i_ref"],
+                "i_q": tr.extra["i_q"],
+            },
+        )
+    )
+    if study.bus:
+        controller = {"kind": "cascade-position", "position_every": 2}
+        doc = _dyno_doc(study, output, "drives-cascade", controller)
+        doc["reference"] = {"kind": "smooth-move", "distance": 10.0, "duration": 1.0, "start": 0.3}
+        summary, c = _bus_run(rig_config(doc, "rig reproduce drives"))
+        e = c["reference"] - c["measurement"]
+        k_t = drives.B_W * drives.J_IM
+        row = {"name": name, "law": "cascade", "over_bus": True}
+        row |= _im_metrics(c["t"], e, c["i_q_ref"], study.im_t_end, summary["chattering_threshold"] / k_t)
+        row["command_unit"] = "A (q-current reference)"
+        row["chattering_threshold"] = summary["chattering_threshold"] / k_t
+        row["safe_stop_reason"] = summary["safe_stop_reason"]
+        rows.append(row)
+        plots["cascade"].append(
+            Signals(
+                f"{name} over the dyno",
+                c["t"],
+                {
+                    "theta_r": c["reference"],
+                    "theta": c["measurement"],
+                    "omega_ref": c["omega_ref"],
+                    "omega": c["motor.velocity"],
+                    "i_ref": c["i_q_ref"],
+                },
+            )
+        )
+    return rows
+
+
+def drives_study(
+    study: DrivesStudy, output: str | None = None
+) -> tuple[dict[str, Any], dict[str, list[Signals]]]:
+    """The six parts of the reproduction (see the module docstring) and, per experiment
+    (``speed_loop``, ``position_servo``, ``im_speed``, ``cascade``), the runs' signals to plot.
+
+    The over-the-bus runs write their run directories under ``output`` (a temporary
+    directory, removed at the end, when None)."""
+    plots: dict[str, list[Signals]] = {}
+    with tempfile.TemporaryDirectory(prefix="rig-drives-") as tmp:
+        out = output or tmp
+        doc: dict[str, Any] = {
+            "design": _design_part(),
+            "table_v": _table_v_part(),
+            "speed_loop": _speed_part(study, plots),
+            "position_servo": _servo_part(study, out, plots),
+            "im_speed": _im_part(study, out, plots),
+            "cascade": _cascade_part(study, out, plots),
+        }
+    return doc, plots
