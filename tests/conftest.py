@@ -45,3 +45,12 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(skip_hw)
         if "vcan" in item.keywords and not vcan:
             item.add_marker(skip_vcan)
+
+
+@pytest.fixture(autouse=True)
+def _no_run_plots(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Runs in this process write no plot.png (matplotlib is in the test extras; a figure per
+    run would add seconds to every test that runs a rig); the recorder's plot test turns it on."""
+    from rig.host.recorder import Recorder
+
+    monkeypatch.setattr(Recorder, "PLOT", False)

@@ -11,7 +11,9 @@ Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
 - ``trace.asc``: the CAN trace in Vector ASCII (python-can's ``ASCWriter``), which
   CANalyzer, SavvyCAN, asammdf and python-can read; left out with ``[run] trace = false``;
 - ``summary.json``: the metrics and how the run ended;
-- ``plot.png`` when matplotlib is installed.
+- ``plot.png`` when matplotlib is installed (and ``Recorder.PLOT``, which the tests turn off
+  but in the test of the plot itself): reference and measurement, and the command, titled with
+  the run's name, the axes labelled with their units.
 
 The JSON files and ``samples.mat`` are written whole or not at all (a temporary file,
 then a rename). A write that fails while the run goes on (disk full, the directory
@@ -38,7 +40,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import can
 import numpy as np
@@ -123,6 +125,9 @@ class Recorder:
         self._trace_lock = threading.Lock()
         self.frames_dropped = 0  #: frames that arrived after the close
         self.error: StorageError | None = None  #: a write that failed (raised by the next ``sample``)
+
+    #: write plot.png on close when matplotlib is installed
+    PLOT: ClassVar[bool] = True
 
     def begin(self, columns: Sequence[str], docs: dict[str, dict[str, str]] | None = None) -> None:
         """The samples' columns (known once the axes are set up): the CSV header; ``docs``
@@ -261,31 +266,45 @@ class Recorder:
         }
         with _suppressed("summary.json not written", summary):
             write_atomic(self.dir / "summary.json", _json(clean))
-        with _suppressed("plot.png not written", summary):
-            self._plot(data)
+        if self.PLOT:
+            with _suppressed("plot.png not written", summary):
+                self.plot(data)
 
-    def _plot(self, data: np.ndarray) -> None:
+    def _label(self, column: str, name: str) -> str:
+        """``name [unit]`` with the column's unit from ``docs`` (none for a replay's mixed units)."""
+        unit = self.docs.get(column, {}).get("unit", "")
+        return f"{name} [{unit}]" if unit else name
+
+    def plot(self, data: np.ndarray) -> Any:
+        """Write plot.png from the samples ``data`` (rows of ``columns``); returns the figure,
+        None without matplotlib or samples."""
         try:
             import matplotlib
 
             matplotlib.use("Agg")
             import matplotlib.pyplot as plt
         except ImportError:
-            return
+            return None
         if not len(data):
-            return
+            return None
         fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
         t = data[:, 0]
         for name in ("reference", "measurement"):
             axes[0].plot(t, data[:, self.columns.index(name)], label=name)
-        axes[1].plot(t, data[:, self.columns.index("command")], label="command")
+        axes[1].plot(t, data[:, self.columns.index("command")], label="command (first commanded axis)")
+        axes[0].set_title("controlled variable")
+        axes[0].set_ylabel(self._label("measurement", "reference, measurement"))
+        axes[1].set_title("command")
+        axes[1].set_ylabel(self._label("command", "command"))
         for ax in axes:
             ax.grid(True)
             ax.legend()
         axes[-1].set_xlabel("time [s]")
+        fig.suptitle(f"run {self.dir.name}")
         fig.tight_layout()
         fig.savefig(self.dir / "plot.png")
         plt.close(fig)
+        return fig
 
 
 @contextlib.contextmanager

@@ -31,6 +31,7 @@ class FaultyLaw(Law):
         self.modes = inner.modes  # type: ignore[misc]
         self.reads = inner.reads  # type: ignore[misc]
         self.internals = inner.internals  # type: ignore[misc]
+        self.error_unit = inner.error_unit  # type: ignore[misc]
         self._half = inner.period / 2.0
 
     def begin(self, feedback: Sequence[Feedback]) -> None:

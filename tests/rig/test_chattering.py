@@ -11,7 +11,8 @@ import pytest
 
 from rig.config import load_config
 from rig.host.loop_stats import ChatterCounter
-from rig.host.session import run_config
+from rig.host.recorder import Recorder
+from rig.host.session import Session, run_config
 from rig.laws import make_law
 from rig.metrics import chattering_amplitude, chattering_count, count_threshold
 
@@ -85,3 +86,24 @@ def test_rig_run_summary_over_the_bus_7_30_zero_sign_law_hundreds(tmp_path: path
     assert servo["chattering_threshold"] > 10.0  # V: a count over T through (c_2/T)
     assert sign["chattering_count"] > 300  # of 2500 cycles in the second half
     assert sign["chattering_amplitude"] > 10.0
+
+
+def test_the_run_plot_is_titled_and_labelled_with_units(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(Recorder, "PLOT", True)
+    cfg = _servo_config(tmp_path)
+    cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, duration=0.2))
+    with Session(cfg, emulate=True) as session:
+        session.start()
+        recorder = session.recorder
+        summary = session.run()
+    assert (pathlib.Path(summary["run_dir"]) / "plot.png").stat().st_size > 1000
+    fig = recorder.plot(recorder.array())
+    top, bottom = fig.axes
+    assert fig._suptitle.get_text().startswith("run dc-servo-position")
+    assert top.get_ylabel() == "reference, measurement [rad]"
+    assert bottom.get_ylabel() == "command [V]"
+    assert bottom.get_xlabel() == "time [s]" and top.get_title() and bottom.get_title()
+    assert [len(ax.get_lines()) for ax in fig.axes] == [2, 1]
+    assert [t.get_text() for t in top.get_legend().get_texts()] == ["reference", "measurement"]

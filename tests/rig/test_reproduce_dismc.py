@@ -75,11 +75,25 @@ def test_param_overrides_and_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert "one of printed, solved" in capsys.readouterr().err
 
 
-def test_plot_is_written(tmp_path: object) -> None:
-    pytest.importorskip("matplotlib")
+def test_plot_is_written_with_titles_units_and_a_line_per_controller(tmp_path: object) -> None:
+    from rig.plots import plot_dismc
+
     out = tmp_path / "fig3.png"  # type: ignore[operator]
     assert main(["reproduce", "dismc", "--plot", str(out), "--json"]) == 0
     assert out.stat().st_size > 1000
+    fig = plot_dismc(run_dismc(), str(out), dt=DismcExample().Ts)
+    assert "Fig. 3" in fig._suptitle.get_text()
+    assert len(fig.axes) == 3
+    for ax in fig.axes:
+        assert ax.get_title() and ax.get_ylabel().endswith("[-]")
+        assert len(ax.get_lines()) == 4
+        assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+            "DSMC",
+            "DISMC-LMI",
+            "DISMC-LQR",
+            "DISMC-AW-LQR",
+        ]
+    assert fig.axes[-1].get_xlabel() == "time [s]"
 
 
 def test_metric_definitions() -> None:

@@ -101,8 +101,22 @@ def test_bad_param_is_a_usage_error(param: str, capsys: pytest.CaptureFixture[st
     assert err.count("\n") == 1
 
 
-def test_plot_writes_a_file(tmp_path: pytest.TempPathFactory, capsys: pytest.CaptureFixture[str]) -> None:
-    pytest.importorskip("matplotlib")
+def test_plot_writes_a_figure_with_titles_units_and_i_q_i_d_per_controller(
+    tmp_path: pytest.TempPathFactory, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rig.papers.dq_current import CONTROLLERS, cross_coupling
+    from rig.plots import plot_dq_steps
+
     path = tmp_path / "dq.png"  # type: ignore[operator]
     assert main(["reproduce", "dq-current", "--param", "strategy=s-pwm-start", "--plot", str(path)]) == 0
     assert path.stat().st_size > 1000
+    runs = cross_coupling(DqStudy(strategy="s-pwm-start"))
+    fig = plot_dq_steps(runs, str(path))
+    panels = {(r.strategy, r.ratio) for r in runs}
+    assert len(fig.axes) == len(panels) and fig._suptitle.get_text()
+    for ax in fig.axes:
+        assert "omega_k/omega_s" in ax.get_title()
+        assert ax.get_ylabel() == "current [per unit of the q step]"
+        assert len(ax.get_lines()) == 2 * len(CONTROLLERS)  # i_q and i_d of each controller
+        assert len(ax.get_legend().get_texts()) == len(ax.get_lines())
+    assert fig.axes[-1].get_xlabel() == "samples after the step [-]"
