@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import dataclasses
 from typing import Any
 
@@ -58,7 +59,12 @@ def print_summary(summary: dict[str, Any]) -> None:
         ("cycles", f"{summary['cycles']} run, {summary['overruns']} skipped (real time)"),
         ("rms error", f"{summary['rms_error']:.4g} {unit}".rstrip()),
         ("max error", f"{summary['max_error']:.4g} {unit}".rstrip()),
-        ("chattering", f"{summary['chattering_count']} sign alternations of the command increment"),
+        (
+            "chattering",
+            f"{summary['chattering_count']} sign alternations of the command increment beyond one "
+            f"count's effect ({summary.get('chattering_threshold', 0.0):.3g}) in the second half, "
+            f"RMS increment {summary.get('chattering_amplitude', math.nan):.3g} (command's unit)",
+        ),
         ("stop", summary["safe_stop_reason"] or "none: the run ended at its duration, every axis stopped"),
         (
             "stop confirmed",

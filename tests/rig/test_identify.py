@@ -71,6 +71,18 @@ def test_offline_from_a_run_directory_and_design_from_the_result(
     assert main(["identify", "--from-log", online["run_dir"], "--json"]) == 0
     offline = json.loads(capsys.readouterr().out)
     assert offline["a_m"] == online["a_m"] and offline["b_m"] == online["b_m"]
+    figure = tmp_path / "identify.png"
+    assert main(["identify", "--from-log", online["run_dir"], "--plot", str(figure)]) == 0
+    assert figure.stat().st_size > 1000
+    capsys.readouterr()
+    from rig.identify.experiment import identify_from_log
+    from rig.plots import plot_identify
+
+    fig = plot_identify(online["run_dir"], identify_from_log(online["run_dir"]), str(figure))
+    speed, u = fig.axes
+    assert "a_m" in fig._suptitle.get_text() and speed.get_title() and u.get_title()
+    assert (speed.get_ylabel(), u.get_ylabel(), u.get_xlabel()) == ("speed [rad/s]", "u [V]", "time [s]")
+    assert len(speed.get_lines()) == 2 and len(speed.get_legend().get_texts()) == 2
     result = tmp_path / "model.json"
     result.write_text(json.dumps(offline))
     assert (
