@@ -15,7 +15,12 @@ from rig.papers.dismc import DismcRun
 from rig.papers.dq_current import StepRun
 from rig.papers.drives_study import Signals
 
-__all__ = ["DRIVES_PLOTS", "plot_dismc", "plot_dq_steps", "plot_drives", "plot_identify"]
+__all__ = ["DRIVES_PLOTS", "plot_dismc", "plot_dq_steps", "plot_drives", "plot_identify", "require_pyplot"]
+
+
+def require_pyplot() -> Any:
+    """matplotlib's pyplot on the Agg backend; ConfigError naming the extra when it is missing."""
+    return _pyplot()
 
 
 def _pyplot() -> Any:

@@ -48,7 +48,7 @@ def add_parser(sub: Any) -> None:
         description="Designs (7.31) and Table V; runs the speed loop of Figs. 9-10 on the VII.B DC "
         "platform (section VII.A's text is missing), the VII.B position servo, the VII.C IM speed "
         "control and the VII.D cascade as pure simulations and over the emulated bus (lock-step; the "
-        "IM on the emulated dyno). About 45 s in full. Parameters: " + ", ".join(DRIVES_PARAM_NAMES) + ".",
+        "IM on the emulated dyno). About 50 s in full. Parameters: " + ", ".join(DRIVES_PARAM_NAMES) + ".",
     )
     add_json(
         drives,
@@ -151,9 +151,9 @@ def _drives(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"{where}: {exc}") from exc
     if args.plot:
-        from rig.plots import _pyplot
+        from rig.plots import require_pyplot
 
-        _pyplot()  # no matplotlib: say so before the runs
+        require_pyplot()  # no matplotlib: say so before the runs
     doc, signals = drives_study(study)
     if args.plot:
         from rig.plots import plot_drives

@@ -361,8 +361,10 @@ def _im_metrics(
 
 
 def im_speed_run(law: str, *, t_end: float, load: Any, dt: float = drives.T_SPEED) -> Signals:
-    """IDTSM or PI speed control of IM1 under ideal FOC: J dw/dt = T - B w - T_L (Table II),
-    the torque command held over each period (exact ZOH), a 100 rad/s step at 0.3 s."""
+    """IDTSM (6.20)-(6.21) (Table IV: lambda = -50 1/s; Int 1 limited to +-0.01) or the PI of
+    Table III (``law`` "idtsm" or "pi") controlling IM1 under ideal FOC, the mechanics of (4.2)
+    with Table II's J and B, J dw/dt = T - B w - T_L, the torque command held over each
+    period (exact ZOH), a 100 rad/s step at 0.3 s; ``load(t)`` [N m] taken mid-period."""
     a = -drives.B_IM / drives.J_IM
     b = 1.0 / drives.J_IM
     ctl: IDTSM | PI
