@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import math
 import dataclasses
+import math
 from typing import Any
 
 from rig.cli.common import UsageError, add_json, add_params, exit_code, finite, params_of, print_json
