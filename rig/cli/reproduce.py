@@ -48,7 +48,7 @@ def add_parser(sub: Any) -> None:
         description="Designs (7.31) and Table V; runs the speed loop of Figs. 9-10 on the VII.B DC "
         "platform (section VII.A's text is missing), the VII.B position servo, the VII.C IM speed "
         "control and the VII.D cascade as pure simulations and over the emulated bus (lock-step; the "
-        "IM on the emulated dyno). About 50 s in full. Parameters: " + ", ".join(DRIVES_PARAM_NAMES) + ".",
+        "IM on the emulated dyno). About 25 s in full. Parameters: " + ", ".join(DRIVES_PARAM_NAMES) + ".",
     )
     add_json(
         drives,
