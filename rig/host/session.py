@@ -233,7 +233,10 @@ class Session:
         if cfg.bus.sync == "external":
             return ExternalSync(self.network, canopen_axes, timeout)
         if cfg.run.time == "lockstep":
-            return WireLockstep(self.network, canopen_axes, timeout)
+            # the answers' wait is the transport's, not the emulated time's: at least the watchdog
+            # in seconds (3 periods of 0.4 ms expired before socketcand's first answer came)
+            wait = max(timeout, min(a.limits.watchdog for a in cfg.axes))
+            return WireLockstep(self.network, canopen_axes, wait)
         if cfg.bus.interface == "socketcan":
             return KernelSync(self.network, canopen_axes, period, timeout)
         return HostSync(self.network)

@@ -45,8 +45,9 @@ def test_lockstep_over_socketcand_equals_the_in_process_run(tmp_path: pathlib.Pa
             run=dataclasses.replace(cfg.run, period=0.4e-3),
             bus=BusConfig(interface="socketcand", channel="can0", port=int(match.group(1))),
         )
-        # two processes share two cores: a TPDO may come late, never wrong
-        wire_cfg = replace_axis(wire_cfg, "motor", limits={"watchdog_periods": 10_000})
+        # the example's 3-period watchdog (1.2 ms) counts SYNCs; the wait for each answer over
+        # the socket is the watchdog in seconds (two processes share two cores: 2 s here)
+        wire_cfg = replace_axis(wire_cfg, "motor", limits={"watchdog_periods": 3, "watchdog": 2.0})
         wire = _run(wire_cfg, emulate=False)
     finally:
         _, err = stop_rig(proc, timeout=20)
