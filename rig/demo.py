@@ -9,6 +9,7 @@ discontinuous sign law; then runs the same servo over the emulated CAN bus
 
 from __future__ import annotations
 
+import importlib.util
 import math
 from dataclasses import dataclass
 from typing import Any, TextIO
@@ -152,5 +153,7 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
         "  (7.30)'s command by up to chattering_threshold V, so its one-count limit cycle is not\n"
         '  counted; README, section "Chattering")\n'
     )
+    if importlib.util.find_spec("matplotlib") is None:
+        out.write("  (no plot.png: it needs matplotlib, python -m pip install -e '.[plot]')\n")
     simulated_ok = all(math.isfinite(float(r["steady_state_error_rad"])) for r in s.rows)
     return 0 if simulated_ok and wire["safe_stop_reason"] is None else 1
