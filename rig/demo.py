@@ -22,6 +22,7 @@ from rig.identify.experiment import experiment_config, identify_from_log, run_ex
 from rig.metrics import chattering_amplitude, chattering_count, max_abs, rms
 from rig.papers import drives
 from rig.papers.scenarios import Trajectory, cascade_run, position_servo_run
+from rig.report import summary_lines
 
 __all__ = ["DemoSummary", "demo_config", "demo_doc", "demo_summary", "run_demo"]
 
@@ -145,12 +146,10 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
     )
     out.write("  design (7.31) from the identified model, lambda = -15; run over the bus:\n")
     wire = run_config(demo_config(output, a_m=model.a_m, b_m=model.b_m), emulate=True)
-    keys = ("cycles", "rms_error", "max_error", "chattering_count", "chattering_amplitude")
-    for key in (*keys, "chattering_threshold", "safe_stop_reason", "run_dir"):
-        out.write(f"  {key:18s} {wire[key]}\n")
+    out.write("".join(f"  {line}\n" for line in summary_lines(wire)))
     out.write(
         "  (chattering over the run's second half; a one-count change of the 4096-count encoder moves\n"
-        "  (7.30)'s command by up to chattering_threshold V, so its one-count limit cycle is not\n"
+        "  (7.30)'s command by up to the volts in brackets, so its one-count limit cycle is not\n"
         '  counted; README, section "Chattering")\n'
     )
     if importlib.util.find_spec("matplotlib") is None:

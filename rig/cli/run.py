@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 from typing import Any
 
 from rig.cli.common import UsageError, add_json, add_params, exit_code, finite, params_of, print_json
 from rig.cli.progress import Progress
+from rig.report import summary_lines
 
 __all__ = ["add_parser", "print_summary"]
 
@@ -47,41 +47,9 @@ def add_parser(sub: Any) -> None:
     run.set_defaults(handler=execute)
 
 
-#: the unit each axis peak is in
-_PEAK_UNITS = {"max_abs_velocity": "rad/s", "max_abs_current": "A", "max_abs_position": "rad"}
-
-
 def print_summary(summary: dict[str, Any]) -> None:
-    """The summary for a person, with units: the law's figures, the stop in words, each axis's
-    peaks (``--json`` has the same keys as numbers)."""
-    unit = summary.get("error_unit", "")
-    rows = [
-        ("cycles", f"{summary['cycles']} run, {summary['overruns']} skipped (real time)"),
-        ("rms error", f"{summary['rms_error']:.4g} {unit}".rstrip()),
-        ("max error", f"{summary['max_error']:.4g} {unit}".rstrip()),
-        (
-            "chattering",
-            f"{summary['chattering_count']} sign alternations of the command increment beyond one "
-            f"count's effect ({summary.get('chattering_threshold', 0.0):.3g}) in the second half, "
-            f"RMS increment {summary.get('chattering_amplitude', math.nan):.3g} (command's unit)",
-        ),
-        ("stop", summary["safe_stop_reason"] or "none: the run ended at its duration, every axis stopped"),
-        (
-            "stop confirmed",
-            {True: "yes", False: "NO: an axis may still be moving", None: "-"}[summary["stop_confirmed"]],
-        ),
-        ("run directory", summary["run_dir"]),
-    ]
-    for key, text in rows:
-        print(f"{key:15s} {text}")
-    for name, peaks in summary.get("axes", {}).items():
-        print(
-            f"axis {name:10s} "
-            + ", ".join(
-                f"{k.removeprefix('max_abs_')} {v:.4g} {_PEAK_UNITS.get(k, '')}".rstrip()
-                for k, v in peaks.items()
-            )
-        )
+    """The summary for a person (``rig.report.summary_lines``)."""
+    print("\n".join(summary_lines(summary)))
 
 
 def execute(args: argparse.Namespace) -> int:

@@ -99,10 +99,11 @@ def test_demo_runs_and_reports(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo"]) == 0
     out = capsys.readouterr().out
     assert "dtsm-7.30 h=16" in out and "sign law" in out and "cascade" in out
-    assert "Over the emulated CAN bus" in out and "safe_stop_reason   None" in out
+    assert "Over the emulated CAN bus" in out and "stop            none: the run ended" in out
+    assert "rms error       " in out and " rad\n" in out  # with its unit
     # (7.30) over the 4096-count encoder: its one-count limit cycle is not chattering
-    assert "chattering_count   0\n" in out and 'README, section "Chattering"' in out
-    run_dir = pathlib.Path(out.split("run_dir")[1].split()[0])
+    assert "chattering      0 sign alternations" in out and 'README, section "Chattering"' in out
+    run_dir = pathlib.Path(out.split("run directory")[1].split()[0])
     assert (run_dir / "samples.csv").exists() and (run_dir / "summary.json").exists()
 
 

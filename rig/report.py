@@ -1,0 +1,44 @@
+"""A run's summary for people: units, the stop in words, each axis's peaks (``rig run``, ``rig demo``)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+__all__ = ["summary_lines"]
+
+#: the unit each axis peak is in
+_PEAK_UNITS = {"max_abs_velocity": "rad/s", "max_abs_current": "A", "max_abs_position": "rad"}
+
+
+def summary_lines(summary: dict[str, Any]) -> list[str]:
+    """The summary for a person, with units: the law's figures, the stop in words, each axis's
+    peaks (``--json`` has the same keys as numbers)."""
+    unit = summary.get("error_unit", "")
+    rows = [
+        ("cycles", f"{summary['cycles']} run, {summary['overruns']} skipped (real time)"),
+        ("rms error", f"{summary['rms_error']:.4g} {unit}".rstrip()),
+        ("max error", f"{summary['max_error']:.4g} {unit}".rstrip()),
+        (
+            "chattering",
+            f"{summary['chattering_count']} sign alternations of the command increment beyond one "
+            f"count's effect ({summary.get('chattering_threshold', 0.0):.3g}) in the second half, "
+            f"RMS increment {summary.get('chattering_amplitude', math.nan):.3g} (command's unit)",
+        ),
+        ("stop", summary["safe_stop_reason"] or "none: the run ended at its duration, every axis stopped"),
+        (
+            "stop confirmed",
+            {True: "yes", False: "NO: an axis may still be moving", None: "-"}[summary["stop_confirmed"]],
+        ),
+        ("run directory", summary["run_dir"]),
+    ]
+    lines = [f"{key:15s} {text}" for key, text in rows]
+    for name, peaks in summary.get("axes", {}).items():
+        lines.append(
+            f"axis {name:10s} "
+            + ", ".join(
+                f"{k.removeprefix('max_abs_')} {v:.4g} {_PEAK_UNITS.get(k, '')}".rstrip()
+                for k, v in peaks.items()
+            )
+        )
+    return lines
