@@ -26,6 +26,7 @@ absent, a fixed mapping that the EDS would let be written).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -127,8 +128,9 @@ class DeviceProfile:
         """The manufacturer object that plays ``role``, or None."""
         return next((m.index for m in self.manufacturer if m.role == role), None)
 
-    @property
+    @functools.cached_property
     def harmful(self) -> frozenset[int]:
+        """The indices of the harmful manufacturer objects (asked at every object write)."""
         return frozenset(m.index for m in self.manufacturer if m.harmful)
 
     def check_against(self, od: Any) -> tuple[Mode, ...]:
