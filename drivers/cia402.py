@@ -51,6 +51,7 @@ from drivers.errors import (
 from drivers.maps import CIA402_EDS, cia
 from drivers.maps.cia import Controlword, Mode, PowerState
 from drivers.maps.emcy import emcy_text
+from drivers.maps.mode_names import mode_code
 
 __all__ = ["Cia402Axis", "DriveUnits", "power_state"]
 
@@ -110,7 +111,7 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         emcy_texts: Mapping[int, str] | None = None,
     ) -> None:
         try:
-            self.op_mode = cia.mode_code(mode)
+            self.op_mode = mode_code(mode)
         except ValueError as exc:
             raise ConfigError(f"axis {name!r}: {exc}") from None
         if pdo not in ("remap", "device"):

@@ -51,6 +51,7 @@ from drivers.maps.cia import (
     SdoAbortCode,
 )
 from drivers.maps.od import load_od
+from plant_emulator.device_hooks import DeviceHooks
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
 from plant_emulator.supervision import Deadlines, HeartbeatConsumer, Supervision, check_consumer_entry
@@ -69,11 +70,11 @@ PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = (
 _SDO_SYNC_STATES = (PRE_OPERATIONAL, OPERATIONAL)
 
 
-class EmulatedNode(Supervision):
+class EmulatedNode(Supervision, DeviceHooks):
     """A CiA 301 slave on ``network`` built from the EDS at ``eds``.
 
-    Subclasses override ``on_sync_latch`` (update the process data before the
-    synchronous TPDOs go out), ``on_rpdo`` and ``on_reset``.
+    Devices override its hooks (``plant_emulator.device_hooks``): ``on_sync_latch`` updates the
+    process data before the synchronous TPDOs go out, ``on_rpdo``, ``on_reset``, ...
     """
 
     def __init__(self, node_id: int, eds: str, network: canopen.Network) -> None:
@@ -374,30 +375,3 @@ class EmulatedNode(Supervision):
         self.write(cia.ERROR_REGISTER, 0, register)
         if self.nmt_state != STOPPED:
             self.node.emcy.send(code, register, data)
-
-    # --- hooks -------------------------------------------------------------
-    def sync_time(self, timestamp: float) -> float:
-        """The device time [s] at a SYNC stamped ``timestamp`` [s], after ``on_sync_latch``:
-        the emulator's clock in real time, else the stamp. A device whose time is the SYNC
-        count (lock-step across processes, where a stamp is the host's wall clock) overrides
-        it, so its heartbeat consumer and RPDO deadlines count SYNCs as the host does."""
-        return timestamp if self.clock_source is None else self.clock_source()
-
-    def on_sync_latch(self, timestamp: float) -> None:
-        """SYNC arrived at ``timestamp`` [s]: advance and latch process data."""
-
-    def on_rpdo(self, number: int, *, synchronous: bool) -> None:
-        """RPDO ``number`` (0-based) was written into the object dictionary."""
-
-    def on_reset(self, *, application: bool) -> None:
-        """NMT reset node (application) or power-on."""
-
-    def after_write(self, index: int) -> None:
-        """An SDO or RPDO write to ``index`` was stored."""
-
-    def on_abort_connection(self, what: str, code: int) -> None:
-        """The connection to the host is lost (``what``; EMCY code ``code``): a drive's 0x6007."""
-
-    def on_write(self, index: int, subindex: int, data: bytes) -> None:
-        """An SDO or RPDO write of ``data`` to (index, subindex) is about to be stored; an
-        ``SdoAbortedError`` refuses it."""

@@ -36,7 +36,8 @@ from typing import Any
 from drivers.errors import ConfigError
 from drivers.files import read_toml
 from drivers.maps import cia
-from drivers.maps.cia import MODE_BITS, MODE_NAMES, Mode
+from drivers.maps.cia import MODE_BITS, Mode
+from drivers.maps.mode_names import MODE_NAMES
 from drivers.maps.units import SiUnit
 
 __all__ = [

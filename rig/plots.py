@@ -13,7 +13,7 @@ from typing import Any
 from drivers.errors import ConfigError
 from rig.papers.dismc import DismcRun
 from rig.papers.dq_current import StepRun
-from rig.papers.drives_study import Signals
+from rig.papers.drives_setup import Signals
 
 __all__ = ["DRIVES_PLOTS", "plot_dismc", "plot_dq_steps", "plot_drives", "plot_identify", "require_pyplot"]
 
@@ -150,6 +150,53 @@ def _panels(plt: Any, runs: Sequence[Signals], panels: Sequence[Panel], title: s
     return _save(plt, fig, path)
 
 
+#: per experiment of ``rig reproduce drives``: the figure's title and its panels, after the paper's figures
+DRIVES_SPECS: dict[str, tuple[str, Sequence[Panel]]] = {
+    "speed_loop": (
+        "Figs. 9-10 on the VII.B DC platform (a_m = 16, b_m = 680, T = 0.4 ms):\n"
+        "f = 5 h(t-2) sin(5t) V in the control channel, 100 rad/s step at t = 0",
+        (
+            ("speed response (Fig. 9)", "omega [rad/s]", (("omega", ""),), 0.0),
+            ("speed error from 1.5 s", "e = omega* - omega [rad/s]", (("e", ""),), 1.5),
+            ("switching function from 1.5 s (Fig. 10)", "g [V s]", (("g", ""),), 1.5),
+        ),
+    ),
+    "position_servo": (
+        "Section VII.B: DC position servo, (7.30) h = 16 / h = 0 and the sign law (6.8),\n"
+        "load step f = 1000 rad/s^2 at 1.5 s; pure simulation and over the emulated bus",
+        (
+            ("position (Fig. 12)", "theta [rad]", (("theta_r", "ref"), ("theta", "")), 0.0),
+            ("tracking error (Fig. 13)", "e = theta_r - theta [rad]", (("e", ""),), 0.0),
+            ("control signal (Fig. 14)", "u [V]", (("u", ""),), 0.0),
+        ),
+    ),
+    "im_speed": (
+        "Section VII.C: IM1 speed control, IDTSM (Table IV) vs PI (Table III),\n"
+        "T_L = 5 [h(t-2) - h(t-4) + h(t-8) sin(4 pi t)] N m; pure simulation and over the dyno",
+        (
+            ("speed (Figs. 17-18)", "omega [rad/s]", (("omega_ref", "ref"), ("omega", "")), 0.0),
+            ("speed error (Fig. 19)", "e = omega* - omega [rad/s]", (("e", ""),), 0.0),
+            ("torque command (Fig. 21) and load", "torque [N m]", (("T_L", "ref"), ("torque", "")), 0.0),
+        ),
+    ),
+    "cascade": (
+        "Section VII.D: IM position cascade (Table V, reconstructed (6.36)),\n"
+        "the same load; pure simulation and over the dyno",
+        (
+            ("position tracking (Fig. 22)", "theta [rad]", (("theta_r", "ref"), ("theta", "")), 0.0),
+            ("position error (Fig. 23)", "e = theta_r - theta [rad]", (("e", ""),), 0.0),
+            (
+                "speed reference and speed (Fig. 24)",
+                "omega [rad/s]",
+                (("omega_ref", ": omega*"), ("omega", ": omega")),
+                0.0,
+            ),
+            ("q-current reference (Fig. 26)", "i_q* [A]", (("i_ref", ""),), 0.0),
+        ),
+    ),
+}
+
+
 def plot_drives(plots: dict[str, list[Signals]], directory: str) -> dict[str, Any]:
     """Write one figure per experiment of ``rig reproduce drives`` into ``directory``
     (``DRIVES_PLOTS``), with the quantities of the paper's figures; returns them by experiment."""
@@ -166,52 +213,8 @@ def plot_drives(plots: dict[str, list[Signals]], directory: str) -> dict[str, An
                 s["e"] = s["theta_r"] - s["theta"]
             if "omega_ref" in s and "omega" in s and "theta_r" not in s:
                 s["e"] = s["omega_ref"] - s["omega"]
-    specs: dict[str, tuple[str, Sequence[Panel]]] = {
-        "speed_loop": (
-            "Figs. 9-10 on the VII.B DC platform (a_m = 16, b_m = 680, T = 0.4 ms):\n"
-            "f = 5 h(t-2) sin(5t) V in the control channel, 100 rad/s step at t = 0",
-            (
-                ("speed response (Fig. 9)", "omega [rad/s]", (("omega", ""),), 0.0),
-                ("speed error from 1.5 s", "e = omega* - omega [rad/s]", (("e", ""),), 1.5),
-                ("switching function from 1.5 s (Fig. 10)", "g [V s]", (("g", ""),), 1.5),
-            ),
-        ),
-        "position_servo": (
-            "Section VII.B: DC position servo, (7.30) h = 16 / h = 0 and the sign law (6.8),\n"
-            "load step f = 1000 rad/s^2 at 1.5 s; pure simulation and over the emulated bus",
-            (
-                ("position (Fig. 12)", "theta [rad]", (("theta_r", "ref"), ("theta", "")), 0.0),
-                ("tracking error (Fig. 13)", "e = theta_r - theta [rad]", (("e", ""),), 0.0),
-                ("control signal (Fig. 14)", "u [V]", (("u", ""),), 0.0),
-            ),
-        ),
-        "im_speed": (
-            "Section VII.C: IM1 speed control, IDTSM (Table IV) vs PI (Table III),\n"
-            "T_L = 5 [h(t-2) - h(t-4) + h(t-8) sin(4 pi t)] N m; pure simulation and over the dyno",
-            (
-                ("speed (Figs. 17-18)", "omega [rad/s]", (("omega_ref", "ref"), ("omega", "")), 0.0),
-                ("speed error (Fig. 19)", "e = omega* - omega [rad/s]", (("e", ""),), 0.0),
-                ("torque command (Fig. 21) and load", "torque [N m]", (("T_L", "ref"), ("torque", "")), 0.0),
-            ),
-        ),
-        "cascade": (
-            "Section VII.D: IM position cascade (Table V, reconstructed (6.36)),\n"
-            "the same load; pure simulation and over the dyno",
-            (
-                ("position tracking (Fig. 22)", "theta [rad]", (("theta_r", "ref"), ("theta", "")), 0.0),
-                ("position error (Fig. 23)", "e = theta_r - theta [rad]", (("e", ""),), 0.0),
-                (
-                    "speed reference and speed (Fig. 24)",
-                    "omega [rad/s]",
-                    (("omega_ref", ": omega*"), ("omega", ": omega")),
-                    0.0,
-                ),
-                ("q-current reference (Fig. 26)", "i_q* [A]", (("i_ref", ""),), 0.0),
-            ),
-        ),
-    }
     for key, filename in DRIVES_PLOTS:
         if key in plots:
-            title, panels = specs[key]
+            title, panels = DRIVES_SPECS[key]
             figures[key] = _panels(plt, plots[key], panels, title, out / filename)
     return figures

@@ -25,7 +25,6 @@ __all__ = [
     "COB_TPDO",
     "COMMUNICATION_AREA",
     "MODE_BITS",
-    "MODE_NAMES",
     "NODE_IDS",
     "PDO_INVALID",
     "TARGET_OF_MODE",
@@ -42,7 +41,6 @@ __all__ = [
     "SdoAbortCode",
     "decode_statusword",
     "map_entry",
-    "mode_code",
     "split_map_entry",
 ]
 
@@ -358,18 +356,6 @@ class Mode(enum.IntEnum):
     DQ_VOLTAGE = -2  #: dq voltage [mV] in DQ_VOLTAGE
 
 
-#: the configuration's mode names
-MODE_NAMES = {
-    "pp": Mode.PROFILE_POSITION,
-    "pv": Mode.PROFILE_VELOCITY,
-    "tq": Mode.PROFILE_TORQUE,
-    "csp": Mode.CSP,
-    "csv": Mode.CSV,
-    "cst": Mode.CST,
-    "voltage": Mode.VOLTAGE,
-    "dq-voltage": Mode.DQ_VOLTAGE,
-}
-
 #: bit of each mode in SUPPORTED_MODES (0x6502); bits 16-31 are manufacturer specific
 MODE_BITS = {
     Mode.PROFILE_POSITION: 1 << 0,
@@ -392,19 +378,6 @@ TARGET_OF_MODE = {
     Mode.CSV: (TARGET_VELOCITY, 0),
     Mode.CST: (TARGET_TORQUE, 0),
 }
-
-
-def mode_code(mode: str | int) -> Mode:
-    """A mode by its configuration name or number; ValueError naming the known ones."""
-    if isinstance(mode, str):
-        if mode in MODE_NAMES:
-            return MODE_NAMES[mode]
-    else:
-        try:
-            return Mode(mode)
-        except ValueError:
-            pass
-    raise ValueError(f"unknown CiA 402 mode {mode!r}; known: {', '.join(MODE_NAMES)}")
 
 
 PROFILE_DRIVE, PROFILE_ENCODER = 402, 406  #: device profile numbers in the low word of DEVICE_TYPE

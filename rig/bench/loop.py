@@ -27,6 +27,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import canopen
 
@@ -161,13 +162,19 @@ def _realtime(out: str, seconds: float) -> list[Figure]:
         steal1 = _steal_jiffies()
     finally:
         stop_rig(proc, timeout=10)
-    timing = summary["timing"]
-    gaps = [b - a for a, b in itertools.pairwise(arrivals)]
     steal = (
         (steal1 - steal0) / os.sysconf("SC_CLK_TCK") * 1e3
         if steal0 is not None and steal1 is not None
         else math.nan
     )
+    return _realtime_figures(summary, arrivals, steal)
+
+
+def _realtime_figures(summary: dict[str, Any], arrivals: list[float], steal: float) -> list[Figure]:
+    """The real-time run's figures from its summary, the drive's TPDO arrival times [s] and the
+    machine's steal time meanwhile [ms]."""
+    timing = summary["timing"]
+    gaps = [b - a for a, b in itertools.pairwise(arrivals)]
     figures: list[Figure] = [
         {
             "name": f"realtime_1khz_period_error_{name}",

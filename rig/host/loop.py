@@ -35,14 +35,13 @@ from drivers.base import AxisDriver, Feedback
 from drivers.bus import brief
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
-from rig.host.loop_stats import ChatterCounter, StageTimes
+from rig.host.loop_stats import RunMetrics, StageTimes, chatter_threshold
 from rig.host.pacing import Pacing
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.host.signals import stop_reason
 from rig.host.stopping import bring_to_rest
 from rig.laws.base import Law, LawStep
-from rig.metrics import count_threshold
 
 __all__ = ["HostLoop", "StageTimes", "Wiring", "missed_periods"]
 
@@ -69,18 +68,6 @@ class Wiring:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "commanded", self.commands + tuple(i for i, _ in self.profiles))
-
-
-def chatter_threshold(law: Law, axis: AxisDriver | None, period: float) -> float:
-    """The change of the law's first command that one count of the first read axis's measurement
-    can cause (``rig.metrics.count_threshold``): the law's ``sensitivity`` times the axis's
-    ``quanta``, with the speed quantum at least a count per period [unit of the command]."""
-    if axis is None:
-        return 0.0
-    q_theta, q_omega = axis.quanta()
-    return count_threshold(
-        law.sensitivity(), position_quantum=q_theta, velocity_quantum=max(q_omega, q_theta / period)
-    )
 
 
 def missed_periods(gap: float, period: float) -> int:
@@ -139,19 +126,13 @@ class HostLoop:
         self._begun = False
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
         self._t_start = self._t_end = 0.0  #: perf_counter [s] of the first cycle, the last one's end
-        self._sq_error = 0.0
-        self._max_error = 0.0
-        self.chatter_threshold = chatter_threshold(
-            law, axes[wiring.reads[0]] if wiring.reads else None, period
+        self.metrics = RunMetrics(
+            [a.name for a in self.axes],
+            [a.measures for a in self.axes],
+            wiring.commanded,
+            threshold=chatter_threshold(law, axes[wiring.reads[0]] if wiring.reads else None, period),
+            steady_from=cycles // 2,  # the run's second half is its steady state (README "Chattering")
         )
-        #: chattering in the steady state, taken as the run's second half (README "Chattering")
-        self._chatter = ChatterCounter(self.chatter_threshold, start=cycles // 2)
-        self._peaks = {a.name: dict.fromkeys(("velocity", "current", "command"), 0.0) for a in self.axes}
-        #: per axis, its peaks and the measured quantities whose peak is kept
-        self._peak_fields = [
-            (self._peaks[a.name], [f for f in ("velocity", "current") if f in a.measures]) for a in self.axes
-        ]
-        self._command_peaks = [self._peaks[self.axes[i].name] for i in wiring.commanded]
         self._recorded = [(i, [f for f in FIELDS if f in a.measures]) for i, a in enumerate(self.axes)]
 
     @staticmethod
@@ -320,7 +301,7 @@ class HostLoop:
             newest = max((fb.stamp for fb in reads if fb.stamp is not None), default=None)
             if newest is not None:  # the TPDO's time on the bus to the RPDO's
                 self.times.response.append(time.time() - newest)
-        self._account(out.reference, out.measurement, values, samples)
+        self.metrics.add(out.reference, out.measurement, values, samples)
         self.times.read.append(t1 - t0)
         self.times.update.append(t2 - t1)
         self.times.write.append(t3 - t2)
@@ -358,21 +339,6 @@ class HostLoop:
         commands = tuple(c if n is None else n for c, n in zip(last.commands, neutral))
         return LawStep(commands, last.reference, last.measurement, last.internals), True
 
-    def _account(self, ref: float, y: float, values: list[Any], samples: list[Feedback]) -> None:
-        """Streaming metrics: nothing grows with the run's length."""
-        e = ref - y
-        self._sq_error += e * e
-        self._max_error = max(self._max_error, abs(e))
-        if values:
-            self._chatter.add(abs(values[0]) if isinstance(values[0], complex) else values[0])
-        for (peaks, names), fb in zip(self._peak_fields, samples):
-            for name in names:
-                value = abs(getattr(fb, name))
-                peaks[name] = max(peaks[name], value)
-        for peaks, command in zip(self._command_peaks, values):
-            value = abs(command)
-            peaks["command"] = max(peaks["command"], value)
-
     def safe_stop(self, reason: str) -> None:
         """The one way out: a neutral command, quick stop, the drives' ramps to rest, disable."""
         self.safe_stop_reason = reason
@@ -396,14 +362,15 @@ class HostLoop:
 
     def summary(self) -> dict[str, Any]:
         n = self.done
+        m = self.metrics
         return {
             "cycles": n,
-            "rms_error": math.sqrt(self._sq_error / n) if n else math.nan,
-            "max_error": self._max_error if n else math.nan,
+            "rms_error": m.rms_error(n),
+            "max_error": m.max_error if n else math.nan,
             "error_unit": self.law.error_unit,
-            "chattering_count": self._chatter.count,
-            "chattering_amplitude": self._chatter.amplitude,
-            "chattering_threshold": self.chatter_threshold,
+            "chattering_count": m.chatter.count,
+            "chattering_amplitude": m.chatter.amplitude,
+            "chattering_threshold": m.threshold,
             "overruns": self.overruns,
             "held_cycles": self.held,
             "elapsed_s": self.elapsed,
@@ -411,5 +378,5 @@ class HostLoop:
             "stop_confirmed": self.stop_confirmed,
             "run_dir": str(self.recorder.dir),
             "timing": self.times.stats(),
-            "axes": {name: {f"max_abs_{k}": v for k, v in p.items()} for name, p in self._peaks.items()},
+            "axes": m.axis_peaks(),
         }

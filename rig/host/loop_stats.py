@@ -5,13 +5,19 @@ from __future__ import annotations
 
 import collections
 import math
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rig.metrics import ROUNDING
+from rig.metrics import ROUNDING, count_threshold
 
-__all__ = ["ChatterCounter", "StageTimes"]
+if TYPE_CHECKING:
+    from drivers.base import AxisDriver
+    from rig.laws.base import Law
+
+__all__ = ["ChatterCounter", "RunMetrics", "StageTimes", "chatter_threshold"]
 
 
 class _Window(collections.deque):  # type: ignore[type-arg]
@@ -82,3 +88,67 @@ class ChatterCounter:
                     self.count += 1
                 self._sign = sign
         self._last = u
+
+
+def chatter_threshold(law: Law, axis: AxisDriver | None, period: float) -> float:
+    """The change of the law's first command that one count of the first read axis's measurement
+    can cause (``rig.metrics.count_threshold``): the law's ``sensitivity`` times the axis's
+    ``quanta``, with the speed quantum at least a count per period [unit of the command]."""
+    if axis is None:
+        return 0.0
+    q_theta, q_omega = axis.quanta()
+    return count_threshold(
+        law.sensitivity(), position_quantum=q_theta, velocity_quantum=max(q_omega, q_theta / period)
+    )
+
+
+class RunMetrics:
+    """The run's tracking error, chattering and per-axis peaks, kept cycle by cycle (nothing
+    grows with the run's length): ``add`` each cycle, read at the summary."""
+
+    def __init__(
+        self,
+        names: Sequence[str],
+        measures: Sequence[Collection[str]],
+        commanded: Sequence[int],
+        *,
+        threshold: float,
+        steady_from: int,
+    ) -> None:
+        """Axes by ``names`` with the quantities each ``measures``; ``commanded``: the axes (indices)
+        of a cycle's commands, in order; ``threshold``: the chattering threshold [command unit]
+        (``chatter_threshold``), counted from cycle ``steady_from``."""
+        self.threshold = threshold
+        self.sq_error = 0.0
+        self.max_error = 0.0
+        self.chatter = ChatterCounter(threshold, start=steady_from)
+        self.peaks = {name: dict.fromkeys(("velocity", "current", "command"), 0.0) for name in names}
+        #: per axis, its peaks and the measured quantities whose peak is kept
+        self._fields = [
+            (self.peaks[name], [f for f in ("velocity", "current") if f in m])
+            for name, m in zip(names, measures)
+        ]
+        self._command_peaks = [self.peaks[names[i]] for i in commanded]
+
+    def add(self, ref: float, y: float, values: Sequence[Any], samples: Sequence[Any]) -> None:
+        """One cycle: reference and measurement, its commands (``values``), the axes' feedback."""
+        e = ref - y
+        self.sq_error += e * e
+        self.max_error = max(self.max_error, abs(e))
+        if values:
+            self.chatter.add(abs(values[0]) if isinstance(values[0], complex) else values[0])
+        for (peaks, names), fb in zip(self._fields, samples):
+            for name in names:
+                value = abs(getattr(fb, name))
+                peaks[name] = max(peaks[name], value)
+        for peaks, command in zip(self._command_peaks, values):
+            value = abs(command)
+            peaks["command"] = max(peaks["command"], value)
+
+    def rms_error(self, n: int) -> float:
+        """The RMS tracking error over ``n`` cycles (NaN for none)."""
+        return math.sqrt(self.sq_error / n) if n else math.nan
+
+    def axis_peaks(self) -> dict[str, dict[str, float]]:
+        """Per axis, ``max_abs_velocity``, ``max_abs_current``, ``max_abs_command``."""
+        return {name: {f"max_abs_{k}": v for k, v in p.items()} for name, p in self.peaks.items()}

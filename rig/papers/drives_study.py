@@ -38,23 +38,19 @@ from __future__ import annotations
 import cmath
 import math
 import tempfile
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from controllers.cascade import TABLE_V_CURRENT, TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoopParams
 from controllers.design import design_dtsm
-from controllers.idtsm import IDTSM, IDTSMParams
-from controllers.pi import PI, PIParams
-from plant_emulator.profiles import parse_profile
 from rig.config import rig_config
 from rig.demo import DEMO_LOAD, demo_doc
-from rig.host.rundir import read_samples
-from rig.host.session import run_config
 from rig.metrics import chattering_amplitude, chattering_count, max_abs, rms
 from rig.papers import drives
-from rig.papers.scenarios import Trajectory, cascade_run, position_servo_run, speed_loop_run
+from rig.papers.drives_dyno import cascade_part, im_part
+from rig.papers.drives_setup import DRIVES_FIXED, DRIVES_PARAM_NAMES, EXACT, DrivesStudy, Signals, bus_run
+from rig.papers.scenarios import Trajectory, position_servo_run, speed_loop_run
 
 __all__ = [
     "DRIVES_FIXED",
@@ -78,16 +74,6 @@ PRINTED_TABLE_V: dict[str, dict[str, Any]] = {
     "speed": {"a": -0.6286, "b": 340.7439, "k_s": [-0.0015], "c_s": [0.0025]},
     "position": {"a": -500.0, "b": 500.0, "k_s": [0.0, -0.9373], "c_s": [0.0627, 0.0025]},
 }
-#: Table III's speed PI in torque units (examples/im_speed_pi.toml): K_p,w k_t, K_i,w k_t / T
-PI_KP = 0.673  #: [N m s/rad]
-PI_KI = 60.0  #: [N m/rad]
-IM_TORQUE_LIMIT = 10.0  #: [N m] both speed laws' output limit
-#: [N m s] the limit of the IDTSM's integrator "Int 1" of section VII.C (+-0.01); without it the
-#: 100 rad/s step winds it up while the torque is at its limit: 58 % overshoot
-IDTSM_G_LIMIT = 0.01
-#: The dyno's encoder and drives: 16 bits per revolution (examples/dyno_speed_load.toml), a speed
-#: quantum of 0.19 rad/s over 0.5 ms; 4096 counts would make it 3.1 rad/s
-DYNO_COUNTS = 65536
 #: The speed-loop study's compensators: (name, compensator, alpha)
 SPEED_CASES: tuple[tuple[str, str, float | None], ...] = (
     ("DTSM (6.15a)", "none", None),
@@ -96,45 +82,6 @@ SPEED_CASES: tuple[tuple[str, str, float | None], ...] = (
     ("DTSM + (6.30b) alpha=1", "first", 1.0),
     ("DTSM + (6.35)", "second", None),
 )
-
-
-@dataclass(frozen=True)
-class DrivesStudy:
-    """What ``--param`` may change: horizons [s] (shorter ones for quick runs), the sub-steps of
-    the speed loop's disturbance, the load T [N m] of section VII.D, and whether to run over the bus."""
-
-    speed_t_end: float = 5.0  #: Figs. 9-10 horizon; the amplitude is taken over 2.5 s .. this
-    substeps: int = 20  #: exact plant sub-steps per sample for f(t) in the speed loop
-    servo_t_end: float = 3.0  #: section VII.B horizon (move 0-1 s, load step at 1.5 s)
-    servo_settle: float = 2.5  #: start of the servo's steady-state window [s]
-    im_t_end: float = 10.0  #: sections VII.C/D horizon (load 2-4 s, sine from 8 s)
-    load: float = 5.0  #: T of the load profile [N m]
-    bus: bool = True  #: also run over the emulated bus
-
-    def __post_init__(self) -> None:
-        for name in ("speed_t_end", "servo_t_end", "im_t_end"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0.0 < value <= 60.0):
-                raise ValueError(f"{name} must be in (0, 60] s, got {value!r}")
-        if not 1 <= self.substeps <= 1000:
-            raise ValueError(f"substeps must be in 1..1000, got {self.substeps!r}")
-        if not (math.isfinite(self.load) and abs(self.load) <= 10.0):
-            raise ValueError(f"load must be within +-10 N m, got {self.load!r}")
-        if not (math.isfinite(self.servo_settle) and 0.0 <= self.servo_settle < self.servo_t_end):
-            raise ValueError(f"servo_settle must be in [0, servo_t_end), got {self.servo_settle!r}")
-
-
-DRIVES_PARAM_NAMES = tuple(f for f in DrivesStudy.__dataclass_fields__)
-DRIVES_FIXED: dict[str, str] = {}
-
-
-@dataclass
-class Signals:
-    """One run's signals for the plots: time [s] and named arrays (SI)."""
-
-    name: str
-    t: np.ndarray
-    series: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def speed_error_theory(
@@ -236,10 +183,6 @@ def _table_v_part() -> list[dict[str, Any]]:
     return rows
 
 
-#: the pure simulations' rows: exact measurements (threshold 0), nothing stops them
-EXACT: dict[str, Any] = {"chattering_threshold": 0.0, "safe_stop_reason": None}
-
-
 def _amplitude(tr: Trajectory, t0: float, t1: float) -> float:
     e = tr.error[tr.window(t0, t1)]
     return float((e.max() - e.min()) / 2.0) if e.size else math.nan
@@ -286,12 +229,6 @@ def _servo_metrics(
     }
 
 
-def _bus_run(cfg: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    summary = run_config(cfg, emulate=True)
-    _, columns = read_samples(summary["run_dir"])
-    return summary, columns
-
-
 def _servo_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
     cases: tuple[tuple[str, str, float], ...] = (
         ("(7.30) h=16", "7.30", 16.0),
@@ -318,7 +255,7 @@ def _servo_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]
         doc = demo_doc(output)
         doc["run"] |= {"duration": study.servo_t_end, "name": f"drives-servo-{law}-h{h:g}"}
         doc["controller"] |= {"h": h, "law": law}
-        summary, c = _bus_run(rig_config(doc, "rig reproduce drives"))
+        summary, c = bus_run(rig_config(doc, "rig reproduce drives"))
         t, e = c["t"], c["reference"] - c["measurement"]
         row = {"name": name, "law": law, "h": h if law == "7.30" else None, "over_bus": True}
         row |= _servo_metrics(t, e, c["command"], study.servo_settle, summary["chattering_threshold"])
@@ -330,201 +267,6 @@ def _servo_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]
                 f"{name} over the bus",
                 t,
                 {"theta_r": c["reference"], "theta": c["measurement"], "u": c["command"]},
-            )
-        )
-    return rows
-
-
-def _load_of(study: DrivesStudy) -> Any:
-    return parse_profile(drives.vii_d_load(study.load))
-
-
-def _windows(t_end: float) -> tuple[float, float, float]:
-    """(start of the error figures, steady window start, end): after the step; under the
-    constant load of 2-4 s, its last second (the last quarter of a shorter run)."""
-    return 1.0 if t_end > 2.0 else 0.5 * t_end, min(3.0, 0.75 * t_end), min(4.0, t_end)
-
-
-def _im_metrics(
-    t: np.ndarray, e: np.ndarray, u: np.ndarray, t_end: float, threshold: float
-) -> dict[str, float | int]:
-    t0, s0, s1 = _windows(t_end)
-    after = t >= t0
-    steady = (t >= s0) & (t < s1)
-    return {
-        "rms_error": rms(e[after]),
-        "max_error": max_abs(e[after]),
-        "steady_state_error": float(np.mean(e[steady])) if steady.any() else math.nan,
-        "chattering_count": chattering_count(u[steady], threshold=threshold),
-        "chattering_amplitude": chattering_amplitude(u[steady]),
-    }
-
-
-def im_speed_run(law: str, *, t_end: float, load: Any, dt: float = drives.T_SPEED) -> Signals:
-    """IDTSM (6.20)-(6.21) (Table IV: lambda = -50 1/s; Int 1 limited to +-0.01) or the PI of
-    Table III (``law`` "idtsm" or "pi") controlling IM1 under ideal FOC, the mechanics of (4.2)
-    with Table II's J and B, J dw/dt = T - B w - T_L, the torque command held over each
-    period (exact ZOH), a 100 rad/s step at 0.3 s; ``load(t)`` [N m] taken mid-period."""
-    a = -drives.B_IM / drives.J_IM
-    b = 1.0 / drives.J_IM
-    ctl: IDTSM | PI
-    if law == "idtsm":
-        ctl = IDTSM(
-            IDTSMParams(a=a, b=b, dt=dt, lam=drives.LAMBDA_IDTSM, g_limit=IDTSM_G_LIMIT, u0=IM_TORQUE_LIMIT)
-        )
-    else:
-        ctl = PI(PIParams(kp=PI_KP, ki=PI_KI, dt=dt, u_max=IM_TORQUE_LIMIT, u_min=-IM_TORQUE_LIMIT))
-    n = round(t_end / dt)
-    t = np.arange(n) * dt
-    phi = math.exp(a * dt)
-    gain = (phi - 1.0) / a
-    w = 0.0
-    ref, y, u_out, tl = (np.empty(n) for _ in range(4))
-    for k in range(n):
-        tk = k * dt
-        w_r = 100.0 if tk >= 0.3 else 0.0
-        u = ctl.step(w_r - w)
-        torque_load = load(tk + 0.5 * dt)
-        ref[k], y[k], u_out[k], tl[k] = w_r, w, u, torque_load
-        w = phi * w + gain * b * (u - torque_load)
-    return Signals(law, t, {"omega_ref": ref, "omega": y, "torque": u_out, "T_L": tl})
-
-
-def _dyno_doc(study: DrivesStudy, output: str, name: str, controller: dict[str, Any]) -> dict[str, Any]:
-    load = -study.load
-    return {
-        "run": {"duration": study.im_t_end, "output": output, "name": name},
-        "emulator": {
-            "preset": "dyno",
-            "params": {"motor": "im", "period": drives.T_SPEED, "counts_per_rev": DYNO_COUNTS},
-        },
-        "axis": [
-            {
-                "name": "motor",
-                "kind": "cia402",
-                "node_id": 1,
-                "mode": "cst",
-                "sync_rpdo": False,  # applied on receipt, as the pure simulation's torque
-                "limits": {"command": 12.0, "speed": 320.0, "current": 12.0},
-            },
-            {
-                "name": "load",
-                "kind": "cia402",
-                "node_id": 3,
-                "mode": "cst",
-                "sync_rpdo": True,
-                "profile": drives.vii_d_load(load),
-                "limits": {"command": abs(load) * 1.2 + 0.1, "speed": 320.0},
-            },
-        ],
-        "controller": {"reads": ["motor"], "commands": ["motor"], **controller},
-    }
-
-
-def _im_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
-    rows = []
-    load = _load_of(study)
-    laws = (
-        ("IDTSM (6.20)-(6.21), Table IV", "idtsm"),
-        ("PI, Table III", "pi"),
-    )
-    for name, law in laws:
-        sig = im_speed_run(law, t_end=study.im_t_end, load=load)
-        e = sig.series["omega_ref"] - sig.series["omega"]
-        row = {"name": name, "law": law, "over_bus": False}
-        row |= _im_metrics(sig.t, e, sig.series["torque"], study.im_t_end, 0.0) | EXACT
-        rows.append(row)
-        sig.name = name
-        plots.setdefault("im_speed", []).append(sig)
-        if not study.bus:
-            continue
-        if law == "idtsm":
-            controller = {
-                "kind": "idtsm-speed",
-                "a": -drives.B_IM / drives.J_IM,
-                "b": 1.0 / drives.J_IM,
-                "lam": drives.LAMBDA_IDTSM,
-                "g_limit": IDTSM_G_LIMIT,
-                "u0": IM_TORQUE_LIMIT,
-            }
-        else:
-            controller = {
-                "kind": "pi-speed",
-                "kp": PI_KP,
-                "ki": PI_KI,
-                "u_max": IM_TORQUE_LIMIT,
-                "u_min": -IM_TORQUE_LIMIT,
-            }
-        doc = _dyno_doc(study, output, f"drives-im-{law}", controller)
-        doc["reference"] = {"kind": "step", "value": 100.0, "start": 0.3}
-        summary, c = _bus_run(rig_config(doc, "rig reproduce drives"))
-        row = {"name": name, "law": law, "over_bus": True}
-        e = c["reference"] - c["measurement"]
-        row |= _im_metrics(c["t"], e, c["command"], study.im_t_end, summary["chattering_threshold"])
-        row["chattering_threshold"] = summary["chattering_threshold"]
-        row["safe_stop_reason"] = summary["safe_stop_reason"]
-        rows.append(row)
-        plots["im_speed"].append(
-            Signals(
-                f"{name} over the dyno",
-                c["t"],
-                {
-                    "omega_ref": c["reference"],
-                    "omega": c["measurement"],
-                    "torque": c["command"],
-                    "T_L": -c["load.command"],
-                },
-            )
-        )
-    return rows
-
-
-def _cascade_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
-    load = _load_of(study)
-    tr = cascade_run(t_end=study.im_t_end, load=load, move_start=0.3)
-    name = "cascade (6.36*), Table V"
-    row: dict[str, Any] = {"name": name, "law": "cascade", "over_bus": False}
-    row |= _im_metrics(tr.t, tr.error, tr.extra["i_ref"], study.im_t_end, 0.0) | EXACT
-    row["command_unit"] = "A (q-current reference)"
-    rows = [row]
-    plots.setdefault("cascade", []).append(
-        Signals(
-            name,
-            tr.t,
-            {
-                "theta_r": tr.ref,
-                "theta": tr.y,
-                "omega_ref": tr.extra["omega_ref"],
-                "omega": tr.extra["omega"],
-                "i_ref": tr.extra["i_ref"],
-                "i_q": tr.extra["i_q"],
-            },
-        )
-    )
-    if study.bus:
-        controller = {"kind": "cascade-position", "position_every": 2}
-        doc = _dyno_doc(study, output, "drives-cascade", controller)
-        doc["reference"] = {"kind": "smooth-move", "distance": 10.0, "duration": 1.0, "start": 0.3}
-        summary, c = _bus_run(rig_config(doc, "rig reproduce drives"))
-        e = c["reference"] - c["measurement"]
-        k_t = drives.B_W * drives.J_IM
-        row = {"name": name, "law": "cascade", "over_bus": True}
-        row |= _im_metrics(c["t"], e, c["i_q_ref"], study.im_t_end, summary["chattering_threshold"] / k_t)
-        row["command_unit"] = "A (q-current reference)"
-        row["chattering_threshold"] = summary["chattering_threshold"] / k_t
-        row["safe_stop_reason"] = summary["safe_stop_reason"]
-        rows.append(row)
-        plots["cascade"].append(
-            Signals(
-                f"{name} over the dyno",
-                c["t"],
-                {
-                    "theta_r": c["reference"],
-                    "theta": c["measurement"],
-                    "omega_ref": c["omega_ref"],
-                    "omega": c["motor.velocity"],
-                    "i_ref": c["i_q_ref"],
-                },
             )
         )
     return rows
@@ -546,7 +288,7 @@ def drives_study(
             "table_v": _table_v_part(),
             "speed_loop": _speed_part(study, plots),
             "position_servo": _servo_part(study, out, plots),
-            "im_speed": _im_part(study, out, plots),
-            "cascade": _cascade_part(study, out, plots),
+            "im_speed": im_part(study, out, plots),
+            "cascade": cascade_part(study, out, plots),
         }
     return doc, plots

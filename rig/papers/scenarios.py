@@ -23,7 +23,7 @@ from controllers.cascade import (
     CascadeLoopParams,
 )
 from controllers.compensators import FirstOrderCompensator, SecondOrderCompensator
-from controllers.design import design_dtsm
+from controllers.design import DTSMDesign, design_dtsm
 from controllers.dtsm import DTSM, DTSMParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from controllers.speed_observer import SpeedObserver
@@ -71,6 +71,15 @@ def _dc_motor(a_m: float, b_m: float, dt: float, *, full: bool) -> tuple[DCMotor
     return ReducedDCMotor(a_m=a_m, b_m=b_m, dt=dt, j=1.0), 1.0
 
 
+def _servo_law(law: str, design: DTSMDesign, **gains: float) -> PositionServo | DTSM:
+    """(7.30) (``law`` "7.30") or the sampled sign law (6.8) ("relay") for ``design`` (7.31)."""
+    if law == "7.30":
+        return PositionServo(PositionServoParams(design=design, **gains))
+    if law == "relay":
+        return DTSM(DTSMParams(design=design, law="relay", sigma=gains["sigma"], u0=gains["u0"]))
+    raise ValueError(f"law must be '7.30' or 'relay', got {law!r}")
+
+
 def position_servo_run(
     *,
     a_m: float = drives.A_M,
@@ -102,13 +111,7 @@ def position_servo_run(
     an electrical time constant of 0.1 ms instead of (3.7).
     """
     design = design_dtsm(A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, -b_m], dt=dt, lam=lam)
-    ctl: PositionServo | DTSM
-    if law == "7.30":
-        ctl = PositionServo(PositionServoParams(design=design, sigma=sigma, q=q, rho=rho, h=h, u0=u0))
-    elif law == "relay":
-        ctl = DTSM(DTSMParams(design=design, law="relay", sigma=sigma, u0=u0))
-    else:
-        raise ValueError(f"law must be '7.30' or 'relay', got {law!r}")
+    ctl = _servo_law(law, design, sigma=sigma, q=q, rho=rho, h=h, u0=u0)
     motor, j = _dc_motor(a_m, b_m, dt, full=full_motor)
     encoder = Encoder(counts_per_rev, dt=dt) if counts_per_rev else None
     observer = (

@@ -24,8 +24,9 @@ import canopen
 import pytest
 
 from plant_emulator.device_profile import load_profile, zoo
-from rig.fault_wire import CONFIG, PERIOD, wait_for
+from rig.fault_wire import CONFIG, PERIOD
 from rig.process import spawn_emulator, stop_rig
+from rig.wire_probe import wait_for
 
 pytestmark = pytest.mark.timing  #: real time across processes: wall-clock bound
 
