@@ -8,13 +8,17 @@ and disable it, reset a fault, read and write an object by index or by its EDS n
 in profile velocity, home it, and move it in profile position. A move ends the way every
 stop of the toolkit ends: quick stop, the drive's ramp to rest (watched by SDO), disable; so
 does Ctrl-C. Time passes through ``idle`` (a sleep on a real bus; a SYNC in lock-step).
+With ``live`` (``rig drive ... --live``) each look at the drive during a move also reads its
+actual speed or position by SDO for the live view (``rig.live``).
 """
 
 from __future__ import annotations
 
+import collections
+import logging
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from drivers.cia402 import Cia402Axis, power_state
@@ -24,6 +28,8 @@ from drivers.maps import cia
 from drivers.maps.cia import Controlword, Mode, PowerState
 
 __all__ = ["STATUS_BITS", "DriveTool", "parse_object"]
+
+log = logging.getLogger(__name__)
 
 #: statusword bits 0-15 by name (CiA 402-2)
 STATUS_BITS = (
@@ -84,6 +90,11 @@ class DriveTool:
         #: which a loaded machine would run ahead of the drive's
         self.emulated = idle is not None
         axis.idle = self.idle
+        #: ``rig drive --live``: each look during a move appends (t [s], target, actual, target) in SI
+        self.live: collections.deque[Sequence[float]] | None = None
+        self._watched: tuple[float, int, float] | None = None  #: target [SI], actual's index, its factor
+        self._looks = 0
+        self._t0 = time.monotonic()
 
     def _deadline(self, seconds: float) -> Callable[[], bool]:
         """A predicate, true once ``seconds`` [s] have passed: on the wall clock on a real bus;
@@ -152,6 +163,7 @@ class DriveTool:
             if late():
                 break
             self.idle()
+            self._look()
         if not done():
             raise SafetyStop(f"{self.axis.where}: {what} not within {seconds:g} s")
 
@@ -182,6 +194,27 @@ class DriveTool:
             "stop_confirmed": confirmed,
             "state": a.read_power_state().value,
         }
+
+    def _watch(self, target: float, actual: int, factor: float) -> None:
+        """From now on, with ``live``, each look reads ``actual`` (an object, / ``factor``: SI)
+        against ``target`` [SI]."""
+        self._watched = (target, actual, factor)
+        self._looks, self._t0 = 0, time.monotonic()
+
+    def _look(self) -> None:
+        """A row for the live view: time (lock-step: looks x period) [s], target, actual, target."""
+        if self.live is None or self._watched is None:
+            return
+        target, index, factor = self._watched
+        self._looks += 1
+        t = self._looks * self.period if self.emulated else time.monotonic() - self._t0
+        try:
+            actual = self.axis.sdo_read(index) / factor
+        except Exception as exc:  # the move's own reads say what is wrong; the live view ends
+            log.warning("live view stopped: 0x%04X not read: %s (the move goes on)", index, exc)
+            self.live = None
+            return
+        self.live.append((t, target, actual, target))
 
     def stop(self, *, seconds: float = 3.0) -> bool:
         """Quick stop, the drive's ramp to rest (statusword and 0x606C by SDO), disable; True
@@ -215,9 +248,13 @@ class DriveTool:
             ticks[0] += 1
             return ticks[0] * self.period >= seconds or late()
 
+        def start() -> None:
+            self._watch(speed, cia.VELOCITY_ACTUAL, a.units.velocity)  # the units: once discovered
+            a.sdo_write(cia.TARGET_VELOCITY, 0, round(speed * a.units.velocity))
+
         return self._run(
             Mode.PROFILE_VELOCITY,
-            lambda: a.sdo_write(cia.TARGET_VELOCITY, 0, round(speed * a.units.velocity)),
+            start,
             elapsed,
             seconds + 1.0,
             "the jog",
@@ -230,6 +267,7 @@ class DriveTool:
         here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
         if not abs(position - here) <= limit:
             raise ConfigError(f"move of {position - here:g} rad exceeds the limit {limit:g} rad (--limit)")
+        self._watch(position, cia.POSITION_ACTUAL, a.units.position)
 
         def start() -> None:
             a.sdo_write(cia.TARGET_POSITION, 0, round(position * a.units.position))
@@ -250,6 +288,7 @@ class DriveTool:
         a = self.axis
 
         def start() -> None:
+            self._watch(0.0, cia.POSITION_ACTUAL, a.units.position)
             if method is not None:
                 a.sdo_write(cia.HOMING_METHOD, 0, method)
             a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)

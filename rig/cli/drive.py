@@ -17,6 +17,7 @@ from rig.cli.common import (
     open_network,
     print_json,
 )
+from rig.cli.run import LIVE_MODES, open_view
 
 __all__ = ["add_parser"]
 
@@ -59,6 +60,17 @@ def add_parser(sub: Any) -> None:
     move = actions.add_parser("move", help="profile position to a position")
     move.add_argument("position", type=finite, help="[rad], absolute")
     move.add_argument("--limit", type=finite, default=10.0, help="largest move allowed [rad] (10)")
+    for action in (jog, home, move):
+        action.add_argument(
+            "--live",
+            nargs="?",
+            const="auto",
+            choices=LIVE_MODES,
+            metavar="{terminal,window}",
+            help="show the target, the actual value (read by SDO at each look) and the command (the "
+            "target the drive's own profile follows) as they arrive, in a window or as a strip on "
+            "stderr (as rig run --live); e.g. rig drive --emulate epos4 jog 10 --for 1 --live=terminal",
+        )
     drive.set_defaults(handler=run)
 
 
@@ -135,13 +147,30 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
     return tool.move(args.position, limit=args.limit)
 
 
+def _watch(live: Any, args: argparse.Namespace, tool: Any) -> None:
+    """Start ``live`` on the drive's looks: the target, the actual value, the target again."""
+    from rig.live import Channel
+
+    unit = "rad/s" if args.action == "jog" else "rad"
+    what = "velocity" if args.action == "jog" else "position"
+    tool.live = live.rows
+    live.start([Channel(f"node {args.node}", 1, 2, 3, what, (unit, unit, unit))], f"drive {args.action}")
+
+
 def run(args: argparse.Namespace) -> int:
     _check(args)
-    tool, close = _tool(args)
+    live = open_view(getattr(args, "live", None), "rig drive")  # a window that cannot open: before the bus
     try:
-        result = _act(tool, args)
+        tool, close = _tool(args)
+        try:
+            if live is not None:
+                _watch(live, args, tool)
+            result = _act(tool, args)
+        finally:
+            close()
     finally:
-        close()
+        if live is not None:
+            live.stop()
     if args.json:
         print_json(result)
     else:

@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rig.cli.common import UsageError, add_json, add_params, exit_code, finite, params_of, print_json
 from rig.cli.progress import Progress
 from rig.report import summary_lines
 
-__all__ = ["add_parser", "print_summary"]
+if TYPE_CHECKING:
+    from rig.live import LiveView
+
+__all__ = ["LIVE_MODES", "add_parser", "open_view", "print_summary"]
+
+LIVE_MODES = ("auto", "terminal", "window")  #: --live's choices (``rig.live.MODES``)
 
 
 def add_parser(sub: Any) -> None:
@@ -37,6 +42,18 @@ def add_parser(sub: Any) -> None:
         "speed, position or current limit (refused without this option); the watchdog and the "
         "drive's own limits still apply",
     )
+    run.add_argument(
+        "--live",
+        nargs="?",
+        const="auto",
+        choices=LIVE_MODES,
+        metavar="{terminal,window}",
+        help="show each axis's reference, measurement and command as they arrive, a few times a second "
+        "from another thread: in a matplotlib window (closed at the end of the run) where matplotlib "
+        "and a display are there, else as a strip on stderr; --live=terminal or --live=window chooses "
+        "(a window that cannot open: exit 2 before anything moves). Example: rig run --config "
+        "examples/dyno_speed_load.toml --emulate --live=terminal",
+    )
     add_json(run, "print the summary as one JSON object")
     add_params(
         run,
@@ -50,6 +67,27 @@ def add_parser(sub: Any) -> None:
 def print_summary(summary: dict[str, Any]) -> None:
     """The summary for a person (``rig.report.summary_lines``)."""
     print("\n".join(summary_lines(summary)))
+
+
+def open_view(mode: str | None, who: str) -> LiveView | None:
+    """The live view of ``--live`` (None without it); UsageError when it cannot be shown."""
+    if mode is None:
+        return None
+    from rig.live import LiveUnavailable, open_live
+
+    try:
+        return open_live(mode)
+    except LiveUnavailable as exc:
+        raise UsageError(f"{who}: --live={mode}: {exc}") from None
+
+
+def _strip(live: LiveView | None) -> bool:
+    """True when ``live`` draws the terminal strip (on stderr, as the progress line would)."""
+    if live is None:
+        return False
+    from rig.live.terminal import TerminalStrip
+
+    return isinstance(live.backend, TerminalStrip)
 
 
 def execute(args: argparse.Namespace) -> int:
@@ -79,11 +117,16 @@ def execute(args: argparse.Namespace) -> int:
     if args.reset_fault:
         axes = tuple(dataclasses.replace(a, reset_fault=True) if a.kind == "cia402" else a for a in cfg.axes)
         cfg = dataclasses.replace(cfg, axes=axes)
-    bar = Progress("rig run", 0, "cycles", json=args.json)
+    live = open_view(args.live, "rig run")
+    bar = Progress("rig run", 0, "cycles", json=args.json or _strip(live))  # the strip shows the time
     try:
-        summary = run_config(cfg, emulate=args.emulate, duration=args.duration, progress=bar.cycles)
+        summary = run_config(
+            cfg, emulate=args.emulate, duration=args.duration, progress=bar.cycles, live=live
+        )
     finally:
         bar.close()
+        if live is not None:
+            live.stop()
     if args.json:
         print_json(summary)
     else:

@@ -30,6 +30,7 @@ trace that cannot be written is stopped, and the next ``sample`` raises its erro
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import datetime
 import functools
@@ -126,6 +127,8 @@ class Recorder:
         self._trace_lock = threading.Lock()
         self.frames_dropped = 0  #: frames that arrived after the close
         self.error: StorageError | None = None  #: a write that failed (raised by the next ``sample``)
+        #: the live view's rows (``rig.live.view.LiveView.rows``): each written row is appended
+        self.live: collections.deque[Sequence[float]] | None = None
 
     #: write plot.png on close when matplotlib is installed
     PLOT: ClassVar[bool] = True
@@ -202,6 +205,8 @@ class Recorder:
         except OSError as exc:
             raise self._failed("samples.csv", exc) from exc
         self._count += 1
+        if self.live is not None:  # an O(1) append, no lock: the live view copies it at a few Hz
+            self.live.append(row)
 
     @staticmethod
     @functools.cache

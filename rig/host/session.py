@@ -49,6 +49,8 @@ from rig.host.trace import TracedNetwork, attach_received, detach_received
 from rig.laws import Law, make_law
 from rig.laws.injected import with_injected_faults
 from rig.laws.references import reference_of
+from rig.live.channels import channels_of
+from rig.live.view import LiveView
 
 __all__ = ["Session", "build_law", "run_config"]
 
@@ -61,13 +63,14 @@ def run_config(
     emulate: bool,
     duration: float | None = None,
     progress: Callable[[int, int], None] | None = None,
+    live: LiveView | None = None,
 ) -> dict[str, Any]:
     """Build, start and run ``cfg``; returns the summary (``cycles``, ``rms_error``, ..., ``run_dir``).
-    ``progress(k, cycles)`` every 1 % of the run."""
+    ``progress(k, cycles)`` every 1 % of the run; ``live`` shows the rows as they come."""
     with Session(cfg, emulate=emulate, duration=duration) as session:
         session.start()
         n = session.cycles
-        return session.run(None if progress is None else lambda k: progress(k, n))
+        return session.run(None if progress is None else lambda k: progress(k, n), live=live)
 
 
 def build_law(cfg: RigConfig, period: float) -> Law:
@@ -304,18 +307,33 @@ class Session:
             return None
         return HostHeartbeat(self.network, bus.host_node, bus.heartbeat, self.period).beat
 
-    def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
-        """Run the loop (``start()`` first); stop SYNC and the trace; close the recorder; the summary."""
+    def run(
+        self, progress: Callable[[int], None] | None = None, live: LiveView | None = None
+    ) -> dict[str, Any]:
+        """Run the loop (``start()`` first), with ``live`` fed each recorded row; stop the live view,
+        SYNC and the trace; close the recorder; the summary."""
         loop = self.loop
         if loop is None:
             raise RuntimeError("Session.run() before start()")
         summary: dict[str, Any] = {}
+        if live is not None:
+            self._watch(live)
         try:
             summary = loop.run(progress)
         finally:
+            if live is not None:
+                self.recorder.live = None
+                live.stop()
             self._frozen = False  # the loop's run unfroze the heap
             self._finish(summary or loop.summary())
         return summary
+
+    def _watch(self, live: LiveView) -> None:
+        """Start ``live`` on each axis's reference, measurement and command (``rig.live.channels``)."""
+        rec = self.recorder
+        modes = {a.name: a.mode for a in self.axes}
+        live.start(channels_of(rec.columns, rec.docs, self.cfg.controller.reads, modes), rec.dir.name)
+        rec.live = live.rows
 
     def _finish(self, summary: dict[str, Any]) -> None:
         self.pacing.close()
