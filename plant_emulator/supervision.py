@@ -17,6 +17,7 @@ Times are the device's clock [s].
 from __future__ import annotations
 
 import logging
+import math
 from typing import TYPE_CHECKING, Any
 
 from canopen.sdo.exceptions import SdoAbortedError
@@ -64,21 +65,30 @@ class Deadlines:
     def __init__(self) -> None:
         self.times: dict[int, float] = {}  #: key -> allowed silence [s]
         self._last: dict[int, float] = {}  #: key -> when it was last heard [s] (monitored keys)
+        #: [s] no key expires before this (a lower bound: hearing a key only moves its deadline on)
+        self._due = -math.inf
 
     def configure(self, times: dict[int, float]) -> None:
         """Monitor these keys from now on (times [s] > 0); a key kept keeps its last time."""
         self.times = {k: t for k, t in times.items() if t > 0.0}
         self._last = {k: t for k, t in self._last.items() if k in self.times}
+        self._due = -math.inf
 
     def heard(self, key: int, now: float) -> None:
         if key in self.times:
+            if key not in self._last:
+                self._due = min(self._due, now + self.times[key])
             self._last[key] = now
 
     def expired(self, now: float) -> list[int]:
         """The monitored keys not heard of within their time; each reported once."""
-        late = [k for k, last in self._last.items() if now - last > self.times[k] + 1e-9]
+        if now <= self._due:  # every SYNC asks: most of the time nothing can have expired yet
+            return []
+        times = self.times
+        late = [k for k, last in self._last.items() if now - last > times[k] + 1e-9]
         for k in late:
             del self._last[k]
+        self._due = min((last + times[k] + 1e-9 for k, last in self._last.items()), default=math.inf)
         return late
 
 

@@ -16,7 +16,7 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
     peaks (``--json`` has the same keys as numbers)."""
     unit = summary.get("error_unit", "")
     rows = [
-        ("cycles", f"{summary['cycles']} run, {summary['overruns']} skipped (real time)"),
+        ("cycles", f"{summary['cycles']} run, {summary['overruns'] or 'none'} skipped"),
         ("rms error", f"{summary['rms_error']:.4g} {unit}".rstrip()),
         ("max error", f"{summary['max_error']:.4g} {unit}".rstrip()),
         (
