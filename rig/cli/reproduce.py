@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from rig.cli.common import Parser, UsageError, add_json, add_params, json_clean, params_of, print_json
+from rig.cli.progress import Progress
 from rig.papers.dismc import ALIASES, FIXED, PARAM_NAMES, DismcExample, run_dismc
 from rig.papers.dq_current import DQ_FIXED, DQ_PARAM_NAMES, PRINTED_TABLES, DqStudy, dq_study
 from rig.papers.drives_study import DRIVES_FIXED, DRIVES_PARAM_NAMES, DrivesStudy, drives_study
@@ -94,9 +95,15 @@ def _dq(args: argparse.Namespace) -> int:
     values = params_of(args.param, DqStudy, where, fixed=DQ_FIXED)
     try:
         study = dataclasses.replace(DqStudy(), **values)
-        rows, runs = dq_study(study)
     except ValueError as exc:
         raise UsageError(f"{where}: {exc}") from exc
+    bar = Progress("rig reproduce dq-current", 2, "parts", json=args.json)
+    try:
+        rows, runs = dq_study(study, progress=bar.cycles)
+    except ValueError as exc:
+        raise UsageError(f"{where}: {exc}") from exc
+    finally:
+        bar.close()
     if args.plot:
         plot_dq_steps(runs, args.plot)
     cross = [
@@ -154,7 +161,11 @@ def _drives(args: argparse.Namespace) -> int:
         from rig.plots import require_pyplot
 
         require_pyplot()  # no matplotlib: say so before the runs
-    doc, signals = drives_study(study)
+    bar = Progress("rig reproduce drives", 6, "parts", json=args.json)
+    try:
+        doc, signals = drives_study(study, progress=bar.cycles)
+    finally:
+        bar.close()
     if args.plot:
         from rig.plots import plot_drives
 

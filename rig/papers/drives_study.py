@@ -38,6 +38,7 @@ from __future__ import annotations
 import cmath
 import math
 import tempfile
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -273,22 +274,28 @@ def _servo_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]
 
 
 def drives_study(
-    study: DrivesStudy, output: str | None = None
+    study: DrivesStudy, output: str | None = None, *, progress: Callable[[int, int], None] | None = None
 ) -> tuple[dict[str, Any], dict[str, list[Signals]]]:
     """The six parts of the reproduction (see the module docstring) and, per experiment
-    (``speed_loop``, ``position_servo``, ``im_speed``, ``cascade``), the runs' signals to plot.
+    (``speed_loop``, ``position_servo``, ``im_speed``, ``cascade``), the runs' signals to plot;
+    ``progress(parts done, 6)`` after each part.
 
     The over-the-bus runs write their run directories under ``output`` (a temporary
     directory, removed at the end, when None)."""
     plots: dict[str, list[Signals]] = {}
     with tempfile.TemporaryDirectory(prefix="rig-drives-") as tmp:
         out = output or tmp
-        doc: dict[str, Any] = {
-            "design": _design_part(),
-            "table_v": _table_v_part(),
-            "speed_loop": _speed_part(study, plots),
-            "position_servo": _servo_part(study, out, plots),
-            "im_speed": im_part(study, out, plots),
-            "cascade": cascade_part(study, out, plots),
+        parts: dict[str, Callable[[], Any]] = {
+            "design": _design_part,
+            "table_v": _table_v_part,
+            "speed_loop": lambda: _speed_part(study, plots),
+            "position_servo": lambda: _servo_part(study, out, plots),
+            "im_speed": lambda: im_part(study, out, plots),
+            "cascade": lambda: cascade_part(study, out, plots),
         }
+        doc: dict[str, Any] = {}
+        for name, part in parts.items():
+            doc[name] = part()
+            if progress is not None:
+                progress(len(doc), len(parts))
     return doc, plots

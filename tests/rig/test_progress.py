@@ -55,3 +55,16 @@ def test_rig_run_draws_it(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatc
     config.write_text(EXAMPLE.read_text().replace('output = "runs"', f'output = "{tmp_path}"'))
     assert main(["run", "--config", str(config), "--emulate", "--duration", "0.2"]) == 0
     assert "rig run: 500/500 cycles (100 %)" in out.getvalue()
+
+
+def test_rig_reproduce_drives_draws_its_parts(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    from rig.cli import main
+
+    out = Terminal()
+    monkeypatch.setattr(sys, "stderr", out)
+    monkeypatch.setattr(sys, "stdout", io.StringIO())
+    params = ["speed_t_end=0.5", "servo_t_end=0.5", "servo_settle=0.25", "im_t_end=0.5", "bus=false"]
+    assert main(["reproduce", "drives", *(a for p in params for a in ("--param", p))]) == 0
+    assert "rig reproduce drives: 6/6 parts (100 %)" in out.getvalue()
