@@ -88,9 +88,10 @@ def test_candump_decodes_scan_and_run_and_the_trace_reads_back(
 ) -> None:
     """candump -L during the emulator's boot, ``rig scan`` and a short lock-step ``rig run``: every
     frame decoded by CiA 301. The run's trace.asc read back by python-can's ASCReader and by
-    can-utils' asc2log: the frames candump logged while the run traced, in the same order, each
-    with the direction its COB-ID gives it (the host sends NMT, SYNC, RPDOs, SDO requests and its
-    heartbeat)."""
+    can-utils' asc2log: the frames candump logged while the run traced, each with the direction its
+    COB-ID gives it (the host sends NMT, SYNC, RPDOs, SDO requests and its heartbeat), the sent ones
+    in the bus's order and the received ones in the bus's order, the two interleaved as on the bus
+    but for frames that crossed (``CROSSING``)."""
     need_tools("asc2log")
     start = candump.mark()
     _, wire = lockstep_servo(start_emulator, str(tmp_path))
@@ -147,12 +148,39 @@ def test_candump_decodes_scan_and_run_and_the_trace_reads_back(
     assert converted == traced, "asc2log and python-can's ASCReader read trace.asc differently"
 
     bus = [(f.can_id, f.data, not host_sends(f)) for f in candump.snapshot()[run_start + 1 : end]]
-    first = bus.index(traced[0])
-    seen = bus[first : first + len(traced)]
-    print(f"trace.asc: {len(traced)} frames ({sum(1 for t in traced if not t[2])} Tx), the same on the bus")
-    assert len(seen) == len(traced)
-    assert [t[:2] for t in traced] == [b[:2] for b in seen], "the trace's frames differ from the bus's"
-    assert [t[2] for t in traced] == [b[2] for b in seen], "a frame's direction is wrong in the trace"
+    shift = trace_against_bus(traced, bus)
+    print(
+        f"trace.asc: {len(traced)} frames ({sum(1 for t in traced if not t[2])} Tx), the same on the bus;"
+        f" at most {shift} frames apart where a received frame crossed a sent one"
+    )
+    assert shift <= CROSSING, f"trace.asc and the bus interleave Tx and Rx {shift} frames apart"
+
+
+#: how far apart (in frames) the trace and the bus may interleave a received frame and a sent one:
+#: the trace logs a Tx frame when the host sends it and an Rx frame when python-can's notifier
+#: thread hands it over, so a heartbeat that crosses an SDO request on the wire may be logged on
+#: either side of it (seen in CI: node 1's heartbeat logged after the host's next SDO request)
+CROSSING = 8
+
+
+def trace_against_bus(traced: list[tuple[int, bytes, bool]], bus: list[tuple[int, bytes, bool]]) -> int:
+    """Check that each direction of the trace is the bus's frames of that direction, in the same
+    order and none missing (a wrong direction in the trace puts a frame in the wrong one); return
+    the largest distance between a traced frame's place in the trace and its place on the bus."""
+    places: dict[int, int] = {}
+    for rx in (False, True):
+        mine = [i for i, t in enumerate(traced) if t[2] == rx]
+        theirs = [j for j, b in enumerate(bus) if b[2] == rx]
+        want = [traced[i][:2] for i in mine]
+        got = [bus[j][:2] for j in theirs]
+        side = "Rx" if rx else "Tx"
+        assert want, f"the trace has no {side} frames"
+        assert want[0] in got, f"the trace's first {side} frame {want[0]} is not on the bus"
+        first = got.index(want[0])
+        assert got[first : first + len(want)] == want, f"the trace's {side} frames differ from the bus's"
+        places.update(zip(mine, theirs[first : first + len(want)]))
+    bus_order = sorted(places, key=places.__getitem__)
+    return max(abs(rank - i) for rank, i in enumerate(bus_order))
 
 
 def host_sends(frame: Frame) -> bool:
