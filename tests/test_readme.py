@@ -42,21 +42,26 @@ def test_every_block_is_run_or_has_a_reason() -> None:
     assert any("rig demo" in b for _, b in runnable) and any("rig identify" in b for _, b in runnable)
 
 
-@pytest.mark.parametrize(("line", "block"), _runnable(), ids=lambda v: str(v) if isinstance(v, int) else "")
-def test_the_block_runs_as_written(line: int, block: str, tmp_path: pathlib.Path) -> None:
-    (tmp_path / "examples").symlink_to(ROOT / "examples")
-    # the installation is CI's own first step: the block's install, if any, is not repeated
-    script = re.sub(r"python -m pip install [^&\n]*&&\s*", "", block)
+def run_here(script: str, folder: pathlib.Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    """``script`` run by bash -e in ``folder`` beside the examples, with the installed ``rig`` on PATH."""
+    (folder / "examples").symlink_to(ROOT / "examples")
     env = {**os.environ, "PATH": f"{pathlib.Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
-    proc = subprocess.run(
+    return subprocess.run(
         ["bash", "-e", "-o", "pipefail", "-c", script],
-        cwd=tmp_path,
+        cwd=folder,
         env=env,
         capture_output=True,
         text=True,
-        timeout=300,
+        timeout=timeout,
         check=False,
     )
+
+
+@pytest.mark.parametrize(("line", "block"), _runnable(), ids=lambda v: str(v) if isinstance(v, int) else "")
+def test_the_block_runs_as_written(line: int, block: str, tmp_path: pathlib.Path) -> None:
+    # the installation is CI's own first step: the block's install, if any, is not repeated
+    script = re.sub(r"python -m pip install [^&\n]*&&\s*", "", block)
+    proc = run_here(script, tmp_path)
     assert proc.returncode == 0, (
         f"README line {line}:\n{script}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
     )
