@@ -26,6 +26,7 @@ import pytest
 from rig.cli import build_parser
 from rig.cli.common import UsageError
 from rig.config import load_config
+from rig.process import spawn_rig, stop_rig
 from tests.test_readme import ROOT, run_here
 
 README = (ROOT / "README.md").read_text()
@@ -460,11 +461,11 @@ NOT_RUN = {
     "rig emulate --eds mydrive.eds": "the reader's own EDS",
     "rig emulate --preset dc-servo --interface socketcan --channel vcan0": "root and a kernel with vcan "
     "(the vcan tier serves it so)",
-    "rig emulate --preset dc-servo": "a server until Ctrl-C, for a client in another terminal "
-    "(tests/rig/test_run_across_processes.py serves it so, on a free port)",
+    "rig emulate --preset dc-servo": "a server until Ctrl-C, for a client in another terminal: the "
+    "timing tier runs it as written, with rig scan beside it (test_the_emulator_serves_two_nodes)",
     "rig emulate --preset dc-servo --time lockstep --param load=step:0.0346:1.5": "a server beside "
-    "`rig run` in another terminal (tests/rig/test_run_across_processes.py compares that run with "
-    "the in-process one)",
+    "`rig run` in another terminal: the timing tier runs the two as written "
+    "(test_a_run_against_the_emulator_in_another_process)",
     "rig emulate --device epos4": "a server until Ctrl-C, for a client in another terminal "
     "(tests/rig/test_zoo_runs.py and the timing tier's cross-process fault scenarios serve it so)",
     "rig emulate --modbus-map abb-drives-profile": "a server until Ctrl-C, for a client in another "
@@ -565,3 +566,48 @@ def _run_and_check(command: str, check: Check, folder: pathlib.Path, timeout: fl
         check(proc, folder)
     except AssertionError as exc:
         raise AssertionError(f"{where}: {exc}\n{proc.stdout[-3000:]}") from exc
+
+
+def _serve(*args: str) -> subprocess.Popen[str]:
+    """``rig emulate ARGS`` as written: on the README's 127.0.0.1:29536."""
+    proc, line = spawn_rig("emulate", *args, stderr=True)
+    if "socketcand://127.0.0.1:29536" not in line:
+        proc.kill()
+        pytest.fail(f"rig emulate {' '.join(args)}: {line} {proc.communicate()[1][-2000:]}")
+    return proc
+
+
+@pytest.mark.timing
+def test_the_emulator_serves_two_nodes(tmp_path: pathlib.Path) -> None:
+    """`rig emulate --preset dc-servo` serves the drive (node 1) and the encoder (node 2) on
+    127.0.0.1:29536, where rig scan over socketcand finds them; Ctrl-C stops it."""
+    said(
+        r"`rig emulate --preset dc-servo` serves the emulated drive \(node 1\) and encoder \(node 2\) "
+        r"on 127\.0\.0\.1:29536"
+    )
+    server = _serve("--preset", "dc-servo")
+    try:
+        proc = run_here("rig scan --interface socketcand --channel can0 --json", tmp_path, timeout=60)
+    finally:
+        stop_rig(server, timeout=20)
+    assert proc.returncode == 0, proc.stderr
+    assert [row["node_id"] for row in json.loads(proc.stdout)] == [1, 2], proc.stdout
+    assert server.returncode == 0
+
+
+@pytest.mark.timing
+def test_a_run_against_the_emulator_in_another_process(tmp_path: pathlib.Path) -> None:
+    """ "The emulator": a copy of the servo example with `[run] period = 0.0004`, run with `rig run
+    --config` beside `rig emulate --preset dc-servo --time lockstep --param load=step:0.0346:1.5`,
+    gives the in-process result (rms 1.969 mrad)."""
+    rms = said(r"beside `rig run --config` of the copy: .*? the in-process result exactly \(rms (N) mrad")[1]
+    example = (ROOT / "examples/dc_servo_position.toml").read_text()
+    (tmp_path / "servo.toml").write_text(example.replace("[run]\n", "[run]\nperiod = 0.0004\n", 1))
+    server = _serve("--preset", "dc-servo", "--time", "lockstep", "--param", "load=step:0.0346:1.5")
+    try:
+        proc = run_here("rig run --config servo.toml", tmp_path, timeout=120)
+    finally:
+        stop_rig(server, timeout=20)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    summary = json.loads((run_dir(tmp_path, "dc-servo-position") / "summary.json").read_text())
+    assert summary["cycles"] == 7500 and agree(rms, 1e3 * summary["rms_error"]), summary
