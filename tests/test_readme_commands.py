@@ -1,6 +1,6 @@
-"""The README's inline commands (issue 19): every backticked ``rig ...`` outside the ```sh blocks
-is one rig's own parser accepts, with the option names exactly as written (a synopsis through its
-concrete forms, a command elided with ``...`` through the forms given in ELIDED). Each whole
+"""The README's inline commands (issue 19): rig's own parser accepts every backticked ``rig ...``
+outside the sh blocks, its option names exactly as written (a synopsis through its concrete
+forms, a command elided with ``...`` through the forms given in ELIDED). Each whole
 command is run here in a fresh folder beside the examples, with the claims the README makes next
 to it checked (RUN), run in the ``slow`` tier (SLOW), or named with the reason it is not
 (NOT_RUN); a command or option only named in prose is in MENTIONS. A new span must be given one
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import io
 import json
 import pathlib
@@ -25,7 +26,7 @@ import pytest
 
 from rig.cli import build_parser
 from rig.cli.common import UsageError
-from rig.config import load_config
+from rig.config import FaultsConfig, load_config
 from rig.process import spawn_rig, stop_rig
 from tests.test_readme import ROOT, run_here
 
@@ -544,6 +545,12 @@ def test_a_renamed_option_or_subcommand_is_refused(parser: argparse.ArgumentPars
 @pytest.mark.parametrize("command", sorted(SLOW))
 def test_the_slow_command_does_what_the_readme_says(command: str, tmp_path: pathlib.Path) -> None:
     _run_and_check(command, SLOW[command], tmp_path, timeout=900)
+
+
+def test_the_fault_names_are_rig_s() -> None:
+    """The names `rig run ... --fault NAME=VALUE` lists are those of [faults], all of them."""
+    cell = said(r"`rig run \.\.\. --fault NAME=VALUE` \| inject a fault in a run: (.*?) \|")[1]
+    assert set(re.findall(r"`(\w+)`", cell)) == {f.name for f in dataclasses.fields(FaultsConfig)}
 
 
 def _lines(text: str) -> str:
