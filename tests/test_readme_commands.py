@@ -439,6 +439,47 @@ def _identify_bench(proc: subprocess.CompletedProcess[str], folder: pathlib.Path
             assert agree(text.rstrip(" %"), got[f"identify_{name}_{kind}_abs_error"]), (figure, name, got)
 
 
+def _scan(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+    said(r"\| the CANopen nodes on a bus: node id, NMT state, device type, profile, vendor, product name \|")
+    header, *rows = proc.stdout.splitlines()
+    assert header.split() == ["node", "NMT", "state", "device", "type", "profile", "vendor", "product"]
+    assert [row.split()[0] for row in rows] == ["1", "2"], proc.stdout  # drive and encoder
+
+
+def _json_keys(pattern: str) -> Check:
+    """A check that the JSON on stdout (its first element, if a list) has the keys the README
+    names in the backticks or quotes of ``pattern``'s group."""
+
+    def check(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+        out = json.loads(proc.stdout)
+        keys = set(re.findall(r'[`"](\w+)[`"]', said(pattern)[1]))
+        assert len(keys) >= 2 and keys <= set(out[0] if isinstance(out, list) else out), (keys, out)
+
+    return check
+
+
+#: synopses run in the default pass in one concrete form, with the claims of their row checked
+INSTANCES: dict[str, tuple[str, Check]] = {
+    "rig scan (--interface I --channel C [--bitrate B] | --emulate PRESET) [--json]": (
+        "rig scan --emulate dc-servo",
+        _scan,
+    ),
+    "rig faults [--json] [--scenario NAME ...]": (
+        "rig faults --json --scenario tpdo-stall",
+        _json_keys(r"`--json` prints a list of `\{(.*?)\}`"),
+    ),
+    "rig reproduce dq-current [--json] [--plot FILE] [--param NAME=VALUE ...]": (
+        "rig reproduce dq-current --json",
+        _json_keys(r"`--json` prints `\{(\"tables\": \[\.\.\.\], \"cross_coupling\": \[\.\.\.\])\}`"),
+    ),
+    "rig identify (--config FILE | --emulate PRESET | --from-log RUN_DIR) [--param NAME=VALUE ...] "
+    "[--input voltage|torque] [--excitation prbs|steps] [--duration S] [--seed N] [--u0 U] "
+    "[--amplitude U] [--clock S] [--json] [--plot FILE]": (
+        "rig identify --emulate dc-servo --json",
+        _json_keys(r"`--json` prints (`a_m`, `b_m`, .*?`run_dir`)"),
+    ),
+}
+
 #: the whole commands that take half a minute or more: the ``slow`` tier (``-m slow``)
 SLOW: dict[str, Check] = {
     "rig reproduce drives": _drives,
@@ -501,7 +542,8 @@ def test_every_span_is_parsed_run_or_named() -> None:
         for line, text in spans()
         if not is_synopsis(text) and "..." not in text and sum(text in p for p in places) != 1
     ]
-    problems += [f"`{text}` is no span of the README" for p in [*places, set(ELIDED)] for text in p - texts]
+    named = [*places, set(ELIDED), set(INSTANCES)]
+    problems += [f"`{text}` is no span of the README" for p in named for text in p - texts]
     assert not problems, "\n".join(problems)
     assert len(texts) > 50
 
@@ -540,6 +582,12 @@ def test_a_renamed_option_or_subcommand_is_refused(parser: argparse.ArgumentPars
     assert unknown_names(parser, "rig emulator") == ["emulator"]
 
 
+@pytest.mark.parametrize("synopsis", sorted(INSTANCES))
+def test_a_synopsis_does_what_its_row_says(synopsis: str, tmp_path: pathlib.Path) -> None:
+    command, check = INSTANCES[synopsis]
+    _run_and_check(command, check, tmp_path, timeout=120, span=synopsis)
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(1200)
 @pytest.mark.parametrize("command", sorted(SLOW))
@@ -562,10 +610,12 @@ def test_the_command_does_what_the_readme_says(command: str, tmp_path: pathlib.P
     _run_and_check(command, RUN[command], tmp_path, timeout=120)
 
 
-def _run_and_check(command: str, check: Check, folder: pathlib.Path, timeout: float) -> None:
+def _run_and_check(
+    command: str, check: Check, folder: pathlib.Path, timeout: float, span: str | None = None
+) -> None:
     # no display: `--live` draws its strip on stderr, as on a CI runner
     proc = run_here(f"env -u DISPLAY -u WAYLAND_DISPLAY {command}", folder, timeout=timeout)
-    where = f"README line {_lines(command)}: `{command}`"
+    where = f"README line {_lines(span or command)}: `{command}`"
     assert proc.returncode == 0, (
         f"{where}: exit {proc.returncode}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
     )
