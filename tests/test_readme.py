@@ -42,9 +42,13 @@ def test_every_block_is_run_or_has_a_reason() -> None:
     assert any("rig demo" in b for _, b in runnable) and any("rig identify" in b for _, b in runnable)
 
 
-def run_here(script: str, folder: pathlib.Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
-    """``script`` run by bash -e in ``folder`` beside the examples, with the installed ``rig`` on PATH."""
-    (folder / "examples").symlink_to(ROOT / "examples")
+def run_here(
+    script: str, folder: pathlib.Path, timeout: float = 300, *, link: bool = True
+) -> subprocess.CompletedProcess[str]:
+    """``script`` run by bash -e in ``folder`` beside the examples (linked there unless ``link`` is
+    false: done before), with the installed ``rig`` on PATH."""
+    if link:
+        (folder / "examples").symlink_to(ROOT / "examples")
     env = {**os.environ, "PATH": f"{pathlib.Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     return subprocess.run(
         ["bash", "-e", "-o", "pipefail", "-c", script],

@@ -342,6 +342,12 @@ def _servo_run(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> 
     assert agree(said(r"the in-process result exactly \(rms (N) mrad")[1], 1e3 * summary["rms_error"])
     assert summary["safe_stop_reason"] is None and summary["stop_confirmed"] is True
     assert f"run directory   runs/{where.name}" in proc.stdout
+    # "the same with `law = "sign"` in `[controller]`": a copy of the example so
+    count, rms = said(r"the same with `law = \"sign\"` in `\[controller\]`: (N), (N) V").groups()
+    example = (ROOT / "examples/dc_servo_position.toml").read_text()
+    (folder / "sign.toml").write_text(example.replace("[controller]\n", '[controller]\nlaw = "sign"\n', 1))
+    sign = json.loads(run_here("rig run --config sign.toml --emulate --json", folder, link=False).stdout)
+    assert sign["chattering_count"] == int(count) and agree(rms, sign["chattering_amplitude"]), sign
 
 
 def _identify(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
