@@ -601,10 +601,31 @@ def test_the_slow_command_does_what_the_readme_says(command: str, tmp_path: path
     _run_and_check(command, SLOW[command], tmp_path, timeout=900)
 
 
-def test_the_fault_names_are_rig_s() -> None:
-    """The names `rig run ... --fault NAME=VALUE` lists are those of [faults], all of them."""
-    cell = said(r"`rig run \.\.\. --fault NAME=VALUE` \| inject a fault in a run: (.*?) \|")[1]
-    assert set(re.findall(r"`(\w+)`", cell)) == {f.name for f in dataclasses.fields(FaultsConfig)}
+def _known_names() -> dict[str, set[str]]:
+    """What the Commands table's lists name (a regex whose group holds them) -> rig's names."""
+    from plant_emulator.presets import PRESETS
+    from rig.papers.dismc import PARAM_NAMES
+    from rig.papers.dq_current import DQ_PARAM_NAMES
+    from rig.papers.drives_study import DRIVES_PARAM_NAMES
+
+    return {
+        r"`rig run \.\.\. --fault NAME=VALUE` \| inject a fault in a run: (.*?) \|": {
+            f.name for f in dataclasses.fields(FaultsConfig)
+        },
+        r"\| `rig reproduce dismc .*?`--param` takes the paper's symbols \((.*?)\) \|": set(PARAM_NAMES),
+        r"\| `rig reproduce drives .*?`--param` takes the horizons (.*?) \|": set(DRIVES_PARAM_NAMES),
+        r"\| `rig reproduce dq-current .*?`--param` takes (.*?); `--json`": set(DQ_PARAM_NAMES),
+        r"\| the plant emulator as its own process: presets (.*?); on a python-can bus": set(PRESETS),
+    }
+
+
+@pytest.mark.parametrize("pattern", sorted(_known_names()))
+def test_the_names_a_row_lists_are_rig_s(pattern: str) -> None:
+    """The fault names, the reproductions' --param names and the presets that the Commands table
+    lists are rig's, all of them."""
+    names = re.sub(r"\([^)]*\)", "", said(pattern)[1])  # values and asides in parentheses off
+    listed = {code.split("=")[0] for code in re.findall(r"`([^`]+)`", names)}
+    assert {name for name in listed if re.fullmatch(r"\w[\w-]*", name)} == _known_names()[pattern]
 
 
 def _lines(text: str) -> str:
