@@ -464,11 +464,29 @@ def _json_keys(pattern: str) -> Check:
     return check
 
 
-#: synopses run in the default pass in one concrete form, with the claims of their row checked
+def _drive(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+    """status says the state, mode, statusword bits, 0x603F in words, last EMCY, units and PDO
+    mapping; a jog ends at rest and disabled, its stop confirmed."""
+    said(r"status` says its state, mode, statusword bits, 0x603F in words, last EMCY, the units it")
+    said(r"end, as Ctrl-C does, with the drive's quick-stop ramp to rest and then disable")
+    lines = dict(line.split(None, 1) for line in proc.stdout.splitlines())
+    for key in ("state", "mode", "statusword_bits", "error_code", "last_emcy", "units", "pdo_mapping"):
+        assert key in lines, key
+    assert "0x603F = 0x0000, no error" in proc.stdout
+    assert lines["result"] == "done" and lines["stop_confirmed"] == "True"
+    assert lines["state"] == "SWITCH ON DISABLED"  # the jog's, printed last
+
+
+#: synopses (and an elided command) run in the default pass in a concrete form, with the claims
+#: next to them checked
 INSTANCES: dict[str, tuple[str, Check]] = {
     "rig scan (--interface I --channel C [--bitrate B] | --emulate PRESET) [--json]": (
         "rig scan --emulate dc-servo",
         _scan,
+    ),
+    "rig drive --emulate epos4 ...": (
+        "rig drive --emulate epos4 status && rig drive --emulate epos4 jog 10 --for 1",
+        _drive,
     ),
     "rig faults [--json] [--scenario NAME ...]": (
         "rig faults --json --scenario tpdo-stall",
@@ -588,8 +606,8 @@ def test_a_renamed_option_or_subcommand_is_refused(parser: argparse.ArgumentPars
     assert unknown_names(parser, "rig emulator") == ["emulator"]
 
 
-@pytest.mark.parametrize("synopsis", sorted(INSTANCES))
-def test_a_synopsis_does_what_its_row_says(synopsis: str, tmp_path: pathlib.Path) -> None:
+@pytest.mark.parametrize("synopsis", sorted(INSTANCES), ids=lambda synopsis: INSTANCES[synopsis][0])
+def test_a_form_does_what_the_readme_says(synopsis: str, tmp_path: pathlib.Path) -> None:
     command, check = INSTANCES[synopsis]
     _run_and_check(command, check, tmp_path, timeout=120, span=synopsis)
 
