@@ -95,7 +95,8 @@ class DeviceFault(RigError):
     """The device reports a fault; ``device`` names it and ``code`` is its error code."""
 
     def __init__(self, message: str, *, device: str, code: int = 0):
-        super().__init__(f"{device}: {message}" + (f" (error code 0x{code:04X})" if code else ""))
+        named = not code or f"0x{code:04X}" in message  # an EMCY's text names its code already
+        super().__init__(f"{device}: {message}" + ("" if named else f" (error code 0x{code:04X})"))
         self.device = device
         self.code = code
 
