@@ -105,8 +105,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         handler = logging.StreamHandler(sys.stderr)
         handler.setFormatter((logging.Formatter if args.verbose else BriefFormatter)(FORMAT))
         logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, handlers=[handler])
-        if not args.verbose:  # the Modbus driver says what failed in its own words (unit, register)
+        if not args.verbose:  # the drivers say what failed in their own words (unit, register; node, object)
             logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+            logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)
         return int(args.handler(args))
     except UsageError as exc:
         print(str(exc), file=sys.stderr)

@@ -51,6 +51,21 @@ def add_parser(sub: Any) -> None:
     ident.set_defaults(handler=run)
 
 
+MAX_DURATION = 3600.0  #: [s] the longest experiment
+
+
+def _check(args: argparse.Namespace) -> None:
+    """The experiment's numbers, before anything is opened."""
+    if not 0.0 < args.duration <= MAX_DURATION:
+        raise UsageError(
+            f"rig identify: argument --duration: must be in (0, {MAX_DURATION:g}] s, got {args.duration:g}"
+        )
+    if not 0.0 < args.clock < args.duration:
+        raise UsageError(f"rig identify: argument --clock: must be in (0, --duration) s, got {args.clock:g}")
+    if args.seed < 0:
+        raise UsageError(f"rig identify: argument --seed: must be >= 0, got {args.seed}")
+
+
 def _experiment(args: argparse.Namespace) -> str | None:
     """Run the experiment; its run directory, or None after a safe stop."""
     from plant_emulator.presets import preset_period
@@ -61,6 +76,7 @@ def _experiment(args: argparse.Namespace) -> str | None:
     from rig.identify import excitation
     from rig.identify.experiment import experiment_config, run_experiment
 
+    _check(args)
     torque = args.input == "torque"
     if args.u0 is None:
         args.u0 = 0.01 if torque else 3.0
@@ -81,6 +97,10 @@ def _experiment(args: argparse.Namespace) -> str | None:
         period, params = base.run.period, None
         if period <= 0.0:
             raise UsageError(f"rig identify: {args.config}: [run] period must be set")
+    if args.clock < period:
+        raise UsageError(
+            f"rig identify: argument --clock: {args.clock:g} s is shorter than the period T = {period:g} s"
+        )
     u = excitation(
         args.excitation,
         u0=args.u0,

@@ -10,6 +10,8 @@ from rig.cli.common import UsageError, add_bus_arguments, add_json, finite, open
 
 __all__ = ["add_parser"]
 
+MAX_LISTEN = 70.0  #: [s] heartbeats are at most 65.535 s apart (0x1017 is 16-bit milliseconds)
+
 
 def add_parser(sub: Any) -> None:
     scan = sub.add_parser(
@@ -20,7 +22,12 @@ def add_parser(sub: Any) -> None:
     )
     add_bus_arguments(scan)
     scan.add_argument("--emulate", metavar="PRESET", help="scan an in-process emulator preset instead")
-    scan.add_argument("--listen", type=finite, default=1.1, help="seconds to listen for heartbeats")
+    scan.add_argument(
+        "--listen",
+        type=finite,
+        default=1.1,
+        help=f"seconds to listen for heartbeats (at most {MAX_LISTEN:g})",
+    )
     add_json(scan, "print a list of JSON objects")
     scan.set_defaults(handler=run)
 
@@ -56,6 +63,10 @@ def _on_bus(args: argparse.Namespace) -> list[dict[str, Any]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if not 0.0 < args.listen <= MAX_LISTEN:
+        raise UsageError(
+            f"rig scan: argument --listen: must be in (0, {MAX_LISTEN:g}] s, got {args.listen:g}"
+        )
     rows = _emulated(args.emulate, args.listen) if args.emulate else _on_bus(args)
     if args.json:
         print(json.dumps(rows))

@@ -190,3 +190,97 @@ def test_every_subcommand_s_help_ends_with_an_example_that_parses(capsys: pytest
         argv = example.split("(")[0].split()
         assert argv[0] == "rig" and argv[1] == name
         parser.parse_args(argv[1:])  # the example is a valid command line
+
+
+@pytest.fixture
+def nothing_opens(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Each way a command opens a bus, serves, builds an emulated world or runs an experiment,
+    refused: a bad argument must be found before any of them."""
+    seen: list[str] = []
+
+    def refuse(what: str) -> object:
+        def opener(*args: object, **kwargs: object) -> None:
+            seen.append(what)
+            raise AssertionError(f"{what} before the arguments were checked")
+
+        return opener
+
+    for target in (
+        "drivers.bus.open_bus",
+        "rig.emulate.run_emulator",
+        "rig.emulate.run_modbus_emulator",
+        "plant_emulator.lockstep.LockstepBench",
+        "rig.identify.experiment.run_experiment",
+        "rig.papers.dismc.run_dismc",
+    ):
+        monkeypatch.setattr(target, refuse(target))
+    return seen
+
+
+def _one_line(capsys: pytest.CaptureFixture[str], needles: tuple[str, ...]) -> None:
+    out = capsys.readouterr()
+    lines = out.err.splitlines()
+    assert out.out == "" and len(lines) == 1, out.err
+    assert all(n in lines[0] for n in needles), lines[0]
+
+
+HOSTILE_ARGUMENTS = [
+    ("scan --interface nosuch --channel x", ("--interface 'nosuch'", "known: ", "socketcand")),
+    ("scan --interface socketcand --port 99999", ("--port", "99999")),
+    ("scan --emulate dc-servo --listen 0", ("--listen", "got 0")),
+    ("scan --emulate dc-servo --listen -1", ("--listen", "got -1")),
+    ("scan --emulate dc-servo --listen 1e9", ("--listen", "1e+09")),
+    ("emulate --preset dc-servo --socketcand-port 99999", ("--socketcand-port", "99999")),
+    ("emulate --preset dc-servo --socketcand-port -1", ("--socketcand-port", "-1")),
+    ("emulate --modbus-map abb-drives-profile --modbus-port 0", ("--modbus-port", "got 0")),
+    ("emulate --interface nosuch --channel x --preset dc-servo", ("--interface 'nosuch'", "known: ")),
+    ("emulate --preset dc-servo --param a_m=inf", ("--param", "a_m", "inf")),
+    ("emulate --preset dc-servo --param period=1e-12", ("--param", "period = 1e-12")),
+    ("emulate --preset grid-converter --param f_line=inf", ("--param", "f_line", "inf")),
+    ("emulate --preset grid-converter --param f_line=1e9", ("--param", "ratio/f_line")),
+    ("emulate --device epos4 --param a_m=-1", ("--device epos4 --param", "a_m", "-1")),
+    ("drive --interface nosuch --channel x status", ("--interface 'nosuch'", "known: ")),
+    ("drive --interface socketcand --port 70000 status", ("--port", "70000")),
+    ("drive --emulate epos4 --node 128 status", ("--node", "128")),
+    ("drive --emulate epos4 --units counts_per_rev=-5 status", ("--units", "counts_per_rev = -5")),
+    ("drive --emulate epos4 sdo write 0x6060 nan", ("sdo write", "'nan'")),
+    ("drive --emulate epos4 sdo write 0x6060 1e400", ("sdo write", "'1e400'")),
+    ("drive --emulate epos4 jog 10 --for 1 --limit 0", ("--limit", "got 0")),
+    ("drive --emulate epos4 move 1 --limit -5", ("--limit", "got -5")),
+    ("identify --emulate dc-servo --duration -1", ("--duration", "got -1")),
+    ("identify --emulate dc-servo --duration 1e9", ("--duration", "1e+09")),
+    ("identify --emulate dc-servo --clock 0", ("--clock", "got 0")),
+    ("identify --emulate dc-servo --clock 1e-5", ("--clock", "1e-05", "period")),
+    ("identify --emulate dc-servo --seed -1", ("--seed", "got -1")),
+    ("identify --emulate dc-servo --param plant.a_m=-5", ("--emulate dc-servo", "a_m", "-5")),
+    ("identify --emulate dc-servo --param plant.period=inf", ("--emulate dc-servo", "period", "inf")),
+    ("reproduce dismc --param Ts=0", ("--param", "Ts", "0.0")),
+    ("reproduce dismc --param x0=inf,0", ("--param", "x0", "inf")),
+]
+
+
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize(("argv", "needles"), HOSTILE_ARGUMENTS, ids=[a for a, _ in HOSTILE_ARGUMENTS])
+def test_a_hostile_argument_is_one_line_exit_2_before_anything_opens(
+    argv: str, needles: tuple[str, ...], capsys: pytest.CaptureFixture[str], nothing_opens: list[str]
+) -> None:
+    assert main(argv.split()) == 2
+    _one_line(capsys, needles)
+    assert not nothing_opens
+
+
+@pytest.mark.parametrize(
+    ("argv", "needles"),
+    [
+        ("sdo write 0x6060 99999999999", ("'99999999999'", "0x6060:00")),
+        ("sdo write 0x1008 1", ("'1'", "0x1008:00")),
+        ("sdo read 0x1018:300", ("'0x1018:300'", "sub-index 0..255")),
+        ("sdo read nosuchname", ("'nosuchname'",)),
+    ],
+)
+def test_a_value_that_does_not_fit_the_object_is_one_line_exit_2(
+    argv: str, needles: tuple[str, ...], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """What only the drive's object dictionary tells (the object's type), found before any write."""
+    assert main(["drive", "--emulate", "epos4", *argv.split()]) == 2
+    _one_line(capsys, needles)
