@@ -62,6 +62,31 @@ def _on_bus(args: argparse.Namespace) -> list[dict[str, Any]]:
         network.disconnect()
 
 
+#: the table's columns: (heading, JSON key)
+COLUMNS = (
+    ("node", "node_id"),
+    ("NMT state", "nmt_state"),
+    ("device type", "device_type"),
+    ("profile", "profile"),
+    ("vendor", "vendor_id"),
+    ("product", "product_name"),
+)
+
+
+def table(rows: list[dict[str, Any]]) -> list[str]:
+    """The rows for a person: a column per field, '-' where it was not read, and a line per
+    node with what could not be read (and why) after the table."""
+    cells = [[h for h, _ in COLUMNS]]
+    cells += [["-" if r.get(k) in (None, "") else str(r[k]) for _, k in COLUMNS] for r in rows]
+    widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
+    lines = [
+        "  ".join(c.rjust(w) if i == 0 else c.ljust(w) for i, (c, w) in enumerate(zip(cell, widths))).rstrip()
+        for cell in cells
+    ]
+    lines += [f"node {r['node_id']}: {'; '.join(r['errors'])}" for r in rows if r.get("errors")]
+    return lines
+
+
 def run(args: argparse.Namespace) -> int:
     if not 0.0 < args.listen <= MAX_LISTEN:
         raise UsageError(
@@ -71,11 +96,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(rows))
         return 0
-    print(f"{'node':>4s}  {'NMT state':16s} {'device type':12s} {'profile':18s} {'vendor':11s} product")
-    for r in rows:
-        product = r.get("product_name", r.get("error", ""))
-        print(
-            f"{r['node_id']:>4d}  {r['nmt_state']:16s} {r.get('device_type', '-'):12s} "
-            f"{r.get('profile', '-'):18s} {r.get('vendor_id', '-'):11s} {product}"
-        )
+    print("\n".join(table(rows)))
     return 0

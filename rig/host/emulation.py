@@ -10,7 +10,7 @@ are pointed at their inverters by ``endpoint``.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import canopen
@@ -35,7 +35,12 @@ _MODEL_FIXED = ("regmap", "load")
 
 
 def preset_params(
-    name: str, params: dict[str, Any], source: str, *, text: bool = False, base: dict[str, Any] | None = None
+    name: str,
+    params: dict[str, Any],
+    source: str,
+    *,
+    text: bool = False,
+    base: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """``params`` typed against the preset ``name``'s parameters (``text``: command-line text) and
     checked in their ranges over ``base`` (a twin's own values); ConfigError naming the bad one."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import pathlib
+from typing import Any
 
 import pytest
 
@@ -127,6 +128,96 @@ def test_scan_lists_the_emulated_nodes(capsys: pytest.CaptureFixture[str]) -> No
         (2, "CiA 406 encoder", "PRE-OPERATIONAL"),
     ]
     assert rows[0]["product_name"] == "drive-rig emulated servo drive"
+    assert all(r["errors"] == [] for r in rows)
+
+
+@pytest.mark.parametrize(
+    ("preset", "products"),
+    [
+        ("im-drive", {1: ("0x00010192", "drive-rig emulated induction-motor inverter (FOC)")}),
+        ("grid-converter", {1: ("0x00020192", "drive-rig emulated grid converter (dq current control)")}),
+        ("dyno", {3: ("0x00020192", "drive-rig emulated load machine (dyno)")}),
+    ],
+)
+def test_scan_says_what_each_emulated_drive_is(
+    preset: str, products: dict[int, tuple[str, str]], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """0x1008 names the device, not the EDS's servo drive; an inverter's 0x1000 says
+    frequency converter (CiA 402 additional information 0x01)."""
+    assert main(["scan", "--emulate", preset, "--json"]) == 0
+    rows = {r["node_id"]: r for r in json.loads(capsys.readouterr().out)}
+    for node, (device_type, name) in products.items():
+        assert (rows[node]["device_type"], rows[node]["product_name"]) == (device_type, name)
+        assert rows[node]["profile"] == "CiA 402 drive"
+
+
+def _node_without_0x1008(tmp_path: pathlib.Path, bench: Any, node_id: int, device_type: int) -> Any:
+    """An emulated node on ``bench`` from the toolkit's encoder EDS without 0x1008, whose 0x1000
+    is ``device_type``: the SDO server aborts an upload of 0x1008 (0x06020000)."""
+    from drivers.maps import CIA406_EDS
+    from plant_emulator.canopen_node import EmulatedNode
+
+    sections = pathlib.Path(CIA406_EDS).read_text().split("\n[")
+    eds = tmp_path / "no_name.eds"
+    eds.write_text("\n[".join(part for part in sections if not part.startswith("1008]")))
+    node = EmulatedNode(node_id, str(eds), bench.device_network)
+    node.write(0x1000, 0, device_type)
+    node.boot()
+    return node
+
+
+def test_scan_a_node_without_a_name_or_a_profile(tmp_path: pathlib.Path) -> None:
+    """A missing 0x1008 is None (JSON) and '-' (table), said once in errors; 0x1000 and 0x1018:1
+    are still read. Device type 0 is "none given", an unknown profile number says so."""
+    from plant_emulator.lockstep import LockstepBench
+    from rig.cli.scan import table
+    from rig.scan import scan
+
+    bench = LockstepBench("grid-converter")
+    try:
+        _node_without_0x1008(tmp_path, bench, 7, 0)
+        _node_without_0x1008(tmp_path, bench, 9, 0x0001_0999)
+        rows = {r["node_id"]: r for r in scan(bench.host, listen=lambda: None)}
+    finally:
+        bench.close()
+    assert sorted(rows) == [1, 7, 9]
+    abort = "0x1008:00: SDO abort: Code 0x06020000, Object does not exist"
+    assert rows[7] == {
+        "node_id": 7,
+        "nmt_state": "unknown",  # no heartbeat heard: found by its SDO answer
+        "device_type": "0x00000000",
+        "profile": "none given",
+        "vendor_id": "0x00000DB1",
+        "product_name": None,
+        "errors": [abort],
+    }
+    assert (rows[9]["device_type"], rows[9]["profile"]) == ("0x00010999", "2457 (unknown profile)")
+    lines = table(list(rows.values()))
+    assert lines[2] == "   7  unknown    0x00000000   none given              0x00000DB1  -"
+    assert lines[3] == "   9  unknown    0x00010999   2457 (unknown profile)  0x00000DB1  -"
+    assert lines[4:] == [f"node 7: {abort}", f"node 9: {abort}"]
+
+
+def test_scan_a_node_heard_but_not_answering_is_asked_once() -> None:
+    """A STOPPED node (no SDO in that state, CiA 301) found by its heartbeat: one error, not three
+    timeouts, and its state from the heartbeat."""
+    from plant_emulator.lockstep import LockstepBench
+    from rig.scan import scan
+
+    bench = LockstepBench("grid-converter")
+
+    def listen() -> None:  # 0.2 s of emulated time: heartbeats every 0.1 s
+        for k in range(1, round(0.2 / bench.period) + 1):
+            for d in bench.devices:
+                d.tick(k * bench.period)
+
+    try:
+        bench.host.nmt.send_command(0x02)  # NMT stop, all nodes
+        (row,) = scan(bench.host, listen=listen)
+    finally:
+        bench.close()
+    assert row["nmt_state"] == "STOPPED" and row["device_type"] is None and row["product_name"] is None
+    assert row["errors"] == ["0x1000:00: no SDO answer within 0.1 s"]
 
 
 def test_run_json_summary_contract(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
