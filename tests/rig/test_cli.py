@@ -375,3 +375,19 @@ def test_a_value_that_does_not_fit_the_object_is_one_line_exit_2(
     """What only the drive's object dictionary tells (the object's type), found before any write."""
     assert main(["drive", "--emulate", "epos4", *argv.split()]) == 2
     _one_line(capsys, needles)
+
+
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize(
+    ("argv", "needles"),
+    [
+        ("--preset dc-servo --listen 999.1.1.1", ("--listen 999.1.1.1", "cannot listen")),
+        ("--modbus-map abb-drives-profile --modbus-serial /nonexistent", ("/nonexistent", "no such")),
+    ],
+)
+def test_an_address_the_emulator_cannot_serve_on_is_one_line_exit_2(
+    argv: str, needles: tuple[str, ...], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Nothing announced as served, and no warning of a bus left open."""
+    assert main(["emulate", *argv.split()]) == 2
+    _one_line(capsys, needles)
