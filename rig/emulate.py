@@ -133,6 +133,7 @@ def run_emulator(
     finally:
         if server is not None:
             server.stop()
+            network.bus.shutdown()  # the emulator's own bus on the hub
         if bus is not None:
             if network.notifier is not None:
                 network.notifier.stop()

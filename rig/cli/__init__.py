@@ -97,6 +97,12 @@ def _verbose_everywhere(parser: argparse.ArgumentParser) -> None:
                 _verbose_everywhere(child)
 
 
+def _said(exc: Exception) -> str:
+    """A toolkit error's line: ``rig: `` before it, unless it names its subcommand already."""
+    text = str(exc)
+    return text if text.startswith("rig ") else f"rig: {text}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``rig`` command line; returns the process exit code."""
     parser = build_parser()
@@ -113,10 +119,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(str(exc), file=sys.stderr)
         return EXIT_USAGE
     except ConfigError as exc:
-        print(f"rig: {exc}", file=sys.stderr)
+        print(_said(exc), file=sys.stderr)
         return EXIT_USAGE
     except RigError as exc:
-        print(f"rig: {exc}", file=sys.stderr)
+        print(_said(exc), file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("rig: interrupted", file=sys.stderr)

@@ -313,6 +313,7 @@ def _one_line(capsys: pytest.CaptureFixture[str], needles: tuple[str, ...]) -> N
     lines = out.err.splitlines()
     assert out.out == "" and len(lines) == 1, out.err
     assert all(n in lines[0] for n in needles), lines[0]
+    assert not lines[0].startswith("rig: rig "), lines[0]  # the subcommand named once
 
 
 HOSTILE_ARGUMENTS = [
