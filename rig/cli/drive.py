@@ -93,29 +93,32 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     """(the DriveTool, a closer) on the bus or on an in-process twin."""
     from drivers.cia402 import Cia402Axis
     from drivers.maps import CIA402_EDS
+    from drivers.maps.od import load_od
     from rig.cli.common import params_of
-    from rig.commission import DriveTool
+    from rig.commission import DriveTool, parse_object
     from rig.config import AxisUnits
 
     units = {k: float(v) for k, v in params_of(args.units, AxisUnits, "rig drive: --units").items()}
     for key, value in units.items():
         if not value >= 0.0:
             raise UsageError(f"rig drive: --units {key} = {value:g}: must be >= 0 (0: the drive's own)")
-    if args.eds:
-        from drivers.maps.od import load_od
-
-        load_od(args.eds, args.node)  # a bad EDS is refused before the bus opens
+    profile = None
     if args.emulate:
         from plant_emulator.device_profile import device_profile
-        from plant_emulator.lockstep import LockstepBench
 
         profile = device_profile(args.emulate)
+    eds = args.eds or (str(profile.eds) if profile else CIA402_EDS)
+    od = load_od(eds, args.node)  # a bad EDS, or an object it does not name, before the bus opens
+    if args.action == "sdo":
+        parse_object(args.object, od)
+    if profile is not None:
+        from plant_emulator.lockstep import LockstepBench
+
         bench = LockstepBench(profile.physics, device=profile)
-        network, eds, idle, period = bench.host, args.eds or str(profile.eds), bench.sync, bench.period
-        close = bench.close
+        network, idle, period, close = bench.host, bench.sync, bench.period, bench.close
     else:
         network = open_network(args, "rig drive")
-        eds, idle, period, close = args.eds or CIA402_EDS, None, 0.01, network.disconnect
+        idle, period, close = None, 0.01, network.disconnect
     axis = Cia402Axis("drive", network, args.node, mode="csp", eds=eds, units=units)
 
     def done() -> None:

@@ -339,6 +339,10 @@ HOSTILE_ARGUMENTS = [
     ("drive --emulate epos4 sdo write 0x6060 1e400", ("sdo write", "'1e400'")),
     ("drive --emulate epos4 jog 10 --for 1 --limit 0", ("--limit", "got 0")),
     ("drive --emulate epos4 move 1 --limit -5", ("--limit", "got -5")),
+    ("drive --emulate epos4 sdo read 0x1018:300", ("'0x1018:300'", "sub-index 0..255")),
+    ("drive --emulate epos4 sdo read nosuchname", ("'nosuchname'", "EDS")),
+    ("drive --interface socketcan --channel can0 sdo read 0x10000", ("'0x10000'", "index 0..0xFFFF")),
+    ("drive --interface socketcan --channel can0 --eds /nonexistent.eds status", ("/nonexistent.eds",)),
     ("identify --emulate dc-servo --duration -1", ("--duration", "got -1")),
     ("identify --emulate dc-servo --duration 1e9", ("--duration", "1e+09")),
     ("identify --emulate dc-servo --clock 0", ("--clock", "got 0")),
@@ -366,8 +370,6 @@ def test_a_hostile_argument_is_one_line_exit_2_before_anything_opens(
     [
         ("sdo write 0x6060 99999999999", ("'99999999999'", "0x6060:00")),
         ("sdo write 0x1008 1", ("'1'", "0x1008:00")),
-        ("sdo read 0x1018:300", ("'0x1018:300'", "sub-index 0..255")),
-        ("sdo read nosuchname", ("'nosuchname'",)),
     ],
 )
 def test_a_value_that_does_not_fit_the_object_is_one_line_exit_2(
