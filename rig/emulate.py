@@ -133,7 +133,8 @@ def run_emulator(
     finally:
         if server is not None:
             server.stop()
-            network.bus.shutdown()  # the emulator's own bus on the hub
+            if network.bus is not None:  # the emulator's own bus on the hub
+                network.bus.shutdown()
         if bus is not None:
             if network.notifier is not None:
                 network.notifier.stop()
