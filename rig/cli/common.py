@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import pathlib
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
@@ -29,6 +30,8 @@ __all__ = [
     "finite",
     "json_clean",
     "open_network",
+    "out_dir",
+    "out_file",
     "params_of",
     "print_json",
     "tcp_port",
@@ -88,6 +91,24 @@ def _port(text: str, low: int) -> int:
     if not low <= port <= 65535:
         raise argparse.ArgumentTypeError(f"must be {low}..65535, got {port}")
     return port
+
+
+def out_file(text: str) -> str:
+    """An argparse type: a file to write (a plot): not a directory, in a folder that is there."""
+    path = pathlib.Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: a directory, not a file")
+    if not path.resolve().parent.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: no folder {path.parent} to write it in")
+    return text
+
+
+def out_dir(text: str) -> str:
+    """An argparse type: a folder to write into (made if missing): not a file."""
+    path = pathlib.Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: a file, not a folder")
+    return text
 
 
 def add_json(parser: argparse.ArgumentParser, what: str = "print one JSON document") -> None:

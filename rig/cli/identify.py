@@ -7,7 +7,16 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rig.cli.common import EXIT_STOPPED, EXIT_UNTRUSTED, UsageError, add_json, add_params, finite, print_json
+from rig.cli.common import (
+    EXIT_STOPPED,
+    EXIT_UNTRUSTED,
+    UsageError,
+    add_json,
+    add_params,
+    finite,
+    out_file,
+    print_json,
+)
 from rig.params import parse_items
 
 __all__ = ["add_parser"]
@@ -44,7 +53,7 @@ def add_parser(sub: Any) -> None:
     ident.add_argument("--amplitude", type=finite, help="excitation amplitude, < u0 (2 V, 0.006 N m)")
     ident.add_argument("--clock", type=finite, default=0.02, help="PRBS bit time [s], a few times < 1/a_m")
     add_json(ident, "print one JSON object")
-    ident.add_argument("--plot", metavar="FILE", help="write measured and model speed to FILE")
+    ident.add_argument("--plot", type=out_file, metavar="FILE", help="write measured and model speed to FILE")
     ident.add_argument(
         "--strict", action="store_true", help="exit 5 when a warning says the result is not to be trusted"
     )

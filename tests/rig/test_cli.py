@@ -350,6 +350,9 @@ HOSTILE_ARGUMENTS = [
     ("identify --emulate dc-servo --seed -1", ("--seed", "got -1")),
     ("identify --emulate dc-servo --param plant.a_m=-5", ("--emulate dc-servo", "a_m", "-5")),
     ("identify --emulate dc-servo --param plant.period=inf", ("--emulate dc-servo", "period", "inf")),
+    ("identify --emulate dc-servo --plot /nonexistent/x.png", ("--plot", "no folder /nonexistent")),
+    ("reproduce dq-current --plot /", ("--plot", "/: a directory")),
+    ("reproduce drives --plot /dev/null", ("--plot", "/dev/null: a file, not a folder")),
     ("reproduce dismc --param Ts=0", ("--param", "Ts", "0.0")),
     ("reproduce dismc --param x0=inf,0", ("--param", "x0", "inf")),
 ]
