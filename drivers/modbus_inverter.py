@@ -187,13 +187,18 @@ class ModbusInverterAxis(AxisDriver):
 
     # --- the axis contract ------------------------------------------------------------------------
     def setup(self) -> None:
-        """Connect and read the status word (the unit answers)."""
+        """Connect and read the status word (the unit answers). A unit never reached is not
+        disabled on close (one line says it could not connect, not a second that disabling failed)."""
         try:
             connected = self.client.connect()
         except (ModbusException, OSError) as exc:
-            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect: {exc}") from exc
+            connected, why = False, f": {exc}"
+        else:
+            why = ""
         if not connected:
-            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect")
+            self._forget()
+            self._release()
+            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect{why}")
         self.read("status_word")
 
     def _state(self, status: int) -> AxisState:
