@@ -95,7 +95,7 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     import pathlib
 
     from drivers.maps.od import load_od
-    from plant_emulator.device_profile import default_profile, device_profile
+    from plant_emulator.device_profile import default_profile, device_profile, load_profile
     from plant_emulator.presets import build_twin
     from rig.host.emulation import preset_params
 
@@ -106,7 +106,7 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     if args.device:
         profile = device_profile(args.device)
     elif args.profile:
-        profile = device_profile(pathlib.Path(args.profile))
+        profile = load_profile(pathlib.Path(args.profile))
         if args.eds:
             profile = dataclasses.replace(profile, eds=pathlib.Path(args.eds).resolve())
     else:

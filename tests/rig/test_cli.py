@@ -331,6 +331,8 @@ HOSTILE_ARGUMENTS = [
     ("emulate --preset grid-converter --param f_line=inf", ("--param", "f_line", "inf")),
     ("emulate --preset grid-converter --param f_line=1e9", ("--param", "ratio/f_line")),
     ("emulate --device epos4 --param a_m=-1", ("--device epos4 --param", "a_m", "-1")),
+    ("emulate --profile /", ("/: a directory", "device profile")),
+    ("emulate --profile /nonexistent.toml", ("/nonexistent.toml: no such device profile",)),
     ("drive --interface nosuch --channel x status", ("--interface 'nosuch'", "known: ")),
     ("drive --interface socketcand --port 70000 status", ("--port", "70000")),
     ("drive --emulate epos4 --node 128 status", ("--node", "128")),
