@@ -8,8 +8,10 @@ bus goes away (a socketcand link reset, an interface down): the error is logged 
 kept in the notifier's ``exception``, where the axes' supervision finds it.
 python-can's socketcand client warns "Got incomplete message" whenever a TCP segment ends
 inside a frame, which is ordinary TCP; that line is demoted to debug (``_Fragments``). A
-socketcand server is reached once first (``_reach``): where nothing listens, one line names
-host:port at once instead of python-can's 10 s of retries.
+socketcand server is reached once first (``_reach``): where nothing listens, or a server
+accepts but never greets, one line names host:port within 3 s instead of python-can's 10 s of
+retries or a wait for ever. An interface python-can does not know is a ``ConfigError`` naming
+the known ones (``check_interface``).
 """
 
 from __future__ import annotations
@@ -21,9 +23,9 @@ from typing import Any
 
 import can
 
-from drivers.errors import CommunicationError
+from drivers.errors import CommunicationError, ConfigError
 
-__all__ = ["ReceiveWatch", "brief", "open_bus"]
+__all__ = ["ReceiveWatch", "brief", "check_interface", "open_bus"]
 
 log = logging.getLogger(__name__)
 
@@ -68,18 +70,46 @@ SOCKETCAND_PORT = 29536  #: python-can's and socketcand's default port
 
 def _reach(host: str, port: int, timeout: float = 3.0) -> None:
     """One TCP connect to a socketcand server before python-can's own, which retries for 10 s
-    logging a warning per try (hundreds of thousands of lines): CommunicationError naming
-    host:port when nothing answers within ``timeout`` [s]."""
+    logging a warning per try (hundreds of thousands of lines) and then waits for the greeting
+    ``< hi >`` for ever: CommunicationError naming host:port when nothing answers, or no
+    greeting comes, within ``timeout`` [s]."""
     try:
-        socket.create_connection((host, port), timeout=timeout).close()
+        link = socket.create_connection((host, port), timeout=timeout)
     except OSError as exc:
         raise CommunicationError(f"cannot reach a socketcand server at {host}:{port}: {exc}") from None
+    greeting, deadline = b"", time.monotonic() + timeout
+    with link:
+        try:
+            while len(greeting) < len(b"< hi >"):
+                link.settimeout(max(deadline - time.monotonic(), 1e-3))
+                chunk = link.recv(256)
+                if not chunk:
+                    break
+                greeting += chunk
+        except TimeoutError:
+            raise CommunicationError(
+                f"the socketcand server at {host}:{port} sent no greeting '< hi >' within {timeout:g} s"
+            ) from None
+        except OSError as exc:
+            raise CommunicationError(f"the socketcand server at {host}:{port}: {exc}") from None
+    if not greeting.startswith(b"< hi >"):
+        raise CommunicationError(
+            f"{host}:{port} is not a socketcand server: it sent {greeting[:40]!r}, not '< hi >'"
+        )
+
+
+def check_interface(interface: str, where: str) -> None:
+    """ConfigError naming ``where`` (an option or a file's key) unless python-can knows ``interface``."""
+    if interface not in can.interfaces.VALID_INTERFACES:
+        known = ", ".join(sorted(can.interfaces.VALID_INTERFACES))
+        raise ConfigError(f"{where} {interface!r}: not a python-can interface; known: {known}")
 
 
 def open_bus(
     interface: str, channel: str | int | None, *, bitrate: int | None = None, **options: Any
 ) -> can.BusABC:
     """A python-can bus on ``interface``/``channel`` (e.g. socketcan/vcan0, socketcand/can0)."""
+    check_interface(interface, "interface")
     kwargs = dict(options)
     if interface == "socketcand":
         if not any(isinstance(f, _Fragments) for f in _SOCKETCAND_LOG.filters):

@@ -76,6 +76,7 @@ class ModbusInverterAxis(AxisDriver):
         self.unit = self._check_unit(name, unit, tcp=bool(host))
         super().__init__(name, "speed")  # checked first: an axis that is not made needs no close
         self.map: ModbusMap = regmap
+        self._reached = True  #: False after a setup that could not connect: nothing to disable
         self.client: Any
         if host:
             self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=1)
@@ -187,13 +188,17 @@ class ModbusInverterAxis(AxisDriver):
 
     # --- the axis contract ------------------------------------------------------------------------
     def setup(self) -> None:
-        """Connect and read the status word (the unit answers)."""
+        """Connect and read the status word (the unit answers). A unit never reached is not
+        disabled on close (one line says it could not connect, not a second that disabling failed)."""
         try:
             connected = self.client.connect()
         except (ModbusException, OSError) as exc:
-            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect: {exc}") from exc
+            connected, why = False, f": {exc}"
+        else:
+            why = ""
+        self._reached = bool(connected)
         if not connected:
-            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect")
+            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect{why}")
         self.read("status_word")
 
     def _state(self, status: int) -> AxisState:
@@ -233,8 +238,9 @@ class ModbusInverterAxis(AxisDriver):
         self.write("speed_reference", float(value.real if isinstance(value, complex) else value))
 
     def disable(self) -> None:
-        """The family's stop command (a ramp stop)."""
-        self.write("control_word", self.map.control["stop"])
+        """The family's stop command (a ramp stop); none to a unit setup could not connect to."""
+        if self._reached:
+            self.write("control_word", self.map.control["stop"])
 
     def quick_stop(self) -> None:
         """The family's quick (emergency ramp) stop where the map has one, else its stop."""

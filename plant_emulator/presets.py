@@ -20,6 +20,10 @@
   section VII.C); the host closes speed or position through CST (torque in per
   mille of 0x6076 = 5 N m, the rated 1.5 kW at 2860 rpm); encoder node 2.
 
+Each drive says in 0x1008 what it is (``PRODUCT_NAMES``; the EDS's name is the DC servo
+drive's), and an induction-motor inverter's 0x1000 has the CiA 402 type 0x01, a frequency
+converter, in its additional information (the servo drives' 0x02).
+
 Every parameter can be set by name to a typed value (``params``, checked by
 ``plant_emulator.parameters``); an unknown name, a value of the wrong type or
 out of range is a ValueError naming it.
@@ -255,9 +259,26 @@ def _with_encoder(
     return [drive, encoder]
 
 
+#: 0x1008 of the presets' drives that are not the EDS's DC servo drive
+PRODUCT_NAMES = {
+    "im": "drive-rig emulated induction-motor inverter (FOC)",
+    "grid": "drive-rig emulated grid converter (dq current control)",
+    "load": "drive-rig emulated load machine (dyno)",
+}
+FREQUENCY_CONVERTER = 0x0001_0000 | cia.PROFILE_DRIVE  #: 0x1000 of a CiA 402 frequency converter
+
+
+def _name(drive: EmulatedNode, kind: str) -> None:
+    """0x1008 (and, for an inverter, 0x1000) of ``drive`` say it is a ``kind`` of PRODUCT_NAMES."""
+    drive.write(cia.DEVICE_NAME, 0, PRODUCT_NAMES[kind])
+    if kind == "im":
+        drive.write(cia.DEVICE_TYPE, 0, FREQUENCY_CONVERTER)
+
+
 def _im_drive(p: ImDrivePreset, network: canopen.Network) -> list[EmulatedNode]:
     axis, ratings = _im_axis(p)
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
+    _name(drive, "im")
     drive.rate(ratings, counts_per_rev=p.counts_per_rev)
     drive.write(cia.MODES_OF_OPERATION, 0, Mode.CST)
     drive.write(cia.MODES_DISPLAY, 0, Mode.CST)
@@ -284,7 +305,11 @@ def _dyno(p: DynoPreset, network: canopen.Network) -> list[EmulatedNode]:
         axis, ratings = _dc_axis(replace(DcServoPreset(), **given), period=p.period, j_load=p.j_load)
     else:
         axis, ratings = _im_axis(replace(ImDrivePreset(), **given), j_load=p.j_load)
-    return build_dyno(p, network, axis, p.motor_ratings(ratings))
+    drive, encoder, load = build_dyno(p, network, axis, p.motor_ratings(ratings))
+    if p.motor != "dc":
+        _name(drive, "im")
+    _name(load, "load")
+    return [drive, encoder, load]
 
 
 def _grid(p: GridConverterPreset, network: canopen.Network) -> list[EmulatedNode]:
@@ -294,6 +319,7 @@ def _grid(p: GridConverterPreset, network: canopen.Network) -> list[EmulatedNode
         RLParams(p.R1, p.L1, p.period), omega_k=omega, source=source, u_max=p.u_dc / math.sqrt(3.0)
     )
     drive = EmulatedDrive(p.drive_node, network, axis, period=p.period)
+    _name(drive, "grid")
     drive.write(cia.RATED_CURRENT, 0, round(p.rated_current * 1000))  # mA
     drive.write(cia.MAX_CURRENT, 0, p.max_current_permille)
     drive.write(cia.MODES_OF_OPERATION, 0, Mode.DQ_VOLTAGE)

@@ -90,7 +90,11 @@ class SocketcandServer:
             allow_reuse_address = True
             daemon_threads = True
 
-        self.server = Server((host, port), Handler)
+        try:
+            self.server = Server((host, port), Handler)
+        except OSError:
+            self.bus.shutdown()  # nothing is served: the hub's bus goes too, not left to the collector
+            raise
         self.port = int(self.server.server_address[1])
         self._thread = threading.Thread(
             target=self.server.serve_forever, args=(0.1,), name="socketcand", daemon=True

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from drivers.errors import ConfigError
-from rig.config_checks import check_axis_values
+from rig.config_checks import check_axis_values, require_finite
 from rig.params import typed_values
 
 __all__ = ["ABORT_CONNECTION", "AXIS_KINDS", "AxisConfig", "AxisLimits", "AxisUnits", "axis_config"]
@@ -99,7 +99,9 @@ def axis_config(path: str, n: int, table: Any) -> AxisConfig:
         raise ConfigError(f"{path}: {where} needs a name (a string)")
     where = f"[[axis]] {name!r}"
     units = typed_values(AxisUnits, _table(path, where, table.pop("units", {})), f"{path}: {where} units")
-    limits = typed_values(AxisLimits, _table(path, where, table.pop("limits", {})), f"{path}: {where} limits")
+    raw_limits = _table(path, where, table.pop("limits", {}))
+    require_finite(f"{path}: {where} limits", raw_limits)
+    limits = typed_values(AxisLimits, raw_limits, f"{path}: {where} limits")
     values = typed_values(AxisConfig, table, f"{path}: {where}", fixed=("units", "limits"))
     if "kind" not in values:
         raise ConfigError(f"{path}: {where} needs kind ({', '.join(AXIS_KINDS)})")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 from drivers.errors import ConfigError
@@ -29,6 +30,7 @@ __all__ = [
     "check_reference",
     "check_run",
     "check_run_name",
+    "require_finite",
     "require_limits",
 ]
 
@@ -43,6 +45,19 @@ def require(ok: bool, where: str, key: str, value: Any, rule: str) -> None:
     """ConfigError ``<where> <key> = <value>: <rule>`` unless ``ok``."""
     if not ok:
         raise ConfigError(f"{where} {key} = {value!r}: {rule}")
+
+
+def require_finite(where: str, table: Mapping[str, Any], keys: Iterable[str] | None = None) -> None:
+    """No number given in ``table`` (of ``keys``, or all), or in a list there, is infinite: a
+    limit is left out for none, never written as inf (NaN is the type check's: not a number);
+    ConfigError naming the key and value."""
+    for key, value in table.items():
+        if keys is not None and key not in keys:
+            continue
+        items = value if isinstance(value, (list, tuple)) else [value]
+        flat = [x for v in items for x in (v if isinstance(v, (list, tuple)) else [v])]
+        if any(isinstance(x, float) and math.isinf(x) for x in flat):
+            require(False, where, key, value, "must be a finite number (leave a limit out for none)")
 
 
 def _time(where: str, key: str, value: float, high: float = math.inf) -> None:
@@ -81,8 +96,11 @@ def check_run(src: str, run: Any) -> None:
 
 
 def check_bus(src: str, bus: Any) -> None:
-    """``[bus]``: heartbeat, bitrate, port."""
+    """``[bus]``: a python-can interface, heartbeat, bitrate, port."""
+    from drivers.bus import check_interface
+
     w = f"{src}: [bus]"
+    check_interface(bus.interface, f"{w} interface =")
     _time(w, "heartbeat", bus.heartbeat, MAX_HEARTBEAT)
     require(bus.bitrate >= 0, w, "bitrate", bus.bitrate, "must be >= 0 bit/s (0: the interface's)")
     require(0 < bus.port < 65536, w, "port", bus.port, "must be 1..65535")

@@ -17,6 +17,7 @@ it lets go of its axis and the shaft keeps turning, as a real drive's does.
 from __future__ import annotations
 
 import logging
+import pathlib
 import signal
 import threading
 from collections.abc import Callable
@@ -67,11 +68,13 @@ def _transport(
         network.notifier = can.Notifier(bus, network.listeners, 0.5)
         return bus, None, f"{interface}:{channel}"
     hub = SyncHub()
-    attach_network(network, hub.bus(queue=False, channel="emulator"))
+    emulator_bus = hub.bus(queue=False, channel="emulator")
     try:
         server = SocketcandServer(hub, lock, host=host, port=port)
     except OSError as exc:
-        raise ConfigError(f"--socketcand-port {port}: cannot listen on {host}: {exc}") from exc
+        emulator_bus.shutdown()
+        raise ConfigError(f"--listen {host} --socketcand-port {port}: cannot listen: {exc}") from None
+    attach_network(network, emulator_bus)
     return None, server, f"socketcand://{host}:{server.port}"
 
 
@@ -130,6 +133,8 @@ def run_emulator(
     finally:
         if server is not None:
             server.stop()
+            if network.bus is not None:  # the emulator's own bus on the hub
+                network.bus.shutdown()
         if bus is not None:
             if network.notifier is not None:
                 network.notifier.stop()
@@ -175,6 +180,8 @@ def run_modbus_emulator(
         model = default_model(family, **values)
     except ValueError as exc:
         raise ConfigError(f"--modbus-map {family}: {exc}") from exc
+    if serial and not pathlib.Path(serial).exists():
+        raise ConfigError(f"--modbus-serial {serial}: no such serial device")
     where = f"RTU on {serial}" if serial else f"TCP {host}:{port}"
     print(f"rig emulate: Modbus inverter {family} on {where}; Ctrl-C stops", flush=True)
     server = serve_rtu(model, port=serial) if serial else serve_tcp(model, host=host, port=port)

@@ -3,7 +3,10 @@
 Nodes are found with canopen's ``NodeScanner`` (an SDO upload of 0x1000 to
 every node id; whoever answers is there) and by the heartbeats and boot-ups
 heard while listening. Each found node is then asked by SDO for 0x1000,
-0x1018:1 and 0x1008; its NMT state comes from its last heartbeat.
+0x1018:1 and 0x1008, each on its own: an object that is missing or aborts is
+None in its field and one entry of ``errors`` (a node that does not answer at
+all, one "no SDO answer"), and the others are still read. Its NMT state comes
+from its last heartbeat. 0x1000 is decoded per CiA 301 (``profile_of``).
 """
 
 from __future__ import annotations
@@ -17,20 +20,80 @@ from canopen.sdo.client import SdoClient
 
 from drivers.maps import cia
 
-__all__ = ["DEVICE_PROFILES", "scan"]
+__all__ = ["DEVICE_PROFILES", "profile_of", "scan"]
 
+#: device profile numbers (the low word of 0x1000) and their names
 DEVICE_PROFILES = {
     401: "CiA 401 I/O",
     cia.PROFILE_DRIVE: "CiA 402 drive",
+    404: "CiA 404 measuring",
     cia.PROFILE_ENCODER: "CiA 406 encoder",
+    408: "CiA 408 hydraulic",
+    410: "CiA 410 inclinometer",
+    418: "CiA 418 battery",
+    419: "CiA 419 charger",
 }
 NMT = {state.value: state.text for state in cia.NmtState}
+#: what is read of each node: (JSON key, index, sub-index)
+OBJECTS = (
+    ("device_type", cia.DEVICE_TYPE, 0),
+    ("vendor_id", cia.IDENTITY, 1),
+    ("product_name", cia.DEVICE_NAME, 0),
+)
+
+
+def profile_of(device_type: int) -> str:
+    """The device profile of a 0x1000 value (CiA 301 7.5.2.1: the low 16 bits are the profile
+    number, 0 for none, the high 16 bits additional information of the profile)."""
+    number = device_type & 0xFFFF
+    if number == 0:
+        return "none given"
+    return DEVICE_PROFILES.get(number, f"{number} (unknown profile)")
+
+
+def _identity(client: Any, row: dict[str, Any]) -> None:
+    """Fill ``row``'s object fields, each read on its own; failures into ``row["errors"]``."""
+    for key, index, sub in OBJECTS:
+        where = f"0x{index:04X}:{sub:02X}"
+        try:
+            data = client.upload(index, sub)
+        except canopen.SdoAbortedError as exc:
+            row["errors"].append(f"{where}: SDO abort: {exc}")
+            continue
+        except canopen.SdoCommunicationError:
+            row["errors"].append(f"{where}: no SDO answer within {client.RESPONSE_TIMEOUT:g} s")
+            return  # a node that does not answer is not asked again and again
+        if key == "product_name":
+            row[key] = data.decode("latin-1").rstrip("\x00")
+        else:
+            value = int.from_bytes(data, "little")
+            row[key] = f"0x{value:08X}"
+            if key == "device_type":
+                row["profile"] = profile_of(value)
+
+
+def _row(network: canopen.Network, node_id: int, state: int, sdo_timeout: float) -> dict[str, Any]:
+    make_client: Any = SdoClient
+    make_od: Any = canopen.ObjectDictionary
+    client: Any = make_client(cia.COB_SDO_RX + node_id, cia.COB_SDO_TX + node_id, make_od())
+    client.network = network
+    client.RESPONSE_TIMEOUT = sdo_timeout
+    row: dict[str, Any] = {"node_id": node_id, "nmt_state": NMT.get(state, "unknown")}
+    row.update({"device_type": None, "profile": None, "vendor_id": None, "product_name": None, "errors": []})
+    network.subscribe(cia.COB_SDO_TX + node_id, client.on_response)
+    try:
+        _identity(client, row)
+    finally:
+        network.unsubscribe(cia.COB_SDO_TX + node_id, client.on_response)
+    return row
 
 
 def scan(
     network: canopen.Network, *, listen: Callable[[], None], sdo_timeout: float = 0.1
 ) -> list[dict[str, Any]]:
-    """Scan ``network``; ``listen()`` lets heartbeats arrive (waits, or advances emulated time)."""
+    """Scan ``network``; ``listen()`` lets heartbeats arrive (waits, or advances emulated time).
+    A row per node: ``node_id``, ``nmt_state``, ``device_type``, ``profile``, ``vendor_id``,
+    ``product_name`` (None where not read) and ``errors`` (what could not be read, and why)."""
     states: dict[int, int] = {}
 
     def on_frame(can_id: int, data: bytearray, timestamp: float) -> None:
@@ -42,26 +105,7 @@ def scan(
     network.scanner.search()
     listen()
     found = sorted(set(network.scanner.nodes) | set(states))
-    rows = []
-    for node_id in found:
-        make_client: Any = SdoClient
-        make_od: Any = canopen.ObjectDictionary
-        client: Any = make_client(cia.COB_SDO_RX + node_id, cia.COB_SDO_TX + node_id, make_od())
-        client.network = network
-        client.RESPONSE_TIMEOUT = sdo_timeout
-        network.subscribe(cia.COB_SDO_TX + node_id, client.on_response)
-        row: dict[str, Any] = {"node_id": node_id, "nmt_state": NMT.get(states.get(node_id, -1), "unknown")}
-        try:
-            device_type = int.from_bytes(client.upload(cia.DEVICE_TYPE, 0), "little")
-            row["device_type"] = f"0x{device_type:08X}"
-            row["profile"] = DEVICE_PROFILES.get(device_type & 0xFFFF, f"CiA {device_type & 0xFFFF}")
-            row["vendor_id"] = f"0x{int.from_bytes(client.upload(cia.IDENTITY, 1), 'little'):08X}"
-            row["product_name"] = client.upload(cia.DEVICE_NAME, 0).decode("latin-1").rstrip("\x00")
-        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as exc:
-            row["error"] = str(exc)
-        network.unsubscribe(cia.COB_SDO_TX + node_id, client.on_response)
-        rows.append(row)
-    return rows
+    return [_row(network, node_id, states.get(node_id, -1), sdo_timeout) for node_id in found]
 
 
 def wall_listen(seconds: float) -> Callable[[], None]:

@@ -446,7 +446,7 @@ def _identify_bench(proc: subprocess.CompletedProcess[str], folder: pathlib.Path
 
 
 def _scan(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
-    said(r"\| the CANopen nodes on a bus: node id, NMT state, device type, profile, vendor, product name \|")
+    said(r"\| the CANopen nodes on a bus: node id, NMT state, device type, profile \(")
     header, *rows = proc.stdout.splitlines()
     assert header.split() == ["node", "NMT", "state", "device", "type", "profile", "vendor", "product"]
     assert [row.split()[0] for row in rows] == ["1", "2"], proc.stdout  # drive and encoder

@@ -97,6 +97,12 @@ def _verbose_everywhere(parser: argparse.ArgumentParser) -> None:
                 _verbose_everywhere(child)
 
 
+def _said(exc: Exception) -> str:
+    """A toolkit error's line: ``rig: `` before it, unless it names its subcommand already."""
+    text = str(exc)
+    return text if text.startswith("rig ") else f"rig: {text}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``rig`` command line; returns the process exit code."""
     parser = build_parser()
@@ -105,17 +111,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         handler = logging.StreamHandler(sys.stderr)
         handler.setFormatter((logging.Formatter if args.verbose else BriefFormatter)(FORMAT))
         logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, handlers=[handler])
-        if not args.verbose:  # the Modbus driver says what failed in its own words (unit, register)
+        if not args.verbose:  # the drivers say what failed in their own words (unit, register; node, object)
             logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+            logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)
         return int(args.handler(args))
     except UsageError as exc:
         print(str(exc), file=sys.stderr)
         return EXIT_USAGE
     except ConfigError as exc:
-        print(f"rig: {exc}", file=sys.stderr)
+        print(_said(exc), file=sys.stderr)
         return EXIT_USAGE
     except RigError as exc:
-        print(f"rig: {exc}", file=sys.stderr)
+        print(_said(exc), file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("rig: interrupted", file=sys.stderr)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import pathlib
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
@@ -29,8 +30,12 @@ __all__ = [
     "finite",
     "json_clean",
     "open_network",
+    "out_dir",
+    "out_file",
     "params_of",
     "print_json",
+    "tcp_port",
+    "tcp_port_or_any",
 ]
 
 EXIT_USAGE = 2
@@ -68,6 +73,44 @@ def finite(text: str) -> float:
     return value
 
 
+def tcp_port(text: str) -> int:
+    """An argparse type: a TCP port 1..65535."""
+    return _port(text, 1)
+
+
+def tcp_port_or_any(text: str) -> int:
+    """An argparse type: a TCP port to listen on, 0..65535 (0: any free port)."""
+    return _port(text, 0)
+
+
+def _port(text: str, low: int) -> int:
+    try:
+        port = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a port number: {text!r}") from None
+    if not low <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"must be {low}..65535, got {port}")
+    return port
+
+
+def out_file(text: str) -> str:
+    """An argparse type: a file to write (a plot): not a directory, in a folder that is there."""
+    path = pathlib.Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: a directory, not a file")
+    if not path.resolve().parent.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: no folder {path.parent} to write it in")
+    return text
+
+
+def out_dir(text: str) -> str:
+    """An argparse type: a folder to write into (made if missing): not a file."""
+    path = pathlib.Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: a file, not a folder")
+    return text
+
+
 def add_json(parser: argparse.ArgumentParser, what: str = "print one JSON document") -> None:
     parser.add_argument("--json", action="store_true", help=what)
 
@@ -94,21 +137,23 @@ def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
         "--bitrate", type=int, help="bit rate [bit/s] where the interface sets it (e.g. 500000)"
     )
     group.add_argument("--host", default="127.0.0.1", help="socketcand host (default 127.0.0.1)")
-    group.add_argument("--port", type=int, default=29536, help="socketcand port (default 29536)")
+    group.add_argument("--port", type=tcp_port, default=29536, help="socketcand port (default 29536)")
 
 
 def open_network(args: argparse.Namespace, who: str) -> Any:
     """A connected canopen network on the bus of ``add_bus_arguments``' options."""
     import canopen
 
-    from drivers.bus import open_bus
+    from drivers.bus import check_interface, open_bus
 
     if not (args.interface and (args.channel or args.interface == "socketcand")):
         raise UsageError(f"{who}: give --interface and --channel, or --emulate")
+    try:
+        check_interface(args.interface, f"{who}: argument --interface")
+    except ConfigError as exc:
+        raise UsageError(str(exc)) from None
     if args.bitrate is not None and args.bitrate <= 0:
         raise UsageError(f"{who}: argument --bitrate: must be > 0 bit/s, got {args.bitrate}")
-    if not 0 < args.port < 65536:
-        raise UsageError(f"{who}: argument --port: must be 1..65535, got {args.port}")
     extra = {"host": args.host, "port": args.port} if args.interface == "socketcand" else {}
     network = canopen.Network(open_bus(args.interface, args.channel or "can0", bitrate=args.bitrate, **extra))
     network.connect()

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Any
 
+from drivers.errors import RigError
 from rig.cli.common import (
     EXIT_STOPPED,
     EXIT_UNCONFIRMED,
@@ -81,28 +83,42 @@ def _check(args: argparse.Namespace) -> None:
         raise UsageError(f"rig drive jog: argument --for: must be in (0, 60] s, got {args.seconds:g}")
     if args.action == "home" and args.method is not None and not -128 <= args.method <= 127:
         raise UsageError(f"rig drive home: argument --method: must be -128..127, got {args.method}")
+    if args.action in ("jog", "move") and not args.limit > 0.0:
+        raise UsageError(f"rig drive {args.action}: argument --limit: must be > 0, got {args.limit:g}")
+    if args.action == "sdo" and args.op == "write":
+        _value(args.value)
 
 
 def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     """(the DriveTool, a closer) on the bus or on an in-process twin."""
     from drivers.cia402 import Cia402Axis
     from drivers.maps import CIA402_EDS
+    from drivers.maps.od import load_od
     from rig.cli.common import params_of
-    from rig.commission import DriveTool
+    from rig.commission import DriveTool, parse_object
     from rig.config import AxisUnits
 
     units = {k: float(v) for k, v in params_of(args.units, AxisUnits, "rig drive: --units").items()}
+    for key, value in units.items():
+        if not value >= 0.0:
+            raise UsageError(f"rig drive: --units {key} = {value:g}: must be >= 0 (0: the drive's own)")
+    profile = None
     if args.emulate:
         from plant_emulator.device_profile import device_profile
-        from plant_emulator.lockstep import LockstepBench
 
         profile = device_profile(args.emulate)
+    eds = args.eds or (str(profile.eds) if profile else CIA402_EDS)
+    od = load_od(eds, args.node)  # a bad EDS, or an object it does not name, before the bus opens
+    if args.action == "sdo":
+        parse_object(args.object, od)
+    if profile is not None:
+        from plant_emulator.lockstep import LockstepBench
+
         bench = LockstepBench(profile.physics, device=profile)
-        network, eds, idle, period = bench.host, args.eds or str(profile.eds), bench.sync, bench.period
-        close = bench.close
+        network, idle, period, close = bench.host, bench.sync, bench.period, bench.close
     else:
         network = open_network(args, "rig drive")
-        eds, idle, period, close = args.eds or CIA402_EDS, None, 0.01, network.disconnect
+        idle, period, close = None, 0.01, network.disconnect
     axis = Cia402Axis("drive", network, args.node, mode="csp", eds=eds, units=units)
 
     def done() -> None:
@@ -117,9 +133,12 @@ def _value(text: str) -> int | float:
         return int(text, 0)
     except ValueError:
         try:
-            return float(text)
+            value = float(text)
         except ValueError:
             raise UsageError(f"rig drive sdo write: value {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise UsageError(f"rig drive sdo write: value {text!r} is not a finite number")
+    return value
 
 
 def _act(tool: Any, args: argparse.Namespace) -> Any:
@@ -138,7 +157,15 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
                 "object": f"0x{index:04X}:{sub:02X}",
                 "value": value if not isinstance(value, bytes) else value.hex(),
             }
-        a.sdo_write(index, sub, _value(args.value))
+        try:
+            a.sdo_write(index, sub, _value(args.value))
+        except (OverflowError, ValueError, TypeError, AttributeError) as exc:  # canopen's encoding
+            if isinstance(exc, RigError):
+                raise
+            raise UsageError(
+                f"rig drive sdo write: value {args.value!r} does not fit the type of 0x{index:04X}:{sub:02X}"
+                f" ({exc})"
+            ) from None
         return {"object": f"0x{index:04X}:{sub:02X}", "written": _value(args.value)}
     if args.action == "jog":
         return tool.jog(args.speed, args.seconds, limit=args.limit)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from rig.cli.common import UsageError, add_params
+from rig.cli.common import UsageError, add_params, tcp_port, tcp_port_or_any
 from rig.params import parse_items
 
 __all__ = ["add_parser"]
@@ -35,7 +35,7 @@ def add_parser(sub: Any) -> None:
         metavar="NAME",
         help="serve an emulated Modbus inverter of this map instead (abb-drives-profile, delta-vfd-b)",
     )
-    emulate.add_argument("--modbus-port", type=int, default=5020, help="Modbus TCP port (default 5020)")
+    emulate.add_argument("--modbus-port", type=tcp_port, default=5020, help="Modbus TCP port (default 5020)")
     emulate.add_argument("--modbus-serial", metavar="DEVICE", help="serve Modbus RTU on this serial device")
     emulate.add_argument(
         "--listen",
@@ -52,7 +52,7 @@ def add_parser(sub: Any) -> None:
     emulate.add_argument("--channel", help="python-can channel, e.g. vcan0")
     emulate.add_argument(
         "--socketcand-port",
-        type=int,
+        type=tcp_port_or_any,
         default=29536,
         help="socketcand TCP port on --listen (0: any free port)",
     )
@@ -94,7 +94,8 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     import dataclasses
     import pathlib
 
-    from plant_emulator.device_profile import default_profile, device_profile
+    from drivers.maps.od import load_od
+    from plant_emulator.device_profile import default_profile, device_profile, load_profile
     from plant_emulator.presets import build_twin
     from rig.host.emulation import preset_params
 
@@ -105,12 +106,14 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     if args.device:
         profile = device_profile(args.device)
     elif args.profile:
-        profile = device_profile(pathlib.Path(args.profile))
+        profile = load_profile(pathlib.Path(args.profile))
         if args.eds:
             profile = dataclasses.replace(profile, eds=pathlib.Path(args.eds).resolve())
     else:
         profile = default_profile(pathlib.Path(args.eds))
-    params = preset_params(profile.physics, items, f"rig emulate: --device {profile.name} --param", text=True)
+    where = f"rig emulate: --device {profile.name} --param"
+    params = preset_params(profile.physics, items, where, text=True, base=profile.params)
+    load_od(profile.eds, args.node_id or profile.node_id)  # a bad EDS is refused before serving
 
     def world(network: Any) -> Any:
         return build_twin(profile, network, params, node_id=args.node_id)
@@ -127,6 +130,10 @@ def run(args: argparse.Namespace) -> int:
         return _list()
     if args.interface and not args.channel:
         raise UsageError("rig emulate: --interface needs --channel")
+    if args.interface:
+        from drivers.bus import check_interface
+
+        check_interface(args.interface, "rig emulate: argument --interface")
     items = parse_items(args.param, "rig emulate: --param")
     if args.modbus_map:
         return run_modbus_emulator(

@@ -7,7 +7,16 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rig.cli.common import EXIT_STOPPED, EXIT_UNTRUSTED, UsageError, add_json, add_params, finite, print_json
+from rig.cli.common import (
+    EXIT_STOPPED,
+    EXIT_UNTRUSTED,
+    UsageError,
+    add_json,
+    add_params,
+    finite,
+    out_file,
+    print_json,
+)
 from rig.params import parse_items
 
 __all__ = ["add_parser"]
@@ -44,11 +53,26 @@ def add_parser(sub: Any) -> None:
     ident.add_argument("--amplitude", type=finite, help="excitation amplitude, < u0 (2 V, 0.006 N m)")
     ident.add_argument("--clock", type=finite, default=0.02, help="PRBS bit time [s], a few times < 1/a_m")
     add_json(ident, "print one JSON object")
-    ident.add_argument("--plot", metavar="FILE", help="write measured and model speed to FILE")
+    ident.add_argument("--plot", type=out_file, metavar="FILE", help="write measured and model speed to FILE")
     ident.add_argument(
         "--strict", action="store_true", help="exit 5 when a warning says the result is not to be trusted"
     )
     ident.set_defaults(handler=run)
+
+
+MAX_DURATION = 3600.0  #: [s] the longest experiment
+
+
+def _check(args: argparse.Namespace) -> None:
+    """The experiment's numbers, before anything is opened."""
+    if not 0.0 < args.duration <= MAX_DURATION:
+        raise UsageError(
+            f"rig identify: argument --duration: must be in (0, {MAX_DURATION:g}] s, got {args.duration:g}"
+        )
+    if not 0.0 < args.clock < args.duration:
+        raise UsageError(f"rig identify: argument --clock: must be in (0, --duration) s, got {args.clock:g}")
+    if args.seed < 0:
+        raise UsageError(f"rig identify: argument --seed: must be >= 0, got {args.seed}")
 
 
 def _experiment(args: argparse.Namespace) -> str | None:
@@ -61,6 +85,7 @@ def _experiment(args: argparse.Namespace) -> str | None:
     from rig.identify import excitation
     from rig.identify.experiment import experiment_config, run_experiment
 
+    _check(args)
     torque = args.input == "torque"
     if args.u0 is None:
         args.u0 = 0.01 if torque else 3.0
@@ -81,6 +106,10 @@ def _experiment(args: argparse.Namespace) -> str | None:
         period, params = base.run.period, None
         if period <= 0.0:
             raise UsageError(f"rig identify: {args.config}: [run] period must be set")
+    if args.clock < period:
+        raise UsageError(
+            f"rig identify: argument --clock: {args.clock:g} s is shorter than the period T = {period:g} s"
+        )
     u = excitation(
         args.excitation,
         u0=args.u0,

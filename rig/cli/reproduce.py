@@ -9,7 +9,17 @@ from typing import Any
 
 import numpy as np
 
-from rig.cli.common import Parser, UsageError, add_json, add_params, json_clean, params_of, print_json
+from rig.cli.common import (
+    Parser,
+    UsageError,
+    add_json,
+    add_params,
+    json_clean,
+    out_dir,
+    out_file,
+    params_of,
+    print_json,
+)
 from rig.cli.progress import Progress
 from rig.papers.dismc import ALIASES, FIXED, PARAM_NAMES, DismcExample, run_dismc
 from rig.papers.dq_current import DQ_FIXED, DQ_PARAM_NAMES, PRINTED_TABLES, DqStudy, dq_study
@@ -30,7 +40,7 @@ def add_parser(sub: Any) -> None:
         "--param H=solved. Parameters: " + ", ".join(PARAM_NAMES) + ".",
     )
     add_json(dismc, "print a list of JSON objects")
-    dismc.add_argument("--plot", metavar="FILE", help="write Fig. 3-like plots to FILE")
+    dismc.add_argument("--plot", type=out_file, metavar="FILE", help="write Fig. 3-like plots to FILE")
     add_params(dismc, "override an example parameter by the paper's symbol; vectors 1,2, matrices 1,0;0,1")
     dismc.set_defaults(handler=_dismc)
     dq = rsub.add_parser(
@@ -40,7 +50,9 @@ def add_parser(sub: Any) -> None:
         "model) with the Table IV parameters. Parameters: " + ", ".join(DQ_PARAM_NAMES) + ".",
     )
     add_json(dq, 'print one object {"tables": [...], "cross_coupling": [...]}')
-    dq.add_argument("--plot", metavar="FILE", help="write q-step responses in dq (Fig. 9(b)-like) to FILE")
+    dq.add_argument(
+        "--plot", type=out_file, metavar="FILE", help="write q-step responses in dq (Fig. 9(b)-like) to FILE"
+    )
     add_params(dq, "override: ratio (e.g. 1/27), L1 [H], R1 [Ohm], gamma, strategy, plant (exact|fine)")
     dq.set_defaults(handler=_dq)
     drives = rsub.add_parser(
@@ -55,7 +67,9 @@ def add_parser(sub: Any) -> None:
         drives,
         'print one object {"design", "table_v", "speed_loop", "position_servo", "im_speed", "cascade"}',
     )
-    drives.add_argument("--plot", metavar="DIR", help="write one figure per experiment into DIR")
+    drives.add_argument(
+        "--plot", type=out_dir, metavar="DIR", help="write one figure per experiment into DIR"
+    )
     add_params(drives, "override: horizons speed_t_end, servo_t_end, im_t_end [s], substeps, load [N m], bus")
     drives.set_defaults(handler=_drives)
 

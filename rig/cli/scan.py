@@ -10,6 +10,8 @@ from rig.cli.common import UsageError, add_bus_arguments, add_json, finite, open
 
 __all__ = ["add_parser"]
 
+MAX_LISTEN = 70.0  #: [s] heartbeats are at most 65.535 s apart (0x1017 is 16-bit milliseconds)
+
 
 def add_parser(sub: Any) -> None:
     scan = sub.add_parser(
@@ -20,7 +22,12 @@ def add_parser(sub: Any) -> None:
     )
     add_bus_arguments(scan)
     scan.add_argument("--emulate", metavar="PRESET", help="scan an in-process emulator preset instead")
-    scan.add_argument("--listen", type=finite, default=1.1, help="seconds to listen for heartbeats")
+    scan.add_argument(
+        "--listen",
+        type=finite,
+        default=1.1,
+        help=f"seconds to listen for heartbeats (at most {MAX_LISTEN:g})",
+    )
     add_json(scan, "print a list of JSON objects")
     scan.set_defaults(handler=run)
 
@@ -55,16 +62,39 @@ def _on_bus(args: argparse.Namespace) -> list[dict[str, Any]]:
         network.disconnect()
 
 
+#: the table's columns: (heading, JSON key)
+COLUMNS = (
+    ("node", "node_id"),
+    ("NMT state", "nmt_state"),
+    ("device type", "device_type"),
+    ("profile", "profile"),
+    ("vendor", "vendor_id"),
+    ("product", "product_name"),
+)
+
+
+def table(rows: list[dict[str, Any]]) -> list[str]:
+    """The rows for a person: a column per field, '-' where it was not read, and a line per
+    node with what could not be read (and why) after the table."""
+    cells = [[h for h, _ in COLUMNS]]
+    cells += [["-" if r.get(k) in (None, "") else str(r[k]) for _, k in COLUMNS] for r in rows]
+    widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
+    lines = [
+        "  ".join(c.rjust(w) if i == 0 else c.ljust(w) for i, (c, w) in enumerate(zip(cell, widths))).rstrip()
+        for cell in cells
+    ]
+    lines += [f"node {r['node_id']}: {'; '.join(r['errors'])}" for r in rows if r.get("errors")]
+    return lines
+
+
 def run(args: argparse.Namespace) -> int:
+    if not 0.0 < args.listen <= MAX_LISTEN:
+        raise UsageError(
+            f"rig scan: argument --listen: must be in (0, {MAX_LISTEN:g}] s, got {args.listen:g}"
+        )
     rows = _emulated(args.emulate, args.listen) if args.emulate else _on_bus(args)
     if args.json:
         print(json.dumps(rows))
         return 0
-    print(f"{'node':>4s}  {'NMT state':16s} {'device type':12s} {'profile':18s} {'vendor':11s} product")
-    for r in rows:
-        product = r.get("product_name", r.get("error", ""))
-        print(
-            f"{r['node_id']:>4d}  {r['nmt_state']:16s} {r.get('device_type', '-'):12s} "
-            f"{r.get('profile', '-'):18s} {r.get('vendor_id', '-'):11s} {product}"
-        )
+    print("\n".join(table(rows)))
     return 0

@@ -10,7 +10,7 @@ are pointed at their inverters by ``endpoint``.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import canopen
@@ -23,6 +23,7 @@ from plant_emulator.lockstep import LockstepBench
 from plant_emulator.presets import PRESETS
 from plant_emulator.presets import preset_params as plant_preset_params
 from rig.config import AxisConfig, RigConfig
+from rig.config_checks import check_period
 from rig.params import field_types, typed_values
 
 __all__ = ["Emulation", "emulated_period", "inverter_model", "preset_params"]
@@ -33,14 +34,27 @@ EMULATOR_FAULTS = tuple(f.name for f in dataclasses.fields(FaultPlan))
 _MODEL_FIXED = ("regmap", "load")
 
 
-def preset_params(name: str, params: dict[str, Any], source: str, *, text: bool = False) -> dict[str, Any]:
-    """``params`` typed against the preset ``name``'s parameters (``text``: command-line text);
-    ConfigError naming the bad one."""
+def preset_params(
+    name: str,
+    params: dict[str, Any],
+    source: str,
+    *,
+    text: bool = False,
+    base: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """``params`` typed against the preset ``name``'s parameters (``text``: command-line text) and
+    checked in their ranges over ``base`` (a twin's own values); ConfigError naming the bad one."""
     if name not in PRESETS:
         raise ConfigError(f"{source}: unknown preset {name!r}; known: {', '.join(PRESETS)}")
     schema = PRESETS[name]
     aliases = {f"plant.{k}": k for k in field_types(schema)}
-    return typed_values(schema, params, source, aliases=aliases, text=text)
+    typed = typed_values(schema, params, source, aliases=aliases, text=text)
+    try:
+        period = plant_preset_params(name, {**(base or {}), **typed}).period
+    except ValueError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
+    check_period(f"{source}:", "period" if "period" in aliases.values() else "ratio/f_line", period)
+    return typed
 
 
 def _physics(cfg: RigConfig) -> tuple[str, dict[str, Any], DeviceProfile | None]:
@@ -54,12 +68,11 @@ def _physics(cfg: RigConfig) -> tuple[str, dict[str, Any], DeviceProfile | None]
         except ConfigError as exc:
             raise ConfigError(f"{src}: [emulator] device = {device!r}: {exc}") from None
     name = profile.physics if profile else cfg.emulator.preset
-    params = preset_params(name, cfg.emulator.params, f"{src}: [emulator.params]")
-    try:
-        plant_preset_params(name, {**(profile.params if profile else {}), **params})
-    except ValueError as exc:
-        what = f"device {device}" if device else f"preset {name}"
-        raise ConfigError(f"{src}: [emulator.params] of {what}: {exc}") from None
+    if name not in PRESETS:
+        raise ConfigError(f"{src}: [emulator] preset = {name!r}: unknown; known: {', '.join(PRESETS)}")
+    what = f"device {device}" if device else f"preset {name}"
+    base = profile.params if profile else None
+    params = preset_params(name, cfg.emulator.params, f"{src}: [emulator.params] of {what}", base=base)
     return name, params, profile
 
 

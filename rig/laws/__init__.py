@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from drivers.errors import ConfigError
+from rig.config_checks import require_finite
 from rig.laws.base import Law, LawStep, Reference
 from rig.params import build
 
@@ -55,6 +56,7 @@ def make_law(
     names = {f.name for f in dataclasses.fields(cls.Params)}
     fixed = {k: period for k in ("dt", "ts") if k in names}
     where = f"{source}: [controller] {kind}"
+    require_finite(where, params)
     typed = build(cls.Params, params, where, **fixed)
     try:
         law = cls(typed, period=period, reference=reference)

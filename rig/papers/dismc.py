@@ -54,11 +54,13 @@ class DismcExample:
         for name in ("phi", "eta", "varphi", "beta", "mu", "R", "Ts", "amplitude"):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be a finite number, got {getattr(self, name)!r}")
+        if not self.Ts > 0.0:
+            raise ValueError(f"Ts must be a sampling period > 0 s, got {self.Ts!r}")
         for name in ("S", "x0", "xm0"):
-            if len(getattr(self, name)) != 2:
-                raise ValueError(f"{name} needs 2 numbers, got {getattr(self, name)!r}")
-        if [len(row) for row in self.Q] != [2, 2]:
-            raise ValueError(f"Q needs 4 numbers (2x2, row-major as 1,0;0,1), got {self.Q!r}")
+            if len(getattr(self, name)) != 2 or not all(map(math.isfinite, getattr(self, name))):
+                raise ValueError(f"{name} needs 2 finite numbers, got {getattr(self, name)!r}")
+        if [len(row) for row in self.Q] != [2, 2] or not all(map(math.isfinite, sum(self.Q, ()))):
+            raise ValueError(f"Q needs 4 finite numbers (2x2, row-major as 1,0;0,1), got {self.Q!r}")
 
 
 @dataclass

@@ -42,3 +42,48 @@ def test_nothing_listening_is_one_line_naming_host_and_port(caplog: pytest.LogCa
         open_bus("socketcand", "can0", host="127.0.0.1", port=port)
     assert f"cannot reach a socketcand server at 127.0.0.1:{port}" in str(err.value)
     assert not caplog.records
+
+
+@pytest.mark.timeout(20)
+@pytest.mark.parametrize(
+    ("greeting", "needle"),
+    [(None, "sent no greeting '< hi >' within 3 s"), (b"SSH-2.0\r\n", "is not a socketcand server")],
+)
+def test_a_server_that_does_not_greet_is_one_line_within_3_s(
+    greeting: bytes | None, needle: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A server that accepts the connection but never sends socketcand's ``< hi >`` (python-can
+    would wait for it for ever), or sends something else: one line naming host:port, in 3 s."""
+    import socket
+    import time
+
+    from drivers.errors import CommunicationError
+
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        port = server.getsockname()[1]
+        held: list[socket.socket] = []
+
+        def accept() -> None:
+            link, _ = server.accept()
+            held.append(link)
+            if greeting:
+                link.sendall(greeting)
+
+        threading.Thread(target=accept, daemon=True).start()
+        start = time.monotonic()
+        with caplog.at_level(logging.WARNING), pytest.raises(CommunicationError) as err:
+            open_bus("socketcand", "can0", host="127.0.0.1", port=port)
+        assert time.monotonic() - start < 3.5
+        for link in held:
+            link.close()
+    assert f"127.0.0.1:{port}" in str(err.value) and needle in str(err.value)
+    assert "\n" not in str(err.value) and not caplog.records
+
+
+def test_an_unknown_interface_is_a_configuration_error_naming_the_known_ones() -> None:
+    from drivers.errors import ConfigError
+
+    with pytest.raises(
+        ConfigError, match=r"interface 'nosuch': not a python-can interface; known: .*socketcan,"
+    ):
+        open_bus("nosuch", "x")

@@ -19,7 +19,7 @@ import pytest
 from drivers.base import AxisState
 from drivers.bus import open_bus
 from drivers.cia402 import Cia402Axis
-from drivers.errors import CommunicationError, SdoAbort
+from drivers.errors import CommunicationError, ConfigError, SdoAbort
 from drivers.maps import CIA402_EDS
 from plant_emulator.device_profile import load_profile, zoo
 from plant_emulator.lockstep import LockstepBench
@@ -118,6 +118,10 @@ def test_bad_access_is_an_sdo_abort_with_its_code(target: Target) -> None:
         drive.sdo_read(0x5FFE)  # no such object (manufacturer range, unused)
 
 
-def test_unknown_bus_is_a_communication_error() -> None:
-    with pytest.raises(CommunicationError, match="no-such-interface"):
+def test_a_bus_that_cannot_open_is_a_communication_error_an_unknown_interface_a_config_error() -> None:
+    """A known interface on a channel that is not there is the bus failing (naming both); an
+    interface python-can does not know is the user's mistake (exit 2 in rig)."""
+    with pytest.raises(CommunicationError, match="interface='socketcan' channel='no-such-can9'"):
+        open_bus("socketcan", "no-such-can9")
+    with pytest.raises(ConfigError, match="'no-such-interface': not a python-can interface"):
         open_bus("no-such-interface", "x")

@@ -70,3 +70,26 @@ def test_a_unit_the_server_is_not_answers_0b_named(server: InverterServer) -> No
         assert info.value.code == 0x0B and "gateway target device failed to respond" in str(info.value)
     finally:
         axis.close()
+
+
+def test_a_unit_that_cannot_be_reached_is_one_line_and_not_disabled_on_close(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Nothing listens: setup says it cannot connect, naming host:port; close does not then try
+    (and fail) to disable the unit it never reached, which was a second line."""
+    import logging
+    import socket
+
+    from drivers.errors import CommunicationError
+
+    with socket.socket() as s:  # a port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    axis = ModbusInverterAxis("inverter", "abb-drives-profile", host="127.0.0.1", port=port)
+    with caplog.at_level(logging.WARNING, logger="drivers"), pytest.raises(CommunicationError) as err:
+        try:
+            axis.setup()
+        finally:
+            axis.close()
+    assert f"127.0.0.1:{port}: cannot connect" in str(err.value)
+    assert not [r for r in caplog.records if r.name.startswith("drivers")]  # pymodbus's: rig silences

@@ -124,6 +124,7 @@ def test_rig_scan_lists_the_durand_node(encoder: DurandEncoder, capsys: pytest.C
             "profile": "CiA 406 encoder",
             "vendor_id": f"0x{VENDOR:08X}",
             "product_name": NAME.decode(),
+            "errors": [],
         }
     ]
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import pathlib
+from typing import Any
 
 import pytest
 
@@ -127,6 +128,96 @@ def test_scan_lists_the_emulated_nodes(capsys: pytest.CaptureFixture[str]) -> No
         (2, "CiA 406 encoder", "PRE-OPERATIONAL"),
     ]
     assert rows[0]["product_name"] == "drive-rig emulated servo drive"
+    assert all(r["errors"] == [] for r in rows)
+
+
+@pytest.mark.parametrize(
+    ("preset", "products"),
+    [
+        ("im-drive", {1: ("0x00010192", "drive-rig emulated induction-motor inverter (FOC)")}),
+        ("grid-converter", {1: ("0x00020192", "drive-rig emulated grid converter (dq current control)")}),
+        ("dyno", {3: ("0x00020192", "drive-rig emulated load machine (dyno)")}),
+    ],
+)
+def test_scan_says_what_each_emulated_drive_is(
+    preset: str, products: dict[int, tuple[str, str]], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """0x1008 names the device, not the EDS's servo drive; an inverter's 0x1000 says
+    frequency converter (CiA 402 additional information 0x01)."""
+    assert main(["scan", "--emulate", preset, "--json"]) == 0
+    rows = {r["node_id"]: r for r in json.loads(capsys.readouterr().out)}
+    for node, (device_type, name) in products.items():
+        assert (rows[node]["device_type"], rows[node]["product_name"]) == (device_type, name)
+        assert rows[node]["profile"] == "CiA 402 drive"
+
+
+def _node_without_0x1008(tmp_path: pathlib.Path, bench: Any, node_id: int, device_type: int) -> Any:
+    """An emulated node on ``bench`` from the toolkit's encoder EDS without 0x1008, whose 0x1000
+    is ``device_type``: the SDO server aborts an upload of 0x1008 (0x06020000)."""
+    from drivers.maps import CIA406_EDS
+    from plant_emulator.canopen_node import EmulatedNode
+
+    sections = pathlib.Path(CIA406_EDS).read_text().split("\n[")
+    eds = tmp_path / "no_name.eds"
+    eds.write_text("\n[".join(part for part in sections if not part.startswith("1008]")))
+    node = EmulatedNode(node_id, str(eds), bench.device_network)
+    node.write(0x1000, 0, device_type)
+    node.boot()
+    return node
+
+
+def test_scan_a_node_without_a_name_or_a_profile(tmp_path: pathlib.Path) -> None:
+    """A missing 0x1008 is None (JSON) and '-' (table), said once in errors; 0x1000 and 0x1018:1
+    are still read. Device type 0 is "none given", an unknown profile number says so."""
+    from plant_emulator.lockstep import LockstepBench
+    from rig.cli.scan import table
+    from rig.scan import scan
+
+    bench = LockstepBench("grid-converter")
+    try:
+        _node_without_0x1008(tmp_path, bench, 7, 0)
+        _node_without_0x1008(tmp_path, bench, 9, 0x0001_0999)
+        rows = {r["node_id"]: r for r in scan(bench.host, listen=lambda: None)}
+    finally:
+        bench.close()
+    assert sorted(rows) == [1, 7, 9]
+    abort = "0x1008:00: SDO abort: Code 0x06020000, Object does not exist"
+    assert rows[7] == {
+        "node_id": 7,
+        "nmt_state": "unknown",  # no heartbeat heard: found by its SDO answer
+        "device_type": "0x00000000",
+        "profile": "none given",
+        "vendor_id": "0x00000DB1",
+        "product_name": None,
+        "errors": [abort],
+    }
+    assert (rows[9]["device_type"], rows[9]["profile"]) == ("0x00010999", "2457 (unknown profile)")
+    lines = table(list(rows.values()))
+    assert lines[2] == "   7  unknown    0x00000000   none given              0x00000DB1  -"
+    assert lines[3] == "   9  unknown    0x00010999   2457 (unknown profile)  0x00000DB1  -"
+    assert lines[4:] == [f"node 7: {abort}", f"node 9: {abort}"]
+
+
+def test_scan_a_node_heard_but_not_answering_is_asked_once() -> None:
+    """A STOPPED node (no SDO in that state, CiA 301) found by its heartbeat: one error, not three
+    timeouts, and its state from the heartbeat."""
+    from plant_emulator.lockstep import LockstepBench
+    from rig.scan import scan
+
+    bench = LockstepBench("grid-converter")
+
+    def listen() -> None:  # 0.2 s of emulated time: heartbeats every 0.1 s
+        for k in range(1, round(0.2 / bench.period) + 1):
+            for d in bench.devices:
+                d.tick(k * bench.period)
+
+    try:
+        bench.host.nmt.send_command(0x02)  # NMT stop, all nodes
+        (row,) = scan(bench.host, listen=listen)
+    finally:
+        bench.close()
+    assert row["nmt_state"] == "STOPPED" and row["device_type"] is None and row["product_name"] is None
+    assert row["errors"] == ["0x1000:00: no SDO answer within 0.1 s"]
 
 
 def test_run_json_summary_contract(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -190,3 +281,110 @@ def test_every_subcommand_s_help_ends_with_an_example_that_parses(capsys: pytest
         argv = example.split("(")[0].split()
         assert argv[0] == "rig" and argv[1] == name
         parser.parse_args(argv[1:])  # the example is a valid command line
+
+
+@pytest.fixture
+def nothing_opens(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Each way a command opens a bus, serves, builds an emulated world or runs an experiment,
+    refused: a bad argument must be found before any of them."""
+    seen: list[str] = []
+
+    def refuse(what: str) -> object:
+        def opener(*args: object, **kwargs: object) -> None:
+            seen.append(what)
+            raise AssertionError(f"{what} before the arguments were checked")
+
+        return opener
+
+    for target in (
+        "drivers.bus.open_bus",
+        "rig.emulate.run_emulator",
+        "rig.emulate.run_modbus_emulator",
+        "plant_emulator.lockstep.LockstepBench",
+        "rig.identify.experiment.run_experiment",
+        "rig.papers.dismc.run_dismc",
+    ):
+        monkeypatch.setattr(target, refuse(target))
+    return seen
+
+
+def _one_line(capsys: pytest.CaptureFixture[str], needles: tuple[str, ...]) -> None:
+    out = capsys.readouterr()
+    lines = out.err.splitlines()
+    assert out.out == "" and len(lines) == 1, out.err
+    assert all(n in lines[0] for n in needles), lines[0]
+    assert not lines[0].startswith("rig: rig "), lines[0]  # the subcommand named once
+
+
+HOSTILE_ARGUMENTS = [
+    ("scan --interface nosuch --channel x", ("--interface 'nosuch'", "known: ", "socketcand")),
+    ("scan --interface socketcand --port 99999", ("--port", "99999")),
+    ("scan --emulate dc-servo --listen 0", ("--listen", "got 0")),
+    ("scan --emulate dc-servo --listen -1", ("--listen", "got -1")),
+    ("scan --emulate dc-servo --listen 1e9", ("--listen", "1e+09")),
+    ("emulate --preset dc-servo --socketcand-port 99999", ("--socketcand-port", "99999")),
+    ("emulate --preset dc-servo --socketcand-port -1", ("--socketcand-port", "-1")),
+    ("emulate --modbus-map abb-drives-profile --modbus-port 0", ("--modbus-port", "got 0")),
+    ("emulate --interface nosuch --channel x --preset dc-servo", ("--interface 'nosuch'", "known: ")),
+    ("emulate --preset dc-servo --param a_m=inf", ("--param", "a_m", "inf")),
+    ("emulate --preset dc-servo --param period=1e-12", ("--param", "period = 1e-12")),
+    ("emulate --preset grid-converter --param f_line=inf", ("--param", "f_line", "inf")),
+    ("emulate --preset grid-converter --param f_line=1e9", ("--param", "ratio/f_line")),
+    ("emulate --device epos4 --param a_m=-1", ("--device epos4 --param", "a_m", "-1")),
+    ("emulate --profile /", ("/: a directory", "device profile")),
+    ("emulate --profile /nonexistent.toml", ("/nonexistent.toml: no such device profile",)),
+    ("drive --interface nosuch --channel x status", ("--interface 'nosuch'", "known: ")),
+    ("drive --interface socketcand --port 70000 status", ("--port", "70000")),
+    ("drive --emulate epos4 --node 128 status", ("--node", "128")),
+    ("drive --emulate epos4 --units counts_per_rev=-5 status", ("--units", "counts_per_rev = -5")),
+    ("drive --emulate epos4 sdo write 0x6060 nan", ("sdo write", "'nan'")),
+    ("drive --emulate epos4 sdo write 0x6060 1e400", ("sdo write", "'1e400'")),
+    ("drive --emulate epos4 jog 10 --for 1 --limit 0", ("--limit", "got 0")),
+    ("drive --emulate epos4 move 1 --limit -5", ("--limit", "got -5")),
+    ("drive --emulate epos4 sdo read 0x1018:300", ("'0x1018:300'", "sub-index 0..255")),
+    ("drive --emulate epos4 sdo read nosuchname", ("'nosuchname'", "EDS")),
+    ("drive --interface socketcan --channel can0 sdo read 0x10000", ("'0x10000'", "index 0..0xFFFF")),
+    ("drive --interface socketcan --channel can0 --eds /nonexistent.eds status", ("/nonexistent.eds",)),
+    ("identify --emulate dc-servo --duration -1", ("--duration", "got -1")),
+    ("identify --emulate dc-servo --duration 1e9", ("--duration", "1e+09")),
+    ("identify --emulate dc-servo --clock 0", ("--clock", "got 0")),
+    ("identify --emulate dc-servo --clock 1e-5", ("--clock", "1e-05", "period")),
+    ("identify --emulate dc-servo --seed -1", ("--seed", "got -1")),
+    ("identify --emulate dc-servo --param plant.a_m=-5", ("--emulate dc-servo", "a_m", "-5")),
+    ("identify --emulate dc-servo --param plant.period=inf", ("--emulate dc-servo", "period", "inf")),
+    ("identify --emulate dc-servo --plot /nonexistent/x.png", ("--plot", "no folder /nonexistent")),
+    ("reproduce dq-current --plot /", ("--plot", "/: a directory")),
+    ("reproduce drives --plot /dev/null", ("--plot", "/dev/null: a file, not a folder")),
+    ("reproduce dismc --param Ts=0", ("--param", "Ts", "0.0")),
+    ("reproduce dismc --param x0=inf,0", ("--param", "x0", "inf")),
+]
+
+
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize(("argv", "needles"), HOSTILE_ARGUMENTS, ids=[a for a, _ in HOSTILE_ARGUMENTS])
+def test_a_hostile_argument_is_one_line_exit_2_before_anything_opens(
+    argv: str, needles: tuple[str, ...], capsys: pytest.CaptureFixture[str], nothing_opens: list[str]
+) -> None:
+    assert main(argv.split()) == 2
+    _one_line(capsys, needles)
+    assert not nothing_opens
+
+
+#: mistakes only the device or the system tells: the object's type (before any write), an address
+#: that cannot be served on, a serial device that is not there (nothing announced as served, and
+#: no warning of a bus left open)
+MET_LATE = [
+    ("drive --emulate epos4 sdo write 0x6060 99999999999", ("'99999999999'", "0x6060:00")),
+    ("drive --emulate epos4 sdo write 0x1008 1", ("'1'", "0x1008:00")),
+    ("emulate --preset dc-servo --listen 999.1.1.1", ("--listen 999.1.1.1", "cannot listen")),
+    ("emulate --modbus-map abb-drives-profile --modbus-serial /nonexistent", ("/nonexistent", "no such")),
+]
+
+
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize(("argv", "needles"), MET_LATE, ids=[a for a, _ in MET_LATE])
+def test_a_mistake_the_device_or_the_system_tells_is_one_line_exit_2(
+    argv: str, needles: tuple[str, ...], capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(argv.split()) == 2
+    _one_line(capsys, needles)

@@ -87,7 +87,7 @@ BAD = {
     "emulator-param-string": (
         'load = "step:0.0346:1.5"',
         'a_m = "16"',
-        "[emulator.params]: a_m = '16': expected float, not a string",
+        "[emulator.params] of preset dc-servo: a_m = '16': expected float, not a string",
     ),
     "emulator-param-negative": (
         'load = "step:0.0346:1.5"',
@@ -95,11 +95,24 @@ BAD = {
         "parameter a_m must be > 0, got -16.0",
     ),
     "emulator-param-load": ('load = "step:0.0346:1.5"', 'load = "step:x"', "parameter load='step:x'"),
-    "emulator-param-period": ('load = "step:0.0346:1.5"', "period = 1e-300", "the preset's period = 1e-300"),
+    "emulator-param-period": (
+        'load = "step:0.0346:1.5"',
+        "period = 1e-300",
+        "[emulator.params] of preset dc-servo: period = 1e-300",
+    ),
     "emulator-param-huge-int": (
         'load = "step:0.0346:1.5"',
         "counts_per_rev = 100000000000",
         "counts_per_rev must be <= 2147483647, got 100000000000",
+    ),
+    "limit-speed-inf": ("speed = 300.0", "speed = inf", "limits speed = inf: must be a finite number"),
+    "limit-position-inf": ("position_max = 12.0", "position_max = inf", "limits position_max = inf"),
+    "controller-sigma-inf": ("sigma = 10.0", "sigma = inf", "[controller] position-servo sigma = inf"),
+    "controller-u0-inf": ("u0 = 48.0", "u0 = -inf", "[controller] position-servo u0 = -inf"),
+    "bus-interface-typo": (
+        'interface = "socketcand"',
+        'interface = "socketcnd"',
+        "[bus] interface = 'socketcnd': not a python-can interface; known: ",
     ),
     "emulator-param-table": (
         'load = "step:0.0346:1.5"',
@@ -242,3 +255,16 @@ def test_a_bad_emulated_inverter_value_opens_nothing(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"rig: {path}: ") and needle in err, err
     assert not opened and not (tmp_path / "runs").exists()
+
+
+def test_an_infinite_law_parameter_is_refused_not_a_nan_stop_at_cycle_0(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
+) -> None:
+    """dq-current with f_line = inf ran, and stopped at cycle 0 on a NaN command."""
+    grid = EXAMPLE.parent / "grid_dq_current.toml"
+    path = _config(tmp_path, "f_line = 50.0", "f_line = inf", example=grid)
+    assert main(["run", "--config", str(path), "--emulate"]) == 2
+    err = capsys.readouterr().err
+    rule = "must be a finite number (leave a limit out for none)"
+    assert err == f"rig: {path}: [controller] dq-current f_line = inf: {rule}\n"
+    assert not opened

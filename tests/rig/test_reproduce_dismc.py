@@ -70,7 +70,7 @@ def test_param_overrides_and_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert len(err) == 1 and "gamma" in err[0]
     assert main(["reproduce", "dismc", "--param", "phi=1.5"]) == 2
     assert main(["reproduce", "dismc", "--param", "S=1,2,3"]) == 2
-    assert "S needs 2 numbers" in capsys.readouterr().err
+    assert "S needs 2 finite numbers" in capsys.readouterr().err
     assert main(["reproduce", "dismc", "--param", "H=guessed"]) == 2
     assert "one of printed, solved" in capsys.readouterr().err
 
