@@ -551,6 +551,8 @@ MENTIONS = {
     "rig run --emulate",
     "rig run --reset-fault",
     "rig emulate --param",
+    "rig emulate --socketcand-port",
+    "rig drive sdo write",
     "rig emulate --device",
     "rig emulate --modbus-map",
     "rig identify --input torque",
@@ -572,9 +574,12 @@ def test_every_span_is_parsed_run_or_named() -> None:
     assert len(texts) > 50
 
 
-def test_rig_s_parser_accepts_every_command(parser: argparse.ArgumentParser) -> None:
+def test_rig_s_parser_accepts_every_command(
+    parser: argparse.ArgumentParser, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Every span but a mention parses (a synopsis in each of its forms); a mention's subcommand
-    and options are rig's."""
+    and options are rig's. Parsed where the README's paths are (``--plot`` checks its folder)."""
+    monkeypatch.chdir(ROOT)
     problems = []
     for line, text in spans():
         if text in MENTIONS:
