@@ -41,6 +41,9 @@ class SyncHub:
         self.frames = 0  #: frames carried so far
         self.taps: list[Listener] = []  #: see every frame (a CAN trace)
         self.drop: Callable[[can.Message], bool] | None = None  #: fault injection: True loses the frame
+        #: set: every frame is marked Tx (``is_rx`` False) if sent on the bus of this channel, else
+        #: Rx, before the taps see it (a trace from that node's side); None: left as sent
+        self.tx_channel: str | None = None
 
     def bus(self, *, queue: bool = True, channel: str = "sync0") -> SyncBus:
         """A new bus on this hub."""
@@ -53,6 +56,8 @@ class SyncHub:
         if self.drop is not None and self.drop(frame):
             return
         self.frames += 1
+        if self.tx_channel is not None:
+            frame.is_rx = frame.channel != self.tx_channel
         for tap in self.taps:
             tap(frame)
         for bus in list(self.buses):

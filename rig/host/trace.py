@@ -3,10 +3,10 @@
 The trace gets every frame of every cycle, so its per-frame cost is part of the
 cycle. ``AscTrace`` is python-can's ``ASCWriter`` (header, footer, the first
 frame, and every frame that is not a classic data frame go through it); a
-classic data frame with an 11-bit id is written as the same line from its
-timestamp, a head made once per (channel, id, direction, length) and its data. A test
-keeps the two writers' lines equal, and reads the trace back with python-can's
-``ASCReader``.
+classic data frame with an 11-bit id is written as the same line by one
+``%``-format made once per (channel, id, direction, length), filled with its
+timestamp and data bytes. A test keeps the two writers' lines equal, and reads
+the trace back with python-can's ``ASCReader``.
 
 Two things python-can's writer gets wrong are set right here: the milliseconds of the
 header's dates are written with three digits (``.062``, not ``.62``, which readers take
@@ -40,22 +40,21 @@ class AscTrace(can.ASCWriter):
 
     def __init__(self, file: Any, channel: int = 1) -> None:
         super().__init__(file, channel=channel)
-        self._heads: dict[tuple[Any, int, bool, int], str] = {}
+        self._lines: dict[tuple[Any, int, bool, int], str] = {}
 
     def _format_header_datetime(self, dt: datetime) -> str:
         """The header's date with its milliseconds in three digits (CANoe's form)."""
         return dt.strftime(f"%a %b %d %H:%M:%S.{dt.microsecond // 1000:03d} %Y")
 
-    def _head(self, msg: can.Message) -> str:
-        """The part of the line between the timestamp and the data, made once per kind of frame."""
-        key = (msg.channel, msg.arbitration_id, msg.is_rx, msg.dlc)
-        head = self._heads.get(key)
-        if head is None:
-            n = channel2int(msg.channel)
-            channel = self.channel if n is None else n + 1
-            rx = "Rx" if msg.is_rx else "Tx"
-            head = self._heads[key] = f" {channel}  {msg.arbitration_id:<15X} {rx:<4} d {msg.dlc:x} "
-        return head
+    def _line(self, key: tuple[Any, int, bool, int]) -> str:
+        """The ``%``-format of a frame's line (relative timestamp, then ``dlc`` data bytes), made
+        once per kind of frame: ``key`` is (channel, id, is_rx, dlc)."""
+        n = channel2int(key[0])
+        channel = self.channel if n is None else n + 1
+        rx = "Rx" if key[2] else "Tx"
+        data = " ".join(["%02X"] * key[3])
+        line = self._lines[key] = f"% 9.6f {channel}  {key[1]:<15X} {rx:<4} d {key[3]:x} {data}\n"
+        return line
 
     def on_message_received(self, msg: can.Message) -> None:
         if (
@@ -69,8 +68,17 @@ class AscTrace(can.ASCWriter):
         ):
             super().on_message_received(msg)
             return
-        stamp = "%9.6f" % (msg.timestamp - self.started)
-        self.file.write(stamp + self._head(msg) + msg.data.hex(" ").upper() + "\n")
+        key = (msg.channel, msg.arbitration_id, msg.is_rx, msg.dlc)
+        try:
+            line = self._lines[key]
+        except KeyError:
+            line = self._line(key)
+        try:
+            text = line % (msg.timestamp - self.started, *msg.data)
+        except TypeError:  # data not of dlc bytes: python-can's line
+            super().on_message_received(msg)
+            return
+        self.file.write(text)
 
 
 class TracedNetwork(canopen.Network):
