@@ -60,9 +60,12 @@ class SyncHub:
             frame.is_rx = frame.channel != self.tx_channel
         for tap in self.taps:
             tap(frame)
-        for bus in list(self.buses):
+        for bus in self.buses:  # a snapshot: a bus joining or leaving replaces the list
             if bus is not sender:
-                bus._receive(frame)
+                if bus._queue is not None:
+                    bus._queue.append(frame)
+                for listener in bus.listeners:
+                    listener(frame)
 
 
 class SyncBus(can.BusABC):
@@ -74,17 +77,11 @@ class SyncBus(can.BusABC):
         self._queue: collections.deque[can.Message] | None = collections.deque() if queue else None
         self.channel_info = channel
         super().__init__(channel=channel, **kwargs)
-        hub.buses.append(self)
+        hub.buses = [*hub.buses, self]
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         """Deliver ``msg`` to every other bus on the hub, synchronously."""
         self.hub.deliver(self, msg)
-
-    def _receive(self, msg: can.Message) -> None:
-        if self._queue is not None:
-            self._queue.append(msg)
-        for listener in self.listeners:
-            listener(msg)
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         if self._queue:
@@ -92,27 +89,37 @@ class SyncBus(can.BusABC):
         return None, False
 
     def shutdown(self) -> None:
-        if self in self.hub.buses:
-            self.hub.buses.remove(self)
+        self.hub.buses = [b for b in self.hub.buses if b is not self]
         super().shutdown()
 
 
 def attach_network(network: Any, bus: SyncBus) -> None:
-    """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify``.
+    """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify`` (to its
+    subscribers and node scanner, as canopen's ``notify`` does, without the call where the network
+    does not override it).
 
     A frame its handler cannot parse (wrong length, bad command) is logged and
     dropped, as canopen's own listener does on a real bus: a malformed frame
     must not take down the node that received it.
     """
     network.bus = bus
+    own_notify = type(network).notify is not canopen.Network.notify
 
     def _to_network(msg: can.Message) -> None:
         if msg.is_error_frame or msg.is_remote_frame:
             return
+        can_id = msg.arbitration_id
         try:
-            network.notify(msg.arbitration_id, msg.data, msg.timestamp)
+            if own_notify:
+                network.notify(can_id, msg.data, msg.timestamp)
+                return
+            subscribers = network.subscribers
+            if can_id in subscribers:
+                for callback in subscribers[can_id]:
+                    callback(can_id, msg.data, msg.timestamp)
+            network.scanner.on_message_received(can_id)
         except Exception as exc:
-            log.warning("dropped frame 0x%03X [%s]: %s", msg.arbitration_id, bytes(msg.data).hex(), exc)
+            log.warning("dropped frame 0x%03X [%s]: %s", can_id, bytes(msg.data).hex(), exc)
 
     bus.listeners.append(_to_network)
 
