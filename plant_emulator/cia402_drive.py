@@ -121,7 +121,6 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         self._t_sync = 0.0
         self.glitch_counts = 0  #: fault injection: added to the latched position [position units]
         self._sdo_target = False
-        self._in_rpdo = False
         self.fault_code = 0
         self._pending_cw: int | None = None
         self._mode_switch: tuple[int, float] | None = None  #: (mode, device time [s] it shows)
@@ -214,9 +213,9 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         elif index == cia.CONTROLWORD:
             self.profiles.controlword(value)
             self._pending_cw = value
-            if not self._in_rpdo:
+            if not self.in_rpdo:
                 self._apply_controlword(value)
-        elif index in _TARGETS and not self._in_rpdo:
+        elif index in _TARGETS and not self.in_rpdo:
             self._sdo_target = True
 
     def after_write(self, index: int) -> None:
@@ -257,13 +256,6 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
             ax.set_command(mode, 0j)
         else:  # no mode selected: enabled, but no torque
             ax.coast()
-
-    def _unpack(self, pdo, data):  # type: ignore[no-untyped-def]
-        self._in_rpdo = True
-        try:
-            super()._unpack(pdo, data)
-        finally:
-            self._in_rpdo = False
 
     def _apply_controlword(self, cw: int) -> None:
         before = self.sm.state

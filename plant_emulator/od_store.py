@@ -44,7 +44,10 @@ class StoreNode(canopen.LocalNode):
         whose mapping was checked): the same write callbacks, then the bytes are stored."""
         for callback in self._write_callbacks:
             callback(index=index, subindex=subindex, od=obj, data=data)
-        self.data_store.setdefault(index, {})[subindex] = bytes(data)
+        try:
+            self.data_store[index][subindex] = bytes(data)
+        except KeyError:
+            self.data_store[index] = {subindex: bytes(data)}
         self.on_stored(index, subindex)
 
 
