@@ -80,7 +80,7 @@ class _CyclePlan:
     mapping (``data``) and ``measures``: the feedback's values (torque, current: measured), the
     places of the statusword and of 0x6061 (None: not in a TPDO), the RPDO of (controlword, target)."""
 
-    def __init__(self, data: ProcessData | None, measures: frozenset[str], op_mode: int) -> None:
+    def __init__(self, data: ProcessData | None, measures: frozenset[str], op_mode: Mode | None) -> None:
         self.data, self.measures = data, measures
         self.torque, self.current = "torque" in measures, "current" in measures
         self.feedback: Callable[[], tuple[Any, ...]] = tuple
@@ -168,7 +168,7 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         self._turns = 0
         self._angle: float | None = None
         self._enabled_stamp: float | None = None
-        self._plan = _CyclePlan(None, frozenset(), 0)  #: for the mapping in force: made on first use
+        self._plan = _CyclePlan(None, frozenset(), None)  #: for the mapping in force: made on first use
         self._rest_stamp: float | None = None  #: the statusword TPDO's stamp at the last ``at_rest``
         #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
         self.idle: Callable[[], None] = lambda: time.sleep(0.001)

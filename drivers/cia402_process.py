@@ -70,15 +70,17 @@ class ProcessData:
         return self._where.get(key)
 
     def reader(self, keys: Sequence[Key]) -> Callable[[], tuple[Any, ...]]:
-        """A function giving the values of ``keys`` as ``value`` gives each: where one TPDO carries
-        them all, picked from its values in one call."""
+        """A function giving the values of ``keys`` as ``value`` gives each: straight from the
+        TPDOs' values where TPDOs carry them all (picked in one call where one TPDO does)."""
         hits = [self._where.get(k) for k in keys]
-        slots = {id(hit[0]) for hit in hits if hit is not None}
-        if len(keys) > 1 and None not in hits and len(slots) == 1:
-            slot = hits[0][0]  # type: ignore[index]
-            pick = operator.itemgetter(*[hit[1] for hit in hits])  # type: ignore[index]
-            return lambda: pick(slot.values())  # type: ignore[no-any-return]
-        return lambda: tuple([self.value(k) for k in keys])
+        if None in hits:
+            return lambda: tuple([self.value(k) for k in keys])
+        places: list[tuple[TpdoSlot, int]] = hits  # type: ignore[assignment]
+        if len(keys) > 1 and len({id(slot) for slot, _ in places}) == 1:
+            slot = places[0][0]
+            pick = operator.itemgetter(*[place for _, place in places])
+            return lambda: pick(slot.values())
+        return lambda: tuple([slot.values()[place] for slot, place in places])
 
     def packer(self, keys: Sequence[Key]) -> Callable[..., bytes]:
         """A function of the values of ``keys`` (in that order) giving the RPDO's data as ``frame``

@@ -50,22 +50,8 @@ class SyncHub:
         return SyncBus(self, queue=queue, channel=channel)
 
     def deliver(self, sender: SyncBus, msg: can.Message) -> None:
-        frame = msg  # the sender's frame, stamped; receivers must not change it
-        frame.timestamp = self.clock
-        frame.channel = sender.channel_info
-        if self.drop is not None and self.drop(frame):
-            return
-        self.frames += 1
-        if self.tx_channel is not None:
-            frame.is_rx = frame.channel != self.tx_channel
-        for tap in self.taps:
-            tap(frame)
-        for bus in self.buses:  # a snapshot: a bus joining or leaving replaces the list
-            if bus is not sender:
-                if bus._queue is not None:
-                    bus._queue.append(frame)
-                for listener in bus.listeners:
-                    listener(frame)
+        """``msg`` as sent on ``sender`` (``SyncBus.send``)."""
+        sender.send(msg)
 
 
 class SyncBus(can.BusABC):
@@ -80,8 +66,24 @@ class SyncBus(can.BusABC):
         hub.buses = [*hub.buses, self]
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
-        """Deliver ``msg`` to every other bus on the hub, synchronously."""
-        self.hub.deliver(self, msg)
+        """Deliver ``msg`` to every other bus on the hub, synchronously (the hub's taps first)."""
+        hub = self.hub
+        frame = msg  # the sender's frame, stamped; receivers must not change it
+        frame.timestamp = hub.clock
+        frame.channel = self.channel_info
+        if hub.drop is not None and hub.drop(frame):
+            return
+        hub.frames += 1
+        if hub.tx_channel is not None:
+            frame.is_rx = frame.channel != hub.tx_channel
+        for tap in hub.taps:
+            tap(frame)
+        for bus in hub.buses:  # a snapshot: a bus joining or leaving replaces the list
+            if bus is not self:
+                if bus._queue is not None:
+                    bus._queue.append(frame)
+                for listener in bus.listeners:
+                    listener(frame)
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         if self._queue:
