@@ -99,10 +99,10 @@ class EmulatedNode(Supervision, DeviceHooks):
         nmt.update_heartbeat = lambda: None
         self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
         self.node.add_write_callback(self._on_write)
-        forget = self.node.on_stored
+        cached = self.od.values  # what ObjectStore.forget drops, without its call per object stored
 
         def stored(index: int, subindex: int) -> None:
-            forget(index, subindex)
+            cached.pop((index, subindex), None)
             if index == cia.CONSUMER_HEARTBEAT:  # the watch changes at once, not at the next SYNC
                 self._configure_consumer()
             self.after_write(index)
