@@ -295,8 +295,9 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         if self.shaft.clock is not None:  # real time: due a latency after it arrived
             self._pending.append((self.shaft.clock() + latency, self.axis, mode, value, False))
             return
-        arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
-        due = self.shaft.t + min(arrival + latency, self.period)
+        arrival = 0.0 if self.shaft.lockstep else self.rx_time - self._t_sync
+        arrival = latency if 0.0 > arrival else arrival + latency  # max(arrival, 0.0) + latency
+        due = self.shaft.t + (self.period if self.period < arrival else arrival)  # min(that, period)
         self._pending.append((due, self.axis, mode, value, False))
 
     def _target(self, mode: int) -> complex:

@@ -21,6 +21,7 @@ from typing import Any
 
 import can
 import canopen
+from canopen.network import NodeScanner
 
 from drivers.maps.cia import COB_SYNC
 from plant_emulator.device_profile import DeviceProfile
@@ -98,7 +99,7 @@ class SyncBus(can.BusABC):
 def attach_network(network: Any, bus: SyncBus) -> None:
     """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify`` (to its
     subscribers and node scanner, as canopen's ``notify`` does, without the call where the network
-    does not override it).
+    does not override it; canopen's scanner is not asked about a node it has found).
 
     A frame its handler cannot parse (wrong length, bad command) is logged and
     dropped, as canopen's own listener does on a real bus: a malformed frame
@@ -119,7 +120,9 @@ def attach_network(network: Any, bus: SyncBus) -> None:
             if can_id in subscribers:
                 for callback in subscribers[can_id]:
                     callback(can_id, msg.data, msg.timestamp)
-            network.scanner.on_message_received(can_id)
+            scanner = network.scanner
+            if can_id & 0x7F not in scanner.nodes or type(scanner) is not NodeScanner:  # else a no-op
+                scanner.on_message_received(can_id)
         except Exception as exc:
             log.warning("dropped frame 0x%03X [%s]: %s", can_id, bytes(msg.data).hex(), exc)
 
