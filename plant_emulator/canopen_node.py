@@ -31,7 +31,6 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-import can
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
 
@@ -52,6 +51,7 @@ from drivers.maps.cia import (
 )
 from drivers.maps.od import load_od
 from plant_emulator.device_hooks import DeviceHooks
+from plant_emulator.frame import Frame
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
 from plant_emulator.supervision import Deadlines, HeartbeatConsumer, Supervision, check_consumer_entry
@@ -266,7 +266,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         bus = self.network.bus
         if bus is None:
             raise RuntimeError("Not connected to CAN bus")
-        bus.send(can.Message(arbitration_id=cob_id, data=data, is_extended_id=False))
+        bus.send(Frame(cob_id, data))
 
     def _configure(self) -> None:
         if not self._dirty:

@@ -25,9 +25,10 @@ from canopen.network import NodeScanner
 
 from drivers.maps.cia import COB_SYNC
 from plant_emulator.device_profile import DeviceProfile
+from plant_emulator.frame import Frame
 from plant_emulator.presets import build_preset, build_twin, preset_params
 
-__all__ = ["LockstepBench", "SyncBus", "SyncHub", "attach_network"]
+__all__ = ["LockstepBench", "SyncBus", "SyncHub", "SyncNetwork", "attach_network"]
 
 Listener = Callable[[can.Message], None]
 log = logging.getLogger(__name__)
@@ -129,6 +130,22 @@ def attach_network(network: Any, bus: SyncBus) -> None:
     bus.listeners.append(_to_network)
 
 
+class SyncNetwork(canopen.Network):
+    """canopen's ``Network`` for a ``SyncBus`` (``LockstepBench.host``): ``send_message`` does what
+    canopen's does, a classic data frame made as a ``Frame`` and without the check of a receive
+    thread where there is none (a frame is delivered, and answered, within the send)."""
+
+    def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        if remote or can_id > 0x7FF or self.notifier is not None:
+            super().send_message(can_id, data, remote)
+            return
+        if not self.bus:
+            raise RuntimeError("Not connected to CAN bus")
+        frame = Frame(can_id, data)
+        with self.send_lock:
+            self.bus.send(frame)
+
+
 class LockstepBench:
     """A preset on an in-process ``SyncHub``, with a host-side canopen ``Network`` to drive it.
 
@@ -148,7 +165,7 @@ class LockstepBench:
         self.hub = SyncHub()
         self.device_network = canopen.Network()
         attach_network(self.device_network, self.hub.bus(queue=False, channel="emulator"))
-        self.host = canopen.Network()
+        self.host = SyncNetwork()
         attach_network(self.host, self.hub.bus(queue=False, channel="host"))
         try:
             if device is not None:
