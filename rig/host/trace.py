@@ -4,9 +4,9 @@ The trace gets every frame of every cycle, so its per-frame cost is part of the
 cycle. ``AscTrace`` is python-can's ``ASCWriter`` (header, footer, the first
 frame, and every frame that is not a classic data frame go through it); a
 classic data frame with an 11-bit id is written as the same line: its timestamp
-(formatted once for the frames that share it), then one ``%``-format made once
-per (channel, id, direction, length), filled with its data bytes. A test keeps
-the two writers' lines equal, and reads the trace back with python-can's ``ASCReader``.
+(formatted once for the frames that share it), a head made once per (channel, id,
+direction, length) and its data. A test keeps the two writers' lines equal, and
+reads the trace back with python-can's ``ASCReader``.
 
 Two things python-can's writer gets wrong are set right here: the milliseconds of the
 header's dates are written with three digits (``.062``, not ``.62``, which readers take
@@ -41,22 +41,21 @@ class AscTrace(can.ASCWriter):
 
     def __init__(self, file: Any, channel: int = 1) -> None:
         super().__init__(file, channel=channel)
-        self._lines: dict[tuple[Any, int, bool, int], str] = {}
+        self._heads: dict[tuple[Any, int, bool, int], str] = {}
         self._stamp: tuple[float, str] = (math.nan, "")  #: the last timestamp [s] and its text
 
     def _format_header_datetime(self, dt: datetime) -> str:
         """The header's date with its milliseconds in three digits (CANoe's form)."""
         return dt.strftime(f"%a %b %d %H:%M:%S.{dt.microsecond // 1000:03d} %Y")
 
-    def _line(self, key: tuple[Any, int, bool, int]) -> str:
-        """The ``%``-format of a frame's line after its timestamp (``dlc`` data bytes), made once
-        per kind of frame: ``key`` is (channel, id, is_rx, dlc)."""
+    def _head(self, key: tuple[Any, int, bool, int]) -> str:
+        """The part of a line between its timestamp and its data, made once per kind of frame:
+        ``key`` is (channel, id, is_rx, dlc)."""
         n = channel2int(key[0])
         channel = self.channel if n is None else n + 1
         rx = "Rx" if key[2] else "Tx"
-        data = " ".join(["%02X"] * key[3])
-        line = self._lines[key] = f" {channel}  {key[1]:<15X} {rx:<4} d {key[3]:x} {data}\n"
-        return line
+        head = self._heads[key] = f" {channel}  {key[1]:<15X} {rx:<4} d {key[3]:x} "
+        return head
 
     def on_message_received(self, msg: can.Message) -> None:
         if (
@@ -72,18 +71,13 @@ class AscTrace(can.ASCWriter):
             return
         key = (msg.channel, msg.arbitration_id, msg.is_rx, msg.dlc)
         try:
-            line = self._lines[key]
+            head = self._heads[key]
         except KeyError:
-            line = self._line(key)
-        try:
-            text = line % tuple(msg.data)
-        except TypeError:  # data not of dlc bytes: python-can's line
-            super().on_message_received(msg)
-            return
+            head = self._head(key)
         stamp = self._stamp  # the frames of a lock-step cycle share theirs: formatted once
         if stamp[0] != msg.timestamp:
             stamp = self._stamp = (msg.timestamp, "% 9.6f" % (msg.timestamp - self.started))
-        self.file.write(stamp[1] + text)
+        self.file.write(f"{stamp[1]}{head}{msg.data.hex(' ').upper()}\n")
 
 
 class TracedNetwork(canopen.Network):
