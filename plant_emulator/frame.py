@@ -19,15 +19,8 @@ class Frame(can.Message):
     __slots__ = ()
 
     def __init__(self, arbitration_id: int, data: bytes | bytearray) -> None:
-        self.timestamp = 0.0
-        self.arbitration_id = arbitration_id
-        self.is_extended_id = False
-        self.is_remote_frame = False
-        self.is_error_frame = False
-        self.channel = None
-        self.is_fd = False
-        self.is_rx = True
-        self.bitrate_switch = False
-        self.error_state_indicator = False
+        self.timestamp, self.arbitration_id, self.channel, self.is_rx = 0.0, arbitration_id, None, True
+        self.is_extended_id = self.is_remote_frame = self.is_error_frame = False
+        self.is_fd = self.bitrate_switch = self.error_state_indicator = False
         self.data = data if isinstance(data, bytearray) else bytearray(data)
         self.dlc = len(self.data)
