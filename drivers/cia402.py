@@ -111,6 +111,9 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
     ``mode_timeout`` [s]: how long 0x6061 may take to follow 0x6060.
     """
 
+    #: the cycle's reading and packing for the mapping in force, made on first use (per axis)
+    _plan = _CyclePlan(None, frozenset(), None)
+
     def __init__(
         self,
         name: str,
@@ -168,7 +171,6 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         self._turns = 0
         self._angle: float | None = None
         self._enabled_stamp: float | None = None
-        self._plan = _CyclePlan(None, frozenset(), None)  #: for the mapping in force: made on first use
         self._rest_stamp: float | None = None  #: the statusword TPDO's stamp at the last ``at_rest``
         #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
         self.idle: Callable[[], None] = lambda: time.sleep(0.001)
