@@ -25,11 +25,13 @@ import abc
 import enum
 import logging
 import math
+import operator
 import warnings
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
-__all__ = ["AXIS_MODES", "AxisDriver", "AxisState", "Feedback"]
+__all__ = ["AXIS_MODES", "AxisDriver", "AxisState", "Feedback", "feedback_fields"]
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +67,17 @@ class Feedback:
     current: float = math.nan  #: [A] (|i| for a dq axis)
     stamp: float | None = None  #: changes with every new sample (receive time [s] or a count)
     i_dq: complex | None = None  #: dq current [A], dq axes only
+
+
+def feedback_fields(names: Iterable[str]) -> Callable[[Feedback], tuple[Any, ...]]:
+    """A function giving a sample's fields ``names`` (in that order) as a tuple, in one call."""
+    names = tuple(names)
+    if len(names) > 1:
+        return operator.attrgetter(*names)
+    if names:
+        name = names[0]
+        return lambda fb: (getattr(fb, name),)
+    return lambda fb: ()
 
 
 class AxisDriver(abc.ABC):

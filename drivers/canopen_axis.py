@@ -38,7 +38,7 @@ log = logging.getLogger(__name__)
 class TpdoSlot:
     """The last frame of one TPDO and its decoder (little-endian, per the mapping in force)."""
 
-    __slots__ = ("cob_id", "codec", "data", "node_id", "timestamp")
+    __slots__ = ("_decoded", "_decoded_of", "cob_id", "codec", "data", "node_id", "timestamp")
 
     def __init__(self, node_id: int, cob_id: int, codec: struct.Struct) -> None:
         self.node_id = node_id
@@ -46,20 +46,27 @@ class TpdoSlot:
         self.codec = codec
         self.data: bytes | bytearray = bytes(codec.size)  #: zeros until the first frame (stamp None)
         self.timestamp: float | None = None
+        #: the values of the frame ``_decoded_of`` (a frame's data are not changed once received)
+        self._decoded: tuple[Any, ...] = ()
+        self._decoded_of: bytes | bytearray | None = None
 
     def on_frame(self, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
         self.data = data
         self.timestamp = timestamp
 
     def values(self) -> tuple[Any, ...]:
-        """The mapped values of the last frame; CommunicationError naming it when its length is wrong."""
+        """The mapped values of the last frame (decoded once); CommunicationError naming it when
+        its length is wrong."""
         data = self.data
+        if data is self._decoded_of:
+            return self._decoded
         if len(data) != self.codec.size:
             raise CommunicationError(
                 f"node {self.node_id}: TPDO 0x{self.cob_id:03X} has {len(data)} bytes, "
                 f"its mapping {self.codec.size}"
             )
-        return self.codec.unpack(data)
+        self._decoded, self._decoded_of = self.codec.unpack(data), data
+        return self._decoded
 
 
 def pdo_codec(pdo: Any) -> struct.Struct:

@@ -31,12 +31,13 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping
+from typing import Any
 
 import canopen
 
 from drivers.base import AxisState, Feedback
 from drivers.bus import brief
-from drivers.canopen_axis import CanopenAxis
+from drivers.canopen_axis import CanopenAxis, TpdoSlot
 from drivers.cia402_process import ProcessData
 from drivers.cia402_setup import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY, Cia402Setup
 from drivers.cia402_units import DriveUnits
@@ -71,6 +72,28 @@ _AXIS_STATE = {
     PowerState.FAULT: AxisState.FAULT,
 }
 _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
+_ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
+
+
+class _CyclePlan:
+    """What the cycle reads from the TPDOs of ``data`` and how it packs the RPDO, found once per
+    mapping (``data``) and ``measures``: the feedback's values (torque, current: measured), the
+    places of the statusword and of 0x6061 (None: not in a TPDO), the RPDO of (controlword, target)."""
+
+    def __init__(self, data: ProcessData | None, measures: frozenset[str], op_mode: Mode | None) -> None:
+        self.data, self.measures = data, measures
+        self.torque, self.current = "torque" in measures, "current" in measures
+        self.feedback: Callable[[], tuple[Any, ...]] = tuple
+        self.status: tuple[TpdoSlot, int] | None = None
+        self.mode: tuple[TpdoSlot, int] | None = None
+        self.rpdo: Callable[..., bytes] | None = None
+        if data is None:
+            return
+        keys = [POSITION, VELOCITY] + [TORQUE] * self.torque + [CURRENT] * self.current
+        self.feedback = data.reader(keys)
+        self.status, self.mode = data.where(SW), data.where(MODE_SHOWN)
+        if data.rpdo is not None and op_mode in cia.TARGET_OF_MODE:
+            self.rpdo = data.packer((CW, cia.TARGET_OF_MODE[op_mode]))
 
 
 def power_state(statusword: int) -> PowerState:
@@ -87,6 +110,9 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
     toolkit's own drive). ``pdo``: "remap" or "device" (see the module docstring).
     ``mode_timeout`` [s]: how long 0x6061 may take to follow 0x6060.
     """
+
+    #: the cycle's reading and packing for the mapping in force, made on first use (per axis)
+    _plan = _CyclePlan(None, frozenset(), None)
 
     def __init__(
         self,
@@ -269,11 +295,15 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         if self.op_mode == Mode.DQ_VOLTAGE:
             return self._dq_feedback(data)
         stamp = self._motion.timestamp if self._motion is not None else time.monotonic()
+        plan = self._plan
+        if plan.data is not data or plan.measures is not self.measures:
+            plan = self._plan = _CyclePlan(data, self.measures, self.op_mode)
+        values = plan.feedback()
         return Feedback(
-            data.value(POSITION) / u.position,
-            data.value(VELOCITY) / u.velocity,
-            data.value(TORQUE) / 1000.0 * u.rated_torque if "torque" in self.measures else math.nan,
-            data.value(CURRENT) / 1000.0 * u.rated_current if "current" in self.measures else math.nan,
+            values[0] / u.position,
+            values[1] / u.velocity,
+            values[2] / 1000.0 * u.rated_torque if plan.torque else math.nan,
+            values[2 + plan.torque] / 1000.0 * u.rated_current if plan.current else math.nan,
             stamp,
         )
 
@@ -293,17 +323,21 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         super().supervise(now)
         data = self.data
         assert data is not None
-        slot = data.slot_of(SW)
-        if slot is None or slot.timestamp is None or slot.timestamp == self._enabled_stamp:
+        plan = self._plan
+        if plan.data is not data or plan.measures is not self.measures:
+            plan = self._plan = _CyclePlan(data, self.measures, self.op_mode)
+        if plan.status is None:
             return
-        word = data.value(SW)
+        slot, place = plan.status
+        if slot.timestamp is None or slot.timestamp == self._enabled_stamp:
+            return
+        word = slot.values()[place]
         if word & _ENABLED_MASK != _ENABLED_BITS:
             raise SafetyStop(
                 f"node {self.node_id}: the drive left OPERATION ENABLED: {power_state(word).value}"
             )
-        mode_slot = data.slot_of(MODE_SHOWN)
-        if mode_slot is not None and mode_slot.timestamp is not None:  # not zeros before its first TPDO
-            shown = data.value(MODE_SHOWN)
+        if plan.mode is not None and plan.mode[0].timestamp is not None:  # not zeros before its first TPDO
+            shown = plan.mode[0].values()[plan.mode[1]]
             if shown != self.op_mode:
                 raise SafetyStop(f"node {self.node_id}: the drive changed its mode to {shown} (0x6061)")
 
@@ -315,9 +349,14 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
             u = complex(value)
             frame = data.frame({DQ_RX[0]: round(u.real * 1000.0), DQ_RX[1]: round(u.imag * 1000.0)})
         else:
-            target = cia.TARGET_OF_MODE[self.op_mode]
+            plan = self._plan
+            if plan.data is not data or plan.measures is not self.measures:
+                plan = self._plan = _CyclePlan(data, self.measures, self.op_mode)
             raw = self.units.command_raw(self.op_mode, float(value))  # type: ignore[arg-type]
-            frame = data.frame({CW: int(Controlword.ENABLE_OPERATION), target: raw})
+            if plan.rpdo is not None:
+                frame = plan.rpdo(_ENABLE_OPERATION, raw)
+            else:
+                frame = data.frame({CW: _ENABLE_OPERATION, cia.TARGET_OF_MODE[self.op_mode]: raw})
         try:
             self.network.send_message(data.rpdo.cob_id, frame)
         except RigError:

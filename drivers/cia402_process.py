@@ -11,6 +11,7 @@ it held at set-up (so a fixed mapping's extra objects keep their value).
 from __future__ import annotations
 
 import logging
+import operator
 import struct
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -63,6 +64,42 @@ class ProcessData:
             return self._read(*key)
         slot, pos = hit
         return slot.values()[pos]
+
+    def where(self, key: Key) -> tuple[TpdoSlot, int] | None:
+        """The slot of the TPDO that carries ``key`` and its place among the slot's values, or None."""
+        return self._where.get(key)
+
+    def reader(self, keys: Sequence[Key]) -> Callable[[], tuple[Any, ...]]:
+        """A function giving the values of ``keys`` as ``value`` gives each: straight from the
+        TPDOs' values where TPDOs carry them all (picked in one call where one TPDO does)."""
+        hits = [self._where.get(k) for k in keys]
+        if None in hits:
+            return lambda: tuple([self.value(k) for k in keys])
+        places: list[tuple[TpdoSlot, int]] = hits  # type: ignore[assignment]
+        if len(keys) > 1 and len({id(slot) for slot, _ in places}) == 1:
+            slot = places[0][0]
+            pick = operator.itemgetter(*[place for _, place in places])
+            return lambda: pick(slot.values())
+        return lambda: tuple([slot.values()[place] for slot, place in places])
+
+    def packer(self, keys: Sequence[Key]) -> Callable[..., bytes]:
+        """A function of the values of ``keys`` (in that order) giving the RPDO's data as ``frame``
+        does: the struct's own ``pack`` where the RPDO carries exactly those, in that order."""
+        if self._codec is None:
+            raise RuntimeError("no RPDO carries the command")
+        places = [self._slots_of_rpdo.get(k) for k in keys]
+        template, pack = self._template, self._codec.pack
+        if places == list(range(len(template))):
+            return pack
+
+        def packed(*values: int) -> bytes:
+            data = list(template)
+            for place, value in zip(places, values):
+                if place is not None:
+                    data[place] = value
+            return pack(*data)
+
+        return packed
 
     def frame(self, values: Mapping[Key, int]) -> bytes:
         """The RPDO's data with ``values`` in their places and the held values elsewhere."""

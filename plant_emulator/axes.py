@@ -139,8 +139,10 @@ class DcServoAxis(Axis):
         if mode != self.mode:
             self._integral = 0.0
         command = float(value.real if isinstance(value, complex) else value)
-        if mode == _VOLTAGE:
-            command = max(-self.loops.max_voltage, min(self.loops.max_voltage, command))
+        if mode == _VOLTAGE:  # max(-limit, min(limit, command)) without the calls (NaN: +limit)
+            limit = self.loops.max_voltage
+            command = command if command < limit else limit
+            command = command if command > -limit else -limit
         self.mode, self.command = mode, command
         self._enabled = True
 

@@ -31,7 +31,6 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-import can
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
 
@@ -52,6 +51,7 @@ from drivers.maps.cia import (
 )
 from drivers.maps.od import load_od
 from plant_emulator.device_hooks import DeviceHooks
+from plant_emulator.frame import Frame
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
 from plant_emulator.supervision import Deadlines, HeartbeatConsumer, Supervision, check_consumer_entry
@@ -99,10 +99,10 @@ class EmulatedNode(Supervision, DeviceHooks):
         nmt.update_heartbeat = lambda: None
         self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
         self.node.add_write_callback(self._on_write)
-        forget = self.node.on_stored
+        cached = self.od.values  # what ObjectStore.forget drops, without its call per object stored
 
         def stored(index: int, subindex: int) -> None:
-            forget(index, subindex)
+            cached.pop((index, subindex), None)
             if index == cia.CONSUMER_HEARTBEAT:  # the watch changes at once, not at the next SYNC
                 self._configure_consumer()
             self.after_write(index)
@@ -131,6 +131,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.rpdo_deadlines = Deadlines()  #: RPDO number -> event timer
         self._consumed: list[int] = []  #: COB-IDs of the heartbeats consumed
         self.rx_time = 0.0  #: timestamp [s] of the RPDO being handled
+        self.in_rpdo = False  #: an RPDO's data are being written (``on_write`` sees its objects)
         self._power_on: dict[int, dict[int, bytes]] | None = None
 
     # --- NMT -----------------------------------------------------------
@@ -197,11 +198,12 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.clock = now
         if self._deferred:
             self._answer_sdo(now)
+        nmt = self.node.nmt
         period = self.od.read(cia.PRODUCER_HEARTBEAT, 0) / 1000.0  # ms -> s
         if period > 0.0 and now - self._last_heartbeat >= period - 1e-9:
             self._last_heartbeat = now
-            self._send(COB_HEARTBEAT + self.node_id, bytes([self.nmt_state]))
-        if self.nmt_state == OPERATIONAL:
+            self._send(COB_HEARTBEAT + self.node_id, bytes([nmt._state]))
+        if nmt._state == OPERATIONAL:
             self.event_tpdos(now)
         self.supervise(now)
 
@@ -264,7 +266,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         bus = self.network.bus
         if bus is None:
             raise RuntimeError("Not connected to CAN bus")
-        bus.send(can.Message(arbitration_id=cob_id, data=data, is_extended_id=False))
+        bus.send(Frame(cob_id, data))
 
     def _configure(self) -> None:
         if not self._dirty:
@@ -305,13 +307,15 @@ class EmulatedNode(Supervision, DeviceHooks):
             self._sync_cob = sync_cob
 
     def _on_rpdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
-        if self.nmt_state != OPERATIONAL:
+        if self.node.nmt._state != OPERATIONAL:
             return
         self.rx_time = timestamp
-        pdo = self._rpdo_of_cob.get(can_id)
-        if pdo is None:
+        try:
+            pdo = self._rpdo_of_cob[can_id]
+        except KeyError:
             return
-        self.rpdo_deadlines.heard(pdo.number, self.clock)
+        if pdo.number in self.rpdo_deadlines.times:
+            self.rpdo_deadlines.heard(pdo.number, self.clock)
         if len(data) != pdo.size:  # CiA 301: not processed, EMCY 0x8210 (too short) / 0x8220 (too long)
             log.warning(
                 "node %d: RPDO%d with %d bytes, mapped %d: ignored",
@@ -335,8 +339,12 @@ class EmulatedNode(Supervision, DeviceHooks):
             log.warning("node %d: RPDO%d shorter than its mapping", self.node_id, pdo.number + 1)
             return
         store, obj = self.node.store, self.od.obj
-        for index, sub, start, end in pdo.slices:
-            store(index, sub, obj(index, sub), data[start:end])
+        self.in_rpdo = True
+        try:
+            for index, sub, start, end in pdo.slices:
+                store(index, sub, obj(index, sub), data[start:end])
+        finally:
+            self.in_rpdo = False
 
     def _event_tpdo(self, pdo: PdoConfig, now: float) -> None:
         payload = self._pack(pdo)
@@ -353,15 +361,16 @@ class EmulatedNode(Supervision, DeviceHooks):
             self._configure()
         self.on_sync_latch(timestamp)  # the device's work: in every NMT state (lock-step's time step)
         now = self.sync_time(timestamp)
-        if self.nmt_state not in _SDO_SYNC_STATES:
+        nmt = self.node.nmt  # its state read where it counts, as it may change meanwhile
+        if nmt._state not in _SDO_SYNC_STATES:
             self.tick(now)
             return
         self._sync_count += 1
-        if self.nmt_state == OPERATIONAL:
-            send = self._send
+        if nmt._state == OPERATIONAL:
+            send, od = self._send, self.od
             for pdo in self._sync_tpdos:
                 if self._sync_count % pdo.ttype == 0:
-                    send(pdo.cob_id, self._pack(pdo))
+                    send(pdo.cob_id, pack(od, pdo))
             if self._pending_sync_rpdo:
                 pending, self._pending_sync_rpdo = self._pending_sync_rpdo, {}
                 rpdos = {p.number: p for p in self._rpdos}

@@ -121,7 +121,6 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         self._t_sync = 0.0
         self.glitch_counts = 0  #: fault injection: added to the latched position [position units]
         self._sdo_target = False
-        self._in_rpdo = False
         self.fault_code = 0
         self._pending_cw: int | None = None
         self._mode_switch: tuple[int, float] | None = None  #: (mode, device time [s] it shows)
@@ -214,9 +213,9 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         elif index == cia.CONTROLWORD:
             self.profiles.controlword(value)
             self._pending_cw = value
-            if not self._in_rpdo:
+            if not self.in_rpdo:
                 self._apply_controlword(value)
-        elif index in _TARGETS and not self._in_rpdo:
+        elif index in _TARGETS and not self.in_rpdo:
             self._sdo_target = True
 
     def after_write(self, index: int) -> None:
@@ -258,13 +257,6 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         else:  # no mode selected: enabled, but no torque
             ax.coast()
 
-    def _unpack(self, pdo, data):  # type: ignore[no-untyped-def]
-        self._in_rpdo = True
-        try:
-            super()._unpack(pdo, data)
-        finally:
-            self._in_rpdo = False
-
     def _apply_controlword(self, cw: int) -> None:
         before = self.sm.state
         after = self.sm.command(cw)
@@ -303,8 +295,9 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         if self.shaft.clock is not None:  # real time: due a latency after it arrived
             self._pending.append((self.shaft.clock() + latency, self.axis, mode, value, False))
             return
-        arrival = 0.0 if self.lockstep else max(self.rx_time - self._t_sync, 0.0)
-        due = self.shaft.t + min(arrival + latency, self.period)
+        arrival = 0.0 if self.shaft.lockstep else self.rx_time - self._t_sync
+        arrival = latency if 0.0 > arrival else arrival + latency  # max(arrival, 0.0) + latency
+        due = self.shaft.t + (self.period if self.period < arrival else arrival)  # min(that, period)
         self._pending.append((due, self.axis, mode, value, False))
 
     def _target(self, mode: int) -> complex:

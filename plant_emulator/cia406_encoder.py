@@ -79,8 +79,9 @@ class EmulatedEncoder(EmulatedNode):
         else:
             speed = round((counts - self._last) / elapsed)
         self._last, self._last_t, self._speed = counts, self.shaft.t, speed
-        self.write(ENCODER_POSITION, 0, counts % (self.od.read(ENCODER_RESOLUTION, 0) * _TURNS))
-        self.write(ENCODER_SPEED, 1, max(-32768, min(32767, speed)))
+        od = self.od  # the node's write without its after_write, which the encoder does not override
+        od.write(ENCODER_POSITION, 0, counts % (od.read(ENCODER_RESOLUTION, 0) * _TURNS))
+        od.write(ENCODER_SPEED, 1, -32768 if speed < -32768 else 32767 if speed > 32767 else speed)
 
     def event_tpdos(self, now: float) -> None:
         """TPDOs of type 254/255 go out on the cyclic timer 0x6200 [ms] (0: never)."""

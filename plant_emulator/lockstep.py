@@ -21,12 +21,14 @@ from typing import Any
 
 import can
 import canopen
+from canopen.network import NodeScanner
 
 from drivers.maps.cia import COB_SYNC
 from plant_emulator.device_profile import DeviceProfile
+from plant_emulator.frame import Frame
 from plant_emulator.presets import build_preset, build_twin, preset_params
 
-__all__ = ["LockstepBench", "SyncBus", "SyncHub", "attach_network"]
+__all__ = ["LockstepBench", "SyncBus", "SyncHub", "SyncNetwork", "attach_network"]
 
 Listener = Callable[[can.Message], None]
 log = logging.getLogger(__name__)
@@ -41,23 +43,17 @@ class SyncHub:
         self.frames = 0  #: frames carried so far
         self.taps: list[Listener] = []  #: see every frame (a CAN trace)
         self.drop: Callable[[can.Message], bool] | None = None  #: fault injection: True loses the frame
+        #: set: every frame is marked Tx (``is_rx`` False) if sent on the bus of this channel, else
+        #: Rx, before the taps see it (a trace from that node's side); None: left as sent
+        self.tx_channel: str | None = None
 
     def bus(self, *, queue: bool = True, channel: str = "sync0") -> SyncBus:
         """A new bus on this hub."""
         return SyncBus(self, queue=queue, channel=channel)
 
     def deliver(self, sender: SyncBus, msg: can.Message) -> None:
-        frame = msg  # the sender's frame, stamped; receivers must not change it
-        frame.timestamp = self.clock
-        frame.channel = sender.channel_info
-        if self.drop is not None and self.drop(frame):
-            return
-        self.frames += 1
-        for tap in self.taps:
-            tap(frame)
-        for bus in list(self.buses):
-            if bus is not sender:
-                bus._receive(frame)
+        """``msg`` as sent on ``sender`` (``SyncBus.send``)."""
+        sender.send(msg)
 
 
 class SyncBus(can.BusABC):
@@ -69,17 +65,27 @@ class SyncBus(can.BusABC):
         self._queue: collections.deque[can.Message] | None = collections.deque() if queue else None
         self.channel_info = channel
         super().__init__(channel=channel, **kwargs)
-        hub.buses.append(self)
+        hub.buses = [*hub.buses, self]
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
-        """Deliver ``msg`` to every other bus on the hub, synchronously."""
-        self.hub.deliver(self, msg)
-
-    def _receive(self, msg: can.Message) -> None:
-        if self._queue is not None:
-            self._queue.append(msg)
-        for listener in self.listeners:
-            listener(msg)
+        """Deliver ``msg`` to every other bus on the hub, synchronously (the hub's taps first)."""
+        hub = self.hub
+        frame = msg  # the sender's frame, stamped; receivers must not change it
+        frame.timestamp = hub.clock
+        frame.channel = self.channel_info
+        if hub.drop is not None and hub.drop(frame):
+            return
+        hub.frames += 1
+        if hub.tx_channel is not None:
+            frame.is_rx = frame.channel != hub.tx_channel
+        for tap in hub.taps:
+            tap(frame)
+        for bus in hub.buses:  # a snapshot: a bus joining or leaving replaces the list
+            if bus is not self:
+                if bus._queue is not None:
+                    bus._queue.append(frame)
+                for listener in bus.listeners:
+                    listener(frame)
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         if self._queue:
@@ -87,29 +93,57 @@ class SyncBus(can.BusABC):
         return None, False
 
     def shutdown(self) -> None:
-        if self in self.hub.buses:
-            self.hub.buses.remove(self)
+        self.hub.buses = [b for b in self.hub.buses if b is not self]
         super().shutdown()
 
 
 def attach_network(network: Any, bus: SyncBus) -> None:
-    """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify``.
+    """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify`` (to its
+    subscribers and node scanner, as canopen's ``notify`` does, without the call where the network
+    does not override it; canopen's scanner is not asked about a node it has found).
 
     A frame its handler cannot parse (wrong length, bad command) is logged and
     dropped, as canopen's own listener does on a real bus: a malformed frame
     must not take down the node that received it.
     """
     network.bus = bus
+    own_notify = type(network).notify is not canopen.Network.notify
 
     def _to_network(msg: can.Message) -> None:
         if msg.is_error_frame or msg.is_remote_frame:
             return
+        can_id = msg.arbitration_id
         try:
-            network.notify(msg.arbitration_id, msg.data, msg.timestamp)
+            if own_notify:
+                network.notify(can_id, msg.data, msg.timestamp)
+                return
+            subscribers = network.subscribers
+            if can_id in subscribers:
+                for callback in subscribers[can_id]:
+                    callback(can_id, msg.data, msg.timestamp)
+            scanner = network.scanner
+            if can_id & 0x7F not in scanner.nodes or type(scanner) is not NodeScanner:  # else a no-op
+                scanner.on_message_received(can_id)
         except Exception as exc:
-            log.warning("dropped frame 0x%03X [%s]: %s", msg.arbitration_id, bytes(msg.data).hex(), exc)
+            log.warning("dropped frame 0x%03X [%s]: %s", can_id, bytes(msg.data).hex(), exc)
 
     bus.listeners.append(_to_network)
+
+
+class SyncNetwork(canopen.Network):
+    """canopen's ``Network`` for a ``SyncBus`` (``LockstepBench.host``): ``send_message`` does what
+    canopen's does, a classic data frame made as a ``Frame`` and without the check of a receive
+    thread where there is none (a frame is delivered, and answered, within the send)."""
+
+    def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        if remote or can_id > 0x7FF or self.notifier is not None:
+            super().send_message(can_id, data, remote)
+            return
+        if not self.bus:
+            raise RuntimeError("Not connected to CAN bus")
+        frame = Frame(can_id, data)
+        with self.send_lock:
+            self.bus.send(frame)
 
 
 class LockstepBench:
@@ -131,7 +165,7 @@ class LockstepBench:
         self.hub = SyncHub()
         self.device_network = canopen.Network()
         attach_network(self.device_network, self.hub.bus(queue=False, channel="emulator"))
-        self.host = canopen.Network()
+        self.host = SyncNetwork()
         attach_network(self.host, self.hub.bus(queue=False, channel="host"))
         try:
             if device is not None:

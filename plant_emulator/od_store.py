@@ -44,7 +44,10 @@ class StoreNode(canopen.LocalNode):
         whose mapping was checked): the same write callbacks, then the bytes are stored."""
         for callback in self._write_callbacks:
             callback(index=index, subindex=subindex, od=obj, data=data)
-        self.data_store.setdefault(index, {})[subindex] = bytes(data)
+        try:
+            self.data_store[index][subindex] = bytes(data)
+        except KeyError:
+            self.data_store[index] = {subindex: bytes(data)}
         self.on_stored(index, subindex)
 
 
@@ -72,18 +75,19 @@ class ObjectStore:
     def __init__(self, node: StoreNode) -> None:
         self.node: Any = node
         self.data: dict[int, dict[int, bytes]] = node.data_store
-        self._values: dict[tuple[int, int], Any] = {}
+        #: the decoded values by (index, subindex); an entry dropped is decoded again at its next read
+        self.values: dict[tuple[int, int], Any] = {}
         self._codecs: dict[tuple[int, int], _Codec] = {}
         self._objs: dict[tuple[int, int], Any] = {}
         node.on_stored = self.forget
 
     def forget(self, index: int, subindex: int) -> None:
         """The bytes of (index, subindex) changed behind the cache."""
-        self._values.pop((index, subindex), None)
+        self.values.pop((index, subindex), None)
 
     def clear(self) -> None:
         """The store was rewritten: decode everything afresh."""
-        self._values.clear()
+        self.values.clear()
 
     def obj(self, index: int, subindex: int) -> Any:
         """The OD entry (canopen ``ODVariable``); SdoAbortedError when there is none."""
@@ -118,10 +122,10 @@ class ObjectStore:
         """Decoded value of an object."""
         key = (index, subindex)
         try:
-            return self._values[key]
+            return self.values[key]
         except KeyError:
             pass
-        value = self._values[key] = self._codec(key).decode(self.raw(index, subindex))
+        value = self.values[key] = self._codec(key).decode(self.raw(index, subindex))
         return value
 
     def write(self, index: int, subindex: int, value: Any) -> None:
@@ -130,7 +134,7 @@ class ObjectStore:
         The value it already has costs a lookup only (its bytes are those of the cached value).
         """
         key = (index, subindex)
-        values = self._values
+        values = self.values
         if key in values and values[key] == value:
             return
         codec = self._codecs.get(key) or self._codec(key)

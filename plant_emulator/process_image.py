@@ -41,6 +41,7 @@ _VOLTAGE, _DQ_VOLTAGE, _CST, _CSV, _PV, _CSP = (
 )
 _TWO_PI = 2.0 * math.pi
 _I32_MIN, _I32_MAX = -(2**31), 2**31 - 1
+_I16_MIN, _I16_MAX = -(2**15), 2**15 - 1
 _POSITION_ACTUAL, _VELOCITY_ACTUAL = cia.POSITION_ACTUAL, cia.VELOCITY_ACTUAL
 _TORQUE_ACTUAL, _CURRENT_ACTUAL, _FOLLOWING = (
     cia.TORQUE_ACTUAL,
@@ -191,11 +192,16 @@ class ProcessImage:
         pos = math.floor(axis.position * u.position) + self.home_shift + offset
         pos = _I32_MIN if pos < _I32_MIN else _I32_MAX if pos > _I32_MAX else pos
         write(_POSITION_ACTUAL, 0, pos)
-        write(_VELOCITY_ACTUAL, 0, _clamp(round(axis.velocity * u.velocity), 32))
+        value = round(axis.velocity * u.velocity)  # each clamped to its object's range, inline
+        write(_VELOCITY_ACTUAL, 0, _I32_MIN if value < _I32_MIN else _I32_MAX if value > _I32_MAX else value)
         if self._torque:
-            write(_TORQUE_ACTUAL, 0, _clamp(round(axis.torque / self.rated_torque * 1000.0), 16))
+            value = round(axis.torque / self.rated_torque * 1000.0)
+            value = _I16_MIN if value < _I16_MIN else _I16_MAX if value > _I16_MAX else value
+            write(_TORQUE_ACTUAL, 0, value)
         if self._current:
-            write(_CURRENT_ACTUAL, 0, _clamp(round(axis.current / self.rated_current * 1000.0), 16))
+            value = round(axis.current / self.rated_current * 1000.0)
+            value = _I16_MIN if value < _I16_MIN else _I16_MAX if value > _I16_MAX else value
+            write(_CURRENT_ACTUAL, 0, value)
         if self._following and demand is not None:
             write(_FOLLOWING, 0, _clamp(round(demand * u.position) + self.home_shift - pos, 32))
         if self._inputs:

@@ -66,29 +66,29 @@ class Deadlines:
         self.times: dict[int, float] = {}  #: key -> allowed silence [s]
         self._last: dict[int, float] = {}  #: key -> when it was last heard [s] (monitored keys)
         #: [s] no key expires before this (a lower bound: hearing a key only moves its deadline on)
-        self._due = -math.inf
+        self.due = -math.inf
 
     def configure(self, times: dict[int, float]) -> None:
         """Monitor these keys from now on (times [s] > 0); a key kept keeps its last time."""
         self.times = {k: t for k, t in times.items() if t > 0.0}
         self._last = {k: t for k, t in self._last.items() if k in self.times}
-        self._due = -math.inf
+        self.due = -math.inf
 
     def heard(self, key: int, now: float) -> None:
         if key in self.times:
             if key not in self._last:
-                self._due = min(self._due, now + self.times[key])
+                self.due = min(self.due, now + self.times[key])
             self._last[key] = now
 
     def expired(self, now: float) -> list[int]:
         """The monitored keys not heard of within their time; each reported once."""
-        if now <= self._due:  # every SYNC asks: most of the time nothing can have expired yet
+        if now <= self.due:  # every SYNC asks: most of the time nothing can have expired yet
             return []
         times = self.times
         late = [k for k, last in self._last.items() if now - last > times[k] + 1e-9]
         for k in late:
             del self._last[k]
-        self._due = min((last + times[k] + 1e-9 for k, last in self._last.items()), default=math.inf)
+        self.due = min((last + times[k] + 1e-9 for k, last in self._last.items()), default=math.inf)
         return late
 
 
@@ -126,11 +126,14 @@ class Supervision:
         def on_abort_connection(self, what: str, code: int) -> None: ...
 
     def supervise(self, now: float) -> None:
-        """Report the heartbeats and RPDOs lost by ``now`` [s]."""
-        for node in self.heartbeats.expired(now):
-            self.communication_error(f"heartbeat of node {node} lost", EmcyCode.HEARTBEAT)
-        for number in self.rpdo_deadlines.expired(now):
-            self.communication_error(f"RPDO{number + 1} timed out", EmcyCode.RPDO_TIMEOUT)
+        """Report the heartbeats and RPDOs lost by ``now`` [s] (asked every SYNC: most of the time
+        nothing can have expired yet, which costs a comparison each)."""
+        if now > self.heartbeats.due:
+            for node in self.heartbeats.expired(now):
+                self.communication_error(f"heartbeat of node {node} lost", EmcyCode.HEARTBEAT)
+        if now > self.rpdo_deadlines.due:
+            for number in self.rpdo_deadlines.expired(now):
+                self.communication_error(f"RPDO{number + 1} timed out", EmcyCode.RPDO_TIMEOUT)
 
     def communication_error(self, what: str, code: int) -> None:
         """A lost heartbeat or RPDO: EMCY ``code``, the drive's reaction, then the NMT state of 0x1029."""

@@ -129,7 +129,7 @@ class Emulation:
         self.injector: FaultInjector | None = None
         self.inverters: dict[str, tuple[Any, Any]] = {}  #: axis name -> (InverterModel, InverterServer)
         self._links: list[Any] = []
-        self._taps: dict[Callable[[Any], None], Callable[[Any], None]] = {}
+        self._taps: list[Callable[[Any], None]] = []  #: see ``add_tap``
         self._endpoints: dict[str, dict[str, Any]] = {}
         self.period = emulated_period(cfg)
         if cfg.emulator.preset or cfg.emulator.device:
@@ -212,18 +212,18 @@ class Emulation:
     def add_tap(self, tap: Callable[[Any], None]) -> None:
         """``tap`` sees every frame on the hub; the host's marked Tx, the devices' Rx."""
         if self.bench is not None:
-
-            def directed(msg: Any) -> None:
-                msg.is_rx = msg.channel != "host"
-                tap(msg)
-
-            self._taps[tap] = directed
-            self.bench.hub.taps.append(directed)
+            self.bench.hub.tx_channel = "host"
+            self.bench.hub.taps.append(tap)
+            self._taps.append(tap)
 
     def remove_tap(self, tap: Callable[[Any], None]) -> None:
-        directed = self._taps.pop(tap, None)
-        if self.bench is not None and directed in self.bench.hub.taps:
-            self.bench.hub.taps.remove(directed)
+        if tap in self._taps:
+            self._taps.remove(tap)
+        if self.bench is not None:
+            if tap in self.bench.hub.taps:
+                self.bench.hub.taps.remove(tap)
+            if not self._taps:
+                self.bench.hub.tx_channel = None
 
     def close(self) -> None:
         """Stop the inverters, the fault injector and the bus (idempotent)."""

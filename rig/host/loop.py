@@ -31,7 +31,7 @@ from typing import Any
 
 import can
 
-from drivers.base import AxisDriver, Feedback
+from drivers.base import AxisDriver, Feedback, feedback_fields
 from drivers.bus import brief
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
@@ -49,11 +49,6 @@ log = logging.getLogger(__name__)
 
 #: Feedback fields recorded per axis, in this order
 FIELDS = ("position", "velocity", "torque", "current")
-
-
-def _scalar(value: float | complex) -> float:
-    """A command as recorded: itself, or the magnitude of a complex (dq) one."""
-    return abs(value) if isinstance(value, complex) else value
 
 
 @dataclass(frozen=True)
@@ -133,7 +128,10 @@ class HostLoop:
             threshold=chatter_threshold(law, axes[wiring.reads[0]] if wiring.reads else None, period),
             steady_from=cycles // 2,  # the run's second half is its steady state (README "Chattering")
         )
-        self._recorded = [(i, [f for f in FIELDS if f in a.measures]) for i, a in enumerate(self.axes)]
+        #: per axis, its recorded feedback fields as a tuple (one attrgetter call per axis and cycle)
+        self._recorded = [
+            (i, feedback_fields([f for f in FIELDS if f in a.measures])) for i, a in enumerate(self.axes)
+        ]
 
     @staticmethod
     def columns(axes: Sequence[AxisDriver], law: Law, wiring: Wiring) -> list[str]:
@@ -301,21 +299,16 @@ class HostLoop:
             newest = max((fb.stamp for fb in reads if fb.stamp is not None), default=None)
             if newest is not None:  # the TPDO's time on the bus to the RPDO's
                 self.times.response.append(time.time() - newest)
+        scalars = [abs(v) if isinstance(v, complex) else v for v in values]  # a dq command as its magnitude
         self.metrics.add(out.reference, out.measurement, values, samples)
         self.times.read.append(t1 - t0)
         self.times.update.append(t2 - t1)
         self.times.write.append(t3 - t2)
         self._t_end = t3
-        u = _scalar(values[0]) if values else 0.0
-        row = [
-            t,
-            out.reference,
-            out.measurement,
-            u,
-            *out.internals,
-            *(getattr(samples[i], f) for i, fields in self._recorded for f in fields),
-            *(_scalar(v) for v in values),
-        ]
+        row = [t, out.reference, out.measurement, scalars[0] if scalars else 0.0, *out.internals]
+        for i, fields in self._recorded:
+            row += fields(samples[i])
+        row += scalars
         with self.uncut:  # a stop signal waits: the row on disk and the count agree
             self.recorder.sample(row, (t1 - t0, t2 - t1, t3 - t2))
             self.done += 1  #: cycles run (skipped ones are under ``overruns``)
@@ -327,7 +320,12 @@ class HostLoop:
         drives hold them, and no backlog builds up), "zero" sends the neutral ones."""
         stamps = [fb.stamp for fb in reads]
         last = self._last_out
-        fresh = last is None or all(s is not None and s != p for s, p in zip(stamps, self._stamps))
+        fresh = True
+        if last is not None:
+            for s, p in zip(stamps, self._stamps):
+                if s is None or s == p:
+                    fresh = False
+                    break
         self._stamps = stamps
         if fresh or last is None:
             self._last_out = self.law.step(t, reads)

@@ -134,16 +134,20 @@ class RunMetrics:
         """One cycle: reference and measurement, its commands (``values``), the axes' feedback."""
         e = ref - y
         self.sq_error += e * e
-        self.max_error = max(self.max_error, abs(e))
+        e = abs(e)
+        if e > self.max_error:  # noqa: PLR1730 - max() without its call, per cycle (NaN alike)
+            self.max_error = e
         if values:
             self.chatter.add(abs(values[0]) if isinstance(values[0], complex) else values[0])
         for (peaks, names), fb in zip(self._fields, samples):
             for name in names:
                 value = abs(getattr(fb, name))
-                peaks[name] = max(peaks[name], value)
+                if value > peaks[name]:  # noqa: PLR1730 (as above)
+                    peaks[name] = value
         for peaks, command in zip(self._command_peaks, values):
             value = abs(command)
-            peaks["command"] = max(peaks["command"], value)
+            if value > peaks["command"]:  # noqa: PLR1730 (as above)
+                peaks["command"] = value
 
     def rms_error(self, n: int) -> float:
         """The RMS tracking error over ``n`` cycles (NaN for none)."""

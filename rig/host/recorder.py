@@ -118,7 +118,10 @@ class Recorder:
         self.dir = path
         self.columns: list[str] = []
         self.docs: dict[str, dict[str, str]] = {}  #: column -> unit and meaning
-        self._file = (path / "samples.csv").open("w+", newline="")
+        # read and write for ``_text``'s pread, written through a write-only text layer (a readable
+        # one resets its decoder at every write)
+        fd = os.open(path / "samples.csv", os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
+        self._file = open(fd, "w", newline="")
         self._count = 0
         self._flush_period = flush_period  #: [s] of run time (the rows' t)
         self._flush_at = 0.0

@@ -13,8 +13,9 @@ period. The host loop turns any ``SafetyStop`` into the one safe-stop path.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
-from drivers.base import AxisDriver, Feedback
+from drivers.base import AxisDriver, Feedback, feedback_fields
 from drivers.errors import SafetyStop
 from rig.config import AxisLimits
 
@@ -36,6 +37,12 @@ class AxisGuard:
             self.watchdog_periods = max(self.watchdog_periods, math.ceil(limits.watchdog / period - 1e-9))
         self.who = f"{axis.name}, {axis.where}"
         self.measures = axis.measures
+        #: (the measures it was made for, their names, their values of a sample), made on first use
+        self._measured: tuple[object, tuple[str, ...], Callable[[Feedback], tuple[float, ...]]] = (
+            None,
+            (),
+            feedback_fields(()),
+        )
         self.sample_name = getattr(axis, "sample_name", "sample")
         self._stale = 0
         self._fresh_k = -1  #: the cycle index of the last new sample (-1: none yet)
@@ -58,10 +65,14 @@ class AxisGuard:
         by the periods between the samples' SYNCs)."""
         c = self.limits
         fresh = self._watchdog(fb.stamp, k)
-        for name in self.measures:
-            value = getattr(fb, name)
-            if not math.isfinite(value):
-                raise self._stop(f"{name} feedback is {value!r}")
+        if self.measures is not self._measured[0]:  # (set once the axis knows what it measures)
+            self._measured = (self.measures, tuple(self.measures), feedback_fields(self.measures))
+        _, names, measured = self._measured
+        values = measured(fb)
+        if not all(map(math.isfinite, values)):
+            for name, value in zip(names, values):
+                if not math.isfinite(value):
+                    raise self._stop(f"{name} feedback is {value!r}")
         if abs(fb.velocity) > c.speed:
             raise self._stop(f"speed {fb.velocity:.4g} rad/s exceeds the limit {c.speed:g} rad/s")
         if "position" in self.measures and fresh:  # a repeated sample is no step (nor its time)

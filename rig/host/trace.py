@@ -3,10 +3,10 @@
 The trace gets every frame of every cycle, so its per-frame cost is part of the
 cycle. ``AscTrace`` is python-can's ``ASCWriter`` (header, footer, the first
 frame, and every frame that is not a classic data frame go through it); a
-classic data frame with an 11-bit id is written as the same line from its
-timestamp, a head made once per (channel, id, direction, length) and its data. A test
-keeps the two writers' lines equal, and reads the trace back with python-can's
-``ASCReader``.
+classic data frame with an 11-bit id is written as the same line: its timestamp
+(formatted once for the frames that share it), a head made once per (channel, id,
+direction, length) and its data. A test keeps the two writers' lines equal, and
+reads the trace back with python-can's ``ASCReader``.
 
 Two things python-can's writer gets wrong are set right here: the milliseconds of the
 header's dates are written with three digits (``.062``, not ``.62``, which readers take
@@ -22,6 +22,7 @@ not in the trace.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -41,20 +42,19 @@ class AscTrace(can.ASCWriter):
     def __init__(self, file: Any, channel: int = 1) -> None:
         super().__init__(file, channel=channel)
         self._heads: dict[tuple[Any, int, bool, int], str] = {}
+        self._stamp: tuple[float, str] = (math.nan, "")  #: the last timestamp [s] and its text
 
     def _format_header_datetime(self, dt: datetime) -> str:
         """The header's date with its milliseconds in three digits (CANoe's form)."""
         return dt.strftime(f"%a %b %d %H:%M:%S.{dt.microsecond // 1000:03d} %Y")
 
-    def _head(self, msg: can.Message) -> str:
-        """The part of the line between the timestamp and the data, made once per kind of frame."""
-        key = (msg.channel, msg.arbitration_id, msg.is_rx, msg.dlc)
-        head = self._heads.get(key)
-        if head is None:
-            n = channel2int(msg.channel)
-            channel = self.channel if n is None else n + 1
-            rx = "Rx" if msg.is_rx else "Tx"
-            head = self._heads[key] = f" {channel}  {msg.arbitration_id:<15X} {rx:<4} d {msg.dlc:x} "
+    def _head(self, key: tuple[Any, int, bool, int]) -> str:
+        """The part of a line between its timestamp and its data, made once per kind of frame:
+        ``key`` is (channel, id, is_rx, dlc)."""
+        n = channel2int(key[0])
+        channel = self.channel if n is None else n + 1
+        rx = "Rx" if key[2] else "Tx"
+        head = self._heads[key] = f" {channel}  {key[1]:<15X} {rx:<4} d {key[3]:x} "
         return head
 
     def on_message_received(self, msg: can.Message) -> None:
@@ -69,8 +69,15 @@ class AscTrace(can.ASCWriter):
         ):
             super().on_message_received(msg)
             return
-        stamp = "%9.6f" % (msg.timestamp - self.started)
-        self.file.write(stamp + self._head(msg) + msg.data.hex(" ").upper() + "\n")
+        key = (msg.channel, msg.arbitration_id, msg.is_rx, msg.dlc)
+        try:
+            head = self._heads[key]
+        except KeyError:
+            head = self._head(key)
+        stamp = self._stamp  # the frames of a lock-step cycle share theirs: formatted once
+        if stamp[0] != msg.timestamp:
+            stamp = self._stamp = (msg.timestamp, "% 9.6f" % (msg.timestamp - self.started))
+        self.file.write(f"{stamp[1]}{head}{msg.data.hex(' ').upper()}\n")
 
 
 class TracedNetwork(canopen.Network):

@@ -25,6 +25,8 @@ FRAMES = [
     can.Message(timestamp=100.0016, arbitration_id=0x701, is_remote_frame=True, dlc=1, is_extended_id=False),
     can.Message(timestamp=100.0020, arbitration_id=0x701, data=b"\x05", is_extended_id=False, channel="can1"),
     can.Message(timestamp=100.0024, is_error_frame=True),
+    can.Message(timestamp=100.0028, arbitration_id=0x181, data=b"\x01", dlc=2, is_extended_id=False),
+    can.Message(timestamp=112.5, arbitration_id=0x181, data=b"\x01\x02", is_extended_id=False),  # 10 s on
 ]
 
 
