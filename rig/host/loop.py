@@ -218,7 +218,28 @@ class HostLoop:
         if silent:
             raise CommunicationError(f"no process data from {', '.join(silent)} after the first SYNC")
         self.law.begin([samples[i] for i in self.wiring.reads])
+        self._check_absolute_start(samples)
         self._begun = True
+
+    def _check_absolute_start(self, samples: list[Feedback]) -> None:
+        """An absolute position reference (``origin = "zero"``) must start where the read axis
+        stands, within the step a motor at the speed limit makes in a period (the guard's): else
+        SafetyStop before the first command, which would drive the shaft there at full force. (A
+        CSP axis's guard refuses such a first position command itself.)"""
+        law = getattr(self.law, "inner", self.law)  # (a FaultyLaw's own law)
+        if not (law.position_reference and law.origin == "zero" and self.wiring.reads):
+            return
+        i = self.wiring.reads[0]
+        guard = self.guards[i]
+        if guard.position_command:
+            return
+        start, at = law.reference(0.0)[0], samples[i].position
+        if abs(start - at) > guard.max_step:
+            raise SafetyStop(
+                f"{guard.who}: the reference starts at {start:.6g} rad, {start - at:.4g} rad from the "
+                f"measured position {at:.6g} rad (> {guard.max_step:.3g} rad a period at the speed limit); "
+                'origin = "zero" is absolute: home the axis first, or use origin = "start"'
+            )
 
     def _cycles(self, progress: Callable[[int], None] | None) -> None:
         start = self._t_start = self._t_end = time.perf_counter()

@@ -388,3 +388,23 @@ def test_a_mistake_the_device_or_the_system_tells_is_one_line_exit_2(
 ) -> None:
     assert main(argv.split()) == 2
     _one_line(capsys, needles)
+
+
+def test_an_absolute_reference_away_from_the_shaft_is_refused_before_a_command(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``origin = "zero"`` with a reference that does not start where the shaft stands (here a
+    constant 5 rad, the shaft at 0): the position servo would drive it there at full force. The
+    run stops before its first command (exit 3), saying where the reference starts and the shaft
+    stands; no voltage was sent."""
+    example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+    text = example.read_text().replace('output = "runs"', f'output = "{tmp_path}"')
+    head, _, _ = text.partition("[reference]")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(head + '[reference]\nkind = "constant"\nvalue = 5.0\norigin = "zero"\n')
+    assert main(["run", "--config", str(cfg), "--emulate", "--json"]) == 3
+    summary = json.loads(capsys.readouterr().out)
+    reason = summary["safe_stop_reason"]
+    assert "the reference starts at 5 rad" in reason and "measured position 0 rad" in reason, reason
+    assert summary["stop_confirmed"] is True and summary["cycles"] == 0
+    assert summary["axes"]["motor"]["max_abs_command"] == 0.0
