@@ -283,7 +283,10 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         return state is PowerState.QUICK_STOP_ACTIVE and abs(fb.velocity) < self.REST_SPEED
 
     def disable(self) -> None:
-        """Disable voltage (transitions 7, 9, 10, 12), then stop watching the host's heartbeat."""
+        """Disable voltage (transitions 7, 9, 10, 12), then stop watching the host's heartbeat;
+        nothing on a node whose 0x1000 says it is no CiA 402 drive."""
+        if self.not_a_drive:
+            return
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
         self._unwatch_host()
 

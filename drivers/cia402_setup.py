@@ -78,6 +78,8 @@ class Cia402Setup:
     sync_rpdo: bool
     latency: float
     pdo: str
+    #: 0x1000 named another profile (``discover``): the axis must not write CiA 402 objects
+    not_a_drive: bool = False
     mode_timeout: float
     host: tuple[int, float] | None
     abort_connection: int | None
@@ -158,7 +160,11 @@ class Cia402Setup:
         ``check_mode``: commissioning, which picks its modes itself), and units."""
         device_type = self.sdo_read(cia.DEVICE_TYPE)
         if device_type & 0xFFFF != cia.PROFILE_DRIVE:
-            raise ConfigError(f"node {self.node_id} is not a CiA 402 drive (0x1000 = 0x{device_type:08X})")
+            self.not_a_drive = True  # closing writes no controlword to it (0x6040 is not ours there)
+            raise ConfigError(
+                f"axis {self.name!r}: node {self.node_id} is not a CiA 402 drive "
+                f"(0x1000 = 0x{device_type:08X}: profile {device_type & 0xFFFF})"
+            )
         self.identity = {
             k: v
             for k, sub in (("vendor", 1), ("product", 2), ("revision", 3))

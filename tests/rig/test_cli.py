@@ -408,3 +408,18 @@ def test_an_absolute_reference_away_from_the_shaft_is_refused_before_a_command(
     assert "the reference starts at 5 rad" in reason and "measured position 0 rad" in reason, reason
     assert summary["stop_confirmed"] is True and summary["cycles"] == 0
     assert summary["axes"]["motor"]["max_abs_command"] == 0.0
+
+
+def test_an_axis_on_a_node_that_is_no_drive_is_one_line_and_no_write(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    """A copied example with the wrong ``node_id`` (2: the dc-servo preset's CiA 406 encoder):
+    one line naming the axis and the node, exit 2, and no controlword written to that node on
+    the way out (before, a warning that "disabling on close failed" came with it)."""
+    example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+    text = example.read_text().replace('output = "runs"', f'output = "{tmp_path}"')
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text.replace("node_id = 1", "node_id = 2"))
+    assert main(["run", "--config", str(cfg), "--emulate"]) == 2
+    _one_line(capsys, ("axis 'motor'", "node 2 is not a CiA 402 drive", "profile 406"))
+    assert not [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
