@@ -70,7 +70,9 @@ def _node_ids(preset: str, node_id: int | None, params: dict[str, str]) -> dict[
     if node_id is None:
         return params
     if not 1 <= node_id <= 125:
-        raise UsageError(f"rig emulate: --node-id {node_id}: must be 1..125")
+        raise UsageError(
+            f"rig emulate: --node-id {node_id}: must be 1..125 with --preset (its nodes are N, N+1, N+2)"
+        )
     from plant_emulator.presets import PRESETS
     from rig.params import field_types
 
@@ -94,6 +96,9 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     import dataclasses
     import pathlib
 
+    import canopen
+
+    from drivers.errors import ConfigError
     from drivers.maps.od import load_od
     from plant_emulator.device_profile import default_profile, device_profile, load_profile
     from plant_emulator.presets import build_twin
@@ -104,7 +109,10 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     if args.node_id is not None and not 1 <= args.node_id <= 127:
         raise UsageError(f"rig emulate: --node-id {args.node_id}: must be 1..127")
     if args.device:
-        profile = device_profile(args.device)
+        try:
+            profile = device_profile(args.device)
+        except ConfigError as exc:
+            raise UsageError(f"rig emulate: --device {args.device}: {exc}") from None
     elif args.profile:
         profile = load_profile(pathlib.Path(args.profile))
         if args.eds:
@@ -114,6 +122,8 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     where = f"rig emulate: --device {profile.name} --param"
     params = preset_params(profile.physics, items, where, text=True, base=profile.params)
     load_od(profile.eds, args.node_id or profile.node_id)  # a bad EDS is refused before serving
+    # and so is a profile that disagrees with its EDS: built once on a network of its own
+    build_twin(profile, canopen.Network(), params, node_id=args.node_id)
 
     def world(network: Any) -> Any:
         return build_twin(profile, network, params, node_id=args.node_id)
@@ -144,6 +154,11 @@ def run(args: argparse.Namespace) -> int:
             "rig emulate: give one of --preset, --device (or --profile/--eds) for CANopen, or --modbus-map"
         )
     if args.preset:
+        from plant_emulator.presets import PRESETS
+
+        if args.preset not in PRESETS:
+            known = ", ".join(PRESETS)
+            raise UsageError(f"rig emulate: --preset {args.preset}: unknown preset; known: {known}")
         items = _node_ids(args.preset, args.node_id, items)
         params = preset_params(args.preset, items, f"rig emulate: --preset {args.preset} --param", text=True)
         preset = args.preset

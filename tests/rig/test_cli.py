@@ -333,6 +333,9 @@ HOSTILE_ARGUMENTS = [
     ("emulate --device epos4 --param a_m=-1", ("--device epos4 --param", "a_m", "-1")),
     ("emulate --profile /", ("/: a directory", "device profile")),
     ("emulate --profile /nonexistent.toml", ("/nonexistent.toml: no such device profile",)),
+    ("emulate --preset dc-serv", ("--preset dc-serv: unknown preset", "known: dc-servo")),
+    ("emulate --device epos5", ("--device epos5", "unknown device profile", "epos4")),
+    ("emulate --preset dc-servo --node-id 126", ("--node-id 126", "1..125", "N+2")),
     ("drive --interface nosuch --channel x status", ("--interface 'nosuch'", "known: ")),
     ("drive --interface socketcand --port 70000 status", ("--port", "70000")),
     ("drive --emulate epos4 --node 128 status", ("--node", "128")),
@@ -423,3 +426,21 @@ def test_an_axis_on_a_node_that_is_no_drive_is_one_line_and_no_write(
     assert main(["run", "--config", str(cfg), "--emulate"]) == 2
     _one_line(capsys, ("axis 'motor'", "node 2 is not a CiA 402 drive", "profile 406"))
     assert not [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+
+
+def test_a_profile_that_disagrees_with_its_eds_is_refused_before_serving(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], nothing_opens: list[str]
+) -> None:
+    """README "A twin of your own drive": a profile whose ``[modes] supported`` disagrees with
+    the EDS's 0x6502 is one line naming the file and the key, exit 2, before the socketcand
+    port is bound (before, it was found once serving: the port was taken and "rig emulate:
+    stopped" printed for an emulator that never ran)."""
+    import shutil
+
+    devices = pathlib.Path(__file__).resolve().parents[2] / "plant_emulator" / "devices"
+    shutil.copy(devices / "epos4.eds", tmp_path / "mydrive.eds")
+    profile = tmp_path / "mydrive.toml"
+    profile.write_text('[device]\neds = "mydrive.eds"\n\n[modes]\nsupported = ["pp", "pv"]\n')
+    assert main(["emulate", "--profile", str(profile), "--eds", str(tmp_path / "mydrive.eds")]) == 2
+    _one_line(capsys, ("mydrive.toml", "[modes] supported", "0x6502"))
+    assert not nothing_opens
