@@ -15,6 +15,8 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
     """The summary for a person, with units: the law's figures, the stop in words, each axis's
     peaks (``--json`` has the same keys as numbers)."""
     unit = summary.get("error_unit", "")
+    command_unit = summary.get("command_unit") or "command's unit"
+    command_units = summary.get("command_units", {})
     rows = [
         ("cycles", f"{summary['cycles']} run, {summary['overruns'] or 'none'} skipped"),
         ("rms error", f"{summary['rms_error']:.4g} {unit}".rstrip()),
@@ -22,8 +24,8 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
         (
             "chattering",
             f"{summary['chattering_count']} sign alternations of the command increment beyond one "
-            f"count's effect ({summary.get('chattering_threshold', 0.0):.3g}) in the second half, "
-            f"RMS increment {summary.get('chattering_amplitude', math.nan):.3g} (command's unit)",
+            f"count's effect ({summary.get('chattering_threshold', 0.0):.3g} {command_unit}) in the second "
+            f"half, RMS increment {summary.get('chattering_amplitude', math.nan):.3g} {command_unit}",
         ),
         ("stop", summary["safe_stop_reason"] or "none: the run ended at its duration, every axis stopped"),
         (
@@ -37,8 +39,13 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
         lines.append(
             f"axis {name:10s} "
             + ", ".join(
-                f"{k.removeprefix('max_abs_')} {v:.4g} {_PEAK_UNITS.get(k, '')}".rstrip()
+                f"{k.removeprefix('max_abs_')} {v:.4g} {_peak_unit(k, command_units.get(name, ''))}".rstrip()
                 for k, v in peaks.items()
             )
         )
     return lines
+
+
+def _peak_unit(key: str, command_unit: str) -> str:
+    """The unit of an axis peak: ``command_unit`` (its mode's) for the command, else ``_PEAK_UNITS``."""
+    return command_unit if key == "max_abs_command" else _PEAK_UNITS.get(key, "")

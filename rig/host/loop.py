@@ -35,6 +35,7 @@ from drivers.base import AxisDriver, Feedback, feedback_fields
 from drivers.bus import brief
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
+from rig.host.columns import MODE_UNITS
 from rig.host.loop_stats import RunMetrics, StageTimes, chatter_threshold
 from rig.host.pacing import Pacing
 from rig.host.recorder import Recorder
@@ -379,6 +380,10 @@ class HostLoop:
             heartbeat=self.heartbeat,
         )
 
+    def _command_units(self) -> dict[str, str]:
+        """{axis: the unit of its command} for the axes with a mode (``MODE_UNITS``)."""
+        return {a.name: MODE_UNITS.get(a.mode, "") for a in self.axes if a.mode is not None}
+
     def summary(self) -> dict[str, Any]:
         n = self.done
         m = self.metrics
@@ -390,6 +395,11 @@ class HostLoop:
             "chattering_count": m.chatter.count,
             "chattering_amplitude": m.chatter.amplitude,
             "chattering_threshold": m.threshold,
+            # the unit of the law's first command (chattering's) and of each axis's command
+            "command_unit": self._command_units().get(self.axes[self.wiring.commands[0]].name, "")
+            if self.wiring.commands
+            else "",
+            "command_units": self._command_units(),
             "overruns": self.overruns,
             "held_cycles": self.held,
             "elapsed_s": self.elapsed,

@@ -444,3 +444,20 @@ def test_a_profile_that_disagrees_with_its_eds_is_refused_before_serving(
     assert main(["emulate", "--profile", str(profile), "--eds", str(tmp_path / "mydrive.eds")]) == 2
     _one_line(capsys, ("mydrive.toml", "[modes] supported", "0x6502"))
     assert not nothing_opens
+
+
+def test_the_run_summary_gives_the_command_s_unit(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The chattering figures and each axis's command peak are in the command's unit, which
+    the summary names (before: "(command's unit)" and a bare number)."""
+    example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(example.read_text().replace('output = "runs"', f'output = "{tmp_path}"'))
+    assert main(["run", "--config", str(cfg), "--emulate", "--duration", "0.2", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["command_unit"] == "V" and summary["command_units"] == {"motor": "V"}
+    assert main(["run", "--config", str(cfg), "--emulate", "--duration", "0.2"]) == 0
+    lines = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()}
+    assert "command's unit" not in lines["chattering"] and lines["chattering"].endswith(" V")
+    assert lines["axis"].startswith("axis motor") and lines["axis"].endswith(" V")
