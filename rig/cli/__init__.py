@@ -94,6 +94,7 @@ def _verbose_everywhere(parser: argparse.ArgumentParser) -> None:
                     default=argparse.SUPPRESS,
                     help="log debug messages to stderr, with tracebacks",
                 )
+                child.set_defaults(prog=child.prog)  # the deepest parsed wins: it names the command
                 _verbose_everywhere(child)
 
 
@@ -107,7 +108,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``rig`` command line; returns the process exit code."""
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # named by the subcommand that was given them, not by the top parser
+            raise UsageError(f"{getattr(args, 'prog', 'rig')}: unrecognized arguments: {' '.join(extra)}")
         handler = logging.StreamHandler(sys.stderr)
         handler.setFormatter((logging.Formatter if args.verbose else BriefFormatter)(FORMAT))
         logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, handlers=[handler])

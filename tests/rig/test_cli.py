@@ -333,6 +333,8 @@ HOSTILE_ARGUMENTS = [
     ("emulate --device epos4 --param a_m=-1", ("--device epos4 --param", "a_m", "-1")),
     ("emulate --profile /", ("/: a directory", "device profile")),
     ("emulate --profile /nonexistent.toml", ("/nonexistent.toml: no such device profile",)),
+    ("run --config examples/dc_servo_position.toml --emulate --duraton 1", ("rig run: ", "--duraton 1")),
+    ("design dtsm --a-m 16 --b-m 680 --lam -15 --dtt 1e-3", ("rig design dtsm: ", "--dtt 1e-3")),
     ("emulate --preset dc-serv", ("--preset dc-serv: unknown preset", "known: dc-servo")),
     ("emulate --device epos5", ("--device epos5", "unknown device profile", "epos4")),
     ("emulate --preset dc-servo --node-id 126", ("--node-id 126", "1..125", "N+2")),
