@@ -220,6 +220,7 @@ class HostLoop:
             raise CommunicationError(f"no process data from {', '.join(silent)} after the first SYNC")
         self.law.begin([samples[i] for i in self.wiring.reads])
         self._check_absolute_start(samples)
+        self._check_reference_window(samples)
         self._begun = True
 
     def _check_absolute_start(self, samples: list[Feedback]) -> None:
@@ -240,6 +241,34 @@ class HostLoop:
                 f"{guard.who}: the reference starts at {start:.6g} rad, {start - at:.4g} rad from the "
                 f"measured position {at:.6g} rad (> {guard.max_step:.3g} rad a period at the speed limit); "
                 'origin = "zero" is absolute: home the axis first, or use origin = "start"'
+            )
+
+    def _check_reference_window(self, samples: list[Feedback]) -> None:
+        """A position reference that leaves the read axis's ``[position_min, position_max]``
+        within the run (a move from where the shaft stands, left there by a run before):
+        SafetyStop before the first command, rather than a stop at the window mid-move. The
+        reference is looked at in at most 2,000 points of the run and at its end."""
+        law = getattr(self.law, "inner", self.law)  # (a FaultyLaw's own law)
+        if not (law.position_reference and self.wiring.reads):
+            return
+        i = self.wiring.reads[0]
+        c = self.guards[i].limits
+        if math.isinf(c.position_min) and math.isinf(c.position_max):
+            return
+        n = min(self.cycles, 2000)
+        end = (self.cycles - 1) * self.period
+        beyond, worst = 0.0, (0.0, 0.0)  #: the farthest the reference goes outside, (t, x) there
+        for t in [end * j / n for j in range(n)] + [end]:
+            x = law.reference(t)[0]
+            out = max(c.position_min - x, x - c.position_max)
+            if out > beyond:
+                beyond, worst = out, (t, x)
+        if beyond > 0.0:
+            raise SafetyStop(
+                f"{self.guards[i].who}: the reference goes to {worst[1]:.6g} rad (at {worst[0]:.4g} s), "
+                f"outside [{c.position_min:g}, {c.position_max:g}] rad (it starts where the axis "
+                f"stands, {samples[i].position:.6g} rad); move the shaft back (rig emulate: kill "
+                "-USR1) or widen [axis.limits]"
             )
 
     def _cycles(self, progress: Callable[[int], None] | None) -> None:

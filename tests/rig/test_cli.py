@@ -463,3 +463,22 @@ def test_the_run_summary_gives_the_command_s_unit(
     lines = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()}
     assert "command's unit" not in lines["chattering"] and lines["chattering"].endswith(" V")
     assert lines["axis"].startswith("axis motor") and lines["axis"].endswith(" V")
+
+
+def test_a_move_that_would_leave_the_position_window_is_refused_before_a_command(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The example run a second time against the same emulator starts where the first left the
+    shaft (10 rad) and would move to 20 rad, beyond its ``position_max = 12``: here a move of 20
+    rad from 0. The run stops before its first command (exit 3), naming where the reference
+    goes and the window; before, the motor moved and was stopped at 12 rad."""
+    example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+    text = example.read_text().replace('output = "runs"', f'output = "{tmp_path}"')
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text.replace("distance = 10.0", "distance = 20.0"))
+    assert main(["run", "--config", str(cfg), "--emulate", "--json"]) == 3
+    summary = json.loads(capsys.readouterr().out)
+    reason = summary["safe_stop_reason"]
+    assert "the reference goes to 20 rad" in reason and "outside [-1, 12] rad" in reason, reason
+    assert summary["stop_confirmed"] is True and summary["cycles"] == 0
+    assert summary["axes"]["motor"]["max_abs_command"] == 0.0
