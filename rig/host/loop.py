@@ -41,6 +41,7 @@ from rig.host.pacing import Pacing
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.host.signals import stop_reason
+from rig.host.start_checks import ReferenceSpan, check_absolute_start, check_reference_window, reference_span
 from rig.host.stopping import bring_to_rest
 from rig.laws.base import Law, LawStep
 
@@ -120,6 +121,7 @@ class HostLoop:
         self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
         self.done = 0
         self._begun = False
+        self._span: ReferenceSpan | None = None  #: of a position reference (``run``)
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
         self._t_start = self._t_end = 0.0  #: perf_counter [s] of the first cycle, the last one's end
         self.metrics = RunMetrics(
@@ -170,6 +172,7 @@ class HostLoop:
             gc.disable()
             frozen = True
         try:
+            self._span = reference_span(self.law, self.guards, self.wiring.reads, self.cycles, self.period)
             self.recorder.mark_start()
             self._prime()
             self._cycles(progress)
@@ -219,57 +222,13 @@ class HostLoop:
         if silent:
             raise CommunicationError(f"no process data from {', '.join(silent)} after the first SYNC")
         self.law.begin([samples[i] for i in self.wiring.reads])
-        self._check_absolute_start(samples)
-        self._check_reference_window(samples)
+        law = getattr(self.law, "inner", self.law)  # (a FaultyLaw's own law)
+        if law.position_reference and self.wiring.reads:
+            i = self.wiring.reads[0]
+            check_absolute_start(law, self.guards[i], samples[i])
+            if self._span is not None:
+                check_reference_window(self._span, law.offset, self.guards[i], samples[i])
         self._begun = True
-
-    def _check_absolute_start(self, samples: list[Feedback]) -> None:
-        """An absolute position reference (``origin = "zero"``) must start where the read axis
-        stands, within the step a motor at the speed limit makes in a period (the guard's): else
-        SafetyStop before the first command, which would drive the shaft there at full force. (A
-        CSP axis's guard refuses such a first position command itself.)"""
-        law = getattr(self.law, "inner", self.law)  # (a FaultyLaw's own law)
-        if not (law.position_reference and law.origin == "zero" and self.wiring.reads):
-            return
-        i = self.wiring.reads[0]
-        guard = self.guards[i]
-        if guard.position_command:
-            return
-        start, at = law.reference(0.0)[0], samples[i].position
-        if abs(start - at) > guard.max_step:
-            raise SafetyStop(
-                f"{guard.who}: the reference starts at {start:.6g} rad, {start - at:.4g} rad from the "
-                f"measured position {at:.6g} rad (> {guard.max_step:.3g} rad a period at the speed limit); "
-                'origin = "zero" is absolute: home the axis first, or use origin = "start"'
-            )
-
-    def _check_reference_window(self, samples: list[Feedback]) -> None:
-        """A position reference that leaves the read axis's ``[position_min, position_max]``
-        within the run (a move from where the shaft stands, left there by a run before):
-        SafetyStop before the first command, rather than a stop at the window mid-move. The
-        reference is looked at in at most 2,000 points of the run and at its end."""
-        law = getattr(self.law, "inner", self.law)  # (a FaultyLaw's own law)
-        if not (law.position_reference and self.wiring.reads):
-            return
-        i = self.wiring.reads[0]
-        c = self.guards[i].limits
-        if math.isinf(c.position_min) and math.isinf(c.position_max):
-            return
-        n = min(self.cycles, 2000)
-        end = (self.cycles - 1) * self.period
-        beyond, worst = 0.0, (0.0, 0.0)  #: the farthest the reference goes outside, (t, x) there
-        for t in [end * j / n for j in range(n)] + [end]:
-            x = law.reference(t)[0]
-            out = max(c.position_min - x, x - c.position_max)
-            if out > beyond:
-                beyond, worst = out, (t, x)
-        if beyond > 0.0:
-            raise SafetyStop(
-                f"{self.guards[i].who}: the reference goes to {worst[1]:.6g} rad (at {worst[0]:.4g} s), "
-                f"outside [{c.position_min:g}, {c.position_max:g}] rad (it starts where the axis "
-                f"stands, {samples[i].position:.6g} rad); move the shaft back (rig emulate: kill "
-                "-USR1) or widen [axis.limits]"
-            )
 
     def _cycles(self, progress: Callable[[int], None] | None) -> None:
         start = self._t_start = self._t_end = time.perf_counter()

@@ -1,0 +1,87 @@
+"""What is checked at cycle 0, before the first command: a position reference against where the
+read axis stands and against its position window (the guard would stop the run there anyway,
+but only once the motor has moved)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from drivers.base import Feedback
+from drivers.errors import SafetyStop
+from rig.host.safety import AxisGuard
+from rig.laws.base import Law, Reference
+
+__all__ = ["ReferenceSpan", "check_absolute_start", "check_reference_window", "reference_span"]
+
+#: points of the run at which a reference is looked at (and its end)
+POINTS = 2000
+
+
+@dataclass(frozen=True)
+class ReferenceSpan:
+    """The lowest and highest value of a reference over a run, and when [s]; taken before the
+    run (the reference is a function of time) so that cycle 0 only adds the origin."""
+
+    lo: float
+    t_lo: float
+    hi: float
+    t_hi: float
+
+    @classmethod
+    def of(cls, reference: Reference, cycles: int, period: float) -> ReferenceSpan:
+        """Over ``cycles`` periods of ``period`` [s], in at most ``POINTS`` points and the end."""
+        n = max(1, min(cycles, POINTS))
+        end = max(cycles - 1, 0) * period
+        values = [(reference(t)[0], t) for t in [end * j / n for j in range(n)] + [end]]
+        lo, hi = min(values), max(values)
+        return cls(lo[0], lo[1], hi[0], hi[1])
+
+
+def reference_span(
+    law: Law, guards: Sequence[AxisGuard], reads: Sequence[int], cycles: int, period: float
+) -> ReferenceSpan | None:
+    """The span of ``law``'s position reference over the run when the read axis (``reads[0]``
+    of ``guards``) has a position window; None otherwise (nothing to check)."""
+    law = getattr(law, "inner", law)  # (a FaultyLaw's own law)
+    if not (law.position_reference and reads):
+        return None
+    c = guards[reads[0]].limits
+    if math.isinf(c.position_min) and math.isinf(c.position_max):
+        return None
+    return ReferenceSpan.of(law.reference, cycles, period)
+
+
+def check_absolute_start(law: Law, guard: AxisGuard, sample: Feedback) -> None:
+    """An absolute position reference (``origin = "zero"``) must start where the read axis
+    stands, within the step a motor at the speed limit makes in a period (the guard's): else
+    SafetyStop, before the first command would drive the shaft there at full force. (A CSP
+    axis's guard refuses such a first position command itself.)"""
+    if law.origin != "zero" or guard.position_command:
+        return
+    start, at = law.reference(0.0)[0], sample.position
+    if abs(start - at) > guard.max_step:
+        raise SafetyStop(
+            f"{guard.who}: the reference starts at {start:.6g} rad, {start - at:.4g} rad from the "
+            f"measured position {at:.6g} rad (> {guard.max_step:.3g} rad a period at the speed limit); "
+            'origin = "zero" is absolute: home the axis first, or use origin = "start"'
+        )
+
+
+def check_reference_window(span: ReferenceSpan, offset: float, guard: AxisGuard, sample: Feedback) -> None:
+    """A position reference (``span``, moved by the law's origin ``offset`` [rad]) that leaves
+    the read axis's ``[position_min, position_max]`` within the run (a move from where a run
+    before left the shaft): SafetyStop before the first command, not a stop at the window
+    mid-move."""
+    c = guard.limits
+    below, above = c.position_min - (span.lo + offset), (span.hi + offset) - c.position_max
+    if max(below, above) <= 0.0:
+        return
+    x, t = (span.lo + offset, span.t_lo) if below >= above else (span.hi + offset, span.t_hi)
+    raise SafetyStop(
+        f"{guard.who}: the reference goes to {x:.6g} rad (at {t:.4g} s), outside "
+        f"[{c.position_min:g}, {c.position_max:g}] rad (it starts where the axis stands, "
+        f"{sample.position:.6g} rad); move the shaft back (rig emulate: kill -USR1) or widen "
+        "[axis.limits]"
+    )
