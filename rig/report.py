@@ -21,12 +21,7 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
         ("cycles", f"{summary['cycles']} run, {summary['overruns'] or 'none'} skipped"),
         ("rms error", f"{summary['rms_error']:.4g} {unit}".rstrip()),
         ("max error", f"{summary['max_error']:.4g} {unit}".rstrip()),
-        (
-            "chattering",
-            f"{summary['chattering_count']} sign alternations of the command increment beyond one "
-            f"count's effect ({summary.get('chattering_threshold', 0.0):.3g} {command_unit}) in the second "
-            f"half, RMS increment {summary.get('chattering_amplitude', math.nan):.3g} {command_unit}",
-        ),
+        ("chattering", _chattering(summary, command_unit)),
         ("stop", summary["safe_stop_reason"] or "none: the run ended at its duration, every axis stopped"),
         (
             "stop confirmed",
@@ -49,3 +44,16 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
 def _peak_unit(key: str, command_unit: str) -> str:
     """The unit of an axis peak: ``command_unit`` (its mode's) for the command, else ``_PEAK_UNITS``."""
     return command_unit if key == "max_abs_command" else _PEAK_UNITS.get(key, "")
+
+
+def _chattering(summary: dict[str, Any], unit: str) -> str:
+    """The chattering figures in words; a run that ended before two commands of its second half
+    has none (its amplitude is NaN)."""
+    amplitude = summary.get("chattering_amplitude", math.nan)
+    if not math.isfinite(amplitude):
+        return "not measured: the run ended before its second half had two commands"
+    return (
+        f"{summary['chattering_count']} sign alternations of the command increment beyond one "
+        f"count's effect ({summary.get('chattering_threshold', 0.0):.3g} {unit}) in the second "
+        f"half, RMS increment {amplitude:.3g} {unit}"
+    )

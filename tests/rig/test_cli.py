@@ -96,6 +96,21 @@ def test_bench_json_contract(monkeypatch: pytest.MonkeyPatch, capsys: pytest.Cap
         assert set(fig) == {"name", "value", "unit"} and fig["unit"] == "us/step" and fig["value"] > 0
 
 
+def test_a_run_stopped_at_its_start_says_its_chattering_was_not_measured(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two cycles, then a NaN from the law: no second half to count chattering in; the summary
+    says so in words, not 'RMS increment nan V'."""
+    monkeypatch.chdir(tmp_path)
+    example = str(pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml")
+    assert main(["run", "--config", example, "--emulate", "--fault", "law_nan_at=0.001"]) == 3
+    out = capsys.readouterr().out
+    assert (
+        "chattering      not measured: the run ended before its second half" in out
+        and "increment nan" not in out
+    )
+
+
 def test_demo_runs_and_reports(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo"]) == 0
     out = capsys.readouterr().out
