@@ -31,6 +31,7 @@ from plant_emulator.presets import build_preset, build_twin, preset_params
 __all__ = ["LockstepBench", "SyncBus", "SyncHub", "SyncNetwork", "attach_network"]
 
 Listener = Callable[[can.Message], None]
+_FOUND_BY = frozenset(NodeScanner.SERVICES)  #: the services by which canopen's scanner finds a node
 log = logging.getLogger(__name__)
 
 
@@ -100,7 +101,7 @@ class SyncBus(can.BusABC):
 def attach_network(network: Any, bus: SyncBus) -> None:
     """Join a canopen ``Network`` to ``bus``: frames go straight to ``network.notify`` (to its
     subscribers and node scanner, as canopen's ``notify`` does, without the call where the network
-    does not override it; canopen's scanner is not asked about a node it has found).
+    does not override it; canopen's scanner is asked only about a frame that would add a node).
 
     A frame its handler cannot parse (wrong length, bad command) is logged and
     dropped, as canopen's own listener does on a real bus: a malformed frame
@@ -122,8 +123,10 @@ def attach_network(network: Any, bus: SyncBus) -> None:
                 for callback in subscribers[can_id]:
                     callback(can_id, msg.data, msg.timestamp)
             scanner = network.scanner
-            if can_id & 0x7F not in scanner.nodes or type(scanner) is not NodeScanner:  # else a no-op
+            if type(scanner) is not NodeScanner:
                 scanner.on_message_received(can_id)
+            elif can_id & 0x780 in _FOUND_BY and can_id & 0x7F and can_id & 0x7F not in scanner.nodes:
+                scanner.on_message_received(can_id)  # (canopen's condition: a call only where it adds)
         except Exception as exc:
             log.warning("dropped frame 0x%03X [%s]: %s", can_id, bytes(msg.data).hex(), exc)
 
