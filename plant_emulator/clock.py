@@ -36,7 +36,7 @@ class WorldClock:
         t = source()
         for shaft in self.shafts:
             shaft.clock = source
-            shaft.t = shaft.load_origin = t  # the first period starts now
+            shaft.t = t  # the first period starts now
         for d in self.devices:
             d.clock_source = source
             d.clock = t

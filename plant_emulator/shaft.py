@@ -28,7 +28,9 @@ only when feedback is latched. A command acts from the first period boundary at
 or after it is due. Lock-step (no clock) keeps its exact stepping per SYNC.
 
 Loads (``Axis.load``) run in seconds since the first attached drive last entered
-OPERATION ENABLED (``enabled``), not since the clock's epoch.
+OPERATION ENABLED (``enabled``), not since the clock's epoch; until its first enable
+(and after ``rest``) their time stands at 0, so a load that steps in at 1.5 s steps
+in 1.5 s into the run, not onto a disabled motor 1.5 s after the emulator started.
 """
 
 from __future__ import annotations
@@ -99,7 +101,8 @@ class Shaft:
         self.t = 0.0  #: time of the latest SYNC [s] (real time: of the latest period boundary)
         #: real time: the emulator's monotonic clock [s] (None: time steps with the SYNCs)
         self.clock: Callable[[], float] | None = None
-        self.load_origin = 0.0  #: [s] loads run in t - load_origin
+        #: [s] loads run in t - load_origin; None: their time stands at 0 (no enable yet)
+        self.load_origin: float | None = None
         self._drives: list[Coupled] = []
         self._seen: set[int] = set()
         self._stamp: float | None = None
@@ -107,11 +110,12 @@ class Shaft:
 
     def rest(self) -> None:
         """The plant back to its initial state: every axis at rest at angle zero with its
-        controller state cleared, the loads' time from now (an emulator control between runs,
-        ``rig emulate``'s SIGUSR1; no CANopen command does this, as none moves a real shaft)."""
+        controller state cleared, the loads' time at 0 until the next enable (an emulator control
+        between runs, ``rig emulate``'s SIGUSR1; no CANopen command does this, as none moves a
+        real shaft)."""
         for axis in self.axes:
             axis.reset()
-        self.load_origin = self.t
+        self.load_origin = None
 
     def attach(self, drive: Coupled) -> None:
         """Take ``drive``'s commands into every period from now on."""
@@ -173,7 +177,8 @@ class Shaft:
             timeline = drives[0].take_timeline(t)
         else:
             timeline = [c for d in drives for c in d.take_timeline(t)]
-        run_period(self._step, timeline, t - self.load_origin, self.period)
+        origin = self.load_origin
+        run_period(self._step, timeline, 0.0 if origin is None else t - origin, self.period)
 
     def _step_all(self, h: float, t: float) -> None:
         for axis in self.axes:

@@ -101,10 +101,12 @@ def test_syncs_only_latch(world: World) -> None:
 
 def test_a_load_profile_runs_from_operation_enabled() -> None:
     """The clock reads 1000 s when the drive is enabled; the load's step at 1.5 s comes 1.5 s
-    after the enable, not at clock time 1.5 s (which is long past)."""
+    after the enable, not at clock time 1.5 s (which is long past), nor 1.5 s after the
+    emulator started (onto the disabled motor: it spun up to over-speed before any run)."""
     w = World(start=1000.0, load="step:0.02:1.5")
     try:
-        w.wait(0.5)
+        w.wait(2.0)
+        assert w.drive.axis.velocity == 0.0  # disabled, and the load's time has not started
         w.enable(-1)  # 0 V: nothing moves the motor but the load
         w.wait(1.4)
         assert abs(w.drive.axis.velocity) < 1e-6

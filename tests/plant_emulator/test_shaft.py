@@ -89,6 +89,7 @@ def test_lockstep_time_is_the_sync_count() -> None:
     motion = Recorder(log, "m")
     shaft = Shaft(motion, period=0.25)
     shaft.lockstep = True
+    shaft.load_origin = 0.0  # the loads' time running from 0 (as from a drive's enable at 0)
     for stamp in (100.0, 100.7, 101.1):  # wall-clock arrival times: noise
         shaft.sync(motion, stamp)
     assert shaft.t == 0.75 and log == [("m", "advance", 0.25, 0.25), ("m", "advance", 0.25, 0.5)]
