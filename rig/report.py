@@ -48,10 +48,17 @@ def _peak_unit(key: str, command_unit: str) -> str:
 
 def _chattering(summary: dict[str, Any], unit: str) -> str:
     """The chattering figures in words; a run that ended before two commands of its second half
-    has none (its amplitude is NaN)."""
+    has none (its amplitude is NaN), and a count is not measurable where one count's effect
+    covers the command's range (``chattering_count`` None)."""
     amplitude = summary.get("chattering_amplitude", math.nan)
     if not math.isfinite(amplitude):
         return "not measured: the run ended before its second half had two commands"
+    if summary["chattering_count"] is None:
+        return (
+            f"not measurable: one count's effect ({summary['chattering_threshold']:.3g} {unit}) is at "
+            f"least the command's whole range, so no increment can exceed it; RMS increment "
+            f"{amplitude:.3g} {unit}"
+        )
     return (
         f"{summary['chattering_count']} sign alternations of the command increment beyond one "
         f"count's effect ({summary.get('chattering_threshold', 0.0):.3g} {unit}) in the second "

@@ -130,6 +130,7 @@ class HostLoop:
             wiring.commanded,
             threshold=chatter_threshold(law, axes[wiring.reads[0]] if wiring.reads else None, period),
             steady_from=cycles // 2,  # the run's second half is its steady state (README "Chattering")
+            command_range=2.0 * guards[wiring.commands[0]].limits.command if wiring.commands else math.inf,
         )
         #: per axis, its recorded feedback fields as a tuple (one attrgetter call per axis and cycle)
         self._recorded = [
@@ -380,7 +381,7 @@ class HostLoop:
             "rms_error": m.rms_error(n),
             "max_error": m.max_error if n else math.nan,
             "error_unit": self.law.error_unit,
-            "chattering_count": m.chatter.count,
+            "chattering_count": m.chattering_count,
             "chattering_amplitude": m.chatter.amplitude,
             "chattering_threshold": m.threshold,
             # the unit of the law's first command (chattering's) and of each axis's command

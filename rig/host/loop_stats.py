@@ -114,11 +114,14 @@ class RunMetrics:
         *,
         threshold: float,
         steady_from: int,
+        command_range: float = math.inf,
     ) -> None:
         """Axes by ``names`` with the quantities each ``measures``; ``commanded``: the axes (indices)
         of a cycle's commands, in order; ``threshold``: the chattering threshold [command unit]
-        (``chatter_threshold``), counted from cycle ``steady_from``."""
+        (``chatter_threshold``), counted from cycle ``steady_from``; ``command_range``: the
+        largest increment the first command can make (twice its limit) [command unit]."""
         self.threshold = threshold
+        self.command_range = command_range
         self.sq_error = 0.0
         self.max_error = 0.0
         self.chatter = ChatterCounter(threshold, start=steady_from)
@@ -148,6 +151,12 @@ class RunMetrics:
             value = abs(command)
             if value > peaks["command"]:  # noqa: PLR1730 (as above)
                 peaks["command"] = value
+
+    @property
+    def chattering_count(self) -> int | None:
+        """The chattering count; None (not measurable) where one count's effect, the threshold, is
+        at least ``command_range``: no increment of the command can exceed it."""
+        return None if self.threshold >= self.command_range else self.chatter.count
 
     def rms_error(self, n: int) -> float:
         """The RMS tracking error over ``n`` cycles (NaN for none)."""

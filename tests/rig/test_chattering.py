@@ -9,8 +9,9 @@ import pathlib
 import numpy as np
 import pytest
 
+from drivers.base import Feedback
 from rig.config import load_config
-from rig.host.loop_stats import ChatterCounter
+from rig.host.loop_stats import ChatterCounter, RunMetrics
 from rig.host.recorder import Recorder
 from rig.host.session import Session, run_config
 from rig.laws import make_law
@@ -107,3 +108,29 @@ def test_the_run_plot_is_titled_and_labelled_with_units(
     assert bottom.get_xlabel() == "time [s]" and top.get_title() and bottom.get_title()
     assert [len(ax.get_lines()) for ax in fig.axes] == [2, 1]
     assert [t.get_text() for t in top.get_legend().get_texts()] == ["reference", "measurement"]
+
+
+def test_a_count_is_not_measurable_where_one_count_covers_the_command_range(tmp_path: pathlib.Path) -> None:
+    """examples/im_speed_idtsm.toml: one count of speed is worth about 22 N m through the IDTSM,
+    the command's range is +-10 N m; no increment can exceed the threshold, so the count is None
+    (JSON null), not a reassuring 0, and the summary says so; the amplitude is still measured."""
+    from rig.report import summary_lines
+
+    cfg = load_config(EXAMPLES / "im_speed_idtsm.toml")
+    cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path), duration=1.0))
+    summary = run_config(cfg, emulate=True)
+    limit = cfg.axes[0].limits.command
+    assert summary["chattering_threshold"] >= 2.0 * limit
+    assert summary["chattering_count"] is None
+    assert summary["chattering_amplitude"] > 0.0
+    text = "\n".join(summary_lines(summary))
+    assert "not measurable" in text and "RMS increment" in text
+
+
+def test_the_count_is_measured_below_the_command_range() -> None:
+    metrics = RunMetrics(["m"], [{"velocity"}], [0], threshold=2.0, steady_from=0, command_range=4.0)
+    for u in (0.0, 3.0, 0.0, 3.0):
+        metrics.add(0.0, 0.0, [u], [Feedback(0.0, 0.0, 0.0, 0.0, None)])
+    assert metrics.chattering_count == 2  # +3, -3, +3: two alternations
+    metrics.command_range = 2.0
+    assert metrics.chattering_count is None
