@@ -26,7 +26,7 @@ from typing import Any
 import can
 import canopen
 
-from drivers.errors import ConfigError
+from drivers.errors import CommunicationError, ConfigError
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.clock import WorldClock
 from plant_emulator.lockstep import SyncHub, attach_network
@@ -59,8 +59,8 @@ def _transport(
     if interface:
         try:
             bus = can.Bus(interface=interface, channel=channel, ignore_config=True)
-        except (can.CanError, OSError, ValueError) as exc:
-            raise ConfigError(
+        except (can.CanError, OSError, ValueError) as exc:  # exit code 1, as rig run's bus
+            raise CommunicationError(
                 f"--interface {interface} --channel {channel}: cannot open the bus: {exc}"
             ) from exc
         network.bus = bus

@@ -410,6 +410,24 @@ def test_a_mistake_the_device_or_the_system_tells_is_one_line_exit_2(
     _one_line(capsys, needles)
 
 
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize(
+    "argv",
+    [
+        "emulate --preset dc-servo --interface socketcan --channel rig-missing0",
+        "drive --interface socketcan --channel rig-missing0 status",
+        "scan --interface socketcan --channel rig-missing0",
+    ],
+)
+def test_a_bus_that_cannot_be_opened_is_one_line_exit_1_in_every_command(
+    argv: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """No such CAN channel (or no SocketCAN at all): a connection failure, exit 1, whichever
+    command opens the bus (``rig emulate`` said 2, as for a mistaken argument)."""
+    assert main(argv.split()) == 1
+    _one_line(capsys, ("rig-missing0", "cannot open"))
+
+
 def test_an_absolute_reference_away_from_the_shaft_is_refused_before_a_command(
     tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
