@@ -86,7 +86,7 @@ def plot_identify(run_dir: str, result: object, path: str) -> Any:
     from rig.identify.estimate import simulate_positions
 
     plt = _pyplot()
-    u, theta, dt = read_run(run_dir)
+    u, theta, dt, _ = read_run(run_dir)
     r: Any = result
     _, w = simulate_positions(np.array([r.a_m, r.b_m, r.offset, theta[0], 0.0]), u, dt, r.delay_samples)
     t = np.arange(len(u)) * dt

@@ -161,7 +161,8 @@ def run(args: argparse.Namespace) -> int:
         print_json(read_json(path, what="identification"))
         return code
     r = result
-    print(f"identified (3.5) from {r.samples} samples at T = {r.dt:g} s ({run_dir}):")
+    filled = f", {r.filled_samples} of skipped cycles filled in" if r.filled_samples else ""
+    print(f"identified (3.5) from {r.samples} samples{filled} at T = {r.dt:g} s ({run_dir}):")
     print(f"  input u: {r.input} [{r.input_unit}]")
     for name, unit in (("a_m", "1/s"), ("b_m", r.b_m_unit)):
         value, err, (low, high) = getattr(r, name), getattr(r, f"{name}_stderr"), getattr(r, f"{name}_ci95")

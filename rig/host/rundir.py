@@ -5,14 +5,14 @@ from __future__ import annotations
 import csv
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from drivers.errors import ConfigError
 from drivers.files import SAMPLES_LIMIT, read_json, read_text
 
-__all__ = ["read_run", "read_samples"]
+__all__ = ["RunSamples", "on_period_grid", "read_run", "read_samples"]
 
 
 def read_samples(run_dir: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -36,8 +36,37 @@ def read_samples(run_dir: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
     return config, {name: data[:, i] for i, name in enumerate(head)}
 
 
-def read_run(run_dir: str | Path) -> tuple[np.ndarray, np.ndarray, float]:
-    """(command, measurement, period [s]) of a recorded run."""
+class RunSamples(NamedTuple):
+    """A run's command and measurement, one per period from its first sample."""
+
+    command: np.ndarray
+    measurement: np.ndarray
+    period: float  #: [s]
+    filled: int  #: samples of skipped cycles put back (``on_period_grid``)
+
+
+def on_period_grid(
+    t: np.ndarray, u: np.ndarray, y: np.ndarray, period: float, where: str
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """(u, y, filled): the rows at times ``t`` [s] on the grid of ``period``, a real-time run's
+    skipped cycles (overruns: no row, nothing sent) put back: u as the drive held it (the last
+    command sent), y interpolated linearly. ConfigError naming ``where`` when ``t`` does not
+    increase by whole periods."""
+    k = np.rint((t - t[0]) / period).astype(np.int64) if len(t) else np.zeros(0, np.int64)
+    steps = np.diff(k)
+    if len(steps) and steps.min() < 1:
+        line = int(np.argmax(steps < 1)) + 3  # the later sample's line in the file (header: line 1)
+        raise ConfigError(f"{where}: t does not increase by whole periods of {period:g} s at line {line}")
+    n = int(k[-1]) + 1 if len(k) else 0
+    if n == len(k):
+        return u, y, 0
+    grid = np.arange(n)
+    held = u[np.searchsorted(k, grid, side="right") - 1]
+    return held, np.interp(grid, k, y), n - len(k)
+
+
+def read_run(run_dir: str | Path) -> RunSamples:
+    """The command and measurement of a recorded run on its period's grid (``on_period_grid``)."""
     d = Path(run_dir)
     config, columns = read_samples(d)
     try:
@@ -50,4 +79,7 @@ def read_run(run_dir: str | Path) -> tuple[np.ndarray, np.ndarray, float]:
         raise ConfigError(f"{d / 'config.json'}: no resolved_period")
     if isinstance(period, bool) or not isinstance(period, (int, float)) or not 0.0 < period < math.inf:
         raise ConfigError(f"{d / 'config.json'}: resolved_period = {period!r}: expected a period > 0 s")
-    return u, theta, float(period)
+    if "t" not in columns:
+        return RunSamples(u, theta, float(period), 0)
+    u, theta, filled = on_period_grid(columns["t"], u, theta, float(period), str(d / "samples.csv"))
+    return RunSamples(u, theta, float(period), filled)

@@ -68,6 +68,8 @@ class IdentResult:
     dt: float
     samples: int
     input: str = "voltage"  #: what u was: "voltage" [V] (mode -1) or "torque" [N m] (CST)
+    #: of ``samples``, those of cycles a real-time run skipped, filled in (``rundir.on_period_grid``)
+    filled_samples: int = 0
 
     @property
     def input_unit(self) -> str:

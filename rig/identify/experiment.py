@@ -83,10 +83,12 @@ def run_experiment(
 
 
 def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult:
-    """Estimate from a recorded run: ``samples.csv`` (command, measurement) and its period; the
-    input is the commanded axis's mode in its ``config.json`` (CST: a torque)."""
-    u, theta, period = read_run(run_dir)
-    return estimate(u, theta, period, max_delay=max_delay, input=run_input(run_dir))
+    """Estimate from a recorded run: ``samples.csv`` (command, measurement) on its period's grid
+    (the cycles a real-time run skipped filled in: ``read_run``); the input is the commanded
+    axis's mode in its ``config.json`` (CST: a torque)."""
+    run = read_run(run_dir)
+    result = estimate(run.command, run.measurement, run.period, max_delay=max_delay, input=run_input(run_dir))
+    return dataclasses.replace(result, filled_samples=run.filled)
 
 
 def _run_config(run_dir: str | Path) -> dict[str, Any] | None:

@@ -5,7 +5,8 @@ directory, and the ``rig design dtsm --json`` file; read back by ``rig design dt
 ``identification.json`` holds a_m [1/s], b_m (per unit of the input: rad/(V s^2), or
 1/(kg m^2) for a torque), their standard errors and 95 % intervals, dt [s] (the experiment's
 sample period), delay [s] and delay_samples, offset [rad/s^2], fit_percent (held out),
-samples, input, input_unit, b_m_unit, closed_loop and warnings (see ``checks``). A design
+samples, filled_samples (of skipped cycles, filled in), input, input_unit, b_m_unit,
+closed_loop and warnings (see ``checks``). A design
 file adds the delta-domain design of (6.9), (6.16)-(6.19) and carries a_m, b_m, lam, dt and
 input. ``read_model`` takes either file, or a run directory holding identification.json.
 """

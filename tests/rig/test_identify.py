@@ -121,3 +121,58 @@ def test_identify_in_cst_on_a_torque_input(
         == 0
     )
     assert json.loads(capsys.readouterr().out)["input"] == "torque"
+
+
+def _skipping_run(tmp_path: pathlib.Path, skipped: set[int]) -> tuple[pathlib.Path, float, float]:
+    """A real-time experiment's run directory whose cycles ``skipped`` had no row and sent nothing
+    (the drive held the command before them): the exact motion, 4096 counts, rows as the recorder
+    writes them (t = k T). Returns (run_dir, a_m, b_m)."""
+    from rig.identify.estimate import simulate_positions
+
+    a_m, b_m, dt = 16.0, 680.0, 4e-4
+    planned = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=dt, duration=3.0, seed=3)
+    applied = planned.copy()
+    for k in sorted(skipped):
+        applied[k] = applied[k - 1]  # nothing sent: the drive holds
+    theta, _ = simulate_positions(np.array([a_m, b_m, 0.0, 0.0, 0.0]), applied, dt, 1)
+    measured = np.floor(theta * 4096 / (2 * np.pi)) * 2 * np.pi / 4096
+    rows = [k for k in range(len(planned)) if k not in skipped]
+    lines = ["t,command,measurement"] + [
+        f"{k * dt!r},{float(applied[k])!r},{float(measured[k])!r}" for k in rows
+    ]
+    (tmp_path / "samples.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "config.json").write_text(
+        json.dumps({"resolved_period": dt, "controller": {"kind": "replay"}})
+    )
+    return tmp_path, a_m, b_m
+
+
+def test_a_real_time_run_s_skipped_cycles_are_filled_in_not_closed_up(tmp_path: pathlib.Path) -> None:
+    """Overruns of a real-time experiment leave no row and send nothing: read as evenly spaced, the
+    rows after each gap are a period early per skipped cycle and the model is off by percents;
+    on the period's grid (the command held, the position interpolated) it is recovered."""
+    from rig.host.rundir import read_run
+    from rig.identify.experiment import identify_from_log
+
+    rng = np.random.default_rng(7)
+    skipped = {int(k) for k in rng.choice(np.arange(10, 7000), size=150, replace=False)}
+    run_dir, a_m, b_m = _skipping_run(tmp_path, skipped)
+    run = read_run(run_dir)
+    assert run.filled == len(skipped) and len(run.command) == 7500
+    closed_up = estimate(*np.loadtxt(run_dir / "samples.csv", delimiter=",", skiprows=1)[:, 1:].T, run.period)
+    assert abs(closed_up.b_m / b_m - 1.0) > 0.01  # what reading the rows as evenly spaced gave
+    r = identify_from_log(run_dir)
+    assert r.a_m == pytest.approx(a_m, rel=2e-3) and r.b_m == pytest.approx(b_m, rel=2e-3)
+    assert r.filled_samples == len(skipped) and r.as_dict()["filled_samples"] == len(skipped)
+
+
+def test_rows_whose_time_does_not_advance_by_periods_are_refused(tmp_path: pathlib.Path) -> None:
+    from drivers.errors import ConfigError
+    from rig.host.rundir import read_run
+
+    run_dir, _, _ = _skipping_run(tmp_path, set())
+    lines = (run_dir / "samples.csv").read_text().splitlines()
+    lines[5] = lines[4]  # a row twice
+    (run_dir / "samples.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(ConfigError, match=r"samples.csv: t does not increase by whole periods .* at line 6"):
+        read_run(run_dir)
