@@ -11,7 +11,8 @@ control period, setting its speed or position loop.
   changes at once, else after the present move ends. The move obeys 0x6081, 0x6083, 0x6084
   and the software position limits 0x607D (bit 11 internal limit active when clamped). Bit 10
   target reached when the set-point has arrived and the motor is within 0x6067 (or, where the
-  drive has none, 0.01 rad) of it.
+  drive has none, 0.01 rad) of it; with halt set, bit 10 says the axis is at rest (0 while it
+  decelerates, 1 once its speed is within 0x606D or 0.1 rad/s), as in profile velocity.
 - Homing (6): a rising bit 4 starts the method of 0x6098; bit 12 homing attained, bit 13
   homing error, bit 10 target reached. Methods 35 and 37: the present position is the home
   position. Method 19: the home switch (0x60FD bit 2, on at shaft angles >= the profile's
@@ -106,7 +107,7 @@ class ProfileModes:
         if mode == _PV:
             return self._pv(h, halt, velocity)
         if mode == _PP:
-            return self._pp(h, cw, rising, halt, position)
+            return self._pp(h, cw, rising, halt, position, velocity=velocity)
         return self._hm(h, rising, halt, position, velocity)
 
     def _halt_decel(self) -> float:
@@ -133,7 +134,9 @@ class ProfileModes:
             self.status |= BIT12  # speed is zero
         return _CSV, ref
 
-    def _pp(self, h: float, cw: int, rising: bool, halt: bool, position: float) -> tuple[int, float]:
+    def _pp(
+        self, h: float, cw: int, rising: bool, halt: bool, position: float, *, velocity: float
+    ) -> tuple[int, float]:
         ack = self.status & BIT12
         if rising:
             raw = self.od.read(cia.TARGET_POSITION, 0)
@@ -157,12 +160,13 @@ class ProfileModes:
         r = self.profile.reactions
         accel = self._acceleration(cia.PROFILE_ACCELERATION, r.profile_deceleration)
         decel = self._acceleration(cia.PROFILE_DECELERATION, r.profile_deceleration)
-        if halt:
+        if halt:  # bit 10: the axis is at rest (CiA 402 profile position, halt = 1)
             ref = self._hold(h, self._halt_decel())
+            reached = not self.move.velocity and abs(velocity) <= self._velocity(cia.VELOCITY_WINDOW, 0, 0.1)
         else:
             ref = self.move.step(v_max, accel, decel, h)
-        window = self._read(cia.POSITION_WINDOW, 0, 0.0) / self.image.units.position or 0.01
-        reached = self.move.done and not halt and abs(position - self.move.target) <= window
+            window = self._read(cia.POSITION_WINDOW, 0, 0.0) / self.image.units.position or 0.01
+            reached = self.move.done and abs(position - self.move.target) <= window
         self.status = ack | (TARGET_REACHED if reached else 0) | (LIMIT_ACTIVE if self.limited else 0)
         return _CSP, ref
 

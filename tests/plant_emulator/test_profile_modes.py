@@ -166,6 +166,10 @@ def test_max_torque_limits_the_torque_target() -> None:
 
 
 def test_halt_stops_a_position_move_and_release_resumes_it(twin: Twin) -> None:
+    """Halt in profile position: the move brakes to rest and resumes on release. Bit 10 with halt
+    set says whether the axis is at rest: 0 while it decelerates, 1 once its speed is 0 (CiA 402
+    profile position statusword, as drive manuals document it, e.g. Danfoss VLT servo, Applied
+    Motion, LUST ServoOne)."""
     node = twin.node
     twin.enable(PP)
     _accel(twin, 0x6083, 500.0)
@@ -175,11 +179,16 @@ def test_halt_stops_a_position_move_and_release_resumes_it(twin: Twin) -> None:
     _new_setpoint(twin, 20.0)
     twin.run(0.2)
     node.sdo[0x6040].raw = 0x010F  # halt
+    twin.run(0.02)
+    assert abs(twin.drive.axis.velocity) > 10.0  # still braking (50 rad/s at 500 rad/s^2)
+    assert not _sw(twin) & BIT10  # axis decelerates
     twin.run(0.3)
     halted = twin.drive.axis.position
-    assert abs(twin.drive.axis.velocity) < 0.5 and halted < 15.0
-    assert not _sw(twin) & BIT10
+    assert abs(twin.drive.axis.velocity) < 0.1 and halted < 15.0
+    assert _sw(twin) & BIT10  # velocity of the axis is 0
     node.sdo[0x6040].raw = 0x000F
+    twin.run(0.02)
+    assert not _sw(twin) & BIT10  # moving on to the target
     twin.run(1.0)
     assert twin.drive.axis.position == pytest.approx(20.0, abs=0.01)
     assert _sw(twin) & BIT10
