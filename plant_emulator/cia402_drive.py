@@ -348,7 +348,7 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         self._t_sync = timestamp
         if self.shaft.clock is None:  # lock-step: the drive's cycle comes with the SYNC
             self._cycle()
-        self._latch()
+        self._latch(ahead=self.shaft.sync_offset)  # sampled at the SYNC (CiA 301), not the period's start
 
     def on_period(self) -> None:
         """Real time: a period of the drive's own clock has passed (``Shaft.advance_to``): its
@@ -386,8 +386,11 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
             word |= SW_FOLLOWING_ERROR
         self.od.write(cia.STATUSWORD, 0, word)
 
-    def _latch(self) -> None:
+    def _latch(self, *, ahead: float = 0.0) -> None:
+        """The feedback objects, sampled ``ahead`` [s] after the latest period boundary."""
         inputs = HOME_SWITCH if self.profiles.switch(self.axis.position) else 0
-        self.image.latch(self.axis, demand=self._demand(), inputs=inputs, offset=self.glitch_counts)
+        self.image.latch(
+            self.axis, demand=self._demand(), inputs=inputs, offset=self.glitch_counts, ahead=ahead
+        )
         self.axis.latch()
         self._latch_status()

@@ -51,10 +51,12 @@ class EmulatedEncoder(EmulatedNode):
     def on_reset(self, *, application: bool) -> None:
         self._last = None
 
-    def counts(self) -> int:
-        """The multi-turn count of the present shaft angle."""
+    def counts(self, ahead: float = 0.0) -> int:
+        """The multi-turn count of the shaft angle ``ahead`` [s] after the shaft's time."""
         per_rev: int = self.od.read(ENCODER_RESOLUTION, 0)
-        return math.floor(self.shaft.position / (2.0 * math.pi) * per_rev)
+        shaft = self.shaft
+        angle = shaft.position + shaft.velocity * ahead if ahead else shaft.position
+        return math.floor(angle / (2.0 * math.pi) * per_rev)
 
     def tick(self, now: float) -> None:
         """Real time: the position object follows the shaft between SYNCs too."""
@@ -67,18 +69,20 @@ class EmulatedEncoder(EmulatedNode):
 
     def on_sync_latch(self, timestamp: float) -> None:
         self.shaft.sync(self, timestamp)
-        self.latch()
+        self.latch(ahead=self.shaft.sync_offset)  # sampled at the SYNC (CiA 301)
 
-    def latch(self) -> None:
-        """Position and speed at this SYNC; the speed over the time since the last one (a SYNC
-        period in lock-step; the shaft's clock in real time, where SYNCs may come late)."""
-        counts = self.counts()
-        elapsed = self.period if self.shaft.clock is None else self.shaft.t - self._last_t
+    def latch(self, *, ahead: float = 0.0) -> None:
+        """Position and speed ``ahead`` [s] after the shaft's time (a SYNC); the speed over the
+        time since the last latch (a SYNC period in lock-step; the shaft's clock in real time,
+        where SYNCs may come late)."""
+        counts = self.counts(ahead)
+        t = self.shaft.t + ahead
+        elapsed = self.period if self.shaft.clock is None else t - self._last_t
         if self._last is None or elapsed <= 0.0:
             speed = 0 if self._last is None else self._speed
         else:
             speed = round((counts - self._last) / elapsed)
-        self._last, self._last_t, self._speed = counts, self.shaft.t, speed
+        self._last, self._last_t, self._speed = counts, t, speed
         od = self.od  # the node's write without its after_write, which the encoder does not override
         od.write(ENCODER_POSITION, 0, counts % (od.read(ENCODER_RESOLUTION, 0) * _TURNS))
         od.write(ENCODER_SPEED, 1, -32768 if speed < -32768 else 32767 if speed > 32767 else speed)

@@ -184,12 +184,17 @@ class ProcessImage:
         return float(self.od.read(index, 0)) / self.units.acceleration if self.has(index) else default
 
     # --- feedback -------------------------------------------------------------------------------
-    def latch(self, axis: Axis, *, demand: float | None, inputs: int = 0, offset: int = 0) -> int:
+    def latch(
+        self, axis: Axis, *, demand: float | None, inputs: int = 0, offset: int = 0, ahead: float = 0.0
+    ) -> int:
         """Write the axis's state into the feedback objects; the latched position [position units]
         (``offset`` added: fault injection). ``demand``: the position set-point [rad] of a
-        position mode (for 0x60F4), else None; ``inputs``: 0x60FD."""
+        position mode (for 0x60F4), else None; ``inputs``: 0x60FD; ``ahead`` [s]: the sample's
+        time after the axis's (real time: a SYNC between period boundaries; the angle moves on
+        at the axis's speed)."""
         write, u = self.od.write, self.units
-        pos = math.floor(axis.position * u.position) + self.home_shift + offset
+        angle = axis.position + axis.velocity * ahead if ahead else axis.position
+        pos = math.floor(angle * u.position) + self.home_shift + offset
         pos = _I32_MIN if pos < _I32_MIN else _I32_MAX if pos > _I32_MAX else pos
         write(_POSITION_ACTUAL, 0, pos)
         value = round(axis.velocity * u.velocity)  # each clamped to its object's range, inline
@@ -210,6 +215,6 @@ class ProcessImage:
             i_dq = axis.i_dq  # type: ignore[attr-defined]
             write(cia.DQ_CURRENT, 1, round(i_dq.real * 1000.0))  # mA
             write(cia.DQ_CURRENT, 2, round(i_dq.imag * 1000.0))
-            write(cia.FRAME_ANGLE, 0, round(axis.position * 1e6))  # urad
+            write(cia.FRAME_ANGLE, 0, round(angle * 1e6))  # urad
             write(cia.FRAME_SPEED, 0, round(axis.velocity * 1000.0))  # mrad/s
         return pos

@@ -99,6 +99,9 @@ class Shaft:
         self.lockstep = False
         self.syncs = 0  #: SYNCs seen; the shaft has been advanced syncs - 1 periods
         self.t = 0.0  #: time of the latest SYNC [s] (real time: of the latest period boundary)
+        #: real time: [s] from the latest period boundary to the latest SYNC, at which the nodes
+        #: sample their synchronous TPDOs' data (CiA 301); lock-step: 0
+        self.sync_offset = 0.0
         #: real time: the emulator's monotonic clock [s] (None: time steps with the SYNCs)
         self.clock: Callable[[], float] | None = None
         #: [s] loads run in t - load_origin; None: their time stands at 0 (no enable yet)
@@ -139,7 +142,9 @@ class Shaft:
         (none before the first). True when this call advanced the shaft.
         """
         if self.clock is not None:
-            self.advance_to(self.clock())
+            now = self.clock()
+            self.advance_to(now)
+            self.sync_offset = now - self.t
             return False
         key = id(node)
         if timestamp == self._stamp and key not in self._seen:

@@ -144,3 +144,26 @@ def test_the_sdo_answer_takes_the_profile_s_response_time() -> None:
     finally:
         for net in (host, dev):
             net.bus.shutdown()
+
+
+def test_a_sync_between_period_boundaries_samples_the_shaft_at_the_sync(world: World) -> None:
+    """CiA 301: a synchronous TPDO's data are sampled at the SYNC. A SYNC 0.3 periods after the
+    emulator's latest period boundary gives the drive's and the encoder's position there (the
+    shaft moved on at its speed: about 4 counts at 50 rad/s), not at the boundary."""
+    world.enable(9)  # CSV
+    world.host.send_message(0x000, bytes([0x01, 2]))  # NMT start the encoder (node 2)
+    world.node.sdo[0x60FF].raw = round(50.0 * CPR / (2 * math.pi))
+    world.wait(0.5)
+    shaft = world.drive.shaft
+    ahead = 0.3 * world.period
+    world.time = shaft.t + ahead
+    world.hub.clock = world.time
+    tpdos: dict[int, bytes] = {}
+    world.hub.taps.append(lambda m: tpdos.__setitem__(m.arbitration_id, bytes(m.data)))
+    world.host.send_message(0x80, b"")
+    at_sync = shaft.position + shaft.velocity * ahead
+    expected = math.floor(at_sync * CPR / (2 * math.pi))
+    assert expected - math.floor(shaft.position * CPR / (2 * math.pi)) >= 3  # the boundary's
+    assert world.node.sdo[0x6064].raw == expected
+    assert tpdos[0x282][:4] == expected.to_bytes(4, "little")  # the encoder's TPDO2: 0x6004 first
+    assert shaft.sync_offset == pytest.approx(ahead)
