@@ -5,8 +5,9 @@ the mapping in force), converted with the encoder's own 0x6001 (measuring
 units per revolution) and unwrapped over its multi-turn range. Speed is the
 encoder's 0x6030:1 [increments/s] where that TPDO maps it; with
 ``speed_from_position`` (or where it is not mapped) it is the backward
-difference of the position over the SYNC period, since 0x6030 is an INTEGER16
-and saturates at 32,767 increments/s (8 revolutions/s at 4096 counts).
+difference of the position over the time between the two samples (whole SYNC
+periods in lock-step, the frames' stamps in real time), since 0x6030 is an
+INTEGER16 and saturates at 32,767 increments/s (8 revolutions/s at 4096 counts).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ class Cia406Axis(CanopenAxis):
         self._turns = 0
         self._last_raw: int | None = None
         self._last_counts: int | None = None
+        self._counts_stamp: float | None = None  #: the stamp of ``_last_counts``' sample
         self._last_stamp: float | None = None
         self._last: Feedback | None = None
 
@@ -79,6 +81,18 @@ class Cia406Axis(CanopenAxis):
                 self._speed_at = entries.index(speed) if speed in entries else None
                 return
         raise ConfigError(f"node {self.node_id}: no synchronous TPDO maps the position 0x6004")
+
+    def _elapsed(self, stamp: float | None) -> float:
+        """[s] from the last sample to this one (stamped ``stamp``), for the speed by difference:
+        whole periods where the stamps are on the SYNC grid (lock-step), their difference where
+        not (real time: a cycle the host skipped, a late SYNC: dividing by one period there made
+        a sample after two skipped cycles three times too fast); a period where they cannot tell."""
+        last = self._counts_stamp
+        if stamp is None or last is None or not stamp > last:
+            return self.period
+        dt = stamp - last
+        n = round(dt / self.period)
+        return n * self.period if n >= 1 and abs(dt - n * self.period) <= 1e-6 * self.period else dt
 
     def quanta(self) -> tuple[float, float]:
         """One count [rad] (0x6001) and the speed one count makes over a period [rad/s]."""
@@ -119,7 +133,8 @@ class Cia406Axis(CanopenAxis):
             speed = values[self._speed_at] / self.counts_per_rad
         else:
             last = self._last_counts
-            speed = 0.0 if last is None else (counts - last) / self.period / self.counts_per_rad
-        self._last_counts = counts
+            elapsed = self._elapsed(slot.timestamp)
+            speed = 0.0 if last is None else (counts - last) / elapsed / self.counts_per_rad
+        self._last_counts, self._counts_stamp = counts, slot.timestamp
         self._last = Feedback(counts / self.counts_per_rad, speed, stamp=slot.timestamp)
         return self._last
