@@ -54,6 +54,7 @@ from plant_emulator.device_hooks import DeviceHooks
 from plant_emulator.frame import Frame
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
+from plant_emulator.sdo_server import SdoServer
 from plant_emulator.supervision import Deadlines, HeartbeatConsumer, Supervision, check_consumer_entry
 
 __all__ = ["EmulatedNode", "PdoConfig"]
@@ -83,6 +84,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.node_id = node_id
         net: Any = network  # canopen's callback types say bytearray; frames are bytes
         local: Any = StoreNode(node_id, load_od(eds, node_id))
+        local.sdo = SdoServer(local.sdo.rx_cobid, local.sdo.tx_cobid, local)  # CiA 301's end of a transfer
         self.network: Any = net
         self.node: Any = local
         self.od = ObjectStore(local)  #: typed, cached device-side access to the object dictionary
