@@ -43,21 +43,22 @@ def deceleration(option: int, *, profile: float, quick_stop: float) -> float | N
 class Braking:
     """The speed set-point [rad/s] of a drive's own stop (see the module docstring)."""
 
-    __slots__ = ("rate", "reference")
+    __slots__ = ("cause", "rate", "reference")
 
     def __init__(self) -> None:
         self.reference: float | None = None  #: None: not braking
         self.rate = math.inf  #: [rad/s^2]
+        self.cause: object = None  #: what the stop is for (the drive's state when it started)
 
     @property
     def active(self) -> bool:
         return self.reference is not None
 
-    def start(self, velocity: float, rate: float) -> None:
-        """Brake from ``velocity`` [rad/s] at ``rate`` [rad/s^2] (> 0; inf: at the limit)."""
+    def start(self, velocity: float, rate: float, *, cause: object = None) -> None:
+        """Brake from ``velocity`` [rad/s] at ``rate`` [rad/s^2] (> 0; inf: at the limit), for ``cause``."""
         if not rate > 0.0:
             raise ValueError(f"a braking deceleration must be > 0 rad/s^2, got {rate!r}")
-        self.reference, self.rate = velocity, rate
+        self.reference, self.rate, self.cause = velocity, rate, cause
 
     def step(self, h: float) -> float:
         """The set-point after ``h`` [s] more of braking."""
@@ -70,4 +71,4 @@ class Braking:
         return ref
 
     def release(self) -> None:
-        self.reference = None
+        self.reference = self.cause = None

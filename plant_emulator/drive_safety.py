@@ -104,8 +104,8 @@ class DriveSafety:
         if st is not _QUICK_STOP_ACTIVE and st is not _REACTION:
             self.braking.release()
             return
-        if not self.braking.active:
-            r = self.profile.reactions
+        if not self.braking.active or self.braking.cause is not st:  # a fault during a quick stop:
+            r = self.profile.reactions  # the fault reaction's option from now on (transition 13)
             option = (
                 self.sm.quick_stop_option
                 if st is _QUICK_STOP_ACTIVE
@@ -117,10 +117,11 @@ class DriveSafety:
                 quick_stop=self.image.acceleration(cia.QUICK_STOP_DECELERATION, r.quick_stop_deceleration),
             )
             if rate is None or _CSV not in self.axis.modes:
+                self.braking.release()
                 self.axis.coast()
                 self.sm.reaction_done()
                 return
-            self.braking.start(self.axis.velocity, rate)
+            self.braking.start(self.axis.velocity, rate, cause=st)
         ref = self.braking.step(self.period)
         self.axis.set_command(_CSV, ref)
         if ref == 0.0 and abs(self.axis.velocity) < STOPPED_SPEED:

@@ -121,3 +121,25 @@ def test_fault_reaction_brakes_along_0x605e_then_fault(running) -> None:  # type
     _run(bench, 0.1)
     assert abs(drive.axis.velocity) < 0.05
     assert _state(node) is S.FAULT
+
+
+@pytest.mark.parametrize(("reaction", "coasts"), [(0, True), (1, False)])
+def test_a_fault_during_a_quick_stop_takes_the_fault_reaction(running, reaction: int, coasts: bool) -> None:  # type: ignore[no-untyped-def]
+    """A fault in QUICK STOP ACTIVE is transition 13: from then on the drive reacts as 0x605E
+    says, not along the quick stop's ramp. With 0x605E = 0 the power goes off at once and the
+    motor (no friction in the preset) coasts at its speed; with 1 it brakes at 0x6084."""
+    bench, node, drive = running
+    node.sdo[0x6085].raw = round(200.0 * CPR / (2 * math.pi))  # a slow quick stop ramp
+    node.sdo[0x6084].raw = round(2000.0 * CPR / (2 * math.pi))  # a fast profile deceleration
+    node.sdo[0x605A].raw = 2
+    node.sdo[0x605E].raw = reaction
+    node.sdo[0x6040].raw = 0x0B
+    _run(bench, 0.02)  # the quick stop ramp: 4 rad/s off
+    speed = drive.axis.velocity
+    drive.raise_fault(0x2310)
+    _run(bench, 0.03)
+    if coasts:
+        assert _state(node) is S.FAULT
+        assert drive.axis.velocity == pytest.approx(speed, rel=1e-3)
+    else:
+        assert drive.axis.velocity == pytest.approx(speed - 2000.0 * 0.03, abs=3.0)  # 0x6084's
