@@ -49,7 +49,6 @@ class Cia406Axis(CanopenAxis):
         self._turns = 0
         self._last_raw: int | None = None
         self._last_counts: int | None = None
-        self._counts_stamp: float | None = None  #: the stamp of ``_last_counts``' sample
         self._last_stamp: float | None = None
         self._last: Feedback | None = None
 
@@ -82,12 +81,11 @@ class Cia406Axis(CanopenAxis):
                 return
         raise ConfigError(f"node {self.node_id}: no synchronous TPDO maps the position 0x6004")
 
-    def _elapsed(self, stamp: float | None) -> float:
-        """[s] from the last sample to this one (stamped ``stamp``), for the speed by difference:
+    def _elapsed(self, last: float | None, stamp: float | None) -> float:
+        """[s] from the sample stamped ``last`` to this one (``stamp``), for the speed by difference:
         whole periods where the stamps are on the SYNC grid (lock-step), their difference where
         not (real time: a cycle the host skipped, a late SYNC: dividing by one period there made
         a sample after two skipped cycles three times too fast); a period where they cannot tell."""
-        last = self._counts_stamp
         if stamp is None or last is None or not stamp > last:
             return self.period
         dt = stamp - last
@@ -118,7 +116,7 @@ class Cia406Axis(CanopenAxis):
         slot = self._slot
         if slot.timestamp == self._last_stamp and self._last is not None:
             return self._last  # no new sample: the same one (the watchdog counts it)
-        self._last_stamp = slot.timestamp
+        previous, self._last_stamp = self._last_stamp, slot.timestamp
         values = slot.values()
         raw = int(values[self._position_at])
         if self._last_raw is not None:
@@ -133,8 +131,8 @@ class Cia406Axis(CanopenAxis):
             speed = values[self._speed_at] / self.counts_per_rad
         else:
             last = self._last_counts
-            elapsed = self._elapsed(slot.timestamp)
+            elapsed = self._elapsed(previous, slot.timestamp)
             speed = 0.0 if last is None else (counts - last) / elapsed / self.counts_per_rad
-        self._last_counts, self._counts_stamp = counts, slot.timestamp
+        self._last_counts = counts
         self._last = Feedback(counts / self.counts_per_rad, speed, stamp=slot.timestamp)
         return self._last

@@ -86,7 +86,6 @@ def split_map_entry(entry: int) -> tuple[int, int, int]:
 class SdoAbortCode(enum.IntEnum):
     """SDO abort codes (CiA 301, 7.2.4.3.17) that the devices answer with."""
 
-    TOGGLE = 0x05030000  #: toggle bit not alternated
     COMMAND_SPECIFIER = 0x05040001  #: client/server command specifier not valid or unknown
     WRITE_ONLY = 0x06010001
     READ_ONLY = 0x06010002

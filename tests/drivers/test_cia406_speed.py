@@ -42,9 +42,9 @@ def test_a_sample_after_skipped_cycles_gives_the_speed_not_a_multiple_of_it() ->
 
 def test_the_time_between_samples_is_whole_periods_on_the_grid_else_the_stamps() -> None:
     encoder = Cia406Axis("encoder", canopen.Network(), 2, period=4e-4)
-    encoder._counts_stamp = 3 * 4e-4
-    assert encoder._elapsed(6 * 4e-4) == 3 * 4e-4  # lock-step stamps: exact whole periods
-    assert encoder._elapsed(3 * 4e-4 + 1.3e-4) == pytest.approx(1.3e-4)  # a late SYNC before: real time
-    assert encoder._elapsed(None) == encoder._elapsed(1e-4) == 4e-4  # the stamps cannot tell
-    assert math.isclose(encoder._elapsed(3 * 4e-4 + 9.1e-4), 9.1e-4)
+    last = 3 * 4e-4
+    assert encoder._elapsed(last, 6 * 4e-4) == 3 * 4e-4  # lock-step stamps: exact whole periods
+    assert encoder._elapsed(last, 3 * 4e-4 + 1.3e-4) == pytest.approx(1.3e-4)  # a late SYNC before
+    assert encoder._elapsed(last, None) == encoder._elapsed(last, 1e-4) == 4e-4  # the stamps cannot tell
+    assert math.isclose(encoder._elapsed(last, 3 * 4e-4 + 9.1e-4), 9.1e-4)
     encoder._forget()  # never set up: nothing to close on the device
