@@ -14,6 +14,10 @@ Then each row adds to the lock-step rows' keys:
 - ``stop_confirmed``: the host's summary's (its stop saw the drive at rest and disabled); false
   where the host died before it could say.
 
+``read-only`` makes the run directory read-only (``chmod 555``) at the injection, ``rig run``
+having no root's right to write past the permission bits (``without_write_override``): the run
+goes on and its end names each file it could not write.
+
 ``detected_after_cycles`` counts the host's cycles from the injection (by the wall clock of
 ``started.json``) to its stop; ``samples_lost`` the cycles run minus the rows on disk (for a
 killed host, the time not on disk after the last row, in cycles).
@@ -22,6 +26,7 @@ killed host, the time not on disk after the last row, in cycles).
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import json
 import os
 import signal
@@ -36,7 +41,7 @@ from typing import Any
 from rig.process import spawn_emulator
 from rig.wire_probe import LinkRelay, Watcher, wait_for
 
-__all__ = ["AFTER", "DEVICE", "PERIOD", "WIRE_SCENARIOS", "rows_on_disk"]
+__all__ = ["AFTER", "DEVICE", "PERIOD", "WIRE_SCENARIOS", "rows_on_disk", "without_write_override"]
 
 DEVICE = "epos4"  #: the twin the scenarios run
 PERIOD = 0.002  #: [s] the host's cycle
@@ -85,7 +90,13 @@ class _World:
     """The emulator, the watcher and ``rig run`` of one scenario (see the module docstring)."""
 
     def __init__(
-        self, out: Path, *, duration: float = 60.0, relay: bool = False, small_disk: bool = False
+        self,
+        out: Path,
+        *,
+        duration: float = 60.0,
+        relay: bool = False,
+        small_disk: bool = False,
+        read_only: bool = False,
     ) -> None:
         self.out = out
         self.emulator, port = spawn_emulator("--device", DEVICE)
@@ -114,6 +125,8 @@ class _World:
             )
             self.err = (out / "host.err").open("w")
             python = [sys.executable] if limit is None else [sys.executable, "-c", _SMALL_FILES, str(limit)]
+            if read_only:
+                python = [sys.executable, "-c", _NO_WRITE_OVERRIDE, sys.executable]
             self.host = subprocess.Popen(
                 [*python, "-m", "rig.cli", "run", "--config", str(config), "--json"],
                 stdout=subprocess.PIPE,
@@ -227,6 +240,31 @@ runpy.run_module(sys.argv[0], run_name="__main__", alter_sys=True)
 """
 
 
+_PR_CAPBSET_DROP = 24  #: prctl: drop a capability from the bounding set (linux/prctl.h)
+_WRITE_OVERRIDES = (1, 2, 3)  #: CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH, CAP_FOWNER (linux/capability.h)
+
+
+def without_write_override() -> None:
+    """Before an exec: root's right to write past permission bits dropped from what the exec'd
+    program gets, so a ``chmod 555`` stops it as it stops any user (nothing to drop for another
+    user)."""
+    if os.geteuid() != 0:
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    for cap in _WRITE_OVERRIDES:
+        if libc.prctl(_PR_CAPBSET_DROP, cap, 0, 0, 0) != 0:
+            raise OSError(ctypes.get_errno(), "prctl(PR_CAPBSET_DROP)")
+
+
+#: ``python -c _NO_WRITE_OVERRIDE PROGRAM ARGS``: PROGRAM exec'd without root's write override
+_NO_WRITE_OVERRIDE = """
+import os, sys
+from rig.fault_wire import without_write_override
+without_write_override()
+os.execv(sys.argv[1], sys.argv[1:])
+"""
+
+
 def rows_on_disk(run_dir: Path) -> int:
     """The rows of ``run_dir``'s samples.csv (0 where it cannot be read)."""
     with contextlib.suppress(OSError), (run_dir / "samples.csv").open() as f:
@@ -303,10 +341,32 @@ def _client_never_reads(w: _World) -> dict[str, Any]:
     return w.row(summary)
 
 
+def _not_written(summary: dict[str, Any]) -> str:
+    files = summary.get("files_not_written")
+    return f"; not written whole: {', '.join(files)}" if files else ""
+
+
 def _disk_full(w: _World) -> dict[str, Any]:
     """The run's directory on a small disk: the stop comes when it is full (no injection time)."""
     summary = w.finish()
-    return w.row(summary, detected_after_cycles=None, message=f"{summary.get('safe_stop_reason')} ({w.disk})")
+    message = f"{summary.get('safe_stop_reason')} ({w.disk}){_not_written(summary)}"
+    return w.row(summary, detected_after_cycles=None, message=message)
+
+
+def _read_only(w: _World) -> dict[str, Any]:
+    """The run directory turns read-only mid-run: the run goes on; its end names what it could
+    not write, and its exit code says so."""
+    assert w.host is not None
+    start = w.started()
+    assert start is not None  # the drive turns: the cycles have started
+    start[1].chmod(0o555)
+    try:
+        summary = w.finish()
+    finally:
+        start[1].chmod(0o755)
+    reason = summary.get("safe_stop_reason") or "completed without a stop"
+    message = f"{reason}{_not_written(summary)} (exit code {w.host.returncode})"
+    return w.row(summary, detected_after_cycles=None, message=message)
 
 
 #: name -> scenario(out directory) -> row
@@ -318,4 +378,5 @@ WIRE_SCENARIOS: dict[str, Callable[[str], dict[str, Any]]] = {
     "host-sigkill": _scenario(_host_sigkill),
     "client-never-reads": _scenario(_client_never_reads, duration=3.0),
     "disk-full": _scenario(_disk_full, small_disk=True),
+    "read-only": _scenario(_read_only, duration=3.0, read_only=True),
 }

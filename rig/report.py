@@ -29,6 +29,10 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
         ),
         ("run directory", summary["run_dir"]),
     ]
+    if summary.get("files_not_written"):
+        lost = summary.get("samples_not_written") or 0
+        files = ", ".join(summary["files_not_written"])
+        rows.append(("NOT WRITTEN", files + (f"; {lost} samples" if lost else "")))
     lines = [f"{key:15s} {text}" for key, text in rows]
     for name, peaks in summary.get("axes", {}).items():
         lines.append(

@@ -18,6 +18,7 @@ from drivers.errors import ConfigError
 from rig.params import parse_items, typed_values
 
 __all__ = [
+    "EXIT_NOT_WRITTEN",
     "EXIT_STOPPED",
     "EXIT_UNCONFIRMED",
     "EXIT_USAGE",
@@ -29,6 +30,7 @@ __all__ = [
     "exit_code",
     "finite",
     "json_clean",
+    "not_written",
     "open_network",
     "out_dir",
     "out_file",
@@ -42,13 +44,32 @@ EXIT_USAGE = 2
 EXIT_STOPPED = 3
 EXIT_UNCONFIRMED = 4  #: the drives' stop could not be confirmed: they may still be moving
 EXIT_UNTRUSTED = 5  #: rig identify --strict: closed-loop data or a poor held-out fit
+EXIT_NOT_WRITTEN = 6  #: a file of the run is missing or cut short (``files_not_written``)
 
 
 def exit_code(summary: dict[str, Any]) -> int:
-    """A run's exit code: 0 done, 3 a safe stop, 4 a stop not confirmed (never like a clean one)."""
+    """A run's exit code: 0 done, 3 a safe stop, 6 a file of the run not written whole, 4 a stop
+    not confirmed (before all: never like a clean one)."""
     if summary.get("stop_confirmed") is False:
         return EXIT_UNCONFIRMED
+    if summary.get("files_not_written"):
+        return EXIT_NOT_WRITTEN
     return 0 if summary.get("safe_stop_reason") is None else EXIT_STOPPED
+
+
+def not_written(summary: dict[str, Any], who: str) -> str | None:
+    """One line naming the run's files not written whole and the samples not on disk (None: all
+    written); where summary.json is among them, the summary printed is its only copy."""
+    files = summary.get("files_not_written") or []
+    if not files:
+        return None
+    line = f"{who}: not written whole in {summary.get('run_dir')}: {', '.join(files)}"
+    lost = summary.get("samples_not_written") or 0
+    if lost:
+        line += f"; {lost} samples not in samples.csv"
+    if "summary.json" in files:
+        line += "; the summary printed here is its only copy"
+    return line + " (reasons: the summary's warnings)"
 
 
 class UsageError(Exception):

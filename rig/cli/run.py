@@ -4,9 +4,19 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 from typing import TYPE_CHECKING, Any
 
-from rig.cli.common import UsageError, add_json, add_params, exit_code, finite, params_of, print_json
+from rig.cli.common import (
+    UsageError,
+    add_json,
+    add_params,
+    exit_code,
+    finite,
+    not_written,
+    params_of,
+    print_json,
+)
 from rig.cli.progress import Progress
 from rig.report import summary_lines
 
@@ -131,4 +141,6 @@ def execute(args: argparse.Namespace) -> int:
         print_json(summary)
     else:
         print_summary(summary)
+    if line := not_written(summary, "rig run"):
+        print(line, file=sys.stderr)
     return exit_code(summary)

@@ -15,11 +15,14 @@ Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
   but in the test of the plot itself): reference and measurement, and the command, titled with
   the run's name, the axes labelled with their units.
 
-The JSON files and ``samples.mat`` are written whole or not at all (a temporary file,
-then a rename). A write that fails while the run goes on (disk full, the directory
-removed) raises ``StorageError`` from ``sample``: the loop makes it a safe stop. The
-close never raises: it writes what it can (a removed directory is made again, the
-samples copied from the open file) and lists what it could not under ``warnings``.
+The JSON files, ``samples.mat`` and ``plot.png`` are written whole or not at all (a
+temporary file, then a rename); ``samples.csv`` and ``trace.asc`` end in a whole row and
+line whatever the disk refused (``rig.host.storage``). A write that fails while the run goes
+on (disk full, the directory removed) raises ``StorageError`` from ``sample``: the loop makes
+it a safe stop. The close never raises: it writes what it can (a removed directory is made
+again, the samples copied from the open file; space held since the start for the last rows
+and the summary) and lists what it could not: ``files_not_written`` (each file missing or cut
+short), ``samples_not_written`` (rows not in samples.csv) and the reasons under ``warnings``.
 
 Frames reach ``on_frame`` from the bus's receive thread (python-can's notifier)
 while the loop writes samples; a lock orders the trace against ``close``, and a
@@ -49,6 +52,7 @@ import numpy as np
 
 from drivers.errors import ConfigError, StorageError
 from rig.config_checks import check_run_name
+from rig.host.storage import Reserve, RowFile, trim_to_line
 from rig.host.trace import AscTrace
 
 __all__ = ["Recorder", "check_output", "write_atomic"]
@@ -116,16 +120,15 @@ class Recorder:
         except OSError as exc:
             raise ConfigError(f"[run] output = {str(output)!r}: cannot make {path}: {exc.strerror}") from exc
         self.dir = path
+        self._reserve = Reserve(path)  #: room for the close on a disk that fills up
         self.columns: list[str] = []
         self.docs: dict[str, dict[str, str]] = {}  #: column -> unit and meaning
-        # read and write for ``_text``'s pread, written through a write-only text layer (a readable
-        # one resets its decoder at every write)
-        fd = os.open(path / "samples.csv", os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
-        self._file = open(fd, "w", newline="")
+        self._file = RowFile(path / "samples.csv")  # whole rows on disk; read back by ``_text``'s pread
         self._count = 0
         self._flush_period = flush_period  #: [s] of run time (the rows' t)
         self._flush_at = 0.0
         self.trace = AscTrace(str(path / "trace.asc")) if trace else None
+        self._trace_cut = ""  #: why trace.asc ends early (a write failed); "": it does not
         self.closed = False
         self._trace_lock = threading.Lock()
         self.frames_dropped = 0  #: frames that arrived after the close
@@ -180,17 +183,27 @@ class Recorder:
         trace, self.trace = self.trace, None
         error = self._failed("trace.asc", exc) if isinstance(exc, OSError) else None
         self.error = self.error or error or StorageError(f"{self.dir / 'trace.asc'}: {exc}")
+        self._trace_cut = f"cut short: {exc}"
         log.error("%s", self.error)
         try:
             if trace is not None:
                 trace.file.close()
         except Exception as close_exc:
             log.debug("trace not closed: %s", close_exc)
+        self._trim_trace()
+
+    def _trim_trace(self) -> None:
+        """trace.asc cut short by a failed write: its torn last line cut off."""
+        try:
+            trim_to_line(self.dir / "trace.asc")
+        except OSError as exc:
+            log.debug("trace.asc not trimmed: %s", exc)
 
     def sample(self, row: Sequence[float], timing: Sequence[float] = ()) -> None:
         """One cycle's values in ``columns`` order (``row[0]``: its time [s]), then its stage
         durations [s] (written in us, to 0.1 us); the values at full precision (``repr``: they
-        read back exactly). StorageError when the run directory cannot be written."""
+        read back exactly). StorageError when the run directory cannot be written (a failed
+        flush: at the next call; the row is kept for the close)."""
         if self.error is not None:
             error, self.error = self.error, None
             raise error
@@ -200,14 +213,14 @@ class Recorder:
         flush = row[0] >= self._flush_at
         if flush and not self.dir.is_dir():
             raise StorageError(f"{self.dir}: the run directory was removed")
-        try:
-            self._file.write(line + "\n")
-            if flush:
-                self._flush_at = row[0] + self._flush_period
-                self._file.flush()
-        except OSError as exc:
-            raise self._failed("samples.csv", exc) from exc
+        self._file.write(line + "\n")  # the row is kept: on disk now, at the close, or counted lost
         self._count += 1
+        if flush:
+            self._flush_at = row[0] + self._flush_period
+            try:
+                self._file.flush()
+            except OSError as exc:  # raised by the next sample, as a trace's error
+                self.error = self.error or self._failed("samples.csv", exc)
         if self.live is not None:  # an O(1) append, no lock: the live view copies it at a few Hz
             self.live.append(row)
 
@@ -248,19 +261,30 @@ class Recorder:
         return data.reshape(-1, len(self.columns))
 
     def close(self, summary: dict[str, Any]) -> None:
-        """Flush everything, write .mat, summary.json and the plot; safe to call twice; never
-        raises (what could not be written is listed under ``warnings`` and logged)."""
+        """Flush everything, write .mat, the plot and summary.json; safe to call twice; never
+        raises (what could not be written is listed under ``files_not_written`` and
+        ``warnings`` and logged; ``samples_not_written`` counts the rows not in samples.csv)."""
         if self.closed:
             return
+        summary["files_not_written"] = []
         with self._trace_lock:
             self.closed = True
             if self.trace is not None:
                 with _suppressed("trace.asc not closed", summary):
-                    self.trace.stop()
+                    try:
+                        self.trace.stop()
+                    except Exception as exc:
+                        self._trace_cut = f"cut short at its close: {exc}"
+                        self._trim_trace()
+                        raise
+        if self._trace_cut:
+            summary["files_not_written"].append("trace.asc")
+            summary.setdefault("warnings", []).append(f"trace.asc {self._trace_cut}")
         summary["trace_frames_dropped"] = self.frames_dropped
+        self._reserve.shrink()  # room for the last rows, samples.mat and the plot; the rest: the summary
         text = self._text(summary)
         with _suppressed("samples.csv not closed", summary):
-            self._file.close()  # its last buffer, where the disk is full, is refused again
+            self._file.close()  # what the disk still refuses stays out, counted below
         if not self.dir.is_dir():  # removed during the run: made again, the samples with it
             with _suppressed("the run directory could not be made again", summary):
                 self.dir.mkdir(parents=True)
@@ -268,22 +292,28 @@ class Recorder:
                 summary.setdefault("warnings", []).append(
                     f"{self.dir} was removed during the run: made again with samples.csv"
                 )
+        lost = self._count - max(text.count("\n") - 1, 0)
+        summary["samples_not_written"] = lost
+        if lost:
+            summary["files_not_written"].append("samples.csv")
+            summary.setdefault("warnings", []).append(f"samples.csv: the last {lost} samples not written")
         data = self.array(text)
-        with _suppressed("samples.mat not written", summary):
+        with _suppressed("samples.mat not written", summary, "samples.mat"):
             import scipy.io
 
             columns: dict[str, Any] = {c.replace(".", "_"): data[:, i] for i, c in enumerate(self.columns)}
             for key in ("unit", "meaning"):  # MATLAB structs: column_unit.t = 's', ...
                 columns[f"column_{key}"] = {c.replace(".", "_"): d[key] for c, d in self.docs.items()}
             write_atomic(self.dir / "samples.mat", lambda f: scipy.io.savemat(f, columns), binary=True)
+        if self.PLOT:
+            with _suppressed("plot.png not written", summary, "plot.png"):
+                self.plot(data)
+        self._reserve.release()
         clean = {
             k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()
         }
-        with _suppressed("summary.json not written", summary):
+        with _suppressed("summary.json not written", summary, "summary.json"):
             write_atomic(self.dir / "summary.json", _json(clean))
-        if self.PLOT:
-            with _suppressed("plot.png not written", summary):
-                self.plot(data)
 
     def _label(self, column: str, name: str) -> str:
         """``name [unit]`` with the column's unit from ``docs`` (none for a replay's mixed units)."""
@@ -317,18 +347,20 @@ class Recorder:
         axes[-1].set_xlabel("time [s]")
         fig.suptitle(f"run {self.dir.name}")
         fig.tight_layout()
-        fig.savefig(self.dir / "plot.png")
+        write_atomic(self.dir / "plot.png", lambda f: fig.savefig(f, format="png"), binary=True)
         plt.close(fig)
         return fig
 
 
 @contextlib.contextmanager
-def _suppressed(what: str, summary: dict[str, Any] | None = None) -> Iterator[None]:
-    """An exception inside is logged and, with a summary, listed under its ``warnings``; the
-    close goes on."""
+def _suppressed(what: str, summary: dict[str, Any] | None = None, file: str = "") -> Iterator[None]:
+    """An exception inside is logged and, with a summary, listed under its ``warnings`` (and
+    ``file`` under its ``files_not_written``); the close goes on."""
     try:
         yield
     except Exception as exc:
         log.error("%s: %s", what, exc)
         if summary is not None:
             summary.setdefault("warnings", []).append(f"{what}: {exc}")
+            if file:
+                summary.setdefault("files_not_written", []).append(file)

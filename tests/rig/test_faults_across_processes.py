@@ -40,6 +40,8 @@ def test_no_traceback_and_the_motor_at_rest(table: dict[str, Row], name: str) ->
         ("host-sigkill", "the drive's EMCY: 0x8130", False),
         ("client-never-reads", "completed without a stop", True),
         ("disk-full", "StorageError", True),
+        ("disk-full", "not written whole: trace.asc", True),  # cut short, at a whole line
+        ("read-only", "not written whole: samples.mat, plot.png, summary.json (exit code 6)", True),
     ],
 )
 def test_what_the_operator_is_told(table: dict[str, Row], name: str, words: str, confirmed: bool) -> None:
@@ -48,7 +50,8 @@ def test_what_the_operator_is_told(table: dict[str, Row], name: str, words: str,
 
 
 def test_a_stop_keeps_every_sample(table: dict[str, Row]) -> None:
-    for name in ("emulator-sigkill", "emulator-sigstop", "link-drop", "host-sigterm", "client-never-reads"):
+    scenarios = ("emulator-sigkill", "emulator-sigstop", "link-drop", "host-sigterm", "client-never-reads")
+    for name in (*scenarios, "disk-full", "read-only"):
         assert table[name]["samples_lost"] == 0, table[name]
 
 

@@ -112,13 +112,15 @@ def test_rig_run_on_a_full_disk_is_a_safe_stop_with_its_summary(tmp_path: pathli
         preexec_fn=small_files,
         cwd=ROOT,
     )
-    assert proc.returncode == 3, proc.stderr[-2000:]
+    assert proc.returncode == 6, proc.stderr[-2000:]  # a file of the run cut short
     assert "Traceback" not in proc.stderr, proc.stderr[-2000:]
     summary = json.loads(proc.stdout)
     assert "File too large" in summary["safe_stop_reason"], summary
     assert summary["stop_confirmed"] is True
+    assert summary["files_not_written"] == ["trace.asc"] and summary["samples_not_written"] == 0
     run_dir = pathlib.Path(summary["run_dir"])
     assert json.loads((run_dir / "summary.json").read_text())["cycles"] == summary["cycles"]
+    assert (run_dir / "trace.asc").read_text().endswith("\n")  # no torn line
 
 
 def test_a_full_disk_at_the_close_keeps_the_whole_rows(tmp_path: pathlib.Path) -> None:

@@ -1,0 +1,155 @@
+"""What the recorder's files do when the disk fails: whole rows on disk, room kept for the summary.
+
+``RowFile`` writes ``samples.csv``: the rows wait in memory between flushes and go to the
+file with ``os.pwrite`` at the end of what is on disk. When the disk refuses part of a flush
+(ENOSPC, EFBIG past a file-size limit, EIO, EROFS), the file is cut back to its last whole
+row (``ftruncate``: no torn row stays on disk) and the rows not written are kept for a later
+flush (the close, once ``Reserve`` has made room) and counted (``lines``).
+
+``Reserve`` holds ``RESERVE`` bytes of the run directory's filesystem from the start
+(``posix_fallocate`` on a file unlinked at once, so a killed host leaves nothing behind):
+at the close it is shrunk to ``SUMMARY_ROOM`` for the last rows, ``samples.mat`` and
+``plot.png``, then released for ``summary.json``, so a disk that filled up during the run
+still takes the summary. Where the filesystem cannot allocate ahead, there is no reserve
+and the close does what the disk allows.
+
+``trim_to_line`` cuts a text file (``trace.asc``) that a failed write left with a torn last
+line back to its last whole line.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+from pathlib import Path
+
+__all__ = ["RESERVE", "SUMMARY_ROOM", "Reserve", "RowFile", "trim_to_line"]
+
+log = logging.getLogger(__name__)
+
+RESERVE = 256 * 1024  #: [bytes] held for the close: the last rows, samples.mat, plot.png, summary.json
+SUMMARY_ROOM = 64 * 1024  #: [bytes] of it kept back for summary.json (about 1-10 KiB)
+
+
+class RowFile:
+    """``path`` opened for rows of text: ``write`` keeps a row (ending in a newline),
+    ``flush`` puts the rows kept on disk whole or raises OSError with the file cut back to its
+    last whole row. ``lines``: whole lines on disk. ``fileno()`` reads back with ``os.pread``."""
+
+    def __init__(self, path: Path) -> None:
+        self._fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
+        self._rows: list[str] = []
+        self._pending = b""  #: refused by the disk at the last flush, whole rows
+        self.size = 0  #: [bytes] whole lines on disk
+        self.lines = 0  #: whole lines on disk
+        self.closed = False
+
+    def write(self, text: str) -> None:
+        """Keep ``text`` (whole lines) for the next flush."""
+        self._rows.append(text)
+
+    def fileno(self) -> int:
+        return self._fd
+
+    @property
+    def unwritten(self) -> int:
+        """Lines kept but not on disk."""
+        return self._pending.count(b"\n") + sum(r.count("\n") for r in self._rows)
+
+    def flush(self) -> None:
+        """Every line kept onto the disk, or OSError with the file ending in a whole line and
+        the lines not written kept."""
+        if self.closed or not (self._rows or self._pending):
+            return
+        data = self._pending + "".join(self._rows).encode("utf-8")
+        self._rows.clear()
+        done = 0
+        try:
+            while done < len(data):
+                done += os.pwrite(self._fd, memoryview(data)[done:], self.size + done)
+        except OSError:
+            whole = data.rfind(b"\n", 0, done) + 1  # the last whole line written
+            self._pending = data[whole:]
+            self._keep(data[:whole])
+            if whole < done:  # a torn line on disk: cut it off
+                with contextlib.suppress(OSError):
+                    os.ftruncate(self._fd, self.size)
+            raise
+        self._pending = b""
+        self._keep(data)
+
+    def _keep(self, written: bytes) -> None:
+        self.size += len(written)
+        self.lines += written.count(b"\n")
+
+    def close(self) -> None:
+        """Flush, then close (the descriptor is closed even when the flush raises)."""
+        if self.closed:
+            return
+        try:
+            self.flush()
+        finally:
+            self.closed = True
+            os.close(self._fd)
+
+
+class Reserve:
+    """``size`` bytes held on the filesystem of ``folder`` until ``shrink`` and ``release``."""
+
+    def __init__(self, folder: Path, size: int = RESERVE) -> None:
+        self._fd: int | None = None
+        path = folder / ".reserve"
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        except OSError as exc:
+            log.debug("no space reserved in %s: %s", folder, exc)
+            return
+        try:
+            os.posix_fallocate(fd, 0, size)
+        except (OSError, AttributeError) as exc:  # a full disk, a filesystem without it, not POSIX
+            log.debug("no space reserved in %s: %s", folder, exc)
+            os.close(fd)
+            with contextlib.suppress(OSError):
+                path.unlink()
+            return
+        try:
+            path.unlink()  # the space stays held by the descriptor; nothing is left if we die
+        except OSError:
+            os.close(fd)
+            return
+        self._fd = fd
+
+    @property
+    def held(self) -> bool:
+        return self._fd is not None
+
+    def shrink(self, keep: int = SUMMARY_ROOM) -> None:
+        """Give back all but ``keep`` bytes."""
+        if self._fd is not None:
+            with contextlib.suppress(OSError):
+                os.ftruncate(self._fd, keep)
+
+    def release(self) -> None:
+        """Give back the rest (idempotent)."""
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            os.close(fd)
+
+
+def trim_to_line(path: Path, block: int = 4096) -> None:
+    """Cut ``path`` after its last newline (nothing when it ends in one); OSError if it cannot."""
+    with path.open("rb+") as f:
+        end = f.seek(0, os.SEEK_END)
+        pos = end
+        while pos > 0:
+            start = max(0, pos - block)
+            f.seek(start)
+            chunk = f.read(pos - start)
+            cut = chunk.rfind(b"\n")
+            if cut >= 0:
+                if start + cut + 1 < end:
+                    f.truncate(start + cut + 1)
+                return
+            pos = start
+        f.truncate(0)
