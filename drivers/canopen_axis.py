@@ -138,7 +138,10 @@ class CanopenAxis(AxisDriver):
         try:
             yield
         except SdoAbortedError as exc:
-            raise SdoAbort(what, code=exc.code, node_id=self.node_id, index=index, subindex=subindex) from exc
+            words = f"{what}: {cia.abort_text(exc.code)}"
+            raise SdoAbort(
+                words, code=exc.code, node_id=self.node_id, index=index, subindex=subindex
+            ) from exc
         except SdoCommunicationError as exc:
             raise CommunicationTimeout(
                 f"node {self.node_id}: no SDO answer ({what}, 0x{index:04X}:{subindex:02X})"

@@ -19,8 +19,10 @@ Set-up takes the drive as it is (``setup``):
   ``pdo="device"`` when the device refuses; ``pdo="device"`` uses the mapping in force.
   Frames are decoded from the mapping in force (``drivers.cia402_process``).
 
-No manufacturer object (0x2000-0x5FFF) is written, except the toolkit's own drive's command
-latency 0x2001 on that drive (vendor 0xDB1, product 0x402). Every cycle ``supervise`` checks
+No manufacturer object (0x2000-0x5FFF) is written, by SDO or in an RPDO, and no manufacturer
+mode (negative, 0x6502 bits 16-31) is used, but on the toolkit's own drive, identified by its
+0x1018 (vendor 0xDB1, product 0x402; ``drivers.cia402_access``). Set-up writes only entries the
+EDS declares writable and reads the others. Every cycle ``supervise`` checks
 the statusword and, where mapped, 0x6061: a drive that leaves OPERATION ENABLED or changes
 mode stops the run, named.
 """
@@ -174,6 +176,12 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         self._rest_stamp: float | None = None  #: the statusword TPDO's stamp at the last ``at_rest``
         #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
         self.idle: Callable[[], None] = lambda: time.sleep(0.001)
+
+    def sdo_write(self, index: int, subindex: int, value: Any) -> None:
+        """An SDO download, never to a manufacturer object (0x2000-0x5FFF) but on the toolkit's own
+        drive (``guard_manufacturer``: a ConfigError before anything is sent)."""
+        self.guard_manufacturer(index, f"an SDO download to 0x{index:04X}:{subindex:02X}")
+        super().sdo_write(index, subindex, value)
 
     # --- set-up ----------------------------------------------------------------------------------
     def setup(self) -> None:

@@ -21,7 +21,7 @@ from drivers.maps import cia
 from drivers.maps.cia import Mode
 from drivers.maps.units import SiUnit, position_per_revolution, velocity_per_revolution
 
-__all__ = ["DriveUnits", "discover_units"]
+__all__ = ["DriveUnits", "discover_units", "require"]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -81,10 +81,18 @@ def _ratio(read: Callable[[int, int], Any], index: int) -> float | None:
 
 
 def discover_units(
-    read: Callable[[int, int], Any], given: Mapping[str, float], *, where: str, mode: int
+    read: Callable[[int, int], Any],
+    given: Mapping[str, float],
+    *,
+    where: str,
+    mode: int,
+    hint: str = "[axis.units] {key}",
 ) -> DriveUnits:
     """The drive's units: ``read(index, sub)`` gives an object's value or None (the drive lacks it
-    or refused it); ``given`` the ``[axis.units]`` values (0 or absent: not given)."""
+    or refused it); ``given`` the ``[axis.units]`` values (0 or absent: not given). ``mode`` 0
+    (a status, which moves nothing) needs no factor: the ones nobody gives are NaN, and the
+    drive's own units stand. ``hint`` says how the user gives a unit (``--units {key}=VALUE``
+    in ``rig drive``)."""
     source: dict[str, str] = {}
     increments = _ratio(read, cia.POSITION_ENCODER_RESOLUTION)
     if increments:
@@ -101,7 +109,7 @@ def discover_units(
             try:
                 SiUnit.decode(code)
             except ValueError as exc:
-                raise ConfigError(f"axis {where}: {exc}; set [axis.units] {key}") from None
+                raise ConfigError(f"axis {where}: {exc}; set {hint.format(key=key)}") from None
     position = velocity = math.nan
     rotary = pos_code and SiUnit.decode(pos_code).unit != 0xB5
     if increments or rotary or feed:
@@ -123,15 +131,22 @@ def discover_units(
     source["rated_torque"] = "0x6076" if torque else ("[axis.units]" if given.get("rated_torque") else "")
     source["rated_current"] = "0x6075" if current else ("[axis.units]" if given.get("rated_current") else "")
     units = DriveUnits(position, velocity, rated_torque, rated_current, source)
+    if mode:
+        require(units, mode, where=where, hint=hint)
+    return units
+
+
+def require(units: DriveUnits, mode: int, *, where: str, hint: str = "[axis.units] {key}") -> None:
+    """ConfigError naming the object and how to give it (``hint``) where ``mode`` needs a factor
+    that ``units`` lacks: every mode needs the position's, a mode's command its own."""
     need = NEEDS.get(Mode(mode)) if mode in {int(m) for m in Mode} else None
     if need is not None and not math.isfinite(getattr(units, need[0])):
         raise ConfigError(
             f"axis {where}: mode {Mode(mode).name} needs 0x{need[1]:04X}, which the drive does not "
-            f"give; set [axis.units] {need[2]}"
+            f"give; set {hint.format(key=need[2])}"
         )
     if not math.isfinite(units.position):
         raise ConfigError(
             f"axis {where}: the drive gives no position resolution (0x608F, 0x60A8, 0x6092); "
-            "set [axis.units] counts_per_rev"
+            f"set {hint.format(key='counts_per_rev')}"
         )
-    return units

@@ -15,6 +15,7 @@ import enum
 
 __all__ = [
     "BOOT_UP",
+    "CIA_MODE_BITS",
     "COB_EMCY",
     "COB_HEARTBEAT",
     "COB_NMT",
@@ -24,6 +25,7 @@ __all__ = [
     "COB_SYNC",
     "COB_TPDO",
     "COMMUNICATION_AREA",
+    "MANUFACTURER_AREA",
     "MODE_BITS",
     "NODE_IDS",
     "PDO_INVALID",
@@ -39,6 +41,7 @@ __all__ = [
     "PowerState",
     "QuickStopOption",
     "SdoAbortCode",
+    "abort_text",
     "decode_statusword",
     "map_entry",
     "split_map_entry",
@@ -71,6 +74,8 @@ COB_ID_MASK = 0x7FF  #: the 11-bit CAN identifier in a COB-ID entry
 NODE_IDS = range(1, 128)  #: node ids a device may have
 #: CiA 301 communication profile area: what NMT reset communication restores
 COMMUNICATION_AREA = range(0x1000, 0x2000)
+#: the manufacturer-specific area (CiA 301): each vendor's own meanings
+MANUFACTURER_AREA = range(0x2000, 0x6000)
 
 
 def map_entry(index: int, subindex: int, bits: int) -> int:
@@ -98,6 +103,44 @@ class SdoAbortCode(enum.IntEnum):
     VALUE_TOO_HIGH = 0x06090031
     PARAMETER_INCOMPATIBLE = 0x06040043  #: general parameter incompatibility
     DEVICE_STATE = 0x08000022  #: data cannot be stored because of the present device state
+
+
+#: SDO abort codes in words (CiA 301, 7.2.4.3.17)
+ABORT_TEXTS = {
+    0x05030000: "toggle bit not alternated",
+    0x05040000: "SDO protocol timed out",
+    0x05040001: "client/server command specifier not valid or unknown",
+    0x05040005: "out of memory",
+    0x06010000: "unsupported access to an object",
+    0x06010001: "attempt to read a write-only object",
+    0x06010002: "attempt to write a read-only object",
+    0x06020000: "object does not exist in the object dictionary",
+    0x06040041: "object cannot be mapped to the PDO",
+    0x06040042: "the number and length of the objects to be mapped would exceed the PDO length",
+    0x06040043: "general parameter incompatibility",
+    0x06040047: "general internal incompatibility in the device",
+    0x06060000: "access failed due to a hardware error",
+    0x06070010: "data type does not match, length of service parameter does not match",
+    0x06070012: "data type does not match, length of service parameter too high",
+    0x06070013: "data type does not match, length of service parameter too low",
+    0x06090011: "sub-index does not exist",
+    0x06090030: "invalid value for parameter (download only)",
+    0x06090031: "value of parameter written too high (download only)",
+    0x06090032: "value of parameter written too low (download only)",
+    0x06090036: "maximum value is less than minimum value",
+    0x060A0023: "resource not available: SDO connection",
+    0x08000000: "general error",
+    0x08000020: "data cannot be transferred or stored to the application",
+    0x08000021: "data cannot be transferred or stored to the application because of local control",
+    0x08000022: "data cannot be transferred or stored to the application because of the present device state",
+    0x08000023: "object dictionary dynamic generation fails or no object dictionary is present",
+    0x08000024: "no data available",
+}
+
+
+def abort_text(code: int) -> str:
+    """An SDO abort code in words (CiA 301); a code it does not list is said to be so."""
+    return ABORT_TEXTS.get(code, "an abort code CiA 301 does not list")
 
 
 class EmcyCode(enum.IntEnum):
@@ -357,7 +400,9 @@ class Mode(enum.IntEnum):
     DQ_VOLTAGE = -2  #: dq voltage [mV] in DQ_VOLTAGE
 
 
-#: bit of each mode in SUPPORTED_MODES (0x6502); bits 16-31 are manufacturer specific
+#: bit of each mode in SUPPORTED_MODES (0x6502) on the toolkit's own drive; bits 16-31 are
+#: manufacturer specific: 16 and 17 are its voltage modes, on any other drive they mean nothing
+#: (``CIA_MODE_BITS``)
 MODE_BITS = {
     Mode.PROFILE_POSITION: 1 << 0,
     Mode.PROFILE_VELOCITY: 1 << 2,
@@ -370,6 +415,9 @@ MODE_BITS = {
     Mode.VOLTAGE: 1 << 16,
     Mode.DQ_VOLTAGE: 1 << 17,
 }
+
+#: the bits of 0x6502 that CiA 402 defines, the same on every drive
+CIA_MODE_BITS = {mode: bit for mode, bit in MODE_BITS.items() if bit < 1 << 16}
 
 #: the target object (index, subindex) each scalar mode takes its command from
 TARGET_OF_MODE = {

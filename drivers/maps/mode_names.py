@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from drivers.maps.cia import Mode
 
-__all__ = ["MODE_NAMES", "mode_code"]
+__all__ = ["MODE_NAMES", "mode_code", "mode_text"]
 
 MODE_NAMES = {
     "pp": Mode.PROFILE_POSITION,
@@ -31,3 +31,33 @@ def mode_code(mode: str | int) -> Mode:
         except ValueError:
             pass
     raise ValueError(f"unknown CiA 402 mode {mode!r}; known: {', '.join(MODE_NAMES)}")
+
+
+#: CiA 402's words for each mode number it defines (0x6060/0x6061; CiA 402-2, 6.5)
+_CIA_WORDS = {
+    0: "no mode",
+    1: "profile position",
+    2: "velocity",
+    3: "profile velocity",
+    4: "profile torque",
+    6: "homing",
+    7: "interpolated position",
+    8: "cyclic synchronous position",
+    9: "cyclic synchronous velocity",
+    10: "cyclic synchronous torque",
+}
+_SHORT = {int(code): name for name, code in MODE_NAMES.items()}
+
+
+def mode_text(code: int, *, toolkit: bool = True) -> str:
+    """A mode number in words (``cyclic synchronous position (csp)``); a negative one is a
+    manufacturer mode, named only on the toolkit's own drive (``toolkit``)."""
+    code = int(code)
+    if code in _CIA_WORDS:
+        short = _SHORT.get(code)
+        return _CIA_WORDS[code] + (f" ({short})" if short else "")
+    if code < 0 and toolkit and code in _SHORT:
+        return f"{_SHORT[code]} (drive-rig's manufacturer mode {code})"
+    if code < 0:
+        return f"manufacturer mode {code} (the vendor's own)"
+    return f"mode {code} (reserved)"

@@ -177,6 +177,9 @@ def open_network(args: argparse.Namespace, who: str) -> Any:
         raise UsageError(f"{who}: argument --bitrate: must be > 0 bit/s, got {args.bitrate}")
     extra = {"host": args.host, "port": args.port} if args.interface == "socketcand" else {}
     network = canopen.Network(open_bus(args.interface, args.channel or "can0", bitrate=args.bitrate, **extra))
+    network.NOTIFIER_CYCLE = (
+        0.1  # [s] the receive thread's wait: closing takes at most that, not canopen's 1 s
+    )
     network.connect()
     return network
 

@@ -1,0 +1,157 @@
+"""What the host may write to a CiA 402 drive, and how it writes a setting the drive may refuse.
+
+The drive's own EDS says what each entry is (its access type: ro, wo, rw, const); the host
+writes only entries declared writable and only what its task needs, reads the others and
+takes their value as it is.
+
+- ``Identity``: 0x1018 as read, with the vendor's name where the EDS gives it; ``toolkit``
+  is the positive identification of the toolkit's own drive (vendor 0xDB1, product 0x402),
+  the one drive whose manufacturer objects (0x2000-0x5FFF) and manufacturer modes (0x6502
+  bits 16-31, negative mode numbers) the host knows. On every other drive they mean what
+  that vendor made them mean, and the host writes none of them.
+- ``Setting``: one write the set-up wants. ``apply`` reads an entry the EDS declares
+  read-only or constant (never writes it) and says whether it already holds the value;
+  writes a writable one; an abort is one warning for an optional setting, and, for a required
+  one, a ``ConfigError`` naming the object, the abort code in words and the access type the
+  EDS declares.
+- ``interpolation_period``: 0x60C2 in the drive's own exponent where it can be, with the
+  period actually in force where it cannot.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from drivers.errors import ConfigError, SdoAbort
+from drivers.maps import cia
+
+__all__ = ["TOOLKIT_DRIVE", "Identity", "Setting", "interpolation_period"]
+
+log = logging.getLogger(__name__)
+
+TOOLKIT_DRIVE = (0xDB1, 0x402)  #: (vendor, product) of the toolkit's own drive (its EDS's 0x1018)
+
+
+@dataclass(frozen=True)
+class Identity:
+    """0x1018 as the drive reports it (None: not readable) and the vendor's name from its EDS."""
+
+    vendor: int | None = None
+    product: int | None = None
+    revision: int | None = None
+    serial: int | None = None
+    vendor_name: str = ""
+
+    @property
+    def toolkit(self) -> bool:
+        """The toolkit's own drive, positively identified by vendor id and product code."""
+        return (self.vendor, self.product) == TOOLKIT_DRIVE
+
+    def as_dict(self) -> dict[str, int]:
+        """The numbers read (``vendor``, ``product``, ``revision``, ``serial``)."""
+        fields = (("vendor", self.vendor), ("product", self.product), ("revision", self.revision))
+        return {k: v for k, v in (*fields, ("serial", self.serial)) if v is not None}
+
+    def text(self) -> str:
+        """``vendor 0x000000FB (maxon motor ag), product 0x65520000, revision ..., serial ...``."""
+        parts = []
+        for key, value in self.as_dict().items():
+            name = f" ({self.vendor_name})" if key == "vendor" and self.vendor_name else ""
+            parts.append(f"{key} 0x{value:08X}{name}")
+        return ", ".join(parts) or "no identity (0x1018 not readable)"
+
+
+def _name(od: Any, index: int, subindex: int) -> str:
+    var = _variable(od, index, subindex)
+    name = str(var.name) if var is not None else ""
+    return f" ({name})" if name else ""
+
+
+def _variable(od: Any, index: int, subindex: int) -> Any:
+    if index not in od:
+        return None
+    obj = od[index]
+    if hasattr(obj, "subindices"):
+        return obj[subindex] if subindex in obj.subindices else None
+    return obj if subindex == 0 else None
+
+
+@dataclass
+class Setting:
+    """A write the set-up wants: ``value`` into (``index``, ``subindex``) for ``why``."""
+
+    index: int
+    subindex: int
+    value: Any
+    why: str
+    required: bool = False
+
+    def apply(
+        self, od: Any, read: Callable[[int, int], Any], write: Callable[[int, int, Any], None], where: str
+    ) -> bool:
+        """True when the drive holds ``value`` afterwards (see the module docstring)."""
+        var = _variable(od, self.index, self.subindex)
+        obj = f"0x{self.index:04X}:{self.subindex:02X}{_name(od, self.index, self.subindex)}"
+        access = getattr(var, "access_type", "?") if var is not None else "absent"
+        if var is not None and not var.writable:
+            held = read(self.index, self.subindex) if var.readable else None
+            if held == self.value:
+                return True
+            said = (
+                f"{where}: {obj} is {access} in the EDS and holds {held!r}; {self.why} wanted {self.value!r}"
+            )
+            if self.required:
+                raise ConfigError(f"{said}: the drive cannot do what is asked")
+            log.warning("%s; not written", said)
+            return False
+        try:
+            write(self.index, self.subindex, self.value)
+        except SdoAbort as exc:
+            said = (
+                f"{where}: {obj} refused {self.value!r} ({self.why}): abort 0x{exc.code:08X}, "
+                f"{cia.abort_text(exc.code)}; the EDS declares it {access}"
+            )
+            if self.required:
+                raise ConfigError(said) from exc
+            log.warning("%s; going on without it", said)
+            return False
+        return True
+
+
+def interpolation_period(
+    period: float, exponent: int | None, writable: bool
+) -> tuple[int, int | None, float]:
+    """0x60C2 for a SYNC period of ``period`` [s]: (value, exponent to write or None, period in
+    force [s]). The drive's own ``exponent`` (sub 2 as read; None: not readable) is kept where
+    the period is a whole number 1-255 of it; else, where sub 2 is ``writable``, the first
+    exponent -6..2 that gives one; else the nearest value in the drive's exponent."""
+    candidates = ([exponent] if exponent is not None else []) + (list(range(-6, 3)) if writable else [])
+    for e in candidates:
+        value = period / 10.0**e
+        if 1 <= round(value) <= 255 and abs(value - round(value)) < 1e-6 * max(1.0, value):
+            return round(value), (None if e == exponent else e), round(value) * 10.0**e
+    if exponent is None:
+        raise ConfigError(
+            f"SYNC period {period!r} s cannot be written to 0x60C2 (value x 10^n, value <= 255)"
+        )
+    value = min(255, max(1, round(period / 10.0**exponent)))
+    return value, None, value * 10.0**exponent
+
+
+def period_text(seconds: float) -> str:
+    """A period for a person: ``1 ms``, ``400 us``, ``0.01 s``."""
+    if seconds >= 1.0 or not math.isfinite(seconds):
+        return f"{seconds:g} s"
+    if seconds >= 1e-3:
+        return f"{seconds * 1e3:g} ms"
+    return f"{seconds * 1e6:g} us"
+
+
+def vendor_name(od: Any) -> str:
+    """The vendor's name the EDS gives ([DeviceInfo] VendorName), or ""."""
+    info: Mapping[str, Any] | Any = getattr(od, "device_information", None)
+    return str(getattr(info, "vendor_name", "") or "").strip()

@@ -1,0 +1,266 @@
+"""How the host sets up a CiA 402 drive's process data: its own mapping within the drive's PDOs, or
+the drive's.
+
+``Cia402Mapping`` is the PDO part of ``drivers.cia402_setup.Cia402Setup``: ``map_process_data``
+writes a mapping that fits the device (``drivers.cia402_pdo``) by the CiA 301 protocol where the
+EDS declares the mapping writable, and otherwise (or when the drive refuses) takes the drive's
+own, made valid and synchronous where its EDS lets it. An RPDO of the drive's own that carries a
+manufacturer object beside the target would write that object every cycle: on any drive but the
+toolkit's own it is refused for cyclic use, naming the object. Frames are decoded from the
+mapping in force (``drivers.cia402_process``).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import TYPE_CHECKING, Any
+
+from drivers.cia402_access import Identity
+from drivers.cia402_pdo import Key, Pdo, disable, numbers, plan_rpdo, plan_tpdos, read_mapping, variable
+from drivers.cia402_pdo import write_mapping as write_pdo
+from drivers.cia402_process import ProcessData
+from drivers.cia402_units import DriveUnits
+from drivers.errors import ConfigError, SdoAbort
+from drivers.maps import cia
+from drivers.maps.cia import Mode
+
+if TYPE_CHECKING:
+    from drivers.canopen_axis import TpdoSlot
+
+__all__ = [
+    "CURRENT",
+    "CW",
+    "DQ_RX",
+    "DQ_TX",
+    "MODE_SHOWN",
+    "POSITION",
+    "SW",
+    "TORQUE",
+    "VELOCITY",
+    "Cia402Mapping",
+]
+
+log = logging.getLogger(__name__)
+
+SW: Key = (cia.STATUSWORD, 0)
+CW: Key = (cia.CONTROLWORD, 0)
+POSITION: Key = (cia.POSITION_ACTUAL, 0)
+VELOCITY: Key = (cia.VELOCITY_ACTUAL, 0)
+TORQUE: Key = (cia.TORQUE_ACTUAL, 0)
+CURRENT: Key = (cia.CURRENT_ACTUAL, 0)
+MODE_SHOWN: Key = (cia.MODES_DISPLAY, 0)
+DQ_RX = [(cia.DQ_VOLTAGE, 1), (cia.DQ_VOLTAGE, 2)]
+DQ_TX = [SW, (cia.FRAME_ANGLE, 0), (cia.FRAME_SPEED, 0), (cia.DQ_CURRENT, 1), (cia.DQ_CURRENT, 2)]
+
+
+class Cia402Mapping:
+    """See the module docstring (a mixin of ``Cia402Setup``)."""
+
+    node: Any
+    node_id: int
+    name: str
+    mode: str | None
+    op_mode: Mode
+    units: DriveUnits
+    device_id: Identity
+    sync_rpdo: bool
+    latency: float
+    pdo: str
+    data: ProcessData | None
+    measures: frozenset[str]
+    _motion: TpdoSlot | None
+
+    if TYPE_CHECKING:  # the axis's own, used here
+
+        @property
+        def where(self) -> str: ...
+        @property
+        def toolkit_drive(self) -> bool: ...
+        def sdo_read(self, index: int, subindex: int = 0) -> Any: ...
+        def sdo_write(self, index: int, subindex: int, value: Any) -> None: ...
+        def receive_cob(self, cob_id: int, codec: Any) -> TpdoSlot: ...
+        def _optional(self, index: int, subindex: int = 0) -> Any: ...
+        def _setting(
+            self, index: int, subindex: int, value: Any, why: str, *, required: bool = False
+        ) -> bool: ...
+
+    def _wanted(self) -> tuple[list[Key], list[Key], list[Key]]:
+        """(RPDO keys, TPDO keys needed, TPDO keys wanted if there is room)."""
+        if self.op_mode == Mode.DQ_VOLTAGE:
+            return list(DQ_RX), list(DQ_TX), []
+        if self.op_mode not in cia.TARGET_OF_MODE:
+            raise ConfigError(f"axis {self.name!r}: mode {self.mode} has no cyclic target")
+        return [CW, cia.TARGET_OF_MODE[self.op_mode]], [SW, POSITION, VELOCITY], [MODE_SHOWN, TORQUE, CURRENT]
+
+    def map_process_data(self) -> None:
+        """Set up the PDOs (``pdo``: remap, falling back to the device's own) and ``data``."""
+        od = self.node.object_dictionary
+        rx_keys, needed, optional = self._wanted()
+        rpdo: Pdo | None = None
+        tpdos: list[Pdo] = []
+        fixed = self._fixed_mapping(rx_keys, needed + optional) if self.pdo == "remap" else None
+        if fixed is not None:
+            log.warning(
+                '%s: the drive\'s PDO mapping is fixed (%s); using its own (pdo = "device")',
+                self.where,
+                fixed,
+            )
+            self.pdo = "device"
+        if self.pdo == "remap":
+            try:
+                rpdo, tpdos = self._remap(rx_keys, needed, optional)
+            except SdoAbort as exc:
+                log.warning(
+                    '%s: the drive refused the mapping (%s); using its own (pdo = "device")', self.where, exc
+                )
+                self.pdo = "device"
+        if self.pdo == "device":
+            rpdo, tpdos = self._device_mapping(rx_keys, needed + optional)
+        held = {e.key: self._held(e.key) for e in (rpdo.entries if rpdo else []) if e.key not in rx_keys}
+        self.data = ProcessData(od, tpdos, rpdo, receive=self.receive_cob, read=self.sdo_read, held=held)
+        for key in needed:
+            if not self.data.mapped(key):
+                if variable(od, key) is None or not variable(od, key).readable:
+                    raise ConfigError(
+                        f"{self.where}: 0x{key[0]:04X}:{key[1]:02X} is neither mapped nor readable"
+                    )
+                log.warning("%s: 0x%04X:%02X is in no TPDO: read by SDO every cycle", self.where, *key)
+        if self.toolkit_drive and cia.COMMAND_LATENCY in od:
+            latency = 0 if self.sync_rpdo else round(self.latency * 1e6)
+            self._setting(cia.COMMAND_LATENCY, 0, latency, "the command latency [us]")
+        self._measures()
+
+    def _fixed_mapping(self, rx_keys: list[Key], tx_keys: list[Key]) -> str | None:
+        """Why the mapping the host would write cannot be written (a mapping entry the EDS declares
+        read-only or constant), or None."""
+        od = self.node.object_dictionary
+        rpdo = plan_rpdo(od, rx_keys, ttype=1)
+        tpdos, _left = plan_tpdos(od, tx_keys, ttype=1)
+        for pdo in (rpdo, *tpdos):
+            for key in ((pdo.mapping, 0), (pdo.mapping, 1), (pdo.comm, cia.PDO_COMM_COB_ID)):
+                var = variable(od, key)
+                if var is not None and not var.writable:
+                    return f"0x{key[0]:04X}:{key[1]:02X} is {var.access_type} in its EDS"
+        return None
+
+    def _held(self, key: Key) -> int:
+        value = self._optional(*key)
+        return int(value) if value is not None else 0
+
+    def _remap(self, rx_keys: list[Key], needed: list[Key], optional: list[Key]) -> tuple[Pdo, list[Pdo]]:
+        od = self.node.object_dictionary
+        rpdo = plan_rpdo(od, rx_keys, ttype=1 if self.sync_rpdo else cia.PDO_EVENT)
+        tpdos, _left = plan_tpdos(od, needed + optional, ttype=1)
+        write = self._pdo_write
+        write_pdo(write, rpdo, node_id=self.node_id, od=od)
+        for pdo in tpdos:
+            write_pdo(write, pdo, node_id=self.node_id, od=od)
+        used = {(True, rpdo.number)} | {(False, p.number) for p in tpdos}
+        for receive in (True, False):
+            for n in numbers(od, receive=receive):
+                if (receive, n) not in used:
+                    cob = (cia.COB_RPDO if receive else cia.COB_TPDO)[n] + self.node_id if n < 4 else 0
+                    disable(self._disable_write, n, receive=receive, cob_id=cob)
+        return rpdo, tpdos
+
+    def _pdo_write(self, index: int, subindex: int, value: int) -> None:
+        self.sdo_write(index, subindex, value)
+
+    def _disable_write(self, index: int, subindex: int, value: int) -> None:
+        """A PDO the host does not use is made invalid where the EDS lets its COB-ID be written."""
+        var = variable(self.node.object_dictionary, (index, subindex))
+        if var is not None and not var.writable:
+            log.debug(
+                "%s: 0x%04X:%02X is %s: the PDO is left as it is",
+                self.where,
+                index,
+                subindex,
+                var.access_type,
+            )
+            return
+        self.sdo_write(index, subindex, value)
+
+    def _device_mapping(self, rx_keys: list[Key], tx_keys: list[Key]) -> tuple[Pdo | None, list[Pdo]]:
+        """The mapping in force: the RPDO carrying the target, the TPDOs carrying what the host
+        reads (made valid and synchronous where the device lets them)."""
+        od = self.node.object_dictionary
+        rpdos = read_mapping(self.sdo_read, od, receive=True)
+        carrying = [p for p in rpdos if all(k in [e.key for e in p.entries] for k in rx_keys[1:])]
+        if not carrying:
+            raise ConfigError(
+                f"{self.where}: no RPDO of the drive carries 0x{rx_keys[-1][0]:04X} (the mode's target); "
+                "its mapping cannot be changed"
+            )
+        rpdo = min(carrying, key=lambda p: len(self._foreign_entries(p)))
+        foreign = self._foreign_entries(rpdo)
+        if foreign:
+            e = foreign[0]
+            var = variable(od, e.key)
+            name = f" ({var.name})" if var is not None else ""
+            raise ConfigError(
+                f"{self.where}: the drive's own {rpdo.name}, which carries the mode's target, also carries "
+                f"0x{e.index:04X}:{e.subindex:02X}{name}, a manufacturer object of {self.device_id.text()}; "
+                "its mapping cannot be changed, and the host would write that object every cycle: the drive "
+                "is refused for cyclic use (rig drive still commissions it by SDO; map that RPDO without "
+                f"0x{e.index:04X} with the vendor's tool, then run)"
+            )
+        self._use(rpdo, ttype=1 if self.sync_rpdo else cia.PDO_EVENT)
+        tpdos = []
+        for pdo in read_mapping(self.sdo_read, od, receive=False):
+            if any(e.key in tx_keys for e in pdo.entries):
+                self._use(pdo, ttype=1)
+                tpdos.append(pdo)
+        return rpdo, tpdos
+
+    def _foreign_entries(self, pdo: Pdo) -> list[Any]:
+        """The entries of ``pdo`` that are manufacturer objects of a drive not the toolkit's."""
+        if self.toolkit_drive:
+            return []
+        return [e for e in pdo.entries if e.index in cia.MANUFACTURER_AREA]
+
+    def _use(self, pdo: Pdo, *, ttype: int) -> None:
+        """Make a PDO of the device's own mapping valid with transmission type ``ttype``."""
+        cob = pdo.cob_id or ((cia.COB_RPDO if pdo.receive else cia.COB_TPDO)[pdo.number] + self.node_id)
+        pdo.cob_id = cob
+        if pdo.valid and pdo.ttype == ttype:
+            return
+        od = self.node.object_dictionary
+        fixed = [
+            f"0x{pdo.comm:04X}:{sub:02X} is {var.access_type}"
+            for sub in (cia.PDO_COMM_COB_ID, cia.PDO_COMM_TYPE)
+            if (var := variable(od, (pdo.comm, sub))) is not None and not var.writable
+        ]
+        if fixed:
+            if not pdo.valid:
+                raise ConfigError(
+                    f"{self.where}: {pdo.name} is needed but cannot be enabled: {', '.join(fixed)}"
+                )
+            log.warning(
+                "%s: %s keeps its transmission type %d: %s", self.where, pdo.name, pdo.ttype, fixed[0]
+            )
+            return
+        try:
+            self.sdo_write(pdo.comm, cia.PDO_COMM_COB_ID, cob | cia.PDO_INVALID)
+            self.sdo_write(pdo.comm, cia.PDO_COMM_TYPE, ttype)
+            self.sdo_write(pdo.comm, cia.PDO_COMM_COB_ID, cob)
+        except SdoAbort as exc:
+            if not pdo.valid:
+                raise ConfigError(f"{self.where}: {pdo.name} is needed but cannot be enabled: {exc}") from exc
+            log.warning("%s: %s keeps its transmission type %d: %s", self.where, pdo.name, pdo.ttype, exc)
+            return
+        pdo.ttype, pdo.valid = ttype, True
+
+    def _measures(self) -> None:
+        data = self.data
+        assert data is not None
+        if self.op_mode == Mode.DQ_VOLTAGE:
+            self.measures = frozenset({"position", "velocity", "current"})
+            return
+        u = self.units
+        self.measures = frozenset(
+            {"position", "velocity"}
+            | ({"torque"} if math.isfinite(u.rated_torque) and data.mapped(TORQUE) else set())
+            | ({"current"} if math.isfinite(u.rated_current) and data.mapped(CURRENT) else set())
+        )
+        self._motion = data.slot_of(POSITION)
