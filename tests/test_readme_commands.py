@@ -59,6 +59,7 @@ PLACEHOLDERS = {
     "DEVICE": "epos4",
     "DIR": "figures",
     "FILE": "examples/dc_servo_position.toml",
+    "HZ": "5",
     "I": "socketcan",
     "L": "-15",
     "N": "1",
@@ -497,8 +498,8 @@ INSTANCES: dict[str, tuple[str, Check]] = {
         _json_keys(r"`--json` prints `\{(\"tables\": \[\.\.\.\], \"cross_coupling\": \[\.\.\.\])\}`"),
     ),
     "rig identify (--config FILE | --emulate PRESET | --from-log RUN_DIR) [--param NAME=VALUE ...] "
-    "[--input voltage|torque] [--excitation prbs|steps] [--duration S] [--seed N] [--u0 U] "
-    "[--amplitude U] [--clock S] [--json] [--plot FILE]": (
+    "[--input voltage|torque] [--excitation prbs|steps|chirp|multisine] [--duration S] [--f-min HZ] "
+    "[--f-max HZ] [--seed N] [--u0 U] [--amplitude U] [--clock S] [--json] [--plot FILE]": (
         "rig identify --emulate dc-servo --json",
         _json_keys(r"`--json` prints (`a_m`, `b_m`, .*?`run_dir`)"),
     ),
@@ -556,6 +557,7 @@ MENTIONS = {
     "rig emulate --device",
     "rig emulate --modbus-map",
     "rig identify --input torque",
+    "rig identify --excitation multisine",
 }
 
 

@@ -22,7 +22,13 @@ from rig.host.rundir import read_run
 from rig.host.session import Session
 from rig.identify.estimate import IdentResult, estimate
 
-__all__ = ["experiment_config", "identify_from_log", "run_controller", "run_experiment"]
+__all__ = [
+    "experiment_config",
+    "frequency_from_log",
+    "identify_from_log",
+    "run_controller",
+    "run_experiment",
+]
 
 
 def experiment_config(
@@ -32,12 +38,17 @@ def experiment_config(
     preset: str | None = None,
     params: dict[str, Any] | None = None,
     input: str = "voltage",
+    repeat: int = 0,
+    dither: float = 0.0,
+    seed: int = 0,
 ) -> RigConfig:
     """``cfg`` made into an identification run of ``u`` (one value per period, [V] or, with
     ``input="torque"``, [N m]): name ``identify``; the law ``replay`` on the axis ``cfg``'s law
     commands, in voltage mode (or CST for a torque: a commercial drive's) with a synchronous
     RPDO (the delay is estimated), no position window, a speed limit of 1000 rad/s;
-    ``preset``/``params`` replace the emulator's."""
+    ``preset``/``params`` replace the emulator's. ``repeat`` > 0: ``u`` repeats with that
+    period [samples], and the law holds one period (config.json stays small); ``dither`` > 0:
+    the law adds white noise of that standard deviation, seeded by ``seed``."""
     target = cfg.controller.commands[0]
     axes = tuple(
         dataclasses.replace(
@@ -64,7 +75,12 @@ def experiment_config(
             kind="replay",
             reads=(target,),
             commands=(target,),
-            params={"u": [float(v) for v in u], "one_sign": True},
+            params={
+                "u": [float(v) for v in (u[:repeat] if repeat else u)],
+                "one_sign": True,
+                **({"cycles": len(u)} if repeat else {}),
+                **({"dither": dither, "seed": seed} if dither else {}),
+            },
         ),
     )
 
@@ -74,7 +90,7 @@ def run_experiment(
 ) -> dict[str, Any]:
     """Run the experiment configuration ``cfg`` (``experiment_config``); returns the run summary.
     ``progress(k, cycles)`` every 1 % of it."""
-    n = len(cfg.controller.params["u"])
+    n = cfg.controller.params.get("cycles") or len(cfg.controller.params["u"])
     with Session(cfg, emulate=emulate, cycles=n) as session:
         session.start()
         summary = session.run(None if progress is None else lambda k: progress(k, n))
@@ -89,6 +105,20 @@ def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult
     run = read_run(run_dir)
     result = estimate(run.command, run.measurement, run.period, max_delay=max_delay, input=run_input(run_dir))
     return dataclasses.replace(result, filled_samples=run.filled)
+
+
+def frequency_from_log(
+    run_dir: str | Path, result: IdentResult, excitation: str, *, f_min: float, f_max: float | None
+) -> dict[str, Any]:
+    """The ``frequency_response`` document of a recorded run (``rig.identify.frequency``), the
+    fitted model ``result``'s response drawn beside it; the start's transient (SETTLE / a_m)
+    dropped."""
+    from rig.identify.frequency import SETTLE, frequency_response, response_document
+
+    run = read_run(run_dir)
+    settle = SETTLE / result.a_m  # the transient of the start from rest
+    fr = frequency_response(run.command, run.measurement, run.period, f_min=f_min, f_max=f_max, settle=settle)
+    return response_document(fr, excitation, result.a_m, result.b_m, result.delay_samples)
 
 
 def _run_config(run_dir: str | Path) -> dict[str, Any] | None:

@@ -66,9 +66,14 @@ def checks(result: IdentResult, controller: str | None) -> tuple[bool | None, li
 
 
 def write_identification(
-    run_dir: Path, result: IdentResult, closed_loop: bool | None, warnings: list[str]
+    run_dir: Path,
+    result: IdentResult,
+    closed_loop: bool | None,
+    warnings: list[str],
+    extra: dict[str, Any] | None = None,
 ) -> Path:
-    """``run_dir``/identification.json (atomically); its path."""
+    """``run_dir``/identification.json (atomically), with ``extra``'s keys (excitation,
+    frequency_response, bode_plot, friction); its path."""
     from rig.host.recorder import write_atomic
 
     doc: dict[str, Any] = {
@@ -77,6 +82,7 @@ def write_identification(
         "closed_loop": closed_loop,
         "warnings": warnings,
         "run_dir": str(run_dir),
+        **(extra or {}),
     }
     path = Path(run_dir) / FILE
     write_atomic(path, lambda f: f.write(json.dumps(doc, indent=1) + "\n"))

@@ -6,6 +6,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from drivers.base import Feedback
 from drivers.errors import SafetyStop
 from rig.laws.base import Law, LawStep, Reference
@@ -61,6 +63,13 @@ class ReplayParams:
 
     u: tuple[float, ...] = ()  #: [V] (or the unit of the mode)
     one_sign: bool = False  #: stop when the speed changes sign after the first 10 % (friction)
+    #: > 0: ``u`` is one period, repeated over this many cycles (a chirp or multisine; keeps
+    #: config.json small); 0: ``u`` is the whole run, its last value held
+    cycles: int = 0
+    #: [unit of u] standard deviation of a white Gaussian dither added to every cycle (seeded by
+    #: ``seed``): it keeps the encoder's quantisation error from repeating with a periodic ``u``
+    dither: float = 0.0
+    seed: int = 0
 
 
 class ReplayLaw(Law):
@@ -74,13 +83,25 @@ class ReplayLaw(Law):
         super().__init__(params, period=period, reference=reference)
         if not params.u:
             raise ValueError("replay needs an input sequence u")
+        if params.cycles < 0 or not params.dither >= 0.0:
+            raise ValueError(f"cycles = {params.cycles}, dither = {params.dither}: expected >= 0")
         self._k = 0
+        total = params.cycles or len(params.u)
+        self._settled = total // 10
+        self._dither = (
+            np.random.default_rng(params.seed).normal(0.0, params.dither, total).tolist()
+            if params.dither
+            else None
+        )
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
-        k = min(self._k, len(self.params.u) - 1)
+        n = len(self.params.u)
+        k = self._k % n if self.params.cycles else min(self._k, n - 1)
         self._k += 1
         fb = feedback[0]
-        if self.params.one_sign and fb.velocity < 0.0 and k > len(self.params.u) // 10:
+        if self.params.one_sign and fb.velocity < 0.0 and self._k > self._settled + 1:
             raise SafetyStop(f"speed {fb.velocity:.3g} rad/s changed sign: raise u0 above the friction")
         u = self.params.u[k]
+        if self._dither is not None and self._k <= len(self._dither):
+            u += self._dither[self._k - 1]
         return LawStep((u,), u, fb.position)

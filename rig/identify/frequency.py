@@ -1,0 +1,294 @@
+"""The frequency response from the command u to the speed and the position, and its model's.
+
+Excitation (``periodic_excitation``): u = u_0 + A x(t), x periodic with period N T,
+N = round(1 / (f_min T)), so every bin of a Welch segment of one period is a line of
+the excitation (no leakage with a rectangular window):
+
+- ``multisine``: equal lines at every bin from f_min to f_max with Schroeder's phases
+  phi_k = -pi k (k - 1) / K (M. R. Schroeder, "Synthesis of low-peak-factor signals and
+  binary sequences with low autocorrelation", IEEE Trans. Inf. Theory 16 (1970) 85-89),
+  synthesised by an inverse real FFT and scaled to a peak of 1;
+- ``chirp``: a logarithmic sweep from f_min to f_max over one period
+  (``scipy.signal.chirp``), repeated.
+
+Estimate (``frequency_response``): the speed is the backward difference of the measured
+position, w_k = (theta_k - theta_k-1) / T, the speed a host computes from an encoder. The
+first period (the start from rest) is dropped; the rest is split into Welch segments
+(P. D. Welch, "The use of fast Fourier transform for the estimation of power spectra",
+IEEE Trans. Audio Electroacoust. 15 (1967) 70-73) of one period each: rectangular and
+without overlap when u repeats with that period, else Hann with half overlap. The H1
+estimator (J. S. Bendat, A. G. Piersol, "Random Data", 4th ed., Wiley 2010, sec. 9.2),
+unbiased by output noise, is
+
+    H1(f) = G_uy(f) / G_uu(f),  gamma^2(f) = |G_uy|^2 / (G_uu G_yy),
+
+with the cross and auto spectral densities and the coherence from ``scipy.signal.csd``,
+``welch`` and ``coherence`` (csd(u, y) = E[conj(U) Y]). The position's response follows
+exactly: theta = w T / (1 - z^-1).
+
+Model (``model_speed_response``): (3.5) sampled with a zero-order hold, delayed by k
+samples, with the speed measured as above: from the ZOH solution used by
+``simulate_positions`` (w_n+1 = alpha w_n + g b u_n, theta_n+1 = theta_n + g w_n + h b u_n,
+alpha = e^(-a T), g = (1 - alpha)/a, h = (T - g)/a),
+
+    W(z)/U(z) = b (h + (g^2 - h alpha) z^-1) z^-(k+1) / (T (1 - alpha z^-1)),
+
+evaluated by ``scipy.signal.freqz``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rig.identify.estimate import IdentificationError
+
+__all__ = [
+    "COHERENCE_MIN",
+    "FREQUENCY_EXCITATIONS",
+    "FrequencyResponse",
+    "frequency_response",
+    "model_speed_response",
+    "period_samples",
+    "periodic_excitation",
+    "speed_to_position",
+]
+
+FREQUENCY_EXCITATIONS = ("chirp", "multisine")
+#: [-] a bin is coherent (the response there is measured, not noise) at this coherence or above
+COHERENCE_MIN = 0.9
+#: the default upper frequency, a fraction of the sample rate
+F_MAX_FRACTION = 0.2
+
+
+def period_samples(f_min: float, dt: float) -> int:
+    """N = round(1 / (f_min T)): the excitation's period and the Welch segment [samples]."""
+    if not (math.isfinite(f_min) and f_min > 0.0):
+        raise IdentificationError(f"f_min = {f_min!r} Hz: expected a frequency > 0")
+    return max(8, round(1.0 / (f_min * dt)))
+
+
+def _band(f_min: float, f_max: float | None, dt: float) -> tuple[float, float]:
+    fs = 1.0 / dt
+    hi = F_MAX_FRACTION * fs if f_max is None else f_max
+    if not (math.isfinite(hi) and f_min < hi <= fs / 2.0):
+        raise IdentificationError(
+            f"f_max = {hi!r} Hz: expected f_min ({f_min:g} Hz) < f_max <= fs/2 = {fs / 2.0:g} Hz"
+        )
+    return f_min, hi
+
+
+def periodic_excitation(
+    kind: str,
+    *,
+    u0: float,
+    amplitude: float,
+    dt: float,
+    duration: float,
+    f_min: float = 1.0,
+    f_max: float | None = None,
+) -> np.ndarray:
+    """u_k = u0 + amplitude x_k [unit of u], x a ``multisine`` or ``chirp`` of period
+    1/f_min (rounded to samples) between f_min and f_max [Hz] (default fs/5), peak 1."""
+    import scipy.signal
+
+    n_period = period_samples(f_min, dt)
+    lo, hi = _band(f_min, f_max, dt)
+    if kind == "multisine":
+        k = np.arange(n_period // 2 + 1)
+        f = k / (n_period * dt)
+        lines = k[(f >= lo) & (f <= hi)]
+        if len(lines) == 0:
+            raise IdentificationError(f"no frequency line between {lo:g} and {hi:g} Hz at T = {dt:g} s")
+        spectrum = np.zeros(len(k), dtype=complex)
+        j = np.arange(1, len(lines) + 1)
+        spectrum[lines] = np.exp(-1j * math.pi * j * (j - 1) / len(lines))  # Schroeder
+        x = np.fft.irfft(spectrum, n_period)
+    elif kind == "chirp":
+        t = np.arange(n_period) * dt
+        x = scipy.signal.chirp(t, f0=lo, t1=n_period * dt, f1=hi, method="logarithmic")
+    else:
+        raise ValueError(f"excitation {kind!r}: expected one of {', '.join(FREQUENCY_EXCITATIONS)}")
+    x = x / float(np.max(np.abs(x)))
+    n = round(duration / dt)
+    out: np.ndarray = u0 + amplitude * np.resize(x, n)
+    return out
+
+
+def model_speed_response(a: float, b: float, dt: float, delay: int, f: np.ndarray) -> np.ndarray:
+    """The exact discrete response of (3.5) (a [1/s], b) from u to the speed by backward
+    difference, with a delay of ``delay`` samples, at the frequencies ``f`` [Hz] (module doc)."""
+    import scipy.signal
+
+    alpha = math.exp(-a * dt)
+    g = (1.0 - alpha) / a if a != 0.0 else dt
+    h = (dt - g) / a if a != 0.0 else dt * dt / 2.0
+    num = np.concatenate([np.zeros(delay + 1), [b * h / dt, b * (g * g - h * alpha) / dt]])
+    _, response = scipy.signal.freqz(num, [1.0, -alpha], worN=np.asarray(f, dtype=float), fs=1.0 / dt)
+    out: np.ndarray = response
+    return out
+
+
+def speed_to_position(f: np.ndarray, dt: float) -> np.ndarray:
+    """T / (1 - z^-1) at ``f`` [Hz]: the position from the backward-difference speed."""
+    z_inv = np.exp(-2j * math.pi * np.asarray(f) * dt)
+    out: np.ndarray = dt / (1.0 - z_inv)
+    return out
+
+
+@dataclass(frozen=True)
+class FrequencyResponse:
+    """H1 estimate from u to the speed (and the position) with its coherence; SI, f in Hz."""
+
+    f: np.ndarray  #: [Hz]
+    speed: np.ndarray  #: H1 from u to w, complex [(rad/s) per unit of u]
+    coherence: np.ndarray  #: gamma^2 [-]
+    dt: float  #: [s]
+    averages: int  #: Welch segments
+    dropped: float  #: [s] of the start's transient, not used
+    window: str  #: "boxcar" (periodic excitation, one period a segment) or "hann"
+    f_min: float
+    f_max: float
+
+    @property
+    def position(self) -> np.ndarray:
+        """H1 from u to theta [rad per unit of u]."""
+        return self.speed * speed_to_position(self.f, self.dt)
+
+    @property
+    def coherent(self) -> np.ndarray:
+        """The bins whose coherence is at least COHERENCE_MIN."""
+        out: np.ndarray = self.coherence >= COHERENCE_MIN
+        return out
+
+    def coherent_band(self) -> tuple[float, float] | None:
+        """[Hz] the longest run of contiguous coherent bins; None when no bin is coherent."""
+        best: tuple[int, int] | None = None
+        start = None
+        for i, ok in enumerate([*self.coherent, False]):
+            if ok and start is None:
+                start = i
+            elif not ok and start is not None:
+                if best is None or i - start > best[1] - best[0]:
+                    best = (start, i)
+                start = None
+        return None if best is None else (float(self.f[best[0]]), float(self.f[best[1] - 1]))
+
+    def deviation(self, model: np.ndarray) -> tuple[float, float]:
+        """(worst |dB|, worst |degrees|) of the measured speed response against ``model`` (the
+        same bins) over the coherent bins; nan where none is coherent."""
+        mask = self.coherent
+        if not mask.any():
+            return math.nan, math.nan
+        ratio = self.speed[mask] / model[mask]
+        return float(np.max(np.abs(20.0 * np.log10(np.abs(ratio))))), float(
+            np.max(np.abs(np.degrees(np.angle(ratio))))
+        )
+
+
+def _is_periodic(u: np.ndarray, n: int) -> bool:
+    """u repeats with period n samples over the record, but for a dither: the RMS of
+    u_k+n - u_k is at most a tenth of u's standard deviation."""
+    if len(u) < 2 * n:
+        return False
+    return bool(np.std(u[n:] - u[:-n]) <= 0.1 * np.std(u))
+
+
+def frequency_response(
+    u: np.ndarray,
+    theta: np.ndarray,
+    dt: float,
+    *,
+    f_min: float = 1.0,
+    f_max: float | None = None,
+    settle: float = 0.0,
+) -> FrequencyResponse:
+    """H1 from the command u to the speed (backward differences of the position theta [rad])
+    between f_min and f_max [Hz] (default fs/5); Welch segments of 1/f_min (module doc). The
+    first whole periods covering ``settle`` [s] (at least one) are the start's transient and
+    are dropped, keeping at least two periods."""
+    import scipy.signal
+
+    u = np.asarray(u, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    lo, hi = _band(f_min, f_max, dt)
+    n = period_samples(lo, dt)
+    if len(u) < 3 * n + 1:
+        raise IdentificationError(
+            f"{len(u)} samples ({len(u) * dt:g} s) for a frequency response from {lo:g} Hz: record at "
+            f"least three periods of 1/f_min ({3 * n * dt:g} s; the first is the start's transient)"
+        )
+    periodic = _is_periodic(u, n)
+    # the start from rest; w_k = (theta_k - theta_k-1)/T pairs with u_k
+    drop = n * min(max(1, math.ceil(settle / (n * dt))), (len(u) - 1) // n - 2)
+    w = np.diff(theta[drop - 1 :]) / dt
+    uu = u[drop:]
+    window, overlap = ("boxcar", 0) if periodic else ("hann", n // 2)
+    if periodic:  # whole periods only
+        keep = (len(uu) // n) * n
+        uu, w = uu[:keep], w[:keep]
+    kw = {"fs": 1.0 / dt, "window": window, "nperseg": n, "noverlap": overlap, "detrend": "constant"}
+    f, g_uu = scipy.signal.welch(uu, **kw)
+    _, g_uy = scipy.signal.csd(uu, w, **kw)
+    with np.errstate(divide="ignore", invalid="ignore"):  # bins without power: nan, not kept
+        _, gamma2 = scipy.signal.coherence(uu, w, **kw)
+    band = (f >= lo - 1e-9) & (f <= hi + 1e-9) & (g_uu > 0.0)
+    if not band.any():
+        raise IdentificationError(f"the input has no power between {lo:g} and {hi:g} Hz")
+    averages = 1 + (len(uu) - n) // (n - overlap)
+    return FrequencyResponse(
+        f=f[band],
+        speed=g_uy[band] / g_uu[band],
+        coherence=gamma2[band],
+        dt=dt,
+        averages=averages,
+        dropped=drop * dt,
+        window=window,
+        f_min=lo,
+        f_max=hi,
+    )
+
+
+def _db(h: np.ndarray) -> list[float]:
+    return [float(v) for v in 20.0 * np.log10(np.abs(h))]
+
+
+def _deg(h: np.ndarray) -> list[float]:
+    return [float(v) for v in np.degrees(np.unwrap(np.angle(h)))]
+
+
+#: [time constants 1/a_m] the start's transient dropped from a frequency response (e^-7 < 0.1 %)
+SETTLE = 7.0
+
+
+def response_document(
+    fr: FrequencyResponse, excitation: str, a_m: float, b_m: float, delay: int
+) -> dict[str, object]:
+    """The ``frequency_response`` object of identification.json: the measured speed and
+    position responses, the coherence, the fitted model's speed response (a_m, b_m, the
+    delay), the coherent band and the fit's worst deviation within it."""
+    model = model_speed_response(a_m, b_m, fr.dt, delay, fr.f)
+    worst_db, worst_deg = fr.deviation(model)
+    band = fr.coherent_band()
+    return {
+        "excitation": excitation,
+        "f_min": fr.f_min,
+        "f_max": fr.f_max,
+        "averages": fr.averages,
+        "dropped": fr.dropped,
+        "window": fr.window,
+        "coherence_min": COHERENCE_MIN,
+        "frequency": [float(v) for v in fr.f],
+        "magnitude_db": _db(fr.speed),
+        "phase_deg": _deg(fr.speed),
+        "position_magnitude_db": _db(fr.position),
+        "position_phase_deg": _deg(fr.position),
+        "coherence": [float(v) for v in fr.coherence],
+        "model_magnitude_db": _db(model),
+        "model_phase_deg": _deg(model),
+        "coherent_band": None if band is None else list(band),
+        "worst_db": None if math.isnan(worst_db) else worst_db,
+        "worst_deg": None if math.isnan(worst_deg) else worst_deg,
+    }
