@@ -24,8 +24,19 @@ Real time (``clock`` set: the emulator's own monotonic clock [s]): time is never
 tied to frames. ``advance_to(t)`` steps whole periods up to ``t``, each ending
 with every drive's own cycle (``on_period``); the emulator calls it often, and
 every node on a SYNC calls it before latching, so a lost or late SYNC changes
-only when feedback is latched. A command acts from the first period boundary at
-or after it is due. Lock-step (no clock) keeps its exact stepping per SYNC.
+only when feedback is latched. A SYNC also locks the periods' phase to itself, as
+a CiA 402 drive synchronises its cycle to SYNC: the period boundary nearest the
+SYNC moves to it (a SYNC in the second half of a period ends that period there,
+one in the first half starts the next one there), so the periods stretch or
+shrink by the SYNC's jitter and no step of another length is made; with SYNCs a
+period apart the physics advances one period per SYNC, as in lock-step, and a
+synchronous RPDO acts exactly one period after the SYNC its command answers,
+whatever the phases of the emulator's and the host's clocks. A command
+acts from the first period boundary at or after it is due. An emulator that falls
+behind its clock simulates at most ``catch_up`` periods at once: the rest are
+skipped (the plant holds still over them) and counted in ``skipped``, so the lock
+its receive thread needs is never held for a backlog. Lock-step (no clock) keeps
+its exact stepping per SYNC.
 
 Loads (``Axis.load``) run in seconds since the first attached drive last entered
 OPERATION ENABLED (``enabled``), not since the clock's epoch; until its first enable
@@ -104,6 +115,8 @@ class Shaft:
         self.sync_offset = 0.0
         #: real time: the emulator's monotonic clock [s] (None: time steps with the SYNCs)
         self.clock: Callable[[], float] | None = None
+        self.catch_up = 50  #: real time: the most periods advanced at once (the rest skipped)
+        self.skipped = 0  #: real time: periods skipped behind the clock
         #: [s] loads run in t - load_origin; None: their time stands at 0 (no enable yet)
         self.load_origin: float | None = None
         self._drives: list[Coupled] = []
@@ -144,7 +157,12 @@ class Shaft:
         if self.clock is not None:
             now = self.clock()
             self.advance_to(now)
-            self.sync_offset = now - self.t
+            if now - self.t >= 0.5 * self.period:  # the nearest period boundary is the SYNC's
+                self._advance(self.t)
+                for drive in self._drives:
+                    drive.on_period()
+            self.t = now  # the periods' phase locked to the SYNC (the module docstring)
+            self.sync_offset = 0.0
             return False
         key = id(node)
         if timestamp == self._stamp and key not in self._seen:
@@ -161,7 +179,13 @@ class Shaft:
 
     def advance_to(self, t: float) -> int:
         """Real time: advance whole periods up to ``t`` [s]; each ends with every drive's cycle.
-        The number of periods advanced."""
+        At most ``catch_up`` of them: the earlier ones are skipped (``skipped``). The number of
+        periods advanced."""
+        behind = int((t - self.t) / self.period + 1e-9)
+        if behind > self.catch_up:
+            skip = behind - self.catch_up
+            self.t += skip * self.period
+            self.skipped += skip
         n = 0
         while self.t + self.period <= t + 1e-12:
             self._advance(self.t)
@@ -176,14 +200,16 @@ class Shaft:
         if self._drives and drive is self._drives[0]:
             self.load_origin = self.t
 
-    def _advance(self, t: float) -> None:
+    def _advance(self, t: float, length: float | None = None) -> None:
+        """The period from ``t`` [s] (of ``length`` [s], default the period)."""
         drives = self._drives
         if len(drives) == 1:
             timeline = drives[0].take_timeline(t)
         else:
             timeline = [c for d in drives for c in d.take_timeline(t)]
         origin = self.load_origin
-        run_period(self._step, timeline, 0.0 if origin is None else t - origin, self.period)
+        h = self.period if length is None else length
+        run_period(self._step, timeline, 0.0 if origin is None else t - origin, h)
 
     def _step_all(self, h: float, t: float) -> None:
         for axis in self.axes:

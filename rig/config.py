@@ -4,7 +4,11 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
 
     [run]        duration [s], time ("lockstep" | "realtime"), output (directory), name,
                  period [s] (default: the emulator preset's), trace (write trace.asc, default true),
-                 missed_sample ("hold" | "zero": a cycle without a new sample from a read axis)
+                 missed_sample ("hold" | "zero": a cycle without a new sample from a read axis),
+                 answer_budget [s] (real time: the wait for the TPDOs answering a SYNC; 0: half
+                 the period), late_stop (late cycles in a row that are a safe stop; 0: never),
+                 rt_priority (SCHED_FIFO 1-99 of the real-time loop, 50; 0: none), rt_cpu (-1:
+                 the last CPU, -2: not pinned), rt_lock_memory (true)
     [bus]        the CAN bus: interface, channel, bitrate, host, port (ignored with --emulate);
                  host_node (127), heartbeat [s] (0.1; 0: none): the host's heartbeat the drives watch;
                  sync ("host" | "external": another device sends SYNC; real time only)
@@ -84,6 +88,17 @@ class RunConfig:
     #: a cycle whose samples did not all come new (a TPDO missed): "hold" the law's last
     #: commands (nothing new is sent; the law is not stepped on stale feedback) or send "zero"
     missed_sample: Literal["hold", "zero"] = "hold"
+    #: [s] real time with the host's SYNC: how long a cycle waits for the TPDOs answering its
+    #: SYNC before it goes on with what it has (a late cycle); 0: half the period
+    answer_budget: float = 0.0
+    #: that many late cycles in a row are a safe stop (0: never)
+    late_stop: int = 100
+    #: real time (``rig.host.realtime``): SCHED_FIFO priority of the loop thread (the bus's
+    #: receive thread one above; 0: normal scheduling), the CPU they are pinned to (-1: the last
+    #: one; -2: not pinned), and memory locked; each asked for, what was granted in the summary
+    rt_priority: int = 50
+    rt_cpu: int = -1
+    rt_lock_memory: bool = True
 
 
 @dataclass(frozen=True)

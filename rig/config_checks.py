@@ -91,6 +91,23 @@ def check_run(src: str, run: Any) -> None:
     require(math.isfinite(d) and d > 0.0, w, "duration", d, "must be a finite time > 0 s")
     if run.period != 0.0:
         check_period(w, "period", run.period)
+    b = run.answer_budget
+    require(
+        math.isfinite(b) and b >= 0.0, w, "answer_budget", b, "must be a time >= 0 s (0: half the period)"
+    )
+    if run.period > 0.0:
+        require(b < run.period, w, "answer_budget", b, f"must be shorter than the period {run.period:g} s")
+    require(run.late_stop >= 0, w, "late_stop", run.late_stop, "must be >= 0 cycles (0: never)")
+    require(
+        0 <= run.rt_priority <= 99, w, "rt_priority", run.rt_priority, "must be 0-99 (0: normal scheduling)"
+    )
+    require(
+        run.rt_cpu >= -2,
+        w,
+        "rt_cpu",
+        run.rt_cpu,
+        "must be a CPU number, -1 (the last CPU) or -2 (not pinned)",
+    )
     check_run_name(w, run.name)
     require(bool(run.output) and "\0" not in run.output, w, "output", run.output, "must be a folder's path")
 

@@ -16,6 +16,7 @@ it lets go of its axis and the shaft keeps turning, as a real drive's does.
 
 from __future__ import annotations
 
+import gc
 import logging
 import pathlib
 import signal
@@ -31,6 +32,7 @@ from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.clock import WorldClock
 from plant_emulator.lockstep import SyncHub, attach_network
 from plant_emulator.socketcand_server import SocketcandServer
+from rig.host.realtime import Grant, RealtimeRequest, request
 
 __all__ = ["World", "rest_plants", "run_emulator", "run_modbus_emulator"]
 
@@ -93,8 +95,11 @@ def run_emulator(
     stop: threading.Event | None = None,
     ready: Any = None,
     lockstep: bool = False,
+    realtime: RealtimeRequest | None = None,
 ) -> int:
-    """Run until Ctrl-C (or ``stop`` is set); ``ready(port)`` is called once serving."""
+    """Run until Ctrl-C (or ``stop`` is set); ``ready(port)`` is called once serving. In real time,
+    ``realtime`` is asked for this thread (the clock) before the server starts, so the threads that
+    carry the frames, which it starts, inherit its policy and CPU (``rig.host.realtime``)."""
     stop = stop or threading.Event()
     lock = threading.RLock()
     network = canopen.Network()
@@ -107,7 +112,13 @@ def run_emulator(
                 if hasattr(d, "lockstep"):
                     d.lockstep = lockstep
                 d.boot()
-            clock = None if lockstep else WorldClock(devices)
+        grant: Grant | None = None
+        if not lockstep and realtime is not None:
+            gc.collect()
+            gc.freeze()  # the world built: its objects are not traversed by the collections to come
+            grant = request(realtime)
+        with lock:
+            clock = None if lockstep else WorldClock(devices)  # its time starts now
         if server is not None:
             server.start()
         rest = threading.Event()
@@ -116,7 +127,11 @@ def run_emulator(
             signal.signal(signal.SIGUSR1, lambda signum, frame: rest.set())
         nodes = [d.node_id for d in devices]
         log.info("emulating %s (nodes %s, period %g s) on %s", label, nodes, period, where)
-        print(f"rig emulate: {label} on {where}; Ctrl-C stops, SIGUSR1 puts the plant at rest", flush=True)
+        granted = f" ({grant.describe()})" if grant is not None else ""
+        print(
+            f"rig emulate: {label} on {where}{granted}; Ctrl-C stops, SIGUSR1 puts the plant at rest",
+            flush=True,
+        )
         if ready is not None:
             ready(server.port if server else 0)
         while not stop.is_set():

@@ -62,6 +62,27 @@ def add_parser(sub: Any) -> None:
         default="realtime",
         help="lockstep: an event RPDO counts as received at its SYNC (for hosts that wait for each answer)",
     )
+    emulate.add_argument(
+        "--rt-priority",
+        type=int,
+        default=49,
+        metavar="N",
+        help="real time: SCHED_FIFO priority of the emulator's clock and of the threads carrying its "
+        "frames (1-99; 0: normal scheduling; default 49, below a host loop's 50)",
+    )
+    emulate.add_argument(
+        "--rt-cpu",
+        type=int,
+        default=0,
+        metavar="N",
+        help="real time: the CPU they are pinned to (default 0; -1: the last CPU; -2: not pinned)",
+    )
+    emulate.add_argument(
+        "--rt-lock-memory",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="real time: lock the emulator's memory (default: yes)",
+    )
     add_params(emulate, "override a preset (or inverter) parameter")
     emulate.set_defaults(handler=run)
 
@@ -177,4 +198,19 @@ def run(args: argparse.Namespace) -> int:
         host=args.listen,
         port=args.socketcand_port,
         lockstep=args.time == "lockstep",
+        realtime=_realtime(args),
     )
+
+
+def _realtime(args: argparse.Namespace) -> Any:
+    from rig.host.realtime import RealtimeRequest
+
+    if not 0 <= args.rt_priority <= 99:
+        raise UsageError(
+            f"rig emulate: --rt-priority {args.rt_priority}: must be 0-99 (0: normal scheduling)"
+        )
+    if args.rt_cpu < -2:
+        raise UsageError(
+            f"rig emulate: --rt-cpu {args.rt_cpu}: a CPU number, -1 (the last) or -2 (not pinned)"
+        )
+    return RealtimeRequest(args.rt_priority, args.rt_cpu, args.rt_lock_memory)

@@ -53,6 +53,7 @@ def describe_columns(
         "read_us": ("us", "time to read every axis's feedback in this cycle"),
         "update_us": ("us", "time to compute the law and check the commands"),
         "write_us": ("us", "time to send the commands"),
+        "late": ("", "1: the TPDOs answering this cycle's SYNC missed their budget ([run] answer_budget)"),
     }
     docs: dict[str, dict[str, str]] = {}
     for column in columns:

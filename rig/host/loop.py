@@ -1,13 +1,18 @@
 """The SYNC-driven host loop of ARCHITECTURE.md: every axis of the rig, one law, one safe-stop path.
 
-Each cycle: ``pacing.tick()`` (the SYNC), then for every axis its feedback in
+Each cycle: ``pacing.tick()`` (the SYNC and, where the host sends it, the wait for the
+TPDOs answering it: the law acts on the sample of the same SYNC in both time modes;
+answers later than the budget make a late cycle, counted in its row and the summary,
+and ``late_stop`` late cycles in a row are a safe stop), then for every axis its feedback in
 SI, its own supervision (EMCY, NMT, heartbeat, statusword, ...) and its guard
 (watchdog, NaN, limits); then the law runs once on the axes it reads; every
 command (the law's, and the time profiles of profile axes) is checked against
 its axis's limits and only then all are written; the sample is recorded. Two
 time modes, same code path: lock-step (as fast as possible, deterministic) and
-real time (absolute deadlines on the monotonic clock, a short spin before each
-deadline, garbage collection frozen, missed cycles skipped and counted).
+real time (absolute deadlines on the monotonic clock, slept to; with ``spin`` [s], where
+the loop thread has no real-time priority, yielding spins over the last part; garbage
+collection frozen and young generations collected in a cycle's slack, ``gc_slack``;
+missed cycles skipped and counted).
 
 Every way out (a limit, the watchdog, a lost heartbeat, an EMCY, a NaN or an
 exception from the law, Ctrl-C) goes through ``safe_stop``, and the end of a
@@ -94,6 +99,8 @@ class HostLoop:
         on_stop: Callable[[], None] | None = None,
         missed_sample: str = "hold",
         held: AbstractContextManager[None] | None = None,
+        late_stop: int = 0,
+        spin: float = 0.0004,
     ) -> None:
         self.axes = list(axes)
         self.guards = list(guards)
@@ -114,6 +121,15 @@ class HostLoop:
         self.uncut = held if held is not None else contextlib.nullcontext()
         self.missed_sample = missed_sample  #: "hold" | "zero" (``_step``)
         self.held = 0  #: cycles in which a read axis had no new sample
+        self.late = 0  #: cycles whose answers missed the pacing's budget (``Pacing.late``)
+        self.late_stop = late_stop  #: that many late cycles in a row: a safe stop (0: never)
+        self._late_run = 0
+        #: [s] before a deadline the loop stops sleeping and spins yielding (0: sleeps to it;
+        #: never at real-time priority, where a spin starves the threads that carry the frames)
+        self.spin = spin
+        self.gc_young = 700  #: young objects before a collection in the slack (``_collect``)
+        self.collections = 0  #: collections run in the slack
+        self.granted: dict[str, Any] | None = None  #: real time: what the system granted (the summary's)
         self._last_out: LawStep | None = None
         self._stamps: list[float | None] = []
         #: the read axes' sample stamps are bus receive times on the wall clock (real time, CANopen)
@@ -150,19 +166,21 @@ class HostLoop:
             *law.internals,
             *per_axis,
             *commands,
+            "late",
             "read_us",
             "update_us",
             "write_us",
         ]
 
     def _wait(self, deadline: float) -> None:
-        """Sleep until shortly before ``deadline`` (perf_counter s), then spin yielding the GIL,
-        so the bus's receive thread can deliver the TPDOs meanwhile."""
+        """Sleep until ``deadline`` (perf_counter s); with ``spin``, until that long before it,
+        then spin yielding the GIL."""
+        spin = self.spin
         while True:
             left = deadline - time.perf_counter()
             if left <= 0.0:
                 return
-            time.sleep(left - 0.0004 if left > 0.0005 else 0.0)
+            time.sleep(left - spin if left > spin + 0.0001 else (0.0 if spin else left))
 
     def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
         """Run the cycles (``progress(k)`` every 1 % of them); returns the summary."""
@@ -239,7 +257,6 @@ class HostLoop:
         pace = self.realtime and not self.pacing.paced_by_bus
         by_bus = self.pacing.paced_by_bus
         last_tick: float | None = None
-        previous: int | None = None  #: the cycle of the last tick
         while k < self.cycles:
             if pace:
                 self._wait(deadline)
@@ -264,32 +281,58 @@ class HostLoop:
                 last_tick = now
                 if k >= self.cycles:
                     break
-            # the host's SYNC: the TPDOs read now answer the previous tick's (a stall between the
-            # two ticks is in the drive's sample); the bus's SYNC: this tick's
-            self._cycle(k, t0, previous if pace and previous is not None else k)
-            previous = k
+            late = self.pacing.late
+            self._cycle(k, t0, late=late)
+            if late:
+                self._late(k)
+            else:
+                self._late_run = 0
             k += 1
             deadline += self.period
+            if self.realtime:
+                self._collect(deadline if pace else t0 + self.period)
             if progress is not None and k % every == 0:
                 progress(k)
 
-    def _read(self, k: int, sample_k: int) -> list[Feedback]:
+    def _collect(self, deadline: float) -> None:
+        """Real time, where the collector is disabled (``run``): the young generations collected
+        once they hold ``gc_young`` objects and the next ``deadline`` (perf_counter s) leaves half a
+        period, so cyclic garbage does not pile up over a long run and no collection runs in a
+        cycle's work."""
+        young, middle, _ = gc.get_count()
+        if young >= self.gc_young and deadline - time.perf_counter() > 0.5 * self.period:
+            gc.collect(1 if middle >= 10 else 0)
+            self.collections += 1
+
+    def _read(self, k: int) -> list[Feedback]:
         now = self.pacing.now()
         samples = []
         for axis, guard in zip(self.axes, self.guards):
             fb = axis.feedback()
             axis.supervise(now)
-            guard.check_feedback(fb, k, sample_k)
+            guard.check_feedback(fb, k)
             samples.append(fb)
         return samples
 
-    def _cycle(self, k: int, t0: float, sample_k: int | None = None) -> None:
-        """Cycle ``k``, whose tick started at ``t0`` (perf_counter s) and has returned; its
-        samples were taken at the SYNC of cycle ``sample_k`` (default ``k``)."""
+    def _late(self, k: int) -> None:
+        """Cycle ``k`` was late: counted; ``late_stop`` of them in a row are a safe stop."""
+        self.late += 1
+        self._late_run += 1
+        if self.late_stop and self._late_run >= self.late_stop:
+            budget = getattr(self.pacing, "budget", math.nan)
+            raise SafetyStop(
+                f"{self._late_run} late cycles in a row (cycles {k - self._late_run + 1}-{k}): the TPDOs "
+                f"answering SYNC missed the budget of {budget * 1e6:.0f} us ([run] answer_budget; "
+                f"[run] late_stop = {self.late_stop})"
+            )
+
+    def _cycle(self, k: int, t0: float, *, late: bool = False) -> None:
+        """Cycle ``k``, whose tick started at ``t0`` (perf_counter s) and has returned (``late``:
+        its answers missed their budget)."""
         t = k * self.period
         if self.heartbeat is not None:
             self.heartbeat(k)
-        samples = self._read(k, k if sample_k is None else sample_k)
+        samples = self._read(k)
         if not self._begun:
             self._begin(samples)
         t1 = time.perf_counter()
@@ -306,10 +349,13 @@ class HostLoop:
         for i, value in zip(targets, values[skip:]):
             axes[i].command(value)
         t3 = time.perf_counter()
-        if self.realtime and send and self._wall_stamps:
-            newest = max((fb.stamp for fb in reads if fb.stamp is not None), default=None)
-            if newest is not None:  # the TPDO's time on the bus to the RPDO's
-                self.times.response.append(time.time() - newest)
+        if self.realtime and send:
+            if self.pacing.sends_sync:  # the host's SYNC to its RPDOs
+                self.times.response.append(t3 - t0)
+            elif self._wall_stamps:  # the bus's SYNC: a read axis's TPDO on the bus to the RPDOs
+                newest = max((fb.stamp for fb in reads if fb.stamp is not None), default=None)
+                if newest is not None:
+                    self.times.response.append(time.time() - newest)
         scalars = [abs(v) if isinstance(v, complex) else v for v in values]  # a dq command as its magnitude
         self.metrics.add(out.reference, out.measurement, values, samples)
         self.times.read.append(t1 - t0)
@@ -320,6 +366,7 @@ class HostLoop:
         for i, fields in self._recorded:
             row += fields(samples[i])
         row += scalars
+        row.append(1.0 if late else 0.0)
         with self.uncut:  # a stop signal waits: the row on disk and the count agree
             self.recorder.sample(row, (t1 - t0, t2 - t1, t3 - t2))
             self.done += 1  #: cycles run (skipped ones are under ``overruns``)
@@ -391,10 +438,14 @@ class HostLoop:
             "command_units": self._command_units(),
             "overruns": self.overruns,
             "held_cycles": self.held,
+            "late_cycles": self.late,
             "elapsed_s": self.elapsed,
             "safe_stop_reason": self.safe_stop_reason,
             "stop_confirmed": self.stop_confirmed,
             "run_dir": str(self.recorder.dir),
             "timing": self.times.stats(),
+            "realtime": None
+            if self.granted is None
+            else {**self.granted, "gc_collections": self.collections},
             "axes": m.axis_peaks(),
         }

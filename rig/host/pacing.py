@@ -8,9 +8,12 @@ the clock the frames' timestamps are on (heartbeat ages are measured on it).
 - ``InProcessLockstep``: the emulated world in this process: emulated time from
   a SYNC count, the SYNC delivered synchronously (every TPDO is in before
   ``tick`` returns), in-process Modbus inverters stepped one period.
-- ``WireLockstep``: lock-step over a real bus: SYNC, then wait until every
-  CANopen axis's TPDOs of this SYNC have arrived (up to ``timeout``).
-- ``HostSync``: real time; the host sends SYNC at each deadline.
+- ``HostSync``: the host sends SYNC (in real time at each deadline), then waits until
+  every CANopen axis's TPDOs answering it have arrived, up to a budget: the law acts
+  on the sample of the same SYNC, as in lock-step. Answers that miss the budget make
+  the cycle ``late`` (the loop uses what it has, and counts it).
+- ``WireLockstep``: lock-step over a real bus: the same, with a budget as long as the
+  transport may need (``timeout``).
 - ``KernelSync``: real time on SocketCAN; the kernel's broadcast manager sends
   SYNC every period; ``tick`` waits for the answering TPDO.
 - ``ExternalSync``: real time, another device sends SYNC; ``tick`` waits for the
@@ -34,6 +37,8 @@ class Pacing:
     """Base: no SYNC, the wall clock; ``paced_by_bus`` means the bus, not the host, keeps the period."""
 
     paced_by_bus = False
+    sends_sync = False  #: the host's own SYNC, whose answers ``tick`` waits for (``late``)
+    late = False  #: the last tick's answers missed their budget
 
     def tick(self) -> None:
         """Start a cycle."""
@@ -75,44 +80,53 @@ class InProcessLockstep(Pacing):
         return self.count * self.period
 
 
-class HostSync(Pacing):
-    """Real time: the host sends SYNC when the loop's deadline comes."""
-
-    def __init__(self, network: Any) -> None:
-        self.network = network
-
-    def tick(self) -> None:
-        self.network.sync.transmit()
-
-
 class _Answers:
     """Waits for one frame on each of ``cob_ids``: a subscriber per COB-ID on ``network``.
 
     ``arm()`` before the SYNC (or the wait), ``wait(timeout)`` until every COB-ID has sent
     a frame since, or ``timeout`` [s]. The receive thread wakes the waiter at once.
+
+    ``owed`` (the host's SYNC): a TPDO carries no SYNC number, but a node answers the SYNCs
+    in order, so an answer that missed its cycle (still awaited when the next SYNC is armed)
+    is owed: the next frame on that COB-ID is taken for it, the one after for the new SYNC.
+    At most one answer is carried over: after a longer stall the first frames of the burst
+    count for the current SYNC (one cycle reads a sample up to a few periods old, and the
+    stall itself shows as late cycles). A frame the node never sends (lost) is taken for
+    late ever after and ends in the late-cycle stop, named as such; CAN does not lose
+    frames it acknowledged, nor TCP.
     """
 
-    def __init__(self, network: Any, cob_ids: Sequence[int]) -> None:
+    def __init__(self, network: Any, cob_ids: Sequence[int], *, owed: bool = False) -> None:
         self.network = network
         self.cob_ids = frozenset(cob_ids)
-        self._pending: set[int] = set()
+        self.carry = owed
+        self._pending: dict[int, int] = {}  #: COB-ID -> frames still awaited
+        self._waiting = 0  #: COB-IDs with frames still awaited
         self._done = threading.Condition()
         for cob in self.cob_ids:
             network.subscribe(cob, self._on_frame)
 
     def arm(self) -> None:
         with self._done:
-            self._pending = set(self.cob_ids)
+            if self.carry:
+                self._pending = {cob: min(self._pending.get(cob, 0), 1) + 1 for cob in self.cob_ids}
+            else:
+                self._pending = dict.fromkeys(self.cob_ids, 1)
+            self._waiting = len(self._pending)
 
     def _on_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
         with self._done:
-            self._pending.discard(can_id)
-            if not self._pending:
-                self._done.notify_all()
+            n = self._pending.get(can_id, 0)
+            if n:
+                self._pending[can_id] = n - 1
+                if n == 1:
+                    self._waiting -= 1
+                    if not self._waiting:
+                        self._done.notify_all()
 
     def wait(self, timeout: float) -> bool:
         with self._done:
-            return self._done.wait_for(lambda: not self._pending, timeout)
+            return self._done.wait_for(lambda: not self._waiting, timeout)
 
     def close(self) -> None:
         for cob in self.cob_ids:
@@ -124,21 +138,30 @@ def _cob_ids(axes: Sequence[CanopenAxis]) -> list[int]:
     return [cob for a in axes for cob in a.tpdo_cob_ids()]
 
 
-class WireLockstep(HostSync):
-    """Lock-step over a real bus: SYNC, then wait for every CANopen axis's TPDOs (``timeout`` [s])."""
+class HostSync(Pacing):
+    """The host sends SYNC, then waits up to ``budget`` [s] for every CANopen axis's TPDOs
+    answering it; ``late`` when some did not come in time (see the module docstring)."""
 
-    def __init__(self, network: Any, axes: Sequence[CanopenAxis], timeout: float) -> None:
-        super().__init__(network)
-        self.answers = _Answers(network, _cob_ids(axes))
-        self.timeout = timeout
+    sends_sync = True
+
+    def __init__(self, network: Any, axes: Sequence[CanopenAxis], budget: float) -> None:
+        self.network = network
+        self.answers = _Answers(network, _cob_ids(axes), owed=True)
+        self.budget = budget
+        self.late = False  #: the last tick's answers missed the budget
 
     def tick(self) -> None:
         self.answers.arm()
         self.network.sync.transmit()
-        self.answers.wait(self.timeout)
+        self.late = not self.answers.wait(self.budget)
 
     def close(self) -> None:
         self.answers.close()
+
+
+class WireLockstep(HostSync):
+    """Lock-step over a real bus: ``HostSync`` with a budget of ``timeout`` [s] (the transport's,
+    not the emulated time's)."""
 
 
 class ExternalSync(Pacing):

@@ -42,6 +42,7 @@ from rig.host.pacing import (
     Pacing,
     WireLockstep,
 )
+from rig.host.realtime import RealtimeRequest, receive_threads, request
 from rig.host.recorder import Recorder, check_output
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
@@ -168,6 +169,12 @@ class Session:
         cfg = self.cfg
         # first what needs no bus: a bad value is one error and nothing was opened
         period = self.period = self._period()
+        self.answer_budget = cfg.run.answer_budget or period / 2.0
+        if not self.answer_budget < period:
+            raise ConfigError(
+                f"{cfg.source}: [run] answer_budget = {cfg.run.answer_budget!r}: must be shorter than "
+                f"the period {period:g} s"
+            )
         self.cycles = self._cycles(duration, cycles)
         law = build_law(cfg, period)
         names = [a.name for a in cfg.axes]
@@ -242,7 +249,7 @@ class Session:
             return WireLockstep(self.network, canopen_axes, wait)
         if cfg.bus.interface == "socketcan":
             return KernelSync(self.network, canopen_axes, period, timeout)
-        return HostSync(self.network)
+        return HostSync(self.network, canopen_axes, self.answer_budget)
 
     # --- running -------------------------------------------------------------------------------
     def start(self) -> None:
@@ -298,6 +305,7 @@ class Session:
             on_stop=self.signals.stopping,
             held=self.signals.held,
             missed_sample=cfg.run.missed_sample,
+            late_stop=cfg.run.late_stop,
         )
 
     def _heartbeat(self) -> Callable[[int], None] | None:
@@ -318,9 +326,19 @@ class Session:
         summary: dict[str, Any] = {}
         if live is not None:
             self._watch(live)
+        grant = None
         try:
+            if self.cfg.run.time == "realtime":
+                run = self.cfg.run
+                ask = RealtimeRequest(run.rt_priority, run.rt_cpu, run.rt_lock_memory)
+                grant = request(ask, receive_threads(self.network))
+                loop.granted = grant.record()
+                if grant.fifo:
+                    loop.spin = 0.0  # sleeps to each deadline: no spin at real-time priority
             summary = loop.run(progress)
         finally:
+            if grant is not None:
+                grant.release()
             if live is not None:
                 self.recorder.live = None
                 live.stop()

@@ -146,24 +146,50 @@ def test_the_sdo_answer_takes_the_profile_s_response_time() -> None:
             net.bus.shutdown()
 
 
-def test_a_sync_between_period_boundaries_samples_the_shaft_at_the_sync(world: World) -> None:
-    """CiA 301: a synchronous TPDO's data are sampled at the SYNC. A SYNC 0.3 periods after the
-    emulator's latest period boundary gives the drive's and the encoder's position there (the
-    shaft moved on at its speed: about 4 counts at 50 rad/s), not at the boundary."""
+def test_a_sync_locks_the_drives_periods_to_itself(world: World) -> None:
+    """A CiA 402 drive synchronises its cycle to SYNC: a SYNC 0.3 periods after the emulator's
+    latest period boundary starts the next period (the boundary nearest it moves to it), one
+    0.7 periods after it ends that period there; the TPDO samples the shaft at the SYNC, and
+    the next period ends a period after it."""
     world.enable(9)  # CSV
     world.host.send_message(0x000, bytes([0x01, 2]))  # NMT start the encoder (node 2)
     world.node.sdo[0x60FF].raw = round(50.0 * CPR / (2 * math.pi))
     world.wait(0.5)
     shaft = world.drive.shaft
-    ahead = 0.3 * world.period
-    world.time = shaft.t + ahead
-    world.hub.clock = world.time
     tpdos: dict[int, bytes] = {}
     world.hub.taps.append(lambda m: tpdos.__setitem__(m.arbitration_id, bytes(m.data)))
-    world.host.send_message(0x80, b"")
-    at_sync = shaft.position + shaft.velocity * ahead
-    expected = math.floor(at_sync * CPR / (2 * math.pi))
-    assert expected - math.floor(shaft.position * CPR / (2 * math.pi)) >= 3  # the boundary's
-    assert world.node.sdo[0x6064].raw == expected
-    assert tpdos[0x282][:4] == expected.to_bytes(4, "little")  # the encoder's TPDO2: 0x6004 first
-    assert shaft.sync_offset == pytest.approx(ahead)
+    for fraction, periods in ((0.3, 0), (0.7, 1)):
+        boundary = shaft.position
+        sync = world.time = world.hub.clock = shaft.t + fraction * world.period
+        world.host.send_message(0x80, b"")
+        assert shaft.t == sync and shaft.sync_offset == 0.0
+        moved = shaft.position - boundary
+        assert moved == pytest.approx(50.0 * periods * world.period, rel=0.05, abs=1e-9)
+        expected = math.floor(shaft.position * CPR / (2 * math.pi))
+        assert world.node.sdo[0x6064].raw == expected
+        assert tpdos[0x282][:4] == expected.to_bytes(4, "little")  # the encoder's TPDO2: 0x6004 first
+    world.time = sync + 0.99 * world.period
+    world.clock.advance()
+    assert shaft.t == sync  # the next period ends a period after the SYNC
+    world.time = sync + world.period
+    world.clock.advance()
+    assert shaft.t == pytest.approx(sync + world.period)
+
+
+def test_an_emulator_behind_its_clock_skips_the_backlog_and_counts_it(world: World) -> None:
+    """A second in which the emulator's loop did not run (a stalled machine): one advance
+    simulates at most the periods of 20 ms, skips and counts the others (the shaft holds
+    still over them), and the heartbeat comes at once, not after a second of physics."""
+    world.enable(9)  # CSV
+    world.node.sdo[0x60FF].raw = round(50.0 * CPR / (2 * math.pi))
+    world.wait(0.2)
+    shaft = world.drive.shaft
+    assert shaft.catch_up == round(0.02 / world.period)
+    start, behind = shaft.position, round(1.0 / world.period)
+    world.frames.clear()
+    world.time += 1.0
+    world.clock.advance()
+    assert world.clock.skipped == behind - shaft.catch_up
+    assert shaft.t == pytest.approx(world.time)
+    assert shaft.position - start == pytest.approx(50.0 * 0.02, rel=0.05)  # 20 ms of motion, not 1 s
+    assert 0x701 in world.frames

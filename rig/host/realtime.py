@@ -1,0 +1,215 @@
+"""Real time asked of the operating system, and a record of what it granted.
+
+The shape of ros2_control's ``ros2_control_node`` (``thread_priority``, ``cpu_affinity``,
+``lock_memory``) and the ROS 2 real-time cookbook: each measure small and separate, asked for
+before the loop starts, refused ones reported once and the run goes on.
+
+- ``SCHED_FIFO`` at ``priority`` for the thread that keeps the period (the host loop, or the
+  emulator's clock), and one above it for the threads that carry its frames (the bus's receive
+  thread: a frame never waits behind the loop it feeds). A thread at real-time priority must
+  sleep between its cycles: none here spins (ARCHITECTURE.md "The cycle").
+- pinned to one CPU (``cpu``: -1 the last one the process may use, -2 not pinned), so the
+  loop's caches and the handoffs between its threads stay on one core;
+- memory locked (``mlockall``, on fault: the pages the process uses stay in memory, and each
+  new one is locked as it is first touched; the libraries' untouched pages are not read in,
+  which would take a Python process with numpy from about 170 to 510 MB and 0.14 s here);
+- a timer slack of 1 ns where the policy stays normal (real-time threads have none).
+
+``request(...)`` asks for them, returns a ``Grant`` (its ``record()`` goes into the summary), and
+``Grant.release()`` gives back what was taken (the process may go on: a benchmark, a test).
+Linux only; elsewhere every measure is refused and said so.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import ctypes.util
+import errno
+import logging
+import os
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["Grant", "RealtimeRequest", "receive_threads", "request"]
+
+log = logging.getLogger(__name__)
+
+_MCL_CURRENT, _MCL_FUTURE, _MCL_ONFAULT = 1, 2, 4
+_PR_SET_TIMERSLACK = 29
+_LAST, _UNPINNED = -1, -2
+
+
+@dataclass(frozen=True)
+class RealtimeRequest:
+    """What to ask for: ``priority`` (SCHED_FIFO 1-99; 0: the normal policy), ``cpu`` (-1: the
+    last CPU the process may use; -2: not pinned), ``lock_memory``."""
+
+    priority: int = 50
+    cpu: int = _LAST
+    lock_memory: bool = True
+
+
+def _libc() -> Any:
+    name = ctypes.util.find_library("c")
+    return ctypes.CDLL(name, use_errno=True) if name else None
+
+
+def _cpu(wanted: int) -> int | None:
+    """The CPU to pin to, or None (not pinned, or no affinity on this system)."""
+    if wanted == _UNPINNED or not hasattr(os, "sched_getaffinity"):
+        return None
+    allowed = sorted(os.sched_getaffinity(0))
+    return allowed[-1] if wanted == _LAST else wanted
+
+
+@dataclass
+class _Thread:
+    """One thread's scheduling before we changed it (restored by ``release``)."""
+
+    tid: int
+    policy: int
+    param: Any
+    affinity: set[int] | None
+
+
+@dataclass
+class Grant:
+    """What was granted; ``refused`` says what was not, each with the system's reason."""
+
+    asked: RealtimeRequest
+    priority: int = 0  #: SCHED_FIFO priority of the loop thread (0: not granted)
+    receive_priority: int = 0  #: of the receive threads (0: none, or not granted)
+    receive_threads: int = 0  #: how many were raised
+    cpu: int | None = None  #: pinned to (None: not)
+    memory_locked: bool = False
+    refused: list[str] = field(default_factory=list)
+    _saved: list[_Thread] = field(default_factory=list)
+    _locked_here: bool = False
+
+    @property
+    def fifo(self) -> bool:
+        return self.priority > 0
+
+    def record(self) -> dict[str, Any]:
+        """The summary's ``realtime``: policy, priorities, CPU, memory lock, what was refused."""
+        return {
+            "policy": "SCHED_FIFO" if self.fifo else "SCHED_OTHER",
+            "priority": self.priority,
+            "receive_priority": self.receive_priority,
+            "receive_threads": self.receive_threads,
+            "cpu": self.cpu,
+            "memory_locked": self.memory_locked,
+            "refused": list(self.refused),
+        }
+
+    def describe(self) -> str:
+        """One line: what the run was granted."""
+        policy = f"SCHED_FIFO {self.priority}" if self.fifo else "normal scheduling"
+        if self.receive_priority:
+            policy += f" (receive {self.receive_priority})"
+        where = f"CPU {self.cpu}" if self.cpu is not None else "not pinned"
+        memory = "memory locked" if self.memory_locked else "memory not locked"
+        return f"{policy}, {where}, {memory}"
+
+    def release(self) -> None:
+        """Every thread back to its scheduling and CPUs; memory unlocked if locked here."""
+        for saved in reversed(self._saved):
+            with contextlib.suppress(OSError):  # the thread may have ended
+                if saved.affinity is not None:
+                    os.sched_setaffinity(saved.tid, saved.affinity)
+                os.sched_setscheduler(saved.tid, saved.policy, saved.param)
+        self._saved.clear()
+        if self._locked_here:
+            libc = _libc()
+            if libc is not None:
+                libc.munlockall()
+            self._locked_here = False
+
+
+def _raise(grant: Grant, tid: int, priority: int, what: str) -> bool:
+    """``tid`` to SCHED_FIFO ``priority`` and ``grant.cpu``; its old scheduling kept. False
+    (and a refusal noted) when the system refuses."""
+    try:
+        saved = _Thread(
+            tid,
+            os.sched_getscheduler(tid),
+            os.sched_getparam(tid),
+            os.sched_getaffinity(tid) if grant.cpu is not None else None,
+        )
+    except (OSError, AttributeError) as exc:
+        grant.refused.append(f"{what}: {exc}")
+        return False
+    grant._saved.append(saved)
+    ok = True
+    if priority > 0:
+        try:
+            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(priority))
+        except OSError as exc:
+            grant.refused.append(f"SCHED_FIFO {priority} for {what}: {exc.strerror or exc}")
+            ok = False
+    if grant.cpu is not None:
+        try:
+            os.sched_setaffinity(tid, {grant.cpu})
+        except (OSError, ValueError) as exc:
+            grant.refused.append(f"CPU {grant.cpu} for {what}: {exc}")
+            grant.cpu = None
+    return ok
+
+
+def _slack() -> None:
+    """A 1 ns timer slack for the calling thread (its sleeps end on time without SCHED_FIFO)."""
+    libc = _libc()
+    if libc is not None:
+        libc.prctl(_PR_SET_TIMERSLACK, 1, 0, 0, 0)
+
+
+def _lock(grant: Grant) -> None:
+    libc = _libc()
+    if libc is None or not hasattr(libc, "mlockall"):
+        grant.refused.append("memory lock: no mlockall on this system")
+        return
+    if libc.mlockall(_MCL_CURRENT | _MCL_FUTURE | _MCL_ONFAULT) != 0 and (
+        ctypes.get_errno() != errno.EINVAL
+        or libc.mlockall(_MCL_CURRENT | _MCL_FUTURE) != 0  # before Linux 4.4
+    ):
+        err = ctypes.get_errno()
+        grant.refused.append(f"memory lock: {os.strerror(err)}")
+        return
+    grant.memory_locked = grant._locked_here = True
+
+
+def request(ask: RealtimeRequest, receive: Sequence[threading.Thread] = ()) -> Grant:
+    """Ask for ``ask`` for the calling thread and, one priority above it, for the ``receive``
+    threads; one warning lists what was refused. Call ``release()`` on the result at the end."""
+    grant = Grant(ask, cpu=_cpu(ask.cpu))
+    if not hasattr(os, "sched_setscheduler"):
+        grant.refused.append(f"real-time scheduling: not available on {os.name}")
+        grant.cpu = None
+    else:
+        tid = threading.get_native_id()
+        if _raise(grant, tid, ask.priority, "the loop thread") and ask.priority > 0:
+            grant.priority = ask.priority
+        high = min(ask.priority + 1, 99) if ask.priority > 0 else 0
+        raised = 0
+        for thread in receive:
+            if thread.native_id is not None and _raise(grant, thread.native_id, high, f"{thread.name!r}"):
+                raised += 1
+        if raised and high:
+            grant.receive_priority, grant.receive_threads = high, raised
+    if not grant.fifo:
+        _slack()
+    if ask.lock_memory:
+        _lock(grant)
+    if grant.refused:
+        log.warning("real time not fully granted (%s): %s", grant.describe(), "; ".join(grant.refused))
+    return grant
+
+
+def receive_threads(network: Any) -> list[threading.Thread]:
+    """The receive threads of a canopen ``network``'s python-can notifier (none in process)."""
+    notifier = getattr(network, "notifier", None)
+    readers = getattr(notifier, "_readers", ())
+    return [t for t in readers if isinstance(t, threading.Thread) and t.is_alive()]

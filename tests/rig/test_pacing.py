@@ -1,0 +1,137 @@
+"""The host's SYNC and the answers to it (``rig.host.pacing.HostSync``), deterministically: a node
+on the in-process bus answers each SYNC as the test says (its frames arrive within the SYNC's
+send, so a budget of 0 s decides nothing by the clock). A cycle whose answers do not all come is
+late; the answer it missed is owed, and the next frame on that COB-ID pays it, not the next SYNC;
+the host loop counts late cycles in each row and the summary, and ``late_stop`` of them in a row
+are a safe stop named as such."""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+import types
+from collections.abc import Iterator
+
+import canopen
+import numpy as np
+import pytest
+
+from plant_emulator.lockstep import SyncHub, SyncNetwork, attach_network
+from rig.config import load_config
+from rig.host.pacing import HostSync, Pacing
+from rig.host.rundir import read_samples
+from rig.host.session import Session
+
+EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+COBS = (0x181, 0x281)
+
+
+@pytest.fixture
+def bus() -> Iterator[tuple[HostSync, list[dict[int, int]]]]:
+    """A ``HostSync`` (budget 0 s) and the script of the node: per SYNC, {COB-ID: frames to send}
+    (a COB-ID left out is not answered; missing SYNCs: one frame each)."""
+    hub = SyncHub()
+    host, node = SyncNetwork(), canopen.Network()
+    attach_network(host, hub.bus(queue=False, channel="host"))
+    attach_network(node, hub.bus(queue=False, channel="node"))
+    script: list[dict[int, int]] = []
+    syncs = [0]
+
+    def on_sync(can_id: int, data: bytearray, ts: float) -> None:
+        n = syncs[0]
+        syncs[0] += 1
+        for cob, frames in (script[n] if n < len(script) else dict.fromkeys(COBS, 1)).items():
+            for _ in range(frames):
+                node.send_message(cob, b"\x00" * 8)
+
+    node.subscribe(0x80, on_sync)
+    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: list(COBS))
+    pacing = HostSync(host, [axis], 0.0)  # type: ignore[list-item]
+    yield pacing, script
+    pacing.close()
+    host.bus.shutdown()
+    node.bus.shutdown()
+
+
+def test_a_cycle_without_all_its_answers_is_late_and_owes_them(
+    bus: tuple[HostSync, list[dict[int, int]]],
+) -> None:
+    pacing, script = bus
+    both = dict.fromkeys(COBS, 1)
+    script += [
+        both,
+        {0x181: 1},  # 0x281 misses SYNC 1: late
+        {0x181: 1, 0x281: 2},  # SYNC 1's answer, then SYNC 2's: on time
+        {0x181: 1},  # late again
+        {0x181: 1, 0x281: 1},  # only the owed answer came: SYNC 4's is still to come
+        {0x181: 1, 0x281: 2},  # SYNC 4's and 5's (one answer at most is carried over)
+        both,
+    ]
+    late = []
+    for _ in script:
+        pacing.tick()
+        late.append(pacing.late)
+    assert late == [False, True, False, True, True, False, False]
+
+
+def test_a_stall_carries_one_answer_over_not_the_whole_backlog(
+    bus: tuple[HostSync, list[dict[int, int]]],
+) -> None:
+    """Five SYNCs unanswered, then the burst of their answers with the sixth's: the cycle of the
+    burst is on time, and the next one with its own answer too (the rest of the backlog was not
+    kept). A SYNC never answered (a lost frame) leaves its answer owed: late ever after."""
+    pacing, script = bus
+    script += [{}] * 5 + [dict.fromkeys(COBS, 6), dict.fromkeys(COBS, 1), {}] + [dict.fromkeys(COBS, 1)] * 3
+    late = []
+    for _ in script:
+        pacing.tick()
+        late.append(pacing.late)
+    assert late == [True] * 5 + [False, False] + [True] * 4
+
+
+class LateAt(Pacing):
+    """The emulated world's lock-step pacing, with the cycles (tick numbers) in ``late`` declared
+    late, as a ``HostSync`` whose answers missed the budget declares them."""
+
+    def __init__(self, inner: Pacing, late: set[int]) -> None:
+        self.inner, self.ticks, self.at = inner, 0, late
+
+    def tick(self) -> None:
+        self.inner.tick()
+        self.late = self.ticks in self.at
+        self.ticks += 1
+
+    def now(self) -> float:
+        return self.inner.now()
+
+
+def _run(tmp_path: pathlib.Path, late: set[int], late_stop: int) -> tuple[dict, dict]:  # type: ignore[type-arg]
+    cfg = load_config(EXAMPLE)
+    cfg = dataclasses.replace(
+        cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path), duration=0.2, late_stop=late_stop)
+    )
+    with Session(cfg, emulate=True) as session:
+        session.start()
+        assert session.loop is not None
+        session.loop.pacing = LateAt(session.loop.pacing, late)
+        summary = session.run()
+    _, samples = read_samples(summary["run_dir"])
+    return summary, samples
+
+
+def test_late_cycles_are_counted_in_the_rows_and_the_summary(tmp_path: pathlib.Path) -> None:
+    late = {10, 11, 50, 51, 52, 400}
+    summary, samples = _run(tmp_path, late, late_stop=4)
+    assert summary["safe_stop_reason"] is None
+    assert summary["late_cycles"] == len(late)
+    assert set(np.flatnonzero(samples["late"])) == late
+
+
+def test_late_cycles_in_a_row_are_a_safe_stop_named_as_such(tmp_path: pathlib.Path) -> None:
+    summary, samples = _run(tmp_path, {20, 30, 31, 32}, late_stop=3)
+    reason = summary["safe_stop_reason"]
+    assert reason.startswith("3 late cycles in a row (cycles 30-32)"), reason
+    assert "[run] answer_budget" in reason and "late_stop = 3" in reason
+    assert summary["late_cycles"] == 4 and summary["cycles"] == 33
+    assert summary["stop_confirmed"] is True
+    assert samples["late"][-1] == 1.0
