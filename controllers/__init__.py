@@ -1,18 +1,14 @@
 """Pure discrete-time controllers (numpy and scipy only; no I/O, no clock, no logging).
 
 Every equation cites its number in the papers of ``../shared/papers``.
+
+The names below are imported on first use (PEP 562): a law's module imports only what it needs.
 """
 
-from controllers.cascade import Cascade, CascadeLoop, CascadeLoopParams
-from controllers.compensators import FirstOrderCompensator, SecondOrderCompensator
-from controllers.design import DTSMDesign, design_dtsm, lambda_delta
-from controllers.discretize import delta_model, zoh
-from controllers.dismc import DISMC, DISMCParams, dismc_lqr_gain, lmi_28_holds
-from controllers.dtsm import DTSM, DTSMParams
-from controllers.idtsm import IDTSM, IDTSMParams
-from controllers.model_following import solve_model_following
-from controllers.pi import PI, PIParams
-from controllers.position_servo import PositionServo, PositionServoParams
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __all__ = [
     "DISMC",
@@ -39,3 +35,36 @@ __all__ = [
     "solve_model_following",
     "zoh",
 ]
+
+_WHERE = {
+    "Cascade": "cascade",
+    "CascadeLoop": "cascade",
+    "CascadeLoopParams": "cascade",
+    "FirstOrderCompensator": "compensators",
+    "SecondOrderCompensator": "compensators",
+    "DTSMDesign": "design",
+    "design_dtsm": "design",
+    "lambda_delta": "design",
+    "delta_model": "discretize",
+    "zoh": "discretize",
+    "DISMC": "dismc",
+    "DISMCParams": "dismc",
+    "dismc_lqr_gain": "dismc",
+    "lmi_28_holds": "dismc",
+    "DTSM": "dtsm",
+    "DTSMParams": "dtsm",
+    "IDTSM": "idtsm",
+    "IDTSMParams": "idtsm",
+    "solve_model_following": "model_following",
+    "PI": "pi",
+    "PIParams": "pi",
+    "PositionServo": "position_servo",
+    "PositionServoParams": "position_servo",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = globals()[name] = getattr(importlib.import_module(f"{__name__}.{_WHERE[name]}"), name)
+    return value  # kept: a submodule of the same name (estimate) does not shadow it

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg
 
 __all__ = ["delta_model", "zoh"]
 
@@ -53,6 +52,8 @@ def zoh(A: npt.ArrayLike, B: npt.ArrayLike, *, dt: float) -> tuple[np.ndarray, n
         exponential of the augmented matrix [[A, B], [0, 0]] T. B_d keeps the
         shape B was given in.
     """
+    import scipy.linalg
+
     dt = _check_dt(dt)
     A_, B_ = _as_system(A, B)
     n, m = B_.shape

@@ -23,7 +23,6 @@ from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg
 
 __all__ = ["DISMC", "DISMCParams", "dismc_lqr_gain", "lmi_28_holds"]
 
@@ -43,6 +42,8 @@ def dismc_lqr_gain(
     *, A: npt.ArrayLike, B: npt.ArrayLike, S: npt.ArrayLike, Q: npt.ArrayLike, R: float
 ) -> np.ndarray:
     """K = (B_eq^T P B_eq + R)^-1 B_eq^T P A_eq (31), P from the DARE (32) (scipy)."""
+    import scipy.linalg
+
     A_eq, B_eq = _eq_system(A, B, S)
     if not R > 0.0:
         raise ValueError(f"R must be > 0, got {R!r}")

@@ -28,9 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.maps.cia import Mode
-from plant_emulator import im_kernel as kernel
 from plant_emulator.axes import Axis, LoadProfile
-from plant_emulator.im_kernel import foc_periods
 
 __all__ = ["ImAxis", "ImParams"]
 
@@ -114,7 +112,11 @@ class ImAxis(Axis):
         self._enabled = True
 
     def _constants(self) -> np.ndarray:
-        """The kernel's constants (``im_kernel``'s indices), from the parameters."""
+        """The kernel's constants (``im_kernel``'s indices), from the parameters; the kernel is
+        imported (numba compiles it) with the first IM axis, not with the presets."""
+        from plant_emulator import im_kernel as kernel
+
+        self._foc_periods = kernel.foc_periods
         p, k = self.p, np.zeros(kernel.N)
         k[kernel.R_SIGMA], k[kernel.SIGMA_LS], k[kernel.LM_LR], k[kernel.T_R] = (
             self.r_sigma,
@@ -173,7 +175,7 @@ class ImAxis(Axis):
         x = self._x
         x[0], x[1], x[2], x[3] = self.i_s.real, self.i_s.imag, self.psi_r.real, self.psi_r.imag
         x[4], x[5], x[6], x[7], x[8] = self.omega, self.theta, self.theta_e, self._int_d, self._int_q
-        foc_periods(x, self._k, i_q_ref, self._enabled, hs, loads)
+        self._foc_periods(x, self._k, i_q_ref, self._enabled, hs, loads)
         self.i_s, self.psi_r = complex(x[0], x[1]), complex(x[2], x[3])
         self.omega, self.theta, self.theta_e = float(x[4]), float(x[5]), float(x[6])
         self._int_d, self._int_q = float(x[7]), float(x[8])

@@ -16,7 +16,7 @@ import logging
 import os
 import sys
 from collections.abc import Sequence
-from importlib.metadata import PackageNotFoundError, version
+from typing import Any, NoReturn
 
 from drivers.errors import ConfigError, RigError
 from rig.cli import bench, demo, design, drive, emulate, faults, identify, reproduce, run, scan
@@ -28,10 +28,23 @@ SUBCOMMANDS = (demo, design, reproduce, run, identify, scan, drive, emulate, fau
 
 
 def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
     try:
         return version("drive-rig")
     except PackageNotFoundError:  # pragma: no cover - running from a source tree
         return "unknown"
+
+
+class _Version(argparse.Action):
+    """``--version``: the installed version, read (importlib.metadata) only when asked for."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kw: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, help="show the version and exit", **kw)
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: Any) -> NoReturn:
+        print(f"rig {_version()}")
+        parser.exit()
 
 
 FORMAT = "%(levelname)s %(name)s: %(message)s"
@@ -53,7 +66,7 @@ class BriefFormatter(logging.Formatter):
 def build_parser() -> Parser:
     parser = Parser(prog="rig", description="drive-rig: electrical-drive lab rig toolkit.")
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages to stderr")
-    parser.add_argument("--version", action="version", version=f"rig {_version()}")
+    parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for module in SUBCOMMANDS:
         module.add_parser(sub)

@@ -11,7 +11,7 @@ import argparse
 import json
 import math
 import pathlib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
 
 from drivers.errors import ConfigError
@@ -22,6 +22,7 @@ __all__ = [
     "EXIT_STOPPED",
     "EXIT_UNCONFIRMED",
     "EXIT_USAGE",
+    "Lazy",
     "Parser",
     "UsageError",
     "add_bus_arguments",
@@ -76,8 +77,28 @@ class UsageError(Exception):
     """A command-line argument is wrong; the message names it."""
 
 
+class Lazy:
+    """A help text made when it is first read (``Parser.description``): a text that needs a heavy
+    module (numpy, a paper's study) costs nothing to a command that does not show it."""
+
+    def __init__(self, make: Callable[[], str]) -> None:
+        self.make = make
+
+
 class Parser(argparse.ArgumentParser):
-    """ArgumentParser whose errors are one line, raised instead of exiting."""
+    """ArgumentParser whose errors are one line, raised instead of exiting; its description may be
+    ``Lazy``, made when read."""
+
+    @property  # type: ignore[override]
+    def description(self) -> str | None:
+        text = self._description
+        if isinstance(text, Lazy):
+            text = self._description = text.make()
+        return text
+
+    @description.setter
+    def description(self, text: str | Lazy | None) -> None:
+        self._description = text
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(f"{self.prog}: {message}")

@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from controllers.design import DTSMDesign, design_dtsm
 from rig.cli.common import Parser, UsageError, add_json, finite
-from rig.identify.model_file import read_model
+
+if TYPE_CHECKING:
+    from controllers.design import DTSMDesign
 
 __all__ = ["add_parser"]
 
@@ -42,6 +43,9 @@ def add_parser(sub: Any) -> None:
 
 
 def _design(args: argparse.Namespace) -> DTSMDesign:
+    from controllers.design import design_dtsm
+    from rig.identify.model_file import read_model
+
     a_m, b_m = args.a_m, args.b_m
     args.input = "voltage"
     if args.from_identify:

@@ -6,20 +6,26 @@ import argparse
 import json
 from typing import Any
 
-from rig.cli.common import UsageError, add_json
+from rig.cli.common import Lazy, UsageError, add_json
 
 __all__ = ["add_parser"]
 
 
-def add_parser(sub: Any) -> None:
+def _description() -> str:
     from rig.fault_suite import SCENARIOS
 
+    return (
+        "Runs each scenario (" + ", ".join(SCENARIOS) + ") and prints when it was detected, "
+        "whether the drive ended disabled, the samples lost, the motor's speed 1 s after the fault, "
+        "whether the host confirmed its stop, and the operator's message."
+    )
+
+
+def add_parser(sub: Any) -> None:
     faults = sub.add_parser(
         "faults",
         help="run every fault scenario over the whole chain and print the table",
-        description="Runs each scenario (" + ", ".join(SCENARIOS) + ") and prints when it was detected, "
-        "whether the drive ended disabled, the samples lost, the motor's speed 1 s after the fault, "
-        "whether the host confirmed its stop, and the operator's message.",
+        description=Lazy(_description),
     )
     add_json(faults, "print a list of JSON objects")
     faults.add_argument("--scenario", action="append", default=[], metavar="NAME", help="run only these")

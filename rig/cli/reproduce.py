@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib
 import json
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from rig.cli.common import (
+    Lazy,
     Parser,
     UsageError,
     add_json,
@@ -21,9 +21,9 @@ from rig.cli.common import (
     print_json,
 )
 from rig.cli.progress import Progress
-from rig.papers.dismc import ALIASES, FIXED, PARAM_NAMES, DismcExample, run_dismc
-from rig.papers.dq_current import DQ_FIXED, DQ_PARAM_NAMES, PRINTED_TABLES, DqStudy, dq_study
-from rig.papers.drives_study import DRIVES_FIXED, DRIVES_PARAM_NAMES, DrivesStudy, drives_study
+
+if TYPE_CHECKING:
+    from rig.papers.dq_current import DqStudy
 
 __all__ = ["add_parser"]
 
@@ -36,8 +36,12 @@ def add_parser(sub: Any) -> None:
     dismc = rsub.add_parser(
         "dismc",
         help="section 4 of the DISMC paper: Table 1 for DSMC, DISMC-LMI, DISMC-LQR, DISMC-AW-LQR",
-        description="Runs (47)-(53) with K of (55) and (57). Uses the printed H of (50) unless "
-        "--param H=solved. Parameters: " + ", ".join(PARAM_NAMES) + ".",
+        description=_with_names(
+            "Runs (47)-(53) with K of (55) and (57). Uses the printed H of (50) unless "
+            "--param H=solved. Parameters: ",
+            "dismc",
+            "PARAM_NAMES",
+        ),
     )
     add_json(dismc, "print a list of JSON objects")
     dismc.add_argument("--plot", type=out_file, metavar="FILE", help="write Fig. 3-like plots to FILE")
@@ -46,8 +50,12 @@ def add_parser(sub: Any) -> None:
     dq = rsub.add_parser(
         "dq-current",
         help="dq-current paper: Tables II-III and the cross-coupling of a q step (proposed vs PI)",
-        description="Runs the controller (32)-(34)/(37) on the plant (29) (or the fine stationary-frame "
-        "model) with the Table IV parameters. Parameters: " + ", ".join(DQ_PARAM_NAMES) + ".",
+        description=_with_names(
+            "Runs the controller (32)-(34)/(37) on the plant (29) (or the fine stationary-frame "
+            "model) with the Table IV parameters. Parameters: ",
+            "dq_current",
+            "DQ_PARAM_NAMES",
+        ),
     )
     add_json(dq, 'print one object {"tables": [...], "cross_coupling": [...]}')
     dq.add_argument(
@@ -58,10 +66,14 @@ def add_parser(sub: Any) -> None:
     drives = rsub.add_parser(
         "drives",
         help="the drives paper: (7.31), Table V, Figs. 9-10, the VII.B servo, VII.C IM speed, VII.D cascade",
-        description="Designs (7.31) and Table V; runs the speed loop of Figs. 9-10 on the VII.B DC "
-        "platform (section VII.A's text is missing), the VII.B position servo, the VII.C IM speed "
-        "control and the VII.D cascade as pure simulations and over the emulated bus (lock-step; the "
-        "IM on the emulated dyno). About 25 s in full. Parameters: " + ", ".join(DRIVES_PARAM_NAMES) + ".",
+        description=_with_names(
+            "Designs (7.31) and Table V; runs the speed loop of Figs. 9-10 on the VII.B DC "
+            "platform (section VII.A's text is missing), the VII.B position servo, the VII.C IM speed "
+            "control and the VII.D cascade as pure simulations and over the emulated bus (lock-step; the "
+            "IM on the emulated dyno). About 25 s in full. Parameters: ",
+            "drives_study",
+            "DRIVES_PARAM_NAMES",
+        ),
     )
     add_json(
         drives,
@@ -74,7 +86,16 @@ def add_parser(sub: Any) -> None:
     drives.set_defaults(handler=_drives)
 
 
+def _with_names(text: str, module: str, names: str) -> Lazy:
+    """``text``, the parameter names ``names`` of ``rig.papers.<module>`` and a full stop, made
+    when the help is shown (the study's module imports numpy and the controllers)."""
+    return Lazy(lambda: text + ", ".join(getattr(importlib.import_module(f"rig.papers.{module}"), names)) + ".")
+
+
 def _dismc(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from rig.papers.dismc import ALIASES, FIXED, DismcExample, run_dismc
     from rig.plots import plot_dismc
 
     where = "rig reproduce dismc: --param"
@@ -103,6 +124,7 @@ def _dismc(args: argparse.Namespace) -> int:
 
 
 def _dq(args: argparse.Namespace) -> int:
+    from rig.papers.dq_current import DQ_FIXED, DqStudy, dq_study
     from rig.plots import plot_dq_steps
 
     where = "rig reproduce dq-current: --param"
@@ -138,6 +160,8 @@ def _dq(args: argparse.Namespace) -> int:
 
 
 def _print_dq(study: DqStudy, rows: list[dict[str, Any]], cross: list[dict[str, Any]]) -> None:
+    from rig.papers.dq_current import PRINTED_TABLES
+
     print(
         f"dq-current paper, Tables II-III (plant {study.plant}, L1 = {study.L1:g} H, R1 = {study.R1:g} Ohm)"
     )
@@ -165,6 +189,8 @@ def _print_dq(study: DqStudy, rows: list[dict[str, Any]], cross: list[dict[str, 
 
 
 def _drives(args: argparse.Namespace) -> int:
+    from rig.papers.drives_study import DRIVES_FIXED, DrivesStudy, drives_study
+
     where = "rig reproduce drives: --param"
     values = params_of(args.param, DrivesStudy, where, fixed=DRIVES_FIXED)
     try:

@@ -1,9 +1,27 @@
 """``rig identify``: a_m and b_m of (3.5) from an experiment on the drive, or from a recorded run.
 
 ``estimate`` holds the estimator, ``experiment`` runs the excitation through the
-host session like any other run.
+host session like any other run. The names below come from ``estimate`` on first use, so the
+configuration reads ``model_file`` without importing the estimator (scipy.signal, scipy.stats);
+``rig.identify.estimate`` is the function, as the name exported here, even once the module of
+the same name is imported.
 """
 
-from rig.identify.estimate import IdentificationError, IdentResult, estimate, excitation, virtual_experiment
+from __future__ import annotations
+
+import importlib
+import sys
+import types
+from typing import Any
 
 __all__ = ["IdentResult", "IdentificationError", "estimate", "excitation", "virtual_experiment"]
+
+
+class _Package(types.ModuleType):
+    def __getattribute__(self, name: str) -> Any:
+        if name in __all__:
+            return getattr(importlib.import_module("rig.identify.estimate"), name)
+        return super().__getattribute__(name)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -29,8 +29,6 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-import scipy.optimize
-import scipy.signal
 
 __all__ = [
     "INPUTS",
@@ -110,6 +108,8 @@ def _shift(u: np.ndarray, k: int) -> np.ndarray:
 
 def simulate_positions(p: np.ndarray, u: np.ndarray, dt: float, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Exact ZOH response of (3.5) with offset: p = (a, b, d, theta_0, w_0); returns (theta, w) per sample."""
+    import scipy.signal
+
     a, b, d, theta0, w0 = p
     alpha = math.exp(-a * dt)
     g = (1.0 - alpha) / a if a != 0.0 else dt
@@ -183,6 +183,8 @@ def _output_error(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Step 3: the output-error fit from ``coef``; (parameters, standard errors)."""
     w0, a, b, d = coef
+
+    import scipy.optimize
 
     def residual(p: np.ndarray) -> np.ndarray:
         err: np.ndarray = simulate_positions(p, u, dt, k)[0] - theta

@@ -87,8 +87,9 @@ def test_unknown_command_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_bench_json_contract(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     from rig import bench
+    from rig.bench.micro import bench_controllers
 
-    monkeypatch.setitem(bench.BENCHMARKS, "controllers", lambda: bench.bench_controllers(n=200, repeats=1))
+    monkeypatch.setitem(bench.BENCHMARKS, "controllers", lambda: bench_controllers(n=200, repeats=1))
     assert main(["bench", "controllers", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert isinstance(doc, list) and doc
@@ -127,8 +128,9 @@ def test_bench_physics_json_contract(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     from rig import bench
+    from rig.bench.micro import bench_physics
 
-    monkeypatch.setitem(bench.BENCHMARKS, "physics", lambda: bench.bench_physics(n=400, cycles=20, repeats=1))
+    monkeypatch.setitem(bench.BENCHMARKS, "physics", lambda: bench_physics(n=400, cycles=20, repeats=1))
     assert main(["bench", "physics", "--json"]) == 0
     figures = {f["name"]: f for f in json.loads(capsys.readouterr().out)}
     assert {"dc-servo_physics_steps_per_s", "dc-servo_lockstep_cycles_per_s"} <= set(figures)
