@@ -6,6 +6,7 @@ multiply-adds on preallocated lists, with no allocation.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 
@@ -13,6 +14,15 @@ import numpy as np
 import scipy.linalg
 
 __all__ = ["LinearZOH", "unrolled_step3"]
+
+
+@functools.lru_cache(maxsize=256)
+def _expm(m: bytes, size: int) -> np.ndarray:
+    """expm of the ``size`` x ``size`` matrix with the bytes ``m``, once per matrix in a process:
+    each run (and each point of a sweep) builds the same few models again."""
+    E = scipy.linalg.expm(np.frombuffer(m).reshape(size, size))
+    E.flags.writeable = False
+    return E
 
 
 class LinearZOH:
@@ -39,7 +49,7 @@ class LinearZOH:
         M = np.zeros((n + m, n + m))
         M[:n, :n] = A_
         M[:n, n:] = B_
-        E = scipy.linalg.expm(M * dt)
+        E = _expm((M * dt).tobytes(), n + m)
         self.dt = float(dt)
         self.n, self.m = n, m
         self.A_d = [[float(v) for v in row] for row in E[:n, :n]]

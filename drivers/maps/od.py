@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import configparser
 import io
+import pickle
 import warnings
 from pathlib import Path
 from typing import Any
@@ -30,10 +31,34 @@ def eds_text(path: str | Path) -> str:
 
 
 def load_od(path: str | Path, node_id: int) -> Any:
-    """The object dictionary in ``path`` for ``node_id``; ConfigError naming the file on any defect."""
+    """The object dictionary in ``path`` for ``node_id``; ConfigError naming the file on any defect.
+
+    Parsed once per file (its path, size and modification time) and node id in a process: each
+    caller gets its own copy (unpickled, about 10 times faster than canopen's parser), so a run
+    whose host and emulated drive read the same EDS, and a sweep's many runs, parse it once."""
     p = Path(path)
     if p.suffix.lower() not in (".eds", ".dcf"):
         raise ConfigError(f"{p}: an object dictionary must be an .eds or .dcf file")
+    try:
+        stat = p.stat()
+        key = (str(p.resolve()), stat.st_size, stat.st_mtime_ns, node_id)
+    except OSError:
+        key = None  # read_text names what is wrong with it
+    blob = _PARSED.get(key) if key else None
+    if blob is None:
+        blob = pickle.dumps(_parse(p, node_id))
+        if key is not None:
+            if len(_PARSED) >= 64:
+                _PARSED.pop(next(iter(_PARSED)))
+            _PARSED[key] = blob
+    return pickle.loads(blob)
+
+
+#: parsed object dictionaries, pickled, by (path, size, mtime, node id) (``load_od``)
+_PARSED: dict[tuple[str, int, int, int], bytes] = {}
+
+
+def _parse(p: Path, node_id: int) -> Any:
     try:
         text = eds_text(p)
         source = io.StringIO(text)

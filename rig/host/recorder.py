@@ -24,6 +24,10 @@ again, the samples copied from the open file; space held since the start for the
 and the summary) and lists what it could not: ``files_not_written`` (each file missing or cut
 short), ``samples_not_written`` (rows not in samples.csv) and the reasons under ``warnings``.
 
+Nothing of the samples is held in memory during the run; the close reads them back in chunks
+(``rig.host.readback``) for samples.mat and for the plot, which draws each column's minimum and
+maximum over at most 4,000 buckets of rows: a run's memory does not grow with its length.
+
 Frames reach ``on_frame`` from the bus's receive thread (python-can's notifier)
 while the loop writes samples; a lock orders the trace against ``close``, and a
 frame that arrives after the close is dropped and counted
@@ -52,6 +56,7 @@ import numpy as np
 
 from drivers.errors import ConfigError, StorageError
 from rig.config_checks import check_run_name
+from rig.host.readback import Columns, Envelope, copy_text, read_rows
 from rig.host.storage import Reserve, RowFile, trim_to_line
 from rig.host.trace import AscTrace
 
@@ -282,32 +287,34 @@ class Recorder:
             summary.setdefault("warnings", []).append(f"trace.asc {self._trace_cut}")
         summary["trace_frames_dropped"] = self.frames_dropped
         self._reserve.shrink()  # room for the last rows, samples.mat and the plot; the rest: the summary
-        text = self._text(summary)
-        with _suppressed("samples.csv not closed", summary):
-            self._file.close()  # what the disk still refuses stays out, counted below
+        with _suppressed("samples.csv not flushed", summary):
+            self._file.flush()
+        fd = self._file.fileno()  # read back from the descriptor: there even if the directory is not
         if not self.dir.is_dir():  # removed during the run: made again, the samples with it
             with _suppressed("the run directory could not be made again", summary):
                 self.dir.mkdir(parents=True)
-                write_atomic(self.dir / "samples.csv", lambda f: f.write(text))
+                write_atomic(self.dir / "samples.csv", lambda f: copy_text(fd, f.write), binary=True)
                 summary.setdefault("warnings", []).append(
                     f"{self.dir} was removed during the run: made again with samples.csv"
                 )
-        lost = self._count - max(text.count("\n") - 1, 0)
+        lost = self._count - max(self._file.lines - 1, 0)  # whole lines on disk, the header's too
         summary["samples_not_written"] = lost
         if lost:
             summary["files_not_written"].append("samples.csv")
             summary.setdefault("warnings", []).append(f"samples.csv: the last {lost} samples not written")
-        data = self.array(text)
-        with _suppressed("samples.mat not written", summary, "samples.mat"):
-            import scipy.io
-
-            columns: dict[str, Any] = {c.replace(".", "_"): data[:, i] for i, c in enumerate(self.columns)}
-            for key in ("unit", "meaning"):  # MATLAB structs: column_unit.t = 's', ...
-                columns[f"column_{key}"] = {c.replace(".", "_"): d[key] for c, d in self.docs.items()}
-            write_atomic(self.dir / "samples.mat", lambda f: scipy.io.savemat(f, columns), binary=True)
+        envelope = Envelope(self._count, len(self.columns))
+        with Columns(self._count, len(self.columns)) as columns:
+            with _suppressed("samples.csv not read back", summary):
+                for chunk in read_rows(fd, len(self.columns), self._count - lost):
+                    envelope.add(chunk)
+                    columns.add(chunk)
+            with _suppressed("samples.csv not closed", summary):
+                self._file.close()  # what the disk still refuses stays out, counted above
+            with _suppressed("samples.mat not written", summary, "samples.mat"):
+                write_atomic(self.dir / "samples.mat", lambda f: self._write_mat(f, columns), binary=True)
         if self.PLOT:
             with _suppressed("plot.png not written", summary, "plot.png"):
-                self.plot(data)
+                self.plot(envelope.rows())
         self._reserve.release()
         clean = {
             k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()
@@ -315,24 +322,35 @@ class Recorder:
         with _suppressed("summary.json not written", summary, "summary.json"):
             write_atomic(self.dir / "summary.json", _json(clean))
 
+    def _write_mat(self, f: Any, columns: Columns) -> None:
+        """samples.mat into ``f``: one variable per column (dots as underscores), then the structs
+        column_unit and column_meaning (MATLAB: column_unit.t = 's'); each appended in turn."""
+        import scipy.io
+
+        for i, name in enumerate(c.replace(".", "_") for c in self.columns):
+            scipy.io.savemat(f, {name: columns.column(i)})
+        for key in ("unit", "meaning"):
+            structs = {c.replace(".", "_"): d[key] for c, d in self.docs.items()}
+            scipy.io.savemat(f, {f"column_{key}": structs})
+
     def _label(self, column: str, name: str) -> str:
         """``name [unit]`` with the column's unit from ``docs`` (none for a replay's mixed units)."""
         unit = self.docs.get(column, {}).get("unit", "")
         return f"{name} [{unit}]" if unit else name
 
     def plot(self, data: np.ndarray) -> Any:
-        """Write plot.png from the samples ``data`` (rows of ``columns``); returns the figure,
-        None without matplotlib or samples."""
+        """Write plot.png from the samples ``data`` (rows of ``columns``; at the close, the
+        ``readback.Envelope`` of the run's); returns the figure, None without matplotlib or samples.
+        matplotlib's Figure without pyplot: no global state (a sweep's worker may run points in
+        threads) and no pyplot to import."""
         try:
-            import matplotlib
-
-            matplotlib.use("Agg")
-            import matplotlib.pyplot as plt
+            from matplotlib.figure import Figure
         except ImportError:
             return None
         if not len(data):
             return None
-        fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+        fig = Figure(figsize=(8, 6))
+        axes = fig.subplots(2, 1, sharex=True)
         t = data[:, 0]
         for name in ("reference", "measurement"):
             axes[0].plot(t, data[:, self.columns.index(name)], label=name)
@@ -348,7 +366,6 @@ class Recorder:
         fig.suptitle(f"run {self.dir.name}")
         fig.tight_layout()
         write_atomic(self.dir / "plot.png", lambda f: fig.savefig(f, format="png"), binary=True)
-        plt.close(fig)
         return fig
 
 
