@@ -57,12 +57,12 @@ class Identity:
         return {k: v for k, v in (*fields, ("serial", self.serial)) if v is not None}
 
     def text(self) -> str:
-        """``vendor 0x000000FB (maxon motor ag), product 0x65520000, revision ..., serial ...``."""
+        """``vendor 0x000000FB (maxon motor ag) / product 0x65520000 / revision ... / serial ...``."""
         parts = []
         for key, value in self.as_dict().items():
             name = f" ({self.vendor_name})" if key == "vendor" and self.vendor_name else ""
             parts.append(f"{key} 0x{value:08X}{name}")
-        return ", ".join(parts) or "no identity (0x1018 not readable)"
+        return " / ".join(parts) or "no identity (0x1018 not readable)"
 
 
 def _name(od: Any, index: int, subindex: int) -> str:

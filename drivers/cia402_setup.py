@@ -32,7 +32,7 @@ from drivers.cia402_mapping import (
 from drivers.cia402_pdo import variable
 from drivers.cia402_process import ProcessData
 from drivers.cia402_units import DriveUnits, discover_units
-from drivers.errors import ConfigError, DeviceFault, RigError, SdoAbort
+from drivers.errors import CommunicationTimeout, ConfigError, DeviceFault, NodeSilent, RigError, SdoAbort
 from drivers.maps import cia
 from drivers.maps.cia import CIA_MODE_BITS, MODE_BITS, Mode
 from drivers.maps.mode_names import mode_text
@@ -190,7 +190,14 @@ class Cia402Setup(Cia402Mapping):
     def discover(self, *, check_mode: bool = True) -> DriveUnits:
         """Device type and identity, supported modes (0x6502) against the mode (unless not
         ``check_mode``: commissioning, which picks its modes itself), and units."""
-        device_type = self.sdo_read(cia.DEVICE_TYPE)
+        try:
+            device_type = self.sdo_read(cia.DEVICE_TYPE)
+        except CommunicationTimeout as exc:
+            self.not_a_drive = True  # it never answered: closing sends it no controlword
+            raise NodeSilent(
+                f"node {self.node_id}: no SDO answer to 0x1000 (device type): no node {self.node_id} on "
+                "this bus, or it is not powered"
+            ) from exc
         if device_type & 0xFFFF != cia.PROFILE_DRIVE:
             self.not_a_drive = True  # closing writes no controlword to it (0x6040 is not ours there)
             raise ConfigError(

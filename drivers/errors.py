@@ -10,6 +10,7 @@ It lives in the lowest layer that raises it (``drivers``), so that ``drivers``,
      +-- ConfigError (ValueError)          bad configuration or argument
      +-- CommunicationError                 the bus or the line failed
      |    +-- CommunicationTimeout (TimeoutError)
+     |    |    +-- NodeSilent                no SDO answer at all: no such node on the bus?
      |    +-- SdoAbort                      SDO abort, ``.code`` (CiA 301)
      |    +-- ModbusExceptionResponse       ``.code`` (Modbus exception code)
      +-- DeviceFault                        the device reports a fault (EMCY, ...)
@@ -29,6 +30,7 @@ __all__ = [
     "ConfigError",
     "DeviceFault",
     "ModbusExceptionResponse",
+    "NodeSilent",
     "RigError",
     "SafetyStop",
     "SdoAbort",
@@ -53,6 +55,10 @@ class CommunicationError(RigError):
 
 class CommunicationTimeout(CommunicationError, TimeoutError):
     """No answer within the timeout (seconds)."""
+
+
+class NodeSilent(CommunicationTimeout):
+    """A node never answered its first SDO request: a wrong node id, or a node not powered."""
 
 
 class SdoAbort(CommunicationError):

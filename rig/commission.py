@@ -22,10 +22,14 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from drivers.cia402 import Cia402Axis, power_state
-from drivers.cia402_pdo import read_mapping
+from drivers.cia402_pdo import read_mapping, variable
+from drivers.cia402_units import require
 from drivers.errors import ConfigError, DeviceFault, SafetyStop
 from drivers.maps import cia
 from drivers.maps.cia import Controlword, Mode, PowerState
+from drivers.maps.emcy import emcy_text
+from drivers.maps.mode_names import mode_text
+from rig.drive_status import UNITS_HINT, device_units
 
 __all__ = ["STATUS_BITS", "DriveTool", "parse_object"]
 
@@ -52,6 +56,7 @@ STATUS_BITS = (
 )
 _NEW_SETPOINT, _HALT = 0x10, 0x100
 _BIT12, _HOMING_ERROR, _TARGET_REACHED = 1 << 12, 1 << 13, 1 << 10  #: bit 12: set-point ack / attained
+_LIMIT, _FOLLOWING_ERROR = 1 << 11, 1 << 13  #: internal limit active; following error (profile position)
 
 
 def parse_object(text: str, od: Any) -> tuple[int, int]:
@@ -90,6 +95,7 @@ class DriveTool:
         #: which a loaded machine would run ahead of the drive's
         self.emulated = idle is not None
         axis.idle = self.idle
+        axis.units_hint = UNITS_HINT  # a factor the drive lacks is given by --units here
         #: ``rig drive --live``: each look during a move appends (t [s], target, actual, target) in SI
         self.live: collections.deque[Sequence[float]] | None = None
         self._watched: tuple[float, int, float] | None = None  #: target [SI], actual's index, its factor
@@ -106,7 +112,8 @@ class DriveTool:
 
     # --- what the drive is ----------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        """State, mode, statusword bits, 0x603F, last EMCY, units in force, PDO mapping in force."""
+        """State, mode, statusword bits, 0x603F, last EMCY, units in force, PDO mapping in force.
+        Moves nothing and needs no factor: where the drive gives none, its own units stand."""
         a = self.axis
         units = a.discover(check_mode=False)
         word = int(a.sdo_read(cia.STATUSWORD))
@@ -120,19 +127,44 @@ class DriveTool:
                     "type": pdo.ttype,
                     "entries": [f"0x{e.index:04X}:{e.subindex:02X}/{e.bits}" for e in pdo.entries],
                 }
+        mode = a._optional(cia.MODES_DISPLAY)
+        bits = a._optional(cia.SUPPORTED_MODES)
         return {
             "node": a.node_id,
             "identity": {k: f"0x{v:08X}" for k, v in a.identity.items()},
+            "vendor_name": a.device_id.vendor_name,
             "state": power_state(word).value,
             "statusword": f"0x{word:04X}",
             "statusword_bits": [name for bit, name in enumerate(STATUS_BITS) if word >> bit & 1],
-            "mode": a.sdo_read(cia.MODES_DISPLAY),
+            "mode": mode,
+            "mode_name": "not readable (0x6061)"
+            if mode is None
+            else mode_text(mode, toolkit=a.toolkit_drive),
             "supported_modes": sorted(Mode(m).name for m in a.supported_modes or ()),
+            "modes_offered": a.offered(bits),
             "error_code": a.fault_text(),
-            "last_emcy": a.emcy_log[-1] if a.emcy_log else None,
-            "units": units.describe(),
+            "last_emcy": a.emcy_log[-1] if a.emcy_log else self._last_error(),
+            "units": units.describe() | device_units(units),
             "pdo_mapping": mapping,
         }
+
+    def object_name(self, index: int, subindex: int) -> str:
+        """An object's name in the drive's EDS ("" where it has none)."""
+        var = variable(self.axis.node.object_dictionary, (index, subindex))
+        return str(var.name) if var is not None else ""
+
+    def _last_error(self) -> str | None:
+        """The newest entry of the drive's error history (0x1003:01) in words, where it keeps one."""
+        a = self.axis
+        count = a._optional(cia.ERROR_HISTORY, 0)
+        if not count:
+            return None
+        entry = a._optional(cia.ERROR_HISTORY, 1)
+        if entry is None:
+            return None
+        code = int(entry) & 0xFFFF
+        words = emcy_text(code, a.emcy_texts)
+        return f"EMCY 0x{code:04X} ({words}), the newest of 0x1003 (the drive's error history)"
 
     # --- the state machine ----------------------------------------------------------------------
     def enable(self, *, timeout: float = 2.0) -> str:
@@ -174,6 +206,8 @@ class DriveTool:
         also on any error or Ctrl-C."""
         a = self.axis
         a.discover(check_mode=False)
+        if mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):
+            require(a.units, int(mode), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
         a.nmt("OPERATIONAL")
         self._mode(mode)
         a.enable(timeout=2.0)
@@ -261,13 +295,17 @@ class DriveTool:
         )
 
     def move(self, position: float, *, limit: float, seconds: float = 30.0) -> dict[str, Any]:
-        """Profile position to ``position`` [rad] (absolute); |move| <= ``limit`` [rad]."""
+        """Profile position to ``position`` [rad] (absolute); |move| <= ``limit`` [rad]. Where it
+        ends short of the target by more than an increment, ``stopped_short`` says by how much and
+        why (the position window it stopped in, a limit, a following error)."""
         a = self.axis
         a.discover(check_mode=False)
+        require(a.units, int(Mode.PROFILE_POSITION), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
         here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
         if not abs(position - here) <= limit:
             raise ConfigError(f"move of {position - here:g} rad exceeds the limit {limit:g} rad (--limit)")
         self._watch(position, cia.POSITION_ACTUAL, a.units.position)
+        seen = [0]  #: the statusword at the last look before the stop (its bits 10, 11, 13)
 
         def start() -> None:
             a.sdo_write(cia.TARGET_POSITION, 0, round(position * a.units.position))
@@ -275,13 +313,34 @@ class DriveTool:
             self._until(lambda: bool(a.sdo_read(cia.STATUSWORD) & _BIT12), 1.0, "the set-point acknowledge")
             a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION))
 
-        return self._run(
-            Mode.PROFILE_POSITION,
-            start,
-            lambda: bool(a.sdo_read(cia.STATUSWORD) & _TARGET_REACHED),
-            seconds,
-            "the target",
-        )
+        def done() -> bool:
+            seen[0] = int(a.sdo_read(cia.STATUSWORD))
+            return bool(seen[0] & _TARGET_REACHED)
+
+        result = self._run(Mode.PROFILE_POSITION, start, done, seconds, "the target")
+        return result | {"target_rad": position, **self._short_of(position, result["position_rad"], seen[0])}
+
+    def _short_of(self, target: float, reached: float, word: int) -> dict[str, Any]:
+        """How far short of ``target`` [rad] the move ended at ``reached`` and why (statusword ``word``)."""
+        a = self.axis
+        short = target - reached
+        increments = abs(short) * a.units.position
+        if increments <= 1.0:
+            return {"short_by_rad": short, "stopped_short": None}
+        if word & _LIMIT:
+            why = "internal limit active (statusword bit 11: a position limit 0x607D or a limit switch)"
+        elif word & _FOLLOWING_ERROR:
+            why = "following error (statusword bit 13: more than 0x6065 behind the profile)"
+        else:
+            window = a._optional(cia.POSITION_WINDOW)
+            why = (
+                "the drive said target reached within its position window (0x6067 = "
+                f"{window} increments, {int(window) / a.units.position:.4g} rad)"
+                if window is not None
+                else "the drive said target reached (its position window 0x6067 is not readable)"
+            )
+        said = f"stopped {abs(short):.4g} rad ({increments:.0f} increments) short of {target:g} rad: {why}"
+        return {"short_by_rad": short, "stopped_short": said}
 
     def home(self, method: int | None, *, seconds: float = 30.0) -> dict[str, Any]:
         """Homing with ``method`` (0x6098; None: the drive's); attained or an error."""

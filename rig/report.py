@@ -1,4 +1,5 @@
-"""A run's summary for people: units, the stop in words, each axis's peaks (``rig run``, ``rig demo``)."""
+"""A run's summary for people: units, the stop in words, each axis's peaks, said to be maxima of the
+absolute value (``rig run``, ``rig demo``)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ _PEAK_UNITS = {"max_abs_velocity": "rad/s", "max_abs_current": "A", "max_abs_pos
 
 def summary_lines(summary: dict[str, Any]) -> list[str]:
     """The summary for a person, with units: the law's figures, the stop in words, each axis's
-    peaks (``--json`` has the same keys as numbers)."""
+    peaks as ``max |velocity| 120.4 rad/s`` (``--json`` has the same figures as ``max_abs_*``)."""
     unit = summary.get("error_unit", "")
     command_unit = summary.get("command_unit") or "command's unit"
     command_units = summary.get("command_units", {})
@@ -35,13 +36,12 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
         rows.append(("NOT WRITTEN", files + (f"; {lost} samples" if lost else "")))
     lines = [f"{key:15s} {text}" for key, text in rows]
     for name, peaks in summary.get("axes", {}).items():
-        lines.append(
-            f"axis {name:10s} "
-            + ", ".join(
-                f"{k.removeprefix('max_abs_')} {v:.4g} {_peak_unit(k, command_units.get(name, ''))}".rstrip()
-                for k, v in peaks.items()
-            )
-        )
+        unit = command_units.get(name, "")
+        said = [
+            f"max |{k.removeprefix('max_abs_')}| {v:.4g} {_peak_unit(k, unit)}".rstrip()
+            for k, v in peaks.items()
+        ]
+        lines.append(f"axis {name:10s} " + ", ".join(said))
     return lines
 
 

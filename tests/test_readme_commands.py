@@ -466,14 +466,20 @@ def _json_keys(pattern: str) -> Check:
 
 
 def _drive(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
-    """status says the state, mode, statusword bits, 0x603F in words, last EMCY, units and PDO
-    mapping; a jog ends at rest and disabled, its stop confirmed."""
-    said(r"status` says its state, mode, statusword bits, 0x603F in words, last EMCY, the units it")
+    """status says the state and mode by name, identity, statusword bits, 0x603F and the last EMCY
+    in words, units and the PDO mapping as a table; a jog ends at rest and disabled, its stop
+    confirmed."""
+    said(r"status` writes nothing and needs no factor: it says its state and mode by name, its identity")
     said(r"end, as Ctrl-C does, with the drive's quick-stop ramp to rest and then disable")
-    lines = dict(line.split(None, 1) for line in proc.stdout.splitlines())
-    for key in ("state", "mode", "statusword_bits", "error_code", "last_emcy", "units", "pdo_mapping"):
-        assert key in lines, key
-    assert "0x603F = 0x0000, no error" in proc.stdout
+    status, _, jog = proc.stdout.partition("PDO mapping in force:")
+    rows = {line[:15].strip(): line[16:] for line in status.splitlines()}
+    for key in ("state", "mode", "identity", "error code", "last EMCY", "position unit", "velocity unit"):
+        assert key in rows, key
+    assert rows["identity"].startswith("vendor 0x000000FB (maxon motor ag) / product 0x")
+    assert "RPDO1  0x201" in jog and "0x603F = 0x0000, no error" in proc.stdout
+    lines = dict(
+        line.split(None, 1) for line in jog.splitlines() if line.strip() and not line.startswith(" ")
+    )
     assert lines["result"] == "done" and lines["stop_confirmed"] == "True"
     assert lines["state"] == "SWITCH ON DISABLED"  # the jog's, printed last
 

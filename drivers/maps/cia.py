@@ -52,6 +52,7 @@ DEVICE_TYPE = 0x1000
 ERROR_REGISTER = 0x1001
 COB_ID_SYNC = 0x1005
 COMM_CYCLE_PERIOD = 0x1006  #: [us]
+ERROR_HISTORY = 0x1003  #: pre-defined error field: sub 0 the count, sub 1 the newest (code in the low word)
 DEVICE_NAME = 0x1008
 SOFTWARE_VERSION = 0x100A
 STORE_PARAMETERS = 0x1010

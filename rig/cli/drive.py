@@ -7,7 +7,7 @@ import math
 import sys
 from typing import Any
 
-from drivers.errors import RigError
+from drivers.errors import NodeSilent, RigError
 from rig.cli.common import (
     EXIT_STOPPED,
     EXIT_UNCONFIRMED,
@@ -20,6 +20,7 @@ from rig.cli.common import (
     print_json,
 )
 from rig.cli.run import LIVE_MODES, open_view
+from rig.drive_status import status_lines
 
 __all__ = ["add_parser"]
 
@@ -141,7 +142,18 @@ def _value(text: str) -> int | float:
     return value
 
 
+def _bus_hint(args: argparse.Namespace) -> str:
+    """The ``rig scan`` line for the bus of ``args`` (or the twin's, with --emulate)."""
+    from rig.scan import scan_command
+
+    if args.emulate:
+        return f"the twin {args.emulate} is node 1; on a bus, rig scan --interface I --channel C"
+    return scan_command(args.interface, args.channel or "", args.bitrate, args.host, args.port)
+
+
 def _act(tool: Any, args: argparse.Namespace) -> Any:
+    from drivers.canopen_axis import CanopenAxis
+    from drivers.cia402_pdo import variable
     from rig.commission import parse_object
 
     a = tool.axis
@@ -157,8 +169,14 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
                 "object": f"0x{index:04X}:{sub:02X}",
                 "value": value if not isinstance(value, bytes) else value.hex(),
             }
-        try:
-            a.sdo_write(index, sub, _value(args.value))
+        var = variable(a.node.object_dictionary, (index, sub))
+        if var is not None and not var.writable:
+            raise UsageError(
+                f"rig drive sdo write: 0x{index:04X}:{sub:02X} ({var.name}) is {var.access_type} in the EDS: "
+                "nothing was sent"
+            )
+        try:  # what the operator names is the task: a manufacturer object too (not Cia402Axis's guard)
+            CanopenAxis.sdo_write(a, index, sub, _value(args.value))
         except (OverflowError, ValueError, TypeError, AttributeError) as exc:  # canopen's encoding
             if isinstance(exc, RigError):
                 raise
@@ -193,6 +211,10 @@ def run(args: argparse.Namespace) -> int:
             if live is not None:
                 _watch(live, args, tool)
             result = _act(tool, args)
+        except NodeSilent as exc:
+            hint = _bus_hint(args)
+            said = f"{hint}" if args.emulate else f"`{hint}` lists the nodes that answer"
+            raise NodeSilent(f"{exc}; {said}") from exc
         finally:
             close()
     finally:
@@ -200,9 +222,12 @@ def run(args: argparse.Namespace) -> int:
             live.stop()
     if args.json:
         print_json(result)
+    elif args.action == "status":
+        print("\n".join(status_lines(result, tool.object_name)))
     else:
         for key, value in result.items():
-            print(f"{key:16s} {value}")
+            if value is not None or key != "stopped_short":
+                print(f"{key:16s} {value}")
     if isinstance(result, dict) and result.get("stop_confirmed") is False:
         print("rig drive: the drive's stop was not confirmed", file=sys.stderr)
         return EXIT_UNCONFIRMED

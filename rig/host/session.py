@@ -15,16 +15,19 @@ the benchmarks and the fault suite all run through here.
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import logging
 import math
+import shutil
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from drivers.base import AxisDriver
 from drivers.bus import ReceiveWatch, open_bus
 from drivers.canopen_axis import CanopenAxis
-from drivers.errors import ConfigError, RigError
+from drivers.errors import ConfigError, NodeSilent, RigError
 from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
 from rig.config_checks import check_period
@@ -52,6 +55,7 @@ from rig.laws.injected import with_injected_faults
 from rig.laws.references import reference_of
 from rig.live.channels import channels_of
 from rig.live.view import LiveView
+from rig.scan import scan_command
 
 __all__ = ["Session", "build_law", "run_config"]
 
@@ -131,7 +135,10 @@ class Session:
         if self.emulate:
             period = emulated_period(cfg)
         elif not cfg.run.period > 0.0:
-            raise ConfigError(f"{cfg.source}: [run] period must be set (> 0 s) when not emulating")
+            raise ConfigError(
+                f"{cfg.source}: [run] period must be set (> 0 s) for a real bus; without hardware, run it "
+                "with --emulate (the emulator in this process) or against `rig emulate` in another"
+            )
         else:
             period = cfg.run.period
         if cfg.run.period:
@@ -191,6 +198,7 @@ class Session:
         for a in cfg.axes:
             spec = self.emulation.endpoint(a) if self.emulation else a
             self.axes.append(open_axis(spec, network=self.network, period=period, bus=cfg.bus))
+        self._made_output = not Path(cfg.run.output).exists()  #: the recorder makes the folder
         # flushed every 50 ms of run time: a killed host loses at most that
         self.recorder = Recorder(cfg.run.output, cfg.run.name, flush_period=0.05, trace=cfg.run.trace)
         self.recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": self.emulate})
@@ -254,12 +262,17 @@ class Session:
     # --- running -------------------------------------------------------------------------------
     def start(self) -> None:
         """Set every axis up and enable it (in configuration order); on failure, nothing stays enabled."""
+        reached = True
         try:
             idle = self._idle()
-            for axis in self.axes:
+            for k, axis in enumerate(self.axes):
                 if idle is not None and hasattr(axis, "idle"):
                     axis.idle = idle  # waiting for a drive lets emulated time pass
-                axis.setup()
+                try:
+                    axis.setup()
+                except NodeSilent as exc:
+                    reached = k > 0  # an axis before it was set up: its run directory tells
+                    raise NodeSilent(f"{exc}; `{self._scan_hint()}` lists the nodes that answer") from exc
             if self.cfg.run.time == "realtime":
                 # the loop's full collection before its first cycle, done before anything is
                 # enabled: on a large heap it takes longer than a drive's communication-loss time
@@ -278,8 +291,18 @@ class Session:
             for axis in self.axes:
                 axis.close()
             self._finish({"cycles": 0, "safe_stop_reason": reason, "run_dir": str(self.recorder.dir)})
+            if isinstance(exc, NodeSilent) and not reached:  # no device was reached: no run to keep
+                shutil.rmtree(self.recorder.dir, ignore_errors=True)
+                if self._made_output:
+                    with contextlib.suppress(OSError):
+                        Path(self.cfg.run.output).rmdir()  # only if empty
             raise
         self.loop = self._loop()
+
+    def _scan_hint(self) -> str:
+        """The ``rig scan`` line for this run's bus."""
+        b = self.cfg.bus
+        return scan_command(b.interface, b.channel, b.bitrate or None, b.host, b.port)
 
     def _loop(self) -> HostLoop:
         """The host loop over the set-up axes (what each measures is known now)."""

@@ -397,7 +397,7 @@ def test_a_hostile_argument_is_one_line_exit_2_before_anything_opens(
 #: no warning of a bus left open)
 MET_LATE = [
     ("drive --emulate epos4 sdo write 0x6060 99999999999", ("'99999999999'", "0x6060:00")),
-    ("drive --emulate epos4 sdo write 0x1008 1", ("'1'", "0x1008:00")),
+    ("drive --emulate epos4 sdo write 0x1008 1", ("0x1008:00", "is const in the EDS: nothing was sent")),
     ("emulate --preset dc-servo --listen 999.1.1.1", ("--listen 999.1.1.1", "cannot listen")),
     ("emulate --modbus-map abb-drives-profile --modbus-serial /nonexistent", ("/nonexistent", "no such")),
 ]

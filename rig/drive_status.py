@@ -1,0 +1,95 @@
+"""``rig drive status`` for a person: what the drive is, how it is set up, in its own units where
+it gives no factor to SI, and which ``--units`` key would give SI.
+
+``device_units`` says each quantity's unit in words (added to the status's ``units``);
+``status_lines`` is the text report: state and mode by name, identity in hex, units, the PDO
+mapping in force as a table, the last EMCY in words.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+from drivers.cia402_units import DriveUnits
+
+__all__ = ["UNITS_HINT", "device_units", "status_lines"]
+
+UNITS_HINT = "--units {key}=VALUE"  #: how ``rig drive`` is given a unit the drive lacks
+
+
+def device_units(units: DriveUnits) -> dict[str, str]:
+    """Each quantity's unit in words: the factor to SI and where it came from, or the drive's own
+    unit and the ``--units`` key that would give SI."""
+    src = units.source
+
+    def factor(value: float, per: str, where: str) -> str:
+        return f"{value:.6g} drive units per {per} (from {where})"
+
+    def given(key: str) -> str:
+        return UNITS_HINT.format(key=key).replace("VALUE", "N")
+
+    position = (
+        factor(units.position, "rad", src.get("position", "?"))
+        if math.isfinite(units.position)
+        else f"the drive's increments (no 0x608F, 0x60A8 or 0x6092; {given('counts_per_rev')} gives rad)"
+    )
+    velocity = (
+        factor(units.velocity, "rad/s", src.get("velocity", "?"))
+        if math.isfinite(units.velocity)
+        else f"the drive's velocity unit (no factor; {given('counts_per_rev')} gives rad/s)"
+    )
+    torque = (
+        f"per mille of {units.rated_torque:g} N m (from {src.get('rated_torque') or '?'})"
+        if math.isfinite(units.rated_torque)
+        else f"per mille of the rated torque (no 0x6076; {given('rated_torque')} in N m gives N m)"
+    )
+    current = (
+        f"per mille of {units.rated_current:g} A (from {src.get('rated_current') or '?'})"
+        if math.isfinite(units.rated_current)
+        else f"per mille of the rated current (no 0x6075; {given('rated_current')} in A gives A)"
+    )
+    return {
+        "position_unit": position,
+        "velocity_unit": velocity,
+        "torque_unit": torque,
+        "current_unit": current,
+    }
+
+
+def status_lines(status: dict[str, Any], name_of: Callable[[int, int], str]) -> list[str]:
+    """The status report (``DriveTool.status``); ``name_of(index, sub)`` an object's EDS name."""
+    ids = status["identity"]
+    vendor = status.get("vendor_name")
+    identity = " / ".join(
+        f"{k} {v}" + (f" ({vendor})" if k == "vendor" and vendor else "") for k, v in ids.items()
+    )
+    bits = ", ".join(status["statusword_bits"]) or "none"
+    u = status["units"]
+    rows = [
+        ("node", str(status["node"])),
+        ("identity", identity or "no identity (0x1018 not readable)"),
+        ("state", f"{status['state']} (statusword {status['statusword']}: {bits})"),
+        ("mode", f"{status['mode_name']} (0x6061 = {status['mode']})"),
+        ("modes offered", status["modes_offered"]),
+        ("error code", status["error_code"]),
+        ("last EMCY", status["last_emcy"] or "none since the drive was reached"),
+        ("position unit", u["position_unit"]),
+        ("velocity unit", u["velocity_unit"]),
+        ("torque unit", u["torque_unit"]),
+        ("current unit", u["current_unit"]),
+    ]
+    lines = [f"{key:15s} {text}" for key, text in rows]
+    lines.append("PDO mapping in force:")
+    lines.append(f"  {'PDO':6s} {'COB-ID':7s} {'valid':6s} {'type':5s} entries")
+    for pdo, m in status["pdo_mapping"].items():
+        entries = []
+        for text in m["entries"]:
+            obj, _, size = text.partition("/")
+            index, _, sub = obj.partition(":")
+            name = name_of(int(index, 16), int(sub, 16))
+            entries.append(f"{obj} {name} ({size} bit)" if name else f"{obj} ({size} bit)")
+        valid = "yes" if m["valid"] else "no"
+        lines.append(f"  {pdo:6s} {m['cob_id']:7s} {valid:6s} {m['type']!s:5s} {', '.join(entries) or '-'}")
+    return lines
