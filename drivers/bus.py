@@ -7,21 +7,25 @@ failure into ``CommunicationError`` naming the interface and channel.
 bus goes away (a socketcand link reset, an interface down): the error is logged once and
 kept in the notifier's ``exception``, where the axes' supervision finds it.
 python-can's socketcand client warns "Got incomplete message" whenever a TCP segment ends
-inside a frame, which is ordinary TCP; that line is demoted to debug (``_Fragments``). A
-socketcand server is reached once first (``_reach``): where nothing listens, or a server
-accepts but never greets, one line names host:port within 3 s instead of python-can's 10 s of
-retries or a wait for ever. An interface python-can does not know is a ``ConfigError`` naming
-the known ones (``check_interface``).
+inside a frame, which is ordinary TCP; that line is demoted to debug (``_Fragments``). Its
+connect retries for 10 s (a warning per try) and its handshake waits for each answer for ever;
+``open_bus`` opens it as ``_Socketcand``, python-can's client with the connect and the whole
+handshake (``< hi >``, then ``< open CH >`` and ``< rawmode >`` answered ``< ok >``) bounded by
+``HANDSHAKE`` (3 s) together: where nothing listens, or a server accepts and never greets, or
+greets and then stalls, one line names host:port and what did not come. An interface
+python-can does not know is a ``ConfigError`` naming the known ones (``check_interface``).
 """
 
 from __future__ import annotations
 
 import logging
 import socket
+import threading
 import time
 from typing import Any
 
 import can
+from can.interfaces.socketcand import socketcand as socketcand_client
 
 from drivers.errors import CommunicationError, ConfigError
 
@@ -66,36 +70,76 @@ class _Fragments(logging.Filter):
 
 _SOCKETCAND_LOG = logging.getLogger("can.interfaces.socketcand.socketcand")
 SOCKETCAND_PORT = 29536  #: python-can's and socketcand's default port
+HANDSHAKE = 3.0  #: [s] a socketcand connection's connect, greeting, open and rawmode, all together
+
+#: the deadline [time.monotonic() s] of the socketcand connection this thread is opening (None:
+#: python-can's own connect, for whoever opens one without ``open_bus``)
+_opening = threading.local()
+_plain_connect = socketcand_client.connect_to_server
 
 
-def _reach(host: str, port: int, timeout: float = 3.0) -> None:
-    """One TCP connect to a socketcand server before python-can's own, which retries for 10 s
-    logging a warning per try (hundreds of thousands of lines) and then waits for the greeting
-    ``< hi >`` for ever: CommunicationError naming host:port when nothing answers, or no
-    greeting comes, within ``timeout`` [s]."""
-    try:
-        link = socket.create_connection((host, port), timeout=timeout)
-    except OSError as exc:
-        raise CommunicationError(f"cannot reach a socketcand server at {host}:{port}: {exc}") from None
-    greeting, deadline = b"", time.monotonic() + timeout
-    with link:
+def _connect(sock: socket.socket, host: str, port: int) -> None:
+    """python-can's ``connect_to_server`` (retries for 10 s, a warning per try, then a blocking
+    socket with no timeout) where this thread has no deadline; one try within it where it has."""
+    deadline: float | None = getattr(_opening, "deadline", None)
+    if deadline is None:
+        _plain_connect(sock, host, port)  # type: ignore[no-untyped-call]
+        return
+    sock.settimeout(max(deadline - time.monotonic(), 1e-3))
+    sock.connect((host, port))
+
+
+class _Socketcand(socketcand_client.SocketCanDaemonBus):
+    """python-can's socketcand client with its connect and handshake (``< hi >``, ``< open CH >``
+    and ``< rawmode >``, each answered) bounded by one deadline ``timeout`` [s] from now: a server
+    that does not answer, or stalls after any answer, is a CommunicationError naming host:port
+    and what did not come. Once open, the socket blocks as python-can's does."""
+
+    def __init__(self, channel: str, host: str, port: int, *, timeout: float, **kwargs: Any) -> None:
+        self._deadline = time.monotonic() + timeout
+        self._awaited = "the TCP connection"
+        _opening.deadline = self._deadline
         try:
-            while len(greeting) < len(b"< hi >"):
-                link.settimeout(max(deadline - time.monotonic(), 1e-3))
-                chunk = link.recv(256)
-                if not chunk:
-                    break
-                greeting += chunk
-        except TimeoutError:
-            raise CommunicationError(
-                f"the socketcand server at {host}:{port} sent no greeting '< hi >' within {timeout:g} s"
-            ) from None
-        except OSError as exc:
-            raise CommunicationError(f"the socketcand server at {host}:{port}: {exc}") from None
-    if not greeting.startswith(b"< hi >"):
-        raise CommunicationError(
-            f"{host}:{port} is not a socketcand server: it sent {greeting[:40]!r}, not '< hi >'"
-        )
+            super().__init__(channel, host, port, **kwargs)  # type: ignore[no-untyped-call]
+        except (OSError, can.CanError) as exc:
+            self._is_shutdown = True  # never opened: nothing for BusABC.__del__ to complain of
+            if hasattr(self, "_SocketCanDaemonBus__socket"):
+                self._socket.close()
+            raise CommunicationError(self._failure(host, port, timeout, exc)) from None
+        finally:
+            _opening.deadline = None
+        self._socket.settimeout(None)
+
+    @property
+    def _socket(self) -> socket.socket:
+        """python-can's socket (its name-mangled attribute)."""
+        sock: socket.socket = getattr(self, "_SocketCanDaemonBus__socket")  # noqa: B009
+        return sock
+
+    def _expect_msg(self, msg: str) -> None:
+        self._awaited = f"{msg!r}"
+        self._socket.settimeout(max(self._deadline - time.monotonic(), 1e-3))
+        super()._expect_msg(msg)  # type: ignore[no-untyped-call]
+
+    def _failure(self, host: str, port: int, timeout: float, exc: BaseException) -> str:
+        where = f"{host}:{port}"
+        if self._awaited == "the TCP connection":
+            if isinstance(exc, TimeoutError):
+                return f"cannot reach a socketcand server at {where}: no connection within {timeout:g} s"
+            return f"cannot reach a socketcand server at {where}: {exc}"
+        if isinstance(exc, TimeoutError):
+            if self._awaited == "'< hi >'":
+                return f"the socketcand server at {where} sent no greeting '< hi >' within {timeout:g} s"
+            return (
+                f"the socketcand server at {where} greeted, then sent no {self._awaited} within "
+                f"{timeout:g} s of the connect (a stalled server?)"
+            )
+        got = brief(exc).split(" got: ", 1)[-1].strip("'") if isinstance(exc, can.CanError) else None
+        if got == "":
+            return f"the socketcand server at {where} closed the connection waiting for {self._awaited}"
+        if self._awaited == "'< hi >'" and got is not None:
+            return f"{where} is not a socketcand server: it sent {got[:40]!r}, not '< hi >'"
+        return f"the socketcand server at {where}: waiting for {self._awaited}: {brief(exc)}"
 
 
 def check_interface(interface: str, where: str) -> None:
@@ -114,11 +158,15 @@ def open_bus(
     if interface == "socketcand":
         if not any(isinstance(f, _Fragments) for f in _SOCKETCAND_LOG.filters):
             _SOCKETCAND_LOG.addFilter(_Fragments())
-        _reach(str(kwargs.get("host", "")), int(kwargs.get("port", SOCKETCAND_PORT)))
         kwargs.setdefault("tcp_tune", True)  # TCP_NODELAY/QUICKACK: no 40 ms Nagle/delayed-ACK stalls
     if bitrate is not None:
         kwargs["bitrate"] = bitrate
+    if interface == "socketcand" and socketcand_client.connect_to_server is not _connect:
+        socketcand_client.connect_to_server = _connect  # bounded where this thread set a deadline
     try:
+        if interface == "socketcand":
+            host, port = str(kwargs.pop("host", "")), int(kwargs.pop("port", SOCKETCAND_PORT))
+            return _Socketcand(str(channel), host, port, timeout=HANDSHAKE, **kwargs)
         return can.Bus(interface=interface, channel=channel, ignore_config=True, **kwargs)
     except (can.CanError, OSError, ValueError, ImportError, NotImplementedError) as exc:
         raise CommunicationError(

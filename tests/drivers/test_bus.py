@@ -87,3 +87,57 @@ def test_an_unknown_interface_is_a_configuration_error_naming_the_known_ones() -
         ConfigError, match=r"interface 'nosuch': not a python-can interface; known: .*socketcan,"
     ):
         open_bus("nosuch", "x")
+
+
+@pytest.mark.parametrize(
+    ("answers", "awaited"),
+    [([], "'< ok >'"), ([b"< ok >"], "'< ok >'"), ([b"< ok >", b"< ok >"], None)],
+    ids=["stall-after-hi", "stall-after-open", "no-stall"],
+)
+def test_a_server_that_greets_then_stalls_is_one_line_within_the_handshake_time(
+    answers: list[bytes],
+    awaited: str | None,
+    monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A server that sends ``< hi >`` and then answers ``< open can0 >`` or ``< rawmode >``
+    never (python-can's client waits for ever: ``rig scan`` hung over 25 s): one line naming
+    host:port and what did not come, once ``HANDSHAKE`` is over (0.3 s here; the bound itself
+    is timed across processes in ``tests/rig/test_socketcand_processes.py``). A server that
+    answers all is opened, and its socket blocks as python-can's does."""
+    import socket
+
+    import drivers.bus
+    from drivers.errors import CommunicationError
+
+    monkeypatch.setattr(drivers.bus, "HANDSHAKE", 0.3)
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        port = server.getsockname()[1]
+        held: list[socket.socket] = []
+
+        def serve() -> None:
+            link, _ = server.accept()
+            held.append(link)
+            link.sendall(b"< hi >")
+            for answer in answers:  # one answer per command
+                link.recv(256)
+                link.sendall(answer)
+
+        thread = threading.Thread(target=serve, daemon=True)
+        thread.start()
+        try:
+            with caplog.at_level(logging.WARNING):
+                if awaited is None:
+                    bus = open_bus("socketcand", "can0", host="127.0.0.1", port=port)
+                    assert bus._socket.gettimeout() is None  # type: ignore[attr-defined]
+                    bus.shutdown()
+                    return
+                with pytest.raises(CommunicationError) as err:
+                    open_bus("socketcand", "can0", host="127.0.0.1", port=port)
+        finally:
+            thread.join(5.0)
+            for link in held:
+                link.close()
+    text = str(err.value)
+    assert f"127.0.0.1:{port} greeted, then sent no {awaited} within 0.3 s" in text, text
+    assert "\n" not in text and not caplog.records
