@@ -1,20 +1,23 @@
-"""One socketcand client's connection: a bounded queue of outgoing lines and the thread that writes them.
+"""One socketcand client's connection: its bounded queue of lines out, its commands in, its socket.
 
-Whoever has a frame for the client (the devices, under their lock; another client's
-reader) calls ``put``, which never blocks. The client's own reader queues its answers
-with ``reply``, which waits while the queue is half full: a client that sends faster
-than it reads is slowed down, and frames keep half the queue. The writer thread sends
-the lines in order, each within ``send_timeout`` [s]. A client whose queue is full,
-or whose send times out or fails, is dropped: nothing more is queued or sent, the
-socket is shut (its reader's ``recv`` returns), and the reason is logged once.
+The server's one I/O thread owns the socket (non-blocking) and everything here but ``put``.
+Whoever has a frame for the client (the devices, under their lock; the I/O thread relaying
+another client's frame) calls ``put``, which never blocks: a queue of ``depth`` lines that is
+full dooms the client (a client that does not read is dropped, never waited for), and the I/O
+thread is told (``dirty``) to send. ``send`` writes what is queued as far as the kernel takes
+it; a client that takes nothing for ``send_timeout`` [s] is doomed too. The client's commands
+wait in ``commands`` until the bus and the client's own queue (half of it for frames: a client
+that sends faster than it reads is slowed down) have room for their effect.
 """
 
 from __future__ import annotations
 
 import collections
+import contextlib
 import logging
 import socket
-import threading
+
+from plant_emulator.socketcand_protocol import MAX_COMMAND, CommandSplitter
 
 __all__ = ["ClientLink", "check_limits"]
 
@@ -38,7 +41,8 @@ def check_limits(depth: int, send_timeout: float) -> None:
 
 
 class ClientLink:
-    """See the module docstring; ``depth`` lines may wait, ``send_timeout`` [s] per line."""
+    """See the module docstring; ``depth`` lines may wait, ``send_timeout`` [s] for the kernel
+    to take any of them."""
 
     def __init__(self, sock: socket.socket, *, depth: int, send_timeout: float) -> None:
         check_limits(depth, send_timeout)
@@ -46,107 +50,81 @@ class ClientLink:
         self.name = _peer(sock)
         self.depth = depth
         self.send_timeout = send_timeout
-        self.closed = threading.Event()  #: set once dropped or finished: nothing more is sent
+        self.lines: collections.deque[str] = collections.deque()  #: queued out, in order
+        self.unsent = b""  #: taken from ``lines``, not yet taken by the kernel
+        self.stuck_since: float | None = None  #: [s, monotonic] the kernel took nothing since
+        self.commands: collections.deque[str] = collections.deque()  #: read, not yet done
+        self.splitter = CommandSplitter(MAX_COMMAND)
+        self.dirty = False  #: on the server's list of links with lines to send
+        self.doomed: str | None = None  #: why it is to be dropped (put by any thread)
+        self.closed = False
         self.eof = False  #: the client closed its side (a failed send is then no surprise)
         self.errors = 0  #: commands refused so far
         self.opened = False  #: ``< open BUS >`` done
         self.rawmode = False  #: ``< rawmode >`` done: the client gets every frame
-        self._lines: collections.deque[str] = collections.deque()
-        self._changed = threading.Condition()  #: guards ``_lines`` and ``_ending``
-        self._ending = False  #: finish(): send what is queued, then stop
-        self._logged = False
-        sock.settimeout(send_timeout)  # the reader's recv wakes this often too
-        name = f"socketcand-writer {self.name}"
-        self._writer = threading.Thread(target=self._write, name=name, daemon=True)
-        self._writer.start()
+        self.events = 0  #: the selector events it is registered for
 
-    def put(self, line: str) -> None:
-        """Queue a frame's ``line`` (ASCII); a full queue drops the client. Never blocks."""
-        with self._changed:
-            if self.closed.is_set():
-                return
-            room = len(self._lines) < self.depth
-            if room:
-                self._lines.append(line)
-                self._changed.notify_all()
-        if not room:
-            self.drop(f"{self.depth} lines waiting to be sent (is it reading?)")
+    def put(self, line: str) -> bool:
+        """Queue ``line`` (ASCII); never blocks. False when the client was not waiting for it
+        before (the caller tells the I/O thread); a full queue dooms the client."""
+        if self.doomed is not None or self.closed:
+            return True
+        if len(self.lines) >= self.depth:
+            self.doomed = f"{self.depth} lines waiting to be sent (is it reading?)"
+            self.lines.clear()
+        else:
+            self.lines.append(line)
+        if self.dirty:
+            return True
+        self.dirty = True
+        return False
 
-    def reply(self, line: str) -> None:
-        """Queue an answer to the client's own command (from its reader, no lock held).
+    @property
+    def crowded(self) -> bool:
+        """Half its queue taken: its commands wait (frames keep the other half)."""
+        return len(self.lines) >= self.depth // 2 or len(self.unsent) > 0
 
-        Waits up to ``send_timeout`` [s] while the queue is half full, then drops the client.
-        """
-        with self._changed:
-            room = self._changed.wait_for(
-                lambda: self.closed.is_set() or len(self._lines) < self.depth // 2, self.send_timeout
-            )
-            if self.closed.is_set():
-                return
-            if room:
-                self._lines.append(line)
-                self._changed.notify_all()
-        if not room:
-            self.drop(f"answers not taken within {self.send_timeout:g} s (is it reading?)")
-
-    def drop(self, reason: str, level: int = logging.WARNING) -> None:
-        """Stop now: the lines still queued are not sent, the socket is shut; ``reason`` logged once."""
-        with self._changed:
-            if self.closed.is_set():
-                return
-            self.closed.set()
-            self._lines.clear()
-            self._changed.notify_all()
-        self._log(reason, level)
-        self._shut()
-
-    def finish(self, reason: str | None = None) -> None:
-        """End of the connection: the lines queued so far go out, then the socket is shut.
-
-        ``reason`` (the client is dropped for it) is logged once. Waits for the writer at
-        most ``send_timeout`` [s] plus one second, then drops the client.
-        """
-        if reason is not None:
-            self._log(reason, logging.WARNING)
-        with self._changed:
-            self._ending = True
-            self._changed.notify_all()
-        self._writer.join(self.send_timeout + 1.0)
-        if self._writer.is_alive():
-            self.drop(f"queued lines not sent within {self.send_timeout + 1.0:g} s of its leaving")
-        self.closed.set()
-        self._shut()
-
-    def _log(self, reason: str, level: int) -> None:
-        with self._changed:
-            if self._logged:
-                return
-            self._logged = True
-        log.log(level, "socketcand: client %s dropped: %s", self.name, reason)
-
-    def _shut(self) -> None:
-        try:
-            self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass  # already shut, or never connected
-
-    def _next(self) -> str | None:
-        """The next line to send; None: stop."""
-        with self._changed:
-            self._changed.wait_for(lambda: self._lines or self._ending or self.closed.is_set())
-            if self.closed.is_set() or not self._lines:
-                return None
-            line = self._lines.popleft()
-            self._changed.notify_all()  # room for ``reply``
-            return line
-
-    def _write(self) -> None:
-        while (line := self._next()) is not None:
+    def send(self, now: float) -> bool:
+        """Hand the kernel what is queued, as much as it takes now; True when all is taken.
+        A client that took nothing for ``send_timeout`` [s], or whose socket failed, is doomed."""
+        while True:
+            if not self.unsent:  # what the kernel refused last time goes first, and alone
+                taken = []
+                with contextlib.suppress(IndexError):  # put() may clear the queue meanwhile
+                    while self.lines:
+                        taken.append(self.lines.popleft())
+                if not taken:
+                    self.stuck_since = None
+                    return True
+                self.unsent = "".join(taken).encode("ascii")
             try:
-                self.sock.sendall(line.encode("ascii"))
-            except TimeoutError:
-                self.drop(f"a line not taken within {self.send_timeout:g} s (is it reading?)")
-                return
+                sent = self.sock.send(self.unsent)
+            except BlockingIOError:
+                sent = 0
             except OSError as exc:
-                self.drop(f"send failed: {exc}", logging.INFO if self.eof else logging.WARNING)
-                return
+                self.eof = self.eof or isinstance(exc, (BrokenPipeError, ConnectionResetError))  # it left
+                self.doomed = self.doomed or f"send failed: {exc}"
+                self.unsent = b""
+                return True
+            self.unsent = self.unsent[sent:]
+            if self.unsent:
+                break
+        if sent or self.stuck_since is None:
+            self.stuck_since = now
+        elif now - self.stuck_since > self.send_timeout:
+            self.doomed = f"a line not taken within {self.send_timeout:g} s (is it reading?)"
+        return False
+
+    def close(self, reason: str | None, level: int = logging.WARNING) -> None:
+        """Shut and close the socket (what is queued is not sent); ``reason`` logged."""
+        if self.closed:
+            return
+        self.closed = True
+        self.lines.clear()
+        if reason is not None:
+            if self.eof and level > logging.INFO:
+                level = logging.INFO  # it left first: a failed send is no surprise
+            log.log(level, "socketcand: client %s dropped: %s", self.name, reason)
+        with contextlib.suppress(OSError):
+            self.sock.shutdown(socket.SHUT_RDWR)
+        self.sock.close()

@@ -10,32 +10,44 @@ rawmode, ``socketcand_protocol``): the server greets ``< hi >``; the client send
 refused (a bad id, DLC or byte, a second ``< rawmode >``, an unknown verb) is answered
 ``< error WHAT >`` and reaches nobody; one of more than ``MAX_COMMAND`` bytes drops the client.
 
-Every frame a client sends goes to the hub (the devices answer at once, under
-one lock) and to the other clients; every frame the devices send goes to all
-clients. Each client has its own bounded queue and writer thread
-(``socketcand_link``): a client that does not read is dropped, and no socket is
-written with the devices' lock held. Timestamps are wall-clock seconds (time.time(), as
-socketcand stamps frames): a device frame carries the moment it was sent, a client's
-frame the moment the server took it, which is also the ``hub.clock`` the devices see
-it at.
+One thread (``thread``, named "socketcand") serves every client on non-blocking sockets
+through one selector: accepting (a listen backlog of ``BACKLOG``: a burst of connections
+waits for it, never for a SYN retransmitted a second later), reading, writing. No thread is
+made per client, so a connection costs a few system calls, not thread starts under the
+devices' clock. Every frame a client sends goes to the hub (the devices answer at once,
+under their lock) and to the other clients; every frame the devices send goes to all
+clients. Each client has its own bounded queue (``socketcand_link``): a client that does not
+read is dropped, and no socket is written with the devices' lock held.
+
+The bus has a bit rate (``bitrate``, 1 Mbit/s by default): every frame, the devices' and the
+clients', takes its time on it (``bus_time``: worst-case stuffing), and a client's frame waits
+until the bus has room, so a client that sends faster than the bus carries is held back (its
+commands stay in its socket, and TCP holds its writes) as a CAN controller's transmit queue
+holds it on a real bus; the clients waiting take turns, one frame each, so a flood does not
+keep another client's request off the bus, nor fill a reader's queue faster than the bus rate.
+
+Timestamps are wall-clock seconds (time.time(), as socketcand stamps frames): a device frame
+carries the moment it was sent, a client's frame the moment the server took it, which is also
+the ``hub.clock`` the devices see it at.
 """
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import logging
+import selectors
 import socket
-import socketserver
 import threading
 import time
 
 import can
 
+from plant_emulator.bus_time import DEFAULT_BITRATE, BusTime
 from plant_emulator.lockstep import SyncHub
 from plant_emulator.socketcand_link import ClientLink, check_limits
 from plant_emulator.socketcand_protocol import (
     MAX_COMMAND,
-    CommandSplitter,
     CommandTooLong,
     ProtocolError,
     command_words,
@@ -44,20 +56,22 @@ from plant_emulator.socketcand_protocol import (
     shown,
 )
 
-__all__ = ["MAX_COMMAND", "SocketcandServer", "format_frame", "parse_send"]
+__all__ = ["BACKLOG", "MAX_COMMAND", "SocketcandServer", "format_frame", "parse_send"]
 
 log = logging.getLogger(__name__)
 
 _CHUNK = 65536  #: [bytes] read at a time
 _BUS_NAME = 16  #: the longest bus name socketcand takes
+BACKLOG = 1024  #: connections the kernel holds until they are accepted
+_LOOK = 0.25  #: [s] how often a client whose kernel buffer is full is looked at again
 
 
 class SocketcandServer:
-    """Serve ``hub`` on TCP ``host``:``port`` (0: any free port; see ``port`` after start).
+    """Serve ``hub`` on TCP ``host``:``port`` (0: any free port; see ``port``) until ``stop``.
 
     ``lock`` is the devices' lock. Each client may have ``queue_depth`` lines waiting and
-    ``send_timeout`` [s] to take one; ``send_buffer`` [bytes] sets the kernel's send buffer
-    of each client socket (None: the system's).
+    ``send_timeout`` [s] for the kernel to take any; ``send_buffer`` [bytes] sets the kernel's
+    send buffer of each client socket (None: the system's). ``bitrate`` [bit/s]: the bus's.
     """
 
     def __init__(
@@ -70,35 +84,35 @@ class SocketcandServer:
         queue_depth: int = 4096,
         send_timeout: float = 2.0,
         send_buffer: int | None = None,
+        bitrate: float = DEFAULT_BITRATE,
     ):
         check_limits(queue_depth, send_timeout)
         self.hub = hub
         self.lock = lock
         self.queue_depth, self.send_timeout, self.send_buffer = queue_depth, send_timeout, send_buffer
-        self._registry = threading.Lock()
+        self.bus_time = BusTime(bitrate)  #: the bus's time, booked under ``lock``
         self._clients: tuple[ClientLink, ...] = ()  #: in rawmode: they get every frame
-        self._connected: set[ClientLink] = set()
+        self._links: set[ClientLink] = set()  #: every client connected (the I/O thread's)
+        self._dirty: collections.deque[ClientLink] = collections.deque()  #: links with lines to send
+        self._signalled = False  #: the I/O thread has been woken and not yet looked
+        self._stopping = threading.Event()
+        self.accepted = 0  #: connections accepted so far
         self.bus = hub.bus(queue=False, channel="socketcand")
         self.bus.listeners.append(self._to_clients)
-        outer = self
-
-        class Handler(socketserver.BaseRequestHandler):
-            def handle(self) -> None:
-                outer._serve(self.request)
-
-        class Server(socketserver.ThreadingTCPServer):
-            allow_reuse_address = True
-            daemon_threads = True
-
         try:
-            self.server = Server((host, port), Handler)
+            self._listener = socket.create_server((host, port), backlog=BACKLOG)
         except OSError:
             self.bus.shutdown()  # nothing is served: the hub's bus goes too, not left to the collector
             raise
-        self.port = int(self.server.server_address[1])
-        self._thread = threading.Thread(
-            target=self.server.serve_forever, args=(0.1,), name="socketcand", daemon=True
-        )
+        self._listener.setblocking(False)
+        self.port = int(self._listener.getsockname()[1])
+        self._wake_in, self._wake_out = socket.socketpair()
+        self._wake_in.setblocking(False)
+        self._wake_out.setblocking(False)
+        self._selector = selectors.DefaultSelector()
+        self._selector.register(self._listener, selectors.EVENT_READ)
+        self._selector.register(self._wake_in, selectors.EVENT_READ)
+        self.thread = threading.Thread(target=self._run, name="socketcand", daemon=True)
 
     @property
     def client_count(self) -> int:
@@ -106,63 +120,190 @@ class SocketcandServer:
         return len(self._clients)
 
     def start(self) -> None:
-        self._thread.start()
-        log.info("socketcand rawmode server on %s:%d", *self.server.server_address[:2])
+        self.thread.start()
+        log.info("socketcand rawmode server on %s:%d", *self._listener.getsockname()[:2])
 
     def stop(self) -> None:
-        if self._thread.is_alive():  # socketserver's shutdown() waits forever for a loop never started
-            self.server.shutdown()
-        self.server.server_close()
-        with self._registry:
-            connected = list(self._connected)
-        for client in connected:
-            client.drop("the server stops", logging.INFO)
+        """Close every client and the listening socket (a server never started too)."""
+        self._stopping.set()
+        if self.thread.is_alive():
+            self._wake()
+            self.thread.join()
+        else:
+            self._close_all()
         self.bus.shutdown()
 
+    # --- from any thread ------------------------------------------------------------------
+
+    def _wake(self) -> None:
+        """Tell the I/O thread to look (once until it does)."""
+        if self._signalled or threading.get_ident() == self.thread.ident:
+            return
+        self._signalled = True
+        with contextlib.suppress(OSError):  # full: it is awake already; closed: it has stopped
+            self._wake_out.send(b"\0")
+
+    def _put(self, client: ClientLink, line: str) -> None:
+        if not client.put(line):
+            self._dirty.append(client)
+            self._wake()
+
     def _to_clients(self, msg: can.Message) -> None:
-        """A device's frame (called under the devices' lock): queued for every client, stamped now."""
+        """A device's frame (called under the devices' lock): on the bus now, queued for every
+        client, stamped now."""
+        self.bus_time.carry(msg, time.monotonic())
         line = format_frame(msg, time.time())
         for client in self._clients:
-            client.put(line)
+            self._put(client, line)
 
-    def _serve(self, sock: socket.socket) -> None:
-        with contextlib.suppress(OSError):  # a client gone already: its first recv says so
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            if self.send_buffer is not None:
-                sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.send_buffer)
-        client = ClientLink(sock, depth=self.queue_depth, send_timeout=self.send_timeout)
-        with self._registry:
-            self._connected.add(client)
-        reason = None
+    # --- the I/O thread ---------------------------------------------------------------------
+
+    def _run(self) -> None:
         try:
-            client.reply("< hi >")
-            reason = self._read(client)
+            while not self._stopping.is_set():
+                for key, events in self._selector.select(self._timeout()):
+                    if key.fileobj is self._listener:
+                        self._accept()
+                    elif key.fileobj is self._wake_in:
+                        self._signalled = False
+                        with contextlib.suppress(OSError):
+                            self._wake_in.recv(4096)
+                    elif events & selectors.EVENT_READ:
+                        self._receive(key.data)
+                self._serve()
+                self._send()
         finally:
-            with self._registry:
-                self._clients = tuple(c for c in self._clients if c is not client)
-                self._connected.discard(client)
-            client.finish(reason)
+            self._close_all()
 
-    def _read(self, client: ClientLink) -> str | None:
-        """Serve ``client``'s commands until it leaves (None) or must be dropped (why)."""
-        splitter = CommandSplitter(MAX_COMMAND)
-        while not client.closed.is_set():
+    def _timeout(self) -> float | None:
+        """How long the selector may wait: until the bus has room for a waiting command, or a
+        stuck client is looked at again; for ever when nothing waits."""
+        waits = []
+        if any(c.commands and not c.crowded for c in self._links):
+            waits.append(self.bus_time.wait(time.monotonic()))
+        if any(c.unsent for c in self._links):
+            waits.append(_LOOK)
+        return min(waits) if waits else None
+
+    def _accept(self) -> None:
+        """Every connection waiting: non-blocking, greeted, registered for reading."""
+        while True:
             try:
-                chunk = client.sock.recv(_CHUNK)
-            except TimeoutError:
-                continue  # an idle client: look at ``closed`` again
-            except OSError:
-                return None
-            if not chunk:
-                client.eof = True
-                return None
-            try:
-                for text in splitter.feed(chunk):
-                    self._command(client, text)
-            except CommandTooLong as exc:
-                client.reply(f"< error {exc} >")
-                return str(exc)
-        return None
+                sock, _ = self._listener.accept()
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:  # out of descriptors: the rest wait in the backlog
+                log.warning("socketcand: cannot accept a connection: %s", exc)
+                return
+            self.accepted += 1
+            sock.setblocking(False)
+            with contextlib.suppress(OSError):  # a client gone already: its first recv says so
+                sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                if self.send_buffer is not None:
+                    sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.send_buffer)
+            client = ClientLink(sock, depth=self.queue_depth, send_timeout=self.send_timeout)
+            self._links.add(client)
+            client.events = selectors.EVENT_READ
+            self._selector.register(sock, client.events, client)
+            self._put(client, "< hi >")
+
+    def _receive(self, client: ClientLink) -> None:
+        """What ``client`` sent, cut into commands (done by ``_serve``)."""
+        try:
+            chunk = client.sock.recv(_CHUNK)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError:
+            self._drop(client, None)
+            return
+        if not chunk:
+            client.eof = True
+            self._drop(client, None)
+            return
+        try:
+            client.commands.extend(client.splitter.feed(chunk))
+        except CommandTooLong as exc:
+            client.commands.clear()
+            self._reply(client, f"< error {exc} >")
+            client.send(time.monotonic())  # the error goes out if the kernel takes it now
+            self._drop(client, str(exc))
+
+    def _serve(self) -> None:
+        """The clients' commands, one each in turn while the bus has room; a client whose queue
+        is crowded or whose commands wait is not read (TCP holds its sender)."""
+        ready = [c for c in self._links if c.commands]
+        while ready:
+            for client in ready:
+                if client.crowded or client.doomed is not None:
+                    continue
+                text = client.commands[0]
+                if text.lstrip("< \t\r\n").startswith("send") and self.bus_time.wait(time.monotonic()) > 0.0:
+                    break  # the bus is full: everyone's frames wait
+                client.commands.popleft()
+                self._command(client, text)
+            else:
+                ready = [c for c in ready if c.commands and not c.crowded and c.doomed is None]
+                continue
+            break
+        for client in list(self._links):
+            self._listen(client)
+
+    def _listen(self, client: ClientLink) -> None:
+        """Register ``client`` for what it needs now: reading once its commands are done."""
+        if client.closed:
+            return
+        events = 0 if client.commands or client.crowded else selectors.EVENT_READ
+        events |= selectors.EVENT_WRITE if client.unsent else 0
+        if events == client.events:
+            return
+        if client.events:
+            if events:
+                self._selector.modify(client.sock, events, client)
+            else:
+                self._selector.unregister(client.sock)
+        else:
+            self._selector.register(client.sock, events, client)
+        client.events = events
+
+    def _send(self) -> None:
+        """What is queued to every client with lines or unsent bytes; the doomed dropped."""
+        now = time.monotonic()
+        while self._dirty:
+            client = self._dirty.popleft()
+            client.dirty = False
+            client.send(now)
+        for client in list(self._links):
+            if client.unsent:
+                client.send(now)
+            if client.doomed is not None:
+                self._drop(client, client.doomed)
+            else:
+                self._listen(client)
+
+    def _drop(self, client: ClientLink, reason: str | None) -> None:
+        if client.closed:
+            return
+        if client.events:
+            self._selector.unregister(client.sock)
+            client.events = 0
+        self._links.discard(client)
+        if client.rawmode:
+            with self.lock:  # the devices' thread reads the tuple under it
+                self._clients = tuple(c for c in self._clients if c is not client)
+        client.close(reason)
+
+    def _close_all(self) -> None:
+        for client in list(self._links):
+            self._drop(client, None)
+            log.info("socketcand: client %s closed: the server stops", client.name)
+        self._selector.close()
+        for sock in (self._listener, self._wake_in, self._wake_out):
+            sock.close()
+
+    def _reply(self, client: ClientLink, line: str) -> None:
+        self._put(client, line)
+
+    # --- commands -----------------------------------------------------------------------------
 
     def _command(self, client: ClientLink, text: str) -> None:
         """Do one command; a refused one is answered ``< error ... >`` (the first is logged)."""
@@ -172,7 +313,7 @@ class SocketcandServer:
             client.errors += 1
             level = logging.WARNING if client.errors == 1 else logging.DEBUG
             log.log(level, "socketcand: client %s: %s (%d refused so far)", client.name, exc, client.errors)
-            client.reply(f"< error {exc} >")
+            self._reply(client, f"< error {exc} >")
 
     def _dispatch(self, client: ClientLink, text: str) -> None:
         words = command_words(text)
@@ -187,7 +328,7 @@ class SocketcandServer:
         elif verb == "rawmode":
             self._rawmode(client)
         elif verb == "echo":
-            client.reply("< echo >")
+            self._reply(client, "< echo >")
         else:
             raise ProtocolError(f"unknown command {shown(verb)}")
 
@@ -198,7 +339,7 @@ class SocketcandServer:
         if len(words) != 2 or len(words[1]) > _BUS_NAME:
             text = " ".join(words[1:])
             raise ProtocolError(f"open takes one bus name of up to {_BUS_NAME} characters: {shown(text)}")
-        client.reply("< ok >")
+        self._reply(client, "< ok >")
         client.opened = True
 
     def _rawmode(self, client: ClientLink) -> None:
@@ -209,17 +350,18 @@ class SocketcandServer:
             raise ProtocolError("rawmode already")
         with self.lock:  # frames are queued under it: none before the ok (python-can reads it alone)
             client.rawmode = True
-            with self._registry:
-                self._clients = (*self._clients, client)
-            client.put("< ok >")  # registered already when the client reads it
+            self._clients = (*self._clients, client)
+            self._put(client, "< ok >")  # registered already when the client reads it
 
     def _relay(self, sender: ClientLink, msg: can.Message) -> None:
-        """A client's frame: to the other clients and the devices, stamped when the server takes it."""
+        """A client's frame: on the bus, to the other clients and the devices, stamped when the
+        server takes it."""
         with self.lock:  # one order of frames (and of stamps) for everyone; only queues are touched
+            self.bus_time.carry(msg, time.monotonic())
             received = time.time()
             line = format_frame(msg, received)
             for client in self._clients:
                 if client is not sender:
-                    client.put(line)
+                    self._put(client, line)
             self.hub.clock = received  # the devices get the frame stamped when it came
             self.bus.send(msg)

@@ -28,6 +28,7 @@ import can
 import canopen
 
 from drivers.errors import CommunicationError, ConfigError
+from plant_emulator.bus_time import DEFAULT_BITRATE
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.clock import WorldClock
 from plant_emulator.lockstep import SyncHub, attach_network
@@ -55,9 +56,17 @@ def _locked_notify(network: Any, lock: threading.RLock) -> None:
 
 
 def _transport(
-    network: Any, lock: threading.RLock, *, interface: str | None, channel: str | None, host: str, port: int
+    network: Any,
+    lock: threading.RLock,
+    *,
+    interface: str | None,
+    channel: str | None,
+    host: str,
+    port: int,
+    bitrate: float = DEFAULT_BITRATE,
 ) -> tuple[Any, SocketcandServer | None, str]:
-    """Join ``network`` to a python-can bus (``interface``) or a socketcand server: (bus, server, where)."""
+    """Join ``network`` to a python-can bus (``interface``) or a socketcand server whose bus
+    carries ``bitrate`` [bit/s]: (bus, server, where)."""
     if interface:
         try:
             bus = can.Bus(interface=interface, channel=channel, ignore_config=True)
@@ -72,7 +81,7 @@ def _transport(
     hub = SyncHub()
     emulator_bus = hub.bus(queue=False, channel="emulator")
     try:
-        server = SocketcandServer(hub, lock, host=host, port=port)
+        server = SocketcandServer(hub, lock, host=host, port=port, bitrate=bitrate)
     except OSError as exc:
         emulator_bus.shutdown()
         raise ConfigError(f"--listen {host} --socketcand-port {port}: cannot listen: {exc}") from None
@@ -96,14 +105,18 @@ def run_emulator(
     ready: Any = None,
     lockstep: bool = False,
     realtime: RealtimeRequest | None = None,
+    bitrate: float = DEFAULT_BITRATE,
 ) -> int:
-    """Run until Ctrl-C (or ``stop`` is set); ``ready(port)`` is called once serving. In real time,
-    ``realtime`` is asked for this thread (the clock) before the server starts, so the threads that
-    carry the frames, which it starts, inherit its policy and CPU (``rig.host.realtime``)."""
+    """Run until Ctrl-C (or ``stop`` is set); ``ready(port)`` is called once serving; ``bitrate``
+    [bit/s]: the socketcand server's bus. In real time, ``realtime`` is asked for this thread (the
+    clock) before the server starts, so the threads that carry the frames, which it starts,
+    inherit its policy and CPU (``rig.host.realtime``)."""
     stop = stop or threading.Event()
     lock = threading.RLock()
     network = canopen.Network()
-    bus, server, where = _transport(network, lock, interface=interface, channel=channel, host=host, port=port)
+    bus, server, where = _transport(
+        network, lock, interface=interface, channel=channel, host=host, port=port, bitrate=bitrate
+    )
     try:
         with lock:
             devices: list[EmulatedNode]

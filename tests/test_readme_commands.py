@@ -522,6 +522,7 @@ SLOW: dict[str, Check] = {
     "rig bench loop": _loop,
     "rig bench soak": lambda proc, folder: None,  # its figures are wall-clock and memory
     "rig bench stops": lambda proc, folder: None,
+    "rig bench socketcand": lambda proc, folder: None,  # wall-clock figures
 }
 
 #: the whole commands not run here, and why (each is parsed)

@@ -64,6 +64,12 @@ def _stops(progress: Progress | None = None) -> list[Figure]:
     return bench_stops(progress=progress)
 
 
+def _socketcand(progress: Progress | None = None) -> list[Figure]:
+    from rig.bench.socketcand import bench_socketcand
+
+    return bench_socketcand(progress=progress)
+
+
 _loop.__doc__ = (
     "full-chain lock-step cycles/s (one axis, the dyno, the bare canopen exchange), 1 kHz real time"
 )
@@ -71,6 +77,10 @@ _soak.__doc__ = "1,000,000 lock-step cycles with 1 % frame loss: memory growth a
 _stops.__doc__ = (
     "false stops in 20 real-time runs of 10 s at 1 kHz of examples/dc_servo_position.toml against "
     "rig emulate over socketcand (minutes)"
+)
+_socketcand.__doc__ = (
+    "rig emulate's socketcand server: connections/s during a real-time run, the run's overruns "
+    "with and without 200 connections/s, a flood held to the bit rate and a reader kept (minutes)"
 )
 
 #: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}
@@ -82,6 +92,7 @@ BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "identify": _identify,
     "soak": _soak,
     "stops": _stops,
+    "socketcand": _socketcand,
 }
 #: the benchmarks that take minutes and take a ``progress`` callback
-LONG = {"soak": _soak, "stops": _stops}
+LONG = {"soak": _soak, "stops": _stops, "socketcand": _socketcand}

@@ -10,6 +10,8 @@ from rig.params import parse_items
 
 __all__ = ["add_parser"]
 
+_CAN_BITRATE = 1_000_000  #: [bit/s] classic CAN's highest bit rate (ISO 11898-1)
+
 
 def add_parser(sub: Any) -> None:
     emulate = sub.add_parser(
@@ -57,6 +59,12 @@ def add_parser(sub: Any) -> None:
         help="socketcand TCP port on --listen (0: any free port)",
     )
     emulate.add_argument(
+        "--bitrate",
+        type=_bitrate,
+        help="bit rate [bit/s] of the socketcand server's bus: a client that sends faster is held back "
+        "to it, as on a real bus (default 1000000)",
+    )
+    emulate.add_argument(
         "--time",
         choices=("realtime", "lockstep"),
         default="realtime",
@@ -85,6 +93,17 @@ def add_parser(sub: Any) -> None:
     )
     add_params(emulate, "override a preset (or inverter) parameter")
     emulate.set_defaults(handler=run)
+
+
+def _bitrate(text: str) -> int:
+    """An argparse type: a bit rate of 1 bit/s .. 1 Mbit/s (classic CAN's range)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number of bit/s: {text!r}") from None
+    if not 0 < value <= _CAN_BITRATE:
+        raise argparse.ArgumentTypeError(f"{value} bit/s: classic CAN runs at 1 .. 1000000 bit/s")
+    return value
 
 
 def _node_ids(preset: str, node_id: int | None, params: dict[str, str]) -> dict[str, str]:
@@ -199,6 +218,7 @@ def run(args: argparse.Namespace) -> int:
         port=args.socketcand_port,
         lockstep=args.time == "lockstep",
         realtime=_realtime(args),
+        **({} if args.bitrate is None else {"bitrate": args.bitrate}),
     )
 
 

@@ -285,3 +285,44 @@ def test_stopping_the_server_closes_its_clients(emulator: Emulator) -> None:
 def test_limits_that_cannot_work_are_refused(option: str, value: float, named: str) -> None:
     with pytest.raises(ValueError, match=named):
         SocketcandServer(SyncHub(), threading.RLock(), port=0, **{option: value})
+
+
+def test_many_connections_at_once_are_all_greeted_and_served(emulator: Emulator) -> None:
+    """300 clients connect at once (the old server listened with a backlog of 5: the kernel
+    dropped the other SYNs, each retried a second later, and 140 of 200 timed out): every one is
+    greeted and gets its rawmode, and the server accepted each once."""
+    import selectors
+
+    count = 300
+    socks = []
+    selector = selectors.DefaultSelector()
+    try:
+        for _ in range(count):
+            s = socket.socket()
+            s.setblocking(False)
+            s.connect_ex(("127.0.0.1", emulator.server.port))
+            socks.append(s)
+            selector.register(s, selectors.EVENT_WRITE, [b"", False])
+        deadline = time.monotonic() + WAIT
+        done = 0
+        while done < count:
+            assert time.monotonic() < deadline, f"{done} of {count} clients in rawmode"
+            for key, events in selector.select(1.0):
+                sock, state = key.fileobj, key.data
+                assert isinstance(sock, socket.socket)
+                if events & selectors.EVENT_WRITE and not state[1]:
+                    state[1] = True
+                    selector.modify(sock, selectors.EVENT_READ, state)
+                    continue
+                state[0] += sock.recv(4096)
+                if state[0] == b"< hi >":
+                    sock.sendall(b"< open can0 >< rawmode >")
+                elif state[0].count(b"< ok >") == 2:
+                    selector.unregister(sock)
+                    done += 1
+        wait_for(lambda: emulator.server.client_count == count, "every client in rawmode")
+        assert emulator.server.accepted == count
+    finally:
+        selector.close()
+        for s in socks:
+            s.close()

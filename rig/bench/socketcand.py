@@ -1,0 +1,321 @@
+"""``rig bench socketcand``: ``rig emulate``'s socketcand server under connection churn and a flood.
+
+Each figure comes from processes of their own on 127.0.0.1: ``rig emulate --preset dc-servo``
+(real time, 1 kHz), a client process (``python -m rig.bench.socketcand churn|flood ...``) and,
+where a run is named, a real-time 1 kHz run of the section VII.B servo held at 0 rad
+(``rig demo``'s configuration) in this process against the emulator.
+
+- ``socketcand_connections_per_s``: a client that connects, waits for ``< hi >``, opens the bus,
+  asks for rawmode, waits for both ``< ok >`` and closes, as fast as it can, during a run;
+  ``socketcand_connection_failures`` those that failed, ``socketcand_handshake_max_ms`` the
+  slowest; ``realtime_1khz_overruns_during_churn`` the run's overruns meanwhile;
+- ``socketcand_burst_seconds``: ``BURST`` connections at once (a thread each), 2 s into a run,
+  until all are done; ``socketcand_burst_failures``, and the run's overruns;
+- ``realtime_1khz_overruns_quiet`` / ``realtime_1khz_overruns_churn``: the run's overruns
+  without, and with, a client connecting ``CHURN_RATE`` times a second; ``PAIRS`` alternated
+  pairs, the median of each (A/B in the same minutes);
+- ``socketcand_flood_offered_frames_per_s``: a client writing ``< send 7FF 8 ... >`` as fast
+  as its socket takes them; ``socketcand_flood_delivered_frames_per_s``: those a well-behaved
+  reader (python-can's client through ``open_bus``, canopen) received, per second of the
+  flood, against ``bus_ceiling_frames_per_s`` (the bit rate over the frame's 135 bits,
+  ``plant_emulator.bus_time``); ``socketcand_reader_sdo_reads`` the SDO reads of 0x1000 the
+  reader completed meanwhile, ``socketcand_reader_sdo_max_ms`` the slowest,
+  ``socketcand_reader_dropped`` 1 if it lost its connection.
+
+``load_1min`` is the machine's load average when the benchmark began.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import can
+
+from rig.bench.micro import Figure
+
+__all__ = ["BURST", "CHURN_RATE", "PAIRS", "bench_socketcand", "burst", "churn", "client_process", "flood"]
+
+CHURN_RATE = 200.0  #: [1/s] connections a second of the A/B runs
+BURST = 200  #: connections at once
+PAIRS = 3  #: alternated quiet/churn run pairs
+RUN_SECONDS = 5.0  #: [s] each run
+FLOOD_SECONDS = 4.0  #: [s] the flood
+_FLOOD_LINE = b"< send 7FF 8 01 02 03 04 05 06 07 08 >"
+
+
+def _handshake(port: int) -> None:
+    """One connection: ``< hi >``, open, rawmode, both ``< ok >``, close (3 s at most)."""
+    with socket.create_connection(("127.0.0.1", port), timeout=3.0) as link:
+        got = b""
+        while b"< hi >" not in got:
+            chunk = link.recv(4096)
+            if not chunk:
+                raise ConnectionError(f"closed before '< hi >': {got!r}")
+            got += chunk
+        link.sendall(b"< open can0 >< rawmode >")
+        while got.count(b"< ok >") < 2:
+            chunk = link.recv(4096)
+            if not chunk:
+                raise ConnectionError(f"closed before the second '< ok >': {got[-80:]!r}")
+            got += chunk
+
+
+def churn(port: int, seconds: float, rate: float = 0.0) -> dict[str, Any]:
+    """Connections one after another for ``seconds`` [s], ``rate`` [1/s] of them (0: as fast as
+    they go): how many, how many failed, the slowest handshake [ms]."""
+    done = failed = 0
+    slowest = 0.0
+    start = time.monotonic()
+    while (now := time.monotonic()) - start < seconds:
+        if rate > 0.0:
+            due = start + (done + failed) / rate
+            if due > now:
+                time.sleep(due - now)
+        t0 = time.perf_counter()
+        try:
+            _handshake(port)
+            done += 1
+        except OSError:
+            failed += 1
+        slowest = max(slowest, time.perf_counter() - t0)
+    elapsed = time.monotonic() - start
+    return {"connections": done, "failed": failed, "seconds": elapsed, "slowest_ms": slowest * 1e3}
+
+
+def burst(port: int, count: int) -> dict[str, Any]:
+    """``count`` connections at once, each a thread of its own: how long until all were done
+    [s], how many failed, the slowest [ms]."""
+    failed: list[str] = []
+    slowest = [0.0]
+
+    def one() -> None:
+        t0 = time.perf_counter()
+        try:
+            _handshake(port)
+        except OSError as exc:
+            failed.append(str(exc))
+        slowest[0] = max(slowest[0], time.perf_counter() - t0)
+
+    threads = [threading.Thread(target=one) for _ in range(count)]
+    start = time.perf_counter()
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    elapsed = time.perf_counter() - start
+    return {
+        "connections": count - len(failed),
+        "failed": len(failed),
+        "seconds": elapsed,
+        "slowest_ms": slowest[0] * 1e3,
+    }
+
+
+def flood(port: int, seconds: float) -> dict[str, Any]:
+    """``< send 7FF 8 ... >`` as fast as the socket takes them for ``seconds`` [s] (what comes
+    back is read and thrown away): how many were written, per second."""
+    link = socket.create_connection(("127.0.0.1", port), timeout=10.0)
+    got = b""
+    while got.count(b"< ok >") < 2:
+        if b"< hi >" in got and b"open" not in got:
+            link.sendall(b"< open can0 >< rawmode >")
+            got += b"open"
+        chunk = link.recv(4096)
+        if not chunk:
+            raise ConnectionError("closed during the handshake")
+        got += chunk
+
+    def drain() -> None:
+        with contextlib.suppress(OSError):
+            while link.recv(65536):
+                pass
+
+    threading.Thread(target=drain, daemon=True).start()
+    batch, per = _FLOOD_LINE * 100, 100
+    sent = 0
+    start = time.monotonic()
+    while time.monotonic() - start < seconds:
+        link.sendall(batch)
+        sent += per
+    elapsed = time.monotonic() - start
+    link.close()
+    return {"frames": sent, "seconds": elapsed, "frames_per_s": sent / elapsed}
+
+
+def client_process(kind: str, port: int, seconds: float, rate: float = 0.0) -> subprocess.Popen[str]:
+    """``churn`` (``rate``), ``burst`` (``rate`` connections at once, after ``seconds``) or
+    ``flood`` in a process of its own; its JSON result is its stdout."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "rig.bench.socketcand", kind, str(port), str(seconds), str(rate)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _result(proc: subprocess.Popen[str]) -> dict[str, Any]:
+    out, _ = proc.communicate(timeout=120)
+    if proc.returncode != 0:
+        raise RuntimeError(f"the benchmark's client exited {proc.returncode}")
+    result: dict[str, Any] = json.loads(out)
+    return result
+
+
+def _run(out: str, port: int, seconds: float) -> dict[str, Any]:
+    """A real-time 1 kHz run of the servo held at 0 rad against the emulator on ``port``."""
+    from rig.config import BusConfig, replace_axis
+    from rig.demo import demo_config
+    from rig.host.session import Session
+
+    cfg = demo_config(out)
+    cfg = dataclasses.replace(
+        cfg,
+        reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),
+        run=dataclasses.replace(cfg.run, time="realtime", period=0.001),
+        bus=BusConfig(interface="socketcand", channel="can0", port=port),
+    )
+    cfg = replace_axis(cfg, "motor", limits={"watchdog_periods": 1000})
+    with Session(cfg, emulate=False, duration=seconds) as session:
+        session.start()
+        return session.run()
+
+
+def _reader(port: int, seconds: float) -> dict[str, Any]:
+    """A well-behaved client for ``seconds`` [s]: SDO reads of node 1's 0x1000, one after
+    another, counting the 0x7FF frames it receives."""
+    import canopen
+    from canopen.sdo.exceptions import SdoError
+
+    from drivers.bus import open_bus
+    from drivers.maps import CIA402_EDS
+
+    network = canopen.Network(open_bus("socketcand", "can0", host="127.0.0.1", port=port))
+    network.connect()
+    counted = [0]
+    network.subscribe(0x7FF, lambda can_id, data, stamp: counted.__setitem__(0, counted[0] + 1))
+    node = canopen.RemoteNode(1, CIA402_EDS)
+    network.add_node(node)
+    node.sdo.RESPONSE_TIMEOUT = 2.0
+    reads, slowest, dropped = 0, 0.0, 0
+    start = time.monotonic()
+    try:
+        while time.monotonic() - start < seconds:
+            t0 = time.perf_counter()
+            node.sdo.upload(0x1000, 0)
+            slowest = max(slowest, time.perf_counter() - t0)
+            reads += 1
+    except (can.CanError, OSError, SdoError):
+        dropped = 1
+    finally:
+        with contextlib.suppress(Exception):
+            network.disconnect()
+    return {"frames": counted[0], "reads": reads, "slowest_ms": slowest * 1e3, "dropped": dropped}
+
+
+def _with_emulator(use: Callable[[int], list[Figure]]) -> list[Figure]:
+    from rig.process import spawn_emulator, stop_rig
+
+    proc, port = spawn_emulator("--preset", "dc-servo", "--param", "period=0.001")
+    try:
+        return use(port)
+    finally:
+        stop_rig(proc, timeout=20)
+
+
+def _churn_figures(port: int) -> list[Figure]:
+    with tempfile.TemporaryDirectory() as out:
+        client = client_process("churn", port, RUN_SECONDS)
+        summary = _run(out, port, RUN_SECONDS)
+        result = _result(client)
+        client = client_process("burst", port, 2.0, BURST)  # 2 s into the run
+        burst_summary = _run(out, port, RUN_SECONDS)
+        at_once = _result(client)
+        quiet, busy = [], []
+        for _ in range(PAIRS):
+            quiet.append(_run(out, port, RUN_SECONDS)["overruns"])
+            client = client_process("churn", port, RUN_SECONDS, CHURN_RATE)
+            busy.append(_run(out, port, RUN_SECONDS)["overruns"])
+            _result(client)
+    return [
+        {"name": "socketcand_connections_per_s", "value": round(result["connections"] / result["seconds"])},
+        {"name": "socketcand_connection_failures", "value": result["failed"], "unit": "connections"},
+        {"name": "socketcand_handshake_max_ms", "value": round(result["slowest_ms"], 1), "unit": "ms"},
+        {"name": "realtime_1khz_overruns_during_churn", "value": summary["overruns"], "unit": "cycles"},
+        {
+            "name": "socketcand_burst_seconds",
+            "value": round(at_once["seconds"], 3),
+            "unit": f"s ({BURST} at once)",
+        },
+        {"name": "socketcand_burst_failures", "value": at_once["failed"], "unit": "connections"},
+        {"name": "realtime_1khz_overruns_during_burst", "value": burst_summary["overruns"], "unit": "cycles"},
+        {"name": "realtime_1khz_overruns_quiet", "value": statistics.median(quiet), "unit": "cycles"},
+        {"name": "realtime_1khz_overruns_churn", "value": statistics.median(busy), "unit": "cycles"},
+        {"name": "realtime_1khz_overruns_pairs", "value": f"{quiet} / {busy}", "unit": "cycles"},
+    ]
+
+
+def _flood_figures(port: int) -> list[Figure]:
+    from plant_emulator.bus_time import DEFAULT_BITRATE, frame_bits
+
+    ceiling = DEFAULT_BITRATE / frame_bits(can.Message(arbitration_id=0x7FF, is_extended_id=False, dlc=8))
+    got: dict[str, Any] = {}
+    reader = threading.Thread(target=lambda: got.update(_reader(port, FLOOD_SECONDS + 2.0)))
+    reader.start()
+    time.sleep(1.0)  # the reader is connected and reading
+    offered = _result(client_process("flood", port, FLOOD_SECONDS))
+    reader.join()
+    return [
+        {"name": "socketcand_flood_offered_frames_per_s", "value": round(offered["frames_per_s"])},
+        {
+            "name": "socketcand_flood_delivered_frames_per_s",
+            "value": round(got["frames"] / offered["seconds"]),
+        },
+        {"name": "bus_ceiling_frames_per_s", "value": round(ceiling), "unit": "frames/s (1 Mbit/s, 8 bytes)"},
+        {"name": "socketcand_reader_sdo_reads", "value": got["reads"], "unit": "reads"},
+        {"name": "socketcand_reader_sdo_max_ms", "value": round(got["slowest_ms"], 1), "unit": "ms"},
+        {"name": "socketcand_reader_dropped", "value": got["dropped"], "unit": ""},
+    ]
+
+
+def bench_socketcand(progress: Callable[[int, int], None] | None = None) -> list[Figure]:
+    """See the module docstring; ``progress(step, 2)`` after the churn and after the flood."""
+    figures: list[Figure] = [{"name": "load_1min", "value": round(os.getloadavg()[0], 2), "unit": ""}]
+    figures += _with_emulator(_churn_figures)
+    if progress is not None:
+        progress(1, 2)
+    figures += _with_emulator(_flood_figures)
+    if progress is not None:
+        progress(2, 2)
+    for figure in figures:
+        figure.setdefault("unit", "1/s")
+    return figures
+
+
+def main(argv: list[str]) -> int:
+    """``churn|burst|flood PORT SECONDS [RATE]``: one client's JSON result on stdout."""
+    kind, port, seconds = argv[0], int(argv[1]), float(argv[2])
+    rate = float(argv[3]) if len(argv) > 3 else 0.0
+    if kind == "churn":
+        result = churn(port, seconds, rate)
+    elif kind == "burst":
+        time.sleep(seconds)
+        result = burst(port, int(rate))
+    else:
+        result = flood(port, seconds)
+    print(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
