@@ -34,7 +34,8 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                  heartbeat_timeout [s] (0: off)
     [controller] kind (see ``rig.laws.LAWS``), reads = [axis names], commands = [axis names],
                  the law's parameters, and design = "FILE" (a_m, b_m and lam from rig identify's
-                 identification.json or rig design dtsm --json; ``rig.identify.model_file``)
+                 identification.json or rig design dtsm --json, the law's parameters from rig
+                 tune --json; ``rig.identify.model_file``)
     [reference]  kind (smooth-move | step | constant | profile), distance, duration, start, value, profile
     [faults]     fault injection: on the emulated bus (--emulate): frame_loss, seed, tpdo_stall_at,
                  heartbeat_loss_at, node_reset_at, overcurrent_at, encoder_glitch_at [s],
@@ -223,13 +224,14 @@ def _controller(path: str, table: Any) -> ControllerConfig:
         roles[key] = tuple(value)
     model = None
     if "design" in table:
-        model = _design(path, table)
+        model = _design(path, table, kind)
     return ControllerConfig(kind, roles["reads"], roles["commands"], table, model)
 
 
-def _design(path: str, table: dict[str, Any]) -> Model:
+def _design(path: str, table: dict[str, Any], kind: str) -> Model:
     """``design = "FILE"`` (a path relative to the configuration's folder): its a_m, b_m and,
-    from a design file, lam go into ``table``; a key also given in ``table`` is an error."""
+    from a design file, lam go into ``table`` (from a ``rig tune`` file, its params, for the
+    kind it names); a key also given in ``table`` is an error."""
     design = table.pop("design")
     where = f"{path}: [controller] design = {design!r}"
     if not isinstance(design, str) or not design:
@@ -239,7 +241,13 @@ def _design(path: str, table: dict[str, Any]) -> Model:
         )
     file = Path(design) if Path(design).is_absolute() else Path(path).parent / design
     model = read_model(file, where=where)
-    given = {"a_m": model.a_m, "b_m": model.b_m, **({} if model.lam is None else {"lam": model.lam})}
+    if model.law is not None and model.law != kind:
+        raise ConfigError(f"{where}: designed for kind = {model.law!r}, not {kind!r} (rig tune {kind} ...)")
+    given = (
+        dict(model.params or {})
+        if model.law is not None
+        else {"a_m": model.a_m, "b_m": model.b_m, **({} if model.lam is None else {"lam": model.lam})}
+    )
     both = sorted(set(given) & set(table))
     if both:
         raise ConfigError(f"{where}: {', '.join(both)} also given in [controller]: give each once")
@@ -369,7 +377,8 @@ def _check_design(cfg: RigConfig, model: Model) -> None:
                 f"not {cfg.axis(name).mode!r}"
             )
     period = cfg.run.period
-    if model.lam is not None and period > 0.0 and abs(model.dt - period) > 1e-9 * period:
+    designed = model.lam is not None or model.law is not None
+    if designed and period > 0.0 and abs(model.dt - period) > 1e-9 * period:
         raise ConfigError(
             f"{where}: designed for T = {model.dt:g} s, but [run] period = {period:g} s: design it again "
             "with --dt"

@@ -59,6 +59,7 @@ PLACEHOLDERS = {
     "DEVICE": "epos4",
     "DIR": "figures",
     "FILE": "examples/dc_servo_position.toml",
+    "H": "16",
     "HZ": "5",
     "I": "socketcan",
     "L": "-15",
@@ -71,6 +72,7 @@ PLACEHOLDERS = {
     "T": "0.0004",
     "U": "1",
     "VALUE": "1",
+    "W": "100",
 }
 PLACEHOLDER = re.compile(r"^[A-Z][A-Z_]*$")
 

@@ -19,12 +19,12 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from drivers.errors import ConfigError, RigError
-from rig.cli import bench, demo, design, drive, emulate, faults, identify, reproduce, run, scan
+from rig.cli import bench, demo, design, drive, emulate, faults, identify, reproduce, run, scan, tune
 from rig.cli.common import EXIT_USAGE, Parser, UsageError
 
 __all__ = ["main"]
 
-SUBCOMMANDS = (demo, design, reproduce, run, identify, scan, drive, emulate, faults, bench)
+SUBCOMMANDS = (demo, design, tune, reproduce, run, identify, scan, drive, emulate, faults, bench)
 
 
 def _version() -> str:
@@ -86,6 +86,7 @@ EXAMPLES = {
     "reproduce": "rig reproduce dismc --json",
     "run": "rig run --config examples/dc_servo_position.toml --emulate",
     "identify": "rig identify --emulate dc-servo --param plant.a_m=23.5 --param plant.b_m=412",
+    "tune": "rig tune pi-speed --from-identify runs/identify-voltage-DATE-TIME --bandwidth 20 --json",
     "scan": "rig scan --emulate dc-servo   (a real bus: rig scan --interface socketcan --channel can0)",
     "drive": "rig drive --emulate epos4 status   (then enable, jog 10 --for 1, disable, ...)",
     "emulate": "rig emulate --preset dc-servo   (then, in another terminal, rig scan --interface "

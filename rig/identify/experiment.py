@@ -112,13 +112,37 @@ def frequency_from_log(
 ) -> dict[str, Any]:
     """The ``frequency_response`` document of a recorded run (``rig.identify.frequency``), the
     fitted model ``result``'s response drawn beside it; the start's transient (SETTLE / a_m)
-    dropped."""
+    dropped; with the response to the speed the read axis reported, where it was recorded on
+    the period's grid (no skipped cycle)."""
     from rig.identify.frequency import SETTLE, frequency_response, response_document
 
     run = read_run(run_dir)
     settle = SETTLE / result.a_m  # the transient of the start from rest
-    fr = frequency_response(run.command, run.measurement, run.period, f_min=f_min, f_max=f_max, settle=settle)
+    velocity = _reported_speed(run_dir) if run.filled == 0 else None
+    if velocity is not None and len(velocity) != len(run.command):
+        velocity = None
+    fr = frequency_response(
+        run.command,
+        run.measurement,
+        run.period,
+        f_min=f_min,
+        f_max=f_max,
+        settle=settle,
+        velocity=velocity,
+    )
     return response_document(fr, excitation, result.a_m, result.b_m, result.delay_samples)
+
+
+def _reported_speed(run_dir: str | Path) -> np.ndarray | None:
+    """The speed the read axis reported ("AXIS.velocity" in samples.csv), None where absent."""
+    from rig.host.rundir import read_samples
+
+    config, columns = read_samples(run_dir)
+    try:
+        axis = config["controller"]["reads"][0]
+    except (KeyError, IndexError, TypeError):
+        return None
+    return columns.get(f"{axis}.velocity")
 
 
 def _run_config(run_dir: str | Path) -> dict[str, Any] | None:

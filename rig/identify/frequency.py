@@ -50,7 +50,9 @@ __all__ = [
     "FREQUENCY_EXCITATIONS",
     "FrequencyResponse",
     "frequency_response",
+    "longest_run",
     "model_speed_response",
+    "model_velocity_response",
     "period_samples",
     "periodic_excitation",
     "speed_to_position",
@@ -131,6 +133,19 @@ def model_speed_response(a: float, b: float, dt: float, delay: int, f: np.ndarra
     return out
 
 
+def model_velocity_response(a: float, b: float, dt: float, delay: int, f: np.ndarray) -> np.ndarray:
+    """(3.5)'s response from u to the speed sampled at the instants of the position (a drive's
+    reported speed): b g z^-(k+1) / (1 - alpha z^-1) at ``f`` [Hz]."""
+    import scipy.signal
+
+    alpha = math.exp(-a * dt)
+    g = (1.0 - alpha) / a if a != 0.0 else dt
+    num = np.concatenate([np.zeros(delay + 1), [b * g]])
+    _, response = scipy.signal.freqz(num, [1.0, -alpha], worN=np.asarray(f, dtype=float), fs=1.0 / dt)
+    out: np.ndarray = response
+    return out
+
+
 def speed_to_position(f: np.ndarray, dt: float) -> np.ndarray:
     """T / (1 - z^-1) at ``f`` [Hz]: the position from the backward-difference speed."""
     z_inv = np.exp(-2j * math.pi * np.asarray(f) * dt)
@@ -151,6 +166,9 @@ class FrequencyResponse:
     window: str  #: "boxcar" (periodic excitation, one period a segment) or "hann"
     f_min: float
     f_max: float
+    #: H1 from u to the speed the drive reported, and its coherence (None: not recorded)
+    velocity: np.ndarray | None = None
+    velocity_coherence: np.ndarray | None = None
 
     @property
     def position(self) -> np.ndarray:
@@ -165,16 +183,7 @@ class FrequencyResponse:
 
     def coherent_band(self) -> tuple[float, float] | None:
         """[Hz] the longest run of contiguous coherent bins; None when no bin is coherent."""
-        best: tuple[int, int] | None = None
-        start = None
-        for i, ok in enumerate([*self.coherent, False]):
-            if ok and start is None:
-                start = i
-            elif not ok and start is not None:
-                if best is None or i - start > best[1] - best[0]:
-                    best = (start, i)
-                start = None
-        return None if best is None else (float(self.f[best[0]]), float(self.f[best[1] - 1]))
+        return longest_run(self.f, self.coherent)
 
     def deviation(self, model: np.ndarray) -> tuple[float, float]:
         """(worst |dB|, worst |degrees|) of the measured speed response against ``model`` (the
@@ -186,6 +195,20 @@ class FrequencyResponse:
         return float(np.max(np.abs(20.0 * np.log10(np.abs(ratio))))), float(
             np.max(np.abs(np.degrees(np.angle(ratio))))
         )
+
+
+def longest_run(f: np.ndarray, ok: np.ndarray) -> tuple[float, float] | None:
+    """(first, last) of ``f`` over the longest run of contiguous True in ``ok``; None if none."""
+    best: tuple[int, int] | None = None
+    start = None
+    for i, v in enumerate([*ok, False]):
+        if v and start is None:
+            start = i
+        elif not v and start is not None:
+            if best is None or i - start > best[1] - best[0]:
+                best = (start, i)
+            start = None
+    return None if best is None else (float(f[best[0]]), float(f[best[1] - 1]))
 
 
 def _is_periodic(u: np.ndarray, n: int) -> bool:
@@ -204,11 +227,13 @@ def frequency_response(
     f_min: float = 1.0,
     f_max: float | None = None,
     settle: float = 0.0,
+    velocity: np.ndarray | None = None,
 ) -> FrequencyResponse:
     """H1 from the command u to the speed (backward differences of the position theta [rad])
     between f_min and f_max [Hz] (default fs/5); Welch segments of 1/f_min (module doc). The
     first whole periods covering ``settle`` [s] (at least one) are the start's transient and
-    are dropped, keeping at least two periods."""
+    are dropped, keeping at least two periods. ``velocity``: the speed the drive reported
+    [rad/s] per sample, whose response is estimated too."""
     import scipy.signal
 
     u = np.asarray(u, dtype=float)
@@ -225,15 +250,20 @@ def frequency_response(
     drop = n * min(max(1, math.ceil(settle / (n * dt))), (len(u) - 1) // n - 2)
     w = np.diff(theta[drop - 1 :]) / dt
     uu = u[drop:]
+    v = None if velocity is None else np.asarray(velocity, dtype=float)[drop:]
     window, overlap = ("boxcar", 0) if periodic else ("hann", n // 2)
     if periodic:  # whole periods only
         keep = (len(uu) // n) * n
         uu, w = uu[:keep], w[:keep]
+        v = None if v is None else v[:keep]
     kw = {"fs": 1.0 / dt, "window": window, "nperseg": n, "noverlap": overlap, "detrend": "constant"}
     f, g_uu = scipy.signal.welch(uu, **kw)
     _, g_uy = scipy.signal.csd(uu, w, **kw)
     with np.errstate(divide="ignore", invalid="ignore"):  # bins without power: nan, not kept
         _, gamma2 = scipy.signal.coherence(uu, w, **kw)
+        if v is not None:
+            _, g_uv = scipy.signal.csd(uu, v, **kw)
+            _, gamma2_v = scipy.signal.coherence(uu, v, **kw)
     band = (f >= lo - 1e-9) & (f <= hi + 1e-9) & (g_uu > 0.0)
     if not band.any():
         raise IdentificationError(f"the input has no power between {lo:g} and {hi:g} Hz")
@@ -248,6 +278,8 @@ def frequency_response(
         window=window,
         f_min=lo,
         f_max=hi,
+        velocity=None if v is None else g_uv[band] / g_uu[band],
+        velocity_coherence=None if v is None else gamma2_v[band],
     )
 
 
@@ -286,6 +318,15 @@ def response_document(
         "position_magnitude_db": _db(fr.position),
         "position_phase_deg": _deg(fr.position),
         "coherence": [float(v) for v in fr.coherence],
+        **(
+            {}
+            if fr.velocity is None or fr.velocity_coherence is None
+            else {
+                "velocity_magnitude_db": _db(fr.velocity),
+                "velocity_phase_deg": _deg(fr.velocity),
+                "velocity_coherence": [float(v) for v in fr.velocity_coherence],
+            }
+        ),
         "model_magnitude_db": _db(model),
         "model_phase_deg": _deg(model),
         "coherent_band": None if band is None else list(band),

@@ -8,7 +8,9 @@ sample period), delay [s] and delay_samples, offset [rad/s^2], fit_percent (held
 samples, filled_samples (of skipped cycles, filled in), input, input_unit, b_m_unit,
 closed_loop and warnings (see ``checks``). A design
 file adds the delta-domain design of (6.9), (6.16)-(6.19) and carries a_m, b_m, lam, dt and
-input. ``read_model`` takes either file, or a run directory holding identification.json.
+input; a ``rig tune --json`` file carries law (the ``[controller] kind``) and params (its
+parameters) besides. ``read_model`` takes any of them, or a run directory holding
+identification.json.
 """
 
 from __future__ import annotations
@@ -43,6 +45,8 @@ class Model:
     dt: float
     lam: float | None
     source: str
+    law: str | None = None  #: a ``rig tune`` design: the ``[controller] kind`` it is for
+    params: dict[str, Any] | None = None  #: a ``rig tune`` design: the law's parameters
 
 
 def checks(result: IdentResult, controller: str | None) -> tuple[bool | None, list[str]]:
@@ -119,4 +123,9 @@ def read_model(path: str | Path, *, where: str = "") -> Model:
     source = doc.get("input", "voltage")
     if source not in ("voltage", "torque"):
         raise ConfigError(f"{at}: input = {source!r}: expected voltage or torque")
-    return Model(a_m, b_m, source, dt, lam, str(p))
+    law, params = doc.get("law"), doc.get("params")
+    if law is not None and (not isinstance(law, str) or not isinstance(params, dict)):
+        raise ConfigError(f"{at}: law = {law!r} with params = {params!r}: expected a kind and an object")
+    if law is not None and "dt" not in doc:
+        raise ConfigError(f"{at}: a design for {law!r} without dt (the period it was made for)")
+    return Model(a_m, b_m, source, dt, lam, str(p), law, params)

@@ -1,11 +1,16 @@
 """``cascade-position``: the position and speed loops of section VII.D (reconstructed (6.36), Table V).
 
 The position loop runs every ``position_every`` cycles, the speed loop every cycle;
-the speed loop's q-current reference is sent as the torque k_t i_q* (CST).
+the speed loop's q-current reference is sent as the torque k_t i_q* (CST). Without
+``speed_*`` and ``position_*`` parameters the loops are Table V's; with any of them (``rig
+tune cascade-position``), each loop is Table V's with those fields replaced and T the run's
+period (the position loop's: times ``position_every``); with k_t = 1 the speed loop's output
+is the command itself, a torque in CST or a voltage in voltage mode.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -17,26 +22,64 @@ from rig.papers import drives
 __all__ = ["CascadeParams", "CascadePositionLaw"]
 
 
+#: the fields of a loop a design gives (``CascadeLoopParams``), as speed_NAME and position_NAME
+LOOP_FIELDS = ("c_s", "k_s", "k_r1", "k_r2", "k_int", "u0", "beta", "alpha")
+
+
 @dataclass(frozen=True)
 class CascadeParams:
     k_t: float = drives.B_W * drives.J_IM  #: torque per q current [N m/A]: b_w J of Table V
     position_every: int = 2  #: the position loop's period in cycles (1 ms at 0.5 ms)
+    # a designed speed loop (CascadeLoopParams' fields; None: Table V's)
+    speed_c_s: tuple[float, ...] | None = None
+    speed_k_s: tuple[float, ...] | None = None
+    speed_k_r1: float | None = None
+    speed_k_r2: float | None = None
+    speed_k_int: float | None = None
+    speed_u0: float | None = None
+    speed_beta: float | None = None
+    speed_alpha: float | None = None
+    # a designed position loop
+    position_c_s: tuple[float, ...] | None = None
+    position_k_s: tuple[float, ...] | None = None
+    position_k_r1: float | None = None
+    position_k_r2: float | None = None
+    position_k_int: float | None = None
+    position_u0: float | None = None
+    position_beta: float | None = None
+    position_alpha: float | None = None
 
     def __post_init__(self) -> None:
         if self.position_every < 1:
             raise ValueError(f"position_every must be >= 1, got {self.position_every!r}")
 
+    def loop(self, name: str, table: CascadeLoopParams, dt: float) -> CascadeLoopParams:
+        """The loop ``name`` ("speed" or "position"): ``table`` without designed fields, else
+        ``table`` with them at ``dt`` [s]."""
+        given = {k: getattr(self, f"{name}_{k}") for k in LOOP_FIELDS if getattr(self, f"{name}_{k}") is not None}
+        return dataclasses.replace(table, dt=dt, **given) if given else table
+
+    @property
+    def designed(self) -> bool:
+        """Any loop field given (``rig tune cascade-position``)."""
+        return any(getattr(self, f"{n}_{k}") is not None for n in ("speed", "position") for k in LOOP_FIELDS)
+
 
 class CascadePositionLaw(Law):
     Params = CascadeParams
     error_unit = "rad"
-    modes = (frozenset({"cst"}),)
+    modes = (frozenset({"cst", "voltage"}),)
     position_reference = True
     internals = ("omega_ref", "i_q_ref")
 
     def __init__(self, params: CascadeParams, *, period: float, reference: Reference) -> None:
         super().__init__(params, period=period, reference=reference)
-        self.position, self.speed = CascadeLoop(TABLE_V_POSITION), CascadeLoop(TABLE_V_SPEED)
+        p = params
+        if p.designed:
+            self.position = CascadeLoop(p.loop("position", TABLE_V_POSITION, period * p.position_every))
+            self.speed = CascadeLoop(p.loop("speed", TABLE_V_SPEED, period))
+        else:
+            self.position, self.speed = CascadeLoop(TABLE_V_POSITION), CascadeLoop(TABLE_V_SPEED)
         self._k = 0
         self._omega_ref = 0.0
 
