@@ -73,6 +73,7 @@ PLACEHOLDERS = {
     "U": "1",
     "VALUE": "1",
     "W": "100",
+    "ADDRESS": "tcp://127.0.0.1:8786",
 }
 PLACEHOLDER = re.compile(r"^[A-Z][A-Z_]*$")
 
@@ -513,6 +514,92 @@ INSTANCES: dict[str, tuple[str, Check]] = {
     ),
 }
 
+
+def _sweep_rows(folder: pathlib.Path, name: str) -> dict[tuple[str, float], dict[str, Any]]:
+    """The rows of the sweep ``name`` run in ``folder``, by (controller, the other parameter)."""
+    import pyarrow.parquet as pq
+
+    rows = pq.read_table(folder / "sweeps" / name / "results.parquet").to_pylist()
+    assert rows and all(r["error"] is None for r in rows if "controller" in r), rows[:1]
+    return {(r["controller"], r["u_bound" if "u_bound" in r else "L_error"]): r for r in rows}
+
+
+def _near(rows: dict[tuple[str, float], dict[str, Any]], controller: str, text: str) -> dict[str, Any]:
+    """The row of ``controller`` whose parameter is ``text`` (or the one printed to its last digit)."""
+    if (controller, float(text)) in rows:
+        return rows[(controller, float(text))]
+    (row,) = [r for (c, x), r in rows.items() if c == controller and agree(text, x)]
+    return row
+
+
+def _dismc_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+    rows = _sweep_rows(folder, "dismc-anti-windup")
+    m = said(
+        r"DISMC-LQR diverges for every bound up to (N) \(rms error (N)-(N)\) and tracks from (N) on "
+        r"\(rms (N)\); DISMC-AW-LQR tracks down to a bound of (N) \(rms (N)\) and diverges only below (N),"
+    )
+    up_to, low, high, tracks, rms, aw_down, aw_rms, aw_below = m.groups()
+    lqr = sorted((x, r["rms_error"]) for (c, x), r in rows.items() if c == "DISMC-LQR")
+    aw = sorted((x, r["rms_error"]) for (c, x), r in rows.items() if c == "DISMC-AW-LQR")
+    diverged, tracked = [x for x, e in lqr if e > 1.0], [x for x, e in lqr if e < 1.0]
+    assert agree(up_to, max(diverged)) and agree(tracks, min(tracked))
+    errors = [e for _, e in lqr if e > 1.0]
+    assert agree(low, min(errors)) and agree(high, max(errors))
+    assert agree(rms, _near(rows, "DISMC-LQR", tracks)["rms_error"])
+    assert agree(aw_down, min(x for x, e in aw if e < 1.0))
+    assert agree(aw_below, max(x for x, e in aw if e > 1.0))
+    assert agree(aw_rms, _near(rows, "DISMC-AW-LQR", aw_down)["rms_error"])
+    assert (folder / "figures" / "dismc-anti-windup-rms_error.png").is_file()
+
+
+def _dq_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+    rows = _sweep_rows(folder, "dq-L-error")
+    m = said(
+        r"its cross-coupling peak stays at most (N) per unit of the q step for L from -50 % to \+100 % "
+        r"of the true one \(0 at the true L\), against (N)-(N) for the PI, and (N) for the decoupled PI "
+        r"at the true L, which grows to (N) at \+75 % and is unstable at \+100 % \(peak (N)\)"
+    )
+    proposed, pi_low, pi_high, dec0, dec75, dec100 = m.groups()
+    peaks = {c: [r["peak_id"] for (c_, _), r in rows.items() if c_ == c] for c in ("proposed", "pi")}
+    assert agree(proposed, max(peaks["proposed"])) and _near(rows, "proposed", "0")["peak_id"] < 1e-9
+    assert agree(pi_low, min(peaks["pi"])) and agree(pi_high, max(peaks["pi"]))
+    for text, x in ((dec0, "0"), (dec75, "0.75"), (dec100, "1")):
+        assert agree(text, _near(rows, "pi-decoupled", x)["peak_id"]), (text, x)
+
+
+def _servo_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+    import pyarrow.parquet as pq
+
+    rows = pq.read_table(folder / "sweeps" / "servo-b_m" / "results.parquet").to_pylist()
+    assert len(rows) == 45 and all(r["error"] is None and r["stop_confirmed"] for r in rows)
+    at = {(r["emulator.params.b_m"], r["emulator.params.period"]): r for r in rows}
+    m = said(
+        r"tracks plants of 0\.25 to (N) times that b_m at its period without chattering \(rms error "
+        r"(N)-(N) mrad, 0 alternations beyond a count's effect\) and chatters at 4 times \(rms (N) mrad, "
+        r"(N) alternations\)\. A longer period narrows the margin: at 2 ms it chatters at the design's "
+        r"own b_m \((N) alternations, rms (N) mrad\); at 0\.1 ms the rms error stays below (N) mrad"
+    )
+    times, low, high, rms4, count4, count2ms, rms2ms, below = m.groups()
+    quiet = {b: r for (b, t), r in at.items() if t == 4e-4 and b < 2720.0}
+    assert all(r["chattering_count"] == 0 for r in quiet.values()) and agree(times, max(quiet) / 680.0)
+    assert agree(low, 1e3 * min(r["rms_error"] for r in quiet.values()))
+    assert agree(high, 1e3 * max(r["rms_error"] for r in quiet.values()))
+    four, slow = at[(2720.0, 4e-4)], at[(680.0, 2e-3)]
+    assert agree(rms4, 1e3 * four["rms_error"]) and agree(count4, four["chattering_count"])
+    assert agree(count2ms, slow["chattering_count"]) and agree(rms2ms, 1e3 * slow["rms_error"])
+    assert 1e3 * max(r["rms_error"] for (b, t), r in at.items() if t == 1e-4) < float(below)
+
+
+def _figures_named(header: str) -> Check:
+    """The figures a README table names (its first column's first backticked word) are printed."""
+
+    def check(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+        names = {re.sub(r"`(\S+)`.*", r"\1", row[0]) for row in table(header)}
+        assert names <= {line.split()[0] for line in proc.stdout.splitlines()}, (names, proc.stdout)
+
+    return check
+
+
 #: the whole commands that take half a minute or more: the ``slow`` tier (``-m slow``)
 SLOW: dict[str, Check] = {
     "rig reproduce drives": _drives,
@@ -525,6 +612,12 @@ SLOW: dict[str, Check] = {
     "rig bench soak": lambda proc, folder: None,  # its figures are wall-clock and memory
     "rig bench stops": lambda proc, folder: None,
     "rig bench socketcand": lambda proc, folder: None,  # wall-clock figures
+    "rig sweep examples/sweeps/dismc_anti_windup.toml --plot figures": _dismc_sweep,
+    "rig sweep examples/sweeps/dq_L_error.toml --plot figures": _dq_sweep,
+    "rig sweep examples/sweeps/servo_b_m.toml --plot figures": _servo_sweep,
+    "rig bench sweep": _figures_named("| `rig bench sweep` figure"),
+    "rig bench startup": _figures_named("| `rig bench startup` figure"),
+    "rig bench memory": _figures_named("| `rig bench memory` figure"),
 }
 
 #: the whole commands not run here, and why (each is parsed)
@@ -567,6 +660,8 @@ MENTIONS = {
     "rig emulate --modbus-map",
     "rig identify --input torque",
     "rig identify --excitation multisine",
+    "rig sweep",
+    "rig sweep SPEC.toml",
 }
 
 

@@ -70,6 +70,27 @@ def _socketcand(progress: Progress | None = None) -> list[Figure]:
     return bench_socketcand(progress=progress)
 
 
+def _sweep(progress: Progress | None = None) -> list[Figure]:
+    """points/s of a sweep at 1 and 2 local workers, scaling, overhead per point, 100 workers (minutes)"""
+    from rig.bench.sweep import bench_sweep
+
+    return bench_sweep(progress=progress)
+
+
+def _startup() -> list[Figure]:
+    """wall and CPU seconds of rig --version and of a 0.1 s emulated rig run (fresh processes, 7 each)"""
+    from rig.bench.costs import bench_startup
+
+    return bench_startup()
+
+
+def _memory(progress: Progress | None = None) -> list[Figure]:
+    """peak memory of an emulated rig run at 25,000 and 250,000 cycles (about 2 minutes)"""
+    from rig.bench.costs import bench_memory
+
+    return bench_memory(progress=progress)
+
+
 _loop.__doc__ = (
     "full-chain lock-step cycles/s (one axis, the dyno, the bare canopen exchange), 1 kHz real time"
 )
@@ -93,6 +114,9 @@ BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "soak": _soak,
     "stops": _stops,
     "socketcand": _socketcand,
+    "sweep": _sweep,
+    "startup": _startup,
+    "memory": _memory,
 }
 #: the benchmarks that take minutes and take a ``progress`` callback
-LONG = {"soak": _soak, "stops": _stops, "socketcand": _socketcand}
+LONG = {"soak": _soak, "stops": _stops, "socketcand": _socketcand, "sweep": _sweep, "memory": _memory}

@@ -19,12 +19,25 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from drivers.errors import ConfigError, RigError
-from rig.cli import bench, demo, design, drive, emulate, faults, identify, reproduce, run, scan, tune
+from rig.cli import (
+    bench,
+    demo,
+    design,
+    drive,
+    emulate,
+    faults,
+    identify,
+    reproduce,
+    run,
+    scan,
+    sweep,
+    tune,
+)
 from rig.cli.common import EXIT_USAGE, Parser, UsageError
 
 __all__ = ["main"]
 
-SUBCOMMANDS = (demo, design, tune, reproduce, run, identify, scan, drive, emulate, faults, bench)
+SUBCOMMANDS = (demo, design, tune, reproduce, run, identify, scan, drive, emulate, faults, sweep, bench)
 
 
 def _version() -> str:
@@ -92,6 +105,7 @@ EXAMPLES = {
     "emulate": "rig emulate --preset dc-servo   (then, in another terminal, rig scan --interface "
     "socketcand --channel can0)",
     "faults": "rig faults --scenario tpdo-stall --scenario host-sigkill",
+    "sweep": "rig sweep examples/sweeps/servo_b_m.toml --workers 2 --plot sweep-plots",
     "bench": "rig bench loop --json",
 }
 

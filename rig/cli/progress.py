@@ -43,7 +43,8 @@ class Progress:
             self.on = self._terminal and total > 0
         self.update(k)
 
-    def update(self, done: float) -> None:
+    def update(self, done: float, note: str = "") -> None:
+        """``done`` of the total; ``note`` goes at the line's end (a rate, the failures)."""
         if not self.on:
             return
         now = time.monotonic()
@@ -56,7 +57,7 @@ class Progress:
         unit = f" {self.unit}" if self.unit else ""
         self.stream.write(
             f"\r{self.label}: {done:,.0f}/{self.total:,.0f}{unit} ({100.0 * fraction:.0f} %), "
-            f"{elapsed:.0f} s, {remaining}   "
+            f"{elapsed:.0f} s, {remaining}{', ' + note if note else ''}   "
         )
         self.stream.flush()
         self._drawn = True

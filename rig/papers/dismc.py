@@ -49,6 +49,9 @@ class DismcExample:
     amplitude: float = 0.1  #: disturbance amplitude of d(k) = B amplitude sin(k)
     H: Literal["printed", "solved"] = "printed"  #: (50) as printed, or solved from (3)
     steps: int = 300  #: samples simulated (6 s)
+    #: |u| the actuator delivers at most (the paper's example has no bound: inf); the controllers
+    #: do not know it, so their integral winds up where it acts (``rig sweep``'s anti-windup study)
+    u_bound: float = math.inf
 
     def __post_init__(self) -> None:
         for name in ("phi", "eta", "varphi", "beta", "mu", "R", "Ts", "amplitude"):
@@ -56,6 +59,8 @@ class DismcExample:
                 raise ValueError(f"{name} must be a finite number, got {getattr(self, name)!r}")
         if not self.Ts > 0.0:
             raise ValueError(f"Ts must be a sampling period > 0 s, got {self.Ts!r}")
+        if not self.u_bound > 0.0:
+            raise ValueError(f"u_bound must be > 0 (inf: none), got {self.u_bound!r}")
         for name in ("S", "x0", "xm0"):
             if len(getattr(self, name)) != 2 or not all(map(math.isfinite, getattr(self, name))):
                 raise ValueError(f"{name} needs 2 finite numbers, got {getattr(self, name)!r}")
@@ -75,7 +80,7 @@ class DismcRun:
 
 
 #: parameters of the example that ``--param`` may set (the others are the plant of (47)-(48))
-FIXED = ("A", "B", "C", "A_m", "C_m", "steps")
+FIXED = ("A", "B", "C", "A_m", "C_m", "steps", "u_bound")  # u_bound: rig sweep's, not the paper's
 PARAM_NAMES = ("phi", "eta", "varphi", "beta", "mu", "R", "Ts", "amplitude", "S", "x0", "xm0", "Q", "H")
 ALIASES = {"disturbance_amplitude": "amplitude"}
 
@@ -112,13 +117,17 @@ def dismc_laws(example: DismcExample | None = None) -> dict[str, DISMCParams]:
     }
 
 
-def run_dismc(example: DismcExample | None = None) -> list[DismcRun]:
-    """Simulate DSMC, DISMC-LMI, DISMC-LQR and DISMC-AW-LQR on (47)-(53)."""
+def run_dismc(example: DismcExample | None = None, controllers: tuple[str, ...] = ()) -> list[DismcRun]:
+    """Simulate DSMC, DISMC-LMI, DISMC-LQR and DISMC-AW-LQR (or those of ``controllers``, by
+    Table 1's names) on (47)-(53); u is the controllers' command, the plant takes it within
+    +-``u_bound``."""
     ex = example or DismcExample()
     laws = dismc_laws(ex)
     A, B, C, Am, Cm = (np.array(v) for v in (ex.A, ex.B, ex.C, ex.A_m, ex.C_m))
     runs = []
     for name, params in laws.items():
+        if controllers and name not in controllers:
+            continue
         ctl = DISMC(params)
         x, xm = np.array(ex.x0, dtype=float), np.array(ex.xm0, dtype=float)
         u, e, s = (np.empty(ex.steps) for _ in range(3))
@@ -126,7 +135,7 @@ def run_dismc(example: DismcExample | None = None) -> list[DismcRun]:
             u[k] = ctl.step(tuple(x), tuple(xm))
             e[k] = C @ x - Cm @ xm
             s[k] = ctl.sigma
-            x = A @ x + B * (u[k] + ex.amplitude * math.sin(k))
+            x = A @ x + B * (min(max(u[k], -ex.u_bound), ex.u_bound) + ex.amplitude * math.sin(k))
             xm = Am @ xm
         run = DismcRun(name, u, e, s)
         run.metrics = {

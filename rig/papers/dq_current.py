@@ -152,18 +152,22 @@ def _timing(study: DqStudy, strategy: str, ratio: float) -> tuple[float, float]:
     return ratio / study.f_line, omega_k
 
 
-def step_response(study: DqStudy, strategy: str, ratio: float, gamma: float, controller: str) -> StepRun:
-    """Simulate a unit q-reference step, lock-step controller + plant."""
+def step_response(
+    study: DqStudy, strategy: str, ratio: float, gamma: float, controller: str, *, l1_model: float = 0.0
+) -> StepRun:
+    """Simulate a unit q-reference step, lock-step controller + plant; the controller is designed
+    with the inductance ``l1_model`` [H] (0: the plant's L1; ``rig sweep``'s error in L)."""
     ts, omega_k = _timing(study, strategy, ratio)
     rl = RLParams(r1=study.R1, l1=study.L1, ts=ts, m=dead_time_fraction(strategy))
     plant = ExactDqPlant(rl) if study.plant == "exact" else StationaryRLConverter(rl)
+    l1 = l1_model or study.L1
     if controller == "proposed":
         ctl: ComplexVectorCurrentController | DqPI = ComplexVectorCurrentController(
-            DqCurrentParams(r1=study.R1, l1=study.L1, ts=ts, gamma=gamma, strategy=strategy)
+            DqCurrentParams(r1=study.R1, l1=l1, ts=ts, gamma=gamma, strategy=strategy)
         )
     else:
-        k_p, k_i = pi_gains_like(study.R1, study.L1, ts, gamma)
-        ctl = DqPI(DqPIParams(k_p=k_p, k_i=k_i, l1=study.L1, decouple=controller == "pi-decoupled"))
+        k_p, k_i = pi_gains_like(study.R1, l1, ts, gamma)
+        ctl = DqPI(DqPIParams(k_p=k_p, k_i=k_i, l1=l1, decouple=controller == "pi-decoupled"))
     out = np.zeros(study.steps + 1, dtype=complex)
     i = 0j
     for k in range(1, study.steps + 1):

@@ -1,0 +1,131 @@
+"""``rig sweep SPEC.toml``: a robustness study on Dask (``rig.sweep``), its table and its plots."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+from rig.cli.common import UsageError, add_json, out_dir, print_json
+
+__all__ = ["add_parser"]
+
+
+def _workers(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {n}")
+    return n
+
+
+def add_parser(sub: Any) -> None:
+    sweep = sub.add_parser(
+        "sweep",
+        help="run a robustness study: many emulated runs over varied parameters, on Dask",
+        description="Run every point of SPEC.toml (rig/sweep/spec.py documents it: a rig run "
+        "configuration run emulated in lock-step, or a paper's pure simulation, and the parameters "
+        "to vary) on Dask: a local cluster of one worker process per core, or an existing cluster "
+        "with --scheduler. Rows go to <output>/<name>/results.parquet as points finish, beside "
+        "sweep.json; a point that fails is a row with its error. Needs the sweep extra: "
+        "pip install 'drive-rig[sweep]'.",
+    )
+    sweep.add_argument("spec", metavar="SPEC.toml", help="the study (see examples/sweeps/)")
+    engine = sweep.add_mutually_exclusive_group()
+    engine.add_argument(
+        "--workers",
+        type=_workers,
+        metavar="N",
+        help="worker processes of the local cluster (default: one per core)",
+    )
+    engine.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="use the Dask cluster whose scheduler is at ADDRESS (tcp://HOST:PORT): one started with "
+        "'dask scheduler' and 'dask worker ADDRESS --nthreads 1', by dask-jobqueue or on Kubernetes",
+    )
+    sweep.add_argument(
+        "--resume", action="store_true", help="go on with the sweep's table: skip the points in it"
+    )
+    add_json(sweep, "print one JSON object: the counts, the table's path, the rate, the engine")
+    sweep.add_argument(
+        "--plot",
+        type=out_dir,
+        metavar="DIR",
+        help="draw each metric over one or two varied parameters into DIR",
+    )
+    sweep.set_defaults(handler=execute)
+
+
+def execute(args: argparse.Namespace) -> int:
+    try:
+        import dask.distributed  # noqa: F401
+        import pyarrow  # noqa: F401
+    except ImportError as exc:
+        raise UsageError(
+            f"rig sweep needs Dask and pyarrow ({exc.name} is missing): pip install 'drive-rig[sweep]'"
+        ) from None
+    from rig.cli.progress import Progress
+    from rig.sweep.engine import close_client, open_client, run_sweep
+    from rig.sweep.spec import load_spec
+
+    spec = load_spec(args.spec)
+    if args.plot:
+        from rig.plots import require_pyplot
+
+        require_pyplot()  # no matplotlib: say so before the points
+    client, engine = open_client(args.workers, args.scheduler, quiet=not args.verbose)
+    bar = Progress("rig sweep", 0, "points", json=args.json)
+    t0, new = time.monotonic(), [0]
+
+    def on_row(results: Any, total: int) -> None:
+        """The progress line: done/total, time left, the rate of this invocation, the failures."""
+        new[0] += 1
+        rate = new[0] / max(time.monotonic() - t0, 1e-9)
+        if bar.total != total:
+            bar.cycles(0, total)
+        bar.update(results.done, f"{rate:.2f} points/s, {results.failed} failed")
+
+    try:
+        done = run_sweep(spec, client, engine, resume=args.resume, on_row=on_row)
+    finally:
+        bar.close()
+        close_client(client)
+    plots: list[str] = []
+    if args.plot:
+        from rig.sweep.plot import plot_results
+
+        plots = [str(p) for p in plot_results(spec, list(done.results.rows.values()), args.plot)]
+    run = done.total - done.resumed
+    doc = {
+        "sweep_dir": str(spec.directory),
+        "results": str(spec.directory / "results.parquet"),
+        "points": done.total,
+        "done": done.results.done,
+        "failed": done.results.failed,
+        "resumed": done.resumed,
+        "seconds": done.seconds,
+        "points_per_s": (done.results.done - done.resumed) / done.seconds if done.seconds > 0 else None,
+        "engine": engine,
+        "status": done.record["status"],
+        "plots": plots,
+    }
+    if args.json:
+        print_json(doc)
+    else:
+        rate = f"{doc['points_per_s']:.2f} points/s" if doc["points_per_s"] else "-"
+        print(
+            f"sweep {spec.name}: {done.results.done} of {done.total} points ({run} to run, "
+            f"{done.resumed} resumed), "
+            f"{done.results.failed} failed, {done.seconds:.1f} s, {rate} on {engine['workers']} worker(s) "
+            f"({engine['kind']} {engine['address']})"
+        )
+        print(f"results  {doc['results']}")
+        print(f"record   {spec.directory / 'sweep.json'}")
+        for p in plots:
+            print(f"plot     {p}")
+        if done.interrupted:
+            print("interrupted: the rows of the points that finished are kept; --resume runs the others")
+    return 130 if done.interrupted else 0

@@ -1,0 +1,237 @@
+"""The engine of a study: Dask distributed, and the loop that streams its rows into the table.
+
+By default a ``LocalCluster`` with one worker process per core (one thread each: a point is
+Python, which a second thread in the same process would only slow down); with a scheduler's
+address, that cluster: one started by hand (``dask scheduler``, then ``dask worker ADDRESS
+--nthreads 1`` on each machine), by dask-jobqueue (SLURMCluster, PBSCluster, ...) or on
+Kubernetes. Each worker imports the toolkit once (``Client.run``) and then runs many points.
+
+Every point is one task (``Client.submit``); rows come back as they finish
+(``distributed.as_completed``) and go into the table (``rig.sweep.table``). A worker lost
+mid-sweep costs only the points it held: the scheduler runs them again elsewhere, and the
+table keeps each point once (rows by point number). A task that fails outright (a worker that
+dies on it again and again: ``KilledWorker``) is a row with its error. Ctrl-C cancels what has
+not finished and keeps what has. No pool, queue or retry of our own: Dask's.
+"""
+
+from __future__ import annotations
+
+import datetime
+import logging
+import os
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from drivers.errors import ConfigError
+from rig.sweep.point import job_of, read_base, run_point
+from rig.sweep.points import Point, make_points
+from rig.sweep.spec import SweepSpec
+from rig.sweep.table import Results, read_rows, read_sweep_json, write_sweep_json
+
+__all__ = ["SweepRun", "close_client", "cores", "open_client", "run_sweep"]
+
+log = logging.getLogger(__name__)
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def _warm() -> None:
+    """On each worker, once: what a point imports (the session, the emulator, the papers)."""
+    import rig.host.session
+    import rig.sweep.scenarios  # noqa: F401
+
+
+def open_client(
+    workers: int | None = None, scheduler: str | None = None, *, quiet: bool = True
+) -> tuple[Any, dict[str, Any]]:
+    """(a dask.distributed Client, the engine's description for sweep.json): a local cluster of
+    ``workers`` processes (default: one per core), or the cluster at ``scheduler``. ``quiet``:
+    distributed's own loggers (set to INFO when it is imported) say only warnings."""
+    from dask.distributed import Client, LocalCluster
+
+    if quiet:
+        logging.getLogger("distributed").setLevel(logging.WARNING)
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except OSError as exc:
+            raise ConfigError(
+                f"rig sweep: --scheduler {scheduler}: no Dask scheduler answers there ({exc}); start one "
+                "with 'dask scheduler' and workers with 'dask worker ADDRESS --nthreads 1'"
+            ) from None
+        engine = {"kind": "scheduler", "address": scheduler}
+    else:
+        n = workers or cores()
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+        client = Client(cluster)
+        engine = {"kind": "local", "address": cluster.scheduler_address}
+    import dask
+
+    client.run(_warm)
+    engine |= {"workers": len(client.scheduler_info()["workers"]), "dask": dask.__version__}
+    return client, engine
+
+
+def close_client(client: Any) -> None:
+    """Close ``client`` and the local cluster it started (if any); a worker slow to exit is killed
+    by its nanny, which need not be said (at WARNING) after the sweep's rows are in."""
+    cluster = client.cluster
+    client.close()
+    if cluster is not None:
+        nanny = logging.getLogger("distributed.nanny")
+        level = nanny.level
+        nanny.setLevel(max(level, logging.ERROR))
+        try:
+            cluster.close()
+        finally:
+            nanny.setLevel(level)
+
+
+@dataclass
+class SweepRun:
+    """What ``run_sweep`` did: the table, the counts, the seconds from the first task's submit
+    to the last row, and the record written to sweep.json."""
+
+    results: Results
+    total: int
+    resumed: int
+    seconds: float
+    record: dict[str, Any]
+    interrupted: bool = False
+
+
+def _pending(spec: SweepSpec, points: list[Point], rows: list[dict[str, Any]]) -> list[Point]:
+    """The points not in the table yet; ConfigError when a row's values are not its point's."""
+    by_index = {p.index: p for p in points}
+    done = set()
+    for row in rows:
+        p = by_index.get(int(row["point"]))
+        if p is None or any(row.get(k) != v for k, v in p.values.items()):
+            raise ConfigError(
+                f"{spec.directory}: the table's point {row['point']} is not this spec's point: start the "
+                "sweep under another [sweep] name"
+            )
+        done.add(p.index)
+    return [p for p in points if p.index not in done]
+
+
+def _resumable(spec: SweepSpec, resume: bool) -> list[dict[str, Any]]:
+    """The rows to keep: none for a new sweep (ConfigError if the folder has a table and not
+    ``resume``); the table's with ``resume`` (ConfigError if the spec changed)."""
+    record = read_sweep_json(spec.directory)
+    rows = read_rows(spec.directory)
+    if not resume:
+        if record is not None or rows:
+            raise ConfigError(
+                f"rig sweep: {spec.directory} holds a sweep already: --resume to go on with it, or give "
+                "[sweep] name (or output) another value"
+            )
+        return []
+    if record is not None and record.get("spec") != _jsonable(spec.as_dict()):
+        old = record.get("spec") or {}
+        new = _jsonable(spec.as_dict())
+        changed = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+        raise ConfigError(
+            f"rig sweep --resume: {spec.source} is not the spec of {spec.directory} any more "
+            f"(changed: {', '.join(changed)}): resume with the spec it was started with, or start anew"
+        )
+    return rows
+
+
+def _jsonable(doc: Any) -> Any:
+    import json
+
+    from rig.sweep.table import clean
+
+    return json.loads(json.dumps(clean(doc)))
+
+
+def run_sweep(
+    spec: SweepSpec,
+    client: Any,
+    engine: dict[str, Any],
+    *,
+    resume: bool = False,
+    on_row: Callable[[Results, int], None] | None = None,
+    every: float = 1.0,
+) -> SweepRun:
+    """Run every point of ``spec`` not yet in its table on ``client``; ``on_row(results, total)``
+    after each row. Returns when all are in, or on Ctrl-C (``interrupted``, the rows kept)."""
+    from dask.distributed import as_completed
+
+    base_doc = read_base(spec)
+    points = make_points(spec)
+    kept = _resumable(spec, resume)
+    todo = _pending(spec, points, kept)
+    spec.directory.mkdir(parents=True, exist_ok=True)
+    results = Results(spec.directory, kept, every=every)
+    record = {
+        "spec": spec.as_dict(),
+        "base": base_doc,
+        "engine": engine,
+        "counts": {
+            "points": len(points),
+            "resumed": len(kept),
+            "done": results.done,
+            "failed": results.failed,
+        },
+        "started": datetime.datetime.now().isoformat(timespec="seconds"),
+        "status": "running",
+    }
+    write_sweep_json(spec.directory, record)
+    results.write()
+    token = uuid.uuid4().hex[:8]
+    start = time.perf_counter()
+    futures = {
+        client.submit(run_point, job_of(spec, base_doc, p), key=f"rig-sweep-{token}-{p.index}", pure=False): p
+        for p in todo
+    }
+    interrupted = False
+    try:
+        for future in as_completed(list(futures)):
+            results.add(_row(future, futures[future]))
+            if on_row is not None:
+                on_row(results, len(points))
+    except KeyboardInterrupt:
+        interrupted = True
+        client.cancel(list(futures))
+    seconds = time.perf_counter() - start
+    results.write()
+    record["counts"] |= {"done": results.done, "failed": results.failed}
+    record["status"] = "interrupted" if interrupted else "complete"
+    record["finished"] = datetime.datetime.now().isoformat(timespec="seconds")
+    record["seconds"] = seconds
+    write_sweep_json(spec.directory, record)
+    return SweepRun(results, len(points), len(kept), seconds, record, interrupted)
+
+
+def _row(future: Any, point: Point) -> dict[str, Any]:
+    """The row a finished task returned, or one with the task's error (a worker that died on it
+    each time it was given one: ``KilledWorker``; a cancelled task)."""
+    try:
+        row: dict[str, Any] = future.result()
+        return row
+    except Exception as exc:
+        return {
+            "point": point.index,
+            **point.values,
+            "seed": point.seed,
+            "repeat": point.repeat,
+            "error": f"{type(exc).__name__}: {exc}",
+        }

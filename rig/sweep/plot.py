@@ -1,0 +1,205 @@
+"""``rig sweep --plot DIR``: each metric over one or two varied parameters.
+
+- one varied parameter, or a list-valued parameter (a controller, a law) and one other: a line
+  per value of the list, the metric over the other parameter (repeats: each seed's point and
+  their mean);
+- two numeric parameters on a grid: a heatmap (the mean over repeats and any other parameter);
+  sampled (random, lhs): a scatter coloured by the metric.
+
+An axis whose values span more than two decades is logarithmic. Axes carry units: a parameter's
+``unit`` in the spec, else ``UNITS`` by its last name; a rig
+run's error and command metrics are in the base's units (the summary's error_unit and
+command_unit, kept in sweep.json). Matplotlib's Figure, without pyplot.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+from rig.sweep.spec import Parameter, SweepSpec
+
+__all__ = ["UNITS", "plot_results"]
+
+#: units of the parameters and metrics sweeps name most, by their last dotted part
+UNITS = {
+    "period": "s",
+    "duration": "s",
+    "a_m": "1/s",
+    "b_m": "rad/(V s^2)",
+    "lam": "1/s",
+    "frame_loss": "-",
+    "counts_per_rev": "counts/rev",
+    "latency": "s",
+    "Ts": "s",
+    "u_bound": "-",
+    "L_error": "-",
+    "L1": "H",
+    "R1": "Ohm",
+    "ratio": "-",
+    "gamma": "-",
+    "chattering_count": "alternations",
+    "cycles": "-",
+    "overruns": "cycles",
+    "held_cycles": "cycles",
+    "rise_time_s": "s",
+    "settling_time_s": "s",
+    "peak_id": "per unit of the q step",
+    "overshoot_percent": "%",
+    "rise_samples": "samples",
+    "settling_samples": "samples",
+    "u_min": "-",
+    "u_max": "-",
+}
+
+
+def _unit(name: str, units: dict[str, str]) -> str:
+    return units.get(name) or UNITS.get(name.rsplit(".", maxsplit=1)[-1], "")
+
+
+def _label(name: str, units: dict[str, str]) -> str:
+    unit = _unit(name, units)
+    return f"{name} [{unit}]" if unit else name
+
+
+def _number(v: Any) -> float:
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan
+
+
+def _units(spec: SweepSpec, rows: list[dict[str, Any]]) -> dict[str, str]:
+    from rig.sweep.scenarios import SCENARIOS
+
+    units = {p.name: p.unit for p in spec.parameters if p.unit}
+    if spec.scenario:
+        units |= SCENARIOS[spec.scenario].units
+    else:  # a rig run's figures are in its axes' units
+        error = next((r.get("error_unit") for r in rows if r.get("error_unit")), None)
+        command = next((r.get("command_unit") for r in rows if r.get("command_unit")), None)
+        for m in ("rms_error", "max_error"):
+            units.setdefault(m, error or "")
+        units.setdefault("chattering_amplitude", command or "")
+    return {k: v for k, v in units.items() if v}
+
+
+def plot_results(spec: SweepSpec, rows: list[dict[str, Any]], directory: str) -> list[Path]:
+    """One PNG per metric in ``directory`` (made if missing); their paths."""
+    from matplotlib.figure import Figure
+
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    units = _units(spec, rows)
+    lists = [
+        p for p in spec.parameters if p.values and not all(isinstance(v, (int, float)) for v in p.values)
+    ]
+    numeric = [p for p in spec.parameters if p not in lists]
+    paths = []
+    for metric in spec.metrics:
+        fig = Figure(figsize=(7, 5))
+        ax = fig.subplots()
+        if len(numeric) >= 2 and not lists:
+            _heat(fig, ax, rows, numeric[0], numeric[1], metric, units, spec.method == "grid")
+        else:
+            x = numeric[0] if numeric else spec.parameters[0]
+            group = lists[0] if lists and lists[0] is not x else None
+            _lines(ax, rows, x, group, metric, units)
+        ax.set_title(f"{spec.name}: {metric}")
+        fig.tight_layout()
+        path = out / f"{spec.name}-{metric.replace('.', '_')}.png"
+        fig.savefig(path)
+        paths.append(path)
+    return paths
+
+
+def _lines(  # noqa: PLR0917 - one figure's parts
+    ax: Any,
+    rows: list[dict[str, Any]],
+    x: Parameter,
+    group: Parameter | None,
+    metric: str,
+    units: dict[str, str],
+) -> None:
+    by: dict[Any, dict[float, list[float]]] = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        by[r.get(group.name) if group else None][_number(r.get(x.name))].append(_number(r.get(metric)))
+    for key, points in by.items():
+        xs = sorted(points)
+        means = [sum(points[v]) / len(points[v]) for v in xs]
+        line = ax.plot(xs, means, marker="o", label=f"{group.name} = {key}" if group else "mean")[0]
+        if any(len(points[v]) > 1 for v in xs):
+            every = [(v, y) for v in xs for y in points[v]]
+            ax.plot([v for v, _ in every], [y for _, y in every], ".", color=line.get_color(), alpha=0.4)
+    if x.scale == "log":
+        ax.set_xscale("log")
+    if _spans_decades([y for points in by.values() for ys in points.values() for y in ys]):
+        ax.set_yscale("log")
+    ax.set_xlabel(_label(x.name, units))
+    ax.set_ylabel(_label(metric, units))
+    ax.grid(True, which="both", alpha=0.4)
+    if group is not None or len(by) > 1:
+        ax.legend(fontsize="small")
+
+
+def _heat(  # noqa: PLR0917 - one figure's parts
+    fig: Any,
+    ax: Any,
+    rows: list[dict[str, Any]],
+    x: Parameter,
+    y: Parameter,
+    metric: str,
+    units: dict[str, str],
+    grid: bool,
+) -> None:
+    if grid:
+        xs, ys = sorted({_number(v) for v in x.grid()}), sorted({_number(v) for v in y.grid()})
+        cells: dict[tuple[float, float], list[float]] = defaultdict(list)
+        for r in rows:
+            cells[(_number(r.get(x.name)), _number(r.get(y.name)))].append(_number(r.get(metric)))
+        z = [[_mean(cells.get((a, b), [])) for a in xs] for b in ys]
+        norm = _norm([v for row in z for v in row])
+        mesh = ax.pcolormesh(_edges(xs, x.scale), _edges(ys, y.scale), z, shading="flat", norm=norm)
+    else:
+        values = [_number(r.get(metric)) for r in rows]
+        xy = [_number(r.get(x.name)) for r in rows], [_number(r.get(y.name)) for r in rows]
+        mesh = ax.scatter(*xy, c=values, norm=_norm(values))
+    for axis, p in (("x", x), ("y", y)):
+        if p.scale == "log":
+            getattr(ax, f"set_{axis}scale")("log")
+    ax.set_xlabel(_label(x.name, units))
+    ax.set_ylabel(_label(y.name, units))
+    fig.colorbar(mesh, ax=ax, label=_label(metric, units))
+
+
+def _spans_decades(values: list[float], decades: float = 2.0) -> bool:
+    """True when the finite values are all > 0 and span more than ``decades`` decades: a log axis
+    shows them (an error of 0.1 beside one of 100)."""
+    finite = [v for v in values if math.isfinite(v)]
+    return bool(finite) and min(finite) > 0.0 and math.log10(max(finite) / min(finite)) > decades
+
+
+def _norm(values: list[float]) -> Any:
+    """A logarithmic colour scale where ``_spans_decades``, else matplotlib's linear one."""
+    if not _spans_decades(values):
+        return None
+    from matplotlib.colors import LogNorm
+
+    finite = [v for v in values if math.isfinite(v)]
+    return LogNorm(min(finite), max(finite))
+
+
+def _mean(values: list[float]) -> float:
+    return sum(values) / len(values) if values else math.nan
+
+
+def _edges(values: list[float], scale: str) -> list[float]:
+    """Cell edges around sorted centres (geometric midpoints on a log scale)."""
+    if len(values) == 1:
+        v = values[0]
+        return [v * 0.9, v * 1.1] if scale == "log" else [v - 0.5, v + 0.5]
+    if scale == "log":
+        mids = [math.sqrt(a * b) for a, b in itertools.pairwise(values)]
+        return [values[0] ** 2 / mids[0], *mids, values[-1] ** 2 / mids[-1]]
+    mids = [(a + b) / 2 for a, b in itertools.pairwise(values)]
+    return [2 * values[0] - mids[0], *mids, 2 * values[-1] - mids[-1]]

@@ -1,0 +1,290 @@
+"""``rig sweep``: the spec checked at load, the points, a point equal to a lone ``rig run``, the
+table streamed in, resumed, and kept on Ctrl-C; a failing point is a row (issue 26).
+
+The engine here is Dask's LocalCluster in this process (threads: quick to start); the test with
+real scheduler and worker processes, one of them killed, is ``test_sweep_cluster.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+
+import pytest
+
+from drivers.errors import ConfigError
+from drivers.files import read_toml
+from rig.cli import main
+from rig.sweep.point import job_of, read_base, run_point
+from rig.sweep.points import make_points
+from rig.sweep.spec import load_spec
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
+SERVO = EXAMPLES / "dc_servo_position.toml"
+
+
+def _spec(tmp_path: pathlib.Path, text: str, name: str = "spec.toml") -> pathlib.Path:
+    path = tmp_path / name
+    path.write_text(text.replace("SERVO", str(SERVO)).replace("OUT", str(tmp_path / "sweeps")))
+    return path
+
+
+DISMC = """
+[sweep]
+name = "aw"
+scenario = "dismc"
+output = "OUT"
+metrics = ["rms_error", "u_max"]
+
+[parameters]
+controller = ["DISMC-LQR", "DISMC-AW-LQR"]
+u_bound = { from = 30.0, to = 300.0, num = 3, scale = "log" }
+"""
+
+
+@pytest.mark.parametrize(
+    ("text", "needle"),
+    [
+        ('[sweep]\nname = "x"\n[parameters]\na = [1]', "give base (a rig run configuration) or scenario"),
+        (
+            '[sweep]\nname = "x"\nscenario = "dismc"\nworkers = 2\n[parameters]\nu_bound = [1.0]',
+            "unknown key 'workers'",
+        ),
+        (
+            '[sweep]\nname = "x"\nscenario = "dismc"\n[parameters]\nu_bound = { from = 1.0, to = 2.0 }',
+            "num >= 1",
+        ),
+        (
+            '[sweep]\nname = "x"\nscenario = "dismc"\n[parameters]\n'
+            'u_bound = { from = 0.0, to = 2.0, num = 3, scale = "log" }',
+            "log scale needs",
+        ),
+        ('[sweep]\nname = "x"\nscenario = "dismc"\n[parameters]\nu_bound = [-1.0]', "u_bound = -1.0"),
+        ('[sweep]\nname = "x"\nscenario = "dismc"\n[parameters]\nu_bnd = [1.0]', "unknown parameter 'u_bnd'"),
+        (
+            '[sweep]\nname = "x"\nscenario = "dismc"\nmetrics = ["rms"]\n[parameters]\nu_bound = [1.0]',
+            "'rms' is not a figure",
+        ),
+        (
+            '[sweep]\nname = "x"\nbase = "SERVO"\n[parameters]\n"controller.lamm" = [-10.0]',
+            "controller.lamm = -10.0",
+        ),
+        (
+            '[sweep]\nname = "x"\nbase = "SERVO"\n[parameters]\n"emulator.params.b_m" = [680.0, -1.0]',
+            "emulator.params.b_m = -1.0",
+        ),
+        (
+            '[sweep]\nname = "x"\nbase = "SERVO"\n[parameters]\n"axis.shaft.limits.command" = [1.0]',
+            "the axes: 'motor'",
+        ),
+        (
+            '[sweep]\nname = "x"\nbase = "SERVO"\nrepeats = 0\n[parameters]\n"run.duration" = [1.0]',
+            "repeats = 0",
+        ),
+        (
+            '[sweep]\nname = "x"\nscenario = "dismc"\nrepeats = 3\n[parameters]\nu_bound = [1.0]',
+            "has no noise",
+        ),
+        (
+            '[sweep]\nname = "x"\nscenario = "dq-current"\n[parameters]\nL_error = [0.0, -1.0]',
+            "L_error must be > -1",
+        ),
+    ],
+)
+def test_a_bad_spec_is_one_error_naming_the_file_key_and_value(
+    tmp_path: pathlib.Path, text: str, needle: str
+) -> None:
+    path = _spec(tmp_path, text)
+    with pytest.raises(ConfigError) as exc:
+        load_spec(path)
+    assert str(path) in str(exc.value) and needle in str(exc.value), str(exc.value)
+
+
+def test_grid_random_and_latin_hypercube_points(tmp_path: pathlib.Path) -> None:
+    grid = load_spec(_spec(tmp_path, DISMC))
+    points = make_points(grid)
+    assert [(p.values["controller"], p.values["u_bound"]) for p in points[:3]] == [
+        ("DISMC-LQR", 30.0),
+        ("DISMC-LQR", 94.8683298051),
+        ("DISMC-LQR", 300.0),
+    ]
+    assert len(points) == 6 and [p.index for p in points] == list(range(6))
+    base = DISMC.replace("scenario = ", 'samples = 8\nseed = 4\nmethod = "lhs"\nscenario = ')
+    base = base.replace("num = 3, ", "")
+    lhs = make_points(load_spec(_spec(tmp_path, base, "lhs.toml")))
+    u = sorted(p.values["u_bound"] for p in lhs)
+    strata = [int(8 * math.log(x / 30.0) / math.log(10.0)) for x in u]
+    assert strata == list(range(8))  # a Latin hypercube: each eighth of the log range once
+    assert sorted(p.values["controller"] for p in lhs) == ["DISMC-AW-LQR"] * 4 + ["DISMC-LQR"] * 4
+    assert make_points(load_spec(_spec(tmp_path, base, "lhs.toml"))) == lhs  # the seed repeats it
+    rnd = make_points(load_spec(_spec(tmp_path, base.replace('"lhs"', '"random"'), "r.toml")))
+    assert len(rnd) == 8 and all(30.0 <= p.values["u_bound"] <= 300.0 for p in rnd)
+    repeats = SERVO_SPEC.replace("metrics = [", "repeats = 3\nnoise_seed = 7\nmetrics = [")
+    rep = make_points(load_spec(_spec(tmp_path, repeats, "rep.toml")))
+    assert [(p.index, p.seed, p.repeat) for p in rep[:4]] == [(0, 7, 0), (1, 8, 1), (2, 9, 2), (3, 7, 0)]
+
+
+SERVO_SPEC = """
+[sweep]
+name = "servo"
+base = "SERVO"
+output = "OUT"
+metrics = ["rms_error", "max_error", "chattering_count", "chattering_amplitude", "stop_confirmed", "cycles",
+           "axes.motor.max_abs_velocity"]
+
+[fixed]
+"run.duration" = 0.1
+
+[parameters]
+"emulator.params.b_m" = [1360.0, 340.0]
+"faults.frame_loss" = [0.0, 0.02]
+"""
+
+
+def test_a_point_equals_a_lone_rig_run_with_the_same_values(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The point (b_m = 340, 2 % frame loss, noise seed 5) run as a worker runs it, and the same
+    values written into a configuration file run by ``rig run --emulate``: the same figures to
+    1e-9 (and the lone run's summary, not a default, is what is compared)."""
+    spec = load_spec(_spec(tmp_path, SERVO_SPEC.replace("metrics = [", "noise_seed = 5\nmetrics = [")))
+    (point,) = [
+        p for p in make_points(spec) if p.values == {"emulator.params.b_m": 340.0, "faults.frame_loss": 0.02}
+    ]
+    row = run_point(job_of(spec, read_base(spec), point))
+    assert row["error"] is None and row["seed"] == 5 and row["elapsed_s"] >= row["run_s"] > 0.0
+    doc = read_toml(SERVO)
+    doc["run"].update(duration=0.1, output=str(tmp_path / "lone"))
+    doc["emulator"]["params"]["b_m"] = 340.0
+    doc["faults"] = {"frame_loss": 0.02, "seed": 5}
+    lone = tmp_path / "lone.toml"
+    lone.write_text(_toml(doc))
+    assert main(["run", "--config", str(lone), "--emulate", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["rms_error"] > 1e-4 and summary["chattering_count"] is not None
+    for metric in spec.metrics:
+        value: object = summary
+        for key in metric.split("."):
+            value = value[key]  # type: ignore[index]
+        assert row[metric] == pytest.approx(value, rel=1e-9, abs=1e-12), metric
+    other = run_point(job_of(spec, read_base(spec), make_points(spec)[0]))
+    assert other["rms_error"] != pytest.approx(row["rms_error"], rel=1e-3)  # the values reach the run
+
+
+def _toml(doc: dict[str, object], prefix: str = "") -> str:
+    """A small TOML writer for the test's document (tables, arrays of tables, scalars)."""
+    lines, tables = [], []
+    for key, value in doc.items():
+        if isinstance(value, dict):
+            tables.append((f"{prefix}{key}", value, False))
+        elif isinstance(value, list) and value and isinstance(value[0], dict):
+            tables.extend((f"{prefix}{key}", v, True) for v in value)
+        else:
+            lines.append(f"{key} = {json.dumps(value)}")
+    out = "\n".join(lines) + "\n"
+    for name, table, array in tables:
+        out += f"\n[[{name}]]\n" if array else f"\n[{name}]\n"
+        out += _toml(table, f"{name}.")
+    return out
+
+
+@pytest.fixture
+def client():  # type: ignore[no-untyped-def]
+    from dask.distributed import Client, LocalCluster
+
+    with (
+        LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster,
+        Client(cluster) as c,
+    ):
+        yield c
+
+
+def test_every_point_streams_into_the_table_once_and_resume_skips_them(
+    tmp_path: pathlib.Path, client: object
+) -> None:
+    import pyarrow.parquet as pq
+
+    from rig.sweep.engine import run_sweep
+
+    spec = load_spec(_spec(tmp_path, DISMC))
+    seen: list[int] = []
+    done = run_sweep(spec, client, {"kind": "test"}, on_row=lambda r, total: seen.append(r.done), every=0.0)
+    assert not done.interrupted and seen == [1, 2, 3, 4, 5, 6]
+    table = pq.read_table(spec.directory / "results.parquet").to_pylist()
+    assert sorted(r["point"] for r in table) == list(range(6))
+    assert {"controller", "u_bound", "seed", "rms_error", "u_max", "error", "elapsed_s", "worker"} <= set(
+        table[0]
+    )
+    by = {(r["controller"], r["u_bound"]): r for r in table}
+    assert by[("DISMC-AW-LQR", 30.0)]["rms_error"] < by[("DISMC-LQR", 30.0)]["rms_error"] / 100  # windup
+    record = json.loads((spec.directory / "sweep.json").read_text())
+    assert record["counts"] == {"points": 6, "resumed": 0, "done": 6, "failed": 0}
+    assert record["status"] == "complete" and record["spec"]["scenario"] == "dismc"
+    again = run_sweep(spec, client, {"kind": "test"}, resume=True)
+    assert again.resumed == 6 and again.results.done == 6
+    with pytest.raises(ConfigError, match="--resume to go on"):
+        run_sweep(spec, client, {"kind": "test"})
+    changed = load_spec(_spec(tmp_path, DISMC.replace("num = 3", "num = 4")))
+    with pytest.raises(ConfigError, match="changed: parameters"):
+        run_sweep(changed, client, {"kind": "test"}, resume=True)
+
+
+def test_ctrl_c_keeps_what_finished_and_resume_runs_the_rest(tmp_path: pathlib.Path, client: object) -> None:
+    import pyarrow.parquet as pq
+
+    from rig.sweep.engine import run_sweep
+
+    text = DISMC.replace('scenario = "dismc"', 'scenario = "dq-current"').replace(
+        'metrics = ["rms_error", "u_max"]', ""
+    )
+    text = text.replace('controller = ["DISMC-LQR", "DISMC-AW-LQR"]', 'controller = ["proposed", "pi"]')
+    text = text.replace(
+        'u_bound = { from = 30.0, to = 300.0, num = 3, scale = "log" }', "L_error = [-0.5, 0.0, 0.5]"
+    )
+    spec = load_spec(_spec(tmp_path, text))
+
+    def stop(results: object, total: int) -> None:
+        if results.done == 3:  # type: ignore[attr-defined]
+            raise KeyboardInterrupt
+
+    done = run_sweep(spec, client, {"kind": "test"}, on_row=stop, every=60.0)
+    assert done.interrupted and done.results.done == 3
+    assert json.loads((spec.directory / "sweep.json").read_text())["status"] == "interrupted"
+    assert len(pq.read_table(spec.directory / "results.parquet")) == 3  # written at the interrupt
+    rest = run_sweep(spec, client, {"kind": "test"}, resume=True)
+    rows = {(r["controller"], r["L_error"]): r for r in rest.results.rows.values()}
+    assert len(rows) == 6 and rest.results.failed == 0 and rest.resumed == 3
+    assert rows[("pi", 0.5)]["peak_id"] > rows[("proposed", 0.5)]["peak_id"]
+
+
+def test_a_failing_point_is_a_row_never_the_end_of_the_sweep(tmp_path: pathlib.Path, client: object) -> None:
+    """The law raises at 0.05 s on one point: a safe stop, its row says so; the others ran."""
+    from rig.sweep.engine import run_sweep
+
+    text = SERVO_SPEC.replace('"faults.frame_loss" = [0.0, 0.02]', '"faults.law_error_at" = [0.05, 1.0]')
+    text = text.replace('"emulator.params.b_m" = [1360.0, 340.0]', '"emulator.params.b_m" = [680.0]')
+    spec = load_spec(_spec(tmp_path, text))
+    done = run_sweep(spec, client, {"kind": "test"})
+    rows = {r["faults.law_error_at"]: r for r in done.results.rows.values()}
+    assert done.results.failed == 1 and rows[1.0]["error"] is None
+    assert rows[0.05]["error"].startswith("safe stop: exception in the control loop")
+    assert rows[0.05]["stop_reason"] and rows[0.05]["stop_confirmed"] is True
+
+
+def test_a_point_past_its_time_out_stops_safely_and_is_a_row(tmp_path: pathlib.Path) -> None:
+    spec = load_spec(_spec(tmp_path, SERVO_SPEC.replace("metrics = [", "timeout = 1e-9\nmetrics = [")))
+    row = run_point(job_of(spec, read_base(spec), make_points(spec)[0]))
+    assert row["error"].startswith("safe stop: time-out") and row["stop_confirmed"] is True
+    assert 0 < row["cycles"] < 250  # stopped at the first 1 % of its cycles
+
+
+def test_the_plots_draw_each_metric_with_units(tmp_path: pathlib.Path, client: object) -> None:
+    from rig.sweep.engine import run_sweep
+    from rig.sweep.plot import plot_results
+
+    spec = load_spec(_spec(tmp_path, DISMC))
+    done = run_sweep(spec, client, {"kind": "test"})
+    paths = plot_results(spec, list(done.results.rows.values()), str(tmp_path / "plots"))
+    assert [p.name for p in paths] == ["aw-rms_error.png", "aw-u_max.png"]
+    assert all(p.stat().st_size > 10_000 for p in paths)
