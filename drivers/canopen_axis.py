@@ -29,6 +29,7 @@ from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault
 from drivers.maps import cia
 from drivers.maps.emcy import emcy_text
 from drivers.maps.od import load_od
+from drivers.master_watch import MasterWatch, OtherMaster
 
 __all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec"]
 
@@ -126,6 +127,8 @@ class CanopenAxis(AxisDriver):
         self._heartbeats = 0
         self._booted = False
         self.node.nmt.add_heartbeat_callback(self._on_heartbeat)
+        #: the bus's watch for another master (``drivers.master_watch``), set by the session
+        self.master_watch: MasterWatch | None = None
 
     @property
     def where(self) -> str:
@@ -214,7 +217,8 @@ class CanopenAxis(AxisDriver):
         self._fault = None
 
     def supervise(self, now: float) -> None:
-        """EMCY fault, NMT state (must be OPERATIONAL) and heartbeat age (``heartbeat_timeout``).
+        """EMCY fault, another master's RPDO or NMT command to the node, NMT state (must be
+        OPERATIONAL) and heartbeat age (``heartbeat_timeout``).
 
         A heartbeat the node sent before it processed the host's NMT command can arrive after
         the command: the first heartbeat after a command is not taken as the node's state
@@ -222,6 +226,11 @@ class CanopenAxis(AxisDriver):
         """
         if self._fault is not None:
             raise self._fault
+        watch = self.master_watch
+        if watch is not None and watch.alarm:
+            said = watch.intruder(self.node_id)
+            if said is not None:
+                raise OtherMaster(said)
         lost = getattr(self.network.notifier, "exception", None)  # python-can's receive thread
         if lost is not None:
             raise CommunicationError(f"node {self.node_id}: the bus is lost: {brief(lost)}")

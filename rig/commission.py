@@ -29,6 +29,7 @@ from drivers.maps import cia
 from drivers.maps.cia import Controlword, Mode, PowerState
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_text
+from drivers.master_watch import MasterWatch
 from rig.drive_status import UNITS_HINT, device_units
 
 __all__ = ["STATUS_BITS", "DriveTool", "parse_object"]
@@ -86,9 +87,15 @@ class DriveTool:
     """See the module docstring; ``axis`` is a driver that has not been set up."""
 
     def __init__(
-        self, axis: Cia402Axis, *, idle: Callable[[], None] | None = None, period: float = 0.01
+        self,
+        axis: Cia402Axis,
+        *,
+        idle: Callable[[], None] | None = None,
+        period: float = 0.01,
+        watch: MasterWatch | None = None,
     ) -> None:
         self.axis = axis
+        self.watch = watch  #: another master on the bus (None: an in-process twin)
         self.idle = idle or (lambda: time.sleep(period))
         self.period = period  #: [s] between two looks at the drive
         #: lock-step (``idle`` given: a SYNC): time is the count of idles, never the wall clock,
@@ -167,7 +174,13 @@ class DriveTool:
         return f"EMCY 0x{code:04X} ({words}), the newest of 0x1003 (the drive's error history)"
 
     # --- the state machine ----------------------------------------------------------------------
+    def _alone(self) -> None:
+        """Before an enable or a move: no other master on the bus (``drivers.master_watch``)."""
+        if self.watch is not None:
+            self.watch.check(max(2.0 * self.period, 0.1), who="rig drive: ", share=False)
+
     def enable(self, *, timeout: float = 2.0) -> str:
+        self._alone()
         self.axis.nmt("OPERATIONAL")
         self.axis.enable(timeout=timeout)
         return self.axis.read_power_state().value
@@ -208,6 +221,7 @@ class DriveTool:
         a.discover(check_mode=False)
         if mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):
             require(a.units, int(mode), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
+        self._alone()
         a.nmt("OPERATIONAL")
         self._mode(mode)
         a.enable(timeout=2.0)

@@ -95,6 +95,7 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     from drivers.cia402 import Cia402Axis
     from drivers.maps import CIA402_EDS
     from drivers.maps.od import load_od
+    from drivers.master_watch import MasterWatch
     from rig.cli.common import params_of
     from rig.commission import DriveTool, parse_object
     from rig.config import AxisUnits
@@ -117,16 +118,20 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
 
         bench = LockstepBench(profile.physics, device=profile)
         network, idle, period, close = bench.host, bench.sync, bench.period, bench.close
+        watch = None
     else:
         network = open_network(args, "rig drive")
         idle, period, close = None, 0.01, network.disconnect
+        watch = MasterWatch(network, [args.node])  # heard from the bus's opening on
     axis = Cia402Axis("drive", network, args.node, mode="csp", eds=eds, units=units)
 
     def done() -> None:
         axis._forget()  # the tool leaves the drive as its command left it (enable: enabled)
+        if watch is not None:
+            watch.close()
         close()
 
-    return DriveTool(axis, idle=idle, period=period), done
+    return DriveTool(axis, idle=idle, period=period, watch=watch), done
 
 
 def _value(text: str) -> int | float:

@@ -28,6 +28,7 @@ from drivers.base import AxisDriver
 from drivers.bus import ReceiveWatch, open_bus
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import ConfigError, NodeSilent, RigError
+from drivers.master_watch import MasterWatch, OtherMaster
 from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
 from rig.config_checks import check_period
@@ -118,6 +119,7 @@ class Session:
         self._tap: Callable[[Any], None] | None = None
         self._rx_tap: Callable[[Any], None] | None = None  #: the trace's listener of frames received
         self.pacing: Pacing = Pacing()
+        self.master_watch: MasterWatch | None = None  #: another master on a real CAN bus
         self.loop: HostLoop | None = None
         self.signals = StopRequests()  #: SIGINT, SIGTERM, SIGHUP: the one safe stop
         self.signals.install()
@@ -171,6 +173,8 @@ class Session:
             self.network.bus = self._bus
             self.network.connect()
             self.network.notifier.add_listener(ReceiveWatch())  # a lost bus: a safe stop, not a dead thread
+            nodes = [a.node_id for a in cfg.axes if a.kind != "modbus"]  # heard from the bus's opening
+            self.master_watch = MasterWatch(self.network, nodes, sync=b.sync != "external")
 
     def _build(self, duration: float | None, cycles: int | None) -> None:
         cfg = self.cfg
@@ -262,17 +266,22 @@ class Session:
     # --- running -------------------------------------------------------------------------------
     def start(self) -> None:
         """Set every axis up and enable it (in configuration order); on failure, nothing stays enabled."""
-        reached = True
+        reached = False  #: an axis was set up (its run directory tells what was done to it)
         try:
+            watch = self.master_watch
+            if watch is not None:  # before any NMT command or SDO: another master is refused
+                watch.check(max(2.0 * self.period, 0.1))
             idle = self._idle()
             for k, axis in enumerate(self.axes):
                 if idle is not None and hasattr(axis, "idle"):
                     axis.idle = idle  # waiting for a drive lets emulated time pass
+                reached = k > 0
                 try:
                     axis.setup()
                 except NodeSilent as exc:
-                    reached = k > 0  # an axis before it was set up: its run directory tells
                     raise NodeSilent(f"{exc}; `{self._scan_hint()}` lists the nodes that answer") from exc
+            reached = True
+            self._watch_axes()
             if self.cfg.run.time == "realtime":
                 # the loop's full collection before its first cycle, done before anything is
                 # enabled: on a large heap it takes longer than a drive's communication-loss time
@@ -289,15 +298,32 @@ class Session:
             reason = f"setup failed: {exc}" if isinstance(exc, RigError) else "setup failed"
             self._thaw()
             for axis in self.axes:
-                axis.close()
+                if isinstance(exc, OtherMaster):  # its drives are another master's: not even disabled
+                    axis._forget()
+                    axis._release()
+                else:
+                    axis.close()
             self._finish({"cycles": 0, "safe_stop_reason": reason, "run_dir": str(self.recorder.dir)})
-            if isinstance(exc, NodeSilent) and not reached:  # no device was reached: no run to keep
+            if isinstance(exc, (NodeSilent, OtherMaster)) and not reached:  # no device reached: no run
                 shutil.rmtree(self.recorder.dir, ignore_errors=True)
                 if self._made_output:
                     with contextlib.suppress(OSError):
                         Path(self.cfg.run.output).rmdir()  # only if empty
             raise
         self.loop = self._loop()
+
+    def _watch_axes(self) -> None:
+        """Every CANopen axis's supervision watches for another master's RPDOs to it (its own
+        RPDO's COB-ID too, where the mapping put it elsewhere) and NMT commands."""
+        watch = self.master_watch
+        if watch is None:
+            return
+        for axis in self.axes:
+            if isinstance(axis, CanopenAxis):
+                rpdo = getattr(getattr(axis, "data", None), "rpdo", None)
+                if rpdo is not None:
+                    watch.add_rpdo(rpdo.cob_id, axis.node_id)
+                axis.master_watch = watch
 
     def _scan_hint(self) -> str:
         """The ``rig scan`` line for this run's bus."""
@@ -398,6 +424,8 @@ class Session:
 
     def _close(self) -> None:
         self._thaw()
+        if self.master_watch is not None:
+            self.master_watch.close()
         for axis in self.axes:
             axis.close()
         recorder = getattr(self, "recorder", None)

@@ -293,6 +293,9 @@ class FakeDrive:
         self.rpdo_writes: list[tuple[int, int, Any]] = []  #: (index, sub, value) an RPDO wrote
         self.nmt_log: list[tuple[int, int]] = []  #: (command, node) of every NMT frame
         self.syncs = 0
+        #: SYNC count -> (COB-ID, data) a third node (another master) sends just before this
+        #: device's TPDOs of that SYNC: the host receives it first, in the same cycle
+        self.inject: dict[int, tuple[int, bytes]] = {}
         self._lock = threading.Lock()
         self._segment: dict[str, Any] | None = None
         self._last_cw = 0
@@ -300,6 +303,7 @@ class FakeDrive:
         self.pp_short_by = int(motion.get("pp_short_by", 0))
         self._status_extra = 0
         self._put(0x6041, 0, self._statusword())
+        self.channel = channel
         self.bus = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name=f"fake-drive-{node}", daemon=True)
@@ -543,6 +547,10 @@ class FakeDrive:
 
     def _sync(self) -> None:
         self.syncs += 1
+        if self.syncs in self.inject:
+            cob, data = self.inject.pop(self.syncs)
+            with can.Bus(interface="virtual", channel=self.channel) as other:
+                other.send(can.Message(arbitration_id=cob, data=data, is_extended_id=False))
         self._cyclic()
         if self.nmt != "OPERATIONAL":
             return
