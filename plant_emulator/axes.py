@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 from drivers.maps.cia import Mode
 from plant_emulator.dc_motor import DCMotorParams
+from plant_emulator.friction import held, settle
 from plant_emulator.rl_dq import RLParams, StationaryRLConverter
 from plant_emulator.zoh import LinearZOH, unrolled_step3
 
@@ -112,7 +113,8 @@ class DcServoAxis(Axis):
         coulomb: float = 0.0,
     ) -> None:
         self.motor = motor
-        self.coulomb = coulomb  #: Coulomb friction torque [N m], against the motion, held over a step
+        #: Coulomb friction torque T_c [N m], breakaway and kinetic (``plant_emulator.friction``)
+        self.coulomb = coulomb
         self.loops = loops
         self.inner_dt = inner_dt
         self.load = load  #: load torque profile [N m] of time [s]; None: no load
@@ -127,11 +129,30 @@ class DcServoAxis(Axis):
         self._enabled = True
 
     def _step(self, u: float, t_load: float, h: float) -> None:
-        """Exact ZOH step of (3.4) over h [s]; one precomputed step per distinct h."""
+        """Exact ZOH step of (3.4) over h [s] with u [V] and T_L [N m] held, one precomputed step
+        per distinct h, and the Coulomb friction of ``plant_emulator.friction`` held with T_L. A
+        shaft stuck at the start that the torque at the step's end breaks loose slips from the
+        start (its breakaway is not a step late)."""
         step = self._zoh.get(h)
         if step is None:
             step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
-        step(self.x, u, t_load)
+        x, c = self.x, self.coulomb
+        if not c:
+            step(x, u, t_load)
+            return
+        k_t = self.motor.k_t
+        friction, stuck = held(x[1], k_t * x[2] - t_load, c)
+        if stuck:
+            theta, current = x[0], x[2]
+            step(x, u, t_load + friction)
+            drive = k_t * x[2] - t_load
+            if -c <= drive <= c:
+                x[0], x[1] = theta, 0.0
+                return
+            x[0], x[1], x[2] = theta, 0.0, current
+            friction = c if drive > 0.0 else -c
+        step(x, u, t_load + friction)
+        x[1] = settle(x[1], friction)
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         if mode not in self.modes:
@@ -158,18 +179,46 @@ class DcServoAxis(Axis):
         self._integral = 0.0
 
     def _coast(self, t_load: float, h: float) -> None:
-        """Power stage off, armature open: i_r = 0 and (3.4) is J dw/dt = -B w - T_L, solved
-        exactly over h [s] with T_L [N m] held."""
+        """Power stage off, armature open: i_r = 0 and (3.4) is J dw/dt = -B w - T_L - T_f, solved
+        exactly over h [s] with T_L [N m] held; where the friction T_f stops the shaft within h,
+        at the instant it stops (the rest of h from rest: stuck, or slipping the other way)."""
+        x, c = self.x, self.coulomb
+        x[2] = 0.0
+        if not c:
+            self._coast_for(t_load, h)
+            return
+        friction, stuck = held(x[1], -t_load, c)
+        if stuck:
+            return
+        rest = self._time_to_rest(x[1], t_load + friction)
+        if rest < h:
+            self._coast_for(t_load + friction, rest)
+            x[1] = 0.0
+            self._coast(t_load, h - rest)
+            return
+        self._coast_for(t_load + friction, h)
+        x[1] = settle(x[1], friction)
+
+    def _coast_for(self, torque: float, h: float) -> None:
+        """J dw/dt = -B w - ``torque`` [N m] held over h [s], exactly."""
         p, x = self.motor, self.x
         if p.b > 0.0:
-            a, w_inf = p.b / p.j, -t_load / p.b
+            a, w_inf = p.b / p.j, -torque / p.b
             decay = math.exp(-a * h)
             x[0] += w_inf * h + (x[1] - w_inf) * (1.0 - decay) / a
             x[1] = w_inf + (x[1] - w_inf) * decay
         else:
-            x[0] += x[1] * h - t_load * h * h / (2.0 * p.j)
-            x[1] -= t_load * h / p.j
-        x[2] = 0.0
+            x[0] += x[1] * h - torque * h * h / (2.0 * p.j)
+            x[1] -= torque * h / p.j
+
+    def _time_to_rest(self, w: float, torque: float) -> float:
+        """[s] until J dw/dt = -B w - ``torque`` takes ``w`` [rad/s] to 0 (inf: never)."""
+        p = self.motor
+        if w * torque <= 0.0:
+            return math.inf
+        if p.b > 0.0:
+            return math.log1p(p.b * w / torque) * p.j / p.b
+        return p.j * w / torque
 
     def _torque_to_voltage(self, torque: float, h: float) -> float:
         """Deadbeat armature-current loop: u that takes i_r to torque/k_t over h (omega held)."""
@@ -191,16 +240,11 @@ class DcServoAxis(Axis):
         if h <= 0.0:
             return
         load = self.load
-        w = self.x[1]
-        friction = math.copysign(self.coulomb, w) if self.coulomb and w else 0.0
-        if self._enabled and self.mode == _VOLTAGE:  # the hot path: one unrolled ZOH step
-            step = self._zoh.get(h)
-            if step is None:
-                step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
-            step(self.x, self.command, friction if load is None else load(t) + friction)
+        if self._enabled and self.mode == _VOLTAGE:  # the hot path: one exact ZOH step
+            self._step(self.command, 0.0 if load is None else load(t), h)
             return
         if not self._enabled:
-            self._coast(friction if load is None else load(t) + friction, h)
+            self._coast(0.0 if load is None else load(t), h)
             return
         n = max(1, math.ceil(h / self.inner_dt - 1e-9))
         hs = h / n
@@ -211,7 +255,7 @@ class DcServoAxis(Axis):
                 torque = self._speed_loop(self.command, hs)
             else:  # CSP
                 torque = self._speed_loop(self.loops.position_kp * (self.command - self.x[0]), hs)
-            t_load = friction if load is None else load(t + k * hs) + friction
+            t_load = 0.0 if load is None else load(t + k * hs)
             self._step(self._torque_to_voltage(torque, hs), t_load, hs)
 
     @property

@@ -5,7 +5,8 @@ Two models, both stepped exactly by ZOH over ``dt`` (inputs held):
 - ``DCMotor``: the full model (3.4) with armature current and position (3.6),
   state [theta, omega, i_r], inputs [u_r, T_L];
 - ``ReducedDCMotor``: the reduced model (3.5) with position, i.e. (3.7),
-  state [theta, omega], inputs [u_r, T_L]; dw/dt = -(a_m + B/J) w + b_m u - T_L/J.
+  state [theta, omega], inputs [u_r, T_L]; dw/dt = -a_m w + b_m u - T_L/J with a_m the
+  whole damping, (3.5)'s a_m + B/J (an identified a_m holds B; ``DCMotorParams.from_am_bm``).
 
 A matched disturbance f (in volts, acting as u + f, eq. (6.1)) is the same as a
 load T_L = -J b_m f; ``ReducedDCMotor.step`` takes it directly as ``f``.
@@ -46,8 +47,14 @@ class DCMotorParams:
 
     @property
     def a_m(self) -> float:
-        """a_m = k_t k_e / (J R_r) of (3.5) [1/s]."""
+        """a_m = k_t k_e / (J R_r) of (3.5) [1/s]: the electrical part of the damping, which with
+        the viscous B/J makes the a_m a model identified on the motor has."""
         return self.k_t * self.k_e / (self.j * self.r_r)
+
+    @property
+    def damping(self) -> float:
+        """a_m + B/J [1/s]: the whole coefficient of w in (3.5), the a_m identification measures."""
+        return self.a_m + self.b / self.j
 
     @property
     def b_m(self) -> float:
@@ -58,14 +65,27 @@ class DCMotorParams:
     def from_am_bm(
         cls, *, a_m: float, b_m: float, r_r: float = 1.0, tau_e: float = 1e-4, b: float = 0.0
     ) -> DCMotorParams:
-        """A motor whose reduced model (3.5) has the given a_m [1/s] and b_m.
+        """A motor whose speed model has the given a_m [1/s] and b_m [rad/(V s^2)], and whose
+        viscous friction B [N m s/rad] is part of that a_m.
 
-        k_e = k_t = a_m / b_m (SI), J = k_t / (R_r b_m), L_r = tau_e R_r with the
-        electrical time constant tau_e [s].
+        a_m here is the damping a model identified on the motor has: the whole coefficient of w
+        in (3.5), a_m + B/J in the paper's letters (what (7.28) calls a_m, "identified as
+        a_m = 16"). B is inside it, not added to it: with k_e = k_t = k (SI) and J = k/(R_r b_m),
+        a_m = k b_m + B/J = k b_m + B R_r b_m/k, so k is the larger root of
+        b_m k^2 - a_m k + B R_r b_m = 0 (the motor whose damping is mostly electrical; B = 0:
+        k = a_m/b_m). L_r = tau_e R_r with the electrical time constant tau_e [s].
         """
         if not (a_m > 0.0 and b_m > 0.0):
             raise ValueError(f"a_m and b_m must be > 0, got a_m={a_m!r}, b_m={b_m!r}")
-        k = a_m / b_m
+        if not (math.isfinite(b) and b >= 0.0):
+            raise ValueError(f"DC motor parameter b (viscous friction) must be >= 0, got {b!r}")
+        discriminant = a_m * a_m - 4.0 * b * r_r * b_m * b_m
+        if discriminant < 0.0:
+            raise ValueError(
+                f"viscous friction B = {b!r} N m s/rad does not fit a_m = {a_m!r} 1/s (B is part of a_m): "
+                f"at most a_m^2/(4 R_r b_m^2) = {a_m * a_m / (4.0 * r_r * b_m * b_m):.4g} N m s/rad"
+            )
+        k = (a_m + math.sqrt(discriminant)) / (2.0 * b_m)
         return cls(r_r=r_r, l_r=tau_e * r_r, k_e=k, k_t=k, j=k / (r_r * b_m), b=b)
 
 

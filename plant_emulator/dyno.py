@@ -3,9 +3,10 @@
 Three nodes: the motor under test behind its CiA 402 drive (node 1), a CiA 406
 encoder on the shaft (node 2), and the load machine behind its CiA 402 drive
 in CST (node 3). There is one mechanical model, that of the motor under test,
-with the total inertia J = J_m + ``j_load`` and the motor's viscous friction B:
+with the total inertia J = J_m + ``j_load`` and the motor's friction, viscous B and Coulomb
+T_f (``plant_emulator.friction``):
 
-    J domega/dt = T_m - B omega - T_L,    T_L = T_ext(t) - T_lm      ((3.4) / (4.2))
+    J domega/dt = T_m - B omega - T_f - T_L,    T_L = T_ext(t) - T_lm      ((3.4) / (4.2))
 
 where T_m is the motor's torque, T_lm the load machine's (positive in the
 direction of positive speed, so a braking load machine commands T_lm < 0) and
@@ -75,6 +76,8 @@ class DynoPreset:
     rated_torque: float | None = None  #: motor, 0x6076 [N m] (dc k_t 10 A = 0.235 N m, im 5 N m)
     max_current_permille: int | None = None  #: motor, 0x6073 (dc 3000, im 2500)
     max_speed_rpm: int | None = None  #: motor, 0x6080 [rpm] (dc 6000, im 3600)
+    friction: float | None = None  #: motor, viscous B [N m s/rad] (dc 2.29e-6, im 0.0022)
+    coulomb: float | None = None  #: motor, Coulomb friction T_c [N m] (dc 1.1e-3, im 2e-3)
     load_rated_torque: float | None = None  #: load machine, 0x6076 [N m] (the motor's)
     load_rated_current: float | None = None  #: load machine, 0x6075 [A] (the motor's)
     load_max_permille: int = 3000  #: load machine, 0x6073 [per mille of its rated current]
@@ -92,6 +95,7 @@ class DynoPreset:
             self, *(n for n in _MOTOR_DEFAULTED + _LOAD_DEFAULTED if getattr(self, n) is not None)
         )
         require_nonnegative(self, "j_load", "load_torque_lag")
+        require_nonnegative(self, *(n for n in ("friction", "coulomb") if getattr(self, n) is not None))
         require_fits(self)
         require_nodes(self, "drive_node", "encoder_node", "load_node")
         load_torque(self.load)

@@ -12,7 +12,8 @@ so nothing is boxed per step:
 
 Per FOC step of ``hs`` [s]: slip (4.5) with psi_r = L_m i_ds* (4.7), PI current loops of
 Table III with conditional integration and the |u| <= U_DC/sqrt(3) limit, the voltage held
-in the stationary frame over 4 RK4 sub-steps of (4.1)-(4.3) with the mechanics (4.2).
+in the stationary frame over 4 RK4 sub-steps of (4.1)-(4.3) with the mechanics (4.2), and the
+Coulomb friction of ``plant_emulator.friction`` chosen at the step's start and held with T_L.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+from plant_emulator import friction
 
 __all__ = ["JIT", "N", "foc_periods"]
 
@@ -42,8 +45,9 @@ __all__ = ["JIT", "N", "foc_periods"]
     SLIP,  # slip per A of i_qs*: 1/(T_r i_ds*) [rad/s per A]
     FOC_DT,  # the FOC period [s]
     LM_TR,  # L_m/T_r [H/s]
+    COULOMB,  # Coulomb friction T_c [N m] (``plant_emulator.friction``)
     N,
-) = range(16)
+) = range(17)
 
 
 def _jit(fn: Callable[..., Any]) -> tuple[Callable[..., Any], bool]:
@@ -52,6 +56,10 @@ def _jit(fn: Callable[..., Any]) -> tuple[Callable[..., Any], bool]:
     except ImportError:  # pragma: no cover - numba is a dependency; the same code runs as Python
         return fn, False
     return numba.njit(cache=True, fastmath=False)(fn), True
+
+
+_held, _ = _jit(friction.held)
+_settle, _ = _jit(friction.settle)
 
 
 def _foc_periods(  # noqa: PLR0917 - numba compiles positional parameters only
@@ -85,6 +93,12 @@ def _foc_periods(  # noqa: PLR0917 - numba compiles positional parameters only
             theta_e -= 2.0 * math.pi * round(theta_e / (2.0 * math.pi))  # into [-pi, pi] (remainder)
         else:
             i_s = 0j  # inverter off: no stator current
+        coulomb = k[COULOMB]
+        t_friction, stuck, theta_0 = 0.0, False, theta
+        if coulomb > 0.0:  # held over the FOC step with T_L (``plant_emulator.friction``)
+            drive = torque_k * (psi.real * i_s.imag - psi.imag * i_s.real) - t_load
+            t_friction, stuck = _held(w, drive, coulomb)
+            t_load += t_friction
         for _ in range(4):  # RK4 with u held
             i1, p1, w1 = i_s, psi, w
             c1 = complex(1.0 / k[T_R], -k[PP] * w1)
@@ -110,6 +124,10 @@ def _foc_periods(  # noqa: PLR0917 - numba compiles positional parameters only
             psi = psi + h / 6 * (q1 + 2 * q2 + 2 * q3 + q4)
             theta += h / 6 * (w + 2 * w2 + 2 * w3 + w4)
             w = w + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+        if stuck:
+            w, theta = 0.0, theta_0
+        elif coulomb > 0.0:
+            w = _settle(w, t_friction)
     x[0], x[1], x[2], x[3] = i_s.real, i_s.imag, psi.real, psi.imag
     x[4], x[5], x[6], x[7], x[8] = w, theta, theta_e, int_d, int_q
 

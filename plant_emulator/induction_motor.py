@@ -8,6 +8,8 @@ written with complex space vectors in the stationary frame (x = x_alpha + j x_be
     T_e = (3/2) p_p (L_m/L_r) Im(conj(psi_r) i_s)                          (4.3)
     J domega_m/dt = T_e - B omega_m - T_L                                    (4.2)
 
+and Coulomb friction with stiction beside B (``plant_emulator.friction``; ``ImParams.coulomb``).
+
 with sigma = 1 - L_m^2/(L_s L_r), T_r = L_r/R_r, R_sigma = R_s + R_r L_m^2/L_r^2.
 The printed A of (4.1) has misprints (its first row lacks 1/(sigma L_s), several
 signs differ), so the standard model above is used; in the flux frame it is (4.1).
@@ -44,8 +46,16 @@ class ImParams:
     l_s: float = 0.4531
     l_r: float = 0.4531
     l_m: float = 0.4413
-    j: float = 0.0035
-    b: float = 0.0022
+    j: float = 0.0035  #: total inertia, IM1 with IM2 coupled [kg m^2]
+    b: float = 0.0022  #: viscous friction B [N m s/rad] (Table II)
+    #: Coulomb friction T_c [N m] (``plant_emulator.friction``), which Table II does not give:
+    #: the ball bearings of the bench's two machines, by SKF's constant-coefficient estimate
+    #: M = mu F d/2 with mu = 0.0015 (deep-groove ball bearings, SKF's rolling bearings
+    #: catalogue, "Estimating the frictional moment"): 4 bearings of d = 25 mm (a 1.5 kW 2-pole
+    #: frame-90 motor's) under half a ~2.5 kg rotor each (a rotor of J ~ 1.5e-3 kg m^2 and
+    #: r ~ 35 mm) give ~1 mN m running; doubled for the start-up and seal friction the catalogues
+    #: add (starting friction up to twice the running value)
+    coulomb: float = 0.002
     p_p: int = 1  #: 2860 rpm at 50 Hz
     i_ds_ref: float = 2.35  #: flux current [A]: psi_r = L_m i_ds* = 1.04 Wb, about U_n sqrt(2)/omega_n
     current_kp: float = 22.3977  #: Table III
@@ -136,10 +146,11 @@ class ImAxis(Axis):
             p.u_dc / math.sqrt(3.0),
             p.i_max * 0.9,
         )
-        k[kernel.SLIP], k[kernel.FOC_DT], k[kernel.LM_TR] = (
+        k[kernel.SLIP], k[kernel.FOC_DT], k[kernel.LM_TR], k[kernel.COULOMB] = (
             1.0 / (self.t_r * p.i_ds_ref),
             p.foc_dt,
             p.l_m / self.t_r,
+            p.coulomb,
         )
         return k
 

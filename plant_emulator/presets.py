@@ -4,7 +4,14 @@
   section VII.B) as the full model (3.4) with R_r = 1 Ohm, L_r = 0.1 mH,
   k_e = k_t = a_m/b_m, J = k_t/(R_r b_m); a 4096-count encoder; T = 0.4 ms;
   48 V power stage. Drive node 1 (CiA 402, voltage mode -1 and CST/CSV/PV/CSP)
-  and encoder node 2 (CiA 406) on the same shaft. ``coulomb`` adds Coulomb friction [N m].
+  and encoder node 2 (CiA 406) on the same shaft. Friction, so that a motor left alone
+  comes to rest: Coulomb ``coulomb`` with stiction (``plant_emulator.friction``) and viscous
+  ``friction`` B, which is part of a_m, not added to it (``DCMotorParams.from_am_bm``: the
+  a_m = 16 of section VII.B was identified on the motor, friction and all). The paper names no
+  motor; the defaults are those of the catalogue motor nearest the preset's constants
+  (k = a_m/b_m = 23.5 mN m/A at R_r = 1 Ohm): FAULHABER 3564 K 024 B (k_M 20.1 mN m/A,
+  R 1.2 Ohm), friction torque static C_o = 1.10 mN m and dynamic C_v = 2.4e-4 mN m/rpm
+  (FAULHABER's data sheet of the 3564 K 024 B), i.e. T_c = 1.1e-3 N m, B = 2.29e-6 N m s/rad.
 - ``grid-converter``: Table IV of the dq-current paper (L1 = 6 mH, R1 = 0.36 Ohm,
   50 Hz, 400 V grid, U_DC = 700 V) at omega_k/omega_s = 1/27; node 1 in mode -2
   takes u_d, u_q [mV] in RPDO1 and sends i_d, i_q [mA] in TPDO4 and the angle in
@@ -18,7 +25,8 @@
   the PI current loops of Table III inside the drive at 0.1 ms
   (``plant_emulator.induction_motor``); T = 0.5 ms (the speed loop's period of
   section VII.C); the host closes speed or position through CST (torque in per
-  mille of 0x6076 = 5 N m, the rated 1.5 kW at 2860 rpm); encoder node 2.
+  mille of 0x6076 = 5 N m, the rated 1.5 kW at 2860 rpm); encoder node 2. Viscous
+  ``friction`` B of Table II and Coulomb ``coulomb`` (``ImParams.coulomb``: its source).
 
 Each drive says in 0x1008 what it is (``PRODUCT_NAMES``; the EDS's name is the DC servo
 drive's), and an induction-motor inverter's 0x1000 has the CiA 402 type 0x01, a frequency
@@ -71,6 +79,11 @@ __all__ = [
 ]
 
 
+#: the dc-servo motor's friction (module docstring): FAULHABER 3564 K 024 B, C_o and C_v
+DC_COULOMB = 1.10e-3  #: [N m]
+DC_VISCOUS = 2.4e-7 * 60.0 / (2.0 * math.pi)  #: [N m s/rad] (2.4e-4 mN m/rpm)
+
+
 @dataclass(frozen=True)
 class DcServoPreset:
     """Parameters of ``dc-servo`` (SI; see the module docstring)."""
@@ -79,8 +92,8 @@ class DcServoPreset:
     b_m: float = 680.0  #: (3.5) [rad/(V s^2)]
     r_r: float = 1.0  #: armature resistance [Ohm]
     tau_e: float = 1e-4  #: electrical time constant L_r/R_r [s]
-    friction: float = 0.0  #: viscous B [N m s/rad]
-    coulomb: float = 0.0  #: Coulomb friction torque [N m], against the motion
+    friction: float = DC_VISCOUS  #: viscous B [N m s/rad], part of a_m (module docstring)
+    coulomb: float = DC_COULOMB  #: Coulomb friction T_c [N m], breakaway and kinetic
     counts_per_rev: int = 4096  #: position resolution (0x608F, 0x6001) [increments/rev]
     period: float = 0.4e-3  #: SYNC period [s]
     u_max: float = 48.0  #: power stage voltage limit [V]
@@ -101,6 +114,10 @@ class DcServoPreset:
         require_fits(self)
         require_nodes(self, "drive_node", "encoder_node")
         load_torque(self.load)
+        try:
+            DCMotorParams.from_am_bm(a_m=self.a_m, b_m=self.b_m, r_r=self.r_r, b=self.friction)
+        except ValueError as exc:
+            raise ValueError(f"preset parameter friction={self.friction!r}: {exc}") from None
 
 
 @dataclass(frozen=True)
@@ -143,6 +160,8 @@ class ImDrivePreset:
     max_current_permille: int = 2500  #: 0x6073 [per mille of the rated current]
     max_speed_rpm: int = 3600  #: 0x6080 [rpm]
     i_ds_ref: float = 2.35  #: flux current (4.7) [A]
+    friction: float = ImParams.b  #: viscous B [N m s/rad] (Table II)
+    coulomb: float = ImParams.coulomb  #: Coulomb friction T_c [N m], breakaway and kinetic
     load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
     drive_node: int = 1
     encoder_node: int = 2
@@ -150,6 +169,7 @@ class ImDrivePreset:
     def __post_init__(self) -> None:
         require_positive(self, "period", "counts_per_rev", "rated_torque", "rated_current")
         require_positive(self, "max_current_permille", "max_speed_rpm", "i_ds_ref")
+        require_nonnegative(self, "friction", "coulomb")
         require_fits(self)
         require_nodes(self, "drive_node", "encoder_node")
         load_torque(self.load)
@@ -246,7 +266,7 @@ def _dc_axis(p: DcServoPreset, *, period: float, j_load: float = 0.0) -> tuple[D
 
 def _im_axis(p: ImDrivePreset, *, j_load: float = 0.0) -> tuple[ImAxis, Ratings]:
     """IM1 of Table II under FOC with ``j_load`` [kg m^2] added to its total inertia."""
-    motor = ImParams(i_ds_ref=p.i_ds_ref)
+    motor = ImParams(i_ds_ref=p.i_ds_ref, b=p.friction, coulomb=p.coulomb)
     axis = ImAxis(replace(motor, j=motor.j + j_load), load=load_torque(p.load))
     return axis, Ratings(p.rated_current, p.rated_torque, p.max_current_permille, p.max_speed_rpm)
 
@@ -292,8 +312,8 @@ def _dc_servo(p: DcServoPreset, network: canopen.Network) -> list[EmulatedNode]:
     return _with_encoder(drive, p, network)
 
 
-#: the dyno's motor ratings that are also parameters of the dc-servo and im-drive presets
-_MOTOR_RATINGS = ("rated_current", "max_current_permille", "max_speed_rpm")
+#: the dyno's motor parameters that are also parameters of the dc-servo and im-drive presets
+_MOTOR_RATINGS = ("rated_current", "max_current_permille", "max_speed_rpm", "friction", "coulomb")
 
 
 def _dyno(p: DynoPreset, network: canopen.Network) -> list[EmulatedNode]:

@@ -184,7 +184,7 @@ def bench_identify(*, seeds: int = 30, duration: float = 5.0) -> list[Figure]:
     for seed in range(seeds):
         devices, period = build_preset("dc-servo", canopen.Network(), {"coulomb": 0.002})
         axis = devices[0].axis  # type: ignore[attr-defined]
-        true = {"a_m": axis.motor.a_m, "b_m": axis.motor.b_m}
+        true = {"a_m": axis.motor.damping, "b_m": axis.motor.b_m}  # a_m with the viscous B/J in it
         u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=period, duration=duration, seed=seed)
         rng = np.random.default_rng(seed + 1)
         cpr = 4096 / (2 * math.pi)

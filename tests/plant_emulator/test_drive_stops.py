@@ -13,6 +13,7 @@ import pytest
 
 from drivers.maps import CIA402_EDS
 from drivers.maps.cia import PowerState as S
+from plant_emulator.axes import DcServoAxis
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.lockstep import LockstepBench
 from tests.plant_emulator.test_canopen_devices import statusword_state
@@ -48,6 +49,15 @@ def _run(bench: LockstepBench, seconds: float) -> None:
 
 def _state(node: canopen.RemoteNode) -> S:
     return statusword_state(node.sdo[0x6041].raw)
+
+
+def coasted(drive: EmulatedDrive, w0: float, t: float) -> float:
+    """The speed [rad/s] a motor at ``w0`` > 0 has after coasting ``t`` [s] on its friction alone,
+    J dw/dt = -B w - T_c (the preset's viscous B and Coulomb T_c), solved here (0 once at rest)."""
+    axis = drive.axis
+    assert isinstance(axis, DcServoAxis)
+    j, b, t_c = axis.motor.j, axis.motor.b, axis.coulomb
+    return max(0.0, (w0 + t_c / b) * math.exp(-b * t / j) - t_c / b)
 
 
 def _speeds(bench: LockstepBench, drive: EmulatedDrive, seconds: float) -> list[float]:
@@ -88,15 +98,16 @@ def test_quick_stop_option_6_holds_in_quick_stop_active(running) -> None:  # typ
 
 def test_option_0_and_disable_during_the_ramp_coast(running) -> None:  # type: ignore[no-untyped-def]
     """Option 0 switches the power off; so does disable voltage in QUICK STOP ACTIVE (transition 12):
-    the motor (no friction in the preset) keeps its speed. This is what a host that sends disable
-    right after quick stop gets."""
+    the motor coasts, slowed by its friction alone (32 rad/s^2 of the preset's Coulomb friction,
+    not the ramp's 0x6085). This is what a host that sends disable right after quick stop gets."""
     bench, node, drive = running
     node.sdo[0x605A].raw = 2
     node.sdo[0x6040].raw = 0x0B
     node.sdo[0x6040].raw = 0x00  # disable voltage at once
     assert _state(node) is S.SWITCH_ON_DISABLED
     _run(bench, 0.1)
-    assert drive.axis.velocity == pytest.approx(V0, rel=1e-3)  # coasting, not braked
+    assert drive.axis.velocity == pytest.approx(coasted(drive, V0, 0.1), rel=1e-3)  # coasting, not braked
+    assert drive.axis.velocity < V0 - 3.0  # (friction: 3.8 rad/s in 0.1 s)
 
 
 def test_quick_stop_option_0_coasts(running) -> None:  # type: ignore[no-untyped-def]
@@ -105,7 +116,7 @@ def test_quick_stop_option_0_coasts(running) -> None:  # type: ignore[no-untyped
     node.sdo[0x6040].raw = 0x0B
     _run(bench, 0.1)
     assert _state(node) is S.SWITCH_ON_DISABLED
-    assert drive.axis.velocity == pytest.approx(V0, rel=1e-3)
+    assert drive.axis.velocity == pytest.approx(coasted(drive, V0, 0.1), rel=1e-3)
 
 
 def test_fault_reaction_brakes_along_0x605e_then_fault(running) -> None:  # type: ignore[no-untyped-def]
@@ -127,7 +138,7 @@ def test_fault_reaction_brakes_along_0x605e_then_fault(running) -> None:  # type
 def test_a_fault_during_a_quick_stop_takes_the_fault_reaction(running, reaction: int, coasts: bool) -> None:  # type: ignore[no-untyped-def]
     """A fault in QUICK STOP ACTIVE is transition 13: from then on the drive reacts as 0x605E
     says, not along the quick stop's ramp. With 0x605E = 0 the power goes off at once and the
-    motor (no friction in the preset) coasts at its speed; with 1 it brakes at 0x6084."""
+    motor coasts on its friction; with 1 it brakes at 0x6084."""
     bench, node, drive = running
     node.sdo[0x6085].raw = round(200.0 * CPR / (2 * math.pi))  # a slow quick stop ramp
     node.sdo[0x6084].raw = round(2000.0 * CPR / (2 * math.pi))  # a fast profile deceleration
@@ -140,6 +151,6 @@ def test_a_fault_during_a_quick_stop_takes_the_fault_reaction(running, reaction:
     _run(bench, 0.03)
     if coasts:
         assert _state(node) is S.FAULT
-        assert drive.axis.velocity == pytest.approx(speed, rel=1e-3)
+        assert drive.axis.velocity == pytest.approx(coasted(drive, speed, 0.03), rel=1e-3)
     else:
         assert drive.axis.velocity == pytest.approx(speed - 2000.0 * 0.03, abs=3.0)  # 0x6084's

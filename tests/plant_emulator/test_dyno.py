@@ -28,13 +28,16 @@ J_M = K / (R_R * B_M)  # [kg m^2]
 
 
 class Dyno:
-    """The dyno on an in-process bus, its nodes booted (and so handling SYNC) in ``order``."""
+    """The dyno on an in-process bus, its nodes booted (and so handling SYNC) in ``order``; the
+    motor without friction unless ``params`` give it (the motion expected here is (3.4) with
+    B = 0 and no Coulomb friction: these tests are about the shaft's coupling)."""
 
     def __init__(self, order: Sequence[int] = (0, 1, 2), **params: object) -> None:
         self.hub = SyncHub()
         net, self.host = canopen.Network(), canopen.Network()
         attach_network(net, self.hub.bus(queue=False, channel="emulator"))
         attach_network(self.host, self.hub.bus(queue=False, channel="host"))
+        params = {"friction": 0.0, "coulomb": 0.0, **params}
         self.devices, self.period = build_preset("dyno", net, params)
         for i in order:
             self.devices[i].boot()

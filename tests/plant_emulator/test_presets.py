@@ -7,6 +7,7 @@ import math
 import canopen
 import pytest
 
+from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.lockstep import LockstepBench
 from plant_emulator.presets import (
     PRESETS,
@@ -110,7 +111,8 @@ def test_dyno_ratings_default_to_the_motor_under_tests() -> None:
     assert [load.read(i) for i in (0x6075, 0x6076, 0x6073, 0x6080)] == [4596, 8000, 3000, 3600]
     assert motor.axis.p.j == pytest.approx(0.0035 + 1e-3)  # type: ignore[attr-defined]
     devices, _ = build_preset("dyno", canopen.Network(), {"rated_current": 5.0})
-    assert [devices[0].read(i) for i in (0x6075, 0x6076)] == [5000, round(16 / 680 * 5 * 1000)]
+    k_t = DCMotorParams.from_am_bm(a_m=16.0, b_m=680.0, b=DcServoPreset().friction).k_t  # B within a_m
+    assert [devices[0].read(i) for i in (0x6075, 0x6076)] == [5000, round(k_t * 5 * 1000)]
 
 
 def test_every_preset_builds_with_its_defaults() -> None:

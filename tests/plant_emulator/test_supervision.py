@@ -15,6 +15,7 @@ from drivers.maps.cia import PowerState as S
 from plant_emulator.cia402_drive import EmulatedDrive
 from plant_emulator.lockstep import LockstepBench
 from tests.plant_emulator.test_canopen_devices import statusword_state
+from tests.plant_emulator.test_drive_stops import coasted
 
 PERIOD = 0.4e-3
 HOST = 0x7F  #: the host's node id in these tests
@@ -89,6 +90,8 @@ def test_a_lost_host_heartbeat_triggers_0x6007(rig: Rig, option: int, final: S, 
     assert rig.state() is final
     if stopped:
         assert abs(rig.drive.axis.velocity) < 0.05
+    elif option == 2:  # coasting on its friction since the loss, 30 ms into these 0.3 s
+        assert coasted(rig.drive, V0, 0.3) < rig.drive.axis.velocity < coasted(rig.drive, V0, 0.25)
     else:
         assert rig.drive.axis.velocity == pytest.approx(V0, rel=0.01)
     assert rig.bench.device_network.nodes[1].nmt.state == "PRE-OPERATIONAL"  # 0x1029 sub 1 = 0

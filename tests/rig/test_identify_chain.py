@@ -98,10 +98,12 @@ def test_closed_loop_data_warn_and_strict_exits_5(
 ) -> None:
     """A closed-loop servo log (the example's position servo on a_m = 23.5, b_m = 412) identified
     offline gives a_m about 2.8 and a held-out fit far below 0 %: warned for both, and with
-    --strict exit 5; identification.json says so."""
+    --strict exit 5; identification.json says so. Without Coulomb friction: with it the servo
+    sticks at rest in the held-out part, whose constant speed leaves no fit to measure."""
     config = tmp_path / "rig.toml"
     text = EXAMPLE.read_text().replace('output = "runs"', f'output = "{tmp_path}"')
-    config.write_text(text.replace("[emulator.params]\n", "[emulator.params]\na_m = 23.5\nb_m = 412.0\n"))
+    params = "[emulator.params]\na_m = 23.5\nb_m = 412.0\ncoulomb = 0.0\n"
+    config.write_text(text.replace("[emulator.params]\n", params))
     assert main(["run", "--config", str(config), "--emulate", "--json"]) == 0
     run_dir = json.loads(capsys.readouterr().out)["run_dir"]
     assert main(["identify", "--from-log", run_dir]) == 0
