@@ -117,9 +117,40 @@ class _Socketcand(socketcand_client.SocketCanDaemonBus):
         return sock
 
     def _expect_msg(self, msg: str) -> None:
+        """``msg`` (``< hi >``, ``< ok >``) before the deadline, however TCP cuts it; what comes
+        after it in the same read (frames right behind the rawmode ``< ok >``, which socketcand
+        sends on a busy bus: SavvyCAN fixed the same in its pull request 495) is kept as frames
+        received, where python-can's own would raise."""
         self._awaited = f"{msg!r}"
-        self._socket.settimeout(max(self._deadline - time.monotonic(), 1e-3))
-        super()._expect_msg(msg)  # type: ignore[no-untyped-call]
+        sock, got = self._socket, ""
+        while len(got) < len(msg) and msg.startswith(got):
+            sock.settimeout(max(self._deadline - time.monotonic(), 1e-3))
+            chunk = sock.recv(256).decode("ascii", errors="replace")
+            if not chunk:
+                break
+            got += chunk
+        if not got.startswith(msg):
+            raise can.CanError(f"Expected '{msg}' got: '{got}'")
+        self._keep(got[len(msg) :])
+
+    def _keep(self, text: str) -> None:
+        """Frames in ``text`` (socketcand's ``< frame ... >``) queued as received; a cut one
+        waits in python-can's receive buffer for the rest."""
+        messages = getattr(self, "_SocketCanDaemonBus__message_buffer")  # noqa: B009
+        while (end := text.find(">")) >= 0:
+            start = text.find("<")
+            part, text = text[start : end + 1], text[end + 1 :]
+            if start < 0 or start > end:
+                continue
+            try:
+                msg = socketcand_client.convert_ascii_message_to_can_message(part)
+            except (ValueError, IndexError):  # python-can's parser on a malformed line
+                log.debug("socketcand: not a frame: %r", part)
+                continue
+            if msg is not None:
+                msg.channel = self.channel
+                messages.append(msg)
+        setattr(self, "_SocketCanDaemonBus__receive_buffer", text)  # noqa: B010
 
     def _failure(self, host: str, port: int, timeout: float, exc: BaseException) -> str:
         where = f"{host}:{port}"

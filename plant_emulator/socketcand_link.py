@@ -17,6 +17,8 @@ import contextlib
 import logging
 import socket
 
+import can
+
 from plant_emulator.socketcand_protocol import MAX_COMMAND, CommandSplitter
 
 __all__ = ["ClientLink", "check_limits"]
@@ -63,6 +65,8 @@ class ClientLink:
         self.opened = False  #: ``< open BUS >`` done
         self.rawmode = False  #: ``< rawmode >`` done: the client gets every frame
         self.events = 0  #: the selector events it is registered for
+        self.head: can.Message | None = None  #: its first command's frame, waiting for the bus
+        self.head_key = (0, 0)  #: (arbitration rank, order it came to wait in) of ``head``
 
     def put(self, line: str) -> bool:
         """Queue ``line`` (ASCII); never blocks. False when the client was not waiting for it

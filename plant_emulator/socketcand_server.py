@@ -23,8 +23,10 @@ The bus has a bit rate (``bitrate``, 1 Mbit/s by default): every frame, the devi
 clients', takes its time on it (``bus_time``: worst-case stuffing), and a client's frame waits
 until the bus has room, so a client that sends faster than the bus carries is held back (its
 commands stay in its socket, and TCP holds its writes) as a CAN controller's transmit queue
-holds it on a real bus; the clients waiting take turns, one frame each, so a flood does not
-keep another client's request off the bus, nor fill a reader's queue faster than the bus rate.
+holds it on a real bus, and a reader's queue never fills faster than the bus rate. Of the
+frames waiting, the one with the lowest identifier goes first, as arbitration has it (a flood
+of high identifiers leaves the bus to an SDO request; one of low identifiers would hold it off,
+as on a real bus, but never faster than the bit rate).
 
 Timestamps are wall-clock seconds (time.time(), as socketcand stamps frames): a device frame
 carries the moment it was sent, a client's frame the moment the server took it, which is also
@@ -66,6 +68,15 @@ BACKLOG = 1024  #: connections the kernel holds until they are accepted
 _LOOK = 0.25  #: [s] how often a client whose kernel buffer is full is looked at again
 
 
+def _arbitration(msg: can.Message) -> int:
+    """The frame's rank in CAN arbitration (lower wins): the 11-bit base identifier first, then
+    a standard frame before an extended one of that base (its IDE bit is dominant), then the
+    18-bit extension (ISO 11898-1)."""
+    if msg.is_extended_id:
+        return ((msg.arbitration_id >> 18) << 19) | (1 << 18) | (msg.arbitration_id & 0x3FFFF)
+    return msg.arbitration_id << 19
+
+
 class SocketcandServer:
     """Serve ``hub`` on TCP ``host``:``port`` (0: any free port; see ``port``) until ``stop``.
 
@@ -95,6 +106,7 @@ class SocketcandServer:
         self._links: set[ClientLink] = set()  #: every client connected (the I/O thread's)
         self._dirty: collections.deque[ClientLink] = collections.deque()  #: links with lines to send
         self._signalled = False  #: the I/O thread has been woken and not yet looked
+        self._tickets = 0  #: frames that came to wait for the bus so far (their order)
         self._stopping = threading.Event()
         self.accepted = 0  #: connections accepted so far
         self.bus = hub.bus(queue=False, channel="socketcand")
@@ -229,24 +241,46 @@ class SocketcandServer:
             self._drop(client, str(exc))
 
     def _serve(self) -> None:
-        """The clients' commands, one each in turn while the bus has room; a client whose queue
-        is crowded or whose commands wait is not read (TCP holds its sender)."""
-        ready = [c for c in self._links if c.commands]
-        while ready:
-            for client in ready:
-                if client.crowded or client.doomed is not None:
-                    continue
-                text = client.commands[0]
-                if text.lstrip("< \t\r\n").startswith("send") and self.bus_time.wait(time.monotonic()) > 0.0:
-                    break  # the bus is full: everyone's frames wait
-                client.commands.popleft()
-                self._command(client, text)
-            else:
-                ready = [c for c in ready if c.commands and not c.crowded and c.doomed is None]
-                continue
-            break
+        """The clients' commands. What needs no bus is done at once; a frame waits until the bus
+        has room, and of the frames waiting the one CAN arbitration lets through goes first
+        (``_arbitration``: the lowest identifier; equal ones in the order they came to wait),
+        each client's own in their order. A client whose queue is crowded or whose commands
+        wait is not read (TCP holds its sender)."""
+        while True:
+            waiting = [c for c in self._links if self._advance(c)]
+            if not waiting or self.bus_time.wait(time.monotonic()) > 0.0:
+                break
+            first = min(waiting, key=lambda c: c.head_key)
+            msg, first.head = first.head, None
+            first.commands.popleft()
+            assert msg is not None
+            self._relay(first, msg)
         for client in list(self._links):
             self._listen(client)
+
+    def _advance(self, client: ClientLink) -> bool:
+        """``client``'s commands that need no bus, up to its first frame; True when a frame of
+        it waits for the bus."""
+        while client.commands and not client.crowded and client.doomed is None:
+            if client.head is not None:
+                return True
+            text = client.commands[0]
+            if not text.lstrip("< \t\r\n").startswith("send"):
+                client.commands.popleft()
+                self._command(client, text)
+                continue
+            try:
+                msg = parse_send(text)  # checked before the bus is opened: the error names the field
+                if not client.opened:
+                    raise ProtocolError("send before '< open BUS >'")
+            except ProtocolError as exc:
+                client.commands.popleft()
+                self._refuse(client, exc)
+                continue
+            self._tickets += 1
+            client.head, client.head_key = msg, (_arbitration(msg), self._tickets)
+            return True
+        return False
 
     def _listen(self, client: ClientLink) -> None:
         """Register ``client`` for what it needs now: reading once its commands are done."""
@@ -306,24 +340,23 @@ class SocketcandServer:
     # --- commands -----------------------------------------------------------------------------
 
     def _command(self, client: ClientLink, text: str) -> None:
-        """Do one command; a refused one is answered ``< error ... >`` (the first is logged)."""
+        """Do one command but ``send`` (``_advance``); a refused one is answered."""
         try:
             self._dispatch(client, text)
         except ProtocolError as exc:
-            client.errors += 1
-            level = logging.WARNING if client.errors == 1 else logging.DEBUG
-            log.log(level, "socketcand: client %s: %s (%d refused so far)", client.name, exc, client.errors)
-            self._reply(client, f"< error {exc} >")
+            self._refuse(client, exc)
+
+    def _refuse(self, client: ClientLink, exc: ProtocolError) -> None:
+        """``< error ... >`` to ``client`` (its first refusal logged)."""
+        client.errors += 1
+        level = logging.WARNING if client.errors == 1 else logging.DEBUG
+        log.log(level, "socketcand: client %s: %s (%d refused so far)", client.name, exc, client.errors)
+        self._reply(client, f"< error {exc} >")
 
     def _dispatch(self, client: ClientLink, text: str) -> None:
         words = command_words(text)
         verb = words[0]
-        if verb == "send":
-            msg = parse_send(text)  # checked before the bus is opened: the error names the field
-            if not client.opened:
-                raise ProtocolError("send before '< open BUS >'")
-            self._relay(client, msg)
-        elif verb == "open":
+        if verb == "open":
             self._open(client, words)
         elif verb == "rawmode":
             self._rawmode(client)
@@ -348,10 +381,11 @@ class SocketcandServer:
             raise ProtocolError("rawmode before '< open BUS >'")
         if client.rawmode:
             raise ProtocolError("rawmode already")
-        with self.lock:  # frames are queued under it: none before the ok (python-can reads it alone)
+        self._put(client, "< ok >")
+        client.send(time.monotonic())  # alone, before any frame: python-can's client reads it alone
+        with self.lock:  # frames are queued under it: from now on, after the ok
             client.rawmode = True
             self._clients = (*self._clients, client)
-            self._put(client, "< ok >")  # registered already when the client reads it
 
     def _relay(self, sender: ClientLink, msg: can.Message) -> None:
         """A client's frame: on the bus, to the other clients and the devices, stamped when the

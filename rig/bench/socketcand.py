@@ -14,13 +14,15 @@ where a run is named, a real-time 1 kHz run of the section VII.B servo held at 0
 - ``realtime_1khz_overruns_quiet`` / ``realtime_1khz_overruns_churn``: the run's overruns
   without, and with, a client connecting ``CHURN_RATE`` times a second; ``PAIRS`` alternated
   pairs, the median of each (A/B in the same minutes);
-- ``socketcand_flood_offered_frames_per_s``: a client writing ``< send 7FF 8 ... >`` as fast
-  as its socket takes them; ``socketcand_flood_delivered_frames_per_s``: those a well-behaved
-  reader (python-can's client through ``open_bus``, canopen) received, per second of the
-  flood, against ``bus_ceiling_frames_per_s`` (the bit rate over the frame's 135 bits,
-  ``plant_emulator.bus_time``); ``socketcand_reader_sdo_reads`` the SDO reads of 0x1000 the
-  reader completed meanwhile, ``socketcand_reader_sdo_max_ms`` the slowest,
-  ``socketcand_reader_dropped`` 1 if it lost its connection.
+- ``flood_<K>k_offered_per_s``, with the emulator's bus at K kbit/s (``FLOOD_BITRATES``):
+  frames/s a client writes (``< send 7FF 8 ... >``) as fast as its socket takes them;
+  ``..._delivered_per_s``: the rate at which a well-behaved reader (python-can's client through
+  ``open_bus``, canopen) received them, first to last, and ``..._bus_per_s`` that of every
+  frame on the bus meanwhile (the flood's, the reader's SDO requests and their answers,
+  heartbeats: the flood's 0x7FF loses every arbitration to them), against
+  ``..._ceiling_per_s`` (the bit rate over the frame's 135 bits, ``plant_emulator.bus_time``);
+  ``..._sdo_reads`` the SDO reads of 0x1000 the reader completed meanwhile, ``..._sdo_max_ms``
+  the slowest, ``..._reader_dropped`` 1 if it lost its connection.
 
 ``load_1min`` is the machine's load average when the benchmark began.
 """
@@ -45,13 +47,28 @@ import can
 
 from rig.bench.micro import Figure
 
-__all__ = ["BURST", "CHURN_RATE", "PAIRS", "bench_socketcand", "burst", "churn", "client_process", "flood"]
+__all__ = [
+    "BURST",
+    "CHURN_RATE",
+    "FLOOD_BITRATES",
+    "PAIRS",
+    "bench_socketcand",
+    "burst",
+    "churn",
+    "client_process",
+    "client_result",
+    "flood",
+    "flood_beside_reader",
+    "flood_ceiling",
+    "realtime_run",
+]
 
 CHURN_RATE = 200.0  #: [1/s] connections a second of the A/B runs
 BURST = 200  #: connections at once
 PAIRS = 3  #: alternated quiet/churn run pairs
 RUN_SECONDS = 5.0  #: [s] each run
 FLOOD_SECONDS = 4.0  #: [s] the flood
+FLOOD_BITRATES = (1_000_000, 125_000)  #: [bit/s] the emulator's bus for each flood
 _FLOOD_LINE = b"< send 7FF 8 01 02 03 04 05 06 07 08 >"
 
 
@@ -164,7 +181,7 @@ def client_process(kind: str, port: int, seconds: float, rate: float = 0.0) -> s
     )
 
 
-def _result(proc: subprocess.Popen[str]) -> dict[str, Any]:
+def client_result(proc: subprocess.Popen[str]) -> dict[str, Any]:
     out, _ = proc.communicate(timeout=120)
     if proc.returncode != 0:
         raise RuntimeError(f"the benchmark's client exited {proc.returncode}")
@@ -172,7 +189,7 @@ def _result(proc: subprocess.Popen[str]) -> dict[str, Any]:
     return result
 
 
-def _run(out: str, port: int, seconds: float) -> dict[str, Any]:
+def realtime_run(out: str, port: int, seconds: float) -> dict[str, Any]:
     """A real-time 1 kHz run of the servo held at 0 rad against the emulator on ``port``."""
     from rig.config import BusConfig, replace_axis
     from rig.demo import demo_config
@@ -191,9 +208,21 @@ def _run(out: str, port: int, seconds: float) -> dict[str, Any]:
         return session.run()
 
 
+class _Arrivals(can.Listener):
+    """([s, monotonic], id) of every frame received, in ``came``."""
+
+    def __init__(self) -> None:
+        self.came: list[tuple[float, int]] = []
+
+    def on_message_received(self, msg: can.Message) -> None:
+        self.came.append((time.monotonic(), msg.arbitration_id))
+
+
 def _reader(port: int, seconds: float) -> dict[str, Any]:
     """A well-behaved client for ``seconds`` [s]: SDO reads of node 1's 0x1000, one after
-    another, counting the 0x7FF frames it receives."""
+    another. Between the first and the last 0x7FF frame it received: their rate
+    (``frames_per_s``) and the rate of every frame on the bus (``bus_frames_per_s``: those it
+    received and its own requests)."""
     import canopen
     from canopen.sdo.exceptions import SdoError
 
@@ -202,31 +231,48 @@ def _reader(port: int, seconds: float) -> dict[str, Any]:
 
     network = canopen.Network(open_bus("socketcand", "can0", host="127.0.0.1", port=port))
     network.connect()
-    counted = [0]
-    network.subscribe(0x7FF, lambda can_id, data, stamp: counted.__setitem__(0, counted[0] + 1))
+    arrivals = _Arrivals()
+    assert network.notifier is not None
+    network.notifier.add_listener(arrivals)
     node = canopen.RemoteNode(1, CIA402_EDS)
     network.add_node(node)
     node.sdo.RESPONSE_TIMEOUT = 2.0
-    reads, slowest, dropped = 0, 0.0, 0
+    asked: list[float] = []  #: [s, monotonic] each request
+    slowest, dropped = 0.0, 0
     start = time.monotonic()
     try:
         while time.monotonic() - start < seconds:
+            asked.append(time.monotonic())
             t0 = time.perf_counter()
             node.sdo.upload(0x1000, 0)
             slowest = max(slowest, time.perf_counter() - t0)
-            reads += 1
     except (can.CanError, OSError, SdoError):
         dropped = 1
     finally:
         with contextlib.suppress(Exception):
             network.disconnect()
-    return {"frames": counted[0], "reads": reads, "slowest_ms": slowest * 1e3, "dropped": dropped}
+    came = arrivals.came
+    flood = [t for t, can_id in came if can_id == 0x7FF]
+    window, on_bus = 0.0, 0
+    if len(flood) > 1:
+        window = flood[-1] - flood[0]
+        on_bus = sum(flood[0] <= t <= flood[-1] for t, _ in came)
+        on_bus += sum(flood[0] <= t <= flood[-1] for t in asked)
+    return {
+        "frames": len(flood),
+        "frames_per_s": (len(flood) - 1) / window if window > 0.0 else 0.0,
+        "bus_frames_per_s": on_bus / window if window > 0.0 else 0.0,
+        "reads": len(asked) - dropped,
+        "slowest_ms": slowest * 1e3,
+        "dropped": dropped,
+    }
 
 
-def _with_emulator(use: Callable[[int], list[Figure]]) -> list[Figure]:
+def _with_emulator(use: Callable[[int], list[Figure]], *args: str) -> list[Figure]:
+    """``use(port)`` with ``rig emulate --preset dc-servo`` at 1 kHz (and ``args``) beside."""
     from rig.process import spawn_emulator, stop_rig
 
-    proc, port = spawn_emulator("--preset", "dc-servo", "--param", "period=0.001")
+    proc, port = spawn_emulator("--preset", "dc-servo", "--param", "period=0.001", *args)
     try:
         return use(port)
     finally:
@@ -236,17 +282,17 @@ def _with_emulator(use: Callable[[int], list[Figure]]) -> list[Figure]:
 def _churn_figures(port: int) -> list[Figure]:
     with tempfile.TemporaryDirectory() as out:
         client = client_process("churn", port, RUN_SECONDS)
-        summary = _run(out, port, RUN_SECONDS)
-        result = _result(client)
+        summary = realtime_run(out, port, RUN_SECONDS)
+        result = client_result(client)
         client = client_process("burst", port, 2.0, BURST)  # 2 s into the run
-        burst_summary = _run(out, port, RUN_SECONDS)
-        at_once = _result(client)
+        burst_summary = realtime_run(out, port, RUN_SECONDS)
+        at_once = client_result(client)
         quiet, busy = [], []
         for _ in range(PAIRS):
-            quiet.append(_run(out, port, RUN_SECONDS)["overruns"])
+            quiet.append(realtime_run(out, port, RUN_SECONDS)["overruns"])
             client = client_process("churn", port, RUN_SECONDS, CHURN_RATE)
-            busy.append(_run(out, port, RUN_SECONDS)["overruns"])
-            _result(client)
+            busy.append(realtime_run(out, port, RUN_SECONDS)["overruns"])
+            client_result(client)
     return [
         {"name": "socketcand_connections_per_s", "value": round(result["connections"] / result["seconds"])},
         {"name": "socketcand_connection_failures", "value": result["failed"], "unit": "connections"},
@@ -265,38 +311,52 @@ def _churn_figures(port: int) -> list[Figure]:
     ]
 
 
-def _flood_figures(port: int) -> list[Figure]:
-    from plant_emulator.bus_time import DEFAULT_BITRATE, frame_bits
+def flood_ceiling(bitrate: float) -> float:
+    """[frames/s] the flood's 8-byte frames a bus of ``bitrate`` [bit/s] carries at most."""
+    from plant_emulator.bus_time import frame_bits
 
-    ceiling = DEFAULT_BITRATE / frame_bits(can.Message(arbitration_id=0x7FF, is_extended_id=False, dlc=8))
+    return bitrate / frame_bits(can.Message(arbitration_id=0x7FF, is_extended_id=False, dlc=8))
+
+
+def flood_beside_reader(port: int) -> tuple[dict[str, Any], dict[str, Any]]:
+    """A flood of ``FLOOD_SECONDS`` from another process while a reader reads (``_reader``):
+    (the flood's result, the reader's)."""
     got: dict[str, Any] = {}
     reader = threading.Thread(target=lambda: got.update(_reader(port, FLOOD_SECONDS + 2.0)))
     reader.start()
     time.sleep(1.0)  # the reader is connected and reading
-    offered = _result(client_process("flood", port, FLOOD_SECONDS))
+    offered = client_result(client_process("flood", port, FLOOD_SECONDS))
     reader.join()
-    return [
-        {"name": "socketcand_flood_offered_frames_per_s", "value": round(offered["frames_per_s"])},
-        {
-            "name": "socketcand_flood_delivered_frames_per_s",
-            "value": round(got["frames"] / offered["seconds"]),
-        },
-        {"name": "bus_ceiling_frames_per_s", "value": round(ceiling), "unit": "frames/s (1 Mbit/s, 8 bytes)"},
-        {"name": "socketcand_reader_sdo_reads", "value": got["reads"], "unit": "reads"},
-        {"name": "socketcand_reader_sdo_max_ms", "value": round(got["slowest_ms"], 1), "unit": "ms"},
-        {"name": "socketcand_reader_dropped", "value": got["dropped"], "unit": ""},
-    ]
+    return offered, got
+
+
+def _flood_figures(bitrate: int) -> Callable[[int], list[Figure]]:
+    def figures(port: int) -> list[Figure]:
+        offered, got = flood_beside_reader(port)
+        at = f"flood_{bitrate // 1000}k"
+        return [
+            {"name": f"{at}_offered_per_s", "value": round(offered["frames_per_s"])},
+            {"name": f"{at}_delivered_per_s", "value": round(got["frames_per_s"])},
+            {"name": f"{at}_bus_per_s", "value": round(got["bus_frames_per_s"])},
+            {"name": f"{at}_ceiling_per_s", "value": round(flood_ceiling(bitrate))},
+            {"name": f"{at}_sdo_reads", "value": got["reads"], "unit": "reads"},
+            {"name": f"{at}_sdo_max_ms", "value": round(got["slowest_ms"], 1), "unit": "ms"},
+            {"name": f"{at}_reader_dropped", "value": got["dropped"], "unit": ""},
+        ]
+
+    return figures
 
 
 def bench_socketcand(progress: Callable[[int, int], None] | None = None) -> list[Figure]:
-    """See the module docstring; ``progress(step, 2)`` after the churn and after the flood."""
+    """See the module docstring; ``progress(step, steps)`` after the churn and after each flood."""
     figures: list[Figure] = [{"name": "load_1min", "value": round(os.getloadavg()[0], 2), "unit": ""}]
     figures += _with_emulator(_churn_figures)
     if progress is not None:
-        progress(1, 2)
-    figures += _with_emulator(_flood_figures)
-    if progress is not None:
-        progress(2, 2)
+        progress(1, 1 + len(FLOOD_BITRATES))
+    for n, bitrate in enumerate(FLOOD_BITRATES, start=2):
+        figures += _with_emulator(_flood_figures(bitrate), "--bitrate", str(bitrate))
+        if progress is not None:
+            progress(n, 1 + len(FLOOD_BITRATES))
     for figure in figures:
         figure.setdefault("unit", "1/s")
     return figures

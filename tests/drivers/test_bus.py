@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 
 import pytest
 
@@ -141,3 +142,39 @@ def test_a_server_that_greets_then_stalls_is_one_line_within_the_handshake_time(
     text = str(err.value)
     assert f"127.0.0.1:{port} greeted, then sent no {awaited} within 0.3 s" in text, text
     assert "\n" not in text and not caplog.records
+
+
+def test_frames_right_behind_the_rawmode_ok_are_received_not_refused() -> None:
+    """socketcand sends frames as they come, so on a busy bus they share a TCP segment with the
+    rawmode ``< ok >`` (and the greeting may come cut in two): python-can's client refused that
+    ("Expected '< ok >' got: '< ok >< frame ...'"); open_bus keeps them as frames received."""
+    import socket
+
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        port = server.getsockname()[1]
+        held: list[socket.socket] = []
+
+        def serve() -> None:
+            link, _ = server.accept()
+            held.append(link)
+            link.sendall(b"< h")
+            time.sleep(0.05)  # the greeting in two segments (decides nothing: any cut will do)
+            link.sendall(b"i >")
+            link.recv(256)
+            link.sendall(b"< ok >")
+            link.recv(256)
+            link.sendall(b"< ok >< frame 123 1.000000 0102 >< frame 12345678 2.500000  >< frame 7")
+
+        thread = threading.Thread(target=serve, daemon=True)
+        thread.start()
+        bus = open_bus("socketcand", "can0", host="127.0.0.1", port=port)
+        try:
+            first, second = bus.recv(1.0), bus.recv(1.0)
+        finally:
+            bus.shutdown()
+            thread.join(5.0)
+            for link in held:
+                link.close()
+    assert first is not None and first.arbitration_id == 0x123 and bytes(first.data) == b"\x01\x02"
+    assert second is not None and second.arbitration_id == 0x12345678 and second.is_extended_id
+    assert second.timestamp == 2.5 and first.channel == "can0"

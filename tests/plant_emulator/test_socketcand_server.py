@@ -326,3 +326,22 @@ def test_many_connections_at_once_are_all_greeted_and_served(emulator: Emulator)
         selector.close()
         for s in socks:
             s.close()
+
+
+def test_frames_wait_for_the_bus_and_the_lowest_identifier_goes_first() -> None:
+    """At 100 bit/s a frame without data holds the bus 0.55 s: of three 7FFs from one client the
+    first goes at once, the others wait; a 100 from another client, sent while they wait, wins
+    the arbitration before them."""
+    emu = Emulator(bitrate=100)
+    flooder, other, watcher = Raw(emu.server.port), Raw(emu.server.port), Raw(emu.server.port)
+    try:
+        flooder.send("< send 7FF 0 >< send 7FF 0 >< send 7FF 0 >")
+        assert watcher.line().startswith("< frame 7FF ")
+        other.send("< send 100 0 >")
+        assert watcher.line().startswith("< frame 100 ")  # 0.55 s after the first
+        assert watcher.line().startswith("< frame 7FF ")
+        assert emu.server.bus_time.frames >= 3
+    finally:
+        for c in (flooder, other, watcher):
+            c.close()
+        emu.close()
