@@ -23,6 +23,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from drivers.errors import ConfigError
@@ -143,15 +144,24 @@ def _resumable(spec: SweepSpec, resume: bool) -> list[dict[str, Any]]:
                 "[sweep] name (or output) another value"
             )
         return []
-    if record is not None and record.get("spec") != _jsonable(spec.as_dict()):
-        old = record.get("spec") or {}
-        new = _jsonable(spec.as_dict())
+    old, new = _comparable(record.get("spec") if record else None), _comparable(_jsonable(spec.as_dict()))
+    if record is not None and old != new:
         changed = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
         raise ConfigError(
             f"rig sweep --resume: {spec.source} is not the spec of {spec.directory} any more "
             f"(changed: {', '.join(changed)}): resume with the spec it was started with, or start anew"
         )
     return rows
+
+
+def _comparable(spec: Any) -> dict[str, Any]:
+    """A recorded spec as ``--resume`` compares it: the paths resolved (the same spec given from
+    another folder is the same spec)."""
+    doc = dict(spec or {})
+    for key in ("source", "base"):
+        if doc.get(key):
+            doc[key] = str(Path(doc[key]).resolve())
+    return doc
 
 
 def _jsonable(doc: Any) -> Any:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import pathlib
 
 import pytest
@@ -221,7 +222,8 @@ def test_every_point_streams_into_the_table_once_and_resume_skips_them(
     record = json.loads((spec.directory / "sweep.json").read_text())
     assert record["counts"] == {"points": 6, "resumed": 0, "done": 6, "failed": 0}
     assert record["status"] == "complete" and record["spec"]["scenario"] == "dismc"
-    again = run_sweep(spec, client, {"kind": "test"}, resume=True)
+    relative = load_spec(os.path.relpath(spec.source))  # the same spec, named from here
+    again = run_sweep(relative, client, {"kind": "test"}, resume=True)
     assert again.resumed == 6 and again.results.done == 6
     with pytest.raises(ConfigError, match="--resume to go on"):
         run_sweep(spec, client, {"kind": "test"})
