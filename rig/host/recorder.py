@@ -65,15 +65,19 @@ __all__ = ["Recorder", "check_output", "write_atomic"]
 log = logging.getLogger(__name__)
 
 
-def write_atomic(path: Path, write: Callable[[Any], None], *, binary: bool = False) -> None:
+def write_atomic(
+    path: Path, write: Callable[[Any], None], *, binary: bool = False, sync: bool = True
+) -> None:
     """``write(file)`` into a temporary file beside ``path``, then rename it to ``path``: the
-    file is there whole or not at all (OSError when it cannot be written)."""
+    file is there whole or not at all (OSError when it cannot be written); ``sync``: on the disk
+    (fsync) before the rename."""
     tmp = path.with_name(f".{path.name}.tmp")
     try:
         with tmp.open("wb" if binary else "w") as f:
             write(f)
             f.flush()
-            os.fsync(f.fileno())
+            if sync:
+                os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
@@ -143,6 +147,8 @@ class Recorder:
 
     #: write plot.png on close when matplotlib is installed
     PLOT: ClassVar[bool] = True
+    #: fsync each file written whole (a sweep's point in a temporary folder turns it off)
+    DURABLE: ClassVar[bool] = True
 
     def begin(self, columns: Sequence[str], docs: dict[str, dict[str, str]] | None = None) -> None:
         """The samples' columns (known once the axes are set up): the CSV header; ``docs``
@@ -162,7 +168,7 @@ class Recorder:
 
     def _write_json(self, name: str, data: dict[str, Any]) -> None:
         try:
-            write_atomic(self.dir / name, _json(data))
+            write_atomic(self.dir / name, _json(data), sync=self.DURABLE)
         except OSError as exc:
             raise self._failed(name, exc) from exc
 
@@ -293,7 +299,9 @@ class Recorder:
         if not self.dir.is_dir():  # removed during the run: made again, the samples with it
             with _suppressed("the run directory could not be made again", summary):
                 self.dir.mkdir(parents=True)
-                write_atomic(self.dir / "samples.csv", lambda f: copy_text(fd, f.write), binary=True)
+                write_atomic(
+                    self.dir / "samples.csv", lambda f: copy_text(fd, f.write), binary=True, sync=self.DURABLE
+                )
                 summary.setdefault("warnings", []).append(
                     f"{self.dir} was removed during the run: made again with samples.csv"
                 )
@@ -311,7 +319,12 @@ class Recorder:
             with _suppressed("samples.csv not closed", summary):
                 self._file.close()  # what the disk still refuses stays out, counted above
             with _suppressed("samples.mat not written", summary, "samples.mat"):
-                write_atomic(self.dir / "samples.mat", lambda f: self._write_mat(f, columns), binary=True)
+                write_atomic(
+                    self.dir / "samples.mat",
+                    lambda f: self._write_mat(f, columns),
+                    binary=True,
+                    sync=self.DURABLE,
+                )
         if self.PLOT:
             with _suppressed("plot.png not written", summary, "plot.png"):
                 self.plot(envelope.rows())
@@ -320,7 +333,7 @@ class Recorder:
             k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()
         }
         with _suppressed("summary.json not written", summary, "summary.json"):
-            write_atomic(self.dir / "summary.json", _json(clean))
+            write_atomic(self.dir / "summary.json", _json(clean), sync=self.DURABLE)
 
     def _write_mat(self, f: Any, columns: Columns) -> None:
         """samples.mat into ``f``: one variable per column (dots as underscores), then the structs
@@ -365,7 +378,9 @@ class Recorder:
         axes[-1].set_xlabel("time [s]")
         fig.suptitle(f"run {self.dir.name}")
         fig.tight_layout()
-        write_atomic(self.dir / "plot.png", lambda f: fig.savefig(f, format="png"), binary=True)
+        write_atomic(
+            self.dir / "plot.png", lambda f: fig.savefig(f, format="png"), binary=True, sync=self.DURABLE
+        )
         return fig
 
 

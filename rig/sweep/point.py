@@ -2,11 +2,11 @@
 
 A configuration base runs as ``rig run --config FILE --emulate`` would (``rig.cli.run``): the
 TOML document with the point's values set by dotted name, loaded by ``rig.config.rig_config``,
-its limits required, then ``rig.host.session.run_config`` in lock-step over the real protocol
-stacks; so a point's figures are those of a lone run with the same values. The run directory
-goes to a temporary folder, removed after (no trace, no plot), unless the spec keeps runs
-(then ``<sweep>/runs/point-NNNNN-...``). A scenario base is a pure simulation
-(``rig.sweep.scenarios``).
+its limits required, then the steps of ``rig.host.session.run_config`` (a ``Session``) in
+lock-step over the real protocol stacks; so a point's figures are those of a lone run with the
+same values. The run directory goes to a temporary folder, removed after (no trace, no plot, no
+fsync), unless the spec keeps runs (then ``<sweep>/runs/point-NNNNN-...``). A scenario base
+is a pure simulation (``rig.sweep.scenarios``).
 
 Nothing a point does ends the sweep: a bad value, an exception, a safe stop or the time-out
 is the row's ``error`` (a rig run's time-out is a safe stop at the next 1 % of its cycles).
@@ -213,31 +213,23 @@ def _run_folder(job: Job) -> Iterator[str]:
         yield folder
 
 
-@contextlib.contextmanager
-def _plots(on: bool) -> Iterator[None]:
-    from rig.host.recorder import Recorder
-
-    was = Recorder.PLOT
-    Recorder.PLOT = on and was
-    try:
-        yield
-    finally:
-        Recorder.PLOT = was
-
-
 def _run(job: Job) -> tuple[dict[str, Any], float]:
-    """(summary, the run's own seconds) of a configuration point."""
-    from rig.host.session import run_config
+    """(summary, the run's own seconds) of a configuration point: ``run_config``'s steps, with a
+    run directory not kept written without a plot and without fsync (the recorder's switches,
+    set on this run's recorder only: a worker may run points in threads)."""
+    from rig.host.session import Session
 
     cfg = _config(job, f"{job.base_source}: point {job.point.index}:")
-    with _run_folder(job) as folder, _plots(bool(job.runs_dir)):
-        run = dataclasses.replace(
-            cfg.run,
-            output=folder,
-            name=f"point-{job.point.index:05d}",
-            trace=cfg.run.trace and bool(job.runs_dir),
-        )
-        summary = run_config(dataclasses.replace(cfg, run=run), emulate=True, progress=_TimeOut(job.timeout))
+    kept = bool(job.runs_dir)
+    with _run_folder(job) as folder:
+        name = f"point-{job.point.index:05d}"
+        run = dataclasses.replace(cfg.run, output=folder, name=name, trace=cfg.run.trace and kept)
+        with Session(dataclasses.replace(cfg, run=run), emulate=True) as session:
+            if not kept:
+                session.recorder.PLOT = session.recorder.DURABLE = False
+            session.start()
+            n, timeout = session.cycles, _TimeOut(job.timeout)
+            summary = session.run(lambda k: timeout(k, n))
     return summary, float(summary.get("elapsed_s") or 0.0)
 
 

@@ -290,3 +290,24 @@ def test_the_plots_draw_each_metric_with_units(tmp_path: pathlib.Path, client: o
     paths = plot_results(spec, list(done.results.rows.values()), str(tmp_path / "plots"))
     assert [p.name for p in paths] == ["aw-rms_error.png", "aw-u_max.png"]
     assert all(p.stat().st_size > 10_000 for p in paths)
+
+
+def test_a_point_not_kept_syncs_nothing_and_a_kept_one_is_a_run_directory(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A point's run directory is temporary (no plot, no fsync: nothing of it is kept) unless
+    keep_runs; the recorder's class switches are left alone (a worker may run points in threads)."""
+    from rig.host.recorder import Recorder
+
+    syncs: list[int] = []
+    real = os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: (syncs.append(fd), real(fd))[1])
+    spec = load_spec(_spec(tmp_path, SERVO_SPEC))
+    assert run_point(job_of(spec, read_base(spec), make_points(spec)[0]))["error"] is None
+    assert len(syncs) <= 1  # config.json, written as the session is built
+    assert Recorder.DURABLE is True and Recorder.PLOT is False  # the class's: conftest's PLOT
+    assert not (spec.directory / "runs").exists()
+    kept = load_spec(_spec(tmp_path, SERVO_SPEC.replace("metrics = [", "keep_runs = true\nmetrics = [")))
+    assert run_point(job_of(kept, read_base(kept), make_points(kept)[0]))["error"] is None
+    (run,) = (kept.directory / "runs").iterdir()
+    assert run.name.startswith("point-00000-") and (run / "summary.json").is_file() and len(syncs) > 3
