@@ -77,7 +77,7 @@ def open_client(
             n_workers=n,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address="127.0.0.1:0",  # its HTTP server: any free port (8787 may be taken)
             silence_logs=logging.ERROR,
         )
         client = Client(cluster)
