@@ -490,7 +490,7 @@ def _drive(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None
 #: synopses (and an elided command) run in the default pass in a concrete form, with the claims
 #: next to them checked
 INSTANCES: dict[str, tuple[str, Check]] = {
-    "rig scan (--interface I --channel C [--bitrate B] | --emulate PRESET) [--json]": (
+    "rig scan (--interface I --channel C [--bitrate B] | --emulate PRESET) [--sdo-timeout S] [--json]": (
         "rig scan --emulate dc-servo",
         _scan,
     ),

@@ -11,6 +11,7 @@ from rig.cli.common import UsageError, add_bus_arguments, add_json, finite, open
 __all__ = ["add_parser"]
 
 MAX_LISTEN = 70.0  #: [s] heartbeats are at most 65.535 s apart (0x1017 is 16-bit milliseconds)
+MAX_SDO_TIMEOUT = 60.0  #: [s]
 
 
 def add_parser(sub: Any) -> None:
@@ -28,11 +29,19 @@ def add_parser(sub: Any) -> None:
         default=1.1,
         help=f"seconds to listen for heartbeats (at most {MAX_LISTEN:g})",
     )
+    scan.add_argument(
+        "--sdo-timeout",
+        type=finite,
+        default=0.1,
+        metavar="S",
+        help=f"seconds to wait for each SDO answer (default 0.1; at most {MAX_SDO_TIMEOUT:g}): "
+        "longer for a slow gateway or a loaded emulator",
+    )
     add_json(scan, "print a list of JSON objects")
     scan.set_defaults(handler=run)
 
 
-def _emulated(preset: str, seconds: float) -> list[dict[str, Any]]:
+def _emulated(preset: str, seconds: float, sdo_timeout: float) -> list[dict[str, Any]]:
     from plant_emulator.lockstep import LockstepBench
     from rig.scan import scan
 
@@ -47,7 +56,7 @@ def _emulated(preset: str, seconds: float) -> list[dict[str, Any]]:
                 d.tick(k * bench.period)
 
     try:
-        return scan(bench.host, listen=listen)
+        return scan(bench.host, listen=listen, sdo_timeout=sdo_timeout)
     finally:
         bench.close()
 
@@ -57,7 +66,7 @@ def _on_bus(args: argparse.Namespace) -> list[dict[str, Any]]:
 
     network = open_network(args, "rig scan")
     try:
-        return scan(network, listen=wall_listen(args.listen))
+        return scan(network, listen=wall_listen(args.listen), sdo_timeout=args.sdo_timeout)
     finally:
         network.disconnect()
 
@@ -92,7 +101,12 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(
             f"rig scan: argument --listen: must be in (0, {MAX_LISTEN:g}] s, got {args.listen:g}"
         )
-    rows = _emulated(args.emulate, args.listen) if args.emulate else _on_bus(args)
+    if not 0.0 < args.sdo_timeout <= MAX_SDO_TIMEOUT:
+        raise UsageError(
+            f"rig scan: argument --sdo-timeout: must be in (0, {MAX_SDO_TIMEOUT:g}] s, "
+            f"got {args.sdo_timeout:g}"
+        )
+    rows = _emulated(args.emulate, args.listen, args.sdo_timeout) if args.emulate else _on_bus(args)
     if args.json:
         print(json.dumps(rows))
         return 0

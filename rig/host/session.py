@@ -50,6 +50,7 @@ from rig.host.realtime import RealtimeRequest, receive_threads, request
 from rig.host.recorder import Recorder, check_output
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
+from rig.host.time_mode import TimeModeProbe
 from rig.host.trace import TracedNetwork, attach_received, detach_received
 from rig.laws import Law, make_law
 from rig.laws.injected import with_injected_faults
@@ -244,6 +245,13 @@ class Session:
             return self.network.sync.transmit  # type: ignore[no-any-return]
         return None
 
+    def _time_probe(self) -> TimeModeProbe | None:
+        """Over a bus with the host's SYNC: the heartbeats that tell how each node keeps time."""
+        axes = [a for a in self.axes if isinstance(a, CanopenAxis)]
+        if self.emulation is not None or not axes or self.cfg.bus.sync == "external":
+            return None
+        return TimeModeProbe(self.network, axes)
+
     def _pacing(self, period: float) -> Pacing:
         cfg = self.cfg
         if self.emulation is not None:
@@ -267,11 +275,14 @@ class Session:
     def start(self) -> None:
         """Set every axis up and enable it (in configuration order); on failure, nothing stays enabled."""
         reached = False  #: an axis was set up (its run directory tells what was done to it)
+        probe = self._time_probe()
         try:
             watch = self.master_watch
             if watch is not None:  # before any NMT command or SDO: another master is refused
                 watch.check(max(2.0 * self.period, 0.1))
             idle = self._idle()
+            if idle is not None and probe is not None:
+                idle = probe.sending(idle)
             for k, axis in enumerate(self.axes):
                 if idle is not None and hasattr(axis, "idle"):
                     axis.idle = idle  # waiting for a drive lets emulated time pass
@@ -282,6 +293,8 @@ class Session:
                     raise NodeSilent(f"{exc}; `{self._scan_hint()}` lists the nodes that answer") from exc
             reached = True
             self._watch_axes()
+            if probe is not None:  # a device keeping time the other way: refused before the enable
+                probe.check(lockstep=self.cfg.run.time == "lockstep")
             if self.cfg.run.time == "realtime":
                 # the loop's full collection before its first cycle, done before anything is
                 # enabled: on a large heap it takes longer than a drive's communication-loss time
@@ -294,6 +307,8 @@ class Session:
             # after setup: it waits for the TPDOs the axes map; after enable: no SYNC during setup
             self.pacing = self._pacing(self.period)
         except BaseException as exc:
+            if probe is not None:
+                probe.close()
             self.signals.stopping()
             reason = f"setup failed: {exc}" if isinstance(exc, RigError) else "setup failed"
             self._thaw()

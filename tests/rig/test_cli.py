@@ -339,6 +339,8 @@ HOSTILE_ARGUMENTS = [
     ("scan --emulate dc-servo --listen 0", ("--listen", "got 0")),
     ("scan --emulate dc-servo --listen -1", ("--listen", "got -1")),
     ("scan --emulate dc-servo --listen 1e9", ("--listen", "1e+09")),
+    ("scan --emulate dc-servo --sdo-timeout 0", ("--sdo-timeout", "got 0")),
+    ("scan --emulate dc-servo --sdo-timeout 100", ("--sdo-timeout", "got 100")),
     ("emulate --preset dc-servo --socketcand-port 99999", ("--socketcand-port", "99999")),
     ("emulate --preset dc-servo --socketcand-port -1", ("--socketcand-port", "-1")),
     ("emulate --preset dc-servo --bitrate 0", ("--bitrate", "0 bit/s", "1 .. 1000000")),
