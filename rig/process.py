@@ -8,7 +8,7 @@ import signal
 import subprocess
 import sys
 
-__all__ = ["spawn_emulator", "spawn_rig", "stop_rig"]
+__all__ = ["spawn_emulator", "spawn_emulator_line", "spawn_rig", "stop_rig"]
 
 
 def spawn_rig(*args: str, quiet: bool = False, stderr: bool = False) -> tuple[subprocess.Popen[str], str]:
@@ -35,10 +35,17 @@ def stop_rig(proc: subprocess.Popen[str], *, timeout: float = 60.0) -> tuple[str
 
 def spawn_emulator(*args: str) -> tuple[subprocess.Popen[str], int]:
     """``rig emulate ARGS`` on a free socketcand port of 127.0.0.1: the process and the port."""
+    proc, port, _ = spawn_emulator_line(*args)
+    return proc, port
+
+
+def spawn_emulator_line(*args: str) -> tuple[subprocess.Popen[str], int, str]:
+    """``spawn_emulator``, and the line the emulator printed when it began to serve (what it
+    serves, where, and the real-time scheduling it was granted)."""
     proc, line = spawn_rig("emulate", *args, "--socketcand-port", "0", stderr=True)
     match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
     if match is None:
         proc.kill()
         _out, err = proc.communicate()
         raise RuntimeError(f"rig emulate {' '.join(args)} did not start: {line.strip()} {err[-2000:]}")
-    return proc, int(match.group(1))
+    return proc, int(match.group(1)), line

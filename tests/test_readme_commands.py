@@ -643,6 +643,9 @@ NOT_RUN = {
     "(tests/rig/test_zoo_runs.py and the timing tier's cross-process fault scenarios serve it so)",
     "rig emulate --modbus-map abb-drives-profile": "a server until Ctrl-C, for a client in another "
     "terminal (the interop tier's tests/interop/test_mbpoll.py serves it so)",
+    "rig bench stops --period 0.001 --load 2": "20 real-time runs of 10 s under two busy processes "
+    "(minutes, and it loads the machine): the slow tier runs rig bench stops",
+    "rig bench stops --period 0.0004 --load 2": "as rig bench stops --period 0.001 --load 2",
 }
 
 #: spans that only name a command or an option in prose: their names are checked, nothing is run
@@ -666,6 +669,7 @@ MENTIONS = {
     "rig identify --excitation multisine",
     "rig sweep",
     "rig sweep SPEC.toml",
+    "rig emulate --rt-priority 0",
 }
 
 

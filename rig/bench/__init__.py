@@ -7,7 +7,7 @@ benchmark measures (numpy, the controllers, the plants, Dask).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from rig.bench.micro import Figure
@@ -58,10 +58,10 @@ def _soak(progress: Progress | None = None) -> list[Figure]:
     return bench_soak(progress=progress)
 
 
-def _stops(progress: Progress | None = None) -> list[Figure]:
+def _stops(progress: Progress | None = None, **options: Any) -> list[Figure]:
     from rig.bench.stops import bench_stops
 
-    return bench_stops(progress=progress)
+    return bench_stops(progress=progress, **options)
 
 
 def _socketcand(progress: Progress | None = None) -> list[Figure]:
@@ -96,8 +96,9 @@ _loop.__doc__ = (
 )
 _soak.__doc__ = "1,000,000 lock-step cycles with 1 % frame loss: memory growth and stops (minutes)"
 _stops.__doc__ = (
-    "false stops in 20 real-time runs of 10 s at 1 kHz of examples/dc_servo_position.toml against "
-    "rig emulate over socketcand (minutes)"
+    "false stops, overruns, late cycles, period error and SYNC-to-RPDO response in 20 real-time runs "
+    "of 10 s of examples/dc_servo_position.toml against rig emulate over socketcand, at --period "
+    "(1 ms) under --load busy processes (minutes)"
 )
 _socketcand.__doc__ = (
     "rig emulate's socketcand server: connections/s during a real-time run, the run's overruns "

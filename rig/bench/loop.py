@@ -187,7 +187,7 @@ def _realtime_figures(summary: dict[str, Any], arrivals: list[float], steal: flo
             ("period_error_max_us", "max"),
         )
     ] + [
-        {  # the host's response: the drive's TPDO on the bus to the RPDO the host sends in answer
+        {  # the host's response: its SYNC to the RPDOs it sends in answer (rig.host.loop)
             "name": f"realtime_1khz_response_{name}",
             "value": round(timing.get(f"response_{name}_us", math.nan), 1),
             "unit": "us",

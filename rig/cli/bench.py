@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from rig.cli.common import add_json
+from rig.cli.common import UsageError, add_json, finite
 
 __all__ = ["add_parser"]
 
@@ -23,18 +23,42 @@ def add_parser(sub: Any) -> None:
         ),
     )
     bench.add_argument("name", choices=sorted(BENCHMARKS), help="what to measure")
+    stops = bench.add_argument_group("rig bench stops")
+    stops.add_argument("--period", type=finite, metavar="S", help="the period [s] (default 0.001)")
+    stops.add_argument("--load", type=int, metavar="N", help="busy processes loading the machine (default 0)")
+    stops.add_argument("--runs", type=int, metavar="N", help="runs (default 20)")
+    stops.add_argument("--seconds", type=finite, metavar="S", help="each run's length [s] (default 10)")
     add_json(bench, 'print a list of {"name", "value", "unit"}')
     bench.set_defaults(handler=run)
+
+
+def _stops_options(args: argparse.Namespace) -> dict[str, Any]:
+    """``rig bench stops``'s options given (UsageError for another benchmark, or a bad value)."""
+    given = {
+        k: getattr(args, k) for k in ("period", "load", "runs", "seconds") if getattr(args, k) is not None
+    }
+    if given and args.name != "stops":
+        names = ", ".join(f"--{k}" for k in given)
+        raise UsageError(f"rig bench {args.name}: {names}: only rig bench stops takes them")
+    ranges = {"period": (0.0, 0.1, "s"), "load": (0, 64, "processes"), "runs": (1, 10_000, "runs")}
+    ranges["seconds"] = (0.0, 3600.0, "s")
+    for key, value in given.items():
+        low, high, unit = ranges[key]
+        if not (low < value <= high if isinstance(low, float) else low <= value <= high):
+            bounds = f"({low:g}, {high:g}]" if isinstance(low, float) else f"{low}..{high}"
+            raise UsageError(f"rig bench stops: argument --{key}: must be in {bounds} {unit}, got {value:g}")
+    return given
 
 
 def run(args: argparse.Namespace) -> int:
     from rig.bench import BENCHMARKS, LONG
     from rig.cli.progress import Progress
 
+    options = _stops_options(args)
     if args.name in LONG:
         bar = Progress(f"rig bench {args.name}", 0, "", json=args.json)
         try:
-            figures = LONG[args.name](progress=bar.cycles)
+            figures = LONG[args.name](progress=bar.cycles, **options)
         finally:
             bar.close()
     else:
