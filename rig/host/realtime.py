@@ -26,6 +26,7 @@ import contextlib
 import ctypes
 import ctypes.util
 import errno
+import functools
 import logging
 import os
 import threading
@@ -52,7 +53,9 @@ class RealtimeRequest:
     lock_memory: bool = True
 
 
+@functools.cache
 def _libc() -> Any:
+    """The C library (for mlockall and prctl), found once; None where there is none."""
     name = ctypes.util.find_library("c")
     return ctypes.CDLL(name, use_errno=True) if name else None
 

@@ -1,0 +1,113 @@
+"""Real time asked for and reported (``rig.host.realtime``): what the system grants is taken and
+recorded, what it refuses is one warning and the run goes on, and ``release`` gives back what
+was taken. The refusals are real: a process of an unprivileged user (no CAP_SYS_NICE, an
+RLIMIT_RTPRIO of 0, a small RLIMIT_MEMLOCK)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import threading
+
+import pytest
+
+from rig.config import load_config
+from rig.host.realtime import RealtimeRequest, request
+from rig.host.session import run_config
+
+EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+#: imports first: the interpreter's library may not be readable by the user it becomes
+_UNPRIVILEGED = """
+import json, logging, os, resource
+from rig.host.realtime import RealtimeRequest, _libc, request
+_libc()
+resource.setrlimit(resource.RLIMIT_RTPRIO, (0, 0))
+resource.setrlimit(resource.RLIMIT_MEMLOCK, (65536, 65536))
+os.setgid(65534); os.setuid(65534)
+records = []
+class Keep(logging.Handler):
+    def emit(self, record): records.append(record.getMessage())
+logging.getLogger("rig.host.realtime").addHandler(Keep())
+grant = request(RealtimeRequest(50, -1, True))
+print(json.dumps({"record": grant.record(), "warnings": records, "policy": os.sched_getscheduler(0)}))
+"""
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "setuid") or os.geteuid() != 0, reason="needs root to become another user"
+)
+def test_what_is_refused_is_one_warning_and_the_run_goes_on() -> None:
+    out = subprocess.run(
+        [sys.executable, "-c", _UNPRIVILEGED],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+        cwd=ROOT,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    result = json.loads(out.stdout)
+    record = result["record"]
+    assert (
+        record["policy"] == "SCHED_OTHER" and record["priority"] == 0 and result["policy"] == os.SCHED_OTHER
+    )
+    assert record["memory_locked"] is False
+    refused = " ".join(record["refused"])
+    assert "SCHED_FIFO 50 for the loop thread" in refused and "memory lock" in refused, refused
+    (warning,) = result["warnings"]
+    assert warning.startswith("real time not fully granted (normal scheduling") and "SCHED_FIFO 50" in warning
+
+
+@pytest.mark.skipif(
+    os.geteuid() != 0, reason="SCHED_FIFO and mlockall need root (or CAP_SYS_NICE, CAP_IPC_LOCK)"
+)
+def test_what_is_granted_is_taken_recorded_and_given_back() -> None:
+    stop = threading.Event()
+    receiver = threading.Thread(target=stop.wait, name="receive", daemon=True)
+    receiver.start()
+    before = (os.sched_getscheduler(0), os.sched_getaffinity(0))
+    try:
+        grant = request(RealtimeRequest(50, -1, True), [receiver])
+        assert receiver.native_id is not None
+        last = max(before[1])
+        try:
+            assert grant.record() == {
+                "policy": "SCHED_FIFO",
+                "priority": 50,
+                "receive_priority": 51,
+                "receive_threads": 1,
+                "cpu": last,
+                "memory_locked": True,
+                "refused": [],
+            }
+            assert os.sched_getscheduler(0) == os.SCHED_FIFO and os.sched_getparam(0).sched_priority == 50
+            assert os.sched_getparam(receiver.native_id).sched_priority == 51
+            assert os.sched_getaffinity(0) == os.sched_getaffinity(receiver.native_id) == {last}
+        finally:
+            grant.release()
+        assert (os.sched_getscheduler(0), os.sched_getaffinity(0)) == before
+        assert os.sched_getscheduler(receiver.native_id) == os.SCHED_OTHER
+    finally:
+        stop.set()
+        receiver.join()
+
+
+def test_a_realtime_run_records_its_grant(tmp_path: pathlib.Path) -> None:
+    """The summary (and summary.json) says what the run was granted; nothing is left raised."""
+    cfg = load_config(EXAMPLE)
+    cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path), time="realtime"))
+    before = os.sched_getscheduler(0)
+    summary = run_config(cfg, emulate=True, duration=0.05)
+    assert os.sched_getscheduler(0) == before
+    granted = summary["realtime"]
+    assert set(granted) >= {"policy", "priority", "cpu", "memory_locked", "refused", "gc_collections"}
+    if os.geteuid() == 0:
+        assert granted["policy"] == "SCHED_FIFO" and granted["priority"] == 50 and granted["memory_locked"]
+    on_disk = json.loads((pathlib.Path(summary["run_dir"]) / "summary.json").read_text())
+    assert on_disk["realtime"] == granted
