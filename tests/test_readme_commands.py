@@ -507,7 +507,7 @@ INSTANCES: dict[str, tuple[str, Check]] = {
         _json_keys(r"`--json` prints `\{(\"tables\": \[\.\.\.\], \"cross_coupling\": \[\.\.\.\])\}`"),
     ),
     "rig identify (--config FILE | --emulate PRESET | --from-log RUN_DIR) [--param NAME=VALUE ...] "
-    "[--input voltage|torque] [--excitation prbs|steps|chirp|multisine] [--duration S] [--f-min HZ] "
+    "[--input voltage|torque] [--excitation prbs|steps|chirp|multisine|friction] [--duration S] [--f-min HZ] "
     "[--f-max HZ] [--seed N] [--u0 U] [--amplitude U] [--clock S] [--json] [--plot FILE]": (
         "rig identify --emulate dc-servo --json",
         _json_keys(r"`--json` prints (`a_m`, `b_m`, .*?`run_dir`)"),
@@ -670,6 +670,8 @@ MENTIONS = {
     "rig sweep",
     "rig sweep SPEC.toml",
     "rig emulate --rt-priority 0",
+    "rig identify --excitation friction",
+    "rig tune",
 }
 
 

@@ -40,14 +40,16 @@ def add_parser(sub: Any) -> None:
     add_params(ident, "a parameter of the --emulate preset (e.g. plant.a_m=23.5)")
     ident.add_argument(
         "--excitation",
-        choices=("prbs", "steps", "chirp", "multisine"),
+        choices=("prbs", "steps", "chirp", "multisine", "friction"),
         help="prbs (default) or steps for (3.5); chirp or multisine (periodic, 1/--f-min) also measure "
-        "the frequency response (with --from-log: compute it from the log)",
+        "the frequency response (with --from-log: compute it from the log); friction: steps and a slow "
+        "ramp of +-amplitude in both directions, for Coulomb and viscous friction and the inertia",
     )
     ident.add_argument(
         "--duration",
         type=finite,
-        help="experiment length [s] (5; chirp and multisine: 41 periods of 1/--f-min, 40 averages)",
+        help="experiment length [s] (5; chirp and multisine: 41 periods of 1/--f-min, 40 averages; "
+        "friction: 10)",
     )
     ident.add_argument(
         "--f-min", type=finite, default=1.0, help="lowest frequency [Hz], the excitation's period (1)"
@@ -64,7 +66,9 @@ def add_parser(sub: Any) -> None:
         "--u0", type=finite, help="operating point [V or N m] (one sign of speed; 3 V, 0.01 N m)"
     )
     ident.add_argument("--amplitude", type=finite, help="excitation amplitude, < u0 (2 V, 0.006 N m)")
-    ident.add_argument("--clock", type=finite, default=0.02, help="PRBS bit time [s], a few times < 1/a_m")
+    ident.add_argument(
+        "--clock", type=finite, help="PRBS bit time [s], a few times < 1/a_m (0.02; friction: 0.25)"
+    )
     add_json(ident, "print one JSON object")
     ident.add_argument("--plot", type=out_file, metavar="FILE", help="write measured and model speed to FILE")
     ident.add_argument(
@@ -101,8 +105,11 @@ def _check(args: argparse.Namespace) -> None:
     """The experiment's numbers, before anything is opened."""
     if args.excitation is None:
         args.excitation = "prbs"
+    friction = args.excitation == "friction"
     if args.duration is None:
-        args.duration = PERIODS / args.f_min if _frequency(args) else 5.0
+        args.duration = PERIODS / args.f_min if _frequency(args) else (10.0 if friction else 5.0)
+    if args.clock is None:
+        args.clock = 0.25 if friction else 0.02
     if not 0.0 < args.duration <= MAX_DURATION:
         raise UsageError(
             f"rig identify: argument --duration: must be in (0, {MAX_DURATION:g}] s, got {args.duration:g}"
@@ -120,7 +127,6 @@ def _experiment(args: argparse.Namespace) -> str | None:
     from rig.config import load_config
     from rig.demo import demo_config
     from rig.host.emulation import preset_params
-    from rig.identify import excitation
     from rig.identify.experiment import experiment_config, run_experiment
 
     _check(args)
@@ -129,7 +135,10 @@ def _experiment(args: argparse.Namespace) -> str | None:
         args.u0 = 0.01 if torque else 3.0
     if args.amplitude is None:
         args.amplitude = 0.006 if torque else 2.0
-    if not 0.0 < args.amplitude < args.u0:
+    if args.excitation == "friction":
+        if not 0.0 < args.amplitude:
+            raise UsageError(f"rig identify: need --amplitude > 0, got {args.amplitude:g}")
+    elif not 0.0 < args.amplitude < args.u0:
         raise UsageError(f"rig identify: need 0 < --amplitude ({args.amplitude:g}) < --u0 ({args.u0:g})")
     if args.emulate:
         where = "rig identify: --param"
@@ -148,36 +157,17 @@ def _experiment(args: argparse.Namespace) -> str | None:
         raise UsageError(
             f"rig identify: argument --clock: {args.clock:g} s is shorter than the period T = {period:g} s"
         )
-    repeat, dither = 0, 0.0
-    if _frequency(args):
-        from rig.identify.estimate import IdentificationError
-        from rig.identify.frequency import period_samples, periodic_excitation
-
-        try:
-            u = periodic_excitation(
-                args.excitation,
-                u0=args.u0,
-                amplitude=args.amplitude,
-                dt=period,
-                duration=args.duration,
-                f_min=args.f_min,
-                f_max=args.f_max,
-            )
-        except IdentificationError as exc:
-            raise UsageError(f"rig identify: --f-min/--f-max: {exc}") from exc
-        repeat, dither = period_samples(args.f_min, period), DITHER * args.amplitude
-    else:
-        u = excitation(
-            args.excitation,
-            u0=args.u0,
-            amplitude=args.amplitude,
-            clock=args.clock,
-            dt=period,
-            duration=args.duration,
-            seed=args.seed,
-        )
+    u, repeat, dither = _excitation(args, period)
     cfg = experiment_config(
-        base, u, preset=args.emulate, params=params, input=args.input, repeat=repeat, dither=dither, seed=args.seed
+        base,
+        u,
+        preset=args.emulate,
+        params=params,
+        input=args.input,
+        one_sign=args.excitation != "friction",
+        repeat=repeat,
+        dither=dither,
+        seed=args.seed,
     )
     bar = Progress("rig identify: experiment", 0, "cycles", json=args.json)
     try:
@@ -189,6 +179,37 @@ def _experiment(args: argparse.Namespace) -> str | None:
         print(f"rig identify: the experiment stopped: {why}", file=sys.stderr)
         return None
     return str(summary["run_dir"])
+
+
+def _excitation(args: argparse.Namespace, period: float) -> tuple[Any, int, float]:
+    """(u, its period in samples or 0, the dither) of the experiment at ``period`` [s]."""
+    from rig.identify import excitation
+    from rig.identify.estimate import IdentificationError
+    from rig.identify.frequency import period_samples, periodic_excitation
+
+    if args.excitation == "friction":
+        from rig.identify.friction import friction_excitation
+
+        u = friction_excitation(
+            amplitude=args.amplitude, clock=args.clock, dt=period, duration=args.duration, seed=args.seed
+        )
+        return u, 0, 0.0
+    if not _frequency(args):
+        kw = {"u0": args.u0, "amplitude": args.amplitude, "clock": args.clock, "seed": args.seed}
+        return excitation(args.excitation, dt=period, duration=args.duration, **kw), 0, 0.0
+    try:
+        u = periodic_excitation(
+            args.excitation,
+            u0=args.u0,
+            amplitude=args.amplitude,
+            dt=period,
+            duration=args.duration,
+            f_min=args.f_min,
+            f_max=args.f_max,
+        )
+    except IdentificationError as exc:
+        raise UsageError(f"rig identify: --f-min/--f-max: {exc}") from exc
+    return u, period_samples(args.f_min, period), DITHER * args.amplitude
 
 
 def _response(args: argparse.Namespace, run_dir: str, result: Any) -> dict[str, Any] | None:
@@ -214,6 +235,22 @@ def _bode(run_dir: str, response: dict[str, Any], plot: str | None) -> str | Non
             raise
         return None
     return path
+
+
+def _print_friction(f: dict[str, Any]) -> None:
+    if not f["separable"]:
+        print(f"  friction: not separated: {f['reason']}")
+        return
+    if f["input"] == "torque":
+        print(
+            f"  friction: J = {f['inertia']:.5g} kg m^2, viscous B = {f['viscous']:.4g} N m s/rad, "
+            f"Coulomb T_c = {f['coulomb']:.4g} N m (speed reversed {f['reversals']} times)"
+        )
+    else:
+        print(
+            f"  friction: Coulomb {f['c']:.4g} rad/s^2 = {f['coulomb_voltage']:.4g} V (speed reversed "
+            f"{f['reversals']} times; with a voltage, J and B are not separable from the back EMF)"
+        )
 
 
 def _print_response(doc: dict[str, Any]) -> None:
@@ -272,6 +309,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {name} = {value:.5g} {unit}, stderr {err:.2g}, 95 %: {low:.5g} .. {high:.5g}")
     print(f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2")
     print(f"  fit on held-out data {r.fit_percent:.1f} %")
+    if r.friction is not None:
+        _print_friction(r.friction)
     if response is not None:
         _print_response(response)
         if extra["bode_plot"]:

@@ -68,6 +68,9 @@ class IdentResult:
     input: str = "voltage"  #: what u was: "voltage" [V] (mode -1) or "torque" [N m] (CST)
     #: of ``samples``, those of cycles a real-time run skipped, filled in (``rundir.on_period_grid``)
     filled_samples: int = 0
+    #: Coulomb and viscous friction and the inertia (``rig.identify.friction``), or why these
+    #: data cannot separate them; None where not asked
+    friction: dict[str, object] | None = None
 
     @property
     def input_unit(self) -> str:
@@ -145,18 +148,28 @@ def _check(u: np.ndarray, theta: np.ndarray, dt: float) -> None:
         raise IdentificationError(f"the motor did not move (position changed by {travel:.3g} rad): stalled?")
 
 
-def _least_squares(u: np.ndarray, theta: np.ndarray, dt: float, max_delay: int) -> tuple[int, np.ndarray]:
-    """Step 1: position-domain least squares for each delay; (delay, [w0, a, b, d]) of the best."""
+def delay_scan(
+    u: np.ndarray, theta: np.ndarray, dt: float, max_delay: int, extra: np.ndarray | None = None
+) -> tuple[int, np.ndarray]:
+    """Position-domain least squares for each delay k of u, with the regressors of
+    ``_regressors`` and the columns ``extra``; (k, [w0, a, b, d, *extra's]) of the least residual."""
     best = None
     for k in range(max_delay + 1):
         phi, y = _regressors(theta, _shift(u, k), dt)
+        if extra is not None:
+            phi = np.column_stack([phi, extra])
         coef, *_ = np.linalg.lstsq(phi, y, rcond=None)
         rss = float(np.sum((y - phi @ coef) ** 2))
         if best is None or rss < best[0]:
             best = (rss, k, coef)
     if best is None:
         raise IdentificationError(f"max_delay must be >= 0, got {max_delay}")
-    _, k, coef = best
+    return best[1], best[2]
+
+
+def _least_squares(u: np.ndarray, theta: np.ndarray, dt: float, max_delay: int) -> tuple[int, np.ndarray]:
+    """Step 1: position-domain least squares for each delay; (delay, [w0, a, b, d]) of the best."""
+    k, coef = delay_scan(u, theta, dt, max_delay)
     a, b = coef[1], coef[2]
     if not (a > 0.0 and math.isfinite(b)):
         raise IdentificationError(

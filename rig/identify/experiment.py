@@ -38,6 +38,7 @@ def experiment_config(
     preset: str | None = None,
     params: dict[str, Any] | None = None,
     input: str = "voltage",
+    one_sign: bool = True,
     repeat: int = 0,
     dither: float = 0.0,
     seed: int = 0,
@@ -46,7 +47,8 @@ def experiment_config(
     ``input="torque"``, [N m]): name ``identify``; the law ``replay`` on the axis ``cfg``'s law
     commands, in voltage mode (or CST for a torque: a commercial drive's) with a synchronous
     RPDO (the delay is estimated), no position window, a speed limit of 1000 rad/s;
-    ``preset``/``params`` replace the emulator's. ``repeat`` > 0: ``u`` repeats with that
+    ``preset``/``params`` replace the emulator's; ``one_sign``: a change of the speed's sign
+    stops it (false for the friction experiment). ``repeat`` > 0: ``u`` repeats with that
     period [samples], and the law holds one period (config.json stays small); ``dither`` > 0:
     the law adds white noise of that standard deviation, seeded by ``seed``."""
     target = cfg.controller.commands[0]
@@ -77,7 +79,7 @@ def experiment_config(
             commands=(target,),
             params={
                 "u": [float(v) for v in (u[:repeat] if repeat else u)],
-                "one_sign": True,
+                "one_sign": one_sign,
                 **({"cycles": len(u)} if repeat else {}),
                 **({"dither": dither, "seed": seed} if dither else {}),
             },
@@ -101,10 +103,25 @@ def run_experiment(
 def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult:
     """Estimate from a recorded run: ``samples.csv`` (command, measurement) on its period's grid
     (the cycles a real-time run skipped filled in: ``read_run``); the input is the commanded
-    axis's mode in its ``config.json`` (CST: a torque)."""
+    axis's mode in its ``config.json`` (CST: a torque). Where the speed of an open-loop
+    experiment changes sign, (3.5) is estimated with Coulomb friction
+    (``rig.identify.friction``); else as (3.5) with an offset, and ``friction`` is estimated
+    beside it (closed-loop data) or says that these data cannot separate it (one sign)."""
+    from rig.identify.friction import estimate_friction, identify_with_friction, one_sign_result, reverses
+
     run = read_run(run_dir)
-    result = estimate(run.command, run.measurement, run.period, max_delay=max_delay, input=run_input(run_dir))
-    return dataclasses.replace(result, filled_samples=run.filled)
+    u, theta, source = run.command, run.measurement, run_input(run_dir)
+    both_signs = reverses(theta)
+    if both_signs and run_controller(run_dir) == "replay":
+        result, friction = identify_with_friction(u, theta, run.period, max_delay=max_delay, input=source)
+    else:
+        result = estimate(u, theta, run.period, max_delay=max_delay, input=source)
+        friction = (
+            estimate_friction(u, theta, run.period, max_delay=max_delay, input=source)
+            if both_signs
+            else one_sign_result(source)
+        )
+    return dataclasses.replace(result, filled_samples=run.filled, friction=friction.as_dict())
 
 
 def frequency_from_log(
