@@ -10,13 +10,15 @@ and J is not separable from k_t/R: only c (and c/b, in volts) is given.
 Estimation (as ``estimate``'s, in the position domain so the encoder's quantisation is not
 differenced), with the sign of the speed s_k taken from the measured position, the sign of
 the central difference theta_k+1 - theta_k-1 (0 where it is less than a count: the motor at
-rest, where Coulomb friction balances the drive up to its break-away):
+rest, where Coulomb friction balances the drive up to its break-away; D. Karnopp, "Computer
+simulation of stick-slip friction in mechanical dynamic systems", J. Dyn. Sys., Meas.,
+Control 107 (1985) 100-103):
 
 1. least squares on theta_n - theta_0 = w_0 t_n - a int(theta - theta_0) + b int int u(t - kT)
    - c int int s + d t_n^2/2 for each delay k; the least residual wins;
-2. output error: ``scipy.optimize.least_squares`` fits (a, b, c, d, theta_0, w_0) so that the
-   exact ZOH solution with s held over each period (as a drive's friction acts between two
-   samples) matches the measured positions; standard errors from s^2 (J^T J)^-1.
+2. output error: ``scipy.optimize.least_squares`` fits (a, b, c, d, theta_0, w_0, delta) so
+   that the exact per-period solution with Karnopp's stick-slip (``_simulate``) matches the
+   measured positions; standard errors from s^2 (J^T J)^-1.
 
 Separability: c and d are told apart only by the changes of s; with one sign of speed they
 are one offset. ``estimate_friction`` says so (``separable`` false, with the reason) when the
@@ -117,19 +119,44 @@ def speed_signs(theta: np.ndarray, counts: float) -> np.ndarray:
     return s
 
 
-def _positions(bu: np.ndarray, alpha: float, g: float, h: float, c: float, theta0: float, w0: float) -> np.ndarray:
+def _slip(w: float, v: float, a: float, t: float) -> tuple[float, float]:
+    """(angle gained, speed) after ``t`` [s] of dw/dt = -a w + v from ``w``."""
+    if a == 0.0:
+        return w * t + v * t * t / 2.0, w + v * t
+    w_inf = v / a
+    decay = math.exp(-a * t)
+    return w_inf * t + (w - w_inf) * (1.0 - decay) / a, w_inf + (w - w_inf) * decay
+
+
+def _positions(bu: np.ndarray, a: float, dt: float, c: float, theta0: float, w0: float) -> np.ndarray:
     """The loop of ``_simulate`` in the subset of Python numba compiles (floats, arrays)."""
     out = np.empty(len(bu))
     theta, w = theta0, w0
     for n in range(len(bu)):
         out[n] = theta
-        v = bu[n]
-        if w > 0.0:
-            v -= c
-        elif w < 0.0:
-            v += c
-        theta += g * w + h * v
-        w = alpha * w + g * v
+        drive, left = bu[n], dt
+        while left > 0.0:
+            if w == 0.0:
+                if -c <= drive <= c:
+                    break  # stuck: the friction balances the drive
+                f = c if drive > 0.0 else -c  # breaks away
+            else:
+                f = c if w > 0.0 else -c
+            v = drive - f
+            gained, w_end = _slip(w, v, a, left)
+            if w_end * f >= 0.0:  # still moving the same way (or just at rest) at the period's end
+                theta += gained
+                w = w_end
+                break
+            # w reaches 0 within the period, at t_stop: -a w + v < 0 there, so it stops
+            if a == 0.0:
+                t_stop = -w / v
+            else:
+                t_stop = math.log((w - v / a) / (-v / a)) / a
+            gained, _ = _slip(w, v, a, t_stop)
+            theta += gained
+            w = 0.0
+            left -= t_stop
     return out
 
 
@@ -145,22 +172,23 @@ def _kernel() -> Any:
         except ImportError:  # pragma: no cover - numba is a dependency
             _KERNEL.append(_positions)
         else:
+            global _slip  # noqa: PLW0603 - the kernel calls the compiled helper
+            _slip = numba.njit(cache=True)(_slip)
             _KERNEL.append(numba.njit(cache=True)(_positions))
     return _KERNEL[0]
 
 
 def _simulate(p: np.ndarray, u: np.ndarray, dt: float, k: int) -> np.ndarray:
-    """Positions of the model with p = (a, b, c, d, theta_0, w_0, delta): the exact ZOH
-    solution over each period with the friction -c sign(w_n) of the speed at the period's start
-    held over it (0 at rest), as a drive's sampled model has it, and u delayed by k + delta
-    samples: (1 - delta) u_n-k + delta u_n-k-1 over period n (a drive's current loop takes
-    part of a period to follow a torque step)."""
+    """Positions of the model with p = (a, b, c, d, theta_0, w_0, delta): the exact solution
+    over each period with the drive b u + d held (ZOH) and Coulomb friction with stiction
+    (Karnopp's model, solved exactly in continuous time): -c sign(w) while moving; a speed that
+    reaches zero within a period stops there, and at rest the shaft stays stuck while the drive
+    is within +-c, else breaks away. u is delayed by k + delta samples:
+    (1 - delta) u_n-k + delta u_n-k-1 over period n (a drive's current loop takes part of a
+    period to follow a torque step)."""
     a, b, c, d, theta0, w0, delta = (float(x) for x in p)
-    alpha = math.exp(-a * dt)
-    g = (1.0 - alpha) / a if a != 0.0 else dt
-    h = (dt - g) / a if a != 0.0 else dt * dt / 2.0
     held = (1.0 - delta) * _shift(u, k) + delta * _shift(u, k + 1)
-    out: np.ndarray = _kernel()(b * held + d, alpha, g, h, c, theta0, w0)
+    out: np.ndarray = _kernel()(b * held + d, a, dt, abs(c), theta0, w0)
     return out
 
 
