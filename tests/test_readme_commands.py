@@ -506,7 +506,7 @@ INSTANCES: dict[str, tuple[str, Check]] = {
         "rig reproduce dq-current --json",
         _json_keys(r"`--json` prints `\{(\"tables\": \[\.\.\.\], \"cross_coupling\": \[\.\.\.\])\}`"),
     ),
-    "rig identify (--config FILE | --emulate PRESET | --from-log RUN_DIR) [--param NAME=VALUE ...] "
+    "rig identify (--config FILE | --emulate PRESET|DEVICE | --from-log RUN_DIR) [--param NAME=VALUE ...] "
     "[--input voltage|torque] [--excitation prbs|steps|chirp|multisine|friction] [--duration S] [--f-min HZ] "
     "[--f-max HZ] [--seed N] [--u0 U] [--amplitude U] [--clock S] [--json] [--plot FILE]": (
         "rig identify --emulate dc-servo --json",

@@ -35,13 +35,17 @@ def add_parser(sub: Any) -> None:
     )
     source = ident.add_mutually_exclusive_group(required=True)
     source.add_argument("--config", metavar="FILE", help="the rig configuration (bus, axis, limits)")
-    source.add_argument("--emulate", metavar="PRESET", help="run the experiment on an in-process preset")
+    source.add_argument(
+        "--emulate",
+        metavar="PRESET|DEVICE",
+        help="run the experiment on an in-process preset, or on a zoo twin in CST (rig emulate --list)",
+    )
     source.add_argument("--from-log", metavar="RUN_DIR", help="estimate from a recorded run directory")
     add_params(ident, "a parameter of the --emulate preset (e.g. plant.a_m=23.5)")
     ident.add_argument(
         "--excitation",
         choices=("prbs", "steps", "chirp", "multisine", "friction"),
-        help="prbs (default) or steps for (3.5); chirp or multisine (periodic, 1/--f-min) also measure "
+        help="prbs (default; with --input torque: friction) or steps for (3.5); chirp or multisine (periodic, 1/--f-min) also measure "
         "the frequency response (with --from-log: compute it from the log); friction: steps and a slow "
         "ramp of +-amplitude in both directions, for Coulomb and viscous friction and the inertia",
     )
@@ -103,8 +107,8 @@ def _frequency(args: argparse.Namespace) -> bool:
 
 def _check(args: argparse.Namespace) -> None:
     """The experiment's numbers, before anything is opened."""
-    if args.excitation is None:
-        args.excitation = "prbs"
+    if args.excitation is None:  # a torque's PRBS on u0 > 0 runs away where B is small: both directions
+        args.excitation = "friction" if args.input == "torque" else "prbs"
     friction = args.excitation == "friction"
     if args.duration is None:
         args.duration = PERIODS / args.f_min if _frequency(args) else (10.0 if friction else 5.0)
@@ -122,7 +126,8 @@ def _check(args: argparse.Namespace) -> None:
 
 def _experiment(args: argparse.Namespace) -> str | None:
     """Run the experiment; its run directory, or None after a safe stop."""
-    from plant_emulator.presets import preset_period
+    from plant_emulator.presets import PRESETS, preset_period
+    from rig.host.emulation import emulated_period
     from rig.cli.progress import Progress
     from rig.config import load_config
     from rig.demo import demo_config
@@ -140,7 +145,10 @@ def _experiment(args: argparse.Namespace) -> str | None:
             raise UsageError(f"rig identify: need --amplitude > 0, got {args.amplitude:g}")
     elif not 0.0 < args.amplitude < args.u0:
         raise UsageError(f"rig identify: need 0 < --amplitude ({args.amplitude:g}) < --u0 ({args.u0:g})")
-    if args.emulate:
+    if args.emulate and args.emulate not in PRESETS:
+        base, params = _twin(args), None
+        period = emulated_period(base)
+    elif args.emulate:
         where = "rig identify: --param"
         params = preset_params(
             args.emulate, parse_items(args.param, where), f"rig identify: --emulate {args.emulate}", text=True
@@ -179,6 +187,36 @@ def _experiment(args: argparse.Namespace) -> str | None:
         print(f"rig identify: the experiment stopped: {why}", file=sys.stderr)
         return None
     return str(summary["run_dir"])
+
+
+def _twin(args: argparse.Namespace) -> Any:
+    """The demo's configuration on the zoo's twin ``--emulate DEVICE`` (its own physics and
+    units; ``--param`` over the twin's values), in CST: a commercial drive has no voltage mode."""
+    from drivers.errors import ConfigError
+    from plant_emulator.device_profile import device_profile
+    from rig.config import rig_config
+    from rig.demo import demo_doc
+    from rig.host.emulation import preset_params
+
+    try:
+        profile = device_profile(args.emulate)
+    except ConfigError as exc:
+        raise UsageError(
+            f"rig identify: --emulate {args.emulate}: {exc} (a preset or a zoo twin: rig emulate --list)"
+        ) from None
+    if args.input != "torque":
+        raise UsageError(
+            f"rig identify: --emulate {args.emulate}: a commercial drive's twin takes a torque (CST): "
+            "give --input torque"
+        )
+    where = f"rig identify: --emulate {args.emulate}: --param"
+    items = parse_items(args.param, where)
+    params = preset_params(profile.physics, items, where, text=True, base=profile.params)
+    doc = demo_doc()
+    doc["emulator"] = {"device": args.emulate, "params": params}
+    doc["axis"][0]["mode"] = "cst"
+    doc["controller"] = {"kind": "replay", "reads": ["motor"], "commands": ["motor"], "u": [0.0]}
+    return rig_config(doc, f"rig identify --emulate {args.emulate}")
 
 
 def _excitation(args: argparse.Namespace, period: float) -> tuple[Any, int, float]:
