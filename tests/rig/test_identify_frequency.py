@@ -71,8 +71,9 @@ def _response_34(f: np.ndarray) -> np.ndarray:
     import scipy.signal
 
     from plant_emulator.dc_motor import DCMotorParams
+    from plant_emulator.presets import DC_VISCOUS
 
-    p = DCMotorParams.from_am_bm(a_m=16.0, b_m=680.0, r_r=1.0, tau_e=1e-4)
+    p = DCMotorParams.from_am_bm(a_m=16.0, b_m=680.0, r_r=1.0, tau_e=1e-4, b=DC_VISCOUS)
     a = np.array([[0, 1, 0], [0, -p.b / p.j, p.k_t / p.j], [0, -p.k_e / p.l_r, -p.r_r / p.l_r]])
     b = np.array([[0], [0], [1 / p.l_r]])
     c, d = np.array([[1.0, 0, 0]]), np.array([[0.0]])
