@@ -167,13 +167,34 @@ class AxisDriver(abc.ABC):
         (the clock of the frames' timestamps). The default checks nothing.
         """
 
-    #: below this speed [rad/s] a stopping axis counts as at rest
+    #: below this speed [rad/s] a stopping axis counts as at rest (``rest_speed``'s default)
     REST_SPEED: ClassVar[float] = 0.05
+    #: the at-rest window [rad/s] and the time [s] the speed must stay in it after ``disable``
+    #: for the host to confirm the stop (``rig.host.stopping``; [axis.limits] rest_speed,
+    #: rest_time, as CiA 402's velocity threshold 0x606F and its time 0x6070 say "speed = 0")
+    rest_speed: float = REST_SPEED
+    rest_time: float = 0.1
+    _speed_stamp: object = None  #: the stamp of the sample ``shaft_speed`` last gave
 
     def at_rest(self, fb: Feedback) -> bool:
         """After ``quick_stop``: True once the device's own stop has ended (``fb``: its latest
-        sample). The default: the speed it measures is below ``REST_SPEED`` (or it measures none)."""
-        return "velocity" not in self.measures or abs(fb.velocity) < self.REST_SPEED
+        sample). The default: the speed it measures is below ``rest_speed`` (or it measures none)."""
+        return "velocity" not in self.measures or abs(fb.velocity) < self.rest_speed
+
+    @property
+    def has_shaft(self) -> bool:
+        """The axis measures a shaft's speed, whose rest confirms its stop (a dq axis's speed is
+        its frame's, not a shaft's)."""
+        return "velocity" in self.measures and self.mode != "dq-voltage"
+
+    def shaft_speed(self) -> float | None:
+        """The shaft's speed [rad/s] in a sample newer than the last call's; None: none new yet.
+        The default: ``feedback``'s, new when its stamp changed (or it has none)."""
+        fb = self.feedback()
+        if fb.stamp is not None and fb.stamp == self._speed_stamp:
+            return None
+        self._speed_stamp = fb.stamp
+        return fb.velocity
 
     @abc.abstractmethod
     def read_state(self) -> AxisState:

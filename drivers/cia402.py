@@ -135,6 +135,7 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         host: tuple[int, float] | None = None,
         abort_connection: int | None = None,
         period: float = 0.0,
+        rpdo_deadline: float = 0.0,
         reset_fault: bool = False,
         emcy_texts: Mapping[int, str] | None = None,
     ) -> None:
@@ -162,6 +163,10 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         self.host = host  #: (host node id, time [s]) the drive's heartbeat consumer watches
         self.abort_connection = abort_connection  #: 0x6007 (None: the drive's own)
         self.period = period  #: [s] the SYNC period (0x60C2, 0x1006), 0: not told
+        #: [s] without the command RPDO before the toolkit's drive stops itself (0: none)
+        self.rpdo_deadline = rpdo_deadline
+        self._deadline_comm: int | None = None  #: the RPDO whose event timer is the deadline
+        self._speed_misses = 0  #: calls of ``shaft_speed`` since the last new velocity TPDO
         self.reset_fault = reset_fault  #: a drive found in FAULT at enable is reset (else refused)
         self.emcy_texts = dict(emcy_texts or {})
         self._consumer_sub: int | None = None
@@ -246,6 +251,7 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
                 self._consumer_sub = self._watch_host(*self.host)
         if self.op_mode == Mode.CSP:  # 0x607A is absolute: enabled, the drive goes for it
             self.sdo_write(cia.TARGET_POSITION, 0, int(self.sdo_read(cia.POSITION_ACTUAL)))
+        self._watch_commands()
         self._drive_to(PowerState.OPERATION_ENABLED, _TOWARDS_ENABLED.get, timeout)
         slot = self.data.slot_of(SW) if self.data else None
         self._enabled_stamp = slot.timestamp if slot else None
@@ -262,7 +268,9 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         )
 
     def quick_stop(self) -> None:
-        """Quick stop command (transition 11), by SDO so it acts now."""
+        """Quick stop command (transition 11), by SDO so it acts now; first the drive's deadline
+        on the commands is lifted (its ramp needs none, and the host sends none meanwhile)."""
+        self._unwatch_commands()
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.QUICK_STOP))
 
     def quanta(self) -> tuple[float, float]:
@@ -288,15 +296,33 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         state = power_state(word)
         if state in (PowerState.SWITCH_ON_DISABLED, PowerState.FAULT, PowerState.NOT_READY_TO_SWITCH_ON):
             return True
-        return state is PowerState.QUICK_STOP_ACTIVE and abs(fb.velocity) < self.REST_SPEED
+        return state is PowerState.QUICK_STOP_ACTIVE and abs(fb.velocity) < self.rest_speed
+
+    def shaft_speed(self) -> float | None:
+        """0x606C [rad/s]: the TPDO's where a new one came since the last call, else read by SDO
+        (a drive whose TPDOs stopped, as after an NMT reset); None where neither has it now."""
+        slot = self.data.slot_of(VELOCITY) if self.data is not None else None
+        if slot is not None and slot.timestamp is not None:
+            if slot.timestamp != self._speed_stamp:
+                self._speed_stamp, self._speed_misses = slot.timestamp, 0
+                return self.data.value(VELOCITY) / self.units.velocity  # type: ignore[union-attr]
+            self._speed_misses += 1
+            if self._speed_misses < 3:  # a TPDO late: the next one
+                return None
+        try:
+            return self.sdo_read(cia.VELOCITY_ACTUAL) / self.units.velocity
+        except RigError as exc:
+            log.debug("%s: no speed: %s", self.where, exc)
+            return None
 
     def disable(self) -> None:
-        """Disable voltage (transitions 7, 9, 10, 12), then stop watching the host's heartbeat;
-        nothing on a node whose 0x1000 says it is no CiA 402 drive."""
+        """Disable voltage (transitions 7, 9, 10, 12), then stop watching the host's heartbeat and
+        commands; nothing on a node whose 0x1000 says it is no CiA 402 drive."""
         if self.not_a_drive:
             return
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
         self._unwatch_host()
+        self._unwatch_commands()
 
     # --- the cycle -------------------------------------------------------------------------------
     def feedback(self) -> Feedback:

@@ -12,6 +12,7 @@ object and uses no manufacturer mode but on the toolkit's own drive (``toolkit_d
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -79,6 +80,8 @@ class Cia402Setup(Cia402Mapping):
     host: tuple[int, float] | None
     abort_connection: int | None
     period: float
+    rpdo_deadline: float
+    _deadline_comm: int | None
     heartbeat_timeout: float
     data: ProcessData | None
     measures: frozenset[str]
@@ -177,6 +180,30 @@ class Cia402Setup(Cia402Mapping):
                 self.sdo_write(cia.CONSUMER_HEARTBEAT, sub, 0)
             except RigError as exc:
                 log.warning("%s: heartbeat consumer entry not cleared: %s", self.where, exc)
+
+    def _watch_commands(self) -> None:
+        """The toolkit's own drive: the deadline of its command RPDO, that RPDO's event timer
+        (CiA 301 0x1400+n sub 5, which on an RPDO is its deadline: no RPDO within it, EMCY 0x8250
+        and the drive's reaction 0x6007) at ``rpdo_deadline`` [s], rounded up to whole ms, so
+        that a host that stops sending (dead, frozen) has the drive stop itself within a few
+        periods, not at its heartbeat's 0.3 s. ``quick_stop`` and ``disable`` lift it."""
+        data = self.data
+        rpdo = data.rpdo if data is not None else None
+        if not (self.rpdo_deadline > 0.0 and rpdo is not None and self.toolkit_drive):
+            return
+        ms = max(1, math.ceil(self.rpdo_deadline * 1000.0 - 1e-9))
+        why = "the deadline of the commands [ms]"
+        if self._setting(rpdo.comm, cia.PDO_COMM_EVENT_TIMER, ms, why):
+            self._deadline_comm = rpdo.comm
+
+    def _unwatch_commands(self) -> None:
+        """Stopping on purpose: the drive's deadline on the commands is lifted (a warning if not)."""
+        if self._deadline_comm is not None:
+            comm, self._deadline_comm = self._deadline_comm, None
+            try:
+                self.sdo_write(comm, cia.PDO_COMM_EVENT_TIMER, 0)
+            except RigError as exc:
+                log.warning("%s: the commands' deadline (0x%04X:05) not lifted: %s", self.where, comm, exc)
 
     def _optional(self, index: int, subindex: int = 0) -> Any:
         """An object the device may lack: its value, or None (absent from the EDS, or refused)."""

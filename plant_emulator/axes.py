@@ -294,6 +294,7 @@ class GridAxis(Axis):
         self.omega_k = omega_k
         self.source = source
         self._u_ab = 0j
+        self._open = False  # the power stage off: its switches open (``coast``)
         self._theta_samples = (0.0, 0.0)  # frame angle at the previous and the latest SYNC
 
     def latch(self) -> None:
@@ -309,9 +310,16 @@ class GridAxis(Axis):
         self.converter.theta = theta
         self._u_ab = self.converter.modulate(complex(value), self.omega_k)
         self.converter.theta = now
+        self._open = False
 
     def coast(self) -> None:
+        """Power stage off: its switches open. With the DC link above the source's line-to-line
+        peak (|source| <= u_max = U_DC/sqrt(3): 566 V < 700 V in Table IV) the bridge's diodes
+        block, and the inductor's current, forced into the DC link, is gone within the period
+        (L di/dt ~ -U_DC: 32 A in 0.3 ms): here at once; none flows after it. (Zero voltage
+        instead would short the grid through L1: 170 A.)"""
         self._u_ab = 0j
+        self._open = True
 
     def reset(self) -> None:
         self.converter.i_ab = 0j
@@ -319,8 +327,14 @@ class GridAxis(Axis):
         self._u_ab = 0j
 
     def advance(self, h: float, t: float) -> None:
-        if h > 0.0:
-            self.converter.advance(self._u_ab, self.omega_k, h, self.source)
+        if h <= 0.0:
+            return
+        if self._open:  # no current; the frame (the grid's angle) turns on
+            c = self.converter
+            c.i_ab = 0j
+            c.theta = math.remainder(c.theta + self.omega_k * h, math.tau)
+            return
+        self.converter.advance(self._u_ab, self.omega_k, h, self.source)
 
     @property
     def i_dq(self) -> complex:

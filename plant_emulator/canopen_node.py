@@ -69,6 +69,7 @@ PRE_OPERATIONAL, OPERATIONAL, STOPPED, INITIALISING = (
     int(NmtState.INITIALISING),
 )
 _SDO_SYNC_STATES = (PRE_OPERATIONAL, OPERATIONAL)
+RPDO_COMMS = range(cia.RPDO_COMM, cia.RPDO_COMM + PDO_BLOCK)  #: the RPDOs' communication parameters
 
 
 class EmulatedNode(Supervision, DeviceHooks):
@@ -107,6 +108,8 @@ class EmulatedNode(Supervision, DeviceHooks):
             cached.pop((index, subindex), None)
             if index == cia.CONSUMER_HEARTBEAT:  # the watch changes at once, not at the next SYNC
                 self._configure_consumer()
+            elif index in RPDO_COMMS and subindex == cia.PDO_COMM_EVENT_TIMER:  # so does a deadline
+                self._configure()
             self.after_write(index)
 
         self.node.on_stored = stored

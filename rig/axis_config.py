@@ -50,6 +50,10 @@ class AxisLimits:
     #: [s] in real time, the watchdog is at least this long (a PC's and a socket's jitter is not a period's)
     watchdog: float = 0.1
     heartbeat_timeout: float = 0.0  #: [s]; 0: not supervised
+    #: a stop is confirmed when, after the disable, the speed stayed within rest_speed [rad/s]
+    #: (or one speed unit of the axis, where that is coarser) for rest_time [s]
+    rest_speed: float = 0.05
+    rest_time: float = 0.1
 
 
 @dataclass(frozen=True)
@@ -71,6 +75,10 @@ class AxisConfig:
     #: disable-voltage, quick-stop, or "drive" (leave the drive's setting)
     abort_connection: str = "quick-stop"
     host_timeout: float = 0.0  #: [s] the drive's watch of the host's heartbeat (0: 3 heartbeats)
+    #: cia402, the toolkit's drive: periods without a command RPDO before it stops itself (0: none);
+    #: in real time at least rpdo_deadline [s] (a PC's cycle can come late by more than a period)
+    rpdo_deadline_periods: int = 5
+    rpdo_deadline: float = 0.02
     reset_fault: bool = False  #: cia402: a drive found in FAULT at enable is reset (else refused)
     eds: str = ""  #: the device's EDS/DCF ("" : the toolkit's)
     speed_from_position: bool = False  #: cia406: speed as the backward difference of the position

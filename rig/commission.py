@@ -31,6 +31,7 @@ from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
 from rig.drive_status import UNITS_HINT, device_units
+from rig.host.stopping import RestWatch
 
 __all__ = ["STATUS_BITS", "DriveTool", "parse_object"]
 
@@ -234,12 +235,13 @@ class DriveTool:
         except (SafetyStop, DeviceFault) as exc:
             result = f"stopped: {exc}"
         finally:
-            confirmed = self.stop()
+            confirmed, turning = self.stop()
         return {
             "result": result,
             "position_rad": a.sdo_read(cia.POSITION_ACTUAL) / a.units.position,
             "velocity_rad_s": a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity,
             "stop_confirmed": confirmed,
+            "still_turning": turning,
             "state": a.read_power_state().value,
         }
 
@@ -264,9 +266,10 @@ class DriveTool:
             return
         self.live.append((t, target, actual, target))
 
-    def stop(self, *, seconds: float = 3.0) -> bool:
-        """Quick stop, the drive's ramp to rest (statusword and 0x606C by SDO), disable; True
-        when the ramp was seen to end."""
+    def stop(self, *, seconds: float = 3.0) -> tuple[bool, dict[str, float | None]]:
+        """Quick stop, the drive's ramp to rest (statusword and 0x606C by SDO), disable, then the
+        shaft at rest for the axis's hold (``rig.host.stopping.RestWatch``): (confirmed, {axis:
+        its speed [rad/s]} where the shaft was still turning)."""
         a = self.axis
         a.quick_stop()
 
@@ -274,7 +277,7 @@ class DriveTool:
             state = a.read_power_state()
             if state in (PowerState.SWITCH_ON_DISABLED, PowerState.FAULT):
                 return True
-            return bool(abs(a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity) < a.REST_SPEED)
+            return bool(abs(a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity) < a.rest_speed)
 
         try:
             self._until(at_rest, seconds, "the drive's stop")
@@ -282,7 +285,13 @@ class DriveTool:
         except SafetyStop:
             confirmed = False
         a.disable()
-        return confirmed
+        watch = RestWatch.of(a, self.period)
+        try:
+            self._until(lambda: watch.see(a.shaft_speed()), max(seconds, 3.0 * a.rest_time), "the rest")
+        except SafetyStop:
+            log.error("%s: still turning after the disable (%s rad/s)", a.where, watch.speed)
+            return False, {a.name: watch.speed}
+        return confirmed, {}
 
     def jog(self, speed: float, seconds: float, *, limit: float) -> dict[str, Any]:
         """Profile velocity at ``speed`` [rad/s] for ``seconds``; |speed| <= ``limit``."""

@@ -21,7 +21,8 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                            latency [s], enable_timeout [s], stop_timeout [s], mode_timeout [s],
                            pdo (remap | device), sdo_timeout [s], sdo_retries, abort_connection
                            (none | fault | disable-voltage | quick-stop | drive), host_timeout [s],
-                           reset_fault,
+                           rpdo_deadline_periods, rpdo_deadline [s] (real time: max of
+                           the two), reset_fault,
                            eds (default: the toolkit's)
                    cia406: node_id, speed_from_position, eds
                    modbus: map, unit, host + port (TCP) or serial + baudrate (RTU), mode = "speed"
@@ -31,7 +32,7 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                  position_unit, velocity_unit (SI unit codes): where the device does not report them;
                  [axis.limits] command, speed [rad/s], position_min/max [rad], current [A],
                  watchdog_periods (lock-step), watchdog [s] (real time: max of the two),
-                 heartbeat_timeout [s] (0: off)
+                 heartbeat_timeout [s] (0: off), rest_speed [rad/s] and rest_time [s] (a stop's rest)
     [controller] kind (see ``rig.laws.LAWS``), reads = [axis names], commands = [axis names],
                  the law's parameters, and design = "FILE" (a_m, b_m and lam from rig identify's
                  identification.json or rig design dtsm --json, the law's parameters from rig

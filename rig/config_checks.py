@@ -152,6 +152,9 @@ def check_axis_values(where: str, a: Any) -> None:
         _time(where, key, getattr(a, key))
     _time(where, "latency", a.latency, MAX_LATENCY)
     _time(where, "host_timeout", a.host_timeout, MAX_HEARTBEAT)
+    periods = a.rpdo_deadline_periods
+    require(0 <= periods <= 1000, where, "rpdo_deadline_periods", periods, "must be 0..1000 (0: none)")
+    _time(where, "rpdo_deadline", a.rpdo_deadline, 60.0)
     require(a.sdo_retries >= -1, where, "sdo_retries", a.sdo_retries, "must be >= 0 (-1: the driver's)")
     require(0 <= a.unit <= 247, where, "unit", a.unit, "must be a Modbus unit id 0..247")
     require(0 < a.port < 65536, where, "port", a.port, "must be 1..65535")
@@ -176,6 +179,9 @@ def _check_limits(w: str, lim: Any) -> None:
     require(lo < hi, w, "position_min", lo, f"must be < position_max = {hi!r}: no position is allowed")
     require(lim.watchdog_periods >= 1, w, "watchdog_periods", lim.watchdog_periods, "must be >= 1")
     _time(w, "watchdog", lim.watchdog)  # real time: at least this long
+    rest = lim.rest_speed
+    require(math.isfinite(rest) and rest > 0.0, w, "rest_speed", rest, "must be a speed > 0 rad/s")
+    _time(w, "rest_time", lim.rest_time, 60.0)
     hb = lim.heartbeat_timeout
     # the drive's heartbeat 0x1017 is set to a third of it, in 16-bit milliseconds
     _time(w, "heartbeat_timeout", hb, 3 * MAX_HEARTBEAT)

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from typing import Any, TextIO
 
 from controllers.design import DTSMDesign, design_dtsm
+from plant_emulator.dc_motor import DCMotorParams
+from plant_emulator.presets import DcServoPreset
 from rig.config import RigConfig, rig_config
 from rig.host.session import run_config
 from rig.identify import excitation
@@ -85,10 +87,12 @@ def demo_config(output: str = "runs", *, a_m: float = drives.A_M, b_m: float = d
 
 def demo_doc(output: str = "runs", *, a_m: float = drives.A_M, b_m: float = drives.B_M) -> dict[str, Any]:
     """``demo_config``'s configuration as the document a TOML file would give."""
-    load = DEMO_LOAD * drives.A_M / drives.B_M / drives.B_M  # T_L = J f, J = k_t/(R b_m), k_t = a_m/b_m
+    plant = DcServoPreset()  # T_L = J f with the J of the preset's motor (its B within a_m)
+    load = DEMO_LOAD * DCMotorParams.from_am_bm(a_m=plant.a_m, b_m=plant.b_m, b=plant.friction).j
     doc: dict[str, Any] = {
         "run": {"duration": 3.0, "output": output, "name": "demo-dc-servo"},
-        "emulator": {"preset": "dc-servo", "params": {"load": f"step:{load:.6g}:1.5"}},
+        # the load ends with the run: an active load left on turns the disabled motor after it
+        "emulator": {"preset": "dc-servo", "params": {"load": f"pulse:{load:.6g}:1.5:3"}},
         "axis": [
             {
                 "name": "motor",

@@ -24,10 +24,7 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
         ("max error", f"{summary['max_error']:.4g} {unit}".rstrip()),
         ("chattering", _chattering(summary, command_unit)),
         ("stop", summary["safe_stop_reason"] or "none: the run ended at its duration, every axis stopped"),
-        (
-            "stop confirmed",
-            {True: "yes", False: "NO: an axis may still be moving", None: "-"}[summary["stop_confirmed"]],
-        ),
+        ("stop confirmed", _confirmed(summary)),
         ("run directory", summary["run_dir"]),
     ]
     if summary.get("files_not_written"):
@@ -68,3 +65,20 @@ def _chattering(summary: dict[str, Any], unit: str) -> str:
         f"count's effect ({summary.get('chattering_threshold', 0.0):.3g} {unit}) in the second "
         f"half, RMS increment {amplitude:.3g} {unit}"
     )
+
+
+def _confirmed(summary: dict[str, Any]) -> str:
+    """The stop's confirmation in words, with the axes still turning after it and their speeds."""
+    confirmed = summary["stop_confirmed"]
+    if confirmed is None:
+        return "-"
+    if confirmed:
+        return "yes"
+    turning = summary.get("still_turning") or {}
+    if not turning:
+        return "NO: an axis may still be moving"
+    said = ", ".join(
+        f"{name} at {speed:.4g} rad/s" if speed is not None else f"{name} (no speed sample)"
+        for name, speed in turning.items()
+    )
+    return f"NO: still turning after the disable: {said}"

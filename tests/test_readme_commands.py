@@ -636,7 +636,7 @@ NOT_RUN = {
     "(the vcan tier serves it so)",
     "rig emulate --preset dc-servo": "a server until Ctrl-C, for a client in another terminal: the "
     "timing tier runs it as written, with rig scan beside it (test_the_emulator_serves_two_nodes)",
-    "rig emulate --preset dc-servo --time lockstep --param load=step:0.0346:1.5": "a server beside "
+    "rig emulate --preset dc-servo --time lockstep --param load=pulse:0.0346:1.5:3": "a server beside "
     "`rig run` in another terminal: the timing tier runs the two as written "
     "(test_a_run_against_the_emulator_in_another_process)",
     "rig emulate --device epos4": "a server until Ctrl-C, for a client in another terminal "
@@ -821,12 +821,12 @@ def test_the_emulator_serves_two_nodes(tmp_path: pathlib.Path) -> None:
 @pytest.mark.timing
 def test_a_run_against_the_emulator_in_another_process(tmp_path: pathlib.Path) -> None:
     """ "The emulator": a copy of the servo example with `[run] period = 0.0004`, run with `rig run
-    --config` beside `rig emulate --preset dc-servo --time lockstep --param load=step:0.0346:1.5`,
-    gives the in-process result (rms 1.969 mrad)."""
+    --config` beside `rig emulate --preset dc-servo --time lockstep --param load=pulse:0.0346:1.5:3`,
+    gives the in-process result (rms 1.983 mrad)."""
     rms = said(r"beside `rig run --config` of the copy: .*? the in-process result exactly \(rms (N) mrad")[1]
     example = (ROOT / "examples/dc_servo_position.toml").read_text()
     (tmp_path / "servo.toml").write_text(example.replace("[run]\n", "[run]\nperiod = 0.0004\n", 1))
-    server = _serve("--preset", "dc-servo", "--time", "lockstep", "--param", "load=step:0.0346:1.5")
+    server = _serve("--preset", "dc-servo", "--time", "lockstep", "--param", "load=pulse:0.0346:1.5:3")
     try:
         proc = run_here("rig run --config servo.toml", tmp_path, timeout=120)
     finally:

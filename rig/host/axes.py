@@ -46,7 +46,7 @@ def _units(a: AxisConfig) -> dict[str, float]:
 
 
 def _arguments(
-    a: AxisConfig, network: Any, period: float, bus: BusConfig
+    a: AxisConfig, network: Any, period: float, bus: BusConfig, realtime: bool = False
 ) -> tuple[tuple[Any, ...], dict[str, Any]]:
     hb = a.limits.heartbeat_timeout
     if a.kind == "cia402":
@@ -59,6 +59,7 @@ def _arguments(
             "host": host,
             "abort_connection": ABORT_CONNECTION[a.abort_connection],
             "period": period,
+            "rpdo_deadline": _deadline(a, period, realtime),
             "reset_fault": a.reset_fault,
             "emcy_texts": device_emcy_texts(a.eds),
         }
@@ -106,9 +107,22 @@ def check_object_dictionaries(axes: Iterable[AxisConfig], source: str) -> None:
                 raise ConfigError(f"{source}: [[axis]] {a.name!r} eds: {exc}") from None
 
 
-def open_axis(a: AxisConfig, *, network: Any, period: float, bus: BusConfig | None = None) -> AxisDriver:
-    """The driver of axis ``a`` (nothing is sent yet); CANopen axes join ``network``."""
+def _deadline(a: AxisConfig, period: float, realtime: bool) -> float:
+    """The toolkit drive's deadline on the commands [s]: ``rpdo_deadline_periods`` periods, in
+    real time at least ``rpdo_deadline`` [s]; 0: none."""
+    if not a.rpdo_deadline_periods:
+        return 0.0
+    return max(a.rpdo_deadline_periods * period, a.rpdo_deadline if realtime else 0.0)
+
+
+def open_axis(
+    a: AxisConfig, *, network: Any, period: float, bus: BusConfig | None = None, realtime: bool = False
+) -> AxisDriver:
+    """The driver of axis ``a`` (nothing is sent yet); CANopen axes join ``network``; ``realtime``:
+    the run's time (a real-time floor of the drive's deadline)."""
     module, name = AXIS_DRIVERS[a.kind]
     cls: Callable[..., AxisDriver] = getattr(importlib.import_module(module), name)
-    args, kwargs = _arguments(a, network, period, bus or BusConfig())
-    return cls(*args, **kwargs)
+    args, kwargs = _arguments(a, network, period, bus or BusConfig(), realtime)
+    axis = cls(*args, **kwargs)
+    axis.rest_speed, axis.rest_time = a.limits.rest_speed, a.limits.rest_time
+    return axis

@@ -135,6 +135,7 @@ class HostLoop:
         #: the read axes' sample stamps are bus receive times on the wall clock (real time, CANopen)
         self._wall_stamps = realtime and all(isinstance(axes[i], CanopenAxis) for i in wiring.reads)
         self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
+        self.still_turning: dict[str, float | None] = {}  #: axes not at rest after it [rad/s]
         self.done = 0
         self._begun = False
         self._span: ReferenceSpan | None = None  #: of a position reference (``run``)
@@ -340,13 +341,14 @@ class HostLoop:
         reads = [samples[i] for i in wiring.reads]
         out, send = self._step(t, reads)
         values = [*out.commands, *(profile(t) for _, profile in wiring.profiles)]
-        skip = 0 if send else len(out.commands)  # held: the law's commands are not sent again
-        targets = wiring.commanded[skip:]
+        # held too: the last commands go again, so the drives' deadlines on them (the toolkit's
+        # RPDO deadline) watch the host's cycle, not its samples
+        targets = wiring.commanded
         guards, axes = self.guards, self.axes
-        for i, value in zip(targets, values[skip:]):
+        for i, value in zip(targets, values):
             guards[i].check_command(value)
         t2 = time.perf_counter()
-        for i, value in zip(targets, values[skip:]):
+        for i, value in zip(targets, values):
             axes[i].command(value)
         t3 = time.perf_counter()
         if self.realtime and send:
@@ -374,8 +376,8 @@ class HostLoop:
     def _step(self, t: float, reads: list[Feedback]) -> tuple[LawStep, bool]:
         """The law's step on new samples, and whether to send its commands. A cycle in which a
         read axis has no new sample (a TPDO missed or late) does not step the law on stale
-        feedback: ``missed_sample = "hold"`` keeps the last commands (nothing is sent: the
-        drives hold them, and no backlog builds up), "zero" sends the neutral ones."""
+        feedback: ``missed_sample = "hold"`` keeps the last commands (sent again, the same values:
+        the drives hold them, and their deadlines see a host alive), "zero" sends the neutral ones."""
         stamps = [fb.stamp for fb in reads]
         last = self._last_out
         fresh = True
@@ -406,7 +408,7 @@ class HostLoop:
         if self.on_stop is not None:
             self.on_stop()
         self.elapsed = self._t_end - self._t_start  # a safe stop's too
-        self.stop_confirmed = bring_to_rest(
+        stop = bring_to_rest(
             self.axes,
             [self.axes[i] for i in self.wiring.commanded],
             self.pacing,
@@ -415,6 +417,7 @@ class HostLoop:
             realtime=self.realtime,
             heartbeat=self.heartbeat,
         )
+        self.stop_confirmed, self.still_turning = stop.confirmed, stop.turning
 
     def _command_units(self) -> dict[str, str]:
         """{axis: the unit of its command} for the axes with a mode (``MODE_UNITS``)."""
@@ -442,6 +445,7 @@ class HostLoop:
             "elapsed_s": self.elapsed,
             "safe_stop_reason": self.safe_stop_reason,
             "stop_confirmed": self.stop_confirmed,
+            "still_turning": self.still_turning,
             "run_dir": str(self.recorder.dir),
             "timing": self.times.stats(),
             "realtime": None

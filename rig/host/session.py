@@ -202,7 +202,9 @@ class Session:
         self._transports()
         for a in cfg.axes:
             spec = self.emulation.endpoint(a) if self.emulation else a
-            self.axes.append(open_axis(spec, network=self.network, period=period, bus=cfg.bus))
+            realtime = cfg.run.time == "realtime"
+            axis = open_axis(spec, network=self.network, period=period, bus=cfg.bus, realtime=realtime)
+            self.axes.append(axis)
         self._made_output = not Path(cfg.run.output).exists()  #: the recorder makes the folder
         # flushed every 50 ms of run time: a killed host loses at most that
         self.recorder = Recorder(cfg.run.output, cfg.run.name, flush_period=0.05, trace=cfg.run.trace)

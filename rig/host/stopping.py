@@ -5,10 +5,17 @@ speed; none for a position, ``AxisDriver.neutral_command``), quick stop on every
 axis, then SYNC cycles (the drives need them for their feedback, and in lock-step to let
 time pass) until every axis reports its own stop ended (``AxisDriver.at_rest``: a CiA 402
 drive in SWITCH ON DISABLED or FAULT after its ramp, or at rest in QUICK STOP ACTIVE), or
-``timeout`` [s] passes (in cycles of the loop's period, and in wall time); then
-disable every axis. Disabling during the ramp would cut it
-(CiA 402 transition 12: the motor coasts), so disable comes only after. The result says
-whether every stop was confirmed; a stop that was not is never reported as a clean one.
+``timeout`` [s] passes (in cycles of the loop's period, and in wall time); then disable
+every axis. Disabling during the ramp would cut it (CiA 402 transition 12: the motor
+coasts), so disable comes only after.
+
+A stop is confirmed only when every axis was disabled and then every shaft stayed at rest:
+each axis with a shaft speed (``AxisDriver.has_shaft``; encoders too) kept it within its
+at-rest window ``rest_speed`` [rad/s] (or one speed unit of the axis, where that is coarser)
+for ``rest_time`` [s] of new samples in a row (``RestWatch``), as CiA 402's "speed = 0" is a
+speed within 0x606F for 0x6070. A ramp that ends in a coasting motor, or a drive that lets
+go of a turning shaft, is not at rest. The result (``StopResult``) says which axes were still
+turning and at what speed; a stop that was not confirmed is never reported as a clean one.
 """
 
 from __future__ import annotations
@@ -18,13 +25,52 @@ import logging
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
-from drivers.base import AxisDriver
+from drivers.base import AxisDriver, AxisState
 from rig.host.pacing import Pacing
 
-__all__ = ["bring_to_rest"]
+__all__ = ["RestWatch", "StopResult", "bring_to_rest"]
 
 log = logging.getLogger(__name__)
+
+
+@dataclass
+class StopResult:
+    """How a stop ended: ``confirmed`` (every axis disabled, every shaft at rest for its hold),
+    ``turning`` {axis: the speed [rad/s] of its last sample, None if none came} for the axes
+    not at rest, and ``problems``, each in words."""
+
+    confirmed: bool
+    turning: dict[str, float | None] = field(default_factory=dict)
+    problems: list[str] = field(default_factory=list)
+
+
+class RestWatch:
+    """One axis's rest after its disable: ``see`` each new speed sample [rad/s]; ``done`` once
+    ``samples`` in a row were within ``window`` [rad/s]."""
+
+    def __init__(self, window: float, hold: float, period: float) -> None:
+        self.window = window
+        self.samples = max(1, math.ceil(hold / period - 1e-9))  #: samples in a row the hold takes
+        self.run = 0  #: samples in a row within the window so far
+        self.speed: float | None = None  #: the last sample [rad/s]
+
+    @classmethod
+    def of(cls, axis: AxisDriver, period: float) -> RestWatch:
+        """``axis``'s window (its ``rest_speed``, or one speed unit where coarser) and hold."""
+        return cls(max(axis.rest_speed, axis.quanta()[1]), axis.rest_time, period)
+
+    @property
+    def done(self) -> bool:
+        return self.run >= self.samples
+
+    def see(self, speed: float | None) -> bool:
+        """A new sample (None: none this cycle, which counts neither way); ``done`` after it."""
+        if speed is not None:
+            self.speed = speed
+            self.run = self.run + 1 if abs(speed) <= self.window else 0  # NaN: not at rest
+        return self.done
 
 
 def _retry(axis: AxisDriver, step: Callable[[], object], what: str, tries: int = 5) -> bool:
@@ -39,12 +85,13 @@ def _retry(axis: AxisDriver, step: Callable[[], object], what: str, tries: int =
     return False
 
 
-def _rested(axis: AxisDriver) -> bool:
+def _asked(axis: AxisDriver, ask: Callable[[], object], what: str) -> object:
+    """``ask()``, or None where the device does not answer (logged)."""
     try:
-        return axis.at_rest(axis.feedback())
+        return ask()
     except Exception as exc:
-        log.debug("%s: no state while stopping: %s", axis.where, exc)
-        return False
+        log.debug("%s: no %s while stopping: %s", axis.where, what, exc)
+        return None
 
 
 def bring_to_rest(
@@ -56,11 +103,10 @@ def bring_to_rest(
     timeout: float,
     realtime: bool,
     heartbeat: Callable[[int], None] | None = None,
-) -> bool:
+) -> StopResult:
     """See the module docstring; ``period`` [s] of the loop, ``realtime``: wait it between ticks
-    where the host keeps the pace; ``heartbeat(k)``: the host's, beating on meanwhile. True
-    when every axis confirmed its stop."""
-    ok = True
+    where the host keeps the pace; ``heartbeat(k)``: the host's, beating on meanwhile."""
+    ok, problems = True, []
     for a in commanded:
         neutral = a.neutral_command()
         if neutral is not None:
@@ -68,27 +114,73 @@ def bring_to_rest(
     stopping = [a for a in axes if a.commandable]
     for a in stopping:
         ok &= _retry(a, a.quick_stop, "quick stop")
-    pending = list(stopping)
+    beat = [heartbeat]
     deadline = time.monotonic() + timeout  # wall time too: a dead bus makes each check slow
-    for k in range(max(1, math.ceil(timeout / period))):
-        if not pending or time.monotonic() > deadline:
-            break
-        if heartbeat is not None:
+    pending = list(stopping)
+
+    def rested(a: AxisDriver) -> bool:
+        return bool(_asked(a, lambda: a.at_rest(a.feedback()), "state"))
+
+    if not _cycles(pacing, period, timeout, deadline, realtime, beat, lambda: _pending(pending, rested)):
+        for a in pending:
+            problems.append(f"{a.name}: its stop ramp did not end within {timeout:g} s")
+    for a in stopping:
+        ok &= _retry(a, a.disable, "disable")
+    watches = {a: RestWatch.of(a, period) for a in axes if a.has_shaft}
+    hold = max((w.samples for w in watches.values()), default=0) * period
+    left = max(deadline - time.monotonic(), 3.0 * hold)  # the hold gets its time after a slow ramp
+
+    def resting() -> bool:  # every watch sees its sample (a list, not all()'s short cut)
+        return all([w.see(_asked(a, a.shaft_speed, "speed")) for a, w in watches.items()])  # type: ignore[arg-type]
+
+    if watches:
+        _cycles(pacing, period, left, time.monotonic() + left, realtime, beat, resting)
+    turning = {a.name: w.speed for a, w in watches.items() if not w.done}
+    for name, speed in turning.items():
+        said = "no speed sample" if speed is None else f"{speed:.4g} rad/s"
+        problems.append(f"{name}: still turning after the disable ({said})")
+    for a in stopping:
+        state = _asked(a, a.read_state, "state")
+        if state not in (AxisState.DISABLED, AxisState.FAULT):
+            problems.append(f"{a.name}: not disabled ({getattr(state, 'value', 'no answer')})")
+    for text in problems:
+        log.error("stop not confirmed: %s", text)
+    return StopResult(ok and not problems, turning, problems)
+
+
+def _pending(pending: list[AxisDriver], rested: Callable[[AxisDriver], bool]) -> bool:
+    """Drop the axes that ``rested``; True when none is left."""
+    pending[:] = [a for a in pending if not rested(a)]
+    return not pending
+
+
+def _cycles(
+    pacing: Pacing,
+    period: float,
+    seconds: float,
+    deadline: float,
+    realtime: bool,
+    beat: list[Callable[[int], None] | None],
+    done: Callable[[], bool],
+) -> bool:
+    """SYNC cycles (the host's heartbeat ``beat[0]`` with each) until ``done()``, for at most
+    ``seconds`` of periods and the wall-clock ``deadline``; True when ``done``."""
+    for k in range(max(1, math.ceil(seconds / period))):
+        if done():
+            return True
+        if time.monotonic() > deadline:
+            return False
+        if beat[0] is not None:
             try:
-                heartbeat(k)
+                beat[0](k)
             except Exception as exc:  # the bus is gone: the stop goes on as far as it can
                 log.error("the host's heartbeat not sent while stopping: %s", exc)
-                heartbeat = None
+                beat[0] = None
         if realtime and not pacing.paced_by_bus:
             time.sleep(period)
         try:
             pacing.tick()
         except Exception as exc:
             log.error("no SYNC while stopping: %s", exc)
-            break
-        pending = [a for a in pending if not _rested(a)]
-    for a in pending:
-        log.error("%s: its stop was not confirmed within %g s", a.where, timeout)
-    for a in stopping:
-        ok &= _retry(a, a.disable, "disable")
-    return ok and not pending
+            return False
+    return done()

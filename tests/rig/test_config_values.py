@@ -85,23 +85,23 @@ BAD = {
         "tpdo_stall_at = -1.0",
     ),
     "emulator-param-string": (
-        'load = "step:0.0346:1.5"',
+        'load = "pulse:0.0346:1.5:3"',
         'a_m = "16"',
         "[emulator.params] of preset dc-servo: a_m = '16': expected float, not a string",
     ),
     "emulator-param-negative": (
-        'load = "step:0.0346:1.5"',
+        'load = "pulse:0.0346:1.5:3"',
         "a_m = -16.0",
         "parameter a_m must be > 0, got -16.0",
     ),
-    "emulator-param-load": ('load = "step:0.0346:1.5"', 'load = "step:x"', "parameter load='step:x'"),
+    "emulator-param-load": ('load = "pulse:0.0346:1.5:3"', 'load = "step:x"', "parameter load='step:x'"),
     "emulator-param-period": (
-        'load = "step:0.0346:1.5"',
+        'load = "pulse:0.0346:1.5:3"',
         "period = 1e-300",
         "[emulator.params] of preset dc-servo: period = 1e-300",
     ),
     "emulator-param-huge-int": (
-        'load = "step:0.0346:1.5"',
+        'load = "pulse:0.0346:1.5:3"',
         "counts_per_rev = 100000000000",
         "counts_per_rev must be <= 2147483647, got 100000000000",
     ),
@@ -115,7 +115,7 @@ BAD = {
         "[bus] interface = 'socketcnd': not a python-can interface; known: ",
     ),
     "emulator-param-table": (
-        'load = "step:0.0346:1.5"',
+        'load = "pulse:0.0346:1.5:3"',
         "a_m = {x = 1}",
         "a_m = {'x': 1}: expected a number",
     ),

@@ -27,6 +27,7 @@ def test_status_says_what_the_drive_is(capsys: pytest.CaptureFixture[str]) -> No
 def test_jog_move_and_home_end_at_rest_by_the_drive_s_own_stop(capsys: pytest.CaptureFixture[str]) -> None:
     r = _json(capsys, "jog", "10", "--for", "0.5")
     assert r["result"] == "done" and r["stop_confirmed"] is True and r["state"] == "SWITCH ON DISABLED"
+    assert r["still_turning"] == {}  # the shaft at rest for its hold after the disable
     assert r["position_rad"] == pytest.approx(5.0, abs=0.3)  # 10 rad/s for 0.5 s, ramps included
     r = _json(capsys, "move", "3")
     assert r["position_rad"] == pytest.approx(3.0, abs=0.01) and r["velocity_rad_s"] == 0.0

@@ -1,5 +1,8 @@
 """A host that dies mid-run leaves a drive that stops itself, across real processes and sockets.
 
+Two cases: a zoo twin's heartbeat consumer (CSV), and the toolkit's own drive in voltage mode,
+whose deadline on its command RPDO stops it within a few periods.
+
 ``rig emulate --device epos4`` (the twin, real time on its own clock) and ``rig run`` (real
 time, CSV at 50 rad/s over socketcand) are separate processes; the run is killed with SIGKILL
 (no safe stop, no Python cleanup). The drive, configured by the run's set-up (heartbeat
@@ -11,18 +14,23 @@ host is dead (two SDO clients on one server would mix their transfers), then rea
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
+import math
 import os
 import pathlib
 import signal
 import subprocess
 import sys
 import threading
+import time
+from collections.abc import Callable
 
 import can
 import canopen
 import pytest
 
+from drivers.maps import CIA402_EDS
 from plant_emulator.device_profile import load_profile, zoo
 from rig.fault_wire import CONFIG, PERIOD
 from rig.process import spawn_emulator, stop_rig
@@ -39,55 +47,152 @@ def run_config(out: pathlib.Path, port: int, eds: pathlib.Path) -> str:
     return text.replace("speed = 250.0\n", "speed = 250.0\nwatchdog = 1.0\n")
 
 
-def test_a_killed_host_leaves_a_drive_that_stops_itself(tmp_path: pathlib.Path) -> None:
-    eds = load_profile(zoo()["epos4"]).eds
-    emulator, port = spawn_emulator("--device", "epos4")
-    host: subprocess.Popen[bytes] | None = None
-    stack = contextlib.ExitStack()
-    try:
+class KilledHost:
+    """``rig emulate ARGS`` and ``rig run`` of ``config(port)`` (real time, socketcand), with this
+    test's own client recording the drive's frames (receive time, COB-ID, data); ``kill``
+    SIGKILLs the run once it has sent that many TPDO1s; ``close`` ends the rest."""
+
+    def __init__(
+        self, tmp_path: pathlib.Path, emulate: tuple[str, ...], config: Callable[[int], str]
+    ) -> None:
+        self.tmp_path = tmp_path
+        self.emulator, port = spawn_emulator(*emulate)
+        self.host: subprocess.Popen[bytes] | None = None
+        self.stack = contextlib.ExitStack()
+        self.frames: list[tuple[float, int, bytes]] = []
+        self._lock = threading.Lock()
         bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="can0", ignore_config=True)
-        network = canopen.Network(bus)
-        network.connect()
-        frames: list[tuple[int, bytes]] = []
-        lock = threading.Lock()
-
-        def seen(cob: int, data: bytearray, ts: float) -> None:
-            with lock:
-                frames.append((cob, bytes(data)))
-
+        self.network = canopen.Network(bus)
+        self.network.connect()
         for cob in (0x81, 0x181, 0x281, 0x381, 0x481):
-            network.subscribe(cob, seen)
-        config = tmp_path / "run.toml"
-        config.write_text(run_config(tmp_path, port, eds))
-        host_err = stack.enter_context((tmp_path / "host.err").open("w"))
-        host = subprocess.Popen(
-            [sys.executable, "-m", "rig.cli", "run", "--config", str(config)],
+            self.network.subscribe(cob, self._seen)
+        path = tmp_path / "run.toml"
+        path.write_text(config(port))
+        host_err = self.stack.enter_context((tmp_path / "host.err").open("w"))
+        self.host = subprocess.Popen(
+            [sys.executable, "-m", "rig.cli", "run", "--config", str(path)],
             stdout=subprocess.DEVNULL,
             stderr=host_err,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )
-        running = host
+
+    def _seen(self, cob: int, data: bytearray, ts: float) -> None:
+        with self._lock:
+            self.frames.append((time.monotonic(), cob, bytes(data)))
+
+    def kill(self, cycles: int) -> float:
+        """SIGKILL the run after ``cycles`` TPDO1s; the kill's time (monotonic)."""
+        host = self.host
+        assert host is not None
 
         def turning() -> bool:
-            return sum(1 for c, _ in frames if c in (0x181, 0x281)) > 200 or running.poll() is not None
+            with self._lock:
+                n = sum(1 for _, c, _ in self.frames if c == 0x181)
+            return n > cycles or host.poll() is not None
 
         wait_for(turning, 60.0, "the run's TPDOs")
-        assert host.poll() is None, (tmp_path / "host.err").read_text()[-3000:]
+        assert host.poll() is None, (self.tmp_path / "host.err").read_text()[-3000:]
+        killed = time.monotonic()
         host.send_signal(signal.SIGKILL)
         host.wait(timeout=10)
-        wait_for(lambda: any(c == 0x81 and d[:2] == b"\x30\x81" for c, d in frames), 5.0, "EMCY 0x8130")
+        return killed
+
+    def emcy(self, code: int) -> None:
+        """Wait for the drive's EMCY ``code``."""
+        data = code.to_bytes(2, "little")
+        frames = self.frames
+        wait_for(lambda: any(c == 0x81 and d[:2] == data for _, c, d in frames), 5.0, f"EMCY 0x{code:04X}")
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self.network.disconnect()
+        if self.host is not None and self.host.poll() is None:
+            self.host.kill()
+            self.host.wait(timeout=10)
+        self.stack.close()
+        _out, err = stop_rig(self.emulator, timeout=10)
+        assert self.emulator.returncode == 0, err
+
+
+def test_a_killed_host_leaves_a_drive_that_stops_itself(tmp_path: pathlib.Path) -> None:
+    eds = load_profile(zoo()["epos4"]).eds
+    world = KilledHost(tmp_path, ("--device", "epos4"), lambda port: run_config(tmp_path, port, eds))
+    try:
+        world.kill(100)
+        world.emcy(0x8130)
         source = io.StringIO(eds.read_text())
         source.name = eds.name
         node = canopen.RemoteNode(1, canopen.import_od(source, 1))
-        network.add_node(node)
+        world.network.add_node(node)
         # the quick stop ramp ends in SWITCH ON DISABLED (0x605A = 2), the motor at rest
         wait_for(lambda: node.sdo[0x6041].raw & 0x4F == 0x40, 5.0, "SWITCH ON DISABLED")
         assert abs(node.sdo[0x606C].raw) <= 1  # rpm
-        network.disconnect()
     finally:
-        if host is not None and host.poll() is None:
-            host.kill()
-            host.wait(timeout=10)
-        stack.close()
-        _out, err = stop_rig(emulator, timeout=10)
-    assert emulator.returncode == 0, err
+        world.close()
+
+
+def voltage_config(out: pathlib.Path, port: int, deadline: float) -> str:
+    """``run_config``'s on the toolkit's drive in voltage mode: 3 V held (``replay``), 1 ms
+    cycles, the drive's deadline on the commands 5 periods, in real time at least ``deadline`` [s]."""
+    text = CONFIG.format(duration=60.0, period=0.001, out=out, port=port, eds=CIA402_EDS, speed=0.0)
+    axis = f'mode = "voltage"\nrpdo_deadline_periods = 5\nrpdo_deadline = {deadline}'
+    text = text.replace('mode = "csv"', axis)
+    text = text.replace('kind = "speed-reference"', 'kind = "replay"\nu = [3.0]')
+    return text.replace("speed = 250.0\n", "speed = 250.0\nwatchdog = 1.0\n")
+
+
+def test_a_killed_host_in_voltage_mode_moves_the_shaft_no_further_than_the_drive_s_ramp(
+    tmp_path: pathlib.Path,
+) -> None:
+    """``rig emulate --preset dc-servo`` (the toolkit's drive, real time) and ``rig run`` in
+    voltage mode (3 V held, 1 ms cycles) in processes of their own over socketcand; the run is
+    SIGKILLed at about 125 rad/s. The drive's deadline on its command RPDO (real time: 20 ms,
+    the default floor over 5 periods) starts its quick stop: the shaft moves no further than
+    that time (and 20 ms of scheduling) at the speed it had plus its ramp from that speed at
+    0x6085: about 10 rad. Before (the heartbeat's 0.3 s, the voltage held), the issue measured
+    -112 rad. The frames are this test's own client's, decoded after the kill with the drive's
+    TPDO mapping read by SDO."""
+    deadline = 0.02
+    config = functools.partial(voltage_config, tmp_path, deadline=deadline)
+    world = KilledHost(tmp_path, ("--preset", "dc-servo"), lambda port: config(port))
+    try:
+        killed = world.kill(700)  # 0.7 s of 3 V: near its steady 127.5 rad/s
+        world.emcy(0x8250)
+        node = canopen.RemoteNode(1, CIA402_EDS)
+        world.network.add_node(node)
+        wait_for(lambda: node.sdo[0x6041].raw & 0x4F == 0x40, 10.0, "SWITCH ON DISABLED")
+        wait_for(lambda: node.sdo[0x606C].raw == 0, 10.0, "the shaft at rest")
+        final = node.sdo[0x6064].raw
+        timer_ms = node.sdo[0x1400][5].raw  # the deadline the set-up wrote, never lifted
+        per_rad = node.sdo[0x608F][1].raw / node.sdo[0x608F][2].raw / (2 * math.pi)
+        decel = node.sdo[0x6085].raw / per_rad  # [rad/s^2]
+        node.tpdo.read(from_od=False)
+        maps = {m.cob_id: m for m in node.tpdo.map.values() if m.enabled}
+    finally:
+        world.close()
+
+    def values(index: int) -> list[tuple[float, float]]:
+        """(receive time, value in SI) of every TPDO carrying ``index``."""
+        out = []
+        for t, cob, data in world.frames:
+            m = maps.get(cob)
+            var = next((v for v in m.map if v.index == index), None) if m is not None else None
+            if var is not None:
+                m.data = bytearray(data)
+                out.append((t, var.raw / per_rad))
+        return out
+
+    positions, speeds = values(0x6064), values(0x606C)
+    start = [p for t, p in positions if t < killed][-1]
+    w_kill = [w for t, w in speeds if t < killed][-1]
+    # no TPDO after the kill (SYNC was the host's): the speed until the trip is bounded by the
+    # held 3 V's steady speed u b_m / a_m of the preset's (3.5), 127.5 rad/s
+    w_max = max(abs(w_kill), 3.0 * 680.0 / 16.0)
+    travel = final / per_rad - start
+    bound = w_max * (timer_ms / 1000.0 + 0.02) + w_max * w_max / (2.0 * decel)
+    print(
+        f"killed at {w_kill:.1f} rad/s, at most {w_max:.1f} until the trip; deadline {timer_ms} ms; "
+        f"travel {travel:.2f} rad, ramp alone {w_max * w_max / (2.0 * decel):.2f}, bound {bound:.2f}"
+    )
+    assert timer_ms == round(deadline * 1000) and w_kill > 50.0
+    assert 0.0 < travel <= bound

@@ -2,9 +2,9 @@
 real-time floor is in seconds.
 
 Lock-step on the emulated dc-servo drive: its TPDOs stop at 0.2 s (fault injection); until
-the watchdog (20 periods) stops the run, ``missed_sample = "hold"`` sends nothing new (the
-trace has no RPDO from the host in that window: no backlog for the drive to execute when
-it catches up) and "zero" sends 0 V.
+the watchdog (20 periods) stops the run, ``missed_sample = "hold"`` sends the last command
+again each cycle (the same RPDO: the drive holds it, and its RPDO deadline of 5 periods sees
+the host alive) and "zero" sends 0 V.
 """
 
 from __future__ import annotations
@@ -58,8 +58,9 @@ def test_no_law_step_on_stale_feedback(tmp_path: pathlib.Path, missed: str) -> N
         m for m in trace if not m.is_rx and m.arbitration_id == 0x201 and STALL + 0.002 < m.timestamp - start
     ]
     sent_in_stall = window[:-1]  # the last one is the stop's zero command
-    if missed == "hold":
-        assert sent_in_stall == []
+    if missed == "hold":  # the held command, each cycle until the watchdog
+        held = [m for m in trace if not m.is_rx and m.arbitration_id == 0x201 and m not in window][-1]
+        assert len(sent_in_stall) >= 10 and all(m.data == held.data for m in sent_in_stall)
     else:  # 0 V each cycle until the watchdog
         assert len(sent_in_stall) >= 10 and all(not any(m.data[2:]) for m in sent_in_stall)
 

@@ -28,9 +28,11 @@ QUANTUM = 2e-3  #: [rad] > one increment of the emulated encoders (2 pi / 4096)
 def _run(tmp_path: pathlib.Path, example: str, origin: str, *, start: float = START, **limits: float):  # type: ignore[no-untyped-def]
     cfg = load_config(EXAMPLES / example)
     axis = cfg.axes[0]
+    params = {k: v for k, v in cfg.emulator.params.items() if k != "load"}  # its pulse is past 1.5 s
     cfg = dataclasses.replace(
         cfg,
         run=dataclasses.replace(cfg.run, output=str(tmp_path), duration=1.5),
+        emulator=dataclasses.replace(cfg.emulator, params=params),
         reference=dataclasses.replace(cfg.reference, origin=origin),
         axes=(dataclasses.replace(axis, limits=dataclasses.replace(axis.limits, **limits)),),
     )
@@ -61,7 +63,7 @@ def test_a_position_servo_moves_from_where_the_axis_stands(tmp_path: pathlib.Pat
     summary, samples, final = _run(
         tmp_path, "dc_servo_position.toml", "start", position_min=-100.0, position_max=100.0
     )
-    assert summary["safe_stop_reason"] is None
+    assert summary["safe_stop_reason"] is None and summary["stop_confirmed"] is True
     assert samples["reference"][0] == pytest.approx(START, abs=QUANTUM)  # the measured start
     assert final == pytest.approx(START + 10.0, abs=0.05)
 
