@@ -68,7 +68,7 @@ def execute(args: argparse.Namespace) -> int:
             f"rig sweep needs Dask and pyarrow ({exc.name} is missing): pip install 'drive-rig[sweep]'"
         ) from None
     from rig.cli.progress import Progress
-    from rig.sweep.engine import close_client, open_client, run_sweep
+    from rig.sweep.engine import close_client, open_client, resumable, run_sweep
     from rig.sweep.spec import load_spec
 
     spec = load_spec(args.spec)
@@ -76,6 +76,9 @@ def execute(args: argparse.Namespace) -> int:
         from rig.plots import require_pyplot
 
         require_pyplot()  # no matplotlib: say so before the points
+    resumable(
+        spec, args.resume
+    )  # a folder with a sweep in it, or a changed spec: said before a cluster starts
     client, engine = open_client(args.workers, args.scheduler, quiet=not args.verbose)
     bar = Progress("rig sweep", 0, "points", json=args.json)
     t0, new = time.monotonic(), [0]

@@ -19,6 +19,8 @@ from __future__ import annotations
 import datetime
 import logging
 import os
+import signal
+import threading
 import time
 import uuid
 from collections.abc import Callable
@@ -32,7 +34,7 @@ from rig.sweep.points import Point, make_points
 from rig.sweep.spec import SweepSpec
 from rig.sweep.table import Results, read_rows, read_sweep_json, write_sweep_json
 
-__all__ = ["SweepRun", "close_client", "cores", "open_client", "run_sweep"]
+__all__ = ["SweepRun", "close_client", "cores", "open_client", "resumable", "run_sweep"]
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +51,20 @@ def _warm() -> None:
     """On each worker, once: what a point imports (the session, the emulator, the papers)."""
     import rig.host.session
     import rig.sweep.scenarios  # noqa: F401
+
+
+def _quiet_on_ctrl_c(start: Callable[[], Any]) -> Any:
+    """``start()`` with SIGINT ignored, so the worker processes it spawns inherit that (an ignored
+    signal stays ignored across exec, and Python keeps it so): Ctrl-C in the terminal reaches the
+    whole process group, and the client alone answers it (it cancels, keeps the rows and closes
+    the cluster) instead of each worker printing its KeyboardInterrupt."""
+    if threading.current_thread() is not threading.main_thread():
+        return start()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        return start()
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def open_client(
@@ -73,12 +89,14 @@ def open_client(
         engine = {"kind": "scheduler", "address": scheduler}
     else:
         n = workers or cores()
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address="127.0.0.1:0",  # its HTTP server: any free port (8787 may be taken)
-            silence_logs=logging.ERROR,
+        cluster = _quiet_on_ctrl_c(
+            lambda: LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address="127.0.0.1:0",  # its HTTP server: any free port (8787 may be taken)
+                silence_logs=logging.ERROR,
+            )
         )
         client = Client(cluster)
         engine = {"kind": "local", "address": cluster.scheduler_address}
@@ -132,7 +150,7 @@ def _pending(spec: SweepSpec, points: list[Point], rows: list[dict[str, Any]]) -
     return [p for p in points if p.index not in done]
 
 
-def _resumable(spec: SweepSpec, resume: bool) -> list[dict[str, Any]]:
+def resumable(spec: SweepSpec, resume: bool) -> list[dict[str, Any]]:
     """The rows to keep: none for a new sweep (ConfigError if the folder has a table and not
     ``resume``); the table's with ``resume`` (ConfigError if the spec changed)."""
     record = read_sweep_json(spec.directory)
@@ -187,7 +205,7 @@ def run_sweep(
 
     base_doc = read_base(spec)
     points = make_points(spec)
-    kept = _resumable(spec, resume)
+    kept = resumable(spec, resume)
     todo = _pending(spec, points, kept)
     spec.directory.mkdir(parents=True, exist_ok=True)
     results = Results(spec.directory, kept, every=every)

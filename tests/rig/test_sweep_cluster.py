@@ -107,3 +107,48 @@ def test_a_killed_worker_costs_only_its_points_and_each_point_is_one_row(tmp_pat
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
+
+
+def test_ctrl_c_on_the_terminal_keeps_the_finished_rows_and_says_nothing_else(tmp_path: pathlib.Path) -> None:
+    """SIGINT to the whole process group, as a terminal's Ctrl-C sends it (the client and the local
+    cluster's worker processes): exit code 130, the rows that finished in the table, sweep.json
+    'interrupted', and no worker's KeyboardInterrupt traceback on stderr; --resume runs the rest."""
+    import pyarrow.parquet as pq
+
+    spec = tmp_path / "spec.toml"
+    spec.write_text(
+        f'[sweep]\nname = "cut"\nbase = "{EXAMPLES / "dc_servo_position.toml"}"\nmetrics = ["rms_error"]\n'
+        '[fixed]\n"run.duration" = 0.5\n'
+        '[parameters]\n"emulator.params.b_m" = { from = 340.0, to = 1360.0, num = 40, scale = "log" }\n'
+    )
+    sweep = subprocess.Popen(
+        [sys.executable, "-m", "rig.cli", "sweep", str(spec), "--workers", "2"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=tmp_path,
+        start_new_session=True,
+    )
+    table = tmp_path / "sweeps" / "cut" / "results.parquet"
+    deadline = time.monotonic() + 300
+    while sweep.poll() is None and time.monotonic() < deadline:
+        if table.exists() and len(pq.read_table(table)) >= 2:
+            break
+        time.sleep(0.2)
+    os.killpg(sweep.pid, signal.SIGINT)
+    out, err = sweep.communicate(timeout=120)
+    assert sweep.returncode == 130, (out, err)
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    kept = len(pq.read_table(table))
+    assert 2 <= kept < 40 and "interrupted" in out
+    assert json.loads((table.parent / "sweep.json").read_text())["status"] == "interrupted"
+    rest = subprocess.run(
+        [sys.executable, "-m", "rig.cli", "sweep", str(spec), "--workers", "2", "--resume", "--json"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=600,
+        check=True,
+    )
+    doc = json.loads(rest.stdout)
+    assert doc["resumed"] == kept and doc["done"] == 40 and len(pq.read_table(table)) == 40
