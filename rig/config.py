@@ -3,7 +3,8 @@
 A rig is a set of named axes and one control law (SI units; see ``examples/``)::
 
     [run]        duration [s], time ("lockstep" | "realtime"), output (directory), name,
-                 period [s] (default: the emulator preset's), trace (write trace.asc, default true),
+                 period [s] (default: the emulator preset's), trace ("asc" | "blf" | "none": the
+                 CAN trace's format, trace.asc by default),
                  missed_sample ("hold" | "zero": a cycle without a new sample from a read axis),
                  answer_budget [s] (real time: the wait for the TPDOs answering a SYNC; 0: half
                  the period), late_stop (late cycles in a row that are a safe stop; 0: never),
@@ -86,7 +87,8 @@ class RunConfig:
     output: str = "runs"
     name: str = "run"
     period: float = 0.0  #: [s]; 0: the emulator preset's period
-    trace: bool = True  #: write the CAN trace (trace.asc)
+    #: the CAN trace: trace.asc (Vector ASCII), trace.blf (Vector's binary logging format) or none
+    trace: Literal["asc", "blf", "none"] = "asc"
     #: a cycle whose samples did not all come new (a TPDO missed): "hold" the law's last
     #: commands (nothing new is sent; the law is not stepped on stale feedback) or send "zero"
     missed_sample: Literal["hold", "zero"] = "hold"

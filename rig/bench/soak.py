@@ -45,7 +45,7 @@ def bench_soak(
         cfg = demo_config(out)
         cfg = dataclasses.replace(
             cfg,
-            run=dataclasses.replace(cfg.run, trace=False),
+            run=dataclasses.replace(cfg.run, trace="none"),
             reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),
             faults=dataclasses.replace(cfg.faults, frame_loss=frame_loss, seed=1),
         )

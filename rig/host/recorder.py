@@ -9,7 +9,10 @@ Contents of ``<output>/<name>-<YYYYmmdd-HHMMSS>/``:
   and on close;
 - ``samples.mat``: the same columns for MATLAB (scipy.io.savemat), written on close;
 - ``trace.asc``: the CAN trace in Vector ASCII (python-can's ``ASCWriter``), which
-  CANalyzer, SavvyCAN, asammdf and python-can read; left out with ``[run] trace = false``;
+  CANalyzer, SavvyCAN, asammdf and python-can read; ``trace.blf`` instead with
+  ``[run] trace = "blf"`` (python-can's ``BLFWriter``: Vector's binary logging format, which
+  CANoe, CANalyzer and asammdf open; it is written in compressed blocks of up to 128 KiB, so a
+  killed run loses the last block); left out with ``trace = "none"``;
 - ``summary.json``: the metrics and how the run ended;
 - ``plot.png`` when matplotlib is installed (and ``Recorder.PLOT``, which the tests turn off
   but in the test of the plot itself): reference and measurement, and the command, titled with
@@ -60,7 +63,13 @@ from rig.host.readback import Columns, Envelope, copy_text, read_rows
 from rig.host.storage import Reserve, RowFile, trim_to_line
 from rig.host.trace import AscTrace
 
-__all__ = ["Recorder", "check_output", "write_atomic"]
+#: ``[run] trace`` -> the trace's file name and python-can writer (``"none"``: no trace)
+TRACE_WRITERS: dict[str, tuple[str, Callable[[str], Any]]] = {
+    "asc": ("trace.asc", AscTrace),
+    "blf": ("trace.blf", can.BLFWriter),
+}
+
+__all__ = ["TRACE_WRITERS", "Recorder", "check_output", "write_atomic"]
 
 log = logging.getLogger(__name__)
 
@@ -111,7 +120,7 @@ class Recorder:
         name: str,
         *,
         flush_period: float = 0.05,
-        trace: bool = True,
+        trace: str = "asc",
     ) -> None:
         out = check_output(output, name)
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -136,8 +145,9 @@ class Recorder:
         self._count = 0
         self._flush_period = flush_period  #: [s] of run time (the rows' t)
         self._flush_at = 0.0
-        self.trace = AscTrace(str(path / "trace.asc")) if trace else None
-        self._trace_cut = ""  #: why trace.asc ends early (a write failed); "": it does not
+        self.trace_name, writer = ("", None) if trace == "none" else TRACE_WRITERS[trace]
+        self.trace = writer(str(path / self.trace_name)) if writer is not None else None
+        self._trace_cut = ""  #: why the trace ends early (a write failed); "": it does not
         self.closed = False
         self._trace_lock = threading.Lock()
         self.frames_dropped = 0  #: frames that arrived after the close
@@ -192,8 +202,8 @@ class Recorder:
     def _drop_trace(self, exc: Exception) -> None:
         """The trace cannot be written: stop it; the next ``sample`` raises the error."""
         trace, self.trace = self.trace, None
-        error = self._failed("trace.asc", exc) if isinstance(exc, OSError) else None
-        self.error = self.error or error or StorageError(f"{self.dir / 'trace.asc'}: {exc}")
+        error = self._failed(self.trace_name, exc) if isinstance(exc, OSError) else None
+        self.error = self.error or error or StorageError(f"{self.dir / self.trace_name}: {exc}")
         self._trace_cut = f"cut short: {exc}"
         log.error("%s", self.error)
         try:
@@ -204,7 +214,10 @@ class Recorder:
         self._trim_trace()
 
     def _trim_trace(self) -> None:
-        """trace.asc cut short by a failed write: its torn last line cut off."""
+        """trace.asc cut short by a failed write: its torn last line cut off (a BLF's blocks are
+        not lines: BLFReader stops at a torn one by itself)."""
+        if self.trace_name != "trace.asc":
+            return
         try:
             trim_to_line(self.dir / "trace.asc")
         except OSError as exc:
@@ -281,7 +294,7 @@ class Recorder:
         with self._trace_lock:
             self.closed = True
             if self.trace is not None:
-                with _suppressed("trace.asc not closed", summary):
+                with _suppressed(f"{self.trace_name} not closed", summary):
                     try:
                         self.trace.stop()
                     except Exception as exc:
@@ -289,8 +302,8 @@ class Recorder:
                         self._trim_trace()
                         raise
         if self._trace_cut:
-            summary["files_not_written"].append("trace.asc")
-            summary.setdefault("warnings", []).append(f"trace.asc {self._trace_cut}")
+            summary["files_not_written"].append(self.trace_name)
+            summary.setdefault("warnings", []).append(f"{self.trace_name} {self._trace_cut}")
         summary["trace_frames_dropped"] = self.frames_dropped
         self._reserve.shrink()  # room for the last rows, samples.mat and the plot; the rest: the summary
         with _suppressed("samples.csv not flushed", summary):

@@ -1,4 +1,5 @@
-"""The run's CAN trace: the same lines as python-can's ASCWriter, and python-can's ASCReader reads them."""
+"""The run's CAN trace: the same lines as python-can's ASCWriter, and python-can's ASCReader reads them;
+or python-can's BLF, read back by its BLFReader."""
 
 from __future__ import annotations
 
@@ -78,6 +79,60 @@ def test_an_emulated_run_s_trace_has_both_directions(tmp_path: pathlib.Path) -> 
     rx = {m.arbitration_id for m in frames if m.is_rx}
     assert {0x80, 0x201, 0x601, 0x000} <= tx  # SYNC, RPDO1, SDO requests, NMT: the host's
     assert {0x181, 0x581} <= rx and not tx & {0x181, 0x581}  # TPDO1, SDO responses: the drive's
+
+
+
+def _seen(m: can.Message) -> tuple[int, bytes, bool, bool]:
+    """What a reader gives back of a frame: id, the DLC's bytes (a remote frame: none), direction."""
+    data = b"" if m.is_remote_frame else bytes(m.data).ljust(m.dlc, b"\0")[: m.dlc]
+    return m.arbitration_id, data, m.is_rx, m.is_remote_frame
+
+
+@pytest.mark.parametrize("kind", ["asc", "blf"])
+def test_the_recorder_s_trace_reads_back_in_python_can_s_reader(kind: str, tmp_path: pathlib.Path) -> None:
+    """``[run] trace = "asc" | "blf"``: the frames given to the recorder come back from python-can's
+    ASCReader or BLFReader (a reader nobody here wrote) with their ids, data, direction and times;
+    ``"none"`` writes no trace."""
+    from rig.host.recorder import Recorder
+
+    recorder = Recorder(tmp_path, "t", trace=kind)
+    for msg in FRAMES:
+        recorder.on_frame(msg)
+    recorder.close({})
+    path = recorder.dir / f"trace.{kind}"
+    reader = can.ASCReader(str(path)) if kind == "asc" else can.BLFReader(str(path))
+    read = [m for m in reader if not m.is_error_frame]
+    sent = [m for m in FRAMES if not m.is_error_frame]
+    assert list(map(_seen, read)) == list(map(_seen, sent))
+    assert [round(m.timestamp - read[0].timestamp, 6) for m in read] == [
+        round(m.timestamp - sent[0].timestamp, 6) for m in sent
+    ]
+    none = Recorder(tmp_path, "none", trace="none")
+    none.on_frame(FRAMES[0])
+    none.close({})
+    assert none.trace is None and not list(none.dir.glob("trace.*"))
+
+
+def test_a_run_with_trace_blf_writes_trace_blf(tmp_path: pathlib.Path) -> None:
+    """``[run] trace = "blf"`` in the example's file: the run's trace.blf, read by python-can's
+    BLFReader, has the host's frames as Tx and the drive's as Rx, and there is no trace.asc."""
+    from rig.config import load_config
+    from rig.host.session import Session
+
+    example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+    text = example.read_text().replace('output = "runs"', f'trace = "blf"\noutput = "{tmp_path}"', 1)
+    (tmp_path / "blf.toml").write_text(text.replace("duration = 3.0", "duration = 0.1"))
+    cfg = load_config(tmp_path / "blf.toml")
+    assert cfg.run.trace == "blf"
+    with Session(cfg, emulate=True) as session:
+        session.start()
+        summary = session.run()
+    run_dir = pathlib.Path(summary["run_dir"])
+    frames = list(can.BLFReader(str(run_dir / "trace.blf")))
+    assert not (run_dir / "trace.asc").exists() and len(frames) > summary["cycles"]
+    tx = {m.arbitration_id for m in frames if not m.is_rx}
+    rx = {m.arbitration_id for m in frames if m.is_rx}
+    assert {0x80, 0x201, 0x601, 0x000} <= tx and {0x181, 0x581} <= rx and not tx & {0x181, 0x581}
 
 
 @pytest.mark.timing
