@@ -29,7 +29,6 @@ import asyncio
 import contextlib
 import logging
 import threading
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -65,7 +64,9 @@ class InverterContext(ModbusBaseDeviceContext):
         self.control_word = int(self.map.control["stop"])
         self.writes = 0
         self.fault_mode: str | None = None  #: fault injection: None, "timeout" or "exception"
-        self.timeout_sleep = 1.5  #: [s] how long a swallowed request blocks
+        self.timeout_sleep = 1.5  #: [s] how long a swallowed request blocks at most
+        #: set: a swallowed request blocks no longer (``InverterServer.stop`` sets it)
+        self.released = threading.Event()
 
     def reset(self) -> None:
         self.control_word = int(self.map.control["stop"])
@@ -110,10 +111,11 @@ class InverterContext(ModbusBaseDeviceContext):
         return word
 
     def _fault_injected(self) -> ExcCodes | None:
-        """Fault injection: ``timeout`` swallows the request (no answer in time, and the drive
-        sees nothing), ``exception`` answers every request with exception 04 (device failure)."""
+        """Fault injection: ``timeout`` swallows the request (no answer for ``timeout_sleep`` or
+        until ``released``, and the drive sees nothing), ``exception`` answers every request with
+        exception 04 (device failure)."""
         if self.fault_mode == "timeout":
-            time.sleep(self.timeout_sleep)
+            self.released.wait(self.timeout_sleep)
             return ExcCodes.DEVICE_FAILURE  # too late: the client has given up
         self.model.last_request = self.model.t
         if self.fault_mode == "exception":
@@ -357,6 +359,7 @@ class InverterServer:
         thread, loop, task = self._thread, self._loop, self._task
         if thread is None:
             return
+        self.context.released.set()  # a swallowed request holds the server's loop no longer
         if loop is not None and task is not None and not loop.is_closed():
             with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
                 loop.call_soon_threadsafe(task.cancel)

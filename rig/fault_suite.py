@@ -21,7 +21,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import tempfile
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -36,6 +35,9 @@ __all__ = ["AT", "LOCKSTEP", "SCENARIOS", "run_faults"]
 
 AT = 0.3  #: s: when the fault is injected
 DURATION = 0.8  #: s: length of each CANopen run
+MODBUS_PERIOD = 0.01  #: [s] the Modbus host's cycle (the inverter's clock steps this much per cycle)
+MODBUS_SPEED = 30.0  #: [rad/s] the inverter's speed when the fault comes
+MODBUS_RAMP = 0.5  #: [s] of polling before the fault: the ramp (100 rad/s^2) and its settling
 
 
 def _canopen(
@@ -92,24 +94,33 @@ def _canopen(
 
 
 def _modbus(mode: str) -> dict[str, Any]:
-    """The Modbus inverter running at 50 rad/s, then every request times out or is answered with 04."""
+    """The Modbus inverter turning at ``MODBUS_SPEED``, then every request times out or is answered
+    with 04. In lock-step: the inverter's clock is stepped one ``MODBUS_PERIOD`` per host cycle
+    (its physics and its communication-loss trip), so the outcome does not depend on the load;
+    only the client's own timeout (0.2 s) runs on the wall clock, against a server that holds a
+    swallowed request until it is stopped."""
     from drivers.modbus_inverter import ModbusInverterAxis
     from plant_emulator.modbus_inverter import InverterContext, InverterServer, default_model
 
     model = default_model("abb-drives-profile", comm_loss_timeout=0.3)
     context = InverterContext(model)
-    context.timeout_sleep = 0.6
+    context.timeout_sleep = 60.0  # no answer before the server stops
     message, cycles = "no error", None
-    with InverterServer(model, dt=0.005, context=context) as server:
+    with InverterServer(model, context=context) as server:  # dt=None: lock-step
         drive = ModbusInverterAxis(
             "inverter", "abb-drives-profile", host="127.0.0.1", port=server.port, timeout=0.2
         )
         try:
             drive.setup()
             drive.enable(timeout=1.0)
-            drive.command(50.0)
+            drive.command(MODBUS_SPEED)
+            while model.t < MODBUS_RAMP:  # polled every cycle, as a host does
+                model.step(MODBUS_PERIOD)
+                drive.feedback()
             context.fault_mode = mode
+            injected = model.t
             for cycle in range(1, 20):
+                model.step(MODBUS_PERIOD)
                 try:
                     drive.feedback()
                 except (CommunicationTimeout, ModbusExceptionResponse) as exc:
@@ -119,7 +130,8 @@ def _modbus(mode: str) -> dict[str, Any]:
                     except (CommunicationTimeout, ModbusExceptionResponse):
                         pass
                     break
-            time.sleep(AFTER)  # past the drive's communication-loss time
+            while model.t < injected + AFTER - 1e-9:  # past the drive's communication-loss time
+                model.step(MODBUS_PERIOD)
             speed = model.speed
         finally:
             drive.close()
