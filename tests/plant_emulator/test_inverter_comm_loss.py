@@ -78,6 +78,7 @@ def test_coast_stop_cuts_the_current_and_the_speed_runs_down_freely() -> None:
     assert not model.fault and model.running and not model.coasting and model.current > 0.0
 
 
+@pytest.mark.timing  # a poll every 10 ms on the wall clock keeps it running: not under any load
 def test_wall_clock_a_polling_host_keeps_it_running_and_silence_trips_it() -> None:
     model = default_model("abb-drives-profile")
     with InverterServer(model, dt=0.002) as server:
