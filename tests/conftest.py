@@ -28,7 +28,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     )
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which reads the groups
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    _one_worker_per_module_fixture(items)
     hardware = bool(config.getoption("--can-interface"))
     vcan = "vcan" in (config.getoption("markexpr") or "")
     skip_hw = pytest.mark.skip(reason="needs --can-interface/--can-channel (a real bus)")
@@ -45,6 +47,17 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(skip_hw)
         if "vcan" in item.keywords and not vcan:
             item.add_marker(skip_vcan)
+
+
+def _one_worker_per_module_fixture(items: list[pytest.Item]) -> None:
+    """pytest-xdist (``--dist loadgroup``): the tests that share a module-scoped fixture (a whole
+    study, the fault suite's table) go to one worker, which makes it once; every other test goes
+    to whichever worker is free."""
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)
+        defs = info.name2fixturedefs.values() if info is not None else ()
+        if any(d[-1].scope == "module" for d in defs if d):
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__ if item.module else item.nodeid))
 
 
 @pytest.fixture(autouse=True)
