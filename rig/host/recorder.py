@@ -112,7 +112,8 @@ def check_output(output: str | Path, name: str, where: str = "[run]") -> Path:
 
 
 class Recorder:
-    """A fresh run directory under ``output``; ``begin(columns)``, then one ``sample`` per cycle."""
+    """A fresh run directory under ``output``; ``begin(columns)``, then one ``sample`` per cycle.
+    ``trace``: a key of ``TRACE_WRITERS`` or "none" (True and False: "asc" and "none")."""
 
     def __init__(
         self,
@@ -120,7 +121,7 @@ class Recorder:
         name: str,
         *,
         flush_period: float = 0.05,
-        trace: str = "asc",
+        trace: str | bool = "asc",
     ) -> None:
         out = check_output(output, name)
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -145,7 +146,8 @@ class Recorder:
         self._count = 0
         self._flush_period = flush_period  #: [s] of run time (the rows' t)
         self._flush_at = 0.0
-        self.trace_name, writer = ("", None) if trace == "none" else TRACE_WRITERS[trace]
+        kind = ("asc" if trace else "none") if isinstance(trace, bool) else trace
+        self.trace_name, writer = ("", None) if kind == "none" else TRACE_WRITERS[kind]
         self.trace = writer(str(path / self.trace_name)) if writer is not None else None
         self._trace_cut = ""  #: why the trace ends early (a write failed); "": it does not
         self.closed = False
