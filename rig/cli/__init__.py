@@ -25,6 +25,7 @@ from rig.cli import (
     design,
     drive,
     emulate,
+    export,
     faults,
     identify,
     reproduce,
@@ -37,7 +38,21 @@ from rig.cli.common import EXIT_USAGE, Parser, UsageError
 
 __all__ = ["main"]
 
-SUBCOMMANDS = (demo, design, tune, reproduce, run, identify, scan, drive, emulate, faults, sweep, bench)
+SUBCOMMANDS = (
+    demo,
+    design,
+    tune,
+    reproduce,
+    run,
+    identify,
+    scan,
+    drive,
+    emulate,
+    faults,
+    sweep,
+    bench,
+    export,
+)
 
 
 def _version() -> str:
@@ -107,6 +122,7 @@ EXAMPLES = {
     "faults": "rig faults --scenario tpdo-stall --scenario host-sigkill",
     "sweep": "rig sweep examples/sweeps/servo_b_m.toml --workers 2 --plot sweep-plots",
     "bench": "rig bench loop --json",
+    "export": "rig export runs/dc-servo-position-DATE-TIME --format mf4",
 }
 
 

@@ -69,7 +69,7 @@ TRACE_WRITERS: dict[str, tuple[str, Callable[[str], Any]]] = {
     "blf": ("trace.blf", can.BLFWriter),
 }
 
-__all__ = ["TRACE_WRITERS", "Recorder", "check_output", "write_atomic"]
+__all__ = ["TRACE_WRITERS", "Recorder", "check_output", "write_atomic", "write_mat"]
 
 log = logging.getLogger(__name__)
 
@@ -351,15 +351,7 @@ class Recorder:
             write_atomic(self.dir / "summary.json", _json(clean), sync=self.DURABLE)
 
     def _write_mat(self, f: Any, columns: Columns) -> None:
-        """samples.mat into ``f``: one variable per column (dots as underscores), then the structs
-        column_unit and column_meaning (MATLAB: column_unit.t = 's'); each appended in turn."""
-        import scipy.io
-
-        for i, name in enumerate(c.replace(".", "_") for c in self.columns):
-            scipy.io.savemat(f, {name: columns.column(i)})
-        for key in ("unit", "meaning"):
-            structs = {c.replace(".", "_"): d[key] for c, d in self.docs.items()}
-            scipy.io.savemat(f, {f"column_{key}": structs})
+        write_mat(f, self.columns, columns.column, self.docs)
 
     def _label(self, column: str, name: str) -> str:
         """``name [unit]`` with the column's unit from ``docs`` (none for a replay's mixed units)."""
@@ -397,6 +389,21 @@ class Recorder:
             self.dir / "plot.png", lambda f: fig.savefig(f, format="png"), binary=True, sync=self.DURABLE
         )
         return fig
+
+
+def write_mat(
+    f: Any, names: Sequence[str], column: Callable[[int], np.ndarray], docs: dict[str, dict[str, str]]
+) -> None:
+    """samples.mat into ``f``: one variable per column (``column(i)``, named ``names[i]`` with dots
+    as underscores), then the structs column_unit and column_meaning (MATLAB: column_unit.t = 's'),
+    each appended in turn (one column in memory at a time)."""
+    import scipy.io
+
+    for i, name in enumerate(c.replace(".", "_") for c in names):
+        scipy.io.savemat(f, {name: column(i)})
+    for key in ("unit", "meaning"):
+        structs = {c.replace(".", "_"): d[key] for c, d in docs.items()}
+        scipy.io.savemat(f, {f"column_{key}": structs})
 
 
 @contextlib.contextmanager
