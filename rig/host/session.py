@@ -16,6 +16,7 @@ the benchmarks and the fault suite all run through here.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import gc
 import logging
 import math
@@ -62,6 +63,9 @@ from rig.scan import scan_command
 __all__ = ["Session", "build_law", "run_config"]
 
 log = logging.getLogger(__name__)
+
+#: [s] the least wait for an emulated drive's state in lock-step (``Session._wait``): a hang guard
+HANG_GUARD = 30.0
 
 
 def run_config(
@@ -202,6 +206,7 @@ class Session:
         self._transports()
         for a in cfg.axes:
             spec = self.emulation.endpoint(a) if self.emulation else a
+            spec = dataclasses.replace(spec, mode_timeout=self._wait(spec.mode_timeout))
             realtime = cfg.run.time == "realtime"
             axis = open_axis(spec, network=self.network, period=period, bus=cfg.bus, realtime=realtime)
             self.axes.append(axis)
@@ -237,6 +242,15 @@ class Session:
         rx_tap, self._rx_tap = self._rx_tap, None
         if rx_tap is not None:
             detach_received(self.network, rx_tap)
+
+    def _wait(self, timeout: float) -> float:
+        """The wall-clock time [s] to wait for a drive to reach a state (enabled, a mode): the
+        configured one, but in lock-step against the in-process emulator at least ``HANG_GUARD``:
+        there the emulated drive answers as soon as this process runs, so a timeout can only
+        guard against a hang (1 s ran out on a machine loaded a dozen deep: a deterministic
+        test failed)."""
+        lockstep = self.emulation is not None and self.cfg.run.time == "lockstep"
+        return max(timeout, HANG_GUARD) if lockstep else timeout
 
     def _idle(self) -> Callable[[], None] | None:
         """While set-up waits for a drive (0x6061 after 0x6060): in lock-step, a SYNC (time
@@ -305,7 +319,7 @@ class Session:
                 gc.freeze()
                 self._frozen = True
             for axis, a in zip(self.axes, self.cfg.axes):
-                axis.enable(timeout=a.enable_timeout)
+                axis.enable(timeout=self._wait(a.enable_timeout))
             # after setup: it waits for the TPDOs the axes map; after enable: no SYNC during setup
             self.pacing = self._pacing(self.period)
         except BaseException as exc:
