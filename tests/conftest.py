@@ -37,11 +37,12 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     skip_vcan = pytest.mark.skip(
         reason="the vcan tier runs only with -m vcan (see README, Testing with virtual CAN)"
     )
-    if "interop" not in (config.getoption("markexpr") or ""):  # the interop tier only when asked for
-        chosen = [item for item in items if "interop" not in item.keywords]
-        if len(chosen) != len(items):
-            config.hook.pytest_deselected(items=[item for item in items if "interop" in item.keywords])
-            items[:] = chosen
+    for tier in ("interop", "export"):  # these tiers only when asked for
+        if tier not in (config.getoption("markexpr") or ""):
+            chosen = [item for item in items if tier not in item.keywords]
+            if len(chosen) != len(items):
+                config.hook.pytest_deselected(items=[item for item in items if tier in item.keywords])
+                items[:] = chosen
     for item in items:
         if "hardware" in item.keywords and not hardware:
             item.add_marker(skip_hw)
