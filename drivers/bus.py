@@ -19,6 +19,7 @@ python-can does not know is a ``ConfigError`` naming the known ones (``check_int
 from __future__ import annotations
 
 import logging
+import select
 import socket
 import threading
 import time
@@ -132,6 +133,27 @@ class _Socketcand(socketcand_client.SocketCanDaemonBus):
         if not got.startswith(msg):
             raise can.CanError(f"Expected '{msg}' got: '{got}'")
         self._keep(got[len(msg) :])
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        """python-can's, but a connection the server closed is a CanError: python-can's reads
+        its end-of-file as no frame and selects again at once, a spin that at the real-time
+        priority of the receive thread (``rig.host.realtime``) starves the loop on its CPU."""
+        if not getattr(self, "_SocketCanDaemonBus__message_buffer"):  # noqa: B009
+            sock = self._socket
+            ready, _, _ = select.select([sock], [], [], timeout)
+            if not ready:
+                return None, False
+            try:
+                peek = sock.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT)
+            except BlockingIOError:
+                peek = b"?"
+            except OSError as exc:
+                raise can.CanError(f"Failed to receive: {exc}") from exc
+            if not peek:
+                raise can.CanError("the socketcand server closed the connection")
+            timeout = 0.0
+        message: tuple[can.Message | None, bool] = super()._recv_internal(timeout)  # type: ignore[no-untyped-call]
+        return message
 
     def _keep(self, text: str) -> None:
         """Frames in ``text`` (socketcand's ``< frame ... >``) queued as received; a cut one

@@ -6,6 +6,7 @@ import logging
 import threading
 import time
 
+import can
 import pytest
 
 from drivers.bus import open_bus
@@ -194,3 +195,34 @@ def test_frames_right_behind_the_rawmode_ok_are_received_not_refused() -> None:
     assert first is not None and first.arbitration_id == 0x123 and bytes(first.data) == b"\x01\x02"
     assert second is not None and second.arbitration_id == 0x12345678 and second.is_extended_id
     assert second.timestamp == 2.5 and first.channel == "can0"
+
+
+def test_a_connection_the_server_closed_is_an_error_not_a_spin() -> None:
+    """A socketcand server that closes the connection after a frame: the frame is received, and
+    the next receive raises, where python-can's client returned no frame at once for ever (its
+    receive thread spun, at real-time priority starving the host's loop on its CPU: a dropped
+    link then left ``rig run`` running for over 60 s instead of stopping)."""
+    import socket
+
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        port = server.getsockname()[1]
+
+        def serve() -> None:
+            link, _ = server.accept()
+            with link:
+                link.sendall(b"< hi >")
+                for answer in (b"< ok >", b"< ok >< frame 123 1.000000 01 >"):
+                    link.recv(256)
+                    link.sendall(answer)
+
+        thread = threading.Thread(target=serve, daemon=True)
+        thread.start()
+        bus = open_bus("socketcand", "can0", host="127.0.0.1", port=port)
+        try:
+            thread.join(5.0)
+            frame = bus.recv(1.0)
+            assert frame is not None and frame.arbitration_id == 0x123
+            with pytest.raises(can.CanError, match="closed the connection"):
+                bus.recv(1.0)
+        finally:
+            bus.shutdown()
