@@ -4,10 +4,15 @@ A CANopen bus has one master driving a node: the one that sends its NMT commands
 (unless a device produces it) the SYNC. ``MasterWatch`` subscribes, on the host's canopen
 ``Network``, to the NMT COB-ID (0x000), the SYNC (0x080), and the RPDO COB-IDs of the host's
 nodes (0x200/0x300/0x400/0x500 + node, and any other the set-up maps). python-can delivers no
-frame a bus sent to its own receive path (``receive_own_messages`` is off by default; SocketCAN
-raw sockets, socketcand and the virtual bus keep to it), so every frame heard there was sent by
-another node. Frames the host sends itself through another socket (the kernel's broadcast
-manager's SYNC) are sent only once the run is under way, after ``check``.
+frame a bus sent to its own receive path on SocketCAN, socketcand and the virtual bus, so there
+every frame heard was sent by another node. Some adapters give the host its own frames back all
+the same (a candleLight's gs_usb firmware echoes every frame it sends, ICS neoVI does by default,
+python-can's udp_multicast loops them back): the watch keeps the frames the host sends on these
+COB-IDs (it wraps the network's ``send_message``) and learns whether the bus echoes from the
+host's own SDO requests (0x600 + node), which it also listens to; on a bus that echoes, a frame
+equal to one the host sent and not yet heard back is its echo, not another master. Frames the host
+sends through another socket (the kernel's broadcast manager's SYNC) are sent only once the run
+is under way, after ``check``.
 
 - ``check(window)``: before anything is enabled: wait until ``window`` [s] have passed since the
   watch began (at the bus's opening) and raise ``OtherMaster`` naming what was heard (COB-ID and
@@ -18,6 +23,7 @@ manager's SYNC) are sent only once the run is under way, after ``check``.
 
 from __future__ import annotations
 
+import collections
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -27,6 +33,9 @@ from drivers.errors import SafetyStop
 from drivers.maps import cia
 
 __all__ = ["MasterWatch", "OtherMaster"]
+
+#: frames kept per watched COB-ID until heard back (a bus that echoes gives them back within ms)
+_KEPT = 64
 
 _NMT_WORDS = {
     cia.NmtCommand.START: "start",
@@ -64,12 +73,36 @@ class MasterWatch:
         self._cobs: list[int] = []
         #: an RPDO or an NMT command to the host's nodes was heard (the per-cycle test is this flag)
         self.alarm = False
+        #: the bus gives the host its own frames back (learned from its SDO requests' echoes)
+        self.echoes = False
+        self.echoes_seen = 0  #: the host's own frames heard back and set aside
+        #: COB-ID -> the data of the frames the host sent on it, not yet heard back (oldest first)
+        self._sent: dict[int, collections.deque[bytes]] = {}
+        self._sdo_requests = frozenset(cia.COB_SDO_RX + node for node in self.nodes)
+        self._send = network.send_message
+        network.send_message = self._sending
         self._listen(cia.COB_NMT)
         if sync:
             self._listen(cia.COB_SYNC)
         for node in sorted(self.nodes):
+            self._listen(cia.COB_SDO_RX + node)
             for base in cia.COB_RPDO:
                 self.add_rpdo(base + node, node)
+
+    def _sending(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        """The network's ``send_message``, keeping what is sent on a watched COB-ID (its echo)."""
+        if can_id in self._sent:
+            self._sent[can_id].append(bytes(data))
+        self._send(can_id, data, remote)
+
+    def _echo(self, can_id: int, data: bytes) -> bool:
+        """``data`` on ``can_id`` is a frame the host sent and had not yet heard back."""
+        sent = self._sent.get(can_id)
+        if not sent or data not in sent:
+            return False
+        sent.remove(data)
+        self.echoes_seen += 1
+        return True
 
     def add_rpdo(self, cob_id: int, node_id: int) -> None:
         """Also watch RPDO ``cob_id`` of ``node_id`` (a mapping on a COB-ID of its own)."""
@@ -80,9 +113,15 @@ class MasterWatch:
     def _listen(self, cob_id: int) -> None:
         if cob_id not in self._cobs:
             self._cobs.append(cob_id)
+            self._sent.setdefault(cob_id, collections.deque(maxlen=_KEPT))
             self.network.subscribe(cob_id, self._on_frame)
 
     def _on_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        if can_id in self._sdo_requests:  # only to learn whether the bus echoes the host's frames
+            self.echoes = self._echo(can_id, bytes(data)) or self.echoes
+            return
+        if self.echoes and self._echo(can_id, bytes(data)):
+            return  # the host's own frame, given back by its adapter
         if can_id == cia.COB_NMT and (len(data) < 2 or data[1] not in self.nodes | {0}):
             return  # an NMT command to other nodes: not this host's business
         if can_id != cia.COB_SYNC:
@@ -172,3 +211,5 @@ class MasterWatch:
     def close(self) -> None:
         for cob in list(self._cobs):
             self._drop(cob)
+        if vars(self.network).get("send_message") == self._sending:
+            del self.network.send_message  # the network's own again

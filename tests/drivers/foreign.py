@@ -44,8 +44,9 @@ class ForeignDrive:
 
     def axis(self, mode: str, **kw: Any) -> Cia402Axis:
         kw.setdefault("sdo_timeout", 2.0)  # a thread answers: generous under load, never waited out
+        network = kw.pop("network", None)  # a Network is a mapping: empty (no node yet), it is falsy
         axis = Cia402Axis(
-            "motor", kw.pop("network", None) or self.network(), 1, mode=mode, eds=self.eds, **kw
+            "motor", self.network() if network is None else network, 1, mode=mode, eds=self.eds, **kw
         )
         self._axes.append(axis)
         return axis

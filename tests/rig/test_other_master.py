@@ -15,6 +15,8 @@ import subprocess
 import sys
 from collections.abc import Iterator
 
+import can
+import canopen
 import pytest
 
 from drivers.master_watch import MasterWatch, OtherMaster
@@ -163,3 +165,32 @@ def test_a_second_host_is_refused_across_processes(tmp_path: pathlib.Path) -> No
             stop_rig(host_a, timeout=20)
         _out, err = stop_rig(emulator, timeout=20)
     assert emulator.returncode == 0, err
+
+
+def test_the_host_s_own_frames_echoed_by_its_adapter_are_not_another_master(drive: ForeignDrive) -> None:
+    """Some adapters give the host back every frame it sent (a candleLight's gs_usb firmware echoes
+    each one; ICS neoVI's default, python-can's udp_multicast): its own NMT commands and RPDOs are
+    heard on its own bus. They are not another master; another node's RPDO still is."""
+    net = canopen.Network(can.Bus(interface="virtual", channel=drive.channel, receive_own_messages=True))
+    net.NOTIFIER_CYCLE = 0.02
+    net.connect()
+    drive._networks.append(net)
+    watch = MasterWatch(net, [1])
+    watch.check(0.0)
+    axis = drive.axis("csv", network=net, units={"counts_per_rev": 4096}, period=0.001)
+    axis.setup()
+    watch.add_rpdo(axis.data.rpdo.cob_id, 1)  # type: ignore[union-attr]
+    axis.master_watch = watch
+    axis.enable()
+    for _ in range(5):
+        axis.command(1.0)
+    until(lambda: len(drive.fake.rpdos) >= 5, "five RPDOs taken")
+    until(lambda: watch.heard or watch.echoes_seen >= 5, "the echoes heard")
+    axis.supervise(0.0)  # fails without the echoes told apart: 'NMT command 0x000 (start node 1)'
+    assert watch.heard == {}
+    drive.send(0x201, bytes(6))  # another master's RPDO on the same bus
+    until(lambda: 0x201 in watch.heard, "the other master's RPDO")
+    with pytest.raises(
+        OtherMaster, match=r"node 1: another master on the bus: RPDO to node 1 0x201 \(1 frame\)"
+    ):
+        axis.supervise(0.0)
