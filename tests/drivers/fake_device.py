@@ -17,7 +17,11 @@ The device follows CiA 301 and CiA 402 as the standards write them, in this file
   0x08000022 for a mapping changed while its PDO is valid.
 - NMT (CiA 301 7.2.8): start, stop, pre-operational, resets; PDOs only in OPERATIONAL.
 - PDOs: an RPDO on a valid COB-ID is logged and its mapped entries written (in OPERATIONAL);
-  on SYNC every valid synchronous TPDO (type 0-240) is sent with its mapped values.
+  on SYNC every valid synchronous TPDO (type 0-240) is sent with its mapped values. With
+  ``[pdo] preop_only`` a PDO parameter written outside PRE-OPERATIONAL, or a communication
+  parameter other than the COB-ID while the PDO is valid, is refused (0x08000022).
+
+``tests/drivers/fake_socketcand.py`` serves it in a process of its own, behind a socketcand server.
 - CiA 402 (6.2): the power state machine on the controlword; 0x6061 follows 0x6060 when the
   mode is one of ``[device] modes``; profile position (new set-point, acknowledge, target
   reached; ``[motion] pp_short_by`` increments short of the target), profile velocity, homing,
@@ -112,6 +116,7 @@ class Dictionary:
     device: dict[str, Any]
     entries: dict[tuple[int, int], Entry] = field(default_factory=dict)
     records: dict[int, str] = field(default_factory=dict)  #: index -> name, for objects with subs
+    pdo_preop_only: bool = False  #: ``[pdo] preop_only``: PDO parameters only in PRE-OPERATIONAL
 
     @classmethod
     def load(cls, name: str) -> Dictionary:
@@ -171,6 +176,7 @@ class Dictionary:
 
     def _pdos(self, pdo: dict[str, Any]) -> None:
         """Communication (0x1400/0x1800 + n) and mapping (0x1600/0x1A00 + n) objects."""
+        self.pdo_preop_only = bool(pdo.get("preop_only", False))
         node = int(self.device.get("node", 1))
         for kind, comm, mapping, base in (("rpdo", 0x1400, 0x1600, 0x200), ("tpdo", 0x1800, 0x1A00, 0x180)):
             for n, spec in enumerate(pdo.get(kind, [])):
@@ -282,7 +288,9 @@ SW_STATES = {  # CiA 402 statusword bits 0-6 of each state (mask 0x6F or 0x4F)
 class FakeDrive:
     """``dictionary`` served as node ``node`` on python-can's virtual bus ``channel``."""
 
-    def __init__(self, dictionary: Dictionary, channel: str, node: int = 1) -> None:
+    def __init__(
+        self, dictionary: Dictionary, channel: str, node: int = 1, interface: str = "virtual"
+    ) -> None:
         self.od = dictionary
         self.node = node
         self.nmt = "PRE-OPERATIONAL"
@@ -304,7 +312,7 @@ class FakeDrive:
         self._status_extra = 0
         self._put(0x6041, 0, self._statusword())
         self.channel = channel
-        self.bus = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
+        self.bus = can.Bus(interface=interface, channel=channel, receive_own_messages=False)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name=f"fake-drive-{node}", daemon=True)
         self._thread.start()
@@ -481,6 +489,8 @@ class FakeDrive:
             self.od.entries[(index, sub)].value = value
 
     def _write(self, index: int, sub: int, value: Any, e: Entry) -> None:
+        if 0x1400 <= index < 0x1C00 and self.od.pdo_preop_only:
+            self._check_preop(index, sub)
         if 0x1600 <= index < 0x1800 or 0x1A00 <= index < 0x1C00:
             self._check_mapping(index, sub, value)
         if index == 0x6060 and value not in self.od.device.get("modes", []):
@@ -490,6 +500,15 @@ class FakeDrive:
             self._put(0x6061, 0, value)
         elif index == 0x6040:
             self._controlword(value)
+
+    def _check_preop(self, index: int, sub: int) -> None:
+        """``[pdo] preop_only``: PDO parameters change only in PRE-OPERATIONAL, and a communication
+        parameter other than the COB-ID only while the PDO is not valid (bit 31 set first)."""
+        if self.nmt != "PRE-OPERATIONAL":
+            raise Abort(0x08000022)
+        comm = index if index in (*range(0x1400, 0x1600), *range(0x1800, 0x1A00)) else None
+        if comm is not None and sub != 1 and not self._get(comm, 1) & 0x80000000:
+            raise Abort(0x08000022)
 
     def _check_mapping(self, index: int, sub: int, value: int) -> None:
         comm = index - 0x200
