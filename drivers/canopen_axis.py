@@ -29,6 +29,7 @@ from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault
 from drivers.maps import cia
 from drivers.maps.emcy import emcy_text
 from drivers.maps.od import load_od
+from drivers.maps.sdo_aborts import abort_text
 from drivers.master_watch import MasterWatch, OtherMaster
 
 __all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec"]
@@ -141,7 +142,7 @@ class CanopenAxis(AxisDriver):
         try:
             yield
         except SdoAbortedError as exc:
-            words = f"{what}: {cia.abort_text(exc.code)}"
+            words = f"{what}: {abort_text(exc.code)}"
             raise SdoAbort(
                 words, code=exc.code, node_id=self.node_id, index=index, subindex=subindex
             ) from exc

@@ -40,6 +40,7 @@ import canopen
 from drivers.base import AxisState, Feedback
 from drivers.bus import brief
 from drivers.canopen_axis import CanopenAxis, TpdoSlot
+from drivers.cia402_pdo import variable
 from drivers.cia402_process import ProcessData
 from drivers.cia402_setup import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY, Cia402Setup
 from drivers.cia402_units import DriveUnits
@@ -72,6 +73,13 @@ _AXIS_STATE = {
     PowerState.QUICK_STOP_ACTIVE: AxisState.STOPPING,
     PowerState.FAULT_REACTION_ACTIVE: AxisState.STOPPING,
     PowerState.FAULT: AxisState.FAULT,
+}
+#: the target that a mode acts on as it stands once enabled, held at 0 before the enable
+_STILL_TARGET: dict[int, int] = {
+    Mode.PROFILE_VELOCITY: cia.TARGET_VELOCITY,
+    Mode.CSV: cia.TARGET_VELOCITY,
+    Mode.PROFILE_TORQUE: cia.TARGET_TORQUE,
+    Mode.CST: cia.TARGET_TORQUE,
 }
 _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
 _ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
@@ -230,11 +238,11 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
             return "no 0x603F"
         return f"0x603F = 0x{int(code):04X}, {emcy_text(int(code), self.emcy_texts)}"
 
-    def enable(self, *, timeout: float = 1.0) -> None:
+    def enable(self, *, timeout: float = 1.0, mode: int | None = None) -> None:
         """Shutdown, switch on, enable operation (transitions 2, 3, 4), within ``timeout`` [s]; a
         drive in FAULT is reset first with ``reset_fault``, else refused, saying what 0x603F holds.
-        In CSP, 0x607A is set to the position the drive reads first (0x6064), so it enables
-        where it stands, not at a target left from before."""
+        The target the drive acts on at once in ``mode`` (None: the axis's) is set first, so it
+        enables at rest where it stands, not at a target left from before (``_hold_still``)."""
         if self.read_power_state() is PowerState.FAULT:
             what = self.fault_text()
             if not self.reset_fault:
@@ -249,12 +257,25 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         if self.host is not None and self._consumer_sub is None and self.data is not None:
             if cia.CONSUMER_HEARTBEAT in self.node.object_dictionary:
                 self._consumer_sub = self._watch_host(*self.host)
-        if self.op_mode == Mode.CSP:  # 0x607A is absolute: enabled, the drive goes for it
-            self.sdo_write(cia.TARGET_POSITION, 0, int(self.sdo_read(cia.POSITION_ACTUAL)))
+        self._hold_still(self.op_mode if mode is None else int(mode))
         self._watch_commands()
         self._drive_to(PowerState.OPERATION_ENABLED, _TOWARDS_ENABLED.get, timeout)
         slot = self.data.slot_of(SW) if self.data else None
         self._enabled_stamp = slot.timestamp if slot else None
+
+    def _hold_still(self, mode: int) -> None:
+        """Before an enable in ``mode``: CSP's 0x607A is absolute (set to 0x6064, where the drive
+        stands); profile and cyclic velocity act on 0x60FF, profile and cyclic torque on 0x6071 as
+        they stand (set to 0); profile position and homing start only on a new set-point
+        (controlword bit 4, CiA 402-2), so nothing is written for them, nor for a mode the
+        toolkit does not know."""
+        if mode == Mode.CSP:  # 0x607A is absolute: enabled, the drive goes for it
+            self.sdo_write(cia.TARGET_POSITION, 0, int(self.sdo_read(cia.POSITION_ACTUAL)))
+            return
+        target = _STILL_TARGET.get(mode, 0)
+        var = variable(self.node.object_dictionary, (target, 0)) if target else None
+        if var is not None and var.writable:
+            self.sdo_write(target, 0, 0)
 
     def fault_reset(self, *, timeout: float = 1.0) -> None:
         """Rising edge of controlword bit 7 (transition 15)."""

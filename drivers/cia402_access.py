@@ -26,8 +26,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from drivers.cia402_pdo import variable
 from drivers.errors import ConfigError, SdoAbort
-from drivers.maps import cia
+from drivers.maps.sdo_aborts import abort_text
 
 __all__ = ["TOOLKIT_DRIVE", "Identity", "Setting", "interpolation_period"]
 
@@ -66,18 +67,9 @@ class Identity:
 
 
 def _name(od: Any, index: int, subindex: int) -> str:
-    var = _variable(od, index, subindex)
+    var = variable(od, (index, subindex))
     name = str(var.name) if var is not None else ""
     return f" ({name})" if name else ""
-
-
-def _variable(od: Any, index: int, subindex: int) -> Any:
-    if index not in od:
-        return None
-    obj = od[index]
-    if hasattr(obj, "subindices"):
-        return obj[subindex] if subindex in obj.subindices else None
-    return obj if subindex == 0 else None
 
 
 @dataclass
@@ -89,12 +81,13 @@ class Setting:
     value: Any
     why: str
     required: bool = False
+    then: str = ""  #: what to do where a required one is refused
 
     def apply(
         self, od: Any, read: Callable[[int, int], Any], write: Callable[[int, int, Any], None], where: str
     ) -> bool:
         """True when the drive holds ``value`` afterwards (see the module docstring)."""
-        var = _variable(od, self.index, self.subindex)
+        var = variable(od, (self.index, self.subindex))
         obj = f"0x{self.index:04X}:{self.subindex:02X}{_name(od, self.index, self.subindex)}"
         access = getattr(var, "access_type", "?") if var is not None else "absent"
         if var is not None and not var.writable:
@@ -105,7 +98,7 @@ class Setting:
                 f"{where}: {obj} is {access} in the EDS and holds {held!r}; {self.why} wanted {self.value!r}"
             )
             if self.required:
-                raise ConfigError(f"{said}: the drive cannot do what is asked")
+                raise ConfigError(f"{said}: the drive cannot do what is asked{self._then}")
             log.warning("%s; not written", said)
             return False
         try:
@@ -113,13 +106,17 @@ class Setting:
         except SdoAbort as exc:
             said = (
                 f"{where}: {obj} refused {self.value!r} ({self.why}): abort 0x{exc.code:08X}, "
-                f"{cia.abort_text(exc.code)}; the EDS declares it {access}"
+                f"{abort_text(exc.code)}; the EDS declares it {access}"
             )
             if self.required:
-                raise ConfigError(said) from exc
+                raise ConfigError(said + self._then) from exc
             log.warning("%s; going on without it", said)
             return False
         return True
+
+    @property
+    def _then(self) -> str:
+        return f"; {self.then}" if self.then else ""
 
 
 def interpolation_period(

@@ -35,8 +35,8 @@ from drivers.cia402_process import ProcessData
 from drivers.cia402_units import DriveUnits, discover_units
 from drivers.errors import CommunicationTimeout, ConfigError, DeviceFault, NodeSilent, RigError, SdoAbort
 from drivers.maps import cia
-from drivers.maps.cia import CIA_MODE_BITS, MODE_BITS, Mode
-from drivers.maps.mode_names import mode_text
+from drivers.maps.cia import CIA_MODE_BITS, MODE_BITS, SUPPORTED_MODE_BITS, Mode
+from drivers.maps.mode_names import MODE_NAMES, mode_text
 
 if TYPE_CHECKING:
     from drivers.canopen_axis import TpdoSlot
@@ -106,6 +106,12 @@ class Cia402Setup(Cia402Mapping):
         od = self.node.object_dictionary
         if self.host is not None and cia.CONSUMER_HEARTBEAT in od:
             self._consumer_sub = self._watch_host(*self.host)
+        elif self.host is not None:
+            log.warning(
+                "%s: the drive has no heartbeat consumer (0x1016): it cannot watch the host's heartbeat "
+                "and will not stop itself if the host dies; give it another stop (a safety circuit)",
+                self.where,
+            )
         if self.abort_connection is not None and cia.ABORT_CONNECTION_OPTION in od:
             self._setting(
                 cia.ABORT_CONNECTION_OPTION, 0, self.abort_connection, "the reaction to a lost host"
@@ -119,9 +125,11 @@ class Cia402Setup(Cia402Mapping):
             if cia.COMM_CYCLE_PERIOD in od:
                 self._setting(cia.COMM_CYCLE_PERIOD, 0, round(self.period * 1e6), "the SYNC period [us]")
 
-    def _setting(self, index: int, subindex: int, value: Any, why: str, *, required: bool = False) -> bool:
+    def _setting(
+        self, index: int, subindex: int, value: Any, why: str, *, required: bool = False, then: str = ""
+    ) -> bool:
         """``drivers.cia402_access.Setting``: written where the EDS declares it writable."""
-        setting = Setting(index, subindex, value, why, required)
+        setting = Setting(index, subindex, value, why, required, then)
         return setting.apply(self.node.object_dictionary, self.sdo_read, self.sdo_write, self.where)
 
     def _interpolation_period(self) -> None:
@@ -159,8 +167,15 @@ class Cia402Setup(Cia402Mapping):
         sub = next((s for s, e in entries.items() if (e >> 16) & 0xFF == host_node), None)
         sub = sub or next((s for s, e in entries.items() if not e & 0xFFFF or not (e >> 16) & 0xFF), None)
         if sub is None:
+            taken = ", ".join(
+                f"0x1016:{s:02X} node {(e >> 16) & 0xFF} ({e & 0xFFFF} ms)" for s, e in entries.items()
+            )
             log.warning(
-                "%s: no free heartbeat consumer entry (0x1016): the drive does not watch the host", self.where
+                "%s: no free heartbeat consumer entry (%s): the drive does not watch the host and will not "
+                "stop itself if it dies; where that watch is not needed, free its entry (rig drive sdo write "
+                "0x1016:NN 0)",
+                self.where,
+                taken or "0x1016 has none",
             )
             return None
         entry = host_node << 16 | max(1, min(0xFFFF, round(timeout * 1000)))
@@ -254,10 +269,14 @@ class Cia402Setup(Cia402Mapping):
         return self.units
 
     def offered(self, bits: int | None) -> str:
-        """The modes the drive offers, as 0x6502 says (CiA's bits only, but on the toolkit's drive)."""
+        """The modes the drive offers, as 0x6502 says: every mode CiA 402 gives a bit (vl and cstca
+        too, which the toolkit does not drive), and bits 16-31 only on the toolkit's own drive."""
         if bits is None:
             return "no 0x6502 (the drive does not say which modes it has)"
-        names = ", ".join(mode_text(m) for m in sorted(self.supported_modes or ())) or "none CiA 402 names"
+        codes = [m for m, bit in SUPPORTED_MODE_BITS.items() if bits & bit]
+        if self.toolkit_drive:
+            codes = sorted(int(m) for m, bit in MODE_BITS.items() if bit >> 16 and bits & bit) + codes
+        names = ", ".join(mode_text(m) for m in codes) or "no mode CiA 402 names"
         return f"0x6502 = 0x{bits:08X}: {names}"
 
     def _check_mode(self, bits: int | None) -> None:
@@ -269,16 +288,33 @@ class Cia402Setup(Cia402Mapping):
                 f"{where}: mode {self.mode!r} is a manufacturer mode of drive-rig's own drive (vendor "
                 f"0x{TOOLKIT_DRIVE[0]:X}, product 0x{TOOLKIT_DRIVE[1]:X}); this drive is "
                 f"{self.device_id.text()}, whose manufacturer modes mean what its vendor made them mean; "
-                f"it offers {self.offered(bits)}: choose one of those (csp, csv, cst)"
+                f"it offers {self.offered(bits)}: {self.choose()}"
             )
         if self.supported_modes is not None and int(self.op_mode) not in self.supported_modes:
-            raise ConfigError(f"{where}: mode {self.mode} is not in 0x6502 ({self.offered(bits)})")
+            raise ConfigError(
+                f"{where}: mode {self.mode} is not in 0x6502 ({self.offered(bits)}): {self.choose()}"
+            )
+
+    def choose(self) -> str:
+        """What to do about a mode the drive does not take: the other modes with a cyclic target
+        that it offers (all, where it has no 0x6502), or rig drive where it offers none."""
+        offered = self.supported_modes
+        names = [
+            name
+            for name, m in MODE_NAMES.items()
+            if m in cia.TARGET_OF_MODE and m >= 0 and m != self.op_mode and (offered is None or m in offered)
+        ]
+        if not names:
+            return (
+                "it offers no other mode rig run commands (pv, csp, csv, cst): commission it with rig drive"
+            )
+        return f"set the axis's mode to another it offers ({', '.join(names)})"
 
     @property
     def toolkit_drive(self) -> bool:
         """The toolkit's own drive, positively identified (0x1018 vendor and product), whose
         manufacturer objects and modes the host knows."""
-        return (self.identity.get("vendor"), self.identity.get("product")) == TOOLKIT_DRIVE
+        return self.device_id.toolkit
 
     def guard_manufacturer(self, index: int, what: str) -> None:
         """ConfigError before ``what`` would write manufacturer object ``index`` of a drive that is
@@ -298,7 +334,8 @@ class Cia402Setup(Cia402Mapping):
             raise ConfigError(
                 f"{self.where}: mode {int(mode)} is a manufacturer mode; not on {self.device_id.text()}"
             )
-        self._setting(cia.MODES_OF_OPERATION, 0, int(mode), f"mode {mode_text(int(mode))}", required=True)
+        why = f"mode {mode_text(int(mode))}"
+        self._setting(cia.MODES_OF_OPERATION, 0, int(mode), why, required=True, then=self.choose())
         deadline = time.monotonic() + self.mode_timeout
         while True:
             shown = self.sdo_read(cia.MODES_DISPLAY)

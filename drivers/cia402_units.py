@@ -19,7 +19,7 @@ from typing import Any
 from drivers.errors import ConfigError
 from drivers.maps import cia
 from drivers.maps.cia import Mode
-from drivers.maps.units import SiUnit, position_per_revolution, velocity_per_revolution
+from drivers.maps.units import INCREMENTS, SiUnit, position_per_revolution, velocity_per_revolution
 
 __all__ = ["DriveUnits", "discover_units", "require"]
 
@@ -111,7 +111,7 @@ def discover_units(
             except ValueError as exc:
                 raise ConfigError(f"axis {where}: {exc}; set {hint.format(key=key)}") from None
     position = velocity = math.nan
-    rotary = pos_code and SiUnit.decode(pos_code).unit != 0xB5
+    rotary = pos_code and SiUnit.decode(pos_code).unit != INCREMENTS
     if increments or rotary or feed:
         position = (
             position_per_revolution(increments or math.nan, gear=gear, feed=feed, unit=pos_code) / _TWO_PI
@@ -124,6 +124,9 @@ def discover_units(
         )
         source["position"] = "0x60A8" if pos_code else ("0x6092" if feed else source.get("increments", ""))
         source["velocity"] = "0x60A9" if vel_code else source["position"]
+    elif vel_code and SiUnit.decode(vel_code).unit != INCREMENTS:  # rpm, rad/s: no increments needed
+        velocity = velocity_per_revolution(math.nan, gear=gear, unit=vel_code) / _TWO_PI
+        source["velocity"] = "0x60A9"
     torque = read(cia.RATED_TORQUE, 0)
     current = read(cia.RATED_CURRENT, 0)
     rated_torque = torque / 1000.0 if torque else float(given.get("rated_torque", 0.0)) or math.nan

@@ -61,6 +61,10 @@ _BIT12, _HOMING_ERROR, _TARGET_REACHED = 1 << 12, 1 << 13, 1 << 10  #: bit 12: s
 _LIMIT, _FOLLOWING_ERROR = 1 << 11, 1 << 13  #: internal limit active; following error (profile position)
 
 
+#: the ``rig drive`` action that runs the drive in each profile mode
+_VERB = {Mode.PROFILE_VELOCITY: "jog", Mode.PROFILE_POSITION: "move", Mode.HOMING: "home"}
+
+
 def parse_object(text: str, od: Any) -> tuple[int, int]:
     """``0x6060``, ``0x1018:1``, ``6060sub0`` or an EDS name (``Modes of operation``,
     ``Identity object.Vendor-ID``) -> (index, subindex); ConfigError naming ``text``."""
@@ -181,9 +185,12 @@ class DriveTool:
             self.watch.check(max(2.0 * self.period, 0.1), who="rig drive: ", share=False)
 
     def enable(self, *, timeout: float = 2.0) -> str:
+        """OPERATION ENABLED in the mode the drive is in (0x6061; unreadable: held as in CSP), its
+        target held where it stands (``Cia402Axis.enable``)."""
         self._alone()
+        shown = self.axis._optional(cia.MODES_DISPLAY)
         self.axis.nmt("OPERATIONAL")
-        self.axis.enable(timeout=timeout)
+        self.axis.enable(timeout=timeout, mode=int(Mode.CSP) if shown is None else int(shown))
         return self.axis.read_power_state().value
 
     def disable(self) -> str:
@@ -196,10 +203,15 @@ class DriveTool:
         return f"{self.axis.read_power_state().value} (was: {was})"
 
     # --- moves ----------------------------------------------------------------------------------
-    def _mode(self, mode: Mode) -> None:
-        if self.axis.supported_modes is not None and int(mode) not in self.axis.supported_modes:
-            raise ConfigError(f"{self.axis.where}: the drive has no {mode.name} mode (0x6502)")
-        self.axis.set_mode(mode)
+    def _offers(self, mode: Mode, verb: str) -> None:
+        """ConfigError, before anything is sent, where the drive's 0x6502 does not list ``mode``."""
+        a = self.axis
+        if a.supported_modes is not None and int(mode) not in a.supported_modes:
+            raise ConfigError(
+                f"{a.where}: rig drive {verb} runs the drive in {mode_text(int(mode))}, which it does not "
+                f"offer ({a.offered(a._optional(cia.SUPPORTED_MODES))}); nothing was sent: use a mode it "
+                "offers (rig run with mode = csp, csv or cst, where it lists them)"
+            )
 
     def _until(self, done: Callable[[], bool], seconds: float, what: str) -> None:
         late = self._deadline(seconds)
@@ -217,15 +229,16 @@ class DriveTool:
         self, mode: Mode, start: Callable[[], None], done: Callable[[], bool], seconds: float, what: str
     ) -> dict[str, Any]:
         """Enable in ``mode``, ``start``, wait for ``done`` (``seconds``), then the stop; the stop
-        also on any error or Ctrl-C."""
+        also on any error or Ctrl-C. A mode the drive lacks, a factor it needs: refused first."""
         a = self.axis
         a.discover(check_mode=False)
+        self._offers(mode, _VERB[mode])
         if mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):
             require(a.units, int(mode), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
         self._alone()
         a.nmt("OPERATIONAL")
-        self._mode(mode)
-        a.enable(timeout=2.0)
+        a.set_mode(mode)
+        a.enable(timeout=2.0, mode=int(mode))
         confirmed, result = False, "done"
         try:
             start()
@@ -323,6 +336,7 @@ class DriveTool:
         why (the position window it stopped in, a limit, a following error)."""
         a = self.axis
         a.discover(check_mode=False)
+        self._offers(Mode.PROFILE_POSITION, "move")
         require(a.units, int(Mode.PROFILE_POSITION), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
         here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
         if not abs(position - here) <= limit:

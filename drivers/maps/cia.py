@@ -29,6 +29,7 @@ __all__ = [
     "MODE_BITS",
     "NODE_IDS",
     "PDO_INVALID",
+    "SUPPORTED_MODE_BITS",
     "TARGET_OF_MODE",
     "AbortConnectionOption",
     "Controlword",
@@ -41,7 +42,6 @@ __all__ = [
     "PowerState",
     "QuickStopOption",
     "SdoAbortCode",
-    "abort_text",
     "decode_statusword",
     "map_entry",
     "split_map_entry",
@@ -104,44 +104,6 @@ class SdoAbortCode(enum.IntEnum):
     VALUE_TOO_HIGH = 0x06090031
     PARAMETER_INCOMPATIBLE = 0x06040043  #: general parameter incompatibility
     DEVICE_STATE = 0x08000022  #: data cannot be stored because of the present device state
-
-
-#: SDO abort codes in words (CiA 301, 7.2.4.3.17)
-ABORT_TEXTS = {
-    0x05030000: "toggle bit not alternated",
-    0x05040000: "SDO protocol timed out",
-    0x05040001: "client/server command specifier not valid or unknown",
-    0x05040005: "out of memory",
-    0x06010000: "unsupported access to an object",
-    0x06010001: "attempt to read a write-only object",
-    0x06010002: "attempt to write a read-only object",
-    0x06020000: "object does not exist in the object dictionary",
-    0x06040041: "object cannot be mapped to the PDO",
-    0x06040042: "the number and length of the objects to be mapped would exceed the PDO length",
-    0x06040043: "general parameter incompatibility",
-    0x06040047: "general internal incompatibility in the device",
-    0x06060000: "access failed due to a hardware error",
-    0x06070010: "data type does not match, length of service parameter does not match",
-    0x06070012: "data type does not match, length of service parameter too high",
-    0x06070013: "data type does not match, length of service parameter too low",
-    0x06090011: "sub-index does not exist",
-    0x06090030: "invalid value for parameter (download only)",
-    0x06090031: "value of parameter written too high (download only)",
-    0x06090032: "value of parameter written too low (download only)",
-    0x06090036: "maximum value is less than minimum value",
-    0x060A0023: "resource not available: SDO connection",
-    0x08000000: "general error",
-    0x08000020: "data cannot be transferred or stored to the application",
-    0x08000021: "data cannot be transferred or stored to the application because of local control",
-    0x08000022: "data cannot be transferred or stored to the application because of the present device state",
-    0x08000023: "object dictionary dynamic generation fails or no object dictionary is present",
-    0x08000024: "no data available",
-}
-
-
-def abort_text(code: int) -> str:
-    """An SDO abort code in words (CiA 301); a code it does not list is said to be so."""
-    return ABORT_TEXTS.get(code, "an abort code CiA 301 does not list")
 
 
 class EmcyCode(enum.IntEnum):
@@ -401,24 +363,18 @@ class Mode(enum.IntEnum):
     DQ_VOLTAGE = -2  #: dq voltage [mV] in DQ_VOLTAGE
 
 
-#: bit of each mode in SUPPORTED_MODES (0x6502) on the toolkit's own drive; bits 16-31 are
-#: manufacturer specific: 16 and 17 are its voltage modes, on any other drive they mean nothing
-#: (``CIA_MODE_BITS``)
-MODE_BITS = {
-    Mode.PROFILE_POSITION: 1 << 0,
-    Mode.PROFILE_VELOCITY: 1 << 2,
-    Mode.PROFILE_TORQUE: 1 << 3,
-    Mode.HOMING: 1 << 5,
-    Mode.INTERPOLATED_POSITION: 1 << 6,
-    Mode.CSP: 1 << 7,
-    Mode.CSV: 1 << 8,
-    Mode.CST: 1 << 9,
-    Mode.VOLTAGE: 1 << 16,
-    Mode.DQ_VOLTAGE: 1 << 17,
-}
+#: the bit of 0x6502 (SUPPORTED_MODES) for each mode number CiA 402-2 defines, on every drive:
+#: pp 1, vl 2, pv 3, tq 4, hm 6, ip 7, csp 8, csv 9, cst 10, cstca 11 (bit 4 and bits 11-15 are
+#: reserved; bits 16-31 are each vendor's own)
+SUPPORTED_MODE_BITS = {1: 1 << 0, 2: 1 << 1, 3: 1 << 2, 4: 1 << 3, 6: 1 << 5, 7: 1 << 6}
+SUPPORTED_MODE_BITS |= {8: 1 << 7, 9: 1 << 8, 10: 1 << 9, 11: 1 << 10}
 
-#: the bits of 0x6502 that CiA 402 defines, the same on every drive
-CIA_MODE_BITS = {mode: bit for mode, bit in MODE_BITS.items() if bit < 1 << 16}
+#: the bits of 0x6502 that CiA 402 defines for the modes the toolkit drives (``Mode``)
+CIA_MODE_BITS = {Mode(m): bit for m, bit in SUPPORTED_MODE_BITS.items() if m in Mode._value2member_map_}
+
+#: bit of each mode in SUPPORTED_MODES (0x6502) on the toolkit's own drive: CiA's, and its voltage
+#: modes in the manufacturer-specific bits 16 and 17, which on any other drive mean nothing
+MODE_BITS = CIA_MODE_BITS | {Mode.VOLTAGE: 1 << 16, Mode.DQ_VOLTAGE: 1 << 17}
 
 #: the target object (index, subindex) each scalar mode takes its command from
 TARGET_OF_MODE = {

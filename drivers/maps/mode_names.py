@@ -37,7 +37,7 @@ def mode_code(mode: str | int) -> Mode:
 _CIA_WORDS = {
     0: "no mode",
     1: "profile position",
-    2: "velocity",
+    2: "velocity (vl)",
     3: "profile velocity",
     4: "profile torque",
     6: "homing",
@@ -45,6 +45,7 @@ _CIA_WORDS = {
     8: "cyclic synchronous position",
     9: "cyclic synchronous velocity",
     10: "cyclic synchronous torque",
+    11: "cyclic synchronous torque with commutation angle (cstca)",
 }
 _SHORT = {int(code): name for name, code in MODE_NAMES.items()}
 

@@ -147,3 +147,52 @@ def test_the_summary_says_its_peaks_are_maxima() -> None:
     }  # fmt: skip
     axis = next(line for line in summary_lines(summary) if line.startswith("axis motor"))
     assert axis.endswith("max |velocity| 120.4 rad/s, max |current| 23.76 A, max |command| 5 V")
+
+
+@pytest.mark.parametrize("drive", ["beckhoff-ax8000"], indirect=True)
+@pytest.mark.parametrize(
+    ("action", "mode"),
+    [
+        (["jog", "1", "--for", "0.1"], "profile velocity (pv)"),
+        (["move", "1"], "profile position (pp)"),
+        (["home"], "homing"),
+    ],
+)
+def test_a_profile_mode_the_drive_lacks_is_refused_before_anything_is_sent(
+    drive: ForeignDrive, capsys: pytest.CaptureFixture[str], action: list[str], mode: str
+) -> None:
+    """A drive with the cyclic modes only (0x6502 = 0x780): jog, move and home are refused naming
+    the modes it offers, before an NMT command or a write."""
+    assert main(_rig(drive, "--units", "counts_per_rev=4096", *action)) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"rig drive {action[0]} runs the drive in {mode}, which it does not offer" in err
+    assert "cyclic synchronous torque with commutation angle (cstca)" in err and "nothing was sent" in err
+    assert drive.fake.nmt_log == [] and drive.fake.downloads == [] and len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("drive", ["roboteq-sbl"], indirect=True)
+def test_status_gives_a_velocity_in_rpm_without_increments(
+    drive: ForeignDrive, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(_rig(drive, "status")) == 0
+    lines = {line[:15].strip(): line[16:] for line in capsys.readouterr().out.splitlines()}
+    assert lines["velocity unit"] == "9.5493 drive units per rad/s (from 0x60A9)"
+    assert lines["position unit"].startswith("the drive's increments")
+    assert "velocity (vl)" in lines["modes offered"] and "profile torque (tq)" in lines["modes offered"]
+
+
+@pytest.mark.parametrize("drive", ["maxon-epos4"], indirect=True)
+def test_jog_and_enable_write_no_position_target(
+    drive: ForeignDrive, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A jog runs in profile velocity: 0x60FF is held at 0 before the enable, and 0x607A, which that
+    mode does not use, is not written; a bare enable in the drive's own mode (0x6061 = 0) writes
+    no target at all."""
+    assert main(_rig(drive, "jog", "1", "--for", "0.1")) == 0
+    writes = [(w[0], w[2]) for w in drive.fake.downloads]
+    assert 0x607A not in {w[0] for w in writes}
+    assert writes.index((0x60FF, 0)) < writes.index((0x6040, 15)) < writes.index((0x60FF, 10))
+    drive.fake.downloads.clear()
+    drive.fake.od.entries[(0x6061, 0)].value = 0
+    assert main(_rig(drive, "enable")) == 0
+    assert [w[0] for w in drive.fake.downloads] == [0x6040, 0x6040, 0x6040]
