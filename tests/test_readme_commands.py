@@ -28,7 +28,7 @@ from rig.cli import build_parser
 from rig.cli.common import UsageError
 from rig.config import FaultsConfig, load_config
 from rig.process import spawn_rig, stop_rig
-from tests.test_readme import ROOT, run_here
+from tests.test_readme import DOCS, ROOT, run_here, where
 
 README = (ROOT / "README.md").read_text()
 FLAT = " ".join(README.split())  #: the README's prose with its line breaks as spaces
@@ -36,15 +36,18 @@ FLAT = " ".join(README.split())  #: the README's prose with its line breaks as s
 Check = Callable[[subprocess.CompletedProcess[str], pathlib.Path], None]
 
 
-def spans() -> list[tuple[int, str]]:
-    """(line, text) of every inline code span that starts with ``rig``, outside fenced blocks;
-    its whitespace as one space and a table's ``\\|`` as ``|``."""
-    body = re.sub(r"^```.*?^```", lambda m: re.sub(r"[^\n]", " ", m.group(0)), README, flags=re.M | re.S)
+def spans() -> list[tuple[str, str]]:
+    """(where: file and line, text) of every inline code span that starts with ``rig``, outside
+    fenced blocks, in the README and the documentation's pages (``DOCS``); its whitespace as one
+    space and a table's ``\\|`` as ``|``."""
     found = []
-    for m in re.finditer(r"(?<!`)`([^`]+)`(?!`)", body):
-        text = " ".join(m.group(1).replace("\\|", "|").split())
-        if text == "rig" or text.startswith("rig "):
-            found.append((body[: m.start()].count("\n") + 1, text))
+    for path in DOCS:
+        text = path.read_text()
+        body = re.sub(r"^```.*?^```", lambda m: re.sub(r"[^\n]", " ", m.group(0)), text, flags=re.M | re.S)
+        for m in re.finditer(r"(?<!`)`([^`]+)`(?!`)", body):
+            span = " ".join(m.group(1).replace("\\|", "|").split())
+            if span == "rig" or span.startswith("rig "):
+                found.append((f"{where(path)} line {body[: m.start()].count(chr(10)) + 1}", span))
     return found
 
 
@@ -680,12 +683,12 @@ def test_every_span_is_parsed_run_or_named() -> None:
     texts = {text for _, text in spans()}
     places = [set(RUN), set(SLOW), set(NOT_RUN), MENTIONS]
     problems = [
-        f"README line {line}: `{text}` is in none of RUN, SLOW, NOT_RUN, MENTIONS"
+        f"{line}: `{text}` is in none of RUN, SLOW, NOT_RUN, MENTIONS"
         for line, text in spans()
         if not is_synopsis(text) and "..." not in text and sum(text in p for p in places) != 1
     ]
     named = [*places, set(ELIDED), set(INSTANCES)]
-    problems += [f"`{text}` is no span of the README" for p in named for text in p - texts]
+    problems += [f"`{text}` is no span of the README or the docs" for p in named for text in p - texts]
     assert not problems, "\n".join(problems)
     assert len(texts) > 50
 
@@ -699,17 +702,13 @@ def test_rig_s_parser_accepts_every_command(
     problems = []
     for line, text in spans():
         if text in MENTIONS:
-            problems += [f"README line {line}: `{text}`: no {name}" for name in unknown_names(parser, text)]
+            problems += [f"{line}: `{text}`: no {name}" for name in unknown_names(parser, text)]
             continue
-        assert "..." not in text.replace("...]", "") or text in ELIDED, (
-            f"README line {line}: `{text}`: add to ELIDED"
-        )
+        assert "..." not in text.replace("...]", "") or text in ELIDED, f"{line}: `{text}`: add to ELIDED"
         for form in forms(text) if is_synopsis(text) or text in ELIDED else [text]:
             why = refusal(parser, form)
             if why is not None:
-                problems.append(
-                    f"README line {line}: `{text}`" + (f" as `{form}`" if form != text else "") + f": {why}"
-                )
+                problems.append(f"{line}: `{text}`" + (f" as `{form}`" if form != text else "") + f": {why}")
     assert not problems, "\n".join(problems)
 
 
@@ -781,7 +780,7 @@ def _run_and_check(
 ) -> None:
     # no display: `--live` draws its strip on stderr, as on a CI runner
     proc = run_here(f"env -u DISPLAY -u WAYLAND_DISPLAY {command}", folder, timeout=timeout)
-    where = f"README line {_lines(span or command)}: `{command}`"
+    where = f"{_lines(span or command)}: `{command}`"
     assert proc.returncode == 0, (
         f"{where}: exit {proc.returncode}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
     )
