@@ -189,12 +189,28 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         self._rest_stamp: float | None = None  #: the statusword TPDO's stamp at the last ``at_rest``
         #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
         self.idle: Callable[[], None] = lambda: time.sleep(0.001)
+        self._sent = False  #: an SDO download or an NMT command went to the drive
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """An SDO download, never to a manufacturer object (0x2000-0x5FFF) but on the toolkit's own
         drive (``guard_manufacturer``: a ConfigError before anything is sent)."""
         self.guard_manufacturer(index, f"an SDO download to 0x{index:04X}:{subindex:02X}")
+        self._sent = True
         super().sdo_write(index, subindex, value)
+
+    def nmt(self, state: str) -> None:
+        self._sent = True
+        super().nmt(state)
+
+    def close(self) -> None:
+        """Disable and release; a drive the host only read from (set-up refused it before anything
+        was sent: a mode it lacks, a factor nobody gives) is left as it is, no controlword."""
+        if not self._sent:
+            if not self._closed:
+                self._forget()
+                self._release()
+            return
+        super().close()
 
     # --- set-up ----------------------------------------------------------------------------------
     def setup(self) -> None:

@@ -196,3 +196,23 @@ def test_jog_and_enable_write_no_position_target(
     drive.fake.od.entries[(0x6061, 0)].value = 0
     assert main(_rig(drive, "enable")) == 0
     assert [w[0] for w in drive.fake.downloads] == [0x6040, 0x6040, 0x6040]
+
+
+@pytest.mark.parametrize("drive", ["technosoft-ipos", "maxon-epos2"], indirect=True)
+def test_a_run_refused_at_discovery_sends_the_drive_nothing(
+    drive: ForeignDrive, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """rig run with mode = "voltage" on a drive that is not the toolkit's (and a mode the EPOS2
+    lacks) is refused from what was read: not even the controlword of the close is sent."""
+    example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+    text = example.read_text().replace('output = "runs"', f'output = "{tmp_path / "runs"}"')
+    text = text.replace("[run]", "[run]\nperiod = 0.001", 1).replace('preset = "dc-servo"', "")
+    text = text.replace('interface = "socketcand"', 'interface = "virtual"').replace(
+        'channel = "can0"', f'channel = "{drive.channel}"'
+    )
+    text = text.replace('mode = "voltage"', f'mode = "voltage"\neds = "{drive.eds}"')
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text)
+    assert main(["run", "--config", str(cfg)]) == 2
+    assert "is a manufacturer mode of drive-rig's own drive" in capsys.readouterr().err
+    assert drive.fake.downloads == [] and drive.fake.nmt_log == [] and drive.fake.rpdos == []
