@@ -1,18 +1,18 @@
 """Another master on the bus: the frames only a master sends, heard from someone else.
 
-A CANopen bus has one master driving a node: the one that sends its NMT commands, its RPDOs and
-(unless a device produces it) the SYNC. ``MasterWatch`` subscribes, on the host's canopen
-``Network``, to the NMT COB-ID (0x000), the SYNC (0x080), and the RPDO COB-IDs of the host's
-nodes (0x200/0x300/0x400/0x500 + node, and any other the set-up maps). python-can delivers no
-frame a bus sent to its own receive path on SocketCAN, socketcand and the virtual bus, so there
-every frame heard was sent by another node. Some adapters give the host its own frames back all
-the same (a candleLight's gs_usb firmware echoes every frame it sends, ICS neoVI does by default,
-python-can's udp_multicast loops them back): the watch keeps the frames the host sends on these
-COB-IDs (it wraps the network's ``send_message``) and learns whether the bus echoes from the
-host's own SDO requests (0x600 + node), which it also listens to; on a bus that echoes, a frame
-equal to one the host sent and not yet heard back is its echo, not another master. Frames the host
-sends through another socket (the kernel's broadcast manager's SYNC) are sent only once the run
-is under way, after ``check``.
+A CANopen bus has one master driving a node: the one that sends its NMT commands (CiA 301 7.2.8),
+its RPDOs (7.2.2) and, unless a device produces it, the SYNC (7.2.5). ``MasterWatch`` subscribes,
+on the host's canopen ``Network``, to the NMT COB-ID (0x000), the SYNC (0x080), and the RPDO
+COB-IDs of the host's nodes (0x200/0x300/0x400/0x500 + node, and any other the set-up maps).
+python-can delivers no frame a bus sent to its own receive path on SocketCAN, socketcand and the
+virtual bus, so there every frame heard was sent by another node. Some adapters give the host its
+own frames back all the same (a candleLight's gs_usb firmware echoes every frame it sends, ICS
+neoVI does by default, python-can's udp_multicast loops them back): the watch keeps the frames the
+host sends on these COB-IDs (it wraps the network's ``send_message``) and learns whether the bus
+echoes from the host's own SDO requests (0x600 + node), which it also listens to; on a bus that
+echoes, a frame equal to one the host sent and not yet heard back is its echo, not another master.
+Frames the host sends through another socket (the kernel's broadcast manager's SYNC) are sent only
+once the run is under way, after ``check``.
 
 - ``check(window)``: before anything is enabled: wait until ``window`` [s] have passed since the
   watch began (at the bus's opening) and raise ``OtherMaster`` naming what was heard (COB-ID and

@@ -33,7 +33,7 @@ from tests.drivers.fake_device import Dictionary, FakeDrive
 
 #: a client's frames start this long after its rawmode ``< ok >``: python-can's client reads the
 #: ``< ok >`` with one recv and refuses it when a frame came with it
-SETTLE = 0.1
+SETTLE = 0.01
 
 
 class _Client(socketserver.BaseRequestHandler):
