@@ -40,7 +40,6 @@ import canopen
 from drivers.base import AxisState, Feedback
 from drivers.bus import brief
 from drivers.canopen_axis import CanopenAxis, TpdoSlot
-from drivers.cia402_pdo import variable
 from drivers.cia402_process import ProcessData
 from drivers.cia402_setup import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY, Cia402Setup
 from drivers.cia402_units import DriveUnits
@@ -73,13 +72,6 @@ _AXIS_STATE = {
     PowerState.QUICK_STOP_ACTIVE: AxisState.STOPPING,
     PowerState.FAULT_REACTION_ACTIVE: AxisState.STOPPING,
     PowerState.FAULT: AxisState.FAULT,
-}
-#: the target that a mode acts on as it stands once enabled, held at 0 before the enable
-_STILL_TARGET: dict[int, int] = {
-    Mode.PROFILE_VELOCITY: cia.TARGET_VELOCITY,
-    Mode.CSV: cia.TARGET_VELOCITY,
-    Mode.PROFILE_TORQUE: cia.TARGET_TORQUE,
-    Mode.CST: cia.TARGET_TORQUE,
 }
 _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
 _ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
@@ -278,20 +270,6 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         self._drive_to(PowerState.OPERATION_ENABLED, _TOWARDS_ENABLED.get, timeout)
         slot = self.data.slot_of(SW) if self.data else None
         self._enabled_stamp = slot.timestamp if slot else None
-
-    def _hold_still(self, mode: int) -> None:
-        """Before an enable in ``mode``: CSP's 0x607A is absolute (set to 0x6064, where the drive
-        stands); profile and cyclic velocity act on 0x60FF, profile and cyclic torque on 0x6071 as
-        they stand (set to 0); profile position and homing start only on a new set-point
-        (controlword bit 4, CiA 402-2), so nothing is written for them, nor for a mode the
-        toolkit does not know."""
-        if mode == Mode.CSP:  # 0x607A is absolute: enabled, the drive goes for it
-            self.sdo_write(cia.TARGET_POSITION, 0, int(self.sdo_read(cia.POSITION_ACTUAL)))
-            return
-        target = _STILL_TARGET.get(mode, 0)
-        var = variable(self.node.object_dictionary, (target, 0)) if target else None
-        if var is not None and var.writable:
-            self.sdo_write(target, 0, 0)
 
     def fault_reset(self, *, timeout: float = 1.0) -> None:
         """Rising edge of controlword bit 7 (transition 15)."""

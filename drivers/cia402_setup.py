@@ -4,7 +4,8 @@
 access): ``discover`` (0x1000, 0x1018, 0x6502 against the mode, the units of
 ``drivers.cia402_units``), ``set_mode`` (0x6060 written, never read; 0x6061 awaited),
 ``map_process_data`` (``drivers.cia402_mapping``), and ``configure_supervision`` (the drive's
-heartbeat consumer for the host, 0x6007, 0x1017, 0x60C2 / 0x1006). It writes no manufacturer
+heartbeat consumer for the host, 0x6007, 0x1017, 0x60C2 / 0x1006), and before each enable the
+target the mode acts on as it stands (``_hold_still``). It writes no manufacturer
 object and uses no manufacturer mode but on the toolkit's own drive (``toolkit_drive``, by
 0x1018), and only entries the EDS declares writable (``drivers.cia402_access.Setting``).
 """
@@ -55,6 +56,15 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+
+
+#: the target that a mode acts on as it stands once enabled, held at 0 before the enable
+_STILL_TARGET: dict[int, int] = {
+    Mode.PROFILE_VELOCITY: cia.TARGET_VELOCITY,
+    Mode.CSV: cia.TARGET_VELOCITY,
+    Mode.PROFILE_TORQUE: cia.TARGET_TORQUE,
+    Mode.CST: cia.TARGET_TORQUE,
+}
 
 
 class Cia402Setup(Cia402Mapping):
@@ -210,6 +220,20 @@ class Cia402Setup(Cia402Mapping):
         why = "the deadline of the commands [ms]"
         if self._setting(rpdo.comm, cia.PDO_COMM_EVENT_TIMER, ms, why):
             self._deadline_comm = rpdo.comm
+
+    def _hold_still(self, mode: int) -> None:
+        """Before an enable in ``mode``: CSP's 0x607A is absolute (set to 0x6064, where the drive
+        stands); profile and cyclic velocity act on 0x60FF, profile and cyclic torque on 0x6071 as
+        they stand (set to 0); profile position and homing start only on a new set-point
+        (controlword bit 4, CiA 402-2), so nothing is written for them, nor for a mode the
+        toolkit does not know."""
+        if mode == Mode.CSP:  # 0x607A is absolute: enabled, the drive goes for it
+            self.sdo_write(cia.TARGET_POSITION, 0, int(self.sdo_read(cia.POSITION_ACTUAL)))
+            return
+        target = _STILL_TARGET.get(mode, 0)
+        var = variable(self.node.object_dictionary, (target, 0)) if target else None
+        if var is not None and var.writable:
+            self.sdo_write(target, 0, 0)
 
     def _unwatch_commands(self) -> None:
         """Stopping on purpose: the drive's deadline on the commands is lifted (a warning if not)."""

@@ -12,6 +12,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+from drivers.cia402_access import Identity
 from drivers.cia402_units import DriveUnits
 
 __all__ = ["UNITS_HINT", "device_units", "status_lines"]
@@ -60,16 +61,13 @@ def device_units(units: DriveUnits) -> dict[str, str]:
 
 def status_lines(status: dict[str, Any], name_of: Callable[[int, int], str]) -> list[str]:
     """The status report (``DriveTool.status``); ``name_of(index, sub)`` an object's EDS name."""
-    ids = status["identity"]
-    vendor = status.get("vendor_name")
-    identity = " / ".join(
-        f"{k} {v}" + (f" ({vendor})" if k == "vendor" and vendor else "") for k, v in ids.items()
-    )
+    ids = {k: int(v, 16) for k, v in status["identity"].items()}
+    identity = Identity(**ids, vendor_name=status.get("vendor_name") or "").text()
     bits = ", ".join(status["statusword_bits"]) or "none"
     u = status["units"]
     rows = [
         ("node", str(status["node"])),
-        ("identity", identity or "no identity (0x1018 not readable)"),
+        ("identity", identity),
         ("state", f"{status['state']} (statusword {status['statusword']}: {bits})"),
         ("mode", f"{status['mode_name']} (0x6061 = {status['mode']})"),
         ("modes offered", status["modes_offered"]),
