@@ -18,7 +18,7 @@ from typing import Any
 import canopen
 from canopen.objectdictionary import ODVariable
 
-from drivers.bus import open_bus
+from drivers.bus import ReceiveWatch, open_bus
 from drivers.cia402_units import discover_units
 from drivers.maps import cia
 from drivers.maps.cia import Mode, PowerState, decode_statusword
@@ -43,6 +43,8 @@ class Watcher:
         bus = open_bus("socketcand", "can0", host="127.0.0.1", port=port)
         self.network = canopen.Network(bus)
         self.network.connect()
+        # the emulator killed under it (emulator-sigkill): logged once, not a dead receive thread
+        self.network.notifier.add_listener(ReceiveWatch())
         self.eds, self.node_id = eds, node_id
         self.tpdos = 0
         self.emcy: list[int] = []  #: EMCY error codes seen
