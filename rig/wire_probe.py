@@ -44,6 +44,7 @@ class Watcher:
         self.network = canopen.Network(bus)
         self.network.connect()
         # the emulator killed under it (emulator-sigkill): logged once, not a dead receive thread
+        assert self.network.notifier is not None  # connect() made it
         self.network.notifier.add_listener(ReceiveWatch())
         self.eds, self.node_id = eds, node_id
         self.tpdos = 0
