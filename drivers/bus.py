@@ -99,6 +99,7 @@ class _Socketcand(socketcand_client.SocketCanDaemonBus):
     def __init__(self, channel: str, host: str, port: int, *, timeout: float, **kwargs: Any) -> None:
         self._deadline = time.monotonic() + timeout
         self._awaited = "the TCP connection"
+        self._closed = False  #: the server closed the connection (``_recv_internal``)
         _opening.deadline = self._deadline
         try:
             super().__init__(channel, host, port, **kwargs)  # type: ignore[no-untyped-call]
@@ -135,9 +136,13 @@ class _Socketcand(socketcand_client.SocketCanDaemonBus):
         self._keep(got[len(msg) :])
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
-        """python-can's, but a connection the server closed is a CanError: python-can's reads
-        its end-of-file as no frame and selects again at once, a spin that at the real-time
-        priority of the receive thread (``rig.host.realtime``) starves the loop on its CPU."""
+        """python-can's, but once the server has closed the connection, no frame after waiting
+        ``timeout`` (said once): python-can's reads the end-of-file as no frame and selects again
+        at once, a spin that at the real-time priority of the receive thread (``rig.host.realtime``)
+        starves the loop on its CPU. The next send meets the closed link (the host's safe stop)."""
+        if self._closed:
+            time.sleep(1.0 if timeout is None else timeout)
+            return None, False
         if not getattr(self, "_SocketCanDaemonBus__message_buffer"):  # noqa: B009
             sock = self._socket
             ready, _, _ = select.select([sock], [], [], timeout)
@@ -150,7 +155,9 @@ class _Socketcand(socketcand_client.SocketCanDaemonBus):
             except OSError as exc:
                 raise can.CanError(f"Failed to receive: {exc}") from exc
             if not peek:
-                raise can.CanError("the socketcand server closed the connection")
+                self._closed = True
+                log.warning("%s: the socketcand server closed the connection", self.channel_info)
+                return None, False
             timeout = 0.0
         message: tuple[can.Message | None, bool] = super()._recv_internal(timeout)  # type: ignore[no-untyped-call]
         return message

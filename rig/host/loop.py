@@ -203,7 +203,10 @@ class HostLoop:
         except DeviceFault as exc:
             self.safe_stop(f"device fault: {exc}")
         except RigError as exc:
-            self.safe_stop(f"{type(exc).__name__}: {exc}")
+            if isinstance(exc.__cause__, (OSError, can.CanError)):  # a driver's send on a lost bus
+                self.safe_stop(f"the bus is lost: {exc}")
+            else:
+                self.safe_stop(f"{type(exc).__name__}: {exc}")
         except (OSError, can.CanError) as exc:  # a send on a bus that went away
             self.safe_stop(f"the bus is lost: {type(exc).__name__}: {brief(exc)}")
         except Exception as exc:

@@ -128,7 +128,7 @@ def test_a_lost_bus_is_a_safe_stop_not_a_traceback(tmp_path: pathlib.Path) -> No
         assert "Traceback" not in err, err[-3000:]
         summary = json.loads(out)
         reason = summary["safe_stop_reason"]  # the send or the receive that failed first
-        assert any(w in reason for w in ("Connection reset", "Broken pipe", "closed the connection")), summary
+        assert "Connection reset" in reason or "Broken pipe" in reason, summary
         assert "Traceback" not in reason
         assert summary["stop_confirmed"] is False
         run_dir = pathlib.Path(summary["run_dir"])
