@@ -8,11 +8,15 @@ with the drives' own cycles) and runs the nodes' timers (heartbeats, event TPDOs
 heartbeat consumer and RPDO deadlines). A SYNC then decides when feedback is latched, and
 locks the periods' phase to itself (``Shaft.sync``).
 
-An emulator that falls behind its clock (a machine too loaded to simulate the periods in
-time) does not simulate the backlog in one go under the lock its receive thread needs:
-each shaft advances at most the periods of ``max_lag`` [s] at once and skips the earlier
-ones (the plant holds still over them), counted in ``skipped`` and logged (at most once a
-second), so its heartbeats, timers and SDO answers stay on time.
+An emulator that falls behind (a machine too loaded to run it: its clock read nowhere for
+longer than ``max_lag`` [s], where its loop reads it every few ms) does not catch up: the
+time it did not run is not its world's time, as a device that was not running sees none
+pass. The world stands still over it (``stalled`` [s], logged at most once a second):
+nothing is simulated in one go under the lock its receive thread needs, and no timer of
+its devices fires for the stall (an RPDO deadline or a heartbeat consumer would otherwise
+trip on frames that were waiting in its socket all along), so its heartbeats, timers and
+SDO answers go on from where they were. Each shaft also advances at most ``2 max_lag`` of
+periods at once (``Shaft.catch_up``).
 """
 
 from __future__ import annotations
@@ -31,14 +35,16 @@ log = logging.getLogger(__name__)
 
 
 class WorldClock:
-    """See the module docstring; ``source`` [s] replaces time.monotonic (tests inject one)."""
+    """See the module docstring; ``source`` [s] replaces time.monotonic (tests inject one).
+    Every reading of ``now`` is under the devices' lock (the emulator's loop, its receive
+    path)."""
 
     def __init__(
         self,
         devices: Sequence[EmulatedNode],
         source: Callable[[], float] | None = None,
         *,
-        max_lag: float = 0.02,
+        max_lag: float = 0.01,
     ) -> None:
         if source is None:
             start = time.monotonic()
@@ -46,24 +52,36 @@ class WorldClock:
             def source() -> float:
                 return time.monotonic() - start
 
-        self.now = source
+        self._source = source
+        self.max_lag = max_lag
+        self.stalled = 0.0  #: [s] of the source's time the world stood still
+        self._read = source()
         self.devices = list(devices)
         shafts = [getattr(d, "shaft", None) for d in self.devices]
         self.shafts: list[Shaft] = list({id(s): s for s in shafts if s is not None}.values())
-        t = source()
+        t = self.now()
         for shaft in self.shafts:
-            shaft.clock = source
+            shaft.clock = self.now
             shaft.t = t  # the first period starts now
-            shaft.catch_up = max(1, math.ceil(max_lag / shaft.period - 1e-9))
-        self._reported = 0
+            shaft.catch_up = max(1, math.ceil(2.0 * max_lag / shaft.period - 1e-9))
+        self._reported = 0.0
         self._reported_at = -math.inf
         for d in self.devices:
-            d.clock_source = source
+            d.clock_source = self.now
             d.clock = t
+
+    def now(self) -> float:
+        """The world's time [s]: the source's, less the stalls (module docstring)."""
+        read = self._source()
+        gap = read - self._read
+        self._read = read
+        if gap > self.max_lag:
+            self.stalled += gap - self.max_lag
+        return read - self.stalled
 
     @property
     def skipped(self) -> int:
-        """Periods skipped behind the clock, over every shaft."""
+        """Periods skipped behind the clock by the shafts' own bound (``Shaft.catch_up``)."""
         return sum(shaft.skipped for shaft in self.shafts)
 
     def advance(self) -> float:
@@ -73,11 +91,11 @@ class WorldClock:
             shaft.advance_to(now)
         for d in self.devices:
             d.tick(now)
-        skipped = self.skipped
-        if skipped > self._reported and now - self._reported_at >= 1.0:
-            self._reported, self._reported_at = skipped, now
+        if self.stalled > self._reported and now - self._reported_at >= 1.0:
+            self._reported, self._reported_at = self.stalled, now
             log.warning(
-                "the emulator fell behind its clock: %d period(s) skipped so far (the plant held still)",
-                skipped,
+                "the emulator did not run for a while (a loaded machine): its world stood still for "
+                "%.0f ms so far",
+                self.stalled * 1e3,
             )
         return now
