@@ -13,11 +13,21 @@ import pathlib
 import pytest
 
 from drivers.errors import ConfigError
-from rig.config import BusConfig, load_config
+from rig.config import BusConfig, RigConfig, load_config
 from rig.host.session import Session
 from rig.process import spawn_emulator, stop_rig
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+
+
+def _config(out: pathlib.Path, time: str, port: int) -> RigConfig:
+    """The example at 1 ms in ``time``, over socketcand to ``port``."""
+    cfg = load_config(EXAMPLE)
+    return dataclasses.replace(
+        cfg,
+        run=dataclasses.replace(cfg.run, time=time, period=0.001, output=str(out)),  # type: ignore[arg-type]
+        bus=BusConfig(interface="socketcand", channel="can0", port=port),
+    )
 
 
 @pytest.mark.parametrize(
@@ -37,12 +47,7 @@ def test_a_time_mode_mismatch_is_refused_before_the_enable(
 ) -> None:
     proc, port = spawn_emulator("--preset", "dc-servo", *emulator)
     try:
-        cfg = load_config(EXAMPLE)
-        cfg = dataclasses.replace(
-            cfg,
-            run=dataclasses.replace(cfg.run, time=host, period=0.001, output=str(tmp_path)),  # type: ignore[arg-type]
-            bus=BusConfig(interface="socketcand", channel="can0", port=port),
-        )
+        cfg = _config(tmp_path, host, port)
         with Session(cfg, emulate=False, duration=0.1) as session:
             with pytest.raises(ConfigError) as refused:
                 session.start()
@@ -59,12 +64,7 @@ def test_a_time_mode_mismatch_is_refused_before_the_enable(
 def test_a_host_and_an_emulator_that_agree_are_not_refused(tmp_path: pathlib.Path, mode: str) -> None:
     proc, port = spawn_emulator("--preset", "dc-servo", "--time", mode)
     try:
-        cfg = load_config(EXAMPLE)
-        cfg = dataclasses.replace(
-            cfg,
-            run=dataclasses.replace(cfg.run, time=mode, period=0.001, output=str(tmp_path)),  # type: ignore[arg-type]
-            bus=BusConfig(interface="socketcand", channel="can0", port=port),
-        )
+        cfg = _config(tmp_path, mode, port)
         with Session(cfg, emulate=False, duration=0.05) as session:
             session.start()
             summary = session.run()
