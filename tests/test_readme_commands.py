@@ -511,7 +511,8 @@ INSTANCES: dict[str, tuple[str, Check]] = {
     ),
     "rig identify (--config FILE | --emulate PRESET|DEVICE | --from-log RUN_DIR) [--param NAME=VALUE ...] "
     "[--input voltage|torque] [--excitation prbs|steps|chirp|multisine|friction] [--duration S] [--f-min HZ] "
-    "[--f-max HZ] [--seed N] [--u0 U] [--amplitude U] [--clock S] [--json] [--plot FILE]": (
+    "[--f-max HZ] [--seed N] [--u0 U] [--amplitude U] [--clock S] [--loop-model FILE|RUN_DIR] "
+    "[--loop-bandwidth HZ] [--speed W] [--json] [--plot FILE]": (
         "rig identify --emulate dc-servo --json",
         _json_keys(r"`--json` prints (`a_m`, `b_m`, .*?`run_dir`)"),
     ),
@@ -649,6 +650,10 @@ NOT_RUN = {
     "rig bench stops --period 0.001 --load 2": "20 real-time runs of 10 s under two busy processes "
     "(minutes, and it loads the machine): the slow tier runs rig bench stops",
     "rig bench stops --period 0.0004 --load 2": "as rig bench stops --period 0.001 --load 2",
+    "rig identify --emulate epos4 --input torque": "tests/rig/test_identify_twins.py runs it on each CST twin",
+    "rig identify --emulate epos4 --input torque --excitation multisine --f-min 10 --amplitude 0.05 "
+    "--loop-model RUN_DIR": "needs the run directory of the command before it; "
+    "tests/rig/test_identify_closed_loop.py runs it, shorter, on epos4 and kollmorgen-s300",
 }
 
 #: spans that only name a command or an option in prose: their names are checked, nothing is run

@@ -45,8 +45,9 @@ def add_parser(sub: Any) -> None:
     ident.add_argument(
         "--excitation",
         choices=("prbs", "steps", "chirp", "multisine", "friction"),
-        help="prbs (default; with --input torque: friction) or steps for (3.5); chirp or multisine (periodic, 1/--f-min) also measure "
-        "the frequency response (with --from-log: compute it from the log); friction: steps and a slow "
+        help="prbs (default; with --input torque: friction) or steps for (3.5); chirp or multisine "
+        "(periodic, 1/--f-min) also measure the frequency response (with --from-log: compute it from the "
+        "log); friction: steps and a slow "
         "ramp of +-amplitude in both directions, for Coulomb and viscous friction and the inertia",
     )
     ident.add_argument(
@@ -70,6 +71,23 @@ def add_parser(sub: Any) -> None:
         "--u0", type=finite, help="operating point [V or N m] (one sign of speed; 3 V, 0.01 N m)"
     )
     ident.add_argument("--amplitude", type=finite, help="excitation amplitude, < u0 (2 V, 0.006 N m)")
+    ident.add_argument(
+        "--loop-model",
+        metavar="FILE|RUN_DIR",
+        help="chirp or multisine in closed loop (needed with --input torque): a weak PI speed loop holds "
+        "--speed and the excitation is added to its command; its gains from this identification's b_m "
+        "(identification.json, e.g. of rig identify --input torque); the response is G_ry/G_ru",
+    )
+    ident.add_argument(
+        "--loop-bandwidth",
+        type=finite,
+        help="the closed-loop experiment's speed loop crossover [Hz] (f_min/2)",
+    )
+    ident.add_argument(
+        "--speed",
+        type=finite,
+        help="the closed-loop experiment's speed [rad/s] (twice the excitation's swing)",
+    )
     ident.add_argument(
         "--clock", type=finite, help="PRBS bit time [s], a few times < 1/a_m (0.02; friction: 0.25)"
     )
@@ -99,9 +117,7 @@ def _frequency(args: argparse.Namespace) -> bool:
     from rig.identify.frequency import FREQUENCY_EXCITATIONS
 
     if args.f_min <= 0.0 or (args.f_max is not None and args.f_max <= args.f_min):
-        raise UsageError(
-            f"rig identify: need 0 < --f-min ({args.f_min:g}) < --f-max ({args.f_max}) [Hz]"
-        )
+        raise UsageError(f"rig identify: need 0 < --f-min ({args.f_min:g}) < --f-max ({args.f_max}) [Hz]")
     return args.excitation in FREQUENCY_EXCITATIONS
 
 
@@ -127,11 +143,10 @@ def _check(args: argparse.Namespace) -> None:
 def _experiment(args: argparse.Namespace) -> str | None:
     """Run the experiment; its run directory, or None after a safe stop."""
     from plant_emulator.presets import PRESETS, preset_period
-    from rig.host.emulation import emulated_period
     from rig.cli.progress import Progress
     from rig.config import load_config
     from rig.demo import demo_config
-    from rig.host.emulation import preset_params
+    from rig.host.emulation import emulated_period, preset_params
     from rig.identify.experiment import experiment_config, run_experiment
 
     _check(args)
@@ -140,7 +155,8 @@ def _experiment(args: argparse.Namespace) -> str | None:
         args.u0 = 0.01 if torque else 3.0
     if args.amplitude is None:
         args.amplitude = 0.006 if torque else 2.0
-    if args.excitation == "friction":
+    closed = _frequency(args) and (torque or args.loop_model is not None)
+    if args.excitation == "friction" or closed:
         if not 0.0 < args.amplitude:
             raise UsageError(f"rig identify: need --amplitude > 0, got {args.amplitude:g}")
     elif not 0.0 < args.amplitude < args.u0:
@@ -165,7 +181,8 @@ def _experiment(args: argparse.Namespace) -> str | None:
         raise UsageError(
             f"rig identify: argument --clock: {args.clock:g} s is shorter than the period T = {period:g} s"
         )
-    u, repeat, dither = _excitation(args, period)
+    loop = _loop_model(args) if closed else None
+    u, repeat, dither = _excitation(args, period, closed=closed)
     cfg = experiment_config(
         base,
         u,
@@ -176,6 +193,7 @@ def _experiment(args: argparse.Namespace) -> str | None:
         repeat=repeat,
         dither=dither,
         seed=args.seed,
+        loop=None if loop is None else _loop(args, loop, u[:repeat], period),
     )
     bar = Progress("rig identify: experiment", 0, "cycles", json=args.json)
     try:
@@ -219,10 +237,59 @@ def _twin(args: argparse.Namespace) -> Any:
     return rig_config(doc, f"rig identify --emulate {args.emulate}")
 
 
-def _excitation(args: argparse.Namespace, period: float) -> tuple[Any, int, float]:
-    """(u, its period in samples or 0, the dither) of the experiment at ``period`` [s]."""
-    from rig.identify import excitation
-    from rig.identify.estimate import IdentificationError
+def _loop_model(args: argparse.Namespace) -> tuple[float, float]:
+    """(a_m, b_m) of ``--loop-model`` for the closed-loop experiment's speed loop."""
+    from drivers.errors import ConfigError
+    from rig.identify.model_file import read_model
+
+    if args.loop_model is None:
+        raise UsageError(
+            f"rig identify: --input torque --excitation {args.excitation}: a torque on a plant with little "
+            "damping runs away in open loop; the response is measured under a weak speed loop whose gains "
+            "need J: give --loop-model RUN_DIR of a rig identify --input torque (the friction experiment)"
+        )
+    try:
+        model = read_model(args.loop_model, where="rig identify: --loop-model")
+    except ConfigError as exc:
+        raise UsageError(str(exc)) from None
+    if model.input != args.input or not model.b_m > 0.0:
+        raise UsageError(
+            f"rig identify: --loop-model {model.source}: b_m = {model.b_m:g} per unit of {model.input}: "
+            f"expected b_m > 0 with --input {args.input} (identify with --input {args.input} first)"
+        )
+    return model.a_m, model.b_m
+
+
+def _loop(args: argparse.Namespace, model: tuple[float, float], r: Any, period: float) -> dict[str, float]:
+    """The closed-loop experiment's speed loop ({"speed", "kp", "ki"}) on ``model`` = (a_m, b_m)
+    for one period ``r`` of the excitation (``rig.identify.closed_loop``)."""
+    from rig.identify.closed_loop import LOOP_FRACTION, SPEED_MARGIN, speed_loop, speed_swing
+    from rig.identify.experiment import SPEED_LIMIT
+
+    bandwidth = LOOP_FRACTION * args.f_min if args.loop_bandwidth is None else args.loop_bandwidth
+    if not 0.0 < bandwidth < args.f_min:
+        raise UsageError(
+            f"rig identify: argument --loop-bandwidth: {bandwidth:g} Hz: expected 0 < it < --f-min "
+            f"({args.f_min:g} Hz), a loop weak over the band measured"
+        )
+    a, b = model
+    kp, ki = speed_loop(b, bandwidth)
+    swing = speed_swing(r, period, a=max(a, 0.0), b=b, kp=kp, ki=ki)
+    speed = SPEED_MARGIN * swing if args.speed is None else args.speed
+    if not abs(speed) > swing or abs(speed) + swing > SPEED_LIMIT:
+        raise UsageError(
+            f"rig identify: the closed-loop experiment's speed {speed:g} rad/s: the excitation swings the "
+            f"speed by {swing:.3g} rad/s (--amplitude {args.amplitude:g} at --f-min {args.f_min:g} Hz), so "
+            f"the speed needs {swing:.3g} < |--speed| <= {SPEED_LIMIT - swing:.3g} rad/s; lower --amplitude "
+            "or raise --f-min"
+        )
+    return {"speed": speed, "kp": kp, "ki": ki}
+
+
+def _excitation(args: argparse.Namespace, period: float, *, closed: bool = False) -> tuple[Any, int, float]:
+    """(u, its period in samples or 0, the dither) of the experiment at ``period`` [s]; ``closed``:
+    the excitation r about 0 of the closed-loop experiment."""
+    from rig.identify.estimate import IdentificationError, excitation
     from rig.identify.frequency import period_samples, periodic_excitation
 
     if args.excitation == "friction":
@@ -238,7 +305,7 @@ def _excitation(args: argparse.Namespace, period: float) -> tuple[Any, int, floa
     try:
         u = periodic_excitation(
             args.excitation,
-            u0=args.u0,
+            u0=0.0 if closed else args.u0,
             amplitude=args.amplitude,
             dt=period,
             duration=args.duration,
@@ -307,15 +374,16 @@ def _print_response(doc: dict[str, Any]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from drivers.files import read_json
-    from rig.identify import IdentificationError
+    from rig.identify.estimate import IdentificationError
     from rig.identify.experiment import identify_from_log, run_controller
-    from rig.identify.model_file import FILE, checks, write_identification
+    from rig.identify.model_file import FILE, FIT_MIN, checks, write_identification
 
     try:
         run_dir = args.from_log or _experiment(args)
         if run_dir is None:
             return EXIT_STOPPED
-        result = identify_from_log(run_dir)
+        frequency = args.excitation is not None and _frequency(args)
+        result = identify_from_log(run_dir, f_min=args.f_min if frequency else None, f_max=args.f_max)
         response = _response(args, run_dir, result)
     except IdentificationError as exc:
         raise UsageError(f"rig identify: {exc}") from exc
@@ -346,7 +414,13 @@ def run(args: argparse.Namespace) -> int:
         value, err, (low, high) = getattr(r, name), getattr(r, f"{name}_stderr"), getattr(r, f"{name}_ci95")
         print(f"  {name} = {value:.5g} {unit}, stderr {err:.2g}, 95 %: {low:.5g} .. {high:.5g}")
     print(f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2")
-    print(f"  fit on held-out data {r.fit_percent:.1f} %")
+    floor = (
+        f" (residual {r.residual_rms:.3g} rad/s RMS, the encoder's quantisation noise "
+        f"{r.quantisation_rms:.3g})"
+        if r.fit_percent < FIT_MIN
+        else ""
+    )
+    print(f"  fit on held-out data {r.fit_percent:.1f} %{floor}")
     if r.friction is not None:
         _print_friction(r.friction)
     if response is not None:

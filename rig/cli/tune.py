@@ -35,9 +35,14 @@ def add_parser(sub: Any) -> None:
     tune.add_argument("--bandwidth", type=finite, help="pi-speed: the speed loop's crossover [Hz]")
     tune.add_argument("--speed-bandwidth", type=finite, help="cascade-position: speed loop [Hz]")
     tune.add_argument("--position-bandwidth", type=finite, help="cascade-position: position loop [Hz]")
-    tune.add_argument("--u-max", type=finite, help="the command's limit [V or N m] (cascade-position: needed)")
     tune.add_argument(
-        "--speed-max", type=finite, default=100.0, help="cascade-position: the speed reference's limit [rad/s]"
+        "--u-max", type=finite, help="the command's limit [V or N m] (cascade-position: needed)"
+    )
+    tune.add_argument(
+        "--speed-max",
+        type=finite,
+        default=100.0,
+        help="cascade-position: the speed reference's limit [rad/s]",
     )
     tune.add_argument("--dt", type=finite, help="sample period T [s] (default: the identification's)")
     add_json(tune, "print the design as one JSON object")
@@ -77,7 +82,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(doc))
         return code
-    print(f"{doc['law']} designed on a_m = {doc['a_m']:.5g} 1/s, b_m = {doc['b_m']:.5g} at T = {doc['dt']:g} s:")
+    print(
+        f"{doc['law']} designed on a_m = {doc['a_m']:.5g} 1/s, b_m = {doc['b_m']:.5g} at T = {doc['dt']:g} s:"
+    )
     for key, value in doc["params"].items():
         print(f"  {key} = {value}")
     band = doc["coherent_band"]
@@ -87,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
             continue
         where = f" (coherent band {band[0]:g} .. {band[1]:g} Hz)" if name == "measured" else ""
         print(f"  margins on the {name} plant{where}: {_margins(m)}")
-    print('  run it with [controller] kind = "%s" and design = "FILE" (the --json output)' % doc["law"])
+    print(f'  run it with [controller] kind = "{doc["law"]}" and design = "FILE" (the --json output)')
     return code
 
 

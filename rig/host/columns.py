@@ -30,6 +30,7 @@ INTERNALS = {
     "u_d": ("V", "the d-axis voltage command"),
     "u_q": ("V", "the q-axis voltage command"),
     "integral": ("", "the speed law's integral state"),
+    "excitation": ("", "the excitation r added to the command (rig identify's closed-loop experiment)"),
 }
 _FIELDS = {
     "position": ("rad", "the axis's position"),

@@ -39,7 +39,8 @@ def plot_bode(doc: dict[str, Any], path: str) -> Any:
     worst = (
         ""
         if doc["worst_db"] is None
-        else f"\nthe model's worst deviation where coherent: {doc['worst_db']:.2f} dB, {doc['worst_deg']:.1f} deg"
+        else f"\nthe model's worst deviation where coherent: {doc['worst_db']:.2f} dB, "
+        f"{doc['worst_deg']:.1f} deg"
     )
     mag.set_title(f"command to speed: {doc['excitation']}, {doc['averages']} averages{worst}")
     fig.tight_layout()

@@ -20,15 +20,22 @@ from drivers.files import read_json
 from rig.config import RigConfig
 from rig.host.rundir import read_run
 from rig.host.session import Session
-from rig.identify.estimate import IdentResult, estimate
+from rig.identify.estimate import IdentificationError, IdentResult, estimate
+from rig.identify.frequency import FrequencyResponse
 
 __all__ = [
+    "SPEED_LIMIT",
     "experiment_config",
     "frequency_from_log",
     "identify_from_log",
+    "measure_response",
     "run_controller",
     "run_experiment",
 ]
+
+
+#: [rad/s] the experiment's speed limit on the commanded axis
+SPEED_LIMIT = 1000.0
 
 
 def experiment_config(
@@ -42,6 +49,7 @@ def experiment_config(
     repeat: int = 0,
     dither: float = 0.0,
     seed: int = 0,
+    loop: dict[str, float] | None = None,
 ) -> RigConfig:
     """``cfg`` made into an identification run of ``u`` (one value per period, [V] or, with
     ``input="torque"``, [N m]): name ``identify``; the law ``replay`` on the axis ``cfg``'s law
@@ -50,14 +58,18 @@ def experiment_config(
     ``preset``/``params`` replace the emulator's; ``one_sign``: a change of the speed's sign
     stops it (false for the friction experiment). ``repeat`` > 0: ``u`` repeats with that
     period [samples], and the law holds one period (config.json stays small); ``dither`` > 0:
-    the law adds white noise of that standard deviation, seeded by ``seed``."""
+    the law adds white noise of that standard deviation, seeded by ``seed``. ``loop``
+    ({"speed", "kp", "ki"}): the closed-loop experiment instead, the law ``excited-speed``
+    (``rig.identify.closed_loop``) with ``u`` the excitation added to its command."""
     target = cfg.controller.commands[0]
     axes = tuple(
         dataclasses.replace(
             a,
             mode="cst" if input == "torque" else "voltage",
             sync_rpdo=True,
-            limits=dataclasses.replace(a.limits, position_min=-math.inf, position_max=math.inf, speed=1000.0),
+            limits=dataclasses.replace(
+                a.limits, position_min=-math.inf, position_max=math.inf, speed=SPEED_LIMIT
+            ),
         )
         if a.name == target
         else a
@@ -74,12 +86,12 @@ def experiment_config(
         axes=axes,
         controller=dataclasses.replace(
             cfg.controller,
-            kind="replay",
+            kind="replay" if loop is None else "excited-speed",
             reads=(target,),
             commands=(target,),
             params={
                 "u": [float(v) for v in (u[:repeat] if repeat else u)],
-                "one_sign": one_sign,
+                **({"one_sign": one_sign} if loop is None else dict(loop)),
                 **({"cycles": len(u)} if repeat else {}),
                 **({"dither": dither, "seed": seed} if dither else {}),
             },
@@ -100,17 +112,32 @@ def run_experiment(
     return summary
 
 
-def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult:
+def identify_from_log(
+    run_dir: str | Path, *, max_delay: int = 5, f_min: float | None = None, f_max: float | None = None
+) -> IdentResult:
     """Estimate from a recorded run: ``samples.csv`` (command, measurement) on its period's grid
     (the cycles a real-time run skipped filled in: ``read_run``); the input is the commanded
     axis's mode in its ``config.json`` (CST: a torque). Where the speed of an open-loop
     experiment changes sign, (3.5) is estimated with Coulomb friction
     (``rig.identify.friction``); else as (3.5) with an offset, and ``friction`` is estimated
-    beside it (closed-loop data) or says that these data cannot separate it (one sign)."""
+    beside it (closed-loop data) or says that these data cannot separate it (one sign). A
+    closed-loop experiment's (law ``excited-speed``) model is fitted to its frequency response
+    (``rig.identify.closed_loop.fit_model``) between ``f_min`` (default: its excitation's
+    period's) and ``f_max`` (default fs/5) [Hz]."""
     from rig.identify.friction import estimate_friction, identify_with_friction, one_sign_result, reverses
 
     run = read_run(run_dir)
     u, theta, source = run.command, run.measurement, run_input(run_dir)
+    if _loop(run_dir) is not None:
+        from rig.identify.closed_loop import fit_model
+
+        if f_min is None:
+            f_min = 1.0 / (run.period * len(_run_config(run_dir)["controller"]["params"]["u"]))  # type: ignore[index]
+        fr = measure_response(run_dir, a_m=math.nan, f_min=f_min, f_max=f_max)
+        result = fit_model(fr, u, theta, input=source, max_delay=max_delay)
+        return dataclasses.replace(
+            result, filled_samples=run.filled, friction=one_sign_result(source).as_dict()
+        )
     both_signs = reverses(theta)
     if both_signs and run_controller(run_dir) == "replay":
         result, friction = identify_with_friction(u, theta, run.period, max_delay=max_delay, input=source)
@@ -124,21 +151,30 @@ def identify_from_log(run_dir: str | Path, *, max_delay: int = 5) -> IdentResult
     return dataclasses.replace(result, filled_samples=run.filled, friction=friction.as_dict())
 
 
-def frequency_from_log(
-    run_dir: str | Path, result: IdentResult, excitation: str, *, f_min: float, f_max: float | None
-) -> dict[str, Any]:
-    """The ``frequency_response`` document of a recorded run (``rig.identify.frequency``), the
-    fitted model ``result``'s response drawn beside it; the start's transient (SETTLE / a_m)
-    dropped; with the response to the speed the read axis reported, where it was recorded on
-    the period's grid (no skipped cycle)."""
-    from rig.identify.frequency import SETTLE, frequency_response, response_document
+def measure_response(
+    run_dir: str | Path, *, a_m: float, f_min: float, f_max: float | None
+) -> FrequencyResponse:
+    """The frequency response of a recorded run (``rig.identify.frequency``); the start's
+    transient dropped (SETTLE / ``a_m`` [1/s], or the closed loop's slowest pole); with the
+    response to the speed the read axis reported, where it was recorded on the period's grid
+    (no skipped cycle). A closed-loop experiment's (law ``excited-speed``) is estimated from
+    its recorded excitation r."""
+    from rig.identify.closed_loop import settle_time
+    from rig.identify.frequency import SETTLE, frequency_response
 
     run = read_run(run_dir)
-    settle = SETTLE / result.a_m  # the transient of the start from rest
-    velocity = _reported_speed(run_dir) if run.filled == 0 else None
-    if velocity is not None and len(velocity) != len(run.command):
-        velocity = None
-    fr = frequency_response(
+    columns = _columns(run_dir) if run.filled == 0 else {}
+    velocity, r = columns.get("velocity"), columns.get("excitation")
+    loop = _loop(run_dir)
+    settle = SETTLE / a_m  # the transient of the start from rest
+    if loop is not None:
+        if r is None:
+            raise IdentificationError(
+                f"{run_dir}: a closed-loop experiment without its excitation recorded on the period's "
+                "grid (samples.csv's column excitation; a real-time run that skipped cycles)"
+            )
+        settle = settle_time(loop["kp"], loop["ki"], SETTLE)
+    return frequency_response(
         run.command,
         run.measurement,
         run.period,
@@ -146,20 +182,48 @@ def frequency_from_log(
         f_max=f_max,
         settle=settle,
         velocity=velocity,
+        r=r,
     )
+
+
+def frequency_from_log(
+    run_dir: str | Path, result: IdentResult, excitation: str, *, f_min: float, f_max: float | None
+) -> dict[str, Any]:
+    """The ``frequency_response`` document of a recorded run (``measure_response``), the fitted
+    model ``result``'s response drawn beside it."""
+    from rig.identify.frequency import response_document
+
+    fr = measure_response(run_dir, a_m=result.a_m, f_min=f_min, f_max=f_max)
     return response_document(fr, excitation, result.a_m, result.b_m, result.delay_samples)
 
 
-def _reported_speed(run_dir: str | Path) -> np.ndarray | None:
-    """The speed the read axis reported ("AXIS.velocity" in samples.csv), None where absent."""
+def _columns(run_dir: str | Path) -> dict[str, np.ndarray]:
+    """The speed the read axis reported ("AXIS.velocity" in samples.csv) as "velocity", and the
+    law's "excitation", where recorded."""
     from rig.host.rundir import read_samples
 
     config, columns = read_samples(run_dir)
+    out = {"excitation": columns["excitation"]} if "excitation" in columns else {}
     try:
         axis = config["controller"]["reads"][0]
     except (KeyError, IndexError, TypeError):
+        return out
+    if f"{axis}.velocity" in columns:
+        out["velocity"] = columns[f"{axis}.velocity"]
+    return out
+
+
+def _loop(run_dir: str | Path) -> dict[str, float] | None:
+    """The closed-loop experiment's gains ({"kp", "ki"}), None for another law."""
+    cfg: Any = _run_config(run_dir)
+    try:
+        controller = cfg["controller"]
+        if controller["kind"] != "excited-speed":
+            return None
+        params = controller["params"]
+        return {"kp": float(params["kp"]), "ki": float(params.get("ki", 0.0))}
+    except (KeyError, TypeError, ValueError):
         return None
-    return columns.get(f"{axis}.velocity")
 
 
 def _run_config(run_dir: str | Path) -> dict[str, Any] | None:

@@ -26,6 +26,19 @@ with the cross and auto spectral densities and the coherence from ``scipy.signal
 ``welch`` and ``coherence`` (csd(u, y) = E[conj(U) Y]). The position's response follows
 exactly: theta = w T / (1 - z^-1).
 
+Closed loop (``r`` given): where the plant cannot run open loop (a torque on a near
+integrator runs away), a weak speed loop holds the speed and the excitation r is added to its
+command u = C (w_ref - y) + r; u then depends on the measurement noise through C, and H1 is
+biased towards -1/C. With r as the instrument, uncorrelated with that noise,
+
+    G(f) = G_ry(f) / G_ru(f) = [G S] / [S]  (S = 1 / (1 + G C)),
+
+the indirect or joint input-output estimate (L. Ljung, "System Identification: Theory for the
+User", 2nd ed., Prentice Hall 1999, sec. 13.5; R. Pintelon, J. Schoukens, "System
+Identification: A Frequency Domain Approach", 2nd ed., Wiley-IEEE 2012, ch. 2, FRFs measured
+in feedback), with the same Welch segments; it needs neither C nor the loop's gains. A bin is
+coherent where both gamma^2 from r to u and from r to y are (``coherence`` is the lesser).
+
 Model (``model_speed_response``): (3.5) sampled with a zero-order hold, delayed by k
 samples, with the speed measured as above: from the ZOH solution used by
 ``simulate_positions`` (w_n+1 = alpha w_n + g b u_n, theta_n+1 = theta_n + g w_n + h b u_n,
@@ -155,10 +168,10 @@ def speed_to_position(f: np.ndarray, dt: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class FrequencyResponse:
-    """H1 estimate from u to the speed (and the position) with its coherence; SI, f in Hz."""
+    """The estimate from u to the speed (and the position) with its coherence; SI, f in Hz."""
 
     f: np.ndarray  #: [Hz]
-    speed: np.ndarray  #: H1 from u to w, complex [(rad/s) per unit of u]
+    speed: np.ndarray  #: from u to w, complex [(rad/s) per unit of u]
     coherence: np.ndarray  #: gamma^2 [-]
     dt: float  #: [s]
     averages: int  #: Welch segments
@@ -166,14 +179,19 @@ class FrequencyResponse:
     window: str  #: "boxcar" (periodic excitation, one period a segment) or "hann"
     f_min: float
     f_max: float
-    #: H1 from u to the speed the drive reported, and its coherence (None: not recorded)
+    #: from u to the speed the drive reported, and its coherence (None: not recorded)
     velocity: np.ndarray | None = None
     velocity_coherence: np.ndarray | None = None
+    #: "H1" (open loop) or "indirect" (closed loop: G_ry / G_ru, r the excitation)
+    method: str = "H1"
+    #: the indirect estimate's coherence from r to u (``coherence`` is the lesser of it and r to y)
+    input_coherence: np.ndarray | None = None
 
     @property
     def position(self) -> np.ndarray:
-        """H1 from u to theta [rad per unit of u]."""
-        return self.speed * speed_to_position(self.f, self.dt)
+        """From u to theta [rad per unit of u]."""
+        out: np.ndarray = self.speed * speed_to_position(self.f, self.dt)
+        return out
 
     @property
     def coherent(self) -> np.ndarray:
@@ -228,12 +246,14 @@ def frequency_response(
     f_max: float | None = None,
     settle: float = 0.0,
     velocity: np.ndarray | None = None,
+    r: np.ndarray | None = None,
 ) -> FrequencyResponse:
-    """H1 from the command u to the speed (backward differences of the position theta [rad])
-    between f_min and f_max [Hz] (default fs/5); Welch segments of 1/f_min (module doc). The
-    first whole periods covering ``settle`` [s] (at least one) are the start's transient and
+    """The response from the command u to the speed (backward differences of the position theta
+    [rad]) between f_min and f_max [Hz] (default fs/5); Welch segments of 1/f_min (module doc).
+    The first whole periods covering ``settle`` [s] (at least one) are the start's transient and
     are dropped, keeping at least two periods. ``velocity``: the speed the drive reported
-    [rad/s] per sample, whose response is estimated too."""
+    [rad/s] per sample, whose response is estimated too. ``r``: the excitation of a closed-loop
+    experiment, the instrument of the indirect estimate G_ry / G_ru (module doc); without it, H1."""
     import scipy.signal
 
     u = np.asarray(u, dtype=float)
@@ -245,32 +265,39 @@ def frequency_response(
             f"{len(u)} samples ({len(u) * dt:g} s) for a frequency response from {lo:g} Hz: record at "
             f"least three periods of 1/f_min ({3 * n * dt:g} s; the first is the start's transient)"
         )
-    periodic = _is_periodic(u, n)
+    x = u if r is None else np.asarray(r, dtype=float)  # what the spectra are taken against
+    periodic = _is_periodic(x, n)
     # the start from rest; w_k = (theta_k - theta_k-1)/T pairs with u_k
     drop = n * min(max(1, math.ceil(settle / (n * dt))), (len(u) - 1) // n - 2)
     w = np.diff(theta[drop - 1 :]) / dt
-    uu = u[drop:]
+    uu, xx = u[drop:], x[drop:]
     v = None if velocity is None else np.asarray(velocity, dtype=float)[drop:]
     window, overlap = ("boxcar", 0) if periodic else ("hann", n // 2)
     if periodic:  # whole periods only
         keep = (len(uu) // n) * n
-        uu, w = uu[:keep], w[:keep]
+        uu, xx, w = uu[:keep], xx[:keep], w[:keep]
         v = None if v is None else v[:keep]
     kw = {"fs": 1.0 / dt, "window": window, "nperseg": n, "noverlap": overlap, "detrend": "constant"}
-    f, g_uu = scipy.signal.welch(uu, **kw)
-    _, g_uy = scipy.signal.csd(uu, w, **kw)
+    f, g_xx = scipy.signal.welch(xx, **kw)
+    _, g_xu = scipy.signal.csd(xx, uu, **kw)
+    _, g_xy = scipy.signal.csd(xx, w, **kw)
+    g_v = None if v is None else scipy.signal.csd(xx, v, **kw)[1]
     with np.errstate(divide="ignore", invalid="ignore"):  # bins without power: nan, not kept
-        _, gamma2 = scipy.signal.coherence(uu, w, **kw)
-        if v is not None:
-            _, g_uv = scipy.signal.csd(uu, v, **kw)
-            _, gamma2_v = scipy.signal.coherence(uu, v, **kw)
-    band = (f >= lo - 1e-9) & (f <= hi + 1e-9) & (g_uu > 0.0)
+        gamma2 = scipy.signal.coherence(xx, w, **kw)[1]
+        gamma2_v = None if v is None else scipy.signal.coherence(xx, v, **kw)[1]
+        gamma2_u = None if r is None else scipy.signal.coherence(xx, uu, **kw)[1]
+    # H1 divides by the input's auto spectrum G_uu, the indirect estimate by G_ru
+    g_in = g_xx if r is None else g_xu
+    band = (f >= lo - 1e-9) & (f <= hi + 1e-9) & (g_xx > 0.0)
     if not band.any():
         raise IdentificationError(f"the input has no power between {lo:g} and {hi:g} Hz")
+    if gamma2_u is not None:  # a bin is as good as the worse of r -> u and r -> y
+        gamma2 = np.minimum(gamma2, gamma2_u)
+        gamma2_v = None if gamma2_v is None else np.minimum(gamma2_v, gamma2_u)
     averages = 1 + (len(uu) - n) // (n - overlap)
     return FrequencyResponse(
         f=f[band],
-        speed=g_uy[band] / g_uu[band],
+        speed=g_xy[band] / g_in[band],
         coherence=gamma2[band],
         dt=dt,
         averages=averages,
@@ -278,8 +305,10 @@ def frequency_response(
         window=window,
         f_min=lo,
         f_max=hi,
-        velocity=None if v is None else g_uv[band] / g_uu[band],
-        velocity_coherence=None if v is None else gamma2_v[band],
+        velocity=None if g_v is None else g_v[band] / g_in[band],
+        velocity_coherence=None if gamma2_v is None else gamma2_v[band],
+        method="H1" if r is None else "indirect",
+        input_coherence=None if gamma2_u is None else gamma2_u[band],
     )
 
 
@@ -306,6 +335,7 @@ def response_document(
     band = fr.coherent_band()
     return {
         "excitation": excitation,
+        "method": fr.method,
         "f_min": fr.f_min,
         "f_max": fr.f_max,
         "averages": fr.averages,
@@ -318,6 +348,7 @@ def response_document(
         "position_magnitude_db": _db(fr.position),
         "position_phase_deg": _deg(fr.position),
         "coherence": [float(v) for v in fr.coherence],
+        **({} if fr.input_coherence is None else {"input_coherence": [float(v) for v in fr.input_coherence]}),
         **(
             {}
             if fr.velocity is None or fr.velocity_coherence is None

@@ -34,7 +34,16 @@ from typing import Any
 
 import numpy as np
 
-from rig.identify.estimate import INPUTS, IdentificationError, IdentResult, _regressors, _shift, delay_scan
+from rig.identify.estimate import (
+    INPUTS,
+    IdentificationError,
+    IdentResult,
+    _regressors,
+    _shift,
+    delay_scan,
+    held_out_fit,
+    quantum,
+)
 
 __all__ = [
     "FrictionResult",
@@ -85,9 +94,9 @@ class FrictionResult:
             "viscous": self.a * j,
             "viscous_stderr": self.a * j * math.hypot(self.a_stderr / self.a, rel_b) if self.a else math.nan,
             "coulomb": None if self.c is None else self.c * j,
-            "coulomb_stderr": None if self.c is None or self.c_stderr is None else abs(self.c) * j * math.hypot(
-                self.c_stderr / self.c if self.c else math.inf, rel_b
-            ),
+            "coulomb_stderr": None
+            if self.c is None or self.c_stderr is None
+            else abs(self.c) * j * math.hypot(self.c_stderr / self.c if self.c else math.inf, rel_b),
             "load": -self.d * j,
         }
 
@@ -95,7 +104,9 @@ class FrictionResult:
         return {**asdict(self), **self.si()}
 
 
-def friction_excitation(*, amplitude: float, clock: float, dt: float, duration: float, seed: int = 0) -> np.ndarray:
+def friction_excitation(
+    *, amplitude: float, clock: float, dt: float, duration: float, seed: int = 0
+) -> np.ndarray:
     """Steps and slow ramps in both directions [unit of u]: a random binary signal of
     +-``amplitude`` held ``clock`` s per bit, on a triangle of +-``amplitude``/2 over the whole
     record (the slow ramps: the speed crosses zero at all speeds and accelerations)."""
@@ -128,7 +139,9 @@ def _slip(w: float, v: float, a: float, t: float) -> tuple[float, float]:
     return w_inf * t + (w - w_inf) * (1.0 - decay) / a, w_inf + (w - w_inf) * decay
 
 
-def _positions(bu: np.ndarray, a: float, dt: float, c: float, theta0: float, w0: float) -> np.ndarray:
+def _positions(  # noqa: PLR0917 - numba compiles it: positional arguments
+    bu: np.ndarray, a: float, dt: float, c: float, theta0: float, w0: float
+) -> np.ndarray:
     """The loop of ``_simulate`` in the subset of Python numba compiles (floats, arrays)."""
     out = np.empty(len(bu))
     theta, w = theta0, w0
@@ -192,17 +205,12 @@ def _simulate(p: np.ndarray, u: np.ndarray, dt: float, k: int) -> np.ndarray:
     return out
 
 
-def _start(u: np.ndarray, theta: np.ndarray, s: np.ndarray, dt: float, max_delay: int) -> tuple[int, np.ndarray]:
+def _start(
+    u: np.ndarray, theta: np.ndarray, s: np.ndarray, dt: float, max_delay: int
+) -> tuple[int, np.ndarray]:
     """Step 1: (delay, [w0, a, b, c, d]) by ``delay_scan`` with the column -int int s."""
     k, (w0, a, b, d, c) = delay_scan(u, theta, dt, max_delay, extra=-_regressors(theta, s, dt)[0][:, 2])
     return k, np.array([w0, a, b, c, d])
-
-
-def _quantum(theta: np.ndarray) -> float:
-    """The encoder's count [rad]: the smallest step of the position that is not 0."""
-    steps = np.abs(np.diff(theta))
-    steps = steps[steps > 1e-12]
-    return float(np.min(steps)) if len(steps) else 2.0 * math.pi / 4096
 
 
 def _fit(
@@ -211,7 +219,7 @@ def _fit(
     """(p, standard errors, covariance, delay, reversals, signs) of the output-error fit."""
     import scipy.optimize
 
-    s = speed_signs(theta, _quantum(theta))
+    s = speed_signs(theta, quantum(theta))
     moving = s[s != 0.0]
     reversals = int(np.count_nonzero(np.diff(moving))) if len(moving) else 0
     k0, (w0, a, b, c, d) = _start(u, theta, s, dt, max_delay)
@@ -271,12 +279,12 @@ def estimate_friction(
     if not reverses(theta):
         return one_sign_result(input)
     p, se, cov, k, reversals, _ = _fit(u, theta, dt, max_delay)
-    return _result(p, se, cov, k, reversals, input)
+    return _result(p, se, cov, k, reversals=reversals, input=input)
 
 
 def reverses(theta: np.ndarray) -> bool:
     """The speed (from the position, ``speed_signs``) changes sign in the record."""
-    s = speed_signs(theta, _quantum(theta))
+    s = speed_signs(theta, quantum(theta))
     moving = s[s != 0.0]
     return bool(len(moving) and np.any(np.diff(moving)))
 
@@ -289,7 +297,7 @@ def one_sign_result(input: str) -> FrictionResult:
 
 
 def _result(
-    p: np.ndarray, se: np.ndarray, cov: np.ndarray, k: int, reversals: int, input: str
+    p: np.ndarray, se: np.ndarray, cov: np.ndarray, k: int, *, reversals: int, input: str
 ) -> FrictionResult:
     a, b, c, d = (float(x) for x in p[:4])
     reason = _judge(c, se, cov, reversals)
@@ -313,7 +321,13 @@ def _result(
 
 
 def identify_with_friction(
-    u: np.ndarray, theta: np.ndarray, dt: float, *, max_delay: int = 5, holdout: float = 0.3, input: str = "voltage"
+    u: np.ndarray,
+    theta: np.ndarray,
+    dt: float,
+    *,
+    max_delay: int = 5,
+    holdout: float = 0.3,
+    input: str = "voltage",
 ) -> tuple[IdentResult, FrictionResult]:
     """(3.5) and the friction from data whose speed changes sign: the friction model fitted on
     the first 1 - ``holdout`` of the record, its a and b as a_m and b_m, d as the offset, the
@@ -322,12 +336,8 @@ def identify_with_friction(
     _check(u, theta, input)
     n_fit = int(len(u) * (1.0 - holdout))
     p, se, cov, k, reversals, _ = _fit(u[:n_fit], theta[:n_fit], dt, max_delay)
-    friction = _result(p, se, cov, k, reversals, input)
-    w_model = np.gradient(_simulate(p, u, dt, k), dt)
-    w_meas = np.gradient(theta, dt)
-    yv, yh = w_meas[n_fit + 1 : -1], w_model[n_fit + 1 : -1]
-    denom = float(np.linalg.norm(yv - yv.mean()))
-    fit_pct = 100.0 * (1.0 - float(np.linalg.norm(yv - yh)) / denom) if denom > 0 else math.nan
+    friction = _result(p, se, cov, k, reversals=reversals, input=input)
+    fit_pct, residual, floor = held_out_fit(theta, np.gradient(_simulate(p, u, dt, k), dt), n_fit, dt)
     a_m, b_m = friction.a, friction.b
     result = IdentResult(
         a_m=a_m,
@@ -342,5 +352,7 @@ def identify_with_friction(
         dt=dt,
         samples=len(u),
         input=input,
+        residual_rms=residual,
+        quantisation_rms=floor,
     )
     return result, friction

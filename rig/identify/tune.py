@@ -72,9 +72,10 @@ def _identification(path: str | Path) -> tuple[dict[str, Any], Path]:
 
 
 def _complex(doc: dict[str, Any], mag: str, phase: str) -> np.ndarray:
-    return 10.0 ** (np.asarray(doc[mag], dtype=float) / 20.0) * np.exp(
+    out: np.ndarray = 10.0 ** (np.asarray(doc[mag], dtype=float) / 20.0) * np.exp(
         1j * np.radians(np.asarray(doc[phase], dtype=float))
     )
+    return out
 
 
 def _design(req: TuneRequest, a: float, b: float, dt: float) -> tuple[dict[str, Any], Any]:
@@ -88,7 +89,7 @@ def _design(req: TuneRequest, a: float, b: float, dt: float) -> tuple[dict[str, 
         if not 0.0 <= req.h < 1.0 / dt:
             raise ValueError(f"--h {req.h:g}: (7.30d) needs 0 <= h < 1/T = {1.0 / dt:g} 1/s")
         design = design_dtsm(A=[[0.0, 1.0], [0.0, -a]], b=[0.0, -b], dt=dt, lam=req.lam)
-        params = {"a_m": a, "b_m": b, "lam": req.lam, "h": req.h}
+        params: dict[str, Any] = {"a_m": a, "b_m": b, "lam": req.lam, "h": req.h}
         if req.u_max is not None:
             params["u0"] = req.u_max
         return params, lambda f: tuning.servo_response(design, req.h, f)
@@ -170,9 +171,9 @@ def tune(source: str | Path, req: TuneRequest) -> dict[str, Any]:
     ws, wp = req.speed_bandwidth, req.position_bandwidth
     if req.law == "cascade-position" and ws is not None and wp is not None and ws < CASCADE_RATIO * wp:
         warnings.append(
-            f"the speed loop ({req.speed_bandwidth:g} Hz) is less than {CASCADE_RATIO:g} times the position "
-            f"loop ({req.position_bandwidth:g} Hz): the position loop sees more than the first-order speed loop "
-            "it was designed on"
+            f"the speed loop ({req.speed_bandwidth:g} Hz) is less than {CASCADE_RATIO:g} times the "
+            f"position loop ({req.position_bandwidth:g} Hz): the position loop sees more than the "
+            "first-order speed loop it was designed on"
         )
     fr = doc.get("frequency_response")
     measured, band, speed = None, None, None

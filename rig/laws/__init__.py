@@ -28,6 +28,7 @@ LAWS: dict[str, tuple[str, str]] = {
     "speed-reference": ("rig.laws.open_loop", "SpeedReferenceLaw"),
     "position-reference": ("rig.laws.open_loop", "PositionReferenceLaw"),
     "replay": ("rig.laws.open_loop", "ReplayLaw"),
+    "excited-speed": ("rig.laws.excited", "ExcitedSpeedLaw"),
 }
 
 

@@ -13,6 +13,7 @@ from drivers.errors import SafetyStop
 from rig.laws.base import Law, LawStep, Reference
 
 __all__ = [
+    "Excitation",
     "PositionReferenceLaw",
     "PositionReferenceParams",
     "ReplayLaw",
@@ -72,6 +73,37 @@ class ReplayParams:
     seed: int = 0
 
 
+class Excitation:
+    """The sequence a replay sends: ``u`` (one value per cycle, its last held), or ``u`` as one
+    period repeated over ``cycles``; plus a seeded white dither of standard deviation ``dither``
+    over the run. ``next()`` gives the next value."""
+
+    def __init__(self, u: tuple[float, ...], cycles: int, dither: float, seed: int) -> None:
+        if not u:
+            raise ValueError("replay needs an input sequence u")
+        if cycles < 0 or not dither >= 0.0:
+            raise ValueError(f"cycles = {cycles}, dither = {dither}: expected >= 0")
+        self._u, self._periodic, self._k = u, cycles > 0, 0
+        self.total = cycles or len(u)  #: the run's cycles
+        self._dither = (
+            np.random.default_rng(seed).normal(0.0, dither, self.total).tolist() if dither else None
+        )
+
+    @property
+    def count(self) -> int:
+        """Values given so far."""
+        return self._k
+
+    def next(self) -> float:
+        n = len(self._u)
+        k = self._k % n if self._periodic else min(self._k, n - 1)
+        self._k += 1
+        u = self._u[k]
+        if self._dither is not None and self._k <= len(self._dither):
+            u += self._dither[self._k - 1]
+        return u
+
+
 class ReplayLaw(Law):
     """Replays ``u``; reference = command, measurement = the read axis's position."""
 
@@ -81,27 +113,12 @@ class ReplayLaw(Law):
 
     def __init__(self, params: ReplayParams, *, period: float, reference: Reference) -> None:
         super().__init__(params, period=period, reference=reference)
-        if not params.u:
-            raise ValueError("replay needs an input sequence u")
-        if params.cycles < 0 or not params.dither >= 0.0:
-            raise ValueError(f"cycles = {params.cycles}, dither = {params.dither}: expected >= 0")
-        self._k = 0
-        total = params.cycles or len(params.u)
-        self._settled = total // 10
-        self._dither = (
-            np.random.default_rng(params.seed).normal(0.0, params.dither, total).tolist()
-            if params.dither
-            else None
-        )
+        self._excitation = Excitation(params.u, params.cycles, params.dither, params.seed)
+        self._settled = self._excitation.total // 10
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
-        n = len(self.params.u)
-        k = self._k % n if self.params.cycles else min(self._k, n - 1)
-        self._k += 1
         fb = feedback[0]
-        if self.params.one_sign and fb.velocity < 0.0 and self._k > self._settled + 1:
+        if self.params.one_sign and fb.velocity < 0.0 and self._excitation.count > self._settled:
             raise SafetyStop(f"speed {fb.velocity:.3g} rad/s changed sign: raise u0 above the friction")
-        u = self.params.u[k]
-        if self._dither is not None and self._k <= len(self._dither):
-            u += self._dither[self._k - 1]
+        u = self._excitation.next()
         return LawStep((u,), u, fb.position)

@@ -38,7 +38,9 @@ def test_pi_from_bandwidth_crosses_over_there_on_the_continuous_plant() -> None:
     f = np.geomspace(1.0, 1000.0, 5000)
     s = 2j * math.pi * f
     m = tuning.margins(f, (kp + ki / s) * b / (s + a))
-    assert m.crossover_hz == pytest.approx(fc, rel=1e-3) and m.phase_margin_deg == pytest.approx(90.0, abs=0.1)
+    assert m.crossover_hz == pytest.approx(fc, rel=1e-3) and m.phase_margin_deg == pytest.approx(
+        90.0, abs=0.1
+    )
     with pytest.raises(ValueError, match="bandwidth = -1"):
         tuning.pi_from_bandwidth(a=a, b=b, bandwidth=-1.0)
 
@@ -82,8 +84,13 @@ def test_the_linear_responses_are_the_laws_own() -> None:
 def test_the_cascade_s_linear_response_is_the_loops_own() -> None:
     dt, n = 4e-4, 400
     speed, position = tuning.cascade_from_bandwidths(
-        a=16.0, b=680.0, dt=dt, speed_bandwidth=2 * math.pi * 40, position_bandwidth=2 * math.pi * 5,
-        u_max=1e9, speed_max=1e9,
+        a=16.0,
+        b=680.0,
+        dt=dt,
+        speed_bandwidth=2 * math.pi * 40,
+        position_bandwidth=2 * math.pi * 5,
+        u_max=1e9,
+        speed_max=1e9,
     )
     expected = tuning.cascade_response(speed, position, 1.0, F)
     for j in (0, 1):
@@ -105,8 +112,13 @@ def test_the_cascade_has_its_margins_on_3_5_with_a_period_of_delay(
     from rig.identify.frequency import model_speed_response, model_velocity_response, speed_to_position
 
     speed, position = tuning.cascade_from_bandwidths(
-        a=a, b=b, dt=dt, speed_bandwidth=2 * math.pi * fs, position_bandwidth=2 * math.pi * fs / ratio,
-        u_max=10.0, speed_max=100.0,
+        a=a,
+        b=b,
+        dt=dt,
+        speed_bandwidth=2 * math.pi * fs,
+        position_bandwidth=2 * math.pi * fs / ratio,
+        u_max=10.0,
+        speed_max=100.0,
     )
     f = np.geomspace(0.05, 0.4999 / dt, 4000)
     c_theta, c_w = tuning.cascade_response(speed, position, 1.0, f)

@@ -57,9 +57,8 @@ def test_the_measured_response_is_the_exact_discrete_response_of_3_5(
     assert len(where) >= 10
     assert db.max() < 1.0 and deg.max() < 5.0, (where, db, deg)
     assert fr["worst_db"] < 1.0 and fr["worst_deg"] < 5.0  # the fitted model, as reported
-    assert (
-        np.asarray(fr["position_magnitude_db"])
-        == pytest.approx(np.asarray(fr["magnitude_db"]) + 20 * np.log10(np.abs(speed_to_position(f, T))))
+    assert np.asarray(fr["position_magnitude_db"]) == pytest.approx(
+        np.asarray(fr["magnitude_db"]) + 20 * np.log10(np.abs(speed_to_position(f, T)))
     )
     assert {"a_m", "b_m", "delay_samples", "offset", "fit_percent", "excitation", "bode_plot"} <= set(doc)
     assert doc["excitation"] == excitation and pathlib.Path(doc["bode_plot"]).stat().st_size > 1000
@@ -116,7 +115,9 @@ def test_a_record_too_short_for_f_min_is_refused() -> None:
     u = periodic_excitation("multisine", u0=3.0, amplitude=2.0, dt=T, duration=2.0, f_min=1.0)
     with pytest.raises(IdentificationError, match=r"record at least three periods of 1/f_min \(3 s"):
         frequency_response(u, np.cumsum(u), T, f_min=1.0)
-    with pytest.raises(IdentificationError, match=r"f_max = 2000.0 Hz: expected f_min \(1 Hz\) < f_max <= fs/2"):
+    with pytest.raises(
+        IdentificationError, match=r"f_max = 2000.0 Hz: expected f_min \(1 Hz\) < f_max <= fs/2"
+    ):
         frequency_response(u, np.cumsum(u), T, f_min=1.0, f_max=2000.0)
 
 

@@ -27,7 +27,7 @@ def _identify(capsys: pytest.CaptureFixture[str], *argv: str) -> dict:
         (23.5, 412.0, 3e-4, 0.005, 0.015, 2),
     ],
 )
-def test_inertia_and_friction_in_si_through_the_drive_in_cst(
+def test_inertia_and_friction_in_si_through_the_drive_in_cst(  # noqa: PLR0917 - pytest's parameters
     capsys: pytest.CaptureFixture[str],
     a_m: float,
     b_m: float,
@@ -40,7 +40,16 @@ def test_inertia_and_friction_in_si_through_the_drive_in_cst(
     friction: steps and a slow ramp in both directions through the CiA 402 driver give J, B and
     T_c within 2 % (the torque command in per mille of the rated torque, a 4096-count encoder)."""
     params = [f"plant.a_m={a_m}", f"plant.b_m={b_m}", f"friction={viscous}", f"coulomb={coulomb}"]
-    argv = ["--input", "torque", "--excitation", "friction", "--amplitude", str(amplitude), "--seed", str(seed)]
+    argv = [
+        "--input",
+        "torque",
+        "--excitation",
+        "friction",
+        "--amplitude",
+        str(amplitude),
+        "--seed",
+        str(seed),
+    ]
     doc = _identify(capsys, *argv, *(x for p in params for x in ("--param", p)))
     f = doc["friction"]
     j = DCMotorParams.from_am_bm(a_m=a_m, b_m=b_m, b=viscous).j  # B is part of a_m

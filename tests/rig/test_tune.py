@@ -58,7 +58,9 @@ def test_the_measured_margins_hold_what_the_model_leaves_out(
     lag = np.degrees(np.arctan(2 * np.pi * fc * TAU_E))
     assert measured["phase_margin_deg"] == pytest.approx(model["phase_margin_deg"] - lag, abs=1.5)
     assert measured["phase_margin_deg"] > 45.0 and "warning" not in err, err
-    assert measured["delay_margin"] == pytest.approx(np.radians(measured["phase_margin_deg"]) / (2 * np.pi * fc))
+    assert measured["delay_margin"] == pytest.approx(
+        np.radians(measured["phase_margin_deg"]) / (2 * np.pi * fc)
+    )
     assert doc["speed_feedback"] == "the drive's reported speed" and doc["delay"] == pytest.approx(0.4e-3)
 
 
@@ -80,8 +82,12 @@ def test_a_bandwidth_beyond_the_coherent_band_is_warned(
     doc, err = _tune(capsys, "position-servo", "--lam", "-15", "--from-identify", str(identified))
     assert "leaves the coherent band 10 .. " in err and "the model phase margin is" in err, err
     assert doc["margins"]["measured"]["phase_margin_deg"] is None
-    assert doc["margins"]["model"]["crossover_hz"] > 300.0 and doc["margins"]["model"]["phase_margin_deg"] < 10
-    assert main(["tune", "position-servo", "--lam", "-15", "--from-identify", str(identified), "--strict"]) == 5
+    assert (
+        doc["margins"]["model"]["crossover_hz"] > 300.0 and doc["margins"]["model"]["phase_margin_deg"] < 10
+    )
+    assert (
+        main(["tune", "position-servo", "--lam", "-15", "--from-identify", str(identified), "--strict"]) == 5
+    )
     capsys.readouterr()
 
 
@@ -138,7 +144,9 @@ design = "design.json"
 """
 
 
-def _run(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], kind: str, reference: str, design: dict) -> dict:
+def _run(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], kind: str, reference: str, design: dict
+) -> dict:
     (tmp_path / "design.json").write_text(json.dumps(design))
     config = tmp_path / "rig.toml"
     config.write_text(SPEED.format(out=tmp_path, kind=kind, reference=reference))
@@ -159,20 +167,34 @@ def test_the_designs_run_and_the_step_overshoot_follows_the_phase_margin(
     """The PI at 20 Hz (measured margin near 85 deg) steps to 5 rad/s without overshoot; at
     150 Hz (near 52 deg) it overshoots, as a loop of that margin does; the cascade follows."""
     step = 'kind = "step"\nvalue = 5.0\nstart = 0.1'  # small: the loop stays linear (6.9 V at 150 Hz)
-    gentle, _ = _tune(capsys, "pi-speed", "--bandwidth", "20", "--u-max", "48", "--from-identify", str(identified))
-    fast, _ = _tune(capsys, "pi-speed", "--bandwidth", "150", "--u-max", "48", "--from-identify", str(identified))
+    gentle, _ = _tune(
+        capsys, "pi-speed", "--bandwidth", "20", "--u-max", "48", "--from-identify", str(identified)
+    )
+    fast, _ = _tune(
+        capsys, "pi-speed", "--bandwidth", "150", "--u-max", "48", "--from-identify", str(identified)
+    )
     assert _overshoot(_run(tmp_path, capsys, "pi-speed", step, gentle)["run_dir"], 5.0) < 0.01
     assert 0.03 < _overshoot(_run(tmp_path, capsys, "pi-speed", step, fast)["run_dir"], 5.0) < 0.25
     cascade, _ = _tune(
-        capsys, "cascade-position", "--speed-bandwidth", "40", "--position-bandwidth", "5", "--u-max", "48",
-        "--from-identify", str(identified),
+        capsys,
+        "cascade-position",
+        "--speed-bandwidth",
+        "40",
+        "--position-bandwidth",
+        "5",
+        "--u-max",
+        "48",
+        "--from-identify",
+        str(identified),
     )
     move = 'kind = "smooth-move"\ndistance = 2.0\nduration = 0.3'
     summary = _run(tmp_path, capsys, "cascade-position", move, cascade)
     assert summary["rms_error"] < 0.05, summary
 
 
-def test_a_design_is_for_its_law(identified: pathlib.Path, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_design_is_for_its_law(
+    identified: pathlib.Path, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     design, _ = _tune(capsys, "pi-speed", "--bandwidth", "20", "--from-identify", str(identified))
     (tmp_path / "design.json").write_text(json.dumps(design))
     config = tmp_path / "rig.toml"
