@@ -116,8 +116,10 @@ def _frequency(args: argparse.Namespace) -> bool:
     """The excitation measures the frequency response (and the defaults that follow)."""
     from rig.identify.frequency import FREQUENCY_EXCITATIONS
 
-    if args.f_min <= 0.0 or (args.f_max is not None and args.f_max <= args.f_min):
-        raise UsageError(f"rig identify: need 0 < --f-min ({args.f_min:g}) < --f-max ({args.f_max}) [Hz]")
+    if args.f_min <= 0.0:
+        raise UsageError(f"rig identify: argument --f-min: must be > 0 Hz, got {args.f_min:g}")
+    if args.f_max is not None and args.f_max <= args.f_min:
+        raise UsageError(f"rig identify: need 0 < --f-min ({args.f_min:g}) < --f-max ({args.f_max:g}) [Hz]")
     return args.excitation in FREQUENCY_EXCITATIONS
 
 

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
+import json
+import pathlib
 from collections.abc import Callable
 
 import pytest
@@ -23,3 +27,19 @@ def opened(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     monkeypatch.setattr("rig.host.session.open_bus", refuse("bus"))
     monkeypatch.setattr("rig.host.session.Emulation", refuse("emulation"))
     return seen
+
+
+@pytest.fixture(scope="session")
+def identified(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    """The run directory of ``rig identify --emulate dc-servo --excitation multisine --f-min 10``,
+    made once per test process for the tests that read it (rig tune's, the armature pole's): the
+    emulated servo with its 0.1 ms armature pole and the synchronous RPDO's period of delay,
+    10 Hz to 500 Hz, 41 periods (36 averages); in a temporary folder, not the checkout."""
+    from rig.cli import main
+
+    buf = io.StringIO()
+    argv = ["identify", "--emulate", "dc-servo", "--excitation", "multisine", "--f-min", "10", "--json"]
+    with contextlib.chdir(tmp_path_factory.mktemp("identified")):  # runs/ there, not in the checkout
+        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(io.StringIO()):
+            assert main(argv) == 0
+        return pathlib.Path(json.loads(buf.getvalue())["run_dir"]).resolve()

@@ -176,3 +176,33 @@ def test_rows_whose_time_does_not_advance_by_periods_are_refused(tmp_path: pathl
     (run_dir / "samples.csv").write_text("\n".join(lines) + "\n")
     with pytest.raises(ConfigError, match=r"samples.csv: t does not increase by whole periods .* at line 6"):
         read_run(run_dir)
+
+
+def test_a_low_fit_is_warned_only_above_the_encoder_s_noise() -> None:
+    """A multisine of 3 +- 0.5 V from 10 Hz on (3.5) through a 4096-count encoder at 0.4 ms: the
+    speed varies little against one count per period, so the right model's held-out fit is low,
+    but its residual is the quantisation noise q / (T sqrt(24)): not warned. A model with b_m 20 %
+    off leaves more than 1.5 times that: warned, naming both figures."""
+    import dataclasses
+    import math
+
+    from rig.identify.estimate import held_out_fit, simulate_positions
+    from rig.identify.frequency import periodic_excitation
+    from rig.identify.model_file import checks
+
+    dt, q = 0.4e-3, 2 * math.pi / 4096
+    u = periodic_excitation("multisine", u0=3.0, amplitude=0.5, dt=dt, duration=2.0, f_min=10.0)
+    truth = np.array([16.0, 680.0, -30.0, 0.0, 0.0])
+    theta = np.floor(simulate_positions(truth, u, dt, 1)[0] / q) * q
+    r = estimate(u, theta, dt)
+    assert r.b_m == pytest.approx(680.0, rel=0.01) and r.fit_percent < 70.0
+    assert r.residual_rms < 1.5 * r.quantisation_rms and r.quantisation_rms == pytest.approx(
+        q / (dt * 24**0.5)
+    )
+    assert checks(r, "replay") == (False, [])
+    n_fit = int(len(u) * 0.7)
+    wrong = simulate_positions(truth * [1.0, 1.2, 1.0, 1.0, 1.0], u, dt, 1)[1]
+    fit, residual, floor = held_out_fit(theta, wrong, n_fit, dt)
+    assert residual > 1.5 * floor
+    _, warnings = checks(dataclasses.replace(r, fit_percent=fit, residual_rms=residual), "replay")
+    assert len(warnings) == 1 and "times the encoder's quantisation noise" in warnings[0], warnings

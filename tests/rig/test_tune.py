@@ -3,8 +3,6 @@ frequency response and on the model, the warnings, and the design run by [contro
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import pathlib
 
@@ -14,17 +12,6 @@ import pytest
 from drivers.errors import ConfigError
 from rig.cli import main
 from rig.config import load_config
-
-
-@pytest.fixture(scope="module")
-def identified() -> pathlib.Path:
-    """A multisine identification of the emulated servo (a_m = 16, b_m = 680, the 0.1 ms
-    armature pole, a one-period delay), 10 Hz to 500 Hz."""
-    buf = io.StringIO()
-    argv = ["identify", "--emulate", "dc-servo", "--excitation", "multisine", "--f-min", "10", "--json"]
-    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(io.StringIO()):
-        assert main(argv) == 0
-    return pathlib.Path(json.loads(buf.getvalue())["run_dir"]).resolve()
 
 
 def _tune(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[dict, str]:
@@ -62,6 +49,45 @@ def test_the_measured_margins_hold_what_the_model_leaves_out(
         np.radians(measured["phase_margin_deg"]) / (2 * np.pi * fc)
     )
     assert doc["speed_feedback"] == "the drive's reported speed" and doc["delay"] == pytest.approx(0.4e-3)
+
+
+@pytest.mark.parametrize("bandwidth", ["20", "150"])
+def test_the_measured_margins_are_python_control_s(
+    identified: pathlib.Path, capsys: pytest.CaptureFixture[str], bandwidth: str
+) -> None:
+    """The PI's loop formed here from identification.json's measured response to the drive's
+    reported speed (its coherent bins) and the law's C_w = k_p + k_i T / (z - 1) (controllers.pi:
+    u_k = k_p e_k + I_k, I_k+1 = I_k + k_i T e_k): python-control's stability_margins on it as
+    frequency response data give the phase margin and crossover rig tune reports."""
+    import control
+
+    doc, _ = _tune(capsys, "pi-speed", "--bandwidth", bandwidth, "--from-identify", str(identified))
+    fr = json.loads((identified / "identification.json").read_text())["frequency_response"]
+    f = np.asarray(fr["frequency"])
+    keep = np.asarray(fr["velocity_coherence"]) >= fr["coherence_min"]
+    plant = 10 ** (np.asarray(fr["velocity_magnitude_db"]) / 20) * np.exp(
+        1j * np.radians(fr["velocity_phase_deg"])
+    )
+    z = np.exp(2j * np.pi * f * doc["dt"])
+    loop = (doc["params"]["kp"] + doc["params"]["ki"] * doc["dt"] / (z - 1)) * plant
+    frd = control.frd(loop[keep], 2 * np.pi * f[keep])
+    _, pm, _, _, wc, _ = control.stability_margins(frd)
+    measured = doc["margins"]["measured"]
+    assert measured["phase_margin_deg"] == pytest.approx(pm, abs=1.0)
+    assert measured["crossover_hz"] == pytest.approx(wc / (2 * np.pi), rel=0.02)
+
+
+def _overshoot_of(phase_margin: float) -> float:
+    """The step overshoot of the standard second-order loop w_n^2 / (s (s + 2 zeta w_n)) with that
+    phase margin [deg]: PM = atan(2 zeta / sqrt(sqrt(1 + 4 zeta^4) - 2 zeta^2)) solved for zeta,
+    overshoot exp(-pi zeta / sqrt(1 - zeta^2)) (K. Ogata, Modern Control Engineering)."""
+    import scipy.optimize
+
+    def pm(zeta: float) -> float:
+        return float(np.degrees(np.arctan(2 * zeta / np.sqrt(np.sqrt(1 + 4 * zeta**4) - 2 * zeta**2))))
+
+    zeta = scipy.optimize.brentq(lambda x: pm(x) - phase_margin, 0.05, 0.99)
+    return float(np.exp(-np.pi * zeta / np.sqrt(1 - zeta**2)))
 
 
 def test_a_pi_s_model_margin_is_what_its_delay_leaves(
@@ -174,7 +200,10 @@ def test_the_designs_run_and_the_step_overshoot_follows_the_phase_margin(
         capsys, "pi-speed", "--bandwidth", "150", "--u-max", "48", "--from-identify", str(identified)
     )
     assert _overshoot(_run(tmp_path, capsys, "pi-speed", step, gentle)["run_dir"], 5.0) < 0.01
-    assert 0.03 < _overshoot(_run(tmp_path, capsys, "pi-speed", step, fast)["run_dir"], 5.0) < 0.25
+    predicted = _overshoot_of(fast["margins"]["measured"]["phase_margin_deg"])  # 16 % at 52 deg
+    assert _overshoot(_run(tmp_path, capsys, "pi-speed", step, fast)["run_dir"], 5.0) == pytest.approx(
+        predicted, abs=0.04
+    )
     cascade, _ = _tune(
         capsys,
         "cascade-position",
