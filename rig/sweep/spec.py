@@ -250,8 +250,8 @@ def spec_from_doc(doc: dict[str, Any], source: str) -> SweepSpec:
     base, scenario = s.get("base", ""), s.get("scenario", "")
     if bool(base) == bool(scenario):
         raise ConfigError(f"{w}: give base (a rig run configuration) or scenario (a paper's simulation), one")
-    if base and not Path(base).is_absolute():
-        base = str(Path(source).parent / base)
+    if base:  # absolute: a worker started in another folder finds it, and the files it names
+        base = str((Path(source).parent / base).resolve())
     method = s.get("method", "grid")
     if method not in METHODS:
         raise ConfigError(f"{w} method = {method!r}: one of {', '.join(METHODS)}")

@@ -313,3 +313,29 @@ def test_a_point_not_kept_syncs_nothing_and_a_kept_one_is_a_run_directory(
     assert run_point(job_of(kept, read_base(kept), make_points(kept)[0]))["error"] is None
     (run,) = (kept.directory / "runs").iterdir()
     assert run.name.startswith("point-00000-") and (run / "summary.json").is_file() and len(syncs) > 3
+
+
+def test_a_base_by_relative_path_is_found_by_a_worker_started_in_another_folder(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The spec named by a relative path, its base beside it naming its design file by a relative
+    path: a worker whose working folder is elsewhere (``dask worker`` started in another folder)
+    runs the point (failed before: 'rel/design.json: no such identification or design')."""
+    study = tmp_path / "rel"
+    study.mkdir()
+    args = ["design", "dtsm", "--a-m", "16", "--b-m", "680", "--dt", "4e-4", "--lam", "-15", "--error-space"]
+    assert main([*args, "--json"]) == 0
+    (study / "design.json").write_text(capsys.readouterr().out)
+    base = SERVO.read_text().replace("a_m = 16.0\nb_m = 680.0\nlam = -15.0\n", 'design = "design.json"\n')
+    assert 'design = "design.json"' in base
+    (study / "base.toml").write_text(base)
+    text = SERVO_SPEC.replace('base = "SERVO"', 'base = "base.toml"').replace("SERVO", str(SERVO))
+    (study / "spec.toml").write_text(text.replace("OUT", str(tmp_path / "sweeps")))
+    monkeypatch.chdir(tmp_path)
+    spec = load_spec("rel/spec.toml")
+    job = job_of(spec, read_base(spec), make_points(spec)[0])
+    elsewhere = tmp_path / "worker"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    row = run_point(job)
+    assert row["error"] is None and row["cycles"] == 250.0, row["error"]
