@@ -20,7 +20,7 @@ __all__ = ["LinearZOH", "unrolled_step3"]
 def _expm(m: bytes, size: int) -> np.ndarray:
     """expm of the ``size`` x ``size`` matrix with the bytes ``m``, once per matrix in a process:
     each run (and each point of a sweep) builds the same few models again."""
-    E = scipy.linalg.expm(np.frombuffer(m).reshape(size, size))
+    E: np.ndarray = scipy.linalg.expm(np.frombuffer(m).reshape(size, size))
     E.flags.writeable = False
     return E
 

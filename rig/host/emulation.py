@@ -73,7 +73,34 @@ def _physics(cfg: RigConfig) -> tuple[str, dict[str, Any], DeviceProfile | None]
     what = f"device {device}" if device else f"preset {name}"
     base = profile.params if profile else None
     params = preset_params(name, cfg.emulator.params, f"{src}: [emulator.params] of {what}", base=base)
-    return name, params, profile
+    return name, _at_run_period(cfg, name, params, base, what), profile
+
+
+def _at_run_period(
+    cfg: RigConfig, name: str, params: dict[str, Any], base: Mapping[str, Any] | None, what: str
+) -> dict[str, Any]:
+    """``params`` with the emulated devices' period set to ``[run] period`` where that is given
+    (the host's SYNC period is theirs: a plant stepped at its preset's 0.4 ms by each 1 ms SYNC
+    runs 2.5 times slow); ConfigError where [emulator.params] gives another period, or the
+    preset's period is not a parameter of its own (grid-converter's ratio/f_line)."""
+    period = cfg.run.period
+    if not period > 0.0:
+        return params
+    own = float(plant_preset_params(name, {**(base or {}), **params}).period)
+    if abs(own - period) <= 1e-9 * period:
+        return params
+    head = f"{cfg.source}: [run] period = {period:g} s, but the emulated devices run at {own:g} s"
+    if "period" not in field_types(PRESETS[name]):
+        raise ConfigError(
+            f"{head} (ratio/f_line of {what}): leave [run] period out and set the period through "
+            "[emulator.params] ratio and f_line"
+        )
+    if "period" in params:
+        raise ConfigError(
+            f"{head} ([emulator.params] period of {what}): give the period once, in [run] or in "
+            "[emulator.params]"
+        )
+    return {**params, "period": period}
 
 
 def emulated_period(cfg: RigConfig) -> float:
