@@ -206,8 +206,10 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
 
     # --- set-up ----------------------------------------------------------------------------------
     def setup(self) -> None:
-        """Identity, modes, units, PRE-OPERATIONAL, mode, process data, OPERATIONAL (still disabled)."""
+        """Identity, modes, units, the drive's own RPDO where its mapping is fixed (all read: a
+        refusal sends nothing), PRE-OPERATIONAL, mode, process data, OPERATIONAL (still disabled)."""
         self.discover()
+        self.refuse_foreign_rpdo()
         self.nmt("PRE-OPERATIONAL")
         self.set_mode(self.op_mode)
         self.map_process_data()

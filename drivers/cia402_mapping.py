@@ -185,7 +185,29 @@ class Cia402Mapping:
         """The mapping in force: the RPDO carrying the target, the TPDOs carrying what the host
         reads (made valid and synchronous where the device lets them)."""
         od = self.node.object_dictionary
-        rpdos = read_mapping(self.sdo_read, od, receive=True)
+        rpdo = self._target_rpdo(read_mapping(self.sdo_read, od, receive=True), rx_keys)
+        self._use(rpdo, ttype=1 if self.sync_rpdo else cia.PDO_EVENT)
+        tpdos = []
+        for pdo in read_mapping(self.sdo_read, od, receive=False):
+            if any(e.key in tx_keys for e in pdo.entries):
+                self._use(pdo, ttype=1)
+                tpdos.append(pdo)
+        return rpdo, tpdos
+
+    def refuse_foreign_rpdo(self) -> None:
+        """Before anything is written: where the drive's own mapping will be used (``pdo =
+        "device"``, or a mapping its EDS declares fixed), its RPDO that carries the target is read
+        (SDO uploads) and a manufacturer object in it refuses the drive (``_target_rpdo``)."""
+        rx_keys, needed, optional = self._wanted()
+        if self.pdo == "remap" and self._fixed_mapping(rx_keys, needed + optional) is None:
+            return
+        self._target_rpdo(read_mapping(self.sdo_read, self.node.object_dictionary, receive=True), rx_keys)
+
+    def _target_rpdo(self, rpdos: list[Pdo], rx_keys: list[Key]) -> Pdo:
+        """Of the drive's own RPDOs, the one that carries the target with the fewest manufacturer
+        objects beside it; ConfigError where none carries it, or where it carries one (on any drive
+        but the toolkit's the host would write that object every cycle)."""
+        od = self.node.object_dictionary
         carrying = [p for p in rpdos if all(k in [e.key for e in p.entries] for k in rx_keys[1:])]
         if not carrying:
             raise ConfigError(
@@ -205,13 +227,7 @@ class Cia402Mapping:
                 "is refused for cyclic use (rig drive still commissions it by SDO; map that RPDO without "
                 f"0x{e.index:04X} with the vendor's tool, then run)"
             )
-        self._use(rpdo, ttype=1 if self.sync_rpdo else cia.PDO_EVENT)
-        tpdos = []
-        for pdo in read_mapping(self.sdo_read, od, receive=False):
-            if any(e.key in tx_keys for e in pdo.entries):
-                self._use(pdo, ttype=1)
-                tpdos.append(pdo)
-        return rpdo, tpdos
+        return rpdo
 
     def _foreign_entries(self, pdo: Pdo) -> list[Any]:
         """The entries of ``pdo`` that are manufacturer objects of a drive not the toolkit's."""

@@ -96,13 +96,14 @@ def test_the_toolkit_s_own_drive_keeps_its_voltage_mode(drive: ForeignDrive) -> 
 @pytest.mark.parametrize("mode", ["csp", "csv"])
 def test_a_fixed_rpdo_holding_a_manufacturer_object_is_refused(drive: ForeignDrive, mode: str) -> None:
     """The drive's own RPDO carries 0x3805 beside the target: the host would send back what it
-    read, a write to a manufacturer object every cycle. Refused, naming it; the fixed mapping is
-    not even tried (its EDS declares it const)."""
+    read, a write to a manufacturer object every cycle. Refused, naming it, from what was read:
+    the fixed mapping is not even tried (its EDS declares it const), and neither 0x6060 nor an NMT
+    command is sent (nor, at the close, a controlword)."""
     axis = drive.axis(mode, units={"counts_per_rev": 4096})
     with pytest.raises(ConfigError, match=r"RPDO\d, which carries the mode's target, also carries 0x3805:00"):
         axis.setup()
-    assert drive.fake.manufacturer_writes() == [] and drive.fake.rpdos == []
-    assert not [w for w in drive.fake.downloads if 0x1400 <= w[0] < 0x1800]
+    axis.close()
+    assert drive.fake.downloads == [] and drive.fake.nmt_log == [] and drive.fake.rpdos == []
 
 
 @pytest.mark.parametrize("drive", ["ingenia-eve", "technosoft-ipos", "maxon-epos4"], indirect=True)
