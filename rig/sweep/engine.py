@@ -67,6 +67,59 @@ def _quiet_on_ctrl_c(start: Callable[[], Any]) -> Any:
         signal.signal(signal.SIGINT, previous)
 
 
+#: [s] the wait for a connection to the scheduler at --scheduler (Dask's ``timeout``), and then
+#: for its handshake
+CONNECT_TIMEOUT = 10.0
+HANDSHAKE = 5.0
+
+
+def _scheduler_client(address: str, seconds: float) -> Any:
+    """A Client of the scheduler at ``address``; ConfigError, one line, within about ``seconds``
+    where nothing there speaks Dask as a scheduler (``seconds`` for the connection, ``HANDSHAKE``
+    more for the handshake). Dask's own connect timeout covers the TCP
+    connect, not the handshake after it (distributed pull request 7698): a port held by another
+    server (the dashboard's 8787, an HTTP or SSH server) would hang the Client or make it read
+    that server's bytes as a frame length; so Dask's ``connect`` is tried first, its handshake
+    bounded, and the Client then made (a worker's address is refused by it)."""
+    import asyncio
+
+    from dask.distributed import Client
+    from distributed.comm.core import connect
+    from distributed.security import Security
+
+    async def handshake() -> None:
+        args = Security().get_connection_args("client")  # type: ignore[no-untyped-call]
+        dialled = connect(address, timeout=seconds, **args)  # type: ignore[no-untyped-call]
+        comm = await asyncio.wait_for(dialled, seconds + HANDSHAKE)
+        await comm.close()
+
+    hint = (
+        "give the address 'dask scheduler' prints (tcp://HOST:8786 by default; 8787 is its dashboard), "
+        "or start one with 'dask scheduler' and workers with 'dask worker ADDRESS --nthreads 1'"
+    )
+    try:
+        asyncio.run(handshake())
+    except (TimeoutError, asyncio.TimeoutError):
+        raise ConfigError(
+            f"rig sweep: --scheduler {address}: something accepts connections there but does not answer "
+            f"as Dask does (no handshake in {HANDSHAKE:g} s); {hint}"
+        ) from None
+    except OSError as exc:
+        raise ConfigError(
+            f"rig sweep: --scheduler {address}: no Dask scheduler answers there ({exc}); {hint}"
+        ) from None
+    except Exception as exc:  # a malformed address, or a server that is not Dask's
+        raise ConfigError(
+            f"rig sweep: --scheduler {address}: not a Dask scheduler ({type(exc).__name__}: {exc}); {hint}"
+        ) from None
+    try:
+        return Client(address, timeout=f"{seconds}s")  # type: ignore[no-untyped-call]
+    except Exception as exc:  # Dask's, not its scheduler's: a worker's or a nanny's address
+        raise ConfigError(
+            f"rig sweep: --scheduler {address}: not a Dask scheduler ({type(exc).__name__}: {exc}); {hint}"
+        ) from None
+
+
 def open_client(
     workers: int | None = None, scheduler: str | None = None, *, quiet: bool = True
 ) -> tuple[Any, dict[str, Any]]:
@@ -79,18 +132,12 @@ def open_client(
         logging.getLogger("distributed").setLevel(logging.WARNING)
 
     if scheduler:
-        try:
-            client = Client(scheduler, timeout="10s")
-        except OSError as exc:
-            raise ConfigError(
-                f"rig sweep: --scheduler {scheduler}: no Dask scheduler answers there ({exc}); start one "
-                "with 'dask scheduler' and workers with 'dask worker ADDRESS --nthreads 1'"
-            ) from None
-        engine = {"kind": "scheduler", "address": scheduler}
+        client = _scheduler_client(scheduler, CONNECT_TIMEOUT)
+        engine: dict[str, Any] = {"kind": "scheduler", "address": scheduler}
     else:
         n = workers or cores()
         cluster = _quiet_on_ctrl_c(
-            lambda: LocalCluster(
+            lambda: LocalCluster(  # type: ignore[no-untyped-call]
                 n_workers=n,
                 threads_per_worker=1,
                 processes=True,
@@ -98,12 +145,12 @@ def open_client(
                 silence_logs=logging.ERROR,
             )
         )
-        client = Client(cluster)
+        client = Client(cluster)  # type: ignore[no-untyped-call]
         engine = {"kind": "local", "address": cluster.scheduler_address}
-    import dask
+    from importlib.metadata import version
 
     client.run(_warm)
-    engine |= {"workers": len(client.scheduler_info()["workers"]), "dask": dask.__version__}
+    engine |= {"workers": len(client.scheduler_info()["workers"]), "dask": version("dask")}
     return client, engine
 
 
@@ -209,7 +256,7 @@ def run_sweep(
     todo = _pending(spec, points, kept)
     spec.directory.mkdir(parents=True, exist_ok=True)
     results = Results(spec.directory, kept, every=every)
-    record = {
+    record: dict[str, Any] = {
         "spec": spec.as_dict(),
         "base": base_doc,
         "engine": engine,
@@ -232,7 +279,7 @@ def run_sweep(
     }
     interrupted = False
     try:
-        for future in as_completed(list(futures)):
+        for future in as_completed(list(futures)):  # type: ignore[no-untyped-call]
             results.add(_row(future, futures[future]))
             if on_row is not None:
                 on_row(results, len(points))

@@ -339,3 +339,52 @@ def test_a_base_by_relative_path_is_found_by_a_worker_started_in_another_folder(
     monkeypatch.chdir(elsewhere)
     row = run_point(job)
     assert row["error"] is None and row["cycles"] == 250.0, row["error"]
+
+
+@pytest.mark.parametrize("server", ["silent", "http", "none", "malformed"])
+def test_a_scheduler_address_where_no_dask_scheduler_answers_is_one_line(
+    tmp_path: pathlib.Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    server: str,
+) -> None:
+    """--scheduler at a port that accepts and says nothing (Dask's connect timeout does not cover
+    its handshake: the Client waited for ever), at an HTTP server (its bytes read as a frame
+    length: MemoryError), at a closed port, or a malformed address (ValueError): one line,
+    exit code 2, within the connection's and the handshake's bounds."""
+    import socket
+    import threading
+
+    from rig.sweep import engine
+
+    monkeypatch.setattr(engine, "CONNECT_TIMEOUT", 1.0)
+    monkeypatch.setattr(engine, "HANDSHAKE", 1.0)
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    port = listener.getsockname()[1]
+    if server == "none":
+        listener.close()
+    else:
+        listener.listen(4)  # the kernel completes each connection; "silent" never accepts
+    accepted: list[socket.socket] = []
+    if server == "http":
+
+        def answer() -> None:
+            conn, _ = listener.accept()
+            accepted.append(conn)
+            conn.sendall(b"HTTP/1.0 426 Upgrade Required\r\nserver: keryx\r\n\r\n")
+
+        thread = threading.Thread(target=answer, daemon=True)
+        thread.start()
+    address = "nonsense" if server == "malformed" else f"tcp://127.0.0.1:{port}"
+    try:
+        assert main(["sweep", str(_spec(tmp_path, DISMC)), "--scheduler", address]) == 2
+    finally:
+        if server == "http":
+            thread.join()
+        for conn in accepted:
+            conn.close()
+        listener.close()
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and f"--scheduler {address}: " in err, err
+    assert "'dask scheduler'" in err and not (tmp_path / "sweeps").exists()

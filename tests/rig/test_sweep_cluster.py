@@ -73,6 +73,17 @@ def test_a_killed_worker_costs_only_its_points_and_each_point_is_one_row(tmp_pat
                 '[parameters]\n"emulator.params.b_m" = '
                 '{ from = 340.0, to = 1360.0, num = 8, scale = "log" }\n'
             )
+            w1 = next(a for a, w in watch.scheduler_info()["workers"].items() if w["name"] == "w1")
+            wrong = subprocess.run(  # a worker's address for the scheduler's: one line (was a traceback)
+                [sys.executable, "-m", "rig.cli", "sweep", str(spec), "--scheduler", w1],
+                capture_output=True,
+                text=True,
+                cwd=tmp_path,
+                timeout=120,
+                check=False,
+            )
+            assert wrong.returncode == 2 and len(wrong.stderr.splitlines()) == 1, wrong.stderr
+            assert f"--scheduler {w1}: not a Dask scheduler" in wrong.stderr
             sweep = subprocess.Popen(
                 [sys.executable, "-m", "rig.cli", "sweep", str(spec), "--scheduler", address, "--json"],
                 stdout=subprocess.PIPE,
@@ -80,7 +91,6 @@ def test_a_killed_worker_costs_only_its_points_and_each_point_is_one_row(tmp_pat
                 text=True,
                 cwd=tmp_path,
             )
-            w1 = next(a for a, w in watch.scheduler_info()["workers"].items() if w["name"] == "w1")
             deadline = time.monotonic() + 300
             while not watch.processing().get(w1) and sweep.poll() is None and time.monotonic() < deadline:
                 time.sleep(0.02)
