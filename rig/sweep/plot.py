@@ -6,7 +6,11 @@
 - two numeric parameters on a grid: a heatmap (the mean over repeats and any other parameter);
   sampled (random, lhs): a scatter coloured by the metric.
 
-An axis whose values span more than two decades is logarithmic. Axes carry units: a parameter's
+A point that failed (its row has an error: a safe stop, a time-out) has the figures of a run cut
+short: it is left out of the lines and the cells and drawn as a red x. A true/false metric
+(stop_confirmed) is 1/0. A parameter's axis is logarithmic where its scale is, or where its
+values (a list) span a decade or more; a metric's where its values span more than two decades.
+Axes carry units: a parameter's
 ``unit`` in the spec, else ``UNITS`` by its last name; a rig
 run's error and command metrics are in the base's units (the summary's error_unit and
 command_unit, kept in sweep.json). Matplotlib's Figure, without pyplot.
@@ -22,7 +26,7 @@ from typing import Any
 
 from rig.sweep.spec import Parameter, SweepSpec
 
-__all__ = ["UNITS", "plot_results"]
+__all__ = ["UNITS", "figure", "plot_results"]
 
 #: units of the parameters and metrics sweeps name most, by their last dotted part
 UNITS = {
@@ -66,7 +70,20 @@ def _label(name: str, units: dict[str, str]) -> str:
 
 
 def _number(v: Any) -> float:
-    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan
+    """A cell as a number: true/false as 1/0, anything else not a number as NaN."""
+    return float(v) if isinstance(v, (int, float)) else math.nan
+
+
+def _failed(row: dict[str, Any]) -> bool:
+    return row.get("error") is not None
+
+
+def _log_axis(p: Parameter) -> bool:
+    """A parameter's axis is logarithmic: its scale, or a list of values > 0 over a decade or more."""
+    if p.scale == "log":
+        return True
+    values = [_number(v) for v in p.values]
+    return bool(values) and _spans_decades(values, 1.0, strict=False)
 
 
 def _units(spec: SweepSpec, rows: list[dict[str, Any]]) -> dict[str, str]:
@@ -81,36 +98,44 @@ def _units(spec: SweepSpec, rows: list[dict[str, Any]]) -> dict[str, str]:
         for m in ("rms_error", "max_error"):
             units.setdefault(m, error or "")
         units.setdefault("chattering_amplitude", command or "")
+    for m in spec.metrics:
+        if any(isinstance(r.get(m), bool) for r in rows):
+            units.setdefault(m, "1 = true, 0 = false")
     return {k: v for k, v in units.items() if v}
 
 
 def plot_results(spec: SweepSpec, rows: list[dict[str, Any]], directory: str) -> list[Path]:
     """One PNG per metric in ``directory`` (made if missing); their paths."""
-    from matplotlib.figure import Figure
-
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for metric in spec.metrics:
+        path = out / f"{spec.name}-{metric.replace('.', '_')}.png"
+        figure(spec, rows, metric).savefig(path)
+        paths.append(path)
+    return paths
+
+
+def figure(spec: SweepSpec, rows: list[dict[str, Any]], metric: str) -> Any:
+    """The matplotlib Figure of ``metric`` over the varied parameters (see the module docstring)."""
+    from matplotlib.figure import Figure
+
     units = _units(spec, rows)
     lists = [
         p for p in spec.parameters if p.values and not all(isinstance(v, (int, float)) for v in p.values)
     ]
     numeric = [p for p in spec.parameters if p not in lists]
-    paths = []
-    for metric in spec.metrics:
-        fig = Figure(figsize=(7, 5))
-        ax = fig.subplots()
-        if len(numeric) >= 2 and not lists:
-            _heat(fig, ax, rows, numeric[0], numeric[1], metric, units, spec.method == "grid")
-        else:
-            x = numeric[0] if numeric else spec.parameters[0]
-            group = lists[0] if lists and lists[0] is not x else None
-            _lines(ax, rows, x, group, metric, units)
-        ax.set_title(f"{spec.name}: {metric}")
-        fig.tight_layout()
-        path = out / f"{spec.name}-{metric.replace('.', '_')}.png"
-        fig.savefig(path)
-        paths.append(path)
-    return paths
+    fig = Figure(figsize=(7, 5))
+    ax = fig.subplots()
+    if len(numeric) >= 2 and not lists:
+        _heat(fig, ax, rows, numeric[0], numeric[1], metric, units, spec.method == "grid")
+    else:
+        x = numeric[0] if numeric else spec.parameters[0]
+        group = lists[0] if lists and lists[0] is not x else None
+        _lines(ax, rows, x, group, metric, units)
+    ax.set_title(f"{spec.name}: {metric}")
+    fig.tight_layout()
+    return fig
 
 
 def _lines(  # noqa: PLR0917 - one figure's parts
@@ -123,7 +148,8 @@ def _lines(  # noqa: PLR0917 - one figure's parts
 ) -> None:
     by: dict[Any, dict[float, list[float]]] = defaultdict(lambda: defaultdict(list))
     for r in rows:
-        by[r.get(group.name) if group else None][_number(r.get(x.name))].append(_number(r.get(metric)))
+        if not _failed(r):
+            by[r.get(group.name) if group else None][_number(r.get(x.name))].append(_number(r.get(metric)))
     for key, points in by.items():
         xs = sorted(points)
         means = [sum(points[v]) / len(points[v]) for v in xs]
@@ -131,14 +157,18 @@ def _lines(  # noqa: PLR0917 - one figure's parts
         if any(len(points[v]) > 1 for v in xs):
             every = [(v, y) for v in xs for y in points[v]]
             ax.plot([v for v, _ in every], [y for _, y in every], ".", color=line.get_color(), alpha=0.4)
-    if x.scale == "log":
+    failed = [(_number(r.get(x.name)), _number(r.get(metric))) for r in rows if _failed(r)]
+    if failed:
+        ys = [y if math.isfinite(y) else 0.0 for _, y in failed]
+        ax.plot([v for v, _ in failed], ys, "x", color="red", label="failed (its error in the table)")
+    if _log_axis(x):
         ax.set_xscale("log")
     if _spans_decades([y for points in by.values() for ys in points.values() for y in ys]):
         ax.set_yscale("log")
     ax.set_xlabel(_label(x.name, units))
     ax.set_ylabel(_label(metric, units))
     ax.grid(True, which="both", alpha=0.4)
-    if group is not None or len(by) > 1:
+    if group is not None or len(by) > 1 or failed:
         ax.legend(fontsize="small")
 
 
@@ -156,27 +186,39 @@ def _heat(  # noqa: PLR0917 - one figure's parts
         xs, ys = sorted({_number(v) for v in x.grid()}), sorted({_number(v) for v in y.grid()})
         cells: dict[tuple[float, float], list[float]] = defaultdict(list)
         for r in rows:
-            cells[(_number(r.get(x.name)), _number(r.get(y.name)))].append(_number(r.get(metric)))
+            if not _failed(r):
+                cells[(_number(r.get(x.name)), _number(r.get(y.name)))].append(_number(r.get(metric)))
         z = [[_mean(cells.get((a, b), [])) for a in xs] for b in ys]
         norm = _norm([v for row in z for v in row])
-        mesh = ax.pcolormesh(_edges(xs, x.scale), _edges(ys, y.scale), z, shading="flat", norm=norm)
+        edges = _edges(xs, _log_axis(x)), _edges(ys, _log_axis(y))
+        mesh = ax.pcolormesh(*edges, z, shading="flat", norm=norm)
     else:
-        values = [_number(r.get(metric)) for r in rows]
-        xy = [_number(r.get(x.name)) for r in rows], [_number(r.get(y.name)) for r in rows]
+        done = [r for r in rows if not _failed(r)]
+        values = [_number(r.get(metric)) for r in done]
+        xy = [_number(r.get(x.name)) for r in done], [_number(r.get(y.name)) for r in done]
+        ax.scatter(*xy, facecolors="none", edgecolors="grey")  # where the metric is NaN: the point still
         mesh = ax.scatter(*xy, c=values, norm=_norm(values))
+    failed = [r for r in rows if _failed(r)]
+    if failed:
+        xy = [_number(r.get(x.name)) for r in failed], [_number(r.get(y.name)) for r in failed]
+        ax.plot(*xy, "x", color="red", label="failed (its error in the table)")
+        ax.legend(fontsize="small")
     for axis, p in (("x", x), ("y", y)):
-        if p.scale == "log":
+        if _log_axis(p):
             getattr(ax, f"set_{axis}scale")("log")
     ax.set_xlabel(_label(x.name, units))
     ax.set_ylabel(_label(y.name, units))
     fig.colorbar(mesh, ax=ax, label=_label(metric, units))
 
 
-def _spans_decades(values: list[float], decades: float = 2.0) -> bool:
-    """True when the finite values are all > 0 and span more than ``decades`` decades: a log axis
-    shows them (an error of 0.1 beside one of 100)."""
+def _spans_decades(values: list[float], decades: float = 2.0, *, strict: bool = True) -> bool:
+    """True when the finite values are all > 0 and span more than (``strict``; else at least)
+    ``decades`` decades: a log axis shows them (an error of 0.1 beside one of 100)."""
     finite = [v for v in values if math.isfinite(v)]
-    return bool(finite) and min(finite) > 0.0 and math.log10(max(finite) / min(finite)) > decades
+    if not finite or min(finite) <= 0.0:
+        return False
+    span = math.log10(max(finite) / min(finite))
+    return span > decades if strict else span >= decades
 
 
 def _norm(values: list[float]) -> Any:
@@ -193,12 +235,12 @@ def _mean(values: list[float]) -> float:
     return sum(values) / len(values) if values else math.nan
 
 
-def _edges(values: list[float], scale: str) -> list[float]:
-    """Cell edges around sorted centres (geometric midpoints on a log scale)."""
+def _edges(values: list[float], log: bool) -> list[float]:
+    """Cell edges around sorted centres (geometric midpoints on a log axis)."""
     if len(values) == 1:
         v = values[0]
-        return [v * 0.9, v * 1.1] if scale == "log" else [v - 0.5, v + 0.5]
-    if scale == "log":
+        return [v * 0.9, v * 1.1] if log else [v - 0.5, v + 0.5]
+    if log:
         mids = [math.sqrt(a * b) for a, b in itertools.pairwise(values)]
         return [values[0] ** 2 / mids[0], *mids, values[-1] ** 2 / mids[-1]]
     mids = [(a + b) / 2 for a, b in itertools.pairwise(values)]

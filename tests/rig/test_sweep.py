@@ -388,3 +388,50 @@ def test_a_scheduler_address_where_no_dask_scheduler_answers_is_one_line(
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1 and f"--scheduler {address}: " in err, err
     assert "'dask scheduler'" in err and not (tmp_path / "sweeps").exists()
+
+
+def test_the_plots_leave_failed_points_out_and_take_true_false_and_empty_metrics(
+    tmp_path: pathlib.Path,
+) -> None:
+    """Rows of a rig run study as a sweep writes them: a safe-stopped point (its figures those of
+    a run cut short) is not in the line and is a red x; stop_confirmed, a true/false metric of the
+    defaults, is 1/0 (was an empty plot; on a sampled study a ValueError of matplotlib's log axis,
+    'Data cannot be log-scaled', that ended rig sweep --plot after the points); a metric without a
+    single number draws its points all the same. A list of values over a decade is a log axis."""
+    from rig.sweep.plot import figure, plot_results
+
+    text = SERVO_SPEC.replace('"faults.frame_loss" = [0.0, 0.02]', "")
+    text = text.replace(
+        '"emulator.params.b_m" = [1360.0, 340.0]', '"emulator.params.b_m" = [170.0, 680.0, 2720.0]'
+    )
+    spec = load_spec(_spec(tmp_path, text))
+    rows = [
+        {
+            "point": i,
+            "emulator.params.b_m": b,
+            "rms_error": e,
+            "stop_confirmed": True,
+            "chattering_count": None,
+        }
+        | {"error": "safe stop: motor, node 1: no TPDO for 3 periods" if i == 1 else None}
+        for i, (b, e) in enumerate(((170.0, 0.002), (680.0, 0.5), (2720.0, 0.07)))
+    ]
+    ax = figure(spec, rows, "rms_error").axes[0]
+    line, failed = ax.lines[0], ax.lines[-1]
+    assert list(line.get_xdata()) == [170.0, 2720.0] and list(line.get_ydata()) == [0.002, 0.07]
+    assert list(failed.get_xdata()) == [680.0] and failed.get_marker() == "x"
+    assert ax.get_xscale() == "log"
+    confirmed = figure(spec, rows, "stop_confirmed").axes[0]
+    assert list(confirmed.lines[0].get_ydata()) == [1.0, 1.0] and "1 = true" in confirmed.get_ylabel()
+    sampled = SERVO_SPEC.replace("metrics = [", 'method = "random"\nsamples = 4\nseed = 2\nmetrics = [')
+    sampled = sampled.replace("[1360.0, 340.0]", "{ from = 340.0, to = 1360.0, scale = 'log' }")
+    sampled = sampled.replace('"faults.frame_loss" = [0.0, 0.02]', "")
+    sampled += '"emulator.params.counts_per_rev" = { from = 512, to = 8192, integer = true, scale = "log" }\n'
+    spec = load_spec(_spec(tmp_path, sampled, "sampled.toml"))
+    rows = [
+        {"point": p.index, **p.values, "stop_confirmed": True, "chattering_count": None, "rms_error": 0.01}
+        | {"error": None if p.index else "safe stop: time-out"}
+        for p in make_points(spec)
+    ]
+    paths = plot_results(spec, rows, str(tmp_path / "plots"))
+    assert len(paths) == len(spec.metrics) and all(p.stat().st_size > 10_000 for p in paths)
