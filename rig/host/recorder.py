@@ -52,7 +52,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import can
 import numpy as np
@@ -157,10 +157,11 @@ class Recorder:
         #: the live view's rows (``rig.live.view.LiveView.rows``): each written row is appended
         self.live: collections.deque[Sequence[float]] | None = None
 
-    #: write plot.png on close when matplotlib is installed
-    PLOT: ClassVar[bool] = True
+    #: write plot.png on close when matplotlib is installed (the class's default; a run's own may
+    #: differ: a sweep's point turns both off on its recorder)
+    PLOT: bool = True
     #: fsync each file written whole (a sweep's point in a temporary folder turns it off)
-    DURABLE: ClassVar[bool] = True
+    DURABLE: bool = True
 
     def begin(self, columns: Sequence[str], docs: dict[str, dict[str, str]] | None = None) -> None:
         """The samples' columns (known once the axes are set up): the CSV header; ``docs``

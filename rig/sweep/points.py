@@ -72,7 +72,7 @@ def make_points(spec: SweepSpec) -> list[Point]:
         if spec.repeats == 1 and spec.noise_seed is None
         else [(spec.noise_seed or 0) + r for r in range(spec.repeats)]
     )
-    points = []
+    points: list[Point] = []
     for row in _samples(spec):
         values = {n: _plain(v) for n, v in zip(names, row)}
         for r, seed in enumerate(seeds):

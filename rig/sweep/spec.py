@@ -204,10 +204,13 @@ def _parameter(where: str, name: str, value: Any) -> Parameter:
                 f"{where} {name!r}: {{ values = [...], unit = ... }} takes a list and a unit only"
             )
         return Parameter(name, values=tuple(value["values"]), unit=unit)
-    low, high = value.get("from"), value.get("to")
-    for key, x in (("from", low), ("to", high)):
+    ends = []
+    for key in ("from", "to"):
+        x = value.get(key)
         if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
             raise ConfigError(f"{where} {name!r}: {key} = {x!r}: expected a finite number")
+        ends.append(float(x))
+    low, high = ends
     scale, num, integer = value.get("scale", "linear"), value.get("num", 0), value.get("integer", False)
     if scale not in ("linear", "log"):
         raise ConfigError(f"{where} {name!r}: scale = {scale!r}: linear or log")
@@ -217,7 +220,7 @@ def _parameter(where: str, name: str, value: Any) -> Parameter:
         raise ConfigError(f"{where} {name!r}: num = {num!r}: expected a whole number >= 1")
     if not isinstance(integer, bool):
         raise ConfigError(f"{where} {name!r}: integer = {integer!r}: true or false")
-    return Parameter(name, low=float(low), high=float(high), num=num, scale=scale, integer=integer, unit=unit)
+    return Parameter(name, low=low, high=high, num=num, scale=scale, integer=integer, unit=unit)
 
 
 def _sweep_table(source: str, table: Any) -> dict[str, Any]:
