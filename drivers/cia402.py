@@ -322,12 +322,12 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         if slot is not None and slot.timestamp is not None:
             if slot.timestamp != self._speed_stamp:
                 self._speed_stamp, self._speed_misses = slot.timestamp, 0
-                return self.data.value(VELOCITY) / self.units.velocity  # type: ignore[union-attr]
+                return float(self.data.value(VELOCITY)) / self.units.velocity  # type: ignore[union-attr]
             self._speed_misses += 1
             if self._speed_misses < 3:  # a TPDO late: the next one
                 return None
         try:
-            return self.sdo_read(cia.VELOCITY_ACTUAL) / self.units.velocity
+            return float(self.sdo_read(cia.VELOCITY_ACTUAL)) / self.units.velocity
         except RigError as exc:
             log.debug("%s: no speed: %s", self.where, exc)
             return None

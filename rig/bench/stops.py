@@ -71,7 +71,7 @@ def _run(out: str, seconds: float, period: float) -> tuple[dict[str, Any], str]:
     try:
         cfg = dataclasses.replace(
             cfg,
-            run=dataclasses.replace(cfg.run, time="realtime", period=period, output=out, trace=True),
+            run=dataclasses.replace(cfg.run, time="realtime", period=period, output=out, trace="asc"),
             bus=BusConfig(interface="socketcand", channel="can0", port=port),
         )
         with Session(cfg, emulate=False, duration=seconds) as session:

@@ -89,16 +89,17 @@ class Parser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line, raised instead of exiting; its description may be
     ``Lazy``, made when read."""
 
-    @property  # type: ignore[override]
+    _text: str | Lazy | None = None  #: the description as given: made on first read if Lazy
+
+    @property
     def description(self) -> str | None:
-        text = self._description
-        if isinstance(text, Lazy):
-            text = self._description = text.make()
-        return text
+        if isinstance(self._text, Lazy):
+            self._text = self._text.make()
+        return self._text
 
     @description.setter
     def description(self, text: str | Lazy | None) -> None:
-        self._description = text
+        self._text = text
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(f"{self.prog}: {message}")

@@ -12,7 +12,16 @@ from __future__ import annotations
 import importlib
 import sys
 import types
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # what the names below are, for the type checker
+    from rig.identify.estimate import (
+        IdentificationError,
+        IdentResult,
+        estimate,
+        excitation,
+        virtual_experiment,
+    )
 
 __all__ = ["IdentResult", "IdentificationError", "estimate", "excitation", "virtual_experiment"]
 
