@@ -160,6 +160,8 @@ def flood(port: int, seconds: float) -> dict[str, Any]:
                 pass
 
     threading.Thread(target=drain, daemon=True).start()
+    # the server holds a flood back to the bit rate: a write may wait, on a loaded PC over 10 s
+    link.settimeout(seconds + 30.0)
     batch, per = _FLOOD_LINE * 100, 100
     sent = 0
     start = time.monotonic()

@@ -10,7 +10,9 @@ import pytest
 from rig.fault_suite import run_faults
 from rig.fault_wire import PERIOD, WIRE_SCENARIOS
 
-pytestmark = pytest.mark.timing
+#: the whole suite of scenarios runs in the first test's set-up: 19 scenarios, each a host and an
+#: emulator process, over 120 s on a loaded PC
+pytestmark = [pytest.mark.timing, pytest.mark.timeout(900)]
 
 Row = dict[str, object]
 
