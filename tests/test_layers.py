@@ -61,15 +61,12 @@ LOOSE: dict[str, str] = {
     "rig.demo": "rig.papers",
     "rig.drive_status": "rig.commission",
     "rig.emulate": "rig.emulator",
-    "rig.fault_suite": "rig.faults",
-    "rig.fault_wire": "rig.faults",
     "rig.metrics": "rig.report",
     "rig.params": "rig.config",
     "rig.plots": "rig.report",
     "rig.process": "rig.emulator",
     "rig.report": "rig.report",
     "rig.scan": "rig.commission",
-    "rig.wire_probe": "rig.faults",
 }
 
 #: imports that break the levels today, (importer, imported) module by module: each is a debt

@@ -12,7 +12,7 @@ __all__ = ["add_parser"]
 
 
 def _description() -> str:
-    from rig.fault_suite import SCENARIOS
+    from rig.faults.suite import SCENARIOS
 
     return (
         "Runs each scenario (" + ", ".join(SCENARIOS) + ") and prints when it was detected, "
@@ -34,7 +34,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rig.cli.progress import Progress
-    from rig.fault_suite import SCENARIOS, run_faults
+    from rig.faults.suite import SCENARIOS, run_faults
 
     unknown = [n for n in args.scenario if n not in SCENARIOS]
     if unknown:

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from rig.cli import main
-from rig.fault_suite import LOCKSTEP, run_faults
+from rig.faults.suite import LOCKSTEP, run_faults
 
 
 @pytest.fixture(scope="module")

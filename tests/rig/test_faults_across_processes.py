@@ -1,4 +1,4 @@
-"""The cross-process scenarios of ``rig faults`` (``rig.fault_wire``): the EPOS4 twin in ``rig
+"""The cross-process scenarios of ``rig faults`` (``rig.faults.wire``): the EPOS4 twin in ``rig
 emulate`` and ``rig run`` in processes of their own, real time over socketcand. Each ends with
 the motor at rest 1 s after the fault and the operator told what happened, without a
 traceback. Wall-clock runs, so in the ``timing`` tier (``.ci/run`` runs it)."""
@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from rig.fault_suite import run_faults
-from rig.fault_wire import PERIOD, WIRE_SCENARIOS
+from rig.faults.suite import run_faults
+from rig.faults.wire import PERIOD, WIRE_SCENARIOS
 
 #: the whole suite of scenarios runs in the first test's set-up: 19 scenarios, each a host and an
 #: emulator process, over 120 s on a loaded PC

@@ -32,9 +32,9 @@ import pytest
 
 from drivers.maps import CIA402_EDS
 from plant_emulator.device_profile import load_profile, zoo
-from rig.fault_wire import CONFIG, PERIOD
+from rig.faults.wire import CONFIG, PERIOD
+from rig.faults.wire_probe import wait_for
 from rig.process import spawn_emulator, stop_rig
-from rig.wire_probe import wait_for
 
 pytestmark = pytest.mark.timing  #: real time across processes: wall-clock bound
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import pytest
 
-from rig.fault_wire import without_write_override
+from rig.faults.wire import without_write_override
 from rig.host.storage import RowFile
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]

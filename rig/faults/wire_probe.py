@@ -2,7 +2,7 @@
 ``rig emulate`` that counts a drive's TPDOs and EMCYs and reads it by SDO once the host has let
 go of it; ``LinkRelay``, a TCP relay between ``rig run`` and the emulator whose ``drop()`` cuts
 the link as a pulled cable would; ``wait_for``, polling with a timeout that names what it waited
-for. Used by ``rig faults`` (``rig.fault_wire``) and the tests across processes."""
+for. Used by ``rig faults`` (``rig.faults.wire``) and the tests across processes."""
 
 from __future__ import annotations
 

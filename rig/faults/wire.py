@@ -38,8 +38,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from rig.faults.wire_probe import LinkRelay, Watcher, wait_for
 from rig.process import spawn_emulator
-from rig.wire_probe import LinkRelay, Watcher, wait_for
 
 __all__ = ["AFTER", "DEVICE", "PERIOD", "WIRE_SCENARIOS", "rows_on_disk", "without_write_override"]
 
@@ -259,7 +259,7 @@ def without_write_override() -> None:
 #: ``python -c _NO_WRITE_OVERRIDE PROGRAM ARGS``: PROGRAM exec'd without root's write override
 _NO_WRITE_OVERRIDE = """
 import os, sys
-from rig.fault_wire import without_write_override
+from rig.faults.wire import without_write_override
 without_write_override()
 os.execv(sys.argv[1], sys.argv[1:])
 """

@@ -4,7 +4,7 @@ CANopen scenarios run the section VII.B servo (``rig.demo.demo_config``) over
 the emulated bus in lock-step with a fault injected at ``AT`` seconds; host
 scenarios break the controller, a limit and Ctrl-C; Modbus scenarios make the
 emulated inverter time out or answer with an exception. The cross-process
-scenarios (``rig.fault_wire``: emulator and host in processes of their own, real
+scenarios (``rig.faults.wire``: emulator and host in processes of their own, real
 time over socketcand) kill, freeze and cut them, fill the disk and add a client
 that never reads.
 
@@ -29,7 +29,7 @@ from drivers.errors import CommunicationTimeout, ModbusExceptionResponse, RigErr
 from drivers.maps.cia import PowerState
 from plant_emulator.cia402_drive import EmulatedDrive
 from rig.config import FaultsConfig, replace_axis
-from rig.fault_wire import AFTER, WIRE_SCENARIOS, rows_on_disk
+from rig.faults.wire import AFTER, WIRE_SCENARIOS, rows_on_disk
 
 __all__ = ["AT", "LOCKSTEP", "SCENARIOS", "run_faults"]
 
