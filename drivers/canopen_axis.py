@@ -32,7 +32,7 @@ from drivers.maps.od import load_od
 from drivers.maps.sdo_aborts import abort_text
 from drivers.master_watch import MasterWatch, OtherMaster
 
-__all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec"]
+__all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec", "sample_interval"]
 
 log = logging.getLogger(__name__)
 
@@ -69,6 +69,18 @@ class TpdoSlot:
             )
         self._decoded, self._decoded_of = self.codec.unpack(data), data
         return self._decoded
+
+
+def sample_interval(last: float | None, stamp: float | None, period: float) -> float:
+    """[s] from the sample stamped ``last`` to the one stamped ``stamp``, for a speed by difference:
+    whole periods ``period`` [s] where the stamps are on the SYNC grid (lock-step), their difference
+    where not (real time: a cycle the host skipped, a late SYNC: dividing by one period there made
+    a sample after two skipped cycles three times too fast); a period where they cannot tell."""
+    if stamp is None or last is None or not stamp > last:
+        return period
+    dt = stamp - last
+    n = round(dt / period)
+    return n * period if n >= 1 and abs(dt - n * period) <= 1e-6 * period else dt
 
 
 def pdo_codec(pdo: Any) -> struct.Struct:
@@ -267,6 +279,11 @@ class CanopenAxis(AxisDriver):
     def has_sample(self) -> bool:
         """Every TPDO the axis receives has arrived at least once."""
         return all(slot.timestamp is not None for slot in self._slots)
+
+    def cycle_frames(self) -> list[tuple[str, int]]:
+        """The axis's frames of each cycle on the bus, as (what it is, its data bytes): the TPDOs
+        it receives (a drive adds its RPDO)."""
+        return [(f"TPDO 0x{s.cob_id:03X}", s.codec.size) for s in self._slots]
 
     def tpdo_cob_ids(self) -> Sequence[int]:
         """The COB-IDs of the TPDOs the axis receives (a pacing waits for them after a SYNC)."""

@@ -32,14 +32,15 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import canopen
 
 from drivers.base import AxisState, Feedback
 from drivers.bus import brief
-from drivers.canopen_axis import CanopenAxis, TpdoSlot
+from drivers.canopen_axis import CanopenAxis, TpdoSlot, sample_interval
+from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
 from drivers.cia402_process import ProcessData
 from drivers.cia402_setup import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY, Cia402Setup
 from drivers.cia402_units import DriveUnits
@@ -77,13 +78,21 @@ _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPE
 _ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
 
 
+def _object(key: tuple[int, int]) -> str:
+    return f"0x{key[0]:04X}" + (f":{key[1]:02X}" if key[1] else "")
+
+
 class _CyclePlan:
     """What the cycle reads from the TPDOs of ``data`` and how it packs the RPDO, found once per
-    mapping (``data``) and ``measures``: the feedback's values (torque, current: measured), the
-    places of the statusword and of 0x6061 (None: not in a TPDO), the RPDO of (controlword, target)."""
+    mapping (``data``) and ``measures``: the feedback's values (velocity where chosen; torque,
+    current: measured), the places of the statusword and of 0x6061 (None: not in a TPDO), the
+    RPDO of (controlword, target)."""
 
-    def __init__(self, data: ProcessData | None, measures: frozenset[str], op_mode: Mode | None) -> None:
+    def __init__(
+        self, data: ProcessData | None, measures: frozenset[str], op_mode: Mode | None, velocity: bool = True
+    ) -> None:
         self.data, self.measures = data, measures
+        self.velocity = velocity  #: 0x606C is read (else the position's backward difference)
         self.torque, self.current = "torque" in measures, "current" in measures
         self.feedback: Callable[[], tuple[Any, ...]] = tuple
         self.status: tuple[TpdoSlot, int] | None = None
@@ -91,7 +100,7 @@ class _CyclePlan:
         self.rpdo: Callable[..., bytes] | None = None
         if data is None:
             return
-        keys = [POSITION, VELOCITY] + [TORQUE] * self.torque + [CURRENT] * self.current
+        keys = [POSITION] + [VELOCITY] * velocity + [TORQUE] * self.torque + [CURRENT] * self.current
         self.feedback = data.reader(keys)
         self.status, self.mode = data.where(SW), data.where(MODE_SHOWN)
         if data.rpdo is not None and op_mode in cia.TARGET_OF_MODE:
@@ -110,7 +119,10 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
     ``velocity_unit``, ``rated_torque`` [N m], ``rated_current`` [A]). ``sync_rpdo``: the RPDO
     acts at the next SYNC (one period of delay), else on receipt (``latency`` [s] later on the
     toolkit's own drive). ``pdo``: "remap" or "device" (see the module docstring).
-    ``mode_timeout`` [s]: how long 0x6061 may take to follow 0x6060.
+    ``mode_timeout`` [s]: how long 0x6061 may take to follow 0x6060. ``feedback``: what the
+    TPDOs carry (``drivers.cia402_feedback``; the position always): without "velocity"
+    the velocity is the position's backward difference over the time between the two samples
+    (``sample_interval``), 0 at the first.
     """
 
     #: the cycle's reading and packing for the mapping in force, made on first use (per axis)
@@ -138,6 +150,7 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         rpdo_deadline: float = 0.0,
         reset_fault: bool = False,
         emcy_texts: Mapping[int, str] | None = None,
+        feedback: Iterable[str] = FEEDBACK_NAMES,
     ) -> None:
         try:
             self.op_mode = mode_code(mode)
@@ -145,6 +158,10 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
             raise ConfigError(f"axis {name!r}: {exc}") from None
         if pdo not in ("remap", "device"):
             raise ConfigError(f"axis {name!r}: pdo = {pdo!r}: remap or device")
+        problem = feedback_problem(feedback)
+        if problem:
+            raise ConfigError(f"axis {name!r}: {problem}")
+        self.maps = frozenset(feedback)
         super().__init__(
             name,
             mode,
@@ -177,6 +194,8 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         self.data: ProcessData | None = None
         self._turns = 0
         self._angle: float | None = None
+        #: the velocity by difference (no 0x606C mapped): the last sample's (stamp, position, velocity)
+        self._moved: tuple[float | None, float, float] = (None, math.nan, 0.0)
         self._enabled_stamp: float | None = None
         self._rest_stamp: float | None = None  #: the statusword TPDO's stamp at the last ``at_rest``
         #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
@@ -351,15 +370,43 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         stamp = self._motion.timestamp if self._motion is not None else time.monotonic()
         plan = self._plan
         if plan.data is not data or plan.measures is not self.measures:
-            plan = self._plan = _CyclePlan(data, self.measures, self.op_mode)
+            plan = self._plan = self._new_plan(data)
         values = plan.feedback()
+        position = values[0] / u.position
+        v = plan.velocity
         return Feedback(
-            values[0] / u.position,
-            values[1] / u.velocity,
-            values[2] / 1000.0 * u.rated_torque if plan.torque else math.nan,
-            values[2 + plan.torque] / 1000.0 * u.rated_current if plan.current else math.nan,
+            position,
+            values[1] / u.velocity if v else self._difference(position, stamp),
+            values[1 + v] / 1000.0 * u.rated_torque if plan.torque else math.nan,
+            values[1 + v + plan.torque] / 1000.0 * u.rated_current if plan.current else math.nan,
             stamp,
         )
+
+    def _new_plan(self, data: ProcessData) -> _CyclePlan:
+        return _CyclePlan(data, self.measures, self.op_mode, velocity="velocity" in self.maps)
+
+    def _difference(self, position: float, stamp: float | None) -> float:
+        """[rad/s] the backward difference of ``position`` (the sample stamped ``stamp``) from the
+        sample before; the same again for the same sample; 0 at the first."""
+        last, before, speed = self._moved
+        if stamp is not None and stamp == last:
+            return speed
+        if last is not None and stamp is not None:
+            dt = sample_interval(last, stamp, self.period)
+            speed = (position - before) / dt if dt > 0.0 else speed
+        self._moved = (stamp, position, speed)
+        return speed
+
+    def cycle_frames(self) -> list[tuple[str, int]]:
+        """The TPDOs and the RPDO in force, each named with the objects it maps (see the base)."""
+        data = self.data
+        if data is None:
+            return super().cycle_frames()
+        pdos = [*data.tpdos, *([data.rpdo] if data.rpdo is not None else [])]
+        return [
+            (f"{p.name} 0x{p.cob_id:03X} ({' '.join(_object(e.key) for e in p.entries)})", (p.bits + 7) // 8)
+            for p in pdos
+        ]
 
     def _dq_feedback(self, data: ProcessData) -> Feedback:
         i_dq = complex(data.value((cia.DQ_CURRENT, 1)), data.value((cia.DQ_CURRENT, 2))) / 1000.0
@@ -379,7 +426,7 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         assert data is not None
         plan = self._plan
         if plan.data is not data or plan.measures is not self.measures:
-            plan = self._plan = _CyclePlan(data, self.measures, self.op_mode)
+            plan = self._plan = self._new_plan(data)
         if plan.status is None:
             return
         slot, place = plan.status
@@ -405,7 +452,7 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         else:
             plan = self._plan
             if plan.data is not data or plan.measures is not self.measures:
-                plan = self._plan = _CyclePlan(data, self.measures, self.op_mode)
+                plan = self._plan = self._new_plan(data)
             raw = self.units.command_raw(self.op_mode, float(value))  # type: ignore[arg-type]
             if plan.rpdo is not None:
                 frame = plan.rpdo(_ENABLE_OPERATION, raw)

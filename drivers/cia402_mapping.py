@@ -8,6 +8,12 @@ own, made valid and synchronous where its EDS lets it. An RPDO of the drive's ow
 manufacturer object beside the target would write that object every cycle: on any drive but the
 toolkit's own it is refused for cyclic use, naming the object. Frames are decoded from the
 mapping in force (``drivers.cia402_process``).
+
+``maps`` (``FEEDBACK`` by default) chooses what the TPDOs carry beside the statusword and the
+position: the velocity 0x606C (needed where chosen), the mode shown 0x6061, the torque 0x6077
+and the current 0x6078 (where there is room). A lean image (``maps = {"position"}``: one TPDO
+of statusword and position, 6 bytes) leaves a fast loop's bus its room: the velocity is then
+the position's backward difference (``drivers.cia402``).
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ __all__ = [
     "CW",
     "DQ_RX",
     "DQ_TX",
+    "FEEDBACK",
     "MODE_SHOWN",
     "POSITION",
     "SW",
@@ -52,6 +59,14 @@ CURRENT: Key = (cia.CURRENT_ACTUAL, 0)
 MODE_SHOWN: Key = (cia.MODES_DISPLAY, 0)
 DQ_RX = [(cia.DQ_VOLTAGE, 1), (cia.DQ_VOLTAGE, 2)]
 DQ_TX = [SW, (cia.FRAME_ANGLE, 0), (cia.FRAME_SPEED, 0), (cia.DQ_CURRENT, 1), (cia.DQ_CURRENT, 2)]
+#: the feedback a drive's TPDOs may carry, by name (``Cia402Mapping.maps``); the position always
+FEEDBACK = {
+    "position": POSITION,
+    "velocity": VELOCITY,
+    "mode": MODE_SHOWN,
+    "torque": TORQUE,
+    "current": CURRENT,
+}
 
 
 class Cia402Mapping:
@@ -67,6 +82,7 @@ class Cia402Mapping:
     sync_rpdo: bool
     latency: float
     pdo: str
+    maps: frozenset[str]
     data: ProcessData | None
     measures: frozenset[str]
     _motion: TpdoSlot | None
@@ -91,7 +107,9 @@ class Cia402Mapping:
             return list(DQ_RX), list(DQ_TX), []
         if self.op_mode not in cia.TARGET_OF_MODE:
             raise ConfigError(f"axis {self.name!r}: mode {self.mode} has no cyclic target")
-        return [CW, cia.TARGET_OF_MODE[self.op_mode]], [SW, POSITION, VELOCITY], [MODE_SHOWN, TORQUE, CURRENT]
+        needed = [SW, POSITION] + [VELOCITY] * ("velocity" in self.maps)
+        optional = [FEEDBACK[name] for name in ("mode", "torque", "current") if name in self.maps]
+        return [CW, cia.TARGET_OF_MODE[self.op_mode]], needed, optional
 
     def map_process_data(self) -> None:
         """Set up the PDOs (``pdo``: remap, falling back to the device's own) and ``data``."""

@@ -38,6 +38,7 @@ class ProcessData:
         held: Mapping[Key, int],
     ) -> None:
         self._read = read
+        self.tpdos = list(tpdos)  #: the TPDOs in force, in the order of ``slots``
         self.slots: list[TpdoSlot] = []
         self._where: dict[Key, tuple[TpdoSlot, int]] = {}
         for pdo in tpdos:

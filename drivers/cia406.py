@@ -17,7 +17,7 @@ import math
 import canopen
 
 from drivers.base import AxisState, Feedback
-from drivers.canopen_axis import CanopenAxis, TpdoSlot
+from drivers.canopen_axis import CanopenAxis, TpdoSlot, sample_interval
 from drivers.errors import ConfigError
 from drivers.maps import CIA406_EDS, cia, cia406
 
@@ -82,15 +82,8 @@ class Cia406Axis(CanopenAxis):
         raise ConfigError(f"node {self.node_id}: no synchronous TPDO maps the position 0x6004")
 
     def _elapsed(self, last: float | None, stamp: float | None) -> float:
-        """[s] from the sample stamped ``last`` to this one (``stamp``), for the speed by difference:
-        whole periods where the stamps are on the SYNC grid (lock-step), their difference where
-        not (real time: a cycle the host skipped, a late SYNC: dividing by one period there made
-        a sample after two skipped cycles three times too fast); a period where they cannot tell."""
-        if stamp is None or last is None or not stamp > last:
-            return self.period
-        dt = stamp - last
-        n = round(dt / self.period)
-        return n * self.period if n >= 1 and abs(dt - n * self.period) <= 1e-6 * self.period else dt
+        """[s] from the sample stamped ``last`` to this one (``stamp``): ``sample_interval``."""
+        return sample_interval(last, stamp, self.period)
 
     def quanta(self) -> tuple[float, float]:
         """One count [rad] (0x6001) and the speed one count makes over a period [rad/s]."""

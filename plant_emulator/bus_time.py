@@ -27,19 +27,24 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # the CLI reads DEFAULT_BITRATE without python-can's import time
     import can
 
-__all__ = ["DEFAULT_BITRATE", "BusTime", "frame_bits"]
+__all__ = ["DEFAULT_BITRATE", "BusTime", "data_frame_bits", "frame_bits"]
 
 DEFAULT_BITRATE = 1_000_000  #: [bit/s] CANopen's fastest classic bit rate (CiA 301 bit timing table)
 _STUFFED_HEAD = {False: 34, True: 54}  #: g: SOF .. CRC bits that stuffing applies to, less the data
 _UNSTUFFED_TAIL = 13  #: CRC delimiter 1, ACK 2, EOF 7, interframe space 3
 
 
-def frame_bits(msg: can.Message) -> int:
-    """Bits ``msg`` holds the bus for, stuffing at its worst (module docstring); a remote frame
-    carries no data bytes."""
-    g = _STUFFED_HEAD[bool(msg.is_extended_id)]
-    data = 0 if msg.is_remote_frame else 8 * min(msg.dlc, 8)
+def data_frame_bits(size: int, *, extended: bool = False) -> int:
+    """Bits a classic data frame of ``size`` data bytes holds the bus for, stuffing at its worst
+    (module docstring); ``extended``: a 29-bit identifier."""
+    g = _STUFFED_HEAD[extended]
+    data = 8 * min(size, 8)
     return g + data + _UNSTUFFED_TAIL + (g + data - 1) // 4
+
+
+def frame_bits(msg: can.Message) -> int:
+    """Bits ``msg`` holds the bus for (``data_frame_bits``); a remote frame carries no data bytes."""
+    return data_frame_bits(0 if msg.is_remote_frame else msg.dlc, extended=bool(msg.is_extended_id))
 
 
 class BusTime:

@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
 from drivers.errors import ConfigError
 from rig.config_checks import check_axis_values, require_finite
 from rig.params import typed_values
@@ -82,6 +83,10 @@ class AxisConfig:
     reset_fault: bool = False  #: cia402: a drive found in FAULT at enable is reset (else refused)
     eds: str = ""  #: the device's EDS/DCF ("" : the toolkit's)
     speed_from_position: bool = False  #: cia406: speed as the backward difference of the position
+    #: cia402: what the drive's TPDOs carry beside its statusword: position (always), velocity, mode
+    #: (0x6061), torque, current; without velocity the speed is the position's backward difference
+    #: (a lean image for a fast loop: ["position"] is one TPDO of 6 bytes)
+    feedback: tuple[str, ...] = FEEDBACK_NAMES
     map: str = ""  #: modbus register map
     unit: int = 1  #: modbus unit id
     host: str = ""  #: modbus TCP host
@@ -136,4 +141,13 @@ def _check_axis(path: str, where: str, a: AxisConfig) -> None:
         )
     if a.pdo not in ("remap", "device"):
         raise ConfigError(f"{path}: {where} pdo = {a.pdo!r}: remap or device")
+    if set(a.feedback) != set(AxisConfig.feedback):
+        if a.kind != "cia402" or a.mode == "dq-voltage":
+            raise ConfigError(
+                f"{path}: {where} feedback = {list(a.feedback)}: only a cia402 axis in a CiA 402 mode "
+                "chooses what its TPDOs carry; remove the key"
+            )
+        problem = feedback_problem(a.feedback)
+        if problem:
+            raise ConfigError(f"{path}: {where} {problem}")
     check_axis_values(f"{path}: {where}", a)

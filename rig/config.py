@@ -23,8 +23,8 @@ A rig is a set of named axes and one control law (SI units; see ``examples/``)::
                            pdo (remap | device), sdo_timeout [s], sdo_retries, abort_connection
                            (none | fault | disable-voltage | quick-stop | drive), host_timeout [s],
                            rpdo_deadline_periods, rpdo_deadline [s] (real time: max of
-                           the two), reset_fault,
-                           eds (default: the toolkit's)
+                           the two), reset_fault, feedback (what the TPDOs carry: position,
+                           velocity, mode, torque, current), eds (default: the toolkit's)
                    cia406: node_id, speed_from_position, eds
                    modbus: map, unit, host + port (TCP) or serial + baudrate (RTU), mode = "speed"
                  profile = "TERM + ..." commands the axis by a time profile instead of the law

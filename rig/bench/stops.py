@@ -39,7 +39,7 @@ __all__ = ["EXAMPLE", "bench_stops"]
 
 log = logging.getLogger(__name__)
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position_rt.toml"
 #: the example's load step (1.5 s) ended at 3 s: after the run it does not pull the disabled shaft
 LOAD = "pulse:0.0346:1.5:3"
 

@@ -62,6 +62,7 @@ def _arguments(
             "rpdo_deadline": _deadline(a, period, realtime),
             "reset_fault": a.reset_fault,
             "emcy_texts": device_emcy_texts(a.eds),
+            "feedback": a.feedback,
         }
         return (a.name, network, a.node_id), kw
     if a.kind == "cia406":

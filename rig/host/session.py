@@ -34,6 +34,7 @@ from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
 from rig.config_checks import check_period
 from rig.host.axes import check_object_dictionaries, open_axis
+from rig.host.bus_load import bus_load, warn_bus_load
 from rig.host.columns import describe_columns
 from rig.host.emulation import Emulation, emulated_period
 from rig.host.heartbeat import HostHeartbeat
@@ -125,6 +126,7 @@ class Session:
         self._rx_tap: Callable[[Any], None] | None = None  #: the trace's listener of frames received
         self.pacing: Pacing = Pacing()
         self.master_watch: MasterWatch | None = None  #: another master on a real CAN bus
+        self.bus_figures: dict[str, Any] = {}  #: real time over a CAN bus: the cycle's share of it
         self.loop: HostLoop | None = None
         self.signals = StopRequests()  #: SIGINT, SIGTERM, SIGHUP: the one safe stop
         self.signals.install()
@@ -322,6 +324,7 @@ class Session:
                 axis.enable(timeout=self._wait(a.enable_timeout))
             # after setup: it waits for the TPDOs the axes map; after enable: no SYNC during setup
             self.pacing = self._pacing(self.period)
+            self._bus_load()
         except BaseException as exc:
             if probe is not None:
                 probe.close()
@@ -412,7 +415,7 @@ class Session:
                 run = self.cfg.run
                 ask = RealtimeRequest(run.rt_priority, run.rt_cpu, run.rt_lock_memory)
                 grant = request(ask, receive_threads(self.network))
-                loop.granted = grant.record()
+                loop.granted = grant.record() | ({"bus_load": self.bus_figures} if self.bus_figures else {})
                 if grant.fifo:
                     loop.spin = 0.0  # sleeps to each deadline: no spin at real-time priority
             summary = loop.run(progress)
@@ -425,6 +428,14 @@ class Session:
             self._frozen = False  # the loop's run unfroze the heap
             self._finish(summary or loop.summary())
         return summary
+
+    def _bus_load(self) -> None:
+        """Real time over a CAN bus: the cycle's share of the bus (``rig.host.bus_load``), warned
+        above the whole period, recorded in the summary (``realtime.bus_load``)."""
+        axes = [a for a in self.axes if isinstance(a, CanopenAxis)]
+        if self.cfg.run.time == "realtime" and self.emulation is None and axes:
+            self.bus_figures = bus_load(axes, self.period, self.cfg.bus.bitrate)
+            warn_bus_load(self.bus_figures)
 
     def _watch(self, live: LiveView) -> None:
         """Start ``live`` on each axis's reference, measurement and command (``rig.live.channels``)."""
