@@ -1,95 +1,105 @@
-"""One delay structure: the section VII.B position servo (``examples/dc_servo_position.toml``)
-run in real time against ``rig emulate`` in its own process over socketcand follows the error
-trajectory of the same servo run in lock-step: the same to 1e-9 rad over its first cycles (up to
-50, and before any late or skipped one), and within 10 % rms over the run.
+"""One delay structure, shown by the order of the frames, not by a latency: in real time, the
+host's command of cycle k answers the sample of its own SYNC k, as in lock-step.
 
-Both runs have the structure of the CiA 402 cyclic synchronous modes: the host sends SYNC, the
-drive samples at it, the host waits for the TPDOs answering it (in real time up to the budget,
-half the period) and sends its RPDO; a synchronous RPDO (``sync_rpdo = true``) acts at the next
-SYNC. Before the host waited for the answers, a real-time command answered the sample of the
-SYNC before (and the drive's period was not locked to SYNC): 19-51 times the lock-step rms
-error. The load step is left out (its time counts from the drive's enable, which lies a
-different time before the first cycle in the two modes); the run covers the 1 s move.
+The section VII.B servo (``examples/dc_servo_position_rt.toml``) runs against ``rig emulate`` in
+its own process over socketcand, in real time and in lock-step (the emulator's ``--time``). The
+host's CAN trace (``trace.asc``: every frame it sent, and every frame it received, traced before
+canopen's listener wakes the loop) gives the order of events. CiA 402's cyclic synchronous
+structure: the host sends SYNC k, the drive samples at it and answers with its TPDO, the host
+waits for that answer, runs the law and sends its RPDO, which (``sync_rpdo = true``) acts at
+SYNC k+1. A node answers the SYNCs in order, so before the RPDO of a cycle that waited for its
+answer, the host has received as many TPDOs as it has sent SYNCs. Before the host waited, the
+RPDO followed SYNC k before its answer came: every command answered the sample of SYNC k-1, a
+period more delay than in lock-step (and than the tests proved).
 
-The period is 1 ms, not the paper's 0.4 ms: a cycle of the example carries SYNC, two TPDOs and
-an RPDO, 430 bit times with worst-case stuffing, more than 0.4 ms of a 1 Mbit/s bus, and the
-emulator's bus carries no more than its bit rate (``plant_emulator.bus_time``): at 0.4 ms the
-frames queue and most cycles are late, which shows the bus, not the host. After a late or
-skipped cycle a sliding-mode servo settles on an equally good trajectory, not the same one:
-hence the exact comparison before the first, and the rms over the run. (A synchronous RPDO
-that reaches the drive after the next SYNC acts a period later, unseen by the host: on a loaded
-machine it can happen in a cycle that was not late.)
+What the load changes is only which cycles were late (their answers missed the budget; the row
+says so, and the cycle used what it had). After two late cycles in a row, the host carries
+over at most one owed answer (``rig.host.pacing._Answers``), so the next cycle may read a sample
+a period old without being late: cycles after two late ones are left out. The check holds for
+every other cycle whatever the machine's load; no latency, rms or period figure is asserted
+(those are ``rig bench stops``'s).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import pathlib
-from typing import Any
 
+import can
 import numpy as np
 import pytest
 
-from rig.config import BusConfig, RigConfig, load_config, replace_axis
+from rig.config import BusConfig, load_config
 from rig.host.rundir import read_samples
 from rig.host.session import Session
 from rig.process import spawn_emulator, stop_rig
 
-pytestmark = pytest.mark.timing  #: real time across processes: wall-clock bound
+pytestmark = pytest.mark.timing  #: real time across processes
 
-EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
-PERIOD = 0.001  #: [s]
-DURATION = 1.2  #: [s] the 1 s move and its settling
-
-
-def _config(out: pathlib.Path) -> RigConfig:
-    cfg = load_config(EXAMPLE)
-    cfg = dataclasses.replace(
-        cfg,
-        run=dataclasses.replace(cfg.run, period=PERIOD, output=str(out)),
-        emulator=dataclasses.replace(cfg.emulator, params={"period": PERIOD}),
-    )
-    return replace_axis(cfg, "motor", sync_rpdo=True)
+EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position_rt.toml"
+PERIOD = 0.002  #: [s] a budget of most of it: late cycles stay rare on a loaded machine
+BUDGET = 0.0018  #: [s]
+CYCLES = 300
+SYNC, TPDO, RPDO = 0x080, 0x181, 0x201  #: node 1's
 
 
-def _errors(summary: dict[str, Any]) -> tuple[dict[int, float], int]:
-    """{cycle index: reference - measurement} of a run's rows, and the first cycle that was late
-    or came after skipped ones (the number of rows if none)."""
-    _, rows = read_samples(summary["run_dir"])
-    k = np.rint(rows["t"] / PERIOD).astype(int)
-    disturbed = np.flatnonzero((rows["late"] > 0) | (np.diff(k, prepend=-1) != 1))
-    first = int(k[disturbed[0]]) if disturbed.size else len(k)
-    return dict(zip(k.tolist(), (rows["reference"] - rows["measurement"]).tolist())), first
-
-
-def test_the_realtime_error_trajectory_is_the_lockstep_one(tmp_path: pathlib.Path) -> None:
-    cfg = _config(tmp_path)
-    with Session(cfg, emulate=True, duration=DURATION) as session:
-        session.start()
-        lockstep = session.run()
-    proc, port = spawn_emulator("--preset", "dc-servo", "--param", f"period={PERIOD}")
+def _run(out: pathlib.Path, time: str) -> dict[str, object]:
+    """The example run ``CYCLES`` cycles in ``time`` ("realtime" or "lockstep") against
+    ``rig emulate`` in its own process: the summary."""
+    proc, port = spawn_emulator("--preset", "dc-servo", "--time", time, "--param", f"period={PERIOD}")
     try:
-        rt_cfg = dataclasses.replace(
+        cfg = load_config(EXAMPLE)
+        cfg = dataclasses.replace(
             cfg,
-            run=dataclasses.replace(cfg.run, time="realtime"),
+            run=dataclasses.replace(
+                cfg.run, time=time, period=PERIOD, answer_budget=BUDGET, output=str(out), trace="asc"
+            ),
             bus=BusConfig(interface="socketcand", channel="can0", port=port),
         )
-        with Session(rt_cfg, emulate=False, duration=DURATION) as session:
+        with Session(cfg, emulate=False, duration=CYCLES * PERIOD) as session:
             session.start()
-            realtime = session.run()
+            return session.run()
     finally:
-        _, err = stop_rig(proc, timeout=20)
-    assert proc.returncode == 0, err[-2000:]
-    assert lockstep["safe_stop_reason"] is None and realtime["safe_stop_reason"] is None, realtime
-    (a, first), (b, _) = _errors(realtime), _errors(lockstep)
-    summary = {k: realtime[k] for k in ("overruns", "late_cycles", "held_cycles", "realtime", "timing")}
-    # the same to 1e-9 from the start: a command answers the sample of its own SYNC in both modes
-    # (a period more delay in one of them shows from the second cycle on)
-    undisturbed = [k for k in range(min(first, 50)) if k in b]
-    assert len(undisturbed) >= 10, summary  # (a loaded machine may disturb the first cycles)
-    assert max(abs(a[k] - b[k]) for k in undisturbed) < 1e-9, summary
-    common = sorted(set(a) & set(b))
-    assert len(common) >= 0.99 * len(b), summary
-    rms_rt = float(np.sqrt(np.mean([a[k] ** 2 for k in common])))
-    rms_ls = float(np.sqrt(np.mean([b[k] ** 2 for k in common])))
-    assert abs(rms_rt - rms_ls) <= 0.1 * rms_ls, (rms_rt, rms_ls, first, summary)
+        stop_rig(proc, timeout=20)
+
+
+def _answered(run_dir: str) -> tuple[list[bool], list[bool]]:
+    """For each cycle (row): whether its RPDO followed the answers to every SYNC sent before it
+    (TPDOs received >= SYNCs sent, from the trace's order), and whether the row was late."""
+    with can.ASCReader(str(pathlib.Path(run_dir) / "trace.asc")) as reader:
+        frames = [(m.arbitration_id, m.is_rx) for m in reader if not m.is_error_frame]
+    syncs = answers = 0
+    answered = []
+    for cob, rx in frames:
+        if cob == SYNC and not rx:
+            syncs += 1
+        elif cob == TPDO and rx:
+            answers += 1
+        elif cob == RPDO and not rx:
+            answered.append(answers >= syncs)
+    _, rows = read_samples(run_dir)
+    late = [bool(x) for x in rows["late"]]
+    assert len(answered) >= len(late) > 0, (len(answered), len(late))  # (the stop may send more)
+    return answered[: len(late)], late
+
+
+def _checked(late: list[bool]) -> np.ndarray:
+    """The cycles the structure is checked on: not late, and not after two late ones in a row."""
+    late_ = np.array(late)
+    before = np.concatenate(([False, False], late_[:-2] & late_[1:-1]))[: len(late_)]
+    return np.flatnonzero(~late_ & ~before)
+
+
+@pytest.mark.parametrize("time", ["lockstep", "realtime"])
+def test_each_command_answers_the_sample_of_its_own_sync(tmp_path: pathlib.Path, time: str) -> None:
+    summary = _run(tmp_path, time)
+    answered, late = _answered(str(summary["run_dir"]))
+    checked = _checked(late)
+    assert len(checked) > 0, summary
+    wrong = [int(k) for k in checked if not answered[k]]
+    assert not wrong, f"cycles {wrong[:10]} sent their command before the answer to their SYNC ({summary})"
+
+
+def test_late_cycles_and_those_after_two_late_ones_are_not_checked() -> None:
+    assert _checked([False, True, True, False, False]).tolist() == [0, 4]
+    assert _checked([True, False, True, False]).tolist() == [1, 3]
