@@ -97,8 +97,8 @@ _loop.__doc__ = (
 _soak.__doc__ = "1,000,000 lock-step cycles with 1 % frame loss: memory growth and stops (minutes)"
 _stops.__doc__ = (
     "false stops, overruns, late cycles, period error and SYNC-to-RPDO response in 20 real-time runs "
-    "of 10 s of examples/dc_servo_position.toml against rig emulate over socketcand, at --period "
-    "(1 ms) under --load busy processes (minutes)"
+    "of 10 s of examples/dc_servo_position_rt.toml (its lean process image) against rig emulate over "
+    "socketcand, at --period (1 ms) under --load busy processes (minutes)"
 )
 _socketcand.__doc__ = (
     "rig emulate's socketcand server: connections/s during a real-time run, the run's overruns "

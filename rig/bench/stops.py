@@ -1,7 +1,8 @@
 """``rig bench stops``: false stops and timing of real-time runs across processes, under load.
 
-``runs`` runs of ``seconds`` each of ``examples/dc_servo_position.toml`` in real time at
-``period`` (the example's limits and watchdog; ``[run] time = "realtime"``), each against a
+``runs`` runs of ``seconds`` each of ``examples/dc_servo_position_rt.toml`` (the VII.B servo
+with a lean process image) in real time at ``period`` (the example's limits and watchdog;
+``[run] time = "realtime"``), each against a
 fresh ``rig emulate`` of the example's ``[emulator]`` (the dc-servo preset, its load given an
 end so the disabled shaft is not pulled to over-speed between runs) at the same period in
 another process over socketcand (127.0.0.1), while ``load`` busy processes (a pure-Python
