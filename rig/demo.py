@@ -21,10 +21,10 @@ from rig.config import RigConfig, rig_config
 from rig.host.session import run_config
 from rig.identify import excitation
 from rig.identify.experiment import experiment_config, identify_from_log, run_experiment
-from rig.metrics import chattering_amplitude, chattering_count, max_abs, rms
 from rig.papers import drives
 from rig.papers.scenarios import Trajectory, cascade_run, position_servo_run
-from rig.report import summary_lines
+from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms
+from rig.report.summary import summary_lines
 
 __all__ = ["DemoSummary", "demo_config", "demo_doc", "demo_summary", "run_demo"]
 

@@ -61,11 +61,8 @@ LOOSE: dict[str, str] = {
     "rig.demo": "rig.papers",
     "rig.drive_status": "rig.commission",
     "rig.emulate": "rig.emulator",
-    "rig.metrics": "rig.report",
     "rig.params": "rig.config",
-    "rig.plots": "rig.report",
     "rig.process": "rig.emulator",
-    "rig.report": "rig.report",
     "rig.scan": "rig.commission",
 }
 
@@ -80,12 +77,6 @@ ALLOWED: set[tuple[str, str]] = {
     # the cascade and the servo take the paper's constants from the papers' study
     ("rig.laws.cascade", "rig.papers.drives"),
     ("rig.laws.position_servo", "rig.papers.drives"),
-    # the plots draw identification's and the papers' results
-    ("rig.plots", "rig.host.rundir"),
-    ("rig.plots", "rig.identify.estimate"),
-    ("rig.plots", "rig.papers.dismc"),
-    ("rig.plots", "rig.papers.dq_current"),
-    ("rig.plots", "rig.papers.drives_setup"),
 }
 
 

@@ -401,7 +401,7 @@ def run(args: argparse.Namespace) -> int:
     for warning in warnings:
         print(f"rig identify: warning: {warning}", file=sys.stderr)
     if args.plot and response is None:
-        from rig.plots import plot_identify
+        from rig.identify.plots import plot_identify
 
         plot_identify(run_dir, result, args.plot)
     code = EXIT_UNTRUSTED if args.strict and warnings else 0

@@ -89,14 +89,16 @@ def add_parser(sub: Any) -> None:
 def _with_names(text: str, module: str, names: str) -> Lazy:
     """``text``, the parameter names ``names`` of ``rig.papers.<module>`` and a full stop, made
     when the help is shown (the study's module imports numpy and the controllers)."""
-    return Lazy(lambda: text + ", ".join(getattr(importlib.import_module(f"rig.papers.{module}"), names)) + ".")
+    return Lazy(
+        lambda: text + ", ".join(getattr(importlib.import_module(f"rig.papers.{module}"), names)) + "."
+    )
 
 
 def _dismc(args: argparse.Namespace) -> int:
     import numpy as np
 
     from rig.papers.dismc import ALIASES, FIXED, DismcExample, run_dismc
-    from rig.plots import plot_dismc
+    from rig.papers.plots import plot_dismc
 
     where = "rig reproduce dismc: --param"
     values = params_of(args.param, DismcExample, where, aliases=ALIASES, fixed=FIXED)
@@ -125,7 +127,7 @@ def _dismc(args: argparse.Namespace) -> int:
 
 def _dq(args: argparse.Namespace) -> int:
     from rig.papers.dq_current import DQ_FIXED, DqStudy, dq_study
-    from rig.plots import plot_dq_steps
+    from rig.papers.plots import plot_dq_steps
 
     where = "rig reproduce dq-current: --param"
     values = params_of(args.param, DqStudy, where, fixed=DQ_FIXED)
@@ -198,7 +200,7 @@ def _drives(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"{where}: {exc}") from exc
     if args.plot:
-        from rig.plots import require_pyplot
+        from rig.report.plots import require_pyplot
 
         require_pyplot()  # no matplotlib: say so before the runs
     bar = Progress("rig reproduce drives", 6, "parts", json=args.json)
@@ -207,7 +209,7 @@ def _drives(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     if args.plot:
-        from rig.plots import plot_drives
+        from rig.papers.plots import plot_drives
 
         plot_drives(signals, args.plot)
     if args.json:

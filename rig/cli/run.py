@@ -18,7 +18,7 @@ from rig.cli.common import (
     print_json,
 )
 from rig.cli.progress import Progress
-from rig.report import summary_lines
+from rig.report.summary import summary_lines
 
 if TYPE_CHECKING:
     from rig.live import LiveView
@@ -75,7 +75,7 @@ def add_parser(sub: Any) -> None:
 
 
 def print_summary(summary: dict[str, Any]) -> None:
-    """The summary for a person (``rig.report.summary_lines``)."""
+    """The summary for a person (``rig.report.summary.summary_lines``)."""
     print("\n".join(summary_lines(summary)))
 
 

@@ -73,7 +73,7 @@ def execute(args: argparse.Namespace) -> int:
 
     spec = load_spec(args.spec)
     if args.plot:
-        from rig.plots import require_pyplot
+        from rig.report.plots import require_pyplot
 
         require_pyplot()  # no matplotlib: say so before the points
     resumable(

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rig.metrics import ROUNDING, count_threshold
+from rig.report.metrics import ROUNDING, count_threshold
 
 if TYPE_CHECKING:
     from drivers.base import AxisDriver
@@ -52,10 +52,10 @@ class StageTimes:
 
 
 class ChatterCounter:
-    """``rig.metrics.chattering_count`` and ``chattering_amplitude`` computed as the samples arrive.
+    """``rig.report.metrics.chattering_count`` and ``chattering_amplitude`` computed as the samples arrive.
 
     Only the samples from index ``start`` on (the steady state) count; ``threshold`` is
-    ``rig.metrics.count_threshold`` for the law and the read axis (``ROUNDING`` at least).
+    ``rig.report.metrics.count_threshold`` for the law and the read axis (``ROUNDING`` at least).
     """
 
     def __init__(self, threshold: float, *, start: int = 0) -> None:
@@ -92,7 +92,7 @@ class ChatterCounter:
 
 def chatter_threshold(law: Law, axis: AxisDriver | None, period: float) -> float:
     """The change of the law's first command that one count of the first read axis's measurement
-    can cause (``rig.metrics.count_threshold``): the law's ``sensitivity`` times the axis's
+    can cause (``rig.report.metrics.count_threshold``): the law's ``sensitivity`` times the axis's
     ``quanta``, with the speed quantum at least a count per period [unit of the command]."""
     if axis is None:
         return 0.0

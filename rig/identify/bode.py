@@ -13,7 +13,7 @@ __all__ = ["plot_bode"]
 def plot_bode(doc: dict[str, Any], path: str) -> Any:
     """Magnitude [dB], phase [deg] and coherence against frequency [Hz] to ``path``; the figure.
     ImportError without matplotlib."""
-    from rig.plots import require_pyplot
+    from rig.report.plots import require_pyplot
 
     plt = require_pyplot()
     f = np.asarray(doc["frequency"])

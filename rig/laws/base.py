@@ -75,7 +75,7 @@ class Law(abc.ABC):
         command moves per unit of the first read axis's position and speed, the gradient of the
         law's continuous part in linear operation (a relay's switching is not part of it: it is
         the chattering to be counted). With the axis's quanta it gives the chattering threshold
-        (``rig.metrics.count_threshold``). The default (0, 0): not stated, every alternation above
+        (``rig.report.metrics.count_threshold``). The default (0, 0): not stated, every alternation above
         rounding counts."""
         return (0.0, 0.0)
 

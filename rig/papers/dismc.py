@@ -3,7 +3,7 @@
 The plant (47) is simulated exactly as printed (already discrete, Ts = 0.02 s),
 with d(k) = B * amplitude * sin(k). The printed H of (50) is used for the
 reproduction (``H = "printed"``); it does not satisfy (3), whose solution is
-H = [-1.0011 -0.1102] (``--param H=solved``). Metrics follow ``rig.metrics``:
+H = [-1.0011 -0.1102] (``--param H=solved``). Metrics follow ``rig.report.metrics``:
 rise time 5 % -> 95 % of the error transition, settling into 1 % of |e(0)|,
 u_min and u_max over the run (u_max is u(0)).
 """
@@ -18,7 +18,7 @@ import numpy as np
 
 from controllers.dismc import DISMC, DISMCParams, dismc_lqr_gain
 from controllers.model_following import solve_model_following
-from rig.metrics import rise_time, settling_time
+from rig.report.metrics import rise_time, settling_time
 
 __all__ = ["ALIASES", "FIXED", "PARAM_NAMES", "DismcExample", "DismcRun", "dismc_laws", "run_dismc"]
 

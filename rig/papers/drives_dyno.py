@@ -15,10 +15,10 @@ from controllers.idtsm import IDTSM, IDTSMParams
 from controllers.pi import PI, PIParams
 from plant_emulator.profiles import parse_profile
 from rig.config import rig_config
-from rig.metrics import chattering_amplitude, chattering_count, max_abs, rms
 from rig.papers import drives
 from rig.papers.drives_setup import EXACT, DrivesStudy, Signals, bus_run
 from rig.papers.scenarios import cascade_run
+from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms
 
 __all__ = ["cascade_part", "im_part", "im_speed_run"]
 

@@ -27,7 +27,7 @@ Six parts, one per key of the JSON document:
   with its current loop; over the bus: the position and speed loops on the dyno, the drive's
   FOC in place of the current loop.
 
-Chattering figures follow ``rig.metrics``: the amplitude is the RMS of the command increment in
+Chattering figures follow ``rig.report.metrics``: the amplitude is the RMS of the command increment in
 the steady-state window, the count the sign alternations larger than one count of measurement
 can cause through the law (0 threshold for the pure simulations' exact measurements; over the
 bus, the summary's ``chattering_threshold``).
@@ -47,11 +47,11 @@ from controllers.cascade import TABLE_V_CURRENT, TABLE_V_POSITION, TABLE_V_SPEED
 from controllers.design import design_dtsm
 from rig.config import rig_config
 from rig.demo import DEMO_LOAD, demo_doc
-from rig.metrics import chattering_amplitude, chattering_count, max_abs, rms
 from rig.papers import drives
 from rig.papers.drives_dyno import cascade_part, im_part
 from rig.papers.drives_setup import DRIVES_FIXED, DRIVES_PARAM_NAMES, EXACT, DrivesStudy, Signals, bus_run
 from rig.papers.scenarios import Trajectory, position_servo_run, speed_loop_run
+from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms
 
 __all__ = [
     "DRIVES_FIXED",

@@ -11,8 +11,8 @@ import pytest
 
 from controllers.discretize import zoh
 from controllers.speed_observer import SpeedObserver
-from rig.metrics import rms
 from rig.papers.scenarios import position_servo_run
+from rig.report.metrics import rms
 
 A_M, B_M, T = 16.0, 680.0, 0.4e-3
 QUANTUM = 2.0 * math.pi / 4096  #: [rad] one count

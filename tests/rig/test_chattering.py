@@ -15,7 +15,7 @@ from rig.host.loop_stats import ChatterCounter, RunMetrics
 from rig.host.recorder import Recorder
 from rig.host.session import Session, run_config
 from rig.laws import make_law
-from rig.metrics import chattering_amplitude, chattering_count, count_threshold
+from rig.report.metrics import chattering_amplitude, chattering_count, count_threshold
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
 
@@ -114,7 +114,7 @@ def test_a_count_is_not_measurable_where_one_count_covers_the_command_range(tmp_
     """examples/im_speed_idtsm.toml: one count of speed is worth about 22 N m through the IDTSM,
     the command's range is +-10 N m; no increment can exceed the threshold, so the count is None
     (JSON null), not a reassuring 0, and the summary says so; the amplitude is still measured."""
-    from rig.report import summary_lines
+    from rig.report.summary import summary_lines
 
     cfg = load_config(EXAMPLES / "im_speed_idtsm.toml")
     cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path), duration=1.0))

@@ -9,8 +9,8 @@ import pytest
 
 from controllers.cascade import TABLE_V_CURRENT, TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoop
 from controllers.design import design_dtsm
-from rig.metrics import chattering_count, rms
 from rig.papers.scenarios import cascade_run, position_servo_run, speed_loop_run
+from rig.report.metrics import chattering_count, rms
 
 LOAD = 1000.0  # f = T_L / J [rad/s^2]
 TOL = 1e-9  # control increments below this count as zero [V]

@@ -137,7 +137,7 @@ def test_a_run_that_reaches_no_device_leaves_no_run_directory(
 
 
 def test_the_summary_says_its_peaks_are_maxima() -> None:
-    from rig.report import summary_lines
+    from rig.report.summary import summary_lines
 
     summary = {
         "cycles": 10, "overruns": 0, "rms_error": 0.1, "max_error": 0.2, "error_unit": "rad",

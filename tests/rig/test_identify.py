@@ -76,7 +76,7 @@ def test_offline_from_a_run_directory_and_design_from_the_result(
     assert figure.stat().st_size > 1000
     capsys.readouterr()
     from rig.identify.experiment import identify_from_log
-    from rig.plots import plot_identify
+    from rig.identify.plots import plot_identify
 
     fig = plot_identify(online["run_dir"], identify_from_log(online["run_dir"]), str(figure))
     speed, u = fig.axes

@@ -10,8 +10,8 @@ import pathlib
 import pytest
 
 from rig.cli import main
-from rig.metrics import rms
 from rig.papers.scenarios import position_servo_run
+from rig.report.metrics import rms
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
 

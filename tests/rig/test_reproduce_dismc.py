@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from rig.cli import main
-from rig.metrics import overshoot, rise_time, settling_time
 from rig.papers.dismc import ALIASES, FIXED, DismcExample, run_dismc
 from rig.params import parse_items, typed_values
+from rig.report.metrics import overshoot, rise_time, settling_time
 
 TABLE_1 = {"DISMC-LMI": (1.82, 2.88, -60.6, 135.8), "DISMC-LQR": (0.44, 0.72, -32.7, 175.1)}
 
@@ -76,7 +76,7 @@ def test_param_overrides_and_errors(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_plot_is_written_with_titles_units_and_a_line_per_controller(tmp_path: object) -> None:
-    from rig.plots import plot_dismc
+    from rig.papers.plots import plot_dismc
 
     out = tmp_path / "fig3.png"  # type: ignore[operator]
     assert main(["reproduce", "dismc", "--plot", str(out), "--json"]) == 0

@@ -105,7 +105,7 @@ def test_plot_writes_a_figure_with_titles_units_and_i_q_i_d_per_controller(
     tmp_path: pytest.TempPathFactory, capsys: pytest.CaptureFixture[str]
 ) -> None:
     from rig.papers.dq_current import CONTROLLERS, cross_coupling
-    from rig.plots import plot_dq_steps
+    from rig.papers.plots import plot_dq_steps
 
     path = tmp_path / "dq.png"  # type: ignore[operator]
     assert main(["reproduce", "dq-current", "--param", "strategy=s-pwm-start", "--plot", str(path)]) == 0

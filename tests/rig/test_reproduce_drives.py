@@ -21,7 +21,7 @@ from plant_emulator.presets import DcServoPreset
 from rig.cli import main
 from rig.papers import drives
 from rig.papers.drives_study import DrivesStudy, drives_study, speed_error_theory
-from rig.plots import DRIVES_PLOTS, plot_drives
+from rig.papers.plots import DRIVES_PLOTS, plot_drives
 
 SHORT = DrivesStudy(speed_t_end=3.8, substeps=4, servo_t_end=2.0, servo_settle=1.8, im_t_end=2.4)
 KEYS = ["design", "table_v", "speed_loop", "position_servo", "im_speed", "cascade"]

@@ -19,7 +19,7 @@ from rig.cli import main
 from rig.config import load_config, replace_axis
 from rig.host.session import Session
 from rig.host.stopping import RestWatch
-from rig.report import summary_lines
+from rig.report.summary import summary_lines
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
 

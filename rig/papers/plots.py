@@ -1,8 +1,8 @@
-"""Plots (needs the ``plot`` extra, matplotlib).
+"""The papers' reproductions drawn (``rig reproduce ... --plot``; needs the ``plot`` extra).
 
-Every figure has a title, axes labelled with their units and a legend where an axis has more
-than one line; each function returns the figure (closed: written and released) so a test can
-read its content.
+Fig. 3 of the DISMC paper (``plot_dismc``), Fig. 9(b) of the dq-current paper (``plot_dq_steps``)
+and the drives paper's figures of sections VII.B-D (``plot_drives``), drawn with
+``rig.report.plots``.
 """
 
 from __future__ import annotations
@@ -10,35 +10,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from drivers.errors import ConfigError
 from rig.papers.dismc import DismcRun
 from rig.papers.dq_current import StepRun
 from rig.papers.drives_setup import Signals
+from rig.report.plots import require_pyplot, save
 
-__all__ = ["DRIVES_PLOTS", "plot_dismc", "plot_dq_steps", "plot_drives", "plot_identify", "require_pyplot"]
-
-
-def require_pyplot() -> Any:
-    """matplotlib's pyplot on the Agg backend; ConfigError naming the extra when it is missing."""
-    return _pyplot()
-
-
-def _pyplot() -> Any:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as exc:
-        raise ConfigError("--plot needs matplotlib: pip install 'drive-rig[plot]'") from exc
-    return plt
+__all__ = ["DRIVES_PLOTS", "plot_dismc", "plot_dq_steps", "plot_drives"]
 
 
 def plot_dismc(runs: Sequence[DismcRun], path: str, *, dt: float) -> Any:
     """Write Fig. 3-like plots (sliding functions, tracking errors, control inputs) to ``path``.
 
     The example of section 4 has no physical units: the signals are dimensionless (-)."""
-    plt = _pyplot()
+    plt = require_pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     for run in runs:
         t = [k * dt for k in range(len(run.u))]
@@ -53,12 +37,12 @@ def plot_dismc(runs: Sequence[DismcRun], path: str, *, dt: float) -> Any:
         ax.legend(fontsize="small")
     axes[-1].set_xlabel("time [s]")
     fig.suptitle("DISMC paper, section 4: Fig. 3 (DSMC, DISMC-LMI, DISMC-LQR, DISMC-AW-LQR)")
-    return _save(plt, fig, path)
+    return save(plt, fig, path)
 
 
 def plot_dq_steps(runs: Sequence[StepRun], path: str) -> Any:
     """Write Fig. 9(b)-like plots: i_q and i_d after a unit q step, one panel per strategy and ratio."""
-    plt = _pyplot()
+    plt = require_pyplot()
     panels = sorted({(r.strategy, r.ratio) for r in runs}, key=lambda p: (p[0], -p[1]))
     fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.6 * len(panels)), squeeze=False)
     for ax, (strategy, ratio) in zip(axes[:, 0], panels):
@@ -75,42 +59,7 @@ def plot_dq_steps(runs: Sequence[StepRun], path: str) -> Any:
         ax.legend(fontsize="small", ncol=3)
     axes[-1, 0].set_xlabel("samples after the step [-]")
     fig.suptitle("dq-current paper: i_q and i_d after a unit q-reference step (Fig. 9(b))")
-    return _save(plt, fig, path)
-
-
-def plot_identify(run_dir: str, result: object, path: str) -> Any:
-    """Write the measured speed (central differences) and the identified model's speed to ``path``."""
-    import numpy as np
-
-    from rig.host.rundir import read_run
-    from rig.identify.estimate import simulate_positions
-
-    plt = _pyplot()
-    u, theta, dt, _ = read_run(run_dir)
-    r: Any = result
-    _, w = simulate_positions(np.array([r.a_m, r.b_m, r.offset, theta[0], 0.0]), u, dt, r.delay_samples)
-    t = np.arange(len(u)) * dt
-    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    axes[0].plot(t, np.gradient(theta, dt), label="measured (central differences)")
-    axes[0].plot(t, w, label="model")
-    axes[0].set_ylabel("speed [rad/s]")
-    axes[0].set_title("speed: measured and identified model")
-    axes[1].step(t, u, where="post", label="u")
-    axes[1].set_ylabel("u [V]")
-    axes[1].set_title("input")
-    axes[1].set_xlabel("time [s]")
-    for ax in axes:
-        ax.grid(True)
-    axes[0].legend()
-    fig.suptitle(f"rig identify: a_m = {r.a_m:.4g} 1/s, b_m = {r.b_m:.4g} rad/(V s^2)")
-    return _save(plt, fig, path)
-
-
-def _save(plt: Any, fig: Any, path: Any) -> Any:
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return fig
+    return save(plt, fig, path)
 
 
 #: (experiment, file name) of ``plot_drives``
@@ -147,7 +96,7 @@ def _panels(plt: Any, runs: Sequence[Signals], panels: Sequence[Panel], title: s
         ax.grid(True)
         ax.legend(fontsize="x-small", loc="best")
     fig.suptitle(title, fontsize="medium")
-    return _save(plt, fig, path)
+    return save(plt, fig, path)
 
 
 #: per experiment of ``rig reproduce drives``: the figure's title and its panels, after the paper's figures
@@ -202,7 +151,7 @@ def plot_drives(plots: dict[str, list[Signals]], directory: str) -> dict[str, An
     (``DRIVES_PLOTS``), with the quantities of the paper's figures; returns them by experiment."""
     from pathlib import Path
 
-    plt = _pyplot()
+    plt = require_pyplot()
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     figures: dict[str, Any] = {}
