@@ -30,7 +30,7 @@ from can.interfaces.socketcand import socketcand as socketcand_client
 
 from drivers.errors import CommunicationError, ConfigError
 
-__all__ = ["ReceiveWatch", "brief", "check_interface", "open_bus"]
+__all__ = ["ReceiveWatch", "brief", "check_interface", "open_bus", "scan_command"]
 
 log = logging.getLogger(__name__)
 
@@ -232,3 +232,18 @@ def open_bus(
         raise CommunicationError(
             f"cannot open CAN bus interface={interface!r} channel={channel!r}: {exc}"
         ) from exc
+
+
+def scan_command(
+    interface: str, channel: str, bitrate: int | None = None, host: str = "", port: int = 0
+) -> str:
+    """The ``rig scan`` line for the bus ``open_bus`` would open with these arguments (what to run
+    when a node id is wrong)."""
+    words = ["rig scan", f"--interface {interface}"]
+    if channel:
+        words.append(f"--channel {channel}")
+    if bitrate:
+        words.append(f"--bitrate {bitrate}")
+    if interface == "socketcand":
+        words.append(f"--host {host} --port {port}")
+    return " ".join(words)

@@ -55,15 +55,12 @@ ENTRY_POINTS = {"rig", "rig.__main__"}
 #: modules still loose at rig/'s top, each with the group whose level it is held to until it moves
 LOOSE: dict[str, str] = {
     "rig.axis_config": "rig.config",
-    "rig.commission": "rig.commission",
     "rig.config": "rig.config",
     "rig.config_checks": "rig.config",
     "rig.demo": "rig.papers",
-    "rig.drive_status": "rig.commission",
     "rig.emulate": "rig.emulator",
     "rig.params": "rig.config",
     "rig.process": "rig.emulator",
-    "rig.scan": "rig.commission",
 }
 
 #: imports that break the levels today, (importer, imported) module by module: each is a debt
@@ -72,8 +69,6 @@ ALLOWED: set[tuple[str, str]] = {
     ("plant_emulator.device_profile", "plant_emulator.presets"),
     # a configuration naming a model file reads it with identification's reader
     ("rig.config", "rig.identify.model_file"),
-    # the session says which ``rig scan`` to run when a node does not answer
-    ("rig.host.session", "rig.scan"),
     # the cascade and the servo take the paper's constants from the papers' study
     ("rig.laws.cascade", "rig.papers.drives"),
     ("rig.laws.position_servo", "rig.papers.drives"),

@@ -1,4 +1,4 @@
-"""``rig drive``: commission one CiA 402 node on any bus (``rig.commission``)."""
+"""``rig drive``: commission one CiA 402 node on any bus (``rig.commission.drive``)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from rig.cli.common import (
     print_json,
 )
 from rig.cli.run import LIVE_MODES, open_view
-from rig.drive_status import status_lines
+from rig.commission.status import status_lines
 
 __all__ = ["add_parser"]
 
@@ -97,7 +97,7 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     from drivers.maps.od import load_od
     from drivers.master_watch import MasterWatch
     from rig.cli.common import params_of
-    from rig.commission import DriveTool, parse_object
+    from rig.commission.drive import DriveTool, parse_object
     from rig.config import AxisUnits
 
     units = {k: float(v) for k, v in params_of(args.units, AxisUnits, "rig drive: --units").items()}
@@ -149,7 +149,7 @@ def _value(text: str) -> int | float:
 
 def _bus_hint(args: argparse.Namespace) -> str:
     """The ``rig scan`` line for the bus of ``args`` (or the twin's, with --emulate)."""
-    from rig.scan import scan_command
+    from drivers.bus import scan_command
 
     if args.emulate:
         return f"the twin {args.emulate} is node 1; on a bus, rig scan --interface I --channel C"
@@ -159,7 +159,7 @@ def _bus_hint(args: argparse.Namespace) -> str:
 def _act(tool: Any, args: argparse.Namespace) -> Any:
     from drivers.canopen_axis import CanopenAxis
     from drivers.cia402_pdo import variable
-    from rig.commission import parse_object
+    from rig.commission.drive import parse_object
 
     a = tool.axis
     if args.action == "status":

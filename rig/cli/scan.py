@@ -43,7 +43,7 @@ def add_parser(sub: Any) -> None:
 
 def _emulated(preset: str, seconds: float, sdo_timeout: float) -> list[dict[str, Any]]:
     from plant_emulator.lockstep import LockstepBench
-    from rig.scan import scan
+    from rig.commission.scan import scan
 
     try:
         bench = LockstepBench(preset)
@@ -62,7 +62,7 @@ def _emulated(preset: str, seconds: float, sdo_timeout: float) -> list[dict[str,
 
 
 def _on_bus(args: argparse.Namespace) -> list[dict[str, Any]]:
-    from rig.scan import scan, wall_listen
+    from rig.commission.scan import scan, wall_listen
 
     network = open_network(args, "rig scan")
     try:

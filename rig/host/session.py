@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.base import AxisDriver
-from drivers.bus import ReceiveWatch, open_bus
+from drivers.bus import ReceiveWatch, open_bus, scan_command
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import ConfigError, NodeSilent, RigError
 from drivers.master_watch import MasterWatch, OtherMaster
@@ -59,7 +59,6 @@ from rig.laws.injected import with_injected_faults
 from rig.laws.references import reference_of
 from rig.live.channels import channels_of
 from rig.live.view import LiveView
-from rig.scan import scan_command
 
 __all__ = ["Session", "build_law", "run_config"]
 

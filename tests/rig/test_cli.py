@@ -189,7 +189,7 @@ def test_scan_a_node_without_a_name_or_a_profile(tmp_path: pathlib.Path) -> None
     are still read. Device type 0 is "none given", an unknown profile number says so."""
     from plant_emulator.lockstep import LockstepBench
     from rig.cli.scan import table
-    from rig.scan import scan
+    from rig.commission.scan import scan
 
     bench = LockstepBench("grid-converter")
     try:
@@ -220,7 +220,7 @@ def test_scan_a_node_heard_but_not_answering_is_asked_once() -> None:
     """A STOPPED node (no SDO in that state, CiA 301) found by its heartbeat: one error, not three
     timeouts, and its state from the heartbeat."""
     from plant_emulator.lockstep import LockstepBench
-    from rig.scan import scan
+    from rig.commission.scan import scan
 
     bench = LockstepBench("grid-converter")
 

@@ -95,7 +95,7 @@ def test_a_foreign_rpdo_while_running_is_a_safe_stop(drive: ForeignDrive, tmp_pa
 
 
 def test_rig_drive_checks_before_it_enables(drive: ForeignDrive) -> None:
-    from rig.commission import DriveTool
+    from rig.commission.drive import DriveTool
 
     net = drive.network()
     watch = MasterWatch(net, [1])

@@ -30,7 +30,7 @@ from drivers.maps.cia import Controlword, Mode, PowerState
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
-from rig.drive_status import UNITS_HINT, device_units
+from rig.commission.status import UNITS_HINT, device_units
 from rig.host.stopping import RestWatch
 
 __all__ = ["STATUS_BITS", "DriveTool", "parse_object"]

@@ -20,7 +20,7 @@ from canopen.sdo.client import SdoClient
 
 from drivers.maps import cia
 
-__all__ = ["DEVICE_PROFILES", "profile_of", "scan", "scan_command"]
+__all__ = ["DEVICE_PROFILES", "profile_of", "scan"]
 
 #: device profile numbers (the low word of 0x1000) and their names
 DEVICE_PROFILES = {
@@ -40,20 +40,6 @@ OBJECTS = (
     ("vendor_id", cia.IDENTITY, 1),
     ("product_name", cia.DEVICE_NAME, 0),
 )
-
-
-def scan_command(
-    interface: str, channel: str, bitrate: int | None = None, host: str = "", port: int = 0
-) -> str:
-    """The ``rig scan`` line for the same bus (what to run when a node id is wrong)."""
-    words = ["rig scan", f"--interface {interface}"]
-    if channel:
-        words.append(f"--channel {channel}")
-    if bitrate:
-        words.append(f"--bitrate {bitrate}")
-    if interface == "socketcand":
-        words.append(f"--host {host} --port {port}")
-    return " ".join(words)
 
 
 def profile_of(device_type: int) -> str:
