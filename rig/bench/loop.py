@@ -22,7 +22,6 @@ import dataclasses
 import itertools
 import math
 import os
-import re
 import statistics
 import tempfile
 import time
@@ -38,7 +37,7 @@ from rig.bench.micro import Figure, rate
 from rig.config import BusConfig, RigConfig, load_config, replace_axis
 from rig.demo import demo_config
 from rig.host.session import Session
-from rig.process import spawn_rig, stop_rig
+from rig.process import spawn_emulator, stop_rig
 
 __all__ = ["DYNO_EXAMPLE", "bench_loop", "canopen_baseline", "lockstep_rate"]
 
@@ -136,19 +135,14 @@ def _steal_jiffies() -> int | None:
 
 
 def _realtime(out: str, seconds: float) -> list[Figure]:
-    proc, line = spawn_rig(
-        "emulate", "--preset", "dc-servo", "--param", "period=0.001", "--socketcand-port", "0"
-    )
+    proc, port = spawn_emulator("--preset", "dc-servo", "--param", "period=0.001")
     try:
-        match = re.search(r":(\d+);", line)
-        if match is None:
-            raise RuntimeError("rig emulate did not start")
         cfg = demo_config(out)
         rt = dataclasses.replace(
             cfg,
             reference=dataclasses.replace(cfg.reference, kind="constant", value=0.0),  # hold: timing only
             run=dataclasses.replace(cfg.run, time="realtime", period=0.001),
-            bus=BusConfig(interface="socketcand", channel="can0", port=int(match.group(1))),
+            bus=BusConfig(interface="socketcand", channel="can0", port=port),
         )
         rt = replace_axis(rt, "motor", limits={"watchdog_periods": 1000})
         steal0 = _steal_jiffies()
