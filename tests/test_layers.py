@@ -60,7 +60,6 @@ LOOSE: dict[str, str] = {
     "rig.demo": "rig.papers",
     "rig.emulate": "rig.emulator",
     "rig.params": "rig.config",
-    "rig.process": "rig.emulator",
 }
 
 #: imports that break the levels today, (importer, imported) module by module: each is a debt

@@ -153,7 +153,7 @@ def test_two_terminals_run_as_written(line: str, first: str, second: str, tmp_pa
     written; then Ctrl-C stops it, cleanly."""
     import shlex
 
-    from rig.process import spawn_rig, stop_rig
+    from rig.emulator.spawn import spawn_rig, stop_rig
 
     (command,) = [c for c in first.splitlines() if c.strip() and not c.startswith("#")]
     argv = shlex.split(command)

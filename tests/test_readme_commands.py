@@ -27,7 +27,7 @@ import pytest
 from rig.cli import build_parser
 from rig.cli.common import UsageError
 from rig.config import FaultsConfig, load_config
-from rig.process import spawn_rig, stop_rig
+from rig.emulator.spawn import spawn_rig, stop_rig
 from tests.test_readme import DOCS, ROOT, run_here, where
 
 README = (ROOT / "README.md").read_text()
@@ -650,7 +650,9 @@ NOT_RUN = {
     "rig bench stops --period 0.001 --load 2": "20 real-time runs of 10 s under two busy processes "
     "(minutes, and it loads the machine): the slow tier runs rig bench stops",
     "rig bench stops --period 0.0004 --load 2": "as rig bench stops --period 0.001 --load 2",
-    "rig identify --emulate epos4 --input torque": "tests/rig/test_identify_twins.py runs it on each CST twin",
+    "rig identify --emulate epos4 --input torque": (
+        "tests/rig/test_identify_twins.py runs it on each CST twin"
+    ),
     "rig identify --emulate epos4 --input torque --excitation multisine --f-min 10 --amplitude 0.05 "
     "--loop-model RUN_DIR": "needs the run directory of the command before it; "
     "tests/rig/test_identify_closed_loop.py runs it, shorter, on epos4 and kollmorgen-s300",

@@ -274,7 +274,7 @@ def _reader(port: int, seconds: float, every: float) -> dict[str, Any]:
 
 def _with_emulator(use: Callable[[int], list[Figure]], *args: str) -> list[Figure]:
     """``use(port)`` with ``rig emulate --preset dc-servo`` at 1 kHz (and ``args``) beside."""
-    from rig.process import spawn_emulator, stop_rig
+    from rig.emulator.spawn import spawn_emulator, stop_rig
 
     proc, port = spawn_emulator("--preset", "dc-servo", "--param", "period=0.001", *args)
     try:

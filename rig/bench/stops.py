@@ -33,8 +33,8 @@ from typing import Any
 from drivers.errors import CommunicationError
 from rig.bench.micro import Figure
 from rig.config import BusConfig, load_config
+from rig.emulator.spawn import spawn_emulator_line, stop_rig
 from rig.host.session import Session
-from rig.process import spawn_emulator_line, stop_rig
 
 __all__ = ["EXAMPLE", "bench_stops"]
 

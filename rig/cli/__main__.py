@@ -1,4 +1,4 @@
-"""``python -m rig.cli`` (how ``rig.process.spawn_rig`` starts rig as another process).
+"""``python -m rig.cli`` (how ``rig.emulator.spawn.spawn_rig`` starts rig as another process).
 
 Ctrl-C (SIGINT) is how rig is stopped, also when rig started it: a process started from a
 script's background job inherits SIGINT ignored, and would then outlive ``stop_rig``; here it

@@ -38,8 +38,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from rig.emulator.spawn import spawn_emulator
 from rig.faults.wire_probe import LinkRelay, Watcher, wait_for
-from rig.process import spawn_emulator
 
 __all__ = ["AFTER", "DEVICE", "PERIOD", "WIRE_SCENARIOS", "rows_on_disk", "without_write_override"]
 

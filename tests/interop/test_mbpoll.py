@@ -29,7 +29,7 @@ from drivers.maps import modbus_map
 from plant_emulator.inverter_model import COMM_LOSS
 from plant_emulator.modbus_inverter import InverterServer, default_model
 from plant_emulator.pty_link import PtyLink
-from rig.process import spawn_rig, stop_rig
+from rig.emulator.spawn import spawn_rig, stop_rig
 from tests.interop.conftest import need_tools, wait_for
 
 pytestmark = [pytest.mark.interop, pytest.mark.timeout(600)]  # the VM is slow

@@ -12,7 +12,7 @@ import canopen
 import pytest
 
 from drivers.maps import CIA402_EDS
-from rig.process import spawn_rig, stop_rig
+from rig.emulator.spawn import spawn_rig, stop_rig
 
 
 def test_emulator_in_a_separate_process() -> None:

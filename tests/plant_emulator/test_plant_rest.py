@@ -13,7 +13,7 @@ import pytest
 from drivers.maps import CIA402_EDS
 from plant_emulator.lockstep import LockstepBench
 from rig.emulate import rest_plants
-from rig.process import spawn_emulator, stop_rig
+from rig.emulator.spawn import spawn_emulator, stop_rig
 
 
 @pytest.mark.parametrize("preset", ["dc-servo", "dyno", "im-drive"])

@@ -32,9 +32,9 @@ import pytest
 
 from drivers.maps import CIA402_EDS
 from plant_emulator.device_profile import load_profile, zoo
+from rig.emulator.spawn import spawn_emulator, stop_rig
 from rig.faults.wire import CONFIG, PERIOD
 from rig.faults.wire_probe import wait_for
-from rig.process import spawn_emulator, stop_rig
 
 pytestmark = pytest.mark.timing  #: real time across processes: wall-clock bound
 
@@ -154,7 +154,7 @@ def test_a_killed_host_in_voltage_mode_moves_the_shaft_no_further_than_the_drive
     TPDO mapping read by SDO."""
     deadline = 0.02
     config = functools.partial(voltage_config, tmp_path, deadline=deadline)
-    world = KilledHost(tmp_path, ("--preset", "dc-servo"), lambda port: config(port))
+    world = KilledHost(tmp_path, ("--preset", "dc-servo"), config)
     try:
         killed = world.kill(700)  # 0.7 s of 3 V: near its steady 127.5 rad/s
         world.emcy(0x8250)

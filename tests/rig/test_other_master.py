@@ -115,9 +115,9 @@ def test_a_second_host_is_refused_across_processes(tmp_path: pathlib.Path) -> No
     second ``rig run`` on the same node, hears A's SYNC and RPDOs and is refused before it sends a
     frame; A's run goes on undisturbed to its end."""
     from plant_emulator.device_profile import load_profile, zoo
+    from rig.emulator.spawn import spawn_emulator, stop_rig
     from rig.faults.wire import CONFIG, PERIOD
     from rig.faults.wire_probe import wait_for
-    from rig.process import spawn_emulator, stop_rig
 
     eds = load_profile(zoo()["epos4"]).eds
     emulator, port = spawn_emulator("--device", "epos4")

@@ -6,7 +6,7 @@ import signal
 import subprocess
 import sys
 
-from rig.process import stop_rig
+from rig.emulator.spawn import stop_rig
 
 
 def test_a_rig_whose_parent_ignores_sigint_still_stops_on_it() -> None:

@@ -30,9 +30,9 @@ import numpy as np
 import pytest
 
 from rig.config import BusConfig, load_config
+from rig.emulator.spawn import spawn_emulator, stop_rig
 from rig.host.rundir import read_samples
 from rig.host.session import Session
-from rig.process import spawn_emulator, stop_rig
 
 pytestmark = pytest.mark.timing  #: real time across processes
 

@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 from plant_emulator.device_profile import zoo
-from rig.process import spawn_emulator, stop_rig
+from rig.emulator.spawn import spawn_emulator, stop_rig
 
 
 def test_rig_scan_waits_as_long_as_it_is_told_for_each_sdo_answer(tmp_path: pathlib.Path) -> None:

@@ -25,7 +25,7 @@ from rig.bench.socketcand import (
     flood_ceiling,
     realtime_run,
 )
-from rig.process import spawn_emulator, stop_rig
+from rig.emulator.spawn import spawn_emulator, stop_rig
 
 pytestmark = pytest.mark.timing
 

@@ -21,8 +21,8 @@ import pytest
 import scipy.io
 
 from plant_emulator.device_profile import load_profile, zoo
+from rig.emulator.spawn import spawn_emulator, stop_rig
 from rig.faults.wire_probe import wait_for
-from rig.process import spawn_emulator, stop_rig
 from tests.rig.test_host_death import run_config
 
 pytestmark = pytest.mark.timing  #: real time across processes: wall-clock bound

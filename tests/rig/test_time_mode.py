@@ -14,8 +14,8 @@ import pytest
 
 from drivers.errors import ConfigError
 from rig.config import BusConfig, RigConfig, load_config
+from rig.emulator.spawn import spawn_emulator, stop_rig
 from rig.host.session import Session
-from rig.process import spawn_emulator, stop_rig
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
 

@@ -81,7 +81,6 @@ def test_an_emulated_run_s_trace_has_both_directions(tmp_path: pathlib.Path) -> 
     assert {0x181, 0x581} <= rx and not tx & {0x181, 0x581}  # TPDO1, SDO responses: the drive's
 
 
-
 def _seen(m: can.Message) -> tuple[int, bytes, bool, bool]:
     """What a reader gives back of a frame: id, the DLC's bytes (a remote frame: none), direction."""
     data = b"" if m.is_remote_frame else bytes(m.data).ljust(m.dlc, b"\0")[: m.dlc]
@@ -146,8 +145,8 @@ def test_a_trace_over_a_real_bus_holds_the_host_s_frames_at_the_right_time(tmp_p
 
     from plant_emulator.device_profile import load_profile, zoo
     from rig.config import BusConfig, load_config, replace_axis
+    from rig.emulator.spawn import spawn_rig, stop_rig
     from rig.host.session import Session
-    from rig.process import spawn_rig, stop_rig
 
     proc, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
     try:

@@ -71,7 +71,7 @@ def test_every_zoo_drive_in_real_time_in_another_process(device: str, tmp_path: 
     import re
 
     from rig.config import BusConfig
-    from rig.process import spawn_rig, stop_rig
+    from rig.emulator.spawn import spawn_rig, stop_rig
 
     proc, line = spawn_rig("emulate", "--device", device, "--socketcand-port", "0", stderr=True)
     try:
@@ -113,7 +113,7 @@ def test_sync_from_another_device(tmp_path: pathlib.Path) -> None:
     import can
 
     from rig.config import BusConfig
-    from rig.process import spawn_rig, stop_rig
+    from rig.emulator.spawn import spawn_rig, stop_rig
 
     proc, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
     try:

@@ -10,7 +10,7 @@ import pytest
 
 from rig.config import BusConfig, RigConfig, replace_axis
 from rig.demo import demo_config
-from rig.process import spawn_rig, stop_rig
+from rig.emulator.spawn import spawn_rig, stop_rig
 
 
 def vcan_unavailable() -> str | None:
