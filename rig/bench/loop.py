@@ -35,9 +35,9 @@ from drivers.maps import CIA402_EDS, cia
 from plant_emulator.lockstep import SyncHub, attach_network
 from rig.bench.micro import Figure, rate
 from rig.config import BusConfig, RigConfig, load_config, replace_axis
-from rig.demo import demo_config
 from rig.emulator.spawn import spawn_emulator, stop_rig
 from rig.host.session import Session
+from rig.papers.demo import demo_config
 
 __all__ = ["DYNO_EXAMPLE", "bench_loop", "canopen_baseline", "lockstep_rate"]
 

@@ -11,8 +11,8 @@ from collections.abc import Callable
 
 from rig.bench.micro import Figure
 from rig.config import replace_axis
-from rig.demo import demo_config
 from rig.host.session import Session
+from rig.papers.demo import demo_config
 
 __all__ = ["bench_soak"]
 

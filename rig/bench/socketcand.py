@@ -194,8 +194,8 @@ def client_result(proc: subprocess.Popen[str]) -> dict[str, Any]:
 def realtime_run(out: str, port: int, seconds: float) -> dict[str, Any]:
     """A real-time 1 kHz run of the servo held at 0 rad against the emulator on ``port``."""
     from rig.config import BusConfig, replace_axis
-    from rig.demo import demo_config
     from rig.host.session import Session
+    from rig.papers.demo import demo_config
 
     cfg = demo_config(out)
     cfg = dataclasses.replace(

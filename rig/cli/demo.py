@@ -21,6 +21,6 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rig.demo import run_demo
+    from rig.papers.demo import run_demo
 
     return run_demo(sys.stdout)

@@ -147,9 +147,9 @@ def _experiment(args: argparse.Namespace) -> str | None:
     from plant_emulator.presets import PRESETS, preset_period
     from rig.cli.progress import Progress
     from rig.config import load_config
-    from rig.demo import demo_config
     from rig.host.emulation import emulated_period, preset_params
     from rig.identify.experiment import experiment_config, run_experiment
+    from rig.papers.demo import demo_config
 
     _check(args)
     torque = args.input == "torque"
@@ -215,8 +215,8 @@ def _twin(args: argparse.Namespace) -> Any:
     from drivers.errors import ConfigError
     from plant_emulator.device_profile import device_profile
     from rig.config import rig_config
-    from rig.demo import demo_doc
     from rig.host.emulation import preset_params
+    from rig.papers.demo import demo_doc
 
     try:
         profile = device_profile(args.emulate)

@@ -1,6 +1,6 @@
 """``rig faults``: every fault scenario over the whole chain, and what the host did about it.
 
-CANopen scenarios run the section VII.B servo (``rig.demo.demo_config``) over
+CANopen scenarios run the section VII.B servo (``rig.papers.demo.demo_config``) over
 the emulated bus in lock-step with a fault injected at ``AT`` seconds; host
 scenarios break the controller, a limit and Ctrl-C; Modbus scenarios make the
 emulated inverter time out or answer with an exception. The cross-process
@@ -47,8 +47,8 @@ def _canopen(
     limits: dict[str, Any] | None = None,
     timed: bool = True,
 ) -> dict[str, Any]:
-    from rig.demo import demo_config
     from rig.host.session import Session
+    from rig.papers.demo import demo_config
 
     cfg = demo_config(out)
     cfg = dataclasses.replace(cfg, faults=dataclasses.replace(FaultsConfig(), **(faults or {})))

@@ -46,8 +46,8 @@ import numpy as np
 from controllers.cascade import TABLE_V_CURRENT, TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoopParams
 from controllers.design import design_dtsm
 from rig.config import rig_config
-from rig.demo import DEMO_LOAD, demo_doc
 from rig.papers import drives
+from rig.papers.demo import DEMO_LOAD, demo_doc
 from rig.papers.drives_dyno import cascade_part, im_part
 from rig.papers.drives_setup import DRIVES_FIXED, DRIVES_PARAM_NAMES, EXACT, DrivesStudy, Signals, bus_run
 from rig.papers.scenarios import Trajectory, position_servo_run, speed_loop_run

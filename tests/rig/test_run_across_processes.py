@@ -11,10 +11,10 @@ from typing import Any
 import numpy as np
 
 from rig.config import BusConfig, RigConfig, replace_axis
-from rig.demo import demo_config
 from rig.emulator.spawn import spawn_rig, stop_rig
 from rig.host.rundir import read_samples
 from rig.host.session import Session
+from rig.papers.demo import demo_config
 
 
 def _run(cfg: RigConfig, *, emulate: bool) -> dict[str, Any]:

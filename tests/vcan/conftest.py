@@ -9,8 +9,8 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from rig.config import BusConfig, RigConfig, replace_axis
-from rig.demo import demo_config
 from rig.emulator.spawn import spawn_rig, stop_rig
+from rig.papers.demo import demo_config
 
 
 def vcan_unavailable() -> str | None:

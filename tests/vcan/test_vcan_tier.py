@@ -19,8 +19,8 @@ from drivers.bus import open_bus
 from drivers.cia402 import Cia402Axis
 from rig.cli import main
 from rig.config import BusConfig, RigConfig, replace_axis
-from rig.demo import demo_config
 from rig.host.session import Session
+from rig.papers.demo import demo_config
 from tests.vcan.conftest import lockstep_servo
 
 pytestmark = pytest.mark.vcan
