@@ -121,7 +121,15 @@ def bring_to_rest(
     def rested(a: AxisDriver) -> bool:
         return bool(_asked(a, lambda: a.at_rest(a.feedback()), "state"))
 
-    if not _cycles(pacing, period, timeout, deadline, realtime, beat, lambda: _pending(pending, rested)):
+    if not _cycles(
+        pacing,
+        period,
+        timeout,
+        deadline,
+        realtime=realtime,
+        beat=beat,
+        done=lambda: _pending(pending, rested),
+    ):
         for a in pending:
             problems.append(f"{a.name}: its stop ramp did not end within {timeout:g} s")
     for a in stopping:
@@ -134,7 +142,7 @@ def bring_to_rest(
         return all([w.see(_asked(a, a.shaft_speed, "speed")) for a, w in watches.items()])  # type: ignore[arg-type]
 
     if watches:
-        _cycles(pacing, period, left, time.monotonic() + left, realtime, beat, resting)
+        _cycles(pacing, period, left, time.monotonic() + left, realtime=realtime, beat=beat, done=resting)
     turning = {a.name: w.speed for a, w in watches.items() if not w.done}
     for name, speed in turning.items():
         said = "no speed sample" if speed is None else f"{speed:.4g} rad/s"
@@ -159,6 +167,7 @@ def _cycles(
     period: float,
     seconds: float,
     deadline: float,
+    *,
     realtime: bool,
     beat: list[Callable[[int], None] | None],
     done: Callable[[], bool],

@@ -5,6 +5,7 @@ The expected motion is solved here (J dw/dt = -B w - T_c while the shaft turns),
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import canopen
@@ -12,7 +13,6 @@ import pytest
 
 from drivers.maps import CIA402_EDS
 from plant_emulator.axes import DcServoAxis
-from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.device_profile import load_profile, zoo
 from plant_emulator.induction_motor import ImAxis
 from plant_emulator.lockstep import LockstepBench
@@ -60,7 +60,9 @@ def test_the_defaults_are_the_catalogue_motors_and_b_is_part_of_a_m() -> None:
     assert m.damping == m.a_m + m.b / m.j == pytest.approx(16.0, rel=1e-12)  # (3.5)'s a_m + B/J
     assert m.b_m == pytest.approx(680.0, rel=1e-12)
     assert ImDrivePreset().friction == 0.0022  # Table II
-    with pytest.raises(ValueError, match=r"friction=0.001: viscous friction B = 0.001 .* at most .* = 0.0001384"):
+    with pytest.raises(
+        ValueError, match=r"friction=0.001: viscous friction B = 0.001 .* at most .* = 0.0001384"
+    ):
         preset_params("dc-servo", {"friction": 1e-3})
 
 
@@ -112,7 +114,7 @@ def test_no_sign_chattering_as_the_motor_stops_with_zero_volts() -> None:
     axis.set_command(-1, 0.0)
     speeds = _run(axis, 1.0)
     assert min(speeds) == 0.0 and set(speeds[-100:]) == {0.0}
-    assert sum(1 for a, b in zip(speeds, speeds[1:]) if a * b < 0.0) == 0
+    assert sum(1 for a, b in itertools.pairwise(speeds) if a * b < 0.0) == 0
 
 
 def test_a_disabled_induction_motor_comes_to_rest() -> None:

@@ -48,6 +48,7 @@ def test_mf4_read_by_asammdf_has_every_channel_with_its_unit(
     run_dir: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     import asammdf
+
     columns, docs = _recorded(run_dir)
     with asammdf.MDF(_export(run_dir, "mf4", capsys)) as mdf:
         assert mdf.version.startswith("4.")
@@ -65,6 +66,7 @@ def test_parquet_read_by_pyarrow_has_every_column_with_its_unit(
     run_dir: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     import pyarrow.parquet as pq
+
     columns, docs = _recorded(run_dir)
     table = pq.read_table(_export(run_dir, "parquet", capsys))
     assert table.column_names == list(columns)
@@ -81,7 +83,7 @@ def test_mat_and_csv_read_back_with_scipy_and_numpy(
 ) -> None:
     import scipy.io
 
-    columns, docs = _recorded(run_dir)
+    columns, _docs = _recorded(run_dir)
     mat = scipy.io.loadmat(_export(run_dir, "mat", capsys), squeeze_me=True)
     for name in columns:
         assert np.array_equal(mat[name.replace(".", "_")], columns[name]), name

@@ -27,7 +27,9 @@ def _rows(n: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("rows", [1, 7, 8192])
-def test_the_rows_come_back_whole_in_chunks_without_a_torn_last_line(tmp_path: pathlib.Path, rows: int) -> None:
+def test_the_rows_come_back_whole_in_chunks_without_a_torn_last_line(
+    tmp_path: pathlib.Path, rows: int
+) -> None:
     data = _rows(1000)
     fd = _csv(tmp_path / "s.csv", data, tail="0.5,1.0,2")  # a row torn by a full disk
     try:
