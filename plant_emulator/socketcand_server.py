@@ -17,7 +17,8 @@ made per client, so a connection costs a few system calls, not thread starts und
 devices' clock. Every frame a client sends goes to the hub (the devices answer at once,
 under their lock) and to the other clients; every frame the devices send goes to all
 clients. Each client has its own bounded queue (``socketcand_link``): a client that does not
-read is dropped, and no socket is written with the devices' lock held.
+read is dropped, and no socket write waits with the devices' lock held (the I/O thread hands a
+device's answer to the kernel at once, non-blocking; every other write is done after).
 
 The bus has a bit rate (``bitrate``, 1 Mbit/s by default): every frame, the devices' and the
 clients', takes its time on it (``bus_time``: worst-case stuffing), and a client's frame waits
@@ -162,11 +163,18 @@ class SocketcandServer:
 
     def _to_clients(self, msg: can.Message) -> None:
         """A device's frame (called under the devices' lock): on the bus now, queued for every
-        client, stamped now."""
-        self.bus_time.carry(msg, time.monotonic())
+        client, stamped now. On the I/O thread (a device answering a client's frame: the TPDOs
+        answering a SYNC) it is handed to the kernel at once, as socketcand writes each frame as it
+        comes, not after the devices' other work on that SYNC (a non-blocking write, never a wait:
+        what the kernel does not take waits in the queue as any line does)."""
+        now = time.monotonic()
+        self.bus_time.carry(msg, now)
         line = format_frame(msg, time.time())
+        at_once = threading.get_ident() == self.thread.ident
         for client in self._clients:
             self._put(client, line)
+            if at_once:
+                client.send(now)
 
     # --- the I/O thread ---------------------------------------------------------------------
 
