@@ -34,23 +34,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal, TypeVar
+from typing import Any, Literal, TypeVar
 
 import canopen
 
 from drivers.maps import cia, cia406
 from drivers.maps.cia import Mode
+from drivers.schema import MAX_PERIOD, MIN_PERIOD, key
 from plant_emulator.axes import Axis, LoadProfile
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
-from plant_emulator.parameters import (
-    load_torque,
-    require_fits,
-    require_nodes,
-    require_nonnegative,
-    require_positive,
-)
+from plant_emulator.parameters import load_torque, node_key, profile_text, require_nodes
 from plant_emulator.shaft import Shaft
 
 __all__ = ["DynoPreset", "LoadMachineAxis", "build_dyno"]
@@ -58,47 +53,60 @@ __all__ = ["DynoPreset", "LoadMachineAxis", "build_dyno"]
 T = TypeVar("T")
 _CST = Mode.CST  # looked up once, compared on every command
 
-#: the motor under test's values that None takes from the motor (see ``DynoPreset``)
-_MOTOR_DEFAULTED = ("rated_current", "rated_torque", "max_current_permille", "max_speed_rpm")
-_LOAD_DEFAULTED = ("load_rated_torque", "load_rated_current", "load_max_speed_rpm")
+
+def _rating(unit: str, doc: str, **allowed: Any) -> Any:
+    """A rating of the motor or the load machine; None: the motor under test's."""
+    return key(None, unit, doc, **allowed)
 
 
 @dataclass(frozen=True)
 class DynoPreset:
     """Parameters of ``dyno`` (SI; see the module docstring); None: the motor under test's value."""
 
-    motor: Literal["dc", "im"] = "dc"  #: dc: the DC motor (3.4) of dc-servo; im: IM1 under FOC of im-drive
-    period: float = 0.4e-3  #: SYNC period [s]
-    counts_per_rev: int = 4096  #: position resolution of both drives and the encoder [increments/rev]
-    j_load: float = 0.0  #: inertia added to the motor's total J [kg m^2]
-    load: str = "none"  #: emulator-internal load torque T_ext [N m] of time (``plant_emulator.profiles``)
-    rated_current: float | None = None  #: motor, 0x6075 [A] (dc 10 A, im 4.6 A)
-    rated_torque: float | None = None  #: motor, 0x6076 [N m] (dc k_t 10 A = 0.235 N m, im 5 N m)
-    max_current_permille: int | None = None  #: motor, 0x6073 (dc 3000, im 2500)
-    max_speed_rpm: int | None = None  #: motor, 0x6080 [rpm] (dc 6000, im 3600)
-    friction: float | None = None  #: motor, viscous B [N m s/rad] (dc 2.29e-6, im 0.0022)
-    coulomb: float | None = None  #: motor, Coulomb friction T_c [N m] (dc 1.1e-3, im 2e-3)
-    load_rated_torque: float | None = None  #: load machine, 0x6076 [N m] (the motor's)
-    load_rated_current: float | None = None  #: load machine, 0x6075 [A] (the motor's)
-    load_max_permille: int = 3000  #: load machine, 0x6073 [per mille of its rated current]
-    load_max_speed_rpm: int | None = None  #: load machine, 0x6080 [rpm] (the motor's)
-    load_torque_lag: float = 0.0  #: load machine's torque lag [s] (0: ideal)
-    drive_node: int = 1  #: the motor under test's drive
-    encoder_node: int = 2
-    load_node: int = 3  #: the load machine's drive
+    motor: Literal["dc", "im"] = key(
+        "dc", "", "dc: the DC motor (3.4) of dc-servo; im: IM1 under FOC of im-drive"
+    )
+    period: float = key(
+        0.4e-3,
+        "s",
+        "the SYNC period",
+        ge=MIN_PERIOD,
+        le=MAX_PERIOD,
+        rule=f"a period of {MIN_PERIOD:g} .. {MAX_PERIOD:g} s",
+    )
+    counts_per_rev: int = key(
+        4096, "increments/rev", "position resolution of both drives and the encoder", ge=1, le=0x7FFF_FFFF
+    )
+    j_load: float = key(0.0, "kg m^2", "inertia added to the motor's total J", ge=0.0)
+    load: str = key(
+        "none",
+        "N m",
+        "emulator-internal load torque T_ext of time (plant_emulator.profiles)",
+        check=profile_text,
+    )
+    rated_current: float | None = _rating("A", "motor, 0x6075 (dc 10 A, im 4.6 A)", gt=0.0)
+    rated_torque: float | None = _rating("N m", "motor, 0x6076 (dc k_t 10 A = 0.235 N m, im 5 N m)", gt=0.0)
+    max_current_permille: int | None = _rating(
+        "per mille", "motor, 0x6073 (dc 3000, im 2500)", ge=1, le=0xFFFF
+    )
+    max_speed_rpm: int | None = _rating("rpm", "motor, 0x6080 (dc 6000, im 3600)", ge=1, le=0xFFFF_FFFF)
+    friction: float | None = _rating("N m s/rad", "motor, viscous B (dc 2.29e-6, im 0.0022)", ge=0.0)
+    coulomb: float | None = _rating("N m", "motor, Coulomb friction T_c (dc 1.1e-3, im 2e-3)", ge=0.0)
+    load_rated_torque: float | None = _rating("N m", "load machine, 0x6076 (the motor's)", gt=0.0)
+    load_rated_current: float | None = _rating("A", "load machine, 0x6075 (the motor's)", gt=0.0)
+    load_max_permille: int = key(
+        3000, "per mille", "load machine, 0x6073, of its rated current", ge=1, le=0xFFFF
+    )
+    load_max_speed_rpm: int | None = _rating(
+        "rpm", "load machine, 0x6080 (the motor's)", ge=1, le=0xFFFF_FFFF
+    )
+    load_torque_lag: float = key(0.0, "s", "load machine's torque lag (0: ideal)", ge=0.0)
+    drive_node: int = node_key(1, "the motor under test's drive")
+    encoder_node: int = node_key(2, "the encoder")
+    load_node: int = node_key(3, "the load machine's drive")
 
     def __post_init__(self) -> None:
-        if self.motor not in ("dc", "im"):
-            raise ValueError(f"preset parameter motor={self.motor!r}: use dc or im")
-        require_positive(self, "period", "counts_per_rev", "load_max_permille")
-        require_positive(
-            self, *(n for n in _MOTOR_DEFAULTED + _LOAD_DEFAULTED if getattr(self, n) is not None)
-        )
-        require_nonnegative(self, "j_load", "load_torque_lag")
-        require_nonnegative(self, *(n for n in ("friction", "coulomb") if getattr(self, n) is not None))
-        require_fits(self)
         require_nodes(self, "drive_node", "encoder_node", "load_node")
-        load_torque(self.load)
 
     def motor_ratings(self, motor: Ratings) -> Ratings:
         """The motor under test's ratings: those given here, else the motor's own ``motor``."""

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from drivers.maps import ModbusMap
+from drivers.schema import key
 
 __all__ = ["COMM_LOSS", "COMM_LOSS_ACTIONS", "OVERSPEED", "InverterModel"]
 
@@ -38,16 +39,18 @@ COMM_LOSS_ACTIONS = ("ramp", "coast")
 
 @dataclass
 class InverterModel:
-    """The drive and motor behind the registers (SI units)."""
+    """The drive and motor behind the registers (SI units): its parameters are its keys
+    (``drivers.schema.key``, ``[emulator.inverter]``, checked by whoever reads them), the rest its
+    state."""
 
     regmap: ModbusMap
-    accel: float = 100.0  #: ramp [rad/s^2]
-    slip: float = 5.0  #: speed drop at rated torque [rad/s]
-    tau: float = 0.05  #: mechanical lag [s]
-    rated_torque: float = 10.0  #: [N m]
-    rated_current: float = 8.0  #: [A]
-    no_load_current: float = 2.5  #: [A]
-    max_speed: float = 200.0  #: over-speed trip [rad/s]
+    accel: float = key(100.0, "rad/s^2", "the speed ramp", gt=0.0)
+    slip: float = key(5.0, "rad/s", "the speed drop at rated torque", ge=0.0)
+    tau: float = key(0.05, "s", "the mechanical lag", gt=0.0)
+    rated_torque: float = key(10.0, "N m", "the rated torque", gt=0.0)
+    rated_current: float = key(8.0, "A", "the rated current", gt=0.0)
+    no_load_current: float = key(2.5, "A", "the current without load", ge=0.0)
+    max_speed: float = key(200.0, "rad/s", "the over-speed trip", gt=0.0)
     load: Callable[[float], float] = lambda t: 0.0
     running: bool = False
     fault: int = 0
@@ -56,27 +59,18 @@ class InverterModel:
     speed: float = 0.0
     current: float = 0.0
     t: float = 0.0
-    comm_loss_timeout: float = 0.5  #: trip if no request is processed this long while running [s] (inf: off)
-    comm_loss_action: Literal["ramp", "coast"] = "ramp"  #: the stop after a communication-loss trip
-    coast_tau: float = 2.0  #: time constant of the free-running speed when coasting [s]
+    comm_loss_timeout: float = key(
+        0.5,
+        "s",
+        "trip if no request is processed this long while running (inf: off)",
+        gt=0.0,
+        finite=False,
+        also={math.inf: "off"},
+    )
+    comm_loss_action: Literal["ramp", "coast"] = key("ramp", "", "the stop after a communication-loss trip")
+    coast_tau: float = key(2.0, "s", "time constant of the free-running speed when coasting", gt=0.0)
     coasting: bool = False  #: modulation off after a coast stop, until the next run command
     last_request: float = 0.0  #: model time of the last request processed [s]
-
-    def __post_init__(self) -> None:
-        for name in ("accel", "tau", "rated_torque", "rated_current", "max_speed", "slip", "no_load_current"):
-            value, may_be_zero = getattr(self, name), name in ("slip", "no_load_current")
-            if not (math.isfinite(value) and (value >= 0.0 if may_be_zero else value > 0.0)):
-                raise ValueError(f"{name} {value!r} must be finite and {'>= 0' if may_be_zero else '> 0'}")
-        if not self.comm_loss_timeout > 0.0:
-            raise ValueError(
-                f"comm_loss_timeout {self.comm_loss_timeout!r} s must be > 0 (inf turns the supervision off)"
-            )
-        if self.comm_loss_action not in COMM_LOSS_ACTIONS:
-            raise ValueError(
-                f"comm_loss_action {self.comm_loss_action!r} is not one of {', '.join(COMM_LOSS_ACTIONS)}"
-            )
-        if not 0.0 < self.coast_tau < math.inf:
-            raise ValueError(f"coast_tau {self.coast_tau!r} s must be finite and > 0")
 
     def _supervise(self) -> None:
         """The communication-loss trip."""

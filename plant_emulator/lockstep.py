@@ -26,7 +26,7 @@ from canopen.network import NodeScanner
 from drivers.maps.cia import COB_SYNC
 from plant_emulator.device_profile import DeviceProfile
 from plant_emulator.frame import Frame
-from plant_emulator.presets import build_preset, build_twin, preset_params
+from plant_emulator.presets import PRESETS, build_preset, build_twin, preset_params
 
 __all__ = ["LockstepBench", "SyncBus", "SyncHub", "SyncNetwork", "attach_network"]
 
@@ -158,13 +158,14 @@ class LockstepBench:
     """
 
     def __init__(
-        self, preset: str, params: Mapping[str, object] | None = None, *, device: DeviceProfile | None = None
+        self, preset: str, params: Mapping[str, object] | Any = None, *, device: DeviceProfile | None = None
     ) -> None:
-        """Preset ``preset`` with ``params`` (typed values by name, see ``build_preset``); with
-        ``device``, that drive's twin instead (``build_twin``: its physics preset and ``params``)."""
-        preset_params(
-            device.physics if device else preset, {**(device.params if device else {}), **(params or {})}
-        )
+        """Preset ``preset`` with ``params`` (typed values by name, see ``build_preset``, or the
+        preset's dataclass built already); with ``device``, that drive's twin instead
+        (``build_twin``: its physics preset and ``params``). Bad parameters open nothing."""
+        name = device.physics if device else preset
+        if not isinstance(params, PRESETS.get(name, ())):
+            params = preset_params(name, {**(device.params if device else {}), **(params or {})})
         self.hub = SyncHub()
         self.device_network = canopen.Network()
         attach_network(self.device_network, self.hub.bus(queue=False, channel="emulator"))

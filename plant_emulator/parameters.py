@@ -1,35 +1,27 @@
-"""Preset parameters by name: typed values checked against a frozen dataclass, and range checks.
+"""Preset parameters by name: typed values checked against a frozen dataclass's keys.
 
-The host turns text (``--param NAME=VALUE``, configuration files) into typed
-values with its own parser, from the same field types
-(``typing.get_type_hints``); the emulator only checks what it is given.
-``with_params(schema, params)`` builds ``schema`` from ``{name: value}``: an
-unknown name, or a value of the wrong type (a str for a float; an int is fine
-for a float), is a ValueError naming it. The dataclasses check ranges in
-``__post_init__`` with ``require_positive``/``require_nonnegative``/``require_nodes``.
+A preset's parameters are the keys of its dataclass (``drivers.schema.key``: type, unit,
+range, meaning). The host turns text (``--param NAME=VALUE``, configuration files) into
+typed values with its own parser and checks them against the same keys (``rig.params``);
+the emulator checks what it is given by name: ``with_params(schema, params)`` builds
+``schema`` from ``{name: value}``, and an unknown name, a value of the wrong type (a str for
+a float; an int is fine for a float) or out of its key's range is a ValueError naming it.
+A built dataclass is taken as it is. Rules between keys are the dataclasses' ``__post_init__``
+(``require_nodes``: distinct node ids).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import types
 import typing
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
-from drivers.maps.cia import NODE_IDS
+from drivers.schema import Refused, check_given, key
 from plant_emulator.profiles import Profile, parse_profile
 
-__all__ = [
-    "field_types",
-    "load_torque",
-    "require_fits",
-    "require_nodes",
-    "require_nonnegative",
-    "require_positive",
-    "with_params",
-]
+__all__ = ["NODE", "field_types", "load_torque", "node_key", "profile_text", "require_nodes", "with_params"]
 
 T = TypeVar("T")
 PREFIX = "plant."  #: ``plant.a_m`` and ``a_m`` name the same parameter
@@ -81,11 +73,14 @@ def _name(kind: Any) -> str:
     return "None" if kind is type(None) else getattr(kind, "__name__", str(kind))
 
 
-def with_params(schema: type[T], params: Mapping[str, object] | None) -> T:
-    """``schema`` with the fields named in ``params`` set; ValueError naming a bad name or value."""
+def with_params(schema: type[T], params: Mapping[str, object] | T | None) -> T:
+    """``schema`` with the fields named in ``params`` set (or ``params`` itself, a built ``schema``);
+    ValueError naming a bad name or value."""
+    if isinstance(params, schema):
+        return params
     kinds = field_types(schema)
     values: dict[str, object] = {}
-    for given, value in (params or {}).items():
+    for given, value in dict(params or {}).items():  # type: ignore[arg-type]
         name = given.removeprefix(PREFIX)
         if name not in kinds:
             raise ValueError(f"preset parameter {given!r} unknown; known: {', '.join(kinds)}")
@@ -96,58 +91,34 @@ def with_params(schema: type[T], params: Mapping[str, object] | None) -> T:
                 f"preset parameter {name}={value!r}: expected {_name(kinds[name])}, "
                 f"got {type(value).__name__}"
             ) from None
+    check_given(schema, values)
     return schema(**values)
 
 
-def require_positive(obj: object, *names: str) -> None:
-    """Each named field is a finite number > 0; ValueError naming the field and value."""
-    for name in names:
-        value = getattr(obj, name)
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"preset parameter {name} must be > 0, got {value!r}")
+NODE = (1, 127)  #: CANopen node ids
 
 
-def require_nonnegative(obj: object, *names: str) -> None:
-    """Each named field is a finite number >= 0; ValueError naming the field and value."""
-    for name in names:
-        value = getattr(obj, name)
-        if not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"preset parameter {name} must be >= 0, got {value!r}")
-
-
-#: the largest value of the objects the integer parameters go to (0x6073 per mille is 16 bits,
-#: 0x6080 rpm 32 bits, 0x608F increments per revolution give 32-bit signed positions)
-OBJECT_RANGE = {"_permille": 0xFFFF, "_rpm": 0xFFFF_FFFF, "counts_per_rev": 0x7FFF_FFFF}
-
-
-def require_fits(obj: object) -> None:
-    """Each integer field named as in ``OBJECT_RANGE`` fits its object; ValueError naming it."""
-    for f in dataclasses.fields(obj):  # type: ignore[arg-type]
-        value = getattr(obj, f.name)
-        high = next((h for end, h in OBJECT_RANGE.items() if f.name.endswith(end)), None)
-        if high is not None and isinstance(value, int) and value > high:
-            raise ValueError(f"preset parameter {f.name} must be <= {high}, got {value!r}")
+def node_key(default: int, doc: str) -> Any:
+    """A node-id key (1..127)."""
+    return key(default, "", doc, ge=NODE[0], le=NODE[1])
 
 
 def require_nodes(obj: object, *names: str) -> None:
-    """The named node-id fields are in 1..127 and distinct; ValueError naming the field and value."""
+    """The named node-id fields are distinct; ``Refused`` naming the field and value."""
     seen: dict[int, str] = {}
     for name in names:
         value = getattr(obj, name)
-        if value not in NODE_IDS:
-            raise ValueError(f"preset parameter {name} must be a node id 1..127, got {value!r}")
         if value in seen:
-            raise ValueError(f"preset parameter {name}={value} is also {seen[value]}")
+            raise Refused(name, value, f"is also {seen[value]}: give each device its own node id")
         seen[value] = name
 
 
-def load_torque(text: str) -> Profile | None:
-    """The load torque [N m] of time [s] written in ``text`` (``parse_profile``); None for ``none``.
+def profile_text(text: str) -> None:
+    """``text`` is a load torque profile of ``plant_emulator.profiles`` (or ``none``); ValueError."""
+    parse_profile(text)
 
-    ValueError naming the parameter ``load`` and the faulty term.
-    """
-    try:
-        profile = parse_profile(text)
-    except ValueError as exc:
-        raise ValueError(f"preset parameter load={text!r}: {exc}") from None
+
+def load_torque(text: str) -> Profile | None:
+    """The load torque [N m] of time [s] written in ``text`` (``parse_profile``); None for ``none``."""
+    profile = parse_profile(text)
     return None if text.strip() == "none" else profile

@@ -32,9 +32,10 @@ Each drive says in 0x1008 what it is (``PRODUCT_NAMES``; the EDS's name is the D
 drive's), and an induction-motor inverter's 0x1000 has the CiA 402 type 0x01, a frequency
 converter, in its additional information (the servo drives' 0x02).
 
-Every parameter can be set by name to a typed value (``params``, checked by
-``plant_emulator.parameters``); an unknown name, a value of the wrong type or
-out of range is a ValueError naming it.
+Every parameter is a key of its preset's dataclass (``drivers.schema.key``: unit, range,
+meaning) and can be set by name to a typed value (``params``, checked by
+``plant_emulator.parameters``); an unknown name, a value of the wrong type or out of range
+is a ValueError naming it.
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ import canopen
 
 from drivers.maps import cia, cia406
 from drivers.maps.cia import Mode, map_entry
+from drivers.schema import MAX_PERIOD, MIN_PERIOD, Refused, key
 from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
@@ -56,14 +58,7 @@ from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.device_profile import DeviceProfile
 from plant_emulator.dyno import DynoPreset, build_dyno
 from plant_emulator.induction_motor import ImAxis, ImParams
-from plant_emulator.parameters import (
-    load_torque,
-    require_fits,
-    require_nodes,
-    require_nonnegative,
-    require_positive,
-    with_params,
-)
+from plant_emulator.parameters import load_torque, node_key, profile_text, require_nodes, with_params
 from plant_emulator.rl_dq import RLParams
 
 __all__ = [
@@ -84,64 +79,77 @@ DC_COULOMB = 1.10e-3  #: [N m]
 DC_VISCOUS = 2.4e-7 * 60.0 / (2.0 * math.pi)  #: [N m s/rad] (2.4e-4 mN m/rpm)
 
 
+#: keys every preset with a drive and an encoder has
+_PERMILLE = "per mille of the rated current"
+
+
+def _period(default: float) -> Any:
+    rule = f"a period of {MIN_PERIOD:g} .. {MAX_PERIOD:g} s"
+    return key(default, "s", "the SYNC period", ge=MIN_PERIOD, le=MAX_PERIOD, rule=rule)
+
+
+def _counts() -> Any:
+    return key(4096, "increments/rev", "position resolution (0x608F, 0x6001)", ge=1, le=0x7FFF_FFFF)
+
+
+def _load() -> Any:
+    return key(
+        "none", "N m", "load torque of time, plant_emulator.profiles (e.g. sine:5:1)", check=profile_text
+    )
+
+
 @dataclass(frozen=True)
 class DcServoPreset:
     """Parameters of ``dc-servo`` (SI; see the module docstring)."""
 
-    a_m: float = 16.0  #: (3.5) [1/s]
-    b_m: float = 680.0  #: (3.5) [rad/(V s^2)]
-    r_r: float = 1.0  #: armature resistance [Ohm]
-    tau_e: float = 1e-4  #: electrical time constant L_r/R_r [s]
-    friction: float = DC_VISCOUS  #: viscous B [N m s/rad], part of a_m (module docstring)
-    coulomb: float = DC_COULOMB  #: Coulomb friction T_c [N m], breakaway and kinetic
-    counts_per_rev: int = 4096  #: position resolution (0x608F, 0x6001) [increments/rev]
-    period: float = 0.4e-3  #: SYNC period [s]
-    u_max: float = 48.0  #: power stage voltage limit [V]
-    rated_current: float = 10.0  #: 0x6075 [A]
-    max_current_permille: int = 3000  #: 0x6073 [per mille of the rated current]
-    max_speed_rpm: int = 6000  #: 0x6080 [rpm]
-    speed_bandwidth_hz: float = 100.0  #: of the drive's speed loop [Hz]
-    load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
-    drive_node: int = 1
-    encoder_node: int = 2
+    a_m: float = key(16.0, "1/s", "(3.5)", gt=0.0)
+    b_m: float = key(680.0, "rad/(V s^2)", "(3.5)", gt=0.0)
+    r_r: float = key(1.0, "Ohm", "armature resistance", gt=0.0)
+    tau_e: float = key(1e-4, "s", "electrical time constant L_r/R_r", gt=0.0)
+    friction: float = key(DC_VISCOUS, "N m s/rad", "viscous B, part of a_m (module docstring)", ge=0.0)
+    coulomb: float = key(DC_COULOMB, "N m", "Coulomb friction T_c, breakaway and kinetic", ge=0.0)
+    counts_per_rev: int = _counts()
+    period: float = _period(0.4e-3)
+    u_max: float = key(48.0, "V", "power stage voltage limit", gt=0.0)
+    rated_current: float = key(10.0, "A", "0x6075", gt=0.0)
+    max_current_permille: int = key(3000, _PERMILLE, "0x6073", ge=1, le=0xFFFF)
+    max_speed_rpm: int = key(6000, "rpm", "0x6080", ge=1, le=0xFFFF_FFFF)
+    speed_bandwidth_hz: float = key(100.0, "Hz", "of the drive's speed loop", gt=0.0)
+    load: str = _load()
+    drive_node: int = node_key(1, "the drive's node id")
+    encoder_node: int = node_key(2, "the encoder's node id")
 
     def __post_init__(self) -> None:
-        require_positive(
-            self, "a_m", "b_m", "r_r", "tau_e", "counts_per_rev", "period", "u_max", "rated_current"
-        )
-        require_positive(self, "max_current_permille", "max_speed_rpm", "speed_bandwidth_hz")
-        require_nonnegative(self, "friction", "coulomb")
-        require_fits(self)
         require_nodes(self, "drive_node", "encoder_node")
-        load_torque(self.load)
         try:
             DCMotorParams.from_am_bm(a_m=self.a_m, b_m=self.b_m, r_r=self.r_r, b=self.friction)
         except ValueError as exc:
-            raise ValueError(f"preset parameter friction={self.friction!r}: {exc}") from None
+            raise Refused("friction", self.friction, str(exc)) from None
 
 
 @dataclass(frozen=True)
 class GridConverterPreset:
     """Parameters of ``grid-converter`` (SI; see the module docstring)."""
 
-    L1: float = 6e-3  #: [H]
-    R1: float = 0.36  #: [Ohm]
-    f_line: float = 50.0  #: grid frequency [Hz]
-    ratio: float = 1.0 / 27.0  #: omega_k/omega_s: the SYNC period is ratio/f_line
-    u_line_rms: float = 400.0  #: line-to-line grid voltage [V rms]
-    u_dc: float = 700.0  #: DC link [V]
-    rated_current: float = 32.0 * math.sqrt(2.0)  #: 0x6075 [A]
-    max_current_permille: int = 2000  #: 0x6073 [per mille of the rated current]
-    strategy: Literal["s-pwm-start", "s-pwm-middle"] = "s-pwm-start"
-    drive_node: int = 1
+    L1: float = key(6e-3, "H", "the line inductance", gt=0.0)
+    R1: float = key(0.36, "Ohm", "its resistance", gt=0.0)
+    f_line: float = key(50.0, "Hz", "grid frequency", gt=0.0)
+    ratio: float = key(1.0 / 27.0, "", "omega_k/omega_s: the SYNC period is ratio/f_line", gt=0.0)
+    u_line_rms: float = key(400.0, "V", "line-to-line grid voltage (rms)", ge=0.0)
+    u_dc: float = key(700.0, "V", "DC link", gt=0.0)
+    rated_current: float = key(32.0 * math.sqrt(2.0), "A", "0x6075", gt=0.0)
+    max_current_permille: int = key(2000, _PERMILLE, "0x6073", ge=1, le=0xFFFF)
+    strategy: Literal["s-pwm-start", "s-pwm-middle"] = key(
+        "s-pwm-start",
+        "",
+        "s-pwm-start: RPDO1 applied at the next SYNC; s-pwm-middle: on receipt, 0x2001 = T_s/2",
+    )
+    drive_node: int = node_key(1, "the converter's node id")
 
     def __post_init__(self) -> None:
-        require_positive(self, "L1", "R1", "f_line", "ratio", "u_dc", "rated_current", "max_current_permille")
-        require_nonnegative(self, "u_line_rms")
-        require_fits(self)
-        require_nodes(self, "drive_node")
-        if self.strategy not in ("s-pwm-start", "s-pwm-middle"):
-            raise ValueError(f"preset parameter strategy={self.strategy!r}: use s-pwm-start or s-pwm-middle")
+        period = self.period
+        if not MIN_PERIOD <= period <= MAX_PERIOD:
+            raise Refused("ratio/f_line", period, f"must be a period of {MIN_PERIOD:g} .. {MAX_PERIOD:g} s")
 
     @property
     def period(self) -> float:
@@ -153,26 +161,21 @@ class GridConverterPreset:
 class ImDrivePreset:
     """Parameters of ``im-drive`` (SI; see the module docstring; the motor is ``ImParams``)."""
 
-    period: float = 0.5e-3  #: SYNC period [s]
-    counts_per_rev: int = 4096  #: position resolution (0x608F, 0x6001) [increments/rev]
-    rated_torque: float = 5.0  #: 0x6076 [N m]
-    rated_current: float = 3.25 * math.sqrt(2.0)  #: 0x6075 [A]
-    max_current_permille: int = 2500  #: 0x6073 [per mille of the rated current]
-    max_speed_rpm: int = 3600  #: 0x6080 [rpm]
-    i_ds_ref: float = 2.35  #: flux current (4.7) [A]
-    friction: float = ImParams.b  #: viscous B [N m s/rad] (Table II)
-    coulomb: float = ImParams.coulomb  #: Coulomb friction T_c [N m], breakaway and kinetic
-    load: str = "none"  #: load torque [N m] of time, ``plant_emulator.profiles`` (e.g. ``sine:5:1``)
-    drive_node: int = 1
-    encoder_node: int = 2
+    period: float = _period(0.5e-3)
+    counts_per_rev: int = _counts()
+    rated_torque: float = key(5.0, "N m", "0x6076", gt=0.0)
+    rated_current: float = key(3.25 * math.sqrt(2.0), "A", "0x6075", gt=0.0)
+    max_current_permille: int = key(2500, _PERMILLE, "0x6073", ge=1, le=0xFFFF)
+    max_speed_rpm: int = key(3600, "rpm", "0x6080", ge=1, le=0xFFFF_FFFF)
+    i_ds_ref: float = key(2.35, "A", "flux current (4.7)", gt=0.0)
+    friction: float = key(ImParams.b, "N m s/rad", "viscous B (Table II)", ge=0.0)
+    coulomb: float = key(ImParams.coulomb, "N m", "Coulomb friction T_c, breakaway and kinetic", ge=0.0)
+    load: str = _load()
+    drive_node: int = node_key(1, "the drive's node id")
+    encoder_node: int = node_key(2, "the encoder's node id")
 
     def __post_init__(self) -> None:
-        require_positive(self, "period", "counts_per_rev", "rated_torque", "rated_current")
-        require_positive(self, "max_current_permille", "max_speed_rpm", "i_ds_ref")
-        require_nonnegative(self, "friction", "coulomb")
-        require_fits(self)
         require_nodes(self, "drive_node", "encoder_node")
-        load_torque(self.load)
 
 
 PRESETS: dict[str, type] = {
@@ -183,8 +186,9 @@ PRESETS: dict[str, type] = {
 }
 
 
-def preset_params(name: str, params: Mapping[str, object] | None = None) -> Any:
-    """The parameters of preset ``name`` with ``params`` (typed values by name) applied.
+def preset_params(name: str, params: Mapping[str, object] | Any = None) -> Any:
+    """The parameters of preset ``name`` with ``params`` (typed values by name) applied, or
+    ``params`` itself where it is the preset's dataclass, built (and checked) already.
 
     ValueError naming an unknown preset, an unknown parameter (with the known ones), a value
     of the wrong type (with the expected one) or out of range.
@@ -194,7 +198,7 @@ def preset_params(name: str, params: Mapping[str, object] | None = None) -> Any:
     return with_params(PRESETS[name], params)
 
 
-def preset_period(name: str, params: Mapping[str, object] | None = None) -> float:
+def preset_period(name: str, params: Mapping[str, object] | Any = None) -> float:
     """The SYNC period [s] preset ``name`` runs at, with ``params`` applied."""
     return float(preset_params(name, params).period)
 
@@ -202,12 +206,12 @@ def preset_period(name: str, params: Mapping[str, object] | None = None) -> floa
 def build_preset(
     name: str,
     network: canopen.Network,
-    params: Mapping[str, object] | None = None,
+    params: Mapping[str, object] | Any = None,
 ) -> tuple[list[EmulatedNode], float]:
     """Create the devices of preset ``name`` on ``network``: (devices, SYNC period [s]).
 
-    ``params`` sets parameters by name (``a_m`` or ``plant.a_m``) to typed values, see
-    ``preset_params``.
+    ``params`` sets parameters by name (``a_m`` or ``plant.a_m``) to typed values, or is the
+    preset's dataclass built already, see ``preset_params``.
     """
     p = preset_params(name, params)
     if isinstance(p, DcServoPreset):
@@ -226,21 +230,24 @@ TWIN_PHYSICS = ("dc-servo", "im-drive")
 def build_twin(
     profile: DeviceProfile,
     network: canopen.Network,
-    params: Mapping[str, object] | None = None,
+    params: Mapping[str, object] | Any = None,
     *,
     node_id: int | None = None,
 ) -> tuple[list[EmulatedNode], float]:
     """The virtual twin of ``profile``'s drive on ``network``: (its one drive, SYNC period [s]).
 
     The motor is the profile's physics preset with the profile's ``[physics.params]`` and then
-    ``params`` applied; the drive keeps its own EDS's resolution (0x608F), and takes the motor's
-    ratings into the objects it has.
+    ``params`` applied (or ``params``, the preset's dataclass built over the profile's already);
+    the drive keeps its own EDS's resolution (0x608F), and takes the motor's ratings into the
+    objects it has.
     """
     if profile.physics not in TWIN_PHYSICS:
         raise ValueError(
             f"{profile.source}: physics {profile.physics!r}: a twin runs {' or '.join(TWIN_PHYSICS)}"
         )
-    p = preset_params(profile.physics, {**profile.params, **(params or {})})
+    schema = PRESETS.get(profile.physics)
+    built = schema is not None and isinstance(params, schema)
+    p: Any = params if built else preset_params(profile.physics, {**profile.params, **(params or {})})
     axis: Axis
     if isinstance(p, DcServoPreset):
         axis, ratings = _dc_axis(p, period=p.period)

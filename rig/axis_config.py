@@ -1,19 +1,22 @@
 """The ``[[axis]]`` tables of a rig configuration: one device each, its mode, units and limits.
 
-``axis_config(path, n, table)`` checks one table (an unknown key, a wrong type or a value
-out of range is a ``ConfigError`` naming the file, the axis and the key) and gives an
-``AxisConfig``; ``rig.config`` reads the rest of the file.
+``axis_config(path, n, table)`` checks one table: its keys against the fields here
+(``drivers.schema.key``: a key of another kind of axis is refused too), its mode against its
+kind, its ``[axis.units]`` and ``[axis.limits]``; an error is a ``ConfigError`` naming the file,
+the axis (by its name, or its number before it has one), the key and the value. ``rig.config``
+reads the rest of the file.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
 from drivers.errors import ConfigError
-from rig.config_checks import check_axis_values, require_finite
+from drivers.schema import Refused, key, key_of, keys
+from rig import config_checks as fmt
 from rig.params import typed_values
 
 __all__ = ["ABORT_CONNECTION", "AXIS_KINDS", "AxisConfig", "AxisLimits", "AxisUnits", "axis_config"]
@@ -27,72 +30,165 @@ AXIS_KINDS = {
     "modbus": ("speed",),
     "cia406": ("",),
 }
+CANOPEN = ("cia402", "cia406")
+_U32 = 0xFFFF_FFFF
 
 
 @dataclass(frozen=True)
 class AxisUnits:
     """Unit factors for a device that does not report them (0: the device's own)."""
 
-    counts_per_rev: int = 0  #: position increments per revolution
-    rated_torque: float = 0.0  #: [N m]
-    rated_current: float = 0.0  #: [A]
-    position_unit: int = 0  #: SI unit code of positions (as 0x60A8), where the drive has no 0x60A8
-    velocity_unit: int = 0  #: SI unit code of velocities (as 0x60A9), where the drive has no 0x60A9
+    counts_per_rev: int = key(0, "increments/rev", "position increments per revolution", ge=0, le=fmt.INT32)
+    rated_torque: float = key(0.0, "N m", "the rated torque (0x6076's)", ge=0.0)
+    rated_current: float = key(0.0, "A", "the rated current (0x6075's)", ge=0.0)
+    position_unit: int = key(
+        0, "", "SI unit code of positions (as 0x60A8), where the drive has no 0x60A8", ge=0, le=_U32
+    )
+    velocity_unit: int = key(
+        0, "", "SI unit code of velocities (as 0x60A9), where the drive has no 0x60A9", ge=0, le=_U32
+    )
+
+
+def _limit(unit: str, doc: str) -> Any:
+    return key(math.inf, unit, doc, gt=0.0)
 
 
 @dataclass(frozen=True)
 class AxisLimits:
-    command: float = math.inf  #: |command| in the unit of the mode (csp: the travel from the start [rad])
-    speed: float = math.inf  #: [rad/s]
-    position_min: float = -math.inf  #: [rad]
-    position_max: float = math.inf  #: [rad]
-    current: float = math.inf  #: [A]
-    watchdog_periods: int = 3  #: periods without a new sample before the stop (missed real-time cycles count)
-    #: [s] in real time, the watchdog is at least this long (a PC's and a socket's jitter is not a period's)
-    watchdog: float = 0.1
-    heartbeat_timeout: float = 0.0  #: [s]; 0: not supervised
-    #: a stop is confirmed when, after the disable, the speed stayed within rest_speed [rad/s]
-    #: (or one speed unit of the axis, where that is coarser) for rest_time [s]
-    rest_speed: float = 0.05
-    rest_time: float = 0.1
+    """What the host holds the axis to (a limit left out: none); and how a stop is confirmed."""
+
+    command: float = _limit("", "|command| in the unit of the mode (csp: the travel from the start [rad])")
+    speed: float = _limit("rad/s", "|speed|")
+    position_min: float = key(-math.inf, "rad", "the lowest position")
+    position_max: float = key(math.inf, "rad", "the highest position; above position_min")
+    current: float = _limit("A", "|current|")
+    watchdog_periods: int = key(
+        3, "periods", "periods without a new sample before the stop (missed real-time cycles count)", ge=1
+    )
+    watchdog: float = key(
+        0.1,
+        "s",
+        "in real time the watchdog is at least this long (a PC's and a socket's jitter is not a period's)",
+        ge=0.0,
+    )
+    heartbeat_timeout: float = key(
+        0.0,
+        "s",
+        "the drive's heartbeat the host watches (the drive's 0x1017 is set to a third of it)",
+        ge=0.0,
+        le=3 * fmt.MAX_HEARTBEAT,
+        also={0.0: "not supervised"},
+    )
+    rest_speed: float = key(
+        0.05,
+        "rad/s",
+        "a stop is confirmed when, after the disable, the speed stayed within this (or one speed unit "
+        "of the axis, where that is coarser) for rest_time",
+        gt=0.0,
+    )
+    rest_time: float = key(0.1, "s", "see rest_speed", ge=0.0, le=60.0)
+
+    def __post_init__(self) -> None:
+        if not self.position_min < self.position_max:
+            raise Refused(
+                "position_min",
+                self.position_min,
+                f"must be < position_max = {self.position_max!r}: no position is allowed",
+            )
 
 
 @dataclass(frozen=True)
 class AxisConfig:
-    name: str
-    kind: str
-    node_id: int = 0  #: CANopen node id
-    mode: str = ""
-    profile: str = ""  #: command by this time profile instead of the law
-    sync_rpdo: bool = True
-    latency: float = 0.0  #: [s]
-    enable_timeout: float = 1.0  #: [s]
-    stop_timeout: float = 3.0  #: [s] for the drive's own stop ramp to end
-    mode_timeout: float = 1.0  #: [s] for 0x6061 to show the mode written to 0x6060
-    pdo: str = "remap"  #: cia402: "remap" (the host's mapping, within the device's) or "device" (its own)
-    sdo_timeout: float = 0.0  #: [s] per SDO answer (0: the driver's default)
-    sdo_retries: int = -1  #: SDO retries (-1: the driver's default)
-    #: cia402: how the drive reacts when the host's heartbeat stops (0x6007): none, fault,
-    #: disable-voltage, quick-stop, or "drive" (leave the drive's setting)
-    abort_connection: str = "quick-stop"
-    host_timeout: float = 0.0  #: [s] the drive's watch of the host's heartbeat (0: 3 heartbeats)
-    #: cia402, the toolkit's drive: periods without a command RPDO before it stops itself (0: none);
-    #: in real time at least rpdo_deadline [s] (a PC's cycle can come late by more than a period)
-    rpdo_deadline_periods: int = 5
-    rpdo_deadline: float = 0.02
-    reset_fault: bool = False  #: cia402: a drive found in FAULT at enable is reset (else refused)
-    eds: str = ""  #: the device's EDS/DCF ("" : the toolkit's)
-    speed_from_position: bool = False  #: cia406: speed as the backward difference of the position
-    #: cia402: what the drive's TPDOs carry beside its statusword: position (always), velocity, mode
-    #: (0x6061), torque, current; without velocity the speed is the position's backward difference
-    #: (a lean image for a fast loop: ["position"] is one TPDO of 6 bytes)
-    feedback: tuple[str, ...] = FEEDBACK_NAMES
-    map: str = ""  #: modbus register map
-    unit: int = 1  #: modbus unit id
-    host: str = ""  #: modbus TCP host
-    port: int = 502  #: modbus TCP port
-    serial: str = ""  #: modbus RTU serial device
-    baudrate: int = 19200
+    """One device: a CiA 402 drive, a CiA 406 encoder or a Modbus inverter (the keys of other
+    kinds are refused); ``[axis.units]`` and ``[axis.limits]`` are its sub-tables."""
+
+    name: str = key(doc="the axis's name, as [controller] reads and commands name it")
+    kind: Literal["cia402", "modbus", "cia406"] = key(doc="the device's profile")
+    node_id: int = key(0, "", "CANopen node id", ge=1, le=127, kinds=CANOPEN)
+    mode: str = key(
+        "",
+        "",
+        "the mode it is commanded in: cia402 voltage, cst, csv, csp, pv, dq-voltage; modbus speed; "
+        'cia406 none ("": feedback only)',
+    )
+    profile: str = key(
+        "",
+        "",
+        "commands the axis by this time profile instead of the law (plant_emulator.profiles)",
+        check=fmt.profile,
+    )
+    sync_rpdo: bool = key(
+        True, "", "the command RPDO is applied at the next SYNC (else on receipt)", kinds=("cia402",)
+    )
+    latency: float = key(
+        0.0, "s", "the drive's command latency 0x2001", ge=0.0, le=fmt.MAX_LATENCY, kinds=("cia402",)
+    )
+    enable_timeout: float = key(
+        1.0, "s", "for the drive to reach OPERATION ENABLED", ge=0.0, kinds=("cia402",)
+    )
+    stop_timeout: float = key(3.0, "s", "for the drive's own stop ramp to end", ge=0.0, kinds=("cia402",))
+    mode_timeout: float = key(
+        1.0, "s", "for 0x6061 to show the mode written to 0x6060", ge=0.0, kinds=("cia402",)
+    )
+    pdo: Literal["remap", "device"] = key(
+        "remap", "", "remap: the host's mapping, within the device's; device: its own", kinds=("cia402",)
+    )
+    sdo_timeout: float = key(0.0, "s", "per SDO answer", ge=0.0, also={0.0: "the driver's"}, kinds=CANOPEN)
+    sdo_retries: int = key(-1, "", "SDO retries", ge=0, also={-1: "the driver's"}, kinds=CANOPEN)
+    abort_connection: Literal["none", "fault", "disable-voltage", "quick-stop", "drive"] = key(
+        "quick-stop",
+        "",
+        "how the drive reacts when the host's heartbeat stops (0x6007); drive: leave its setting",
+        kinds=("cia402",),
+    )
+    host_timeout: float = key(
+        0.0,
+        "s",
+        "the drive's watch of the host's heartbeat",
+        ge=0.0,
+        le=fmt.MAX_HEARTBEAT,
+        also={0.0: "3 heartbeats"},
+        kinds=("cia402",),
+    )
+    rpdo_deadline_periods: int = key(
+        5,
+        "periods",
+        "the toolkit's drive: periods without a command RPDO before it stops itself",
+        ge=0,
+        le=1000,
+        also={0: "none"},
+        kinds=("cia402",),
+    )
+    rpdo_deadline: float = key(
+        0.02,
+        "s",
+        "in real time the RPDO deadline is at least this (a PC's cycle can come late by more than a period)",
+        ge=0.0,
+        le=60.0,
+        kinds=("cia402",),
+    )
+    reset_fault: bool = key(
+        False, "", "a drive found in FAULT at enable is reset (else refused)", kinds=("cia402",)
+    )
+    eds: str = key("", "", "the device's EDS/DCF (\"\": the toolkit's)", kinds=CANOPEN)
+    speed_from_position: bool = key(
+        False, "", "the speed as the backward difference of the position", kinds=("cia406",)
+    )
+    feedback: tuple[str, ...] = key(
+        FEEDBACK_NAMES,
+        "",
+        "what the drive's TPDOs carry beside its statusword: position (always), velocity, mode "
+        "(0x6061), torque, current; without velocity the speed is the position's backward difference "
+        '(a lean image for a fast loop: ["position"] is one TPDO of 6 bytes); not in mode dq-voltage',
+        rule=f"position and any of {', '.join(FEEDBACK_NAMES[1:])}",
+        kinds=("cia402",),
+    )
+    map: str = key("", "", "the register map (abb-drives-profile, delta-vfd-b)", kinds=("modbus",))
+    unit: int = key(1, "", "the Modbus unit id", ge=0, le=247, kinds=("modbus",))
+    host: str = key("", "", "Modbus TCP: the inverter's address", kinds=("modbus",))
+    port: int = key(502, "", "Modbus TCP: the port", ge=1, le=65535, kinds=("modbus",))
+    serial: str = key("", "", "Modbus RTU: the serial device", kinds=("modbus",))
+    baudrate: int = key(19200, "bit/s", "Modbus RTU: the baud rate", gt=0, kinds=("modbus",))
     units: AxisUnits = field(default_factory=AxisUnits)
     limits: AxisLimits = field(default_factory=AxisLimits)
 
@@ -110,44 +206,56 @@ def axis_config(path: str, n: int, table: Any) -> AxisConfig:
     name = table.get("name")
     if not isinstance(name, str) or not name:
         raise ConfigError(f"{path}: {where} needs a name (a string)")
-    where = f"[[axis]] {name!r}"
-    units = typed_values(AxisUnits, _table(path, where, table.pop("units", {})), f"{path}: {where} units")
-    raw_limits = _table(path, where, table.pop("limits", {}))
-    require_finite(f"{path}: {where} limits", raw_limits)
-    limits = typed_values(AxisLimits, raw_limits, f"{path}: {where} limits")
-    values = typed_values(AxisConfig, table, f"{path}: {where}", fixed=("units", "limits"))
+    where = f"{path}: [[axis]] {name!r}"
+    units = typed_values(AxisUnits, _table(path, where, table.pop("units", {})), f"{where} units")
+    limits = typed_values(AxisLimits, _table(path, where, table.pop("limits", {})), f"{where} limits")
+    values = typed_values(AxisConfig, table, where)
     if "kind" not in values:
-        raise ConfigError(f"{path}: {where} needs kind ({', '.join(AXIS_KINDS)})")
-    axis = AxisConfig(**values, units=AxisUnits(**units), limits=AxisLimits(**limits))
-    _check_axis(path, where, axis)
-    return axis
+        raise ConfigError(f"{where} needs kind ({', '.join(AXIS_KINDS)})")
+    _check_kind(where, values)
+    try:
+        return AxisConfig(**values, units=AxisUnits(**units), limits=AxisLimits(**limits))
+    except Refused as exc:
+        raise ConfigError(f"{where} limits {exc}") from None
 
 
-def _check_axis(path: str, where: str, a: AxisConfig) -> None:
-    if a.kind not in AXIS_KINDS:
-        raise ConfigError(f"{path}: {where} kind = {a.kind!r}; known: {', '.join(AXIS_KINDS)}")
-    if a.mode not in AXIS_KINDS[a.kind]:
-        modes = ", ".join(m for m in AXIS_KINDS[a.kind] if m) or "none (a feedback-only axis)"
-        raise ConfigError(f"{path}: {where} mode = {a.mode!r} for kind {a.kind}; expected {modes}")
-    if a.kind in ("cia402", "cia406") and not 1 <= a.node_id <= 127:
-        raise ConfigError(f"{path}: {where} node_id = {a.node_id}: must be 1..127")
-    if a.kind == "modbus" and not a.map:
-        raise ConfigError(f"{path}: {where} needs map (abb-drives-profile, delta-vfd-b)")
-    if a.profile and not a.mode:
-        raise ConfigError(f"{path}: {where} has a profile but no mode to command it in")
-    if a.abort_connection not in ABORT_CONNECTION:
-        raise ConfigError(
-            f"{path}: {where} abort_connection = {a.abort_connection!r}; known: {', '.join(ABORT_CONNECTION)}"
-        )
-    if a.pdo not in ("remap", "device"):
-        raise ConfigError(f"{path}: {where} pdo = {a.pdo!r}: remap or device")
-    if set(a.feedback) != set(AxisConfig.feedback):
-        if a.kind != "cia402" or a.mode == "dq-voltage":
+def _check_kind(where: str, values: dict[str, Any]) -> None:
+    """The keys and the mode of the axis's kind, and what that kind needs."""
+    kind = values["kind"]
+    fields = keys(AxisConfig)
+    for name, value in values.items():
+        spec = key_of(fields[name])
+        if spec is not None and spec.kinds and kind not in spec.kinds:
+            shown = list(value) if isinstance(value, tuple) else value  # as the file wrote it
             raise ConfigError(
-                f"{path}: {where} feedback = {list(a.feedback)}: only a cia402 axis in a CiA 402 mode "
+                f"{where} {name} = {shown!r}: a key of {' and '.join(spec.kinds)} axes, not of "
+                f"kind {kind}: leave it out"
+            )
+    mode = values.get("mode", "")
+    if mode not in AXIS_KINDS[kind]:
+        modes = ", ".join(m for m in AXIS_KINDS[kind] if m) or "none (a feedback-only axis)"
+        raise ConfigError(f"{where} mode = {mode!r} for kind {kind}; expected {modes}")
+    if kind in CANOPEN and "node_id" not in values:
+        raise ConfigError(f"{where} node_id = 0: must be 1..127")
+    if kind == "modbus" and not values.get("map"):
+        raise ConfigError(f"{where} needs map (abb-drives-profile, delta-vfd-b)")
+    if values.get("serial") and values.get("unit", 1) == 0:
+        raise ConfigError(f"{where} unit = 0: must be 1 .. 247 on an RTU line (0 is its broadcast)")
+    if set(values.get("feedback", FEEDBACK_NAMES)) != set(FEEDBACK_NAMES):
+        if mode == "dq-voltage":
+            raise ConfigError(
+                f"{where} feedback = {list(values['feedback'])}: only a cia402 axis in a CiA 402 mode "
                 "chooses what its TPDOs carry; remove the key"
             )
-        problem = feedback_problem(a.feedback)
+        problem = feedback_problem(values["feedback"])
         if problem:
-            raise ConfigError(f"{path}: {where} {problem}")
-    check_axis_values(f"{path}: {where}", a)
+            raise ConfigError(f"{where} {problem}")
+    if values.get("profile") and not mode:
+        raise ConfigError(f"{where} has a profile but no mode to command it in")
+    if values.get("eds"):
+        from drivers.maps.od import load_od  # canopen: only where an axis names its own EDS
+
+        try:
+            load_od(values["eds"], values["node_id"])
+        except ConfigError as exc:
+            raise ConfigError(f"{where} eds: {exc}") from None

@@ -1,64 +1,38 @@
-"""The rig configuration: a TOML file loaded into frozen dataclasses.
+"""The rig configuration: one TOML file, checked once when it is loaded, into frozen dataclasses.
 
-A rig is a set of named axes and one control law (SI units; see ``examples/``)::
+A rig is a set of named axes and one control law (SI units; see ``examples/``): the tables
+``[run]``, ``[bus]``, ``[emulator]`` (with ``[emulator.params]``, the preset's or the device's
+parameters, and ``[emulator.inverter]``, the emulated Modbus inverters'), ``[[axis]]`` (with
+``[axis.units]`` and ``[axis.limits]``, ``rig.axis_config``), ``[controller]`` (the law's
+``kind``, the axes it ``reads`` and ``commands``, its parameters, ``rig.controller_config``),
+``[reference]`` and ``[faults]``. Each table is a dataclass here; each key a field declared
+with ``drivers.schema.key``: its type, default, unit, meaning and the values it allows are
+data, which the loader checks and ``docs/configuration.md`` prints.
 
-    [run]        duration [s], time ("lockstep" | "realtime"), output (directory), name,
-                 period [s] (default: the emulator preset's), trace ("asc" | "blf" | "none": the
-                 CAN trace's format, trace.asc by default),
-                 missed_sample ("hold" | "zero": a cycle without a new sample from a read axis),
-                 answer_budget [s] (real time: the wait for the TPDOs answering a SYNC; 0: half
-                 the period), late_stop (late cycles in a row that are a safe stop; 0: never),
-                 rt_priority (SCHED_FIFO 1-99 of the real-time loop, 50; 0: none), rt_cpu (-1:
-                 the last CPU, -2: not pinned), rt_lock_memory (true)
-    [bus]        the CAN bus: interface, channel, bitrate, host, port (ignored with --emulate);
-                 host_node (127), heartbeat [s] (0.1; 0: none): the host's heartbeat the drives watch;
-                 sync ("host" | "external": another device sends SYNC; real time only)
-    [emulator]   preset (dc-servo | im-drive | grid-converter | dyno) or device (a zoo drive's twin:
-                 rig emulate --list, or a device profile file), and [emulator.params]
-                 NAME = value (the preset's parameters); [emulator.inverter] NAME = value for
-                 the emulated Modbus inverters (one per modbus axis)
-    [[axis]]     name, kind (cia402 | modbus | cia406), and per kind:
-                   cia402: node_id, mode (voltage | cst | csv | csp | pv | dq-voltage), sync_rpdo,
-                           latency [s], enable_timeout [s], stop_timeout [s], mode_timeout [s],
-                           pdo (remap | device), sdo_timeout [s], sdo_retries, abort_connection
-                           (none | fault | disable-voltage | quick-stop | drive), host_timeout [s],
-                           rpdo_deadline_periods, rpdo_deadline [s] (real time: max of
-                           the two), reset_fault, feedback (what the TPDOs carry: position,
-                           velocity, mode, torque, current), eds (default: the toolkit's)
-                   cia406: node_id, speed_from_position, eds
-                   modbus: map, unit, host + port (TCP) or serial + baudrate (RTU), mode = "speed"
-                 profile = "TERM + ..." commands the axis by a time profile instead of the law
-                 (plant_emulator.profiles: const, step, pulse, sine);
-                 [axis.units] counts_per_rev, rated_torque [N m], rated_current [A],
-                 position_unit, velocity_unit (SI unit codes): where the device does not report them;
-                 [axis.limits] command, speed [rad/s], position_min/max [rad], current [A],
-                 watchdog_periods (lock-step), watchdog [s] (real time: max of the two),
-                 heartbeat_timeout [s] (0: off), rest_speed [rad/s] and rest_time [s] (a stop's rest)
-    [controller] kind (see ``rig.laws.LAWS``), reads = [axis names], commands = [axis names],
-                 the law's parameters, and design = "FILE" (a_m, b_m and lam from rig identify's
-                 identification.json or rig design dtsm --json, the law's parameters from rig
-                 tune --json; ``rig.identify.model_file``)
-    [reference]  kind (smooth-move | step | constant | profile), distance, duration, start, value, profile
-    [faults]     fault injection: on the emulated bus (--emulate): frame_loss, seed, tpdo_stall_at,
-                 heartbeat_loss_at, node_reset_at, overcurrent_at, encoder_glitch_at [s],
-                 encoder_glitch_counts; in the host: law_nan_at, law_error_at, interrupt_at [s]
-
-An unknown section or key, or a value of the wrong type, is a ``ConfigError``
-naming the file and the key.
+``load_config(path)`` (or ``rig_config(doc, source)``) checks every key of every table, the
+law's and the preset's parameters and the rules between tables (``rig.config_rules``) in one
+pass; a ``RigConfig`` is valid, and what builds a run from it (``rig.host.session``) checks
+nothing again. An unknown table or key, a value of the wrong type or out of range is a
+``ConfigError`` naming the file, the table (an axis by its name), the key and the value, and
+saying what is allowed. Command-line overrides (``rig run --fault``, ``--duration``) are
+``Override``s checked in the same pass, named by their option.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, fields, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Literal
 
 from drivers.errors import ConfigError
 from drivers.files import read_toml
+from drivers.schema import MAX_PERIOD, MIN_PERIOD, key
+from rig import config_checks as fmt
 from rig.axis_config import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
-from rig.config_checks import check_bus, check_faults, check_reference, check_run
-from rig.identify.model_file import Model, read_model
+from rig.identify.model_file import Model
 from rig.params import typed_values
 
 __all__ = [
@@ -71,6 +45,7 @@ __all__ = [
     "ControllerConfig",
     "EmulatorConfig",
     "FaultsConfig",
+    "Override",
     "ReferenceConfig",
     "RigConfig",
     "RunConfig",
@@ -82,86 +57,185 @@ __all__ = [
 
 @dataclass(frozen=True)
 class RunConfig:
-    duration: float = 3.0  #: [s]
-    time: Literal["lockstep", "realtime"] = "lockstep"
-    output: str = "runs"
-    name: str = "run"
-    period: float = 0.0  #: [s]; 0: the emulator preset's period
-    #: the CAN trace: trace.asc (Vector ASCII), trace.blf (Vector's binary logging format) or none
-    trace: Literal["asc", "blf", "none"] = "asc"
-    #: a cycle whose samples did not all come new (a TPDO missed): "hold" the law's last
-    #: commands (nothing new is sent; the law is not stepped on stale feedback) or send "zero"
-    missed_sample: Literal["hold", "zero"] = "hold"
-    #: [s] real time with the host's SYNC: how long a cycle waits for the TPDOs answering its
-    #: SYNC before it goes on with what it has (a late cycle); 0: half the period
-    answer_budget: float = 0.0
-    #: that many late cycles in a row are a safe stop (0: never)
-    late_stop: int = 100
-    #: real time (``rig.host.realtime``): SCHED_FIFO priority of the loop thread (the bus's
-    #: receive thread one above; 0: normal scheduling), the CPU they are pinned to (-1: the last
-    #: one; -2: not pinned), and memory locked; each asked for, what was granted in the summary
-    rt_priority: int = 50
-    rt_cpu: int = -1
-    rt_lock_memory: bool = True
+    """How long, on which clock, where the run directory goes, and the real-time loop's requests."""
+
+    duration: float = key(3.0, "s", "the run's length", gt=0.0)
+    time: Literal["lockstep", "realtime"] = key(
+        "lockstep", "", "lockstep: the host's SYNC paces emulated time; realtime: the wall clock does"
+    )
+    output: str = key("runs", "", "the folder the run directory goes to", check=fmt.output_path)
+    name: str = key("run", "", "the run directory is <output>/<name>-<date>-<time>", check=fmt.run_name)
+    period: float = key(
+        0.0,
+        "s",
+        "the cycle period",
+        ge=MIN_PERIOD,
+        le=MAX_PERIOD,
+        also={0.0: "the emulator preset's"},
+        rule=f"{fmt.PERIOD_RULE} (0: the emulator preset's)",
+    )
+    trace: Literal["asc", "blf", "none"] = key(
+        "asc",
+        "",
+        "the CAN trace: trace.asc (Vector ASCII), trace.blf (Vector's binary logging format) or none",
+    )
+    missed_sample: Literal["hold", "zero"] = key(
+        "hold",
+        "",
+        "a cycle whose samples did not all come new (a TPDO missed): hold the law's last commands "
+        "(nothing new is sent; the law is not stepped on stale feedback) or send zero",
+    )
+    answer_budget: float = key(
+        0.0,
+        "s",
+        "real time with the host's SYNC: how long a cycle waits for the TPDOs answering its SYNC "
+        "before it goes on with what it has (a late cycle); shorter than the period",
+        ge=0.0,
+        also={0.0: "half the period"},
+    )
+    late_stop: int = key(
+        100, "cycles", "that many late cycles in a row are a safe stop", ge=0, also={0: "never"}
+    )
+    rt_priority: int = key(
+        50,
+        "",
+        "real time: SCHED_FIFO priority of the loop thread (the bus's receive thread one above)",
+        ge=0,
+        le=99,
+        also={0: "normal scheduling"},
+    )
+    rt_cpu: int = key(
+        -1,
+        "",
+        "real time: the CPU the loop and receive threads are pinned to",
+        ge=0,
+        also={-1: "the last CPU", -2: "not pinned"},
+    )
+    rt_lock_memory: bool = key(True, "", "real time: lock the process's memory (mlockall)")
 
 
 @dataclass(frozen=True)
 class BusConfig:
-    interface: str = "socketcand"
-    channel: str = "can0"
-    bitrate: int = 0
-    host: str = "127.0.0.1"
-    port: int = 29536
-    host_node: int = 127  #: the host's node id: the id of its heartbeat
-    heartbeat: float = 0.1  #: [s] the host's heartbeat period, which the drives watch (0: none)
-    sync: str = "host"  #: who produces SYNC: the host, or "external" (another device; real time only)
+    """The CAN bus of a run on hardware (without ``--emulate``): a python-can bus."""
+
+    interface: str = key("socketcand", "", "the python-can interface", check=fmt.interface)
+    channel: str = key("can0", "", "the python-can channel")
+    bitrate: int = key(
+        0, "bit/s", "the bit rate, where the interface sets it", ge=0, also={0: "the interface's"}
+    )
+    host: str = key("127.0.0.1", "", "socketcand: the server's address")
+    port: int = key(29536, "", "socketcand: the server's TCP port", ge=1, le=65535)
+    host_node: int = key(127, "", "the host's node id: the id of its heartbeat", ge=1, le=127)
+    heartbeat: float = key(
+        0.1,
+        "s",
+        "the host's heartbeat period, which the drives watch",
+        ge=0.0,
+        le=fmt.MAX_HEARTBEAT,
+        also={0.0: "none"},
+    )
+    sync: Literal["host", "external"] = key(
+        "host", "", "who produces SYNC: the host, or another device (real time only)"
+    )
 
 
 @dataclass(frozen=True)
 class EmulatorConfig:
-    preset: str = ""  #: the CANopen preset ("" : none)
-    device: str = ""  #: a drive's twin instead: a zoo profile's name or a profile file (.toml)
-    params: dict[str, Any] = field(default_factory=dict)  #: the preset's parameters
-    inverter: dict[str, Any] = field(default_factory=dict)  #: parameters of emulated Modbus inverters
+    """The emulated world of ``--emulate``: a physics preset's devices, or a drive's twin, and the
+    emulated Modbus inverters. ``[emulator.params]`` are the preset's (or the twin's physics')
+    parameters, ``[emulator.inverter]`` the inverters'; both tables are printed per preset below."""
+
+    preset: str = key("", "", 'the CANopen preset: dc-servo, im-drive, grid-converter or dyno ("": none)')
+    device: str = key(
+        "", "", "a drive's twin instead: a zoo profile's name (rig emulate --list) or a profile file (.toml)"
+    )
+    params: dict[str, Any] = field(default_factory=dict)  #: the preset's parameters given, typed
+    inverter: dict[str, Any] = field(default_factory=dict)  #: the inverters' parameters given, typed
+
+    @cached_property
+    def profile(self) -> Any:
+        """The twin's ``DeviceProfile`` (None: a preset); ``rig.emulator_config`` read it at load."""
+        from plant_emulator.device_profile import device_profile
+
+        return device_profile(self.device) if self.device else None
+
+    @cached_property
+    def physics(self) -> Any:
+        """The preset's parameters built (its dataclass; a twin's over its profile's), None without a
+        preset; ``rig.emulator_config`` built and checked them at load (a copy made by
+        ``dataclasses.replace`` builds its own)."""
+        from plant_emulator.presets import PRESETS
+
+        if not (self.preset or self.device):
+            return None
+        profile = self.profile
+        name = profile.physics if profile else self.preset
+        return PRESETS[name](**{**(profile.params if profile else {}), **self.params})
 
 
 @dataclass(frozen=True)
 class ControllerConfig:
-    kind: str
-    reads: tuple[str, ...] = ()
-    commands: tuple[str, ...] = ()
-    params: dict[str, Any] = field(default_factory=dict)  #: the law's, typed by its Params
-    design: Model | None = None  #: ``design = "FILE"``: the model its a_m, b_m (and lam) came from
+    """The control law: its ``kind`` (``rig.laws.LAWS``), the axes it reads and commands, its
+    parameters (below, per kind) and a design file they may come from."""
+
+    kind: str = key(doc="the law (see the laws' parameters below)")
+    reads: tuple[str, ...] = key((), "", "the axes the law reads, in its order (default: commands)")
+    commands: tuple[str, ...] = key(
+        (), "", "the axes the law commands, in its order (default: the one axis with a mode)"
+    )
+    params: dict[str, Any] = field(default_factory=dict)  #: the law's parameters given, typed by its Params
+    design: Model | None = key(  # noqa: RUF009 - key() is a dataclasses.field
+        None,
+        "",
+        "a file the law's a_m, b_m (and lam, or a rig tune design's parameters) come from: rig identify's "
+        "identification.json (or its run directory), rig design dtsm --json's or rig tune --json's "
+        "output; a path relative to this file's folder; a key it gives may not be given here too",
+    )
 
 
 @dataclass(frozen=True)
 class ReferenceConfig:
-    kind: Literal["smooth-move", "step", "constant", "profile"] = "smooth-move"
-    distance: float = 10.0
-    duration: float = 1.0  #: [s]
-    start: float = 0.0  #: [s]
-    value: float = 0.0
-    profile: str = ""
-    #: a position reference: "start" = from where the read axis stands at the first cycle; "zero" = absolute
-    origin: Literal["start", "zero"] = "start"
+    """The reference of the controlled variable (a position [rad], a speed [rad/s], a current [A])."""
+
+    kind: Literal["smooth-move", "step", "constant", "profile"] = key(
+        "smooth-move", "", "smooth-move: a quintic move by distance in duration from start"
+    )
+    distance: float = key(10.0, "", "smooth-move: the move, in the unit of the controlled variable")
+    duration: float = key(1.0, "s", "smooth-move: the move's duration", gt=0.0)
+    start: float = key(0.0, "s", "smooth-move and step: when it starts")
+    value: float = key(0.0, "", "step and constant: the value")
+    profile: str = key("", "", "profile: a time profile (plant_emulator.profiles)", check=fmt.profile)
+    origin: Literal["start", "zero"] = key(
+        "start",
+        "",
+        "a position reference: from where the read axis stands at the first cycle (start) or absolute (zero)",
+    )
+
+
+def _at(doc: str) -> Any:
+    return key(math.inf, "s", doc, ge=0.0, finite=False, also={math.inf: "never"})
 
 
 @dataclass(frozen=True)
 class FaultsConfig:
-    """Fault injection: the emulator's (``plant_emulator.faults.FaultPlan``, --emulate only) and the
-    host's (``rig.laws.injected``); times [s] of the run (inf: never)."""
+    """Fault injection: on the emulated bus (``plant_emulator.faults.FaultPlan``, --emulate only)
+    and in the host (``rig.laws.injected``); times [s] of the run."""
 
-    frame_loss: float = 0.0
-    seed: int = 0
-    tpdo_stall_at: float = math.inf
-    heartbeat_loss_at: float = math.inf
-    node_reset_at: float = math.inf
-    overcurrent_at: float = math.inf
-    encoder_glitch_at: float = math.inf
-    encoder_glitch_counts: int = 2048
-    law_nan_at: float = math.inf  #: host side: the law's commands become NaN
-    law_error_at: float = math.inf  #: host side: the law raises an exception
-    interrupt_at: float = math.inf  #: host side: Ctrl-C arrives
+    frame_loss: float = key(
+        0.0, "", "emulated bus: the fraction of frames lost", ge=0.0, lt=1.0, rule="a fraction in [0, 1)"
+    )
+    seed: int = key(0, "", "emulated bus: the seed of the frame losses", ge=0)
+    tpdo_stall_at: float = _at("emulated bus: the drive's TPDOs stop")
+    heartbeat_loss_at: float = _at("emulated bus: the drive's heartbeat stops")
+    node_reset_at: float = _at("emulated bus: the drive resets (NMT reset node)")
+    overcurrent_at: float = _at("emulated bus: the drive faults on overcurrent")
+    encoder_glitch_at: float = _at("emulated bus: the encoder jumps by encoder_glitch_counts")
+    encoder_glitch_counts: int = key(
+        2048, "increments", "emulated bus: the encoder's jump", ge=-fmt.INT32, le=fmt.INT32
+    )
+    law_nan_at: float = _at("host: the law's commands become NaN")
+    law_error_at: float = _at("host: the law raises an exception")
+    interrupt_at: float = _at("host: Ctrl-C arrives")
 
 
 @dataclass(frozen=True)
@@ -181,6 +255,22 @@ class RigConfig:
                 return a
         raise ConfigError(f"{self.source}: no [[axis]] named {name!r}")
 
+    @property
+    def period(self) -> float:
+        """[s] the run's period: ``[run] period``, else the emulator's preset's (0: none)."""
+        return resolved_period(self.run, self.emulator)
+
+    @property
+    def physics(self) -> Any:
+        """The emulated devices' parameters (``EmulatorConfig.physics``; None without a preset or
+        device) at the run's period: the host's SYNC period is theirs (a plant stepped at its
+        preset's 0.4 ms by each 1 ms SYNC runs 2.5 times slow). ``rig.config_rules`` refused at load
+        a ``[run] period`` the devices cannot take; nothing is checked here."""
+        physics = self.emulator.physics
+        if physics is None or not self.run.period > 0.0 or physics.period == self.run.period:
+            return physics
+        return replace(physics, period=self.run.period)
+
     def as_dict(self) -> dict[str, Any]:
         """The resolved configuration, JSON-ready (inf as null)."""
 
@@ -198,7 +288,25 @@ class RigConfig:
         return {"source": self.source, **{f.name: clean(getattr(self, f.name)) for f in fields(self)[1:]}}
 
 
-_SECTIONS = {"run": RunConfig, "bus": BusConfig, "reference": ReferenceConfig, "faults": FaultsConfig}
+@dataclass(frozen=True)
+class Override:
+    """Values given beside the file (``rig run --fault``): ``items`` of ``table``, named in errors by
+    ``source`` (the option); ``text``: command-line text, parsed by the key's type."""
+
+    table: str
+    items: Mapping[str, Any]
+    source: str
+    text: bool = True
+
+
+def resolved_period(run: RunConfig, emulator: EmulatorConfig) -> float:
+    """[s] ``[run] period``, else the period of the emulator's preset (0: neither gives one)."""
+    if run.period > 0.0:
+        return run.period
+    return float(emulator.physics.period) if emulator.physics is not None else 0.0
+
+
+TABLES = {"run": RunConfig, "bus": BusConfig, "reference": ReferenceConfig, "faults": FaultsConfig}
 _OLD_FORM = (
     "is the old single-drive form: describe each device as an [[axis]] table (name, kind, node_id, mode, "
     "[axis.limits]) and name the axes in [controller] reads and commands "
@@ -206,186 +314,50 @@ _OLD_FORM = (
 )
 
 
-def _table(path: str, where: str, value: Any) -> dict[str, Any]:
+def table(path: str, where: str, value: Any) -> dict[str, Any]:
+    """``value`` as a TOML table; ConfigError naming ``path`` and ``where`` otherwise."""
     if not isinstance(value, dict):
         raise ConfigError(f"{path}: {where} must be a table")
     return value
 
 
-def _controller(path: str, table: Any) -> ControllerConfig:
-    table = dict(_table(path, "[controller]", table))
-    kind = table.pop("kind", None)
-    if not isinstance(kind, str):
-        raise ConfigError(f"{path}: [controller] needs kind (a string naming the law)")
-    roles: dict[str, tuple[str, ...]] = {}
-    for key in ("reads", "commands"):
-        value = table.pop(key, [])
-        if isinstance(value, str):
-            value = [value]
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise ConfigError(f"{path}: [controller] {key} = {value!r}: expected a list of axis names")
-        roles[key] = tuple(value)
-    model = None
-    if "design" in table:
-        model = _design(path, table, kind)
-    return ControllerConfig(kind, roles["reads"], roles["commands"], table, model)
+def _section(doc: dict[str, Any], name: str, source: str, overrides: Iterable[Override]) -> Any:
+    cls = TABLES[name]
+    values = typed_values(cls, table(source, f"[{name}]", doc.get(name, {})), f"{source}: [{name}]")
+    for o in overrides:
+        if o.table == name:
+            values.update(typed_values(cls, o.items, o.source, text=o.text))
+    return cls(**values)
 
 
-def _design(path: str, table: dict[str, Any], kind: str) -> Model:
-    """``design = "FILE"`` (a path relative to the configuration's folder): its a_m, b_m and,
-    from a design file, lam go into ``table`` (from a ``rig tune`` file, its params, for the
-    kind it names); a key also given in ``table`` is an error."""
-    design = table.pop("design")
-    where = f"{path}: [controller] design = {design!r}"
-    if not isinstance(design, str) or not design:
-        raise ConfigError(
-            f"{where}: expected the path of rig identify's identification.json (or its run "
-            "directory) or of rig design dtsm --json's output"
-        )
-    file = Path(design) if Path(design).is_absolute() else Path(path).parent / design
-    model = read_model(file, where=where)
-    if model.law is not None and model.law != kind:
-        raise ConfigError(f"{where}: designed for kind = {model.law!r}, not {kind!r} (rig tune {kind} ...)")
-    given = (
-        dict(model.params or {})
-        if model.law is not None
-        else {"a_m": model.a_m, "b_m": model.b_m, **({} if model.lam is None else {"lam": model.lam})}
-    )
-    both = sorted(set(given) & set(table))
-    if both:
-        raise ConfigError(f"{where}: {', '.join(both)} also given in [controller]: give each once")
-    table.update(given)
-    return model
+def rig_config(doc: dict[str, Any], source: str, overrides: Iterable[Override] = ()) -> RigConfig:
+    """The checked configuration of a parsed TOML document (``source`` names it in errors), with
+    ``overrides`` applied (see the module docstring)."""
+    from rig.config_rules import check_rig
+    from rig.controller_config import controller_config
+    from rig.emulator_config import emulator_config
 
-
-def _emulator(path: str, table: Any) -> EmulatorConfig:
-    table = dict(_table(path, "[emulator]", table))
-    known = {"preset", "device", "params", "inverter"}
-    unknown = set(table) - known
-    if unknown:
-        raise ConfigError(
-            f"{path}: unknown key(s) {sorted(unknown)} in [emulator]; known: {', '.join(known)}"
-        )
-    preset, device = table.get("preset", ""), table.get("device", "")
-    for key, value in (("preset", preset), ("device", device)):
-        if not isinstance(value, str):
-            raise ConfigError(f"{path}: [emulator] {key} = {value!r}: expected a string")
-    if preset and device:
-        raise ConfigError(f"{path}: [emulator] has both preset and device: give one")
-    if device.endswith(".toml") and not Path(device).is_absolute():
-        device = str(Path(path).parent / device)
-    params = _table(path, "[emulator.params]", table.get("params", {}))
-    inverter = _table(path, "[emulator.inverter]", table.get("inverter", {}))
-    return EmulatorConfig(preset, device, dict(params), dict(inverter))
-
-
-def rig_config(doc: dict[str, Any], source: str) -> RigConfig:
-    """A checked configuration from a parsed TOML document; ``source`` names it in errors."""
+    overrides = tuple(overrides)
     for old in ("drive", "limits"):
         if old in doc:
             raise ConfigError(f"{source}: [{old}] {_OLD_FORM}")
-    known = {*_SECTIONS, "emulator", "axis", "controller"}
-    for key in doc:
-        if key not in known:
-            raise ConfigError(f"{source}: unknown section [{key}]; known: {', '.join(sorted(known))}")
-    sections = {
-        name: cls(**typed_values(cls, _table(source, f"[{name}]", doc.get(name, {})), f"{source}: [{name}]"))
-        for name, cls in _SECTIONS.items()
-    }
+    known = {*TABLES, "emulator", "axis", "controller"}
+    for name in doc:
+        if name not in known:
+            raise ConfigError(f"{source}: unknown section [{name}]; known: {', '.join(sorted(known))}")
+    sections = {name: _section(doc, name, source, overrides) for name in TABLES}
     raw_axes = doc.get("axis", [])
     if not isinstance(raw_axes, list) or not raw_axes:
         raise ConfigError(f"{source}: describe at least one device as an [[axis]] table")
     axes = tuple(axis_config(source, n, t) for n, t in enumerate(raw_axes))
     if "controller" not in doc:
         raise ConfigError(f"{source}: [controller] is missing: name the law (kind) and its axes")
-    cfg = RigConfig(
-        source=source,
-        emulator=_emulator(source, doc.get("emulator", {})),
-        axes=axes,
-        controller=_controller(source, doc["controller"]),
-        **sections,
-    )
-    _check_rig(cfg)
-    return _default_roles(cfg)
-
-
-def _default_roles(cfg: RigConfig) -> RigConfig:
-    """A law over one axis needs no names: with one commandable axis, it reads and commands that one."""
-    c = cfg.controller
-    commands, reads = c.commands, c.reads
-    if not commands:
-        commandable = [a.name for a in cfg.axes if a.mode and not a.profile]
-        if len(commandable) != 1:
-            raise ConfigError(
-                f"{cfg.source}: [controller] commands is missing: name the axes the law commands "
-                f"(of {', '.join(commandable) or 'none'})"
-            )
-        commands = (commandable[0],)
-    reads = reads or commands
-    return replace(cfg, controller=replace(c, reads=reads, commands=commands))
-
-
-def _check_rig(cfg: RigConfig) -> None:
-    src = cfg.source
-    b = cfg.bus
-    if b.sync not in ("host", "external"):
-        raise ConfigError(f"{src}: [bus] sync = {b.sync!r}: host or external")
-    if b.sync == "external" and cfg.run.time != "realtime":
-        raise ConfigError(
-            f'{src}: [bus] sync = "external" needs [run] time = "realtime" (lock-step is the host\'s SYNC)'
-        )
-    if not 1 <= b.host_node <= 127:
-        raise ConfigError(f"{src}: [bus] host_node = {b.host_node}: must be 1..127")
-    if b.host_node in [a.node_id for a in cfg.axes if a.kind != "modbus"]:
-        raise ConfigError(f"{src}: [bus] host_node = {b.host_node} is also an axis's node_id")
-    names = [a.name for a in cfg.axes]
-    for name in names:
-        if names.count(name) > 1:
-            raise ConfigError(f"{src}: two [[axis]] tables are named {name!r}")
-    nodes = [a.node_id for a in cfg.axes if a.kind != "modbus"]
-    for node in nodes:
-        if nodes.count(node) > 1:
-            raise ConfigError(f"{src}: two CANopen axes have node_id {node}")
-    c = cfg.controller
-    for key in ("reads", "commands"):
-        for name in getattr(c, key):
-            if name not in names:
-                raise ConfigError(
-                    f"{src}: [controller] {key} names {name!r}; the axes are {', '.join(names)}"
-                )
-    for name in c.commands:
-        a = cfg.axis(name)
-        if not a.mode or a.profile:
-            raise ConfigError(
-                f"{src}: [controller] commands {name!r}, which has "
-                + ("a profile" if a.profile else "no mode (a feedback-only axis)")
-            )
-    if c.design is not None:
-        _check_design(cfg, c.design)
-    check_run(src, cfg.run)
-    check_bus(src, b)
-    check_reference(src, cfg.reference)
-    check_faults(f"{src}: [faults]", cfg.faults)
-
-
-def _check_design(cfg: RigConfig, model: Model) -> None:
-    """The model's input is what the commanded axes take (voltage mode, or CST for a torque); a
-    design (it has lam) was made for the run's period."""
-    where = f"{cfg.source}: [controller] design ({model.source})"
-    mode = "cst" if model.input == "torque" else "voltage"
-    for name in cfg.controller.commands:
-        if cfg.axis(name).mode != mode:
-            raise ConfigError(
-                f"{where}: its input is a {model.input}, so axis {name!r} must be in mode = {mode!r}, "
-                f"not {cfg.axis(name).mode!r}"
-            )
-    period = cfg.run.period
-    designed = model.lam is not None or model.law is not None
-    if designed and period > 0.0 and abs(model.dt - period) > 1e-9 * period:
-        raise ConfigError(
-            f"{where}: designed for T = {model.dt:g} s, but [run] period = {period:g} s: design it again "
-            "with --dt"
-        )
+    emulator = emulator_config(source, table(source, "[emulator]", doc.get("emulator", {})))
+    period = resolved_period(sections["run"], emulator)
+    controller = controller_config(source, table(source, "[controller]", doc["controller"]), axes, period)
+    cfg = RigConfig(source=source, emulator=emulator, axes=axes, controller=controller, **sections)
+    check_rig(cfg)
+    return cfg
 
 
 def replace_axis(
@@ -406,8 +378,8 @@ def replace_axis(
     return replace(cfg, axes=axes)
 
 
-def load_config(path: str | Path) -> RigConfig:
+def load_config(path: str | Path, overrides: Iterable[Override] = ()) -> RigConfig:
     """Load and check a rig configuration file (``drivers.files.read_toml``: a regular file of at
-    most ``CONFIG_LIMIT``, UTF-8, not nested deeper than ``MAX_DEPTH``)."""
+    most ``CONFIG_LIMIT``, UTF-8, not nested deeper than ``MAX_DEPTH``), with ``overrides``."""
     p = Path(path)
-    return rig_config(read_toml(p, what="rig configuration"), str(p))
+    return rig_config(read_toml(p, what="rig configuration"), str(p), overrides)

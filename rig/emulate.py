@@ -200,10 +200,10 @@ def run_modbus_emulator(
     """
     import asyncio
 
-    from plant_emulator.modbus_inverter import InverterModel, default_model, serve_rtu, serve_tcp
-    from rig.params import typed_values
+    from plant_emulator.modbus_inverter import default_model, serve_rtu, serve_tcp
+    from rig.emulator_config import inverter_values
 
-    values = typed_values(InverterModel, params, "rig emulate: --param", fixed=("regmap", "load"), text=True)
+    values = inverter_values(params, "rig emulate: --param", text=True)
     try:
         model = default_model(family, **values)
     except ValueError as exc:

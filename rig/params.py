@@ -1,7 +1,8 @@
-"""The one typed NAME=VALUE parser: every ``--param``, ``--fault`` and parameter table goes through it.
+"""The one typed NAME=VALUE parser: every table, ``--param`` and ``--fault`` goes through it.
 
-``typed_values(schema, items, source)`` checks names against the fields of a
-dataclass ``schema`` and converts each value to the field's type:
+``typed_values(schema, items, source)`` checks names against the keys of a
+dataclass ``schema`` (``drivers.schema.keys``), converts each value to the
+field's type, and checks it against its key's rule (``drivers.schema.Key``):
 
 - values that already have a type (from TOML) are checked: an int is a float,
   a bool is never a number, a list is a tuple, and a string is only a string
@@ -13,11 +14,14 @@ dataclass ``schema`` and converts each value to the field's type:
   (row-major ``1,0;0,1``), and ``X | None`` (``none``).
 
 An unknown name or a bad value is a ``ConfigError`` naming the item, where it
-came from (``source``: a file and table, or an option) and what is expected.
+came from (``source``: a file and table, or an option) and what is expected:
+``<source>: NAME = VALUE: expected TYPE`` for a value of the wrong type,
+``<source> NAME = VALUE: must be RULE`` for one out of its key's range.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import types
 import typing
@@ -25,9 +29,10 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from drivers.errors import ConfigError
+from drivers.schema import Refused, check_given, key_of, keys
 from plant_emulator.parameters import field_types
 
-__all__ = ["build", "field_types", "parse_items", "typed_values"]
+__all__ = ["build", "field_types", "parse_items", "required", "typed_values"]
 
 _TRUE, _FALSE = ("true", "yes", "on", "1"), ("false", "no", "off", "0")
 
@@ -119,7 +124,8 @@ def typed_values(
     ``aliases`` maps other spellings to field names; ``fixed`` names fields the caller
     sets itself (giving one is an error too); ``text``: the values are command-line text.
     """
-    kinds = field_types(schema)
+    hints = field_types(schema)
+    kinds = {k: hints[k] for k in keys(schema)}
     settable = {k: v for k, v in kinds.items() if k not in set(fixed)}
     out: dict[str, Any] = {}
     for given, value in items.items():
@@ -131,13 +137,31 @@ def typed_values(
         except (ValueError, ZeroDivisionError, TypeError) as exc:
             expected = str(exc) if isinstance(exc, _Expected) else _expected(settable[name])
             raise ConfigError(f"{source}: {given} = {value!r}: expected {expected}") from None
+    try:
+        check_given(schema, out)
+    except Refused as exc:
+        raise ConfigError(f"{source} {exc}") from None
     return out
 
 
+def required(schema: type, values: Mapping[str, Any], source: str, fixed: Iterable[str] = ()) -> None:
+    """ConfigError naming the first key of ``schema`` without a default that ``values`` lacks."""
+    for name, f in keys(schema).items():
+        no_default = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+        if no_default and name not in values and name not in set(fixed):
+            spec = key_of(f)
+            what = f" ({spec.doc})" if spec is not None and spec.doc else ""
+            raise ConfigError(f"{source}: {name} is missing{what}")
+
+
 def build(schema: type, items: Mapping[str, Any], source: str, **fixed: Any) -> Any:
-    """``schema(**typed_values(...), **fixed)``; the dataclass's own checks become ConfigError."""
+    """``schema(**typed_values(...), **fixed)``, every key without a default given; a rule between
+    keys the dataclass refuses (``Refused``, ValueError) becomes a ConfigError naming ``source``."""
     values = typed_values(schema, items, source, fixed=fixed)
+    required(schema, values, source, fixed)
     try:
         return schema(**values, **fixed)
+    except Refused as exc:
+        raise ConfigError(f"{source} {exc}") from None
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"{source}: {exc}") from exc

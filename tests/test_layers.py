@@ -57,7 +57,10 @@ LOOSE: dict[str, str] = {
     "rig.axis_config": "rig.config",
     "rig.config": "rig.config",
     "rig.config_checks": "rig.config",
+    "rig.config_rules": "rig.config",
+    "rig.controller_config": "rig.config",
     "rig.emulate": "rig.emulator",
+    "rig.emulator_config": "rig.config",
     "rig.params": "rig.config",
 }
 
@@ -67,6 +70,9 @@ ALLOWED: set[tuple[str, str]] = {
     ("plant_emulator.device_profile", "plant_emulator.presets"),
     # a configuration naming a model file reads it with identification's reader
     ("rig.config", "rig.identify.model_file"),
+    ("rig.controller_config", "rig.identify.model_file"),
+    # the [controller] table's keys are its law's Params (rig.laws.LAWS), checked at load
+    ("rig.controller_config", "rig.laws"),
     # the cascade and the servo take the paper's constants from the papers' study
     ("rig.laws.cascade", "rig.papers.drives"),
     ("rig.laws.position_servo", "rig.papers.drives"),

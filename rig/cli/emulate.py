@@ -113,10 +113,10 @@ def _node_ids(preset: str, node_id: int | None, params: dict[str, str]) -> dict[
         raise UsageError(
             f"rig emulate: --node-id {node_id}: must be 1..125 with --preset (its nodes are N, N+1, N+2)"
         )
+    from drivers.schema import keys
     from plant_emulator.presets import PRESETS
-    from rig.params import field_types
 
-    fields = field_types(PRESETS[preset]) if preset in PRESETS else {}
+    fields = keys(PRESETS[preset]) if preset in PRESETS else {}
     for offset, name in enumerate(("drive_node", "encoder_node", "load_node")):
         if name in fields:
             params[name] = str(node_id + offset)
@@ -142,7 +142,7 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     from drivers.maps.od import load_od
     from plant_emulator.device_profile import default_profile, device_profile, load_profile
     from plant_emulator.presets import build_twin
-    from rig.host.emulation import preset_params
+    from rig.emulator_config import physics
 
     if args.device and (args.profile or args.eds):
         raise UsageError("rig emulate: --device takes a zoo profile; for your own drive give --profile/--eds")
@@ -160,7 +160,7 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     else:
         profile = default_profile(pathlib.Path(args.eds))
     where = f"rig emulate: --device {profile.name} --param"
-    params = preset_params(profile.physics, items, where, text=True, base=profile.params)
+    _, params = physics(profile.physics, items, where, text=True, base=profile.params)
     load_od(profile.eds, args.node_id or profile.node_id)  # a bad EDS is refused before serving
     # and so is a profile that disagrees with its EDS: built once on a network of its own
     build_twin(profile, canopen.Network(), params, node_id=args.node_id)
@@ -174,7 +174,7 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
 def run(args: argparse.Namespace) -> int:
     from plant_emulator.presets import build_preset
     from rig.emulate import run_emulator, run_modbus_emulator
-    from rig.host.emulation import preset_params
+    from rig.emulator_config import physics
 
     if args.list:
         return _list()
@@ -200,7 +200,7 @@ def run(args: argparse.Namespace) -> int:
             known = ", ".join(PRESETS)
             raise UsageError(f"rig emulate: --preset {args.preset}: unknown preset; known: {known}")
         items = _node_ids(args.preset, args.node_id, items)
-        params = preset_params(args.preset, items, f"rig emulate: --preset {args.preset} --param", text=True)
+        _, params = physics(args.preset, items, f"rig emulate: --preset {args.preset} --param", text=True)
         preset = args.preset
 
         def world(network: Any) -> Any:

@@ -144,10 +144,10 @@ def _check(args: argparse.Namespace) -> None:
 
 def _experiment(args: argparse.Namespace) -> str | None:
     """Run the experiment; its run directory, or None after a safe stop."""
-    from plant_emulator.presets import PRESETS, preset_period
+    from plant_emulator.presets import PRESETS
     from rig.cli.progress import Progress
     from rig.config import load_config
-    from rig.host.emulation import emulated_period, preset_params
+    from rig.emulator_config import physics
     from rig.identify.experiment import experiment_config, run_experiment
     from rig.papers.demo import demo_config
 
@@ -165,13 +165,13 @@ def _experiment(args: argparse.Namespace) -> str | None:
         raise UsageError(f"rig identify: need 0 < --amplitude ({args.amplitude:g}) < --u0 ({args.u0:g})")
     if args.emulate and args.emulate not in PRESETS:
         base, params = _twin(args), None
-        period = emulated_period(base)
+        period = base.period
     elif args.emulate:
         where = "rig identify: --param"
-        params = preset_params(
+        params, built = physics(
             args.emulate, parse_items(args.param, where), f"rig identify: --emulate {args.emulate}", text=True
         )
-        base, period = demo_config(), preset_period(args.emulate, params)
+        base, period = demo_config(), float(built.period)
     else:
         if args.param:
             raise UsageError("rig identify: --param sets a parameter of the --emulate preset")
@@ -215,7 +215,7 @@ def _twin(args: argparse.Namespace) -> Any:
     from drivers.errors import ConfigError
     from plant_emulator.device_profile import device_profile
     from rig.config import rig_config
-    from rig.host.emulation import preset_params
+    from rig.emulator_config import preset_params
     from rig.papers.demo import demo_doc
 
     try:

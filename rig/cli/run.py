@@ -14,7 +14,6 @@ from rig.cli.common import (
     exit_code,
     finite,
     not_written,
-    params_of,
     print_json,
 )
 from rig.cli.progress import Progress
@@ -101,27 +100,22 @@ def _strip(live: LiveView | None) -> bool:
 
 
 def execute(args: argparse.Namespace) -> int:
-    from drivers.errors import ConfigError
-    from rig.config import FaultsConfig, load_config
-    from rig.config_checks import check_faults, require_limits
-    from rig.host.emulation import EMULATOR_FAULTS
+    from plant_emulator.faults import FAULT_NAMES
+    from rig.config import Override, load_config
+    from rig.config_checks import require_limits
     from rig.host.session import run_config
+    from rig.params import parse_items
 
     if args.duration is not None and args.duration <= 0.0:
         raise UsageError(f"rig run: argument --duration: must be > 0 s, got {args.duration:g}")
-    cfg = load_config(args.config)
-    if args.fault:
-        faults = params_of(args.fault, FaultsConfig, "rig run: --fault")
-        bus_faults = sorted(set(faults) & set(EMULATOR_FAULTS))
-        if bus_faults and not args.emulate:
-            raise UsageError(
-                f"rig run: --fault {', '.join(bus_faults)} needs --emulate (the emulator injects it)"
-            )
-        cfg = dataclasses.replace(cfg, faults=dataclasses.replace(cfg.faults, **faults))
-        try:
-            check_faults("rig run: --fault", cfg.faults)
-        except ConfigError as exc:
-            raise UsageError(str(exc)) from None
+    faults = parse_items(args.fault, "rig run: --fault")
+    bus_faults = sorted(set(faults) & set(FAULT_NAMES))
+    if bus_faults and not args.emulate:
+        raise UsageError(
+            f"rig run: --fault {', '.join(bus_faults)} needs --emulate (the emulator injects it)"
+        )
+    # the faults are checked with the file, in the same pass, named by the option
+    cfg = load_config(args.config, [Override("faults", faults, "rig run: --fault")] if faults else [])
     if not args.no_limits:
         require_limits(cfg)
     if args.reset_fault:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import importlib
 import logging
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +18,7 @@ from drivers.files import read_toml
 from drivers.maps import CIA402_EDS, CIA406_EDS
 from rig.config import ABORT_CONNECTION, AxisConfig, BusConfig
 
-__all__ = ["AXIS_DRIVERS", "check_object_dictionaries", "open_axis"]
+__all__ = ["AXIS_DRIVERS", "open_axis"]
 
 log = logging.getLogger(__name__)
 
@@ -93,19 +93,6 @@ def device_emcy_texts(eds: str) -> dict[int, str]:
         except ValueError:
             continue
     return out
-
-
-def check_object_dictionaries(axes: Iterable[AxisConfig], source: str) -> None:
-    """Load the EDS/DCF each CANopen axis names (``eds``), so that a bad one is an error naming
-    the file and the axis before any bus is opened (the driver loads it again)."""
-    from drivers.maps.od import load_od  # canopen: only where a CANopen axis is
-
-    for a in axes:
-        if a.kind != "modbus" and a.eds:
-            try:
-                load_od(a.eds, a.node_id)
-            except ConfigError as exc:
-                raise ConfigError(f"{source}: [[axis]] {a.name!r} eds: {exc}") from None
 
 
 def _deadline(a: AxisConfig, period: float, realtime: bool) -> float:

@@ -58,7 +58,6 @@ import can
 import numpy as np
 
 from drivers.errors import ConfigError, StorageError
-from rig.config_checks import check_run_name
 from rig.host.readback import Columns, Envelope, copy_text, read_rows
 from rig.host.storage import Reserve, RowFile, trim_to_line
 from rig.host.trace import AscTrace
@@ -69,7 +68,7 @@ TRACE_WRITERS: dict[str, tuple[str, Callable[[str], Any]]] = {
     "blf": ("trace.blf", can.BLFWriter),
 }
 
-__all__ = ["TRACE_WRITERS", "Recorder", "check_output", "write_atomic", "write_mat"]
+__all__ = ["TRACE_WRITERS", "Recorder", "output_folder", "write_atomic", "write_mat"]
 
 log = logging.getLogger(__name__)
 
@@ -97,10 +96,9 @@ def _json(data: dict[str, Any]) -> Callable[[Any], None]:
     return lambda f: f.write(json.dumps(data, indent=2) + "\n")
 
 
-def check_output(output: str | Path, name: str, where: str = "[run]") -> Path:
-    """The folder ``output`` that run ``name`` goes to; ConfigError (``where``: the file and table)
-    when ``name`` is not a plain name or ``output`` (or the nearest part of it that exists) is a file."""
-    check_run_name(where, name)
+def output_folder(output: str | Path, where: str = "[run]") -> Path:
+    """The folder ``output`` runs go to; ConfigError (``where``: the file and table) when it (or
+    the nearest part of it that exists) is a file."""
     out = Path(output)
     for p in (out, *out.parents):
         if p.exists():
@@ -123,14 +121,14 @@ class Recorder:
         flush_period: float = 0.05,
         trace: str | bool = "asc",
     ) -> None:
-        out = check_output(output, name)
+        out = output_folder(output)  # the name was checked at load (rig.config_checks.run_name)
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
         base = out / f"{name}-{stamp}"
         path, n = base, 1
         while path.exists():
             n += 1
             path = Path(f"{base}-{n}")
-        if path.resolve().parent != out.resolve():  # check_output's name cannot leave it: stay sure
+        if path.resolve().parent != out.resolve():  # its own guard: a run directory stays in output
             raise ConfigError(
                 f"[run] name = {name!r}: the run directory {path} leaves output {str(output)!r}"
             )

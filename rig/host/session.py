@@ -1,8 +1,10 @@
 """A run of a configured rig: the one public path from a configuration to a running host loop.
 
 ``Session(cfg, emulate=..., duration=... or cycles=...)`` builds, in this order, and moves nothing yet:
-first what needs no bus, so that a bad value opens nothing (the period, the law of
-``rig.laws.make_law``, the profiles, the output folder, the EDS files the axes name); then
+``cfg`` was checked when it was loaded (``rig.config``), so nothing of it is checked again: first
+what needs no bus (the period, the law of ``rig.laws.make_law``, the profiles; what the run's
+mode needs of the file, and the output folder as it is now, are refused here, before anything is
+opened); then
 the transports (the CAN bus, or with ``emulate`` the emulated world of
 ``rig.host.emulation``), the axis drivers, the recorder (the configuration first, then every
 frame). ``start()`` sets every
@@ -32,11 +34,10 @@ from drivers.errors import ConfigError, NodeSilent, RigError
 from drivers.master_watch import MasterWatch, OtherMaster
 from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
-from rig.config_checks import check_period
-from rig.host.axes import check_object_dictionaries, open_axis
+from rig.host.axes import open_axis
 from rig.host.bus_load import bus_load, warn_bus_load
 from rig.host.columns import describe_columns
-from rig.host.emulation import Emulation, emulated_period
+from rig.host.emulation import Emulation
 from rig.host.heartbeat import HostHeartbeat
 from rig.host.loop import HostLoop, Wiring
 from rig.host.pacing import (
@@ -49,7 +50,7 @@ from rig.host.pacing import (
     WireLockstep,
 )
 from rig.host.realtime import RealtimeRequest, receive_threads, request
-from rig.host.recorder import Recorder, check_output
+from rig.host.recorder import Recorder, output_folder
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
 from rig.host.time_mode import TimeModeProbe
@@ -85,28 +86,11 @@ def run_config(
 
 
 def build_law(cfg: RigConfig, period: float) -> Law:
-    """The law of ``[controller]`` at ``period`` [s], checked against the axes it reads and commands."""
+    """The law of ``[controller]`` at ``period`` [s] (checked with its axes when ``cfg`` was loaded)."""
     c = cfg.controller
     law = make_law(
-        c.kind,
-        c.params,
-        period=period,
-        reference=reference_of(cfg.reference, cfg.source),
-        source=cfg.source,
-        origin=cfg.reference.origin,
+        c.kind, c.params, period=period, reference=reference_of(cfg.reference), origin=cfg.reference.origin
     )
-    if len(c.reads) != law.reads or len(c.commands) != len(law.modes):
-        raise ConfigError(
-            f"{cfg.source}: [controller] {c.kind} reads {law.reads} and commands {len(law.modes)} "
-            f"axis(es); reads = {list(c.reads)}, commands = {list(c.commands)}"
-        )
-    for name, modes in zip(c.commands, law.modes):
-        mode = cfg.axis(name).mode
-        if mode not in modes:
-            raise ConfigError(
-                f"{cfg.source}: [controller] {c.kind} commands {' or '.join(sorted(modes))}, "
-                f"but axis {name!r} is in mode {mode!r}"
-            )
     return with_injected_faults(law, cfg.faults)
 
 
@@ -138,31 +122,32 @@ class Session:
 
     # --- building ------------------------------------------------------------------------------
     def _period(self) -> float:
-        """The run's period [s], known before anything is opened: [run] period or the preset's."""
+        """The run's period [s] (``RigConfig.period``); what the run's mode needs of the file: a
+        real bus a ``[run] period``, ``--emulate`` a preset for the CANopen axes."""
         cfg = self.cfg
         if self.emulate:
-            period = emulated_period(cfg)
+            canopen_axes = [a.name for a in cfg.axes if a.kind != "modbus"]
+            if canopen_axes and cfg.emulator.physics is None:
+                raise ConfigError(
+                    f"{cfg.source}: --emulate needs [emulator] preset or device for the CANopen axes "
+                    f"{canopen_axes}"
+                )
         elif not cfg.run.period > 0.0:
             raise ConfigError(
                 f"{cfg.source}: [run] period must be set (> 0 s) for a real bus; without hardware, run it "
                 "with --emulate (the emulator in this process) or against `rig emulate` in another"
             )
-        else:
-            period = cfg.run.period
-        if cfg.run.period:
-            check_period(f"{cfg.source}: [run]", "period", period)
-        else:
-            check_period(f"{cfg.source}: [emulator]", "the preset's period", period)
-        return period
+        return cfg.period
 
     def _cycles(self, duration: float | None, cycles: int | None) -> int:
+        """The run's cycles: ``cycles``, or ``duration`` [s] (default: ``[run] duration``) of periods."""
         if cycles is not None:
             if cycles < 1:
-                raise ConfigError(f"{self.cfg.source}: cycles = {cycles!r}: must be >= 1")
+                raise ValueError(f"cycles = {cycles!r}: must be >= 1")
             return cycles
         d = self.cfg.run.duration if duration is None else duration
         if not (math.isfinite(d) and d > 0.0):
-            raise ConfigError(f"{self.cfg.source}: duration = {d!r}: must be a finite time > 0 s")
+            raise ValueError(f"duration = {d!r}: must be a finite time > 0 s")
         return round(d / self.period)
 
     def _transports(self) -> None:
@@ -187,22 +172,16 @@ class Session:
         # first what needs no bus: a bad value is one error and nothing was opened
         period = self.period = self._period()
         self.answer_budget = cfg.run.answer_budget or period / 2.0
-        if not self.answer_budget < period:
-            raise ConfigError(
-                f"{cfg.source}: [run] answer_budget = {cfg.run.answer_budget!r}: must be shorter than "
-                f"the period {period:g} s"
-            )
         self.cycles = self._cycles(duration, cycles)
         law = build_law(cfg, period)
         names = [a.name for a in cfg.axes]
         wiring = Wiring(
             tuple(names.index(n) for n in cfg.controller.reads),
             tuple(names.index(n) for n in cfg.controller.commands),
-            tuple((names.index(a.name), self._profile(a.name, a.profile)) for a in cfg.axes if a.profile),
+            tuple((names.index(a.name), parse_profile(a.profile)) for a in cfg.axes if a.profile),
         )
         self.law, self.wiring = law, wiring
-        check_output(cfg.run.output, cfg.run.name, f"{cfg.source}: [run]")
-        check_object_dictionaries(cfg.axes, cfg.source)
+        output_folder(cfg.run.output, f"{cfg.source}: [run]")
         # then the bus (or the emulated world), the axes on it, the recorder
         self._transports()
         for a in cfg.axes:
@@ -216,13 +195,6 @@ class Session:
         self.recorder = Recorder(cfg.run.output, cfg.run.name, flush_period=0.05, trace=cfg.run.trace)
         self.recorder.write_config(cfg.as_dict() | {"resolved_period": period, "emulate": self.emulate})
         self._attach_trace()
-
-    def _profile(self, name: str, text: str) -> Callable[[float], float]:
-        try:
-            profile: Callable[[float], float] = parse_profile(text)
-            return profile
-        except ValueError as exc:
-            raise ConfigError(f"{self.cfg.source}: [[axis]] {name!r} profile: {exc}") from None
 
     def _attach_trace(self) -> None:
         tap = self._tap = self.recorder.on_frame

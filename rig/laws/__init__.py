@@ -1,23 +1,20 @@
 """Control laws the host loop runs, by name: a lazy registry like python-can's interface table.
 
 ``LAWS`` maps a ``[controller] kind`` to (module, class); the module is imported
-when a law of that kind is built. ``make_law`` types the ``[controller]``
-parameters against the law's ``Params`` (the loop period fills ``dt``/``ts``).
+when a law of that kind is built. Each law's ``Params`` declares its ``[controller]`` keys
+(``drivers.schema.key``), checked when the configuration is loaded; ``make_law`` builds it.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 from collections.abc import Mapping
 from typing import Any
 
 from drivers.errors import ConfigError
-from rig.config_checks import require_finite
-from rig.laws.base import Law, LawStep, Reference
-from rig.params import build
+from rig.laws.base import Law, LawParams, LawStep, Reference
 
-__all__ = ["LAWS", "Law", "LawStep", "Reference", "law_class", "make_law"]
+__all__ = ["LAWS", "Law", "LawParams", "LawStep", "Reference", "law_class", "make_law"]
 
 LAWS: dict[str, tuple[str, str]] = {
     "position-servo": ("rig.laws.position_servo", "PositionServoLaw"),
@@ -48,20 +45,12 @@ def make_law(
     *,
     period: float,
     reference: Reference,
-    source: str = "",
     origin: str = "start",
 ) -> Law:
-    """Build the law ``kind`` with ``params`` (typed against its Params) at ``period`` [s]; a
-    position reference's ``origin`` ("start" or "zero", ``Law.begin``)."""
-    cls = law_class(kind, source)
-    names = {f.name for f in dataclasses.fields(cls.Params)}
-    fixed = {k: period for k in ("dt", "ts") if k in names}
-    where = f"{source}: [controller] {kind}"
-    require_finite(where, params)
-    typed = build(cls.Params, params, where, **fixed)
-    try:
-        law = cls(typed, period=period, reference=reference)
-    except ValueError as exc:
-        raise ConfigError(f"{where}: {exc}") from exc
+    """The law ``kind`` with ``params`` (its ``Params``' keys, checked when the configuration was
+    loaded: ``rig.controller_config``) at ``period`` [s]; a position reference's ``origin``
+    ("start" or "zero", ``Law.begin``)."""
+    cls = law_class(kind)
+    law = cls(cls.Params(**params), period=period, reference=reference)
     law.origin = origin
     return law

@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 
 from drivers.base import Feedback
 
-__all__ = ["Law", "LawStep", "Reference"]
+__all__ = ["Law", "LawParams", "LawStep", "Reference"]
 
 #: reference(t) -> (value, rate) at time t [s]
 Reference = Callable[[float], tuple[float, float]]
@@ -37,11 +37,20 @@ class LawStep:
     internals: tuple[float, ...] = ()  #: in the order of ``Law.internals``
 
 
+class LawParams:
+    """Base of a law's ``Params``: a frozen dataclass whose fields are the ``[controller]`` keys
+    (``drivers.schema.key``: type, unit, range, meaning), checked when the file is loaded."""
+
+    def rules(self, period: float) -> None:
+        """The rules between the keys, and with the run's ``period`` [s]: ``drivers.schema.Refused``
+        (or ValueError) when one is broken; called once, when the configuration is loaded."""
+
+
 class Law(abc.ABC):
     """Base of the laws of ``rig.laws.LAWS``."""
 
-    #: the typed parameter dataclass; a field named ``dt`` or ``ts`` is the loop period
-    Params: ClassVar[type]
+    #: the typed parameter dataclass (a ``LawParams``); the loop period is ``period``, not a key
+    Params: ClassVar[type[LawParams]]
     #: for each commanded axis, the modes its command may be in
     modes: ClassVar[tuple[frozenset[str], ...]]
     #: how many axes the law reads

@@ -13,10 +13,12 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from controllers.cascade import TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoop, CascadeLoopParams
 from drivers.base import Feedback
-from rig.laws.base import Law, LawStep, Reference
+from drivers.schema import Refused, key
+from rig.laws.base import Law, LawParams, LawStep, Reference
 from rig.papers import drives
 
 __all__ = ["CascadeParams", "CascadePositionLaw"]
@@ -26,37 +28,62 @@ __all__ = ["CascadeParams", "CascadePositionLaw"]
 LOOP_FIELDS = ("c_s", "k_s", "k_r1", "k_r2", "k_int", "u0", "beta", "alpha")
 
 
-@dataclass(frozen=True)
-class CascadeParams:
-    k_t: float = drives.B_W * drives.J_IM  #: torque per q current [N m/A]: b_w J of Table V
-    position_every: int = 2  #: the position loop's period in cycles (1 ms at 0.5 ms)
-    # a designed speed loop (CascadeLoopParams' fields; None: Table V's)
-    speed_c_s: tuple[float, ...] | None = None
-    speed_k_s: tuple[float, ...] | None = None
-    speed_k_r1: float | None = None
-    speed_k_r2: float | None = None
-    speed_k_int: float | None = None
-    speed_u0: float | None = None
-    speed_beta: float | None = None
-    speed_alpha: float | None = None
-    # a designed position loop
-    position_c_s: tuple[float, ...] | None = None
-    position_k_s: tuple[float, ...] | None = None
-    position_k_r1: float | None = None
-    position_k_r2: float | None = None
-    position_k_int: float | None = None
-    position_u0: float | None = None
-    position_beta: float | None = None
-    position_alpha: float | None = None
+def _loop_key(loop: str, name: str) -> Any:
+    """``<loop>_<name>``: that field of ``CascadeLoopParams`` of a designed loop (None: Table V's)."""
+    doc = f"a designed {loop} loop's {name} (Table V's symbols; none: Table V's loop)"
+    allowed: dict[str, Any] = {
+        "k_r1": {"gt": 0.0, "le": 1.0},
+        "k_r2": {"ge": 0.0},
+        "k_int": {"ge": 0.0},
+        "u0": {"gt": 0.0},
+        "beta": {"gt": 0.0},
+        "alpha": {"ge": 0.0, "le": 1.0},
+    }.get(name, {})
+    return key(None, "", doc, **allowed)
 
-    def __post_init__(self) -> None:
-        if self.position_every < 1:
-            raise ValueError(f"position_every must be >= 1, got {self.position_every!r}")
+
+@dataclass(frozen=True)
+class CascadeParams(LawParams):
+    """Table V's two loops, or designed ones (``rig tune cascade-position``)."""
+
+    k_t: float = key(
+        drives.B_W * drives.J_IM, "N m/A", "the torque per q current: b_w J of Table V", nonzero=True
+    )
+    position_every: int = key(2, "cycles", "the position loop's period (1 ms at 0.5 ms)", ge=1)
+    speed_c_s: tuple[float, ...] | None = _loop_key("speed", "c_s")
+    speed_k_s: tuple[float, ...] | None = _loop_key("speed", "k_s")
+    speed_k_r1: float | None = _loop_key("speed", "k_r1")
+    speed_k_r2: float | None = _loop_key("speed", "k_r2")
+    speed_k_int: float | None = _loop_key("speed", "k_int")
+    speed_u0: float | None = _loop_key("speed", "u0")
+    speed_beta: float | None = _loop_key("speed", "beta")
+    speed_alpha: float | None = _loop_key("speed", "alpha")
+    position_c_s: tuple[float, ...] | None = _loop_key("position", "c_s")
+    position_k_s: tuple[float, ...] | None = _loop_key("position", "k_s")
+    position_k_r1: float | None = _loop_key("position", "k_r1")
+    position_k_r2: float | None = _loop_key("position", "k_r2")
+    position_k_int: float | None = _loop_key("position", "k_int")
+    position_u0: float | None = _loop_key("position", "u0")
+    position_beta: float | None = _loop_key("position", "beta")
+    position_alpha: float | None = _loop_key("position", "alpha")
+
+    def rules(self, period: float) -> None:
+        """A designed loop's c_s and k_s have 1 or 2 entries each, as many, and c_s[0] is not 0."""
+        for loop in ("speed", "position"):
+            c_s, k_s = getattr(self, f"{loop}_c_s"), getattr(self, f"{loop}_k_s")
+            if c_s is None and k_s is None:
+                continue
+            if c_s is None or k_s is None or len(c_s) not in (1, 2) or len(k_s) != len(c_s):
+                raise Refused(f"{loop}_c_s", c_s, f"and {loop}_k_s = {k_s!r} must both have 1 or 2 entries")
+            if c_s[0] == 0.0:
+                raise Refused(f"{loop}_c_s", c_s, "must not start with 0")
 
     def loop(self, name: str, table: CascadeLoopParams, dt: float) -> CascadeLoopParams:
         """The loop ``name`` ("speed" or "position"): ``table`` without designed fields, else
         ``table`` with them at ``dt`` [s]."""
-        given = {k: getattr(self, f"{name}_{k}") for k in LOOP_FIELDS if getattr(self, f"{name}_{k}") is not None}
+        given = {
+            k: getattr(self, f"{name}_{k}") for k in LOOP_FIELDS if getattr(self, f"{name}_{k}") is not None
+        }
         return dataclasses.replace(table, dt=dt, **given) if given else table
 
     @property

@@ -13,21 +13,24 @@ from typing import Literal
 
 from controllers.dq_current import ComplexVectorCurrentController, DqCurrentParams
 from drivers.base import Feedback
-from rig.laws.base import Law, LawStep, Reference
+from drivers.schema import key
+from rig.laws.base import Law, LawParams, LawStep, Reference
 
 __all__ = ["DqCurrentLaw", "DqLawParams"]
 
 
 @dataclass(frozen=True)
-class DqLawParams:
+class DqLawParams(LawParams):
     """The plant of Table IV the controller is tuned for, gamma of (34), the strategy and the line."""
 
-    r1: float = 0.36  #: [Ohm]
-    l1: float = 6e-3  #: [H]
-    gamma: float = 0.35  #: tuning factor of (34)
-    strategy: Literal["s-pwm-start", "s-pwm-middle"] = "s-pwm-start"  #: (34), or (37) for the middle
-    f_line: float = 50.0  #: [Hz] omega_k = 2 pi f_line
-    u_max: float = math.inf  #: converter limit |u| [V]
+    r1: float = key(0.36, "Ohm", "the plant's R_1", ge=0.0)
+    l1: float = key(6e-3, "H", "the plant's L_1", gt=0.0)
+    gamma: float = key(0.35, "", "the tuning factor of (34)", gt=0.0)
+    strategy: Literal["s-pwm-start", "s-pwm-middle"] = key(
+        "s-pwm-start", "", "(34), or (37) for s-PWM-middle"
+    )
+    f_line: float = key(50.0, "Hz", "the line frequency: omega_k = 2 pi f_line")
+    u_max: float = key(math.inf, "V", "the converter's limit |u|", gt=0.0)
 
 
 class DqCurrentLaw(Law):

@@ -18,24 +18,32 @@ from dataclasses import dataclass
 from controllers.pi import PI, PIParams
 from drivers.base import Feedback
 from drivers.errors import SafetyStop
-from rig.laws.base import Law, LawStep, Reference
+from drivers.schema import Refused, key
+from rig.laws.base import Law, LawParams, LawStep, Reference
 from rig.laws.open_loop import Excitation
 
 __all__ = ["ExcitedSpeedLaw", "ExcitedSpeedParams"]
 
 
 @dataclass(frozen=True)
-class ExcitedSpeedParams:
-    """The excitation (as ``ReplayParams``) and the loop: u_k = PI(speed - w_k) + r_k."""
+class ExcitedSpeedParams(LawParams):
+    """The excitation (as ``ReplayParams``) and the loop: u_k = PI(speed - w_k) + r_k (T is the
+    run's period)."""
 
-    dt: float  #: [s] the loop period
-    u: tuple[float, ...] = ()  #: [unit of the command] r, one period (``cycles`` > 0) or the run
-    cycles: int = 0  #: > 0: ``u`` is one period repeated over this many cycles
-    dither: float = 0.0  #: [unit of u] standard deviation of a seeded white dither added to r
-    seed: int = 0
-    speed: float = 0.0  #: [rad/s] the loop's constant reference, != 0
-    kp: float = 0.0  #: [unit of u per rad/s]
-    ki: float = 0.0  #: [unit of u per rad]
+    u: tuple[float, ...] = key((), "unit of the command", "r, one period (cycles > 0) or the run")
+    cycles: int = key(
+        0, "cycles", "u is one period, repeated over this many cycles", ge=0, also={0: "u is the whole run"}
+    )
+    dither: float = key(0.0, "unit of u", "standard deviation of a seeded white dither added to r", ge=0.0)
+    seed: int = key(0, "", "the dither's seed", ge=0)
+    speed: float = key(0.0, "rad/s", "the loop's constant reference", nonzero=True)
+    kp: float = key(0.0, "unit of u per rad/s", "the loop's proportional gain", gt=0.0)
+    ki: float = key(0.0, "unit of u per rad", "the loop's integral gain", ge=0.0)
+
+    def rules(self, period: float) -> None:
+        """An excitation is given."""
+        if not self.u:
+            raise Refused("u", self.u, "the closed-loop experiment needs an excitation u")
 
 
 class ExcitedSpeedLaw(Law):
@@ -50,17 +58,13 @@ class ExcitedSpeedLaw(Law):
 
     def __init__(self, params: ExcitedSpeedParams, *, period: float, reference: Reference) -> None:
         super().__init__(params, period=period, reference=reference)
-        if not params.speed or params.kp <= 0.0:
-            raise ValueError(
-                f"speed = {params.speed!r} rad/s, kp = {params.kp!r}: expected speed != 0, kp > 0"
-            )
         self._excitation = Excitation(params.u, params.cycles, params.dither, params.seed)
         self._settled = self._excitation.total // 10
-        self.pi = PI(PIParams(kp=params.kp, ki=params.ki, dt=params.dt))
+        self.pi = PI(PIParams(kp=params.kp, ki=params.ki, dt=period))
 
     def sensitivity(self) -> tuple[float, float]:
         """(0, k_p + k_i T): the command per rad/s of speed in one period."""
-        return (0.0, self.params.kp + self.params.ki * self.params.dt)
+        return (0.0, self.params.kp + self.params.ki * self.period)
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         fb, w_r = feedback[0], self.params.speed

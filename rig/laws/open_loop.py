@@ -10,7 +10,8 @@ import numpy as np
 
 from drivers.base import Feedback
 from drivers.errors import SafetyStop
-from rig.laws.base import Law, LawStep, Reference
+from drivers.schema import Refused, key
+from rig.laws.base import Law, LawParams, LawStep, Reference
 
 __all__ = [
     "Excitation",
@@ -24,7 +25,7 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class SpeedReferenceParams:
+class SpeedReferenceParams(LawParams):
     """No parameters: the speed reference goes to the drive's own speed loop (an inverter's ramp)."""
 
 
@@ -40,7 +41,7 @@ class SpeedReferenceLaw(Law):
 
 
 @dataclass(frozen=True)
-class PositionReferenceParams:
+class PositionReferenceParams(LawParams):
     """No parameters: the position reference is streamed to the drive's own loops (CSP)."""
 
 
@@ -59,30 +60,40 @@ class PositionReferenceLaw(Law):
 
 
 @dataclass(frozen=True)
-class ReplayParams:
+class ReplayParams(LawParams):
     """An input sequence, one value per cycle (``rig identify``'s excitation)."""
 
-    u: tuple[float, ...] = ()  #: [V] (or the unit of the mode)
-    one_sign: bool = False  #: stop when the speed changes sign after the first 10 % (friction)
-    #: > 0: ``u`` is one period, repeated over this many cycles (a chirp or multisine; keeps
-    #: config.json small); 0: ``u`` is the whole run, its last value held
-    cycles: int = 0
-    #: [unit of u] standard deviation of a white Gaussian dither added to every cycle (seeded by
-    #: ``seed``): it keeps the encoder's quantisation error from repeating with a periodic ``u``
-    dither: float = 0.0
-    seed: int = 0
+    u: tuple[float, ...] = key((), "V", "the input, one value per cycle (or in the unit of the mode)")
+    one_sign: bool = key(False, "", "stop when the speed changes sign after the first 10 % (friction)")
+    cycles: int = key(
+        0,
+        "cycles",
+        "u is one period, repeated over this many cycles (a chirp or multisine; keeps config.json small)",
+        ge=0,
+        also={0: "u is the whole run, its last value held"},
+    )
+    dither: float = key(
+        0.0,
+        "unit of u",
+        "standard deviation of a white Gaussian dither added to every cycle (seeded by seed): it keeps "
+        "the encoder's quantisation error from repeating with a periodic u",
+        ge=0.0,
+    )
+    seed: int = key(0, "", "the dither's seed", ge=0)
+
+    def rules(self, period: float) -> None:
+        """An input sequence is given."""
+        if not self.u:
+            raise Refused("u", self.u, "replay needs an input sequence u")
 
 
 class Excitation:
     """The sequence a replay sends: ``u`` (one value per cycle, its last held), or ``u`` as one
-    period repeated over ``cycles``; plus a seeded white dither of standard deviation ``dither``
-    over the run. ``next()`` gives the next value."""
+        period repeated over ``cycles``; plus a seeded white dither of standard deviation ``dither``
+        over the run. ``next()`` gives the next value. Its values were checked when the configuration
+    was loaded (``ReplayParams``, ``ExcitedSpeedParams``: u not empty, cycles and dither >= 0)."""
 
     def __init__(self, u: tuple[float, ...], cycles: int, dither: float, seed: int) -> None:
-        if not u:
-            raise ValueError("replay needs an input sequence u")
-        if cycles < 0 or not dither >= 0.0:
-            raise ValueError(f"cycles = {cycles}, dither = {dither}: expected >= 0")
         self._u, self._periodic, self._k = u, cycles > 0, 0
         self.total = cycles or len(u)  #: the run's cycles
         self._dither = (

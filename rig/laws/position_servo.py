@@ -16,30 +16,39 @@ from controllers.dtsm import DTSM, DTSMParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from controllers.speed_observer import SpeedObserver
 from drivers.base import Feedback
-from rig.laws.base import Law, LawStep, Reference
+from drivers.schema import Refused, key
+from rig.laws.base import Law, LawParams, LawStep, Reference
 from rig.papers import drives
 
 __all__ = ["PositionServoLaw", "ServoParams"]
 
 
 @dataclass(frozen=True)
-class ServoParams:
+class ServoParams(LawParams):
     """The model (3.5) the design (7.31) is made for, and the gains of (7.30)."""
 
-    a_m: float = drives.A_M  #: [1/s]
-    b_m: float = drives.B_M  #: [rad/(V s^2)] (per N m when the axis is in CST)
-    lam: float = drives.LAMBDA_SERVO  #: sliding eigenvalue [1/s], < 0
-    sigma: float = drives.SIGMA  #: reaching bound [V]
-    q: float = drives.Q  #: proportional reaching gain [V/(V s)]
-    rho: float = drives.RHO  #: speed-error threshold of the integral [rad/s]
-    h: float = drives.H  #: integral gain [1/s], 0 <= h < 1/T
-    u0: float = math.inf  #: output limit [V]
-    #: the speed the law uses: "drive" (the axis's velocity feedback) or "observer" (estimated
-    #: from the position by ``controllers.speed_observer`` on this model, for quantised encoders)
-    speed: str = "drive"
-    observer_bandwidth: float = 500.0  #: [rad/s] the observer's poles
-    observer_delay: int = 0  #: [periods] from the law's command to the drive applying it
-    law: Literal["7.30", "sign"] = "7.30"  #: (7.30), or the sign law (6.8) with gain sigma
+    a_m: float = key(drives.A_M, "1/s", "the model (3.5): dw/dt = -a_m w + b_m u")
+    b_m: float = key(drives.B_M, "rad/(V s^2)", "(3.5); per N m when the axis is in CST", nonzero=True)
+    lam: float = key(drives.LAMBDA_SERVO, "1/s", "the sliding eigenvalue of the design (7.31)", lt=0.0)
+    sigma: float = key(drives.SIGMA, "V", "the reaching bound of (7.30) (the sign law's gain)", gt=0.0)
+    q: float = key(drives.Q, "V/(V s)", "the proportional reaching gain of (7.30)", ge=0.0)
+    rho: float = key(drives.RHO, "rad/s", "the speed-error threshold of the integral of (7.30)", gt=0.0)
+    h: float = key(drives.H, "1/s", "the integral gain of (7.30), below 1/T", ge=0.0)
+    u0: float = key(math.inf, "V", "the output limit", gt=0.0)
+    speed: Literal["drive", "observer"] = key(
+        "drive",
+        "",
+        "the speed the law uses: the axis's velocity feedback (drive) or estimated from the position "
+        "by controllers.speed_observer on this model (observer, for quantised encoders)",
+    )
+    observer_bandwidth: float = key(500.0, "rad/s", "the observer's poles", gt=0.0)
+    observer_delay: int = key(0, "periods", "from the law's command to the drive applying it", ge=0, le=10)
+    law: Literal["7.30", "sign"] = key("7.30", "", "(7.30), or the sign law (6.8) with gain sigma")
+
+    def rules(self, period: float) -> None:
+        """(7.30d): 0 <= h < 1/T."""
+        if not self.h < 1.0 / period:
+            raise Refused("h", self.h, f"must be below 1/T = {1.0 / period:g} 1/s (7.30d)")
 
 
 class PositionServoLaw(Law):
@@ -62,8 +71,6 @@ class PositionServoLaw(Law):
             self.servo = PositionServo(
                 PositionServoParams(design=design, sigma=p.sigma, q=p.q, rho=p.rho, h=p.h, u0=p.u0)
             )
-        if p.speed not in ("drive", "observer"):
-            raise ValueError(f"speed = {p.speed!r}: drive or observer")
         self.observer = (
             SpeedObserver(p.a_m, p.b_m, dt=period, bandwidth=p.observer_bandwidth, delay=p.observer_delay)
             if p.speed == "observer"

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from drivers.errors import ConfigError
 from plant_emulator.profiles import parse_profile
 from rig.config import ReferenceConfig
 from rig.laws.base import Reference
@@ -22,18 +21,13 @@ def smooth_move(distance: float, duration: float, start: float = 0.0) -> Referen
     return ref
 
 
-def reference_of(cfg: ReferenceConfig, source: str = "") -> Reference:
-    """The ``[reference]`` of a configuration."""
+def reference_of(cfg: ReferenceConfig) -> Reference:
+    """The ``[reference]`` of a configuration (checked when it was loaded)."""
     if cfg.kind == "smooth-move":
-        if not cfg.duration > 0.0:
-            raise ConfigError(f"{source}: [reference] duration = {cfg.duration!r}: must be > 0 s")
         return smooth_move(cfg.distance, cfg.duration, cfg.start)
     if cfg.kind == "step":
         return lambda t: (cfg.value if t >= cfg.start else 0.0, 0.0)
     if cfg.kind == "constant":
         return lambda t: (cfg.value, 0.0)
-    try:
-        profile = parse_profile(cfg.profile)
-    except ValueError as exc:
-        raise ConfigError(f"{source}: [reference] profile: {exc}") from None
+    profile = parse_profile(cfg.profile)
     return lambda t: (profile(t), 0.0)

@@ -143,19 +143,10 @@ def check_values(spec: SweepSpec) -> None:
                 job = job_of(spec, base_doc, point)
                 if spec.scenario:
                     _scenario_point(spec.scenario, _scenario_values(job), f"{spec.source}: [parameters]")
-                else:
-                    _dry_build(_config(job, f"{spec.source}: [parameters]"))
+                else:  # the loader checks the law at the period and the preset's parameters too
+                    _config(job, f"{spec.source}: [parameters]")
             except ConfigError as exc:
                 raise ConfigError(f"{where} {exc}") from None
-
-
-def _dry_build(cfg: Any) -> None:
-    """What a session checks before it opens anything: the period (with the emulator's
-    parameters) and the law at that period."""
-    from rig.host.emulation import emulated_period
-    from rig.host.session import build_law
-
-    build_law(cfg, emulated_period(cfg))
 
 
 def read_base(spec: SweepSpec) -> dict[str, Any] | None:

@@ -73,7 +73,8 @@ def test_feedback_on_an_axis_that_cannot_choose_it_is_refused(tmp_path: pathlib.
     path = tmp_path / "rig.toml"
     text = EXAMPLE.read_text().replace('kind = "cia402"', 'kind = "cia406"').replace('mode = "voltage"\n', "")
     path.write_text(text)
-    with pytest.raises(ConfigError, match=r"feedback = \['position'\]: only a cia402 axis"):
+    refused = r"feedback = \['position'\]: a key of cia402 axes, not of kind cia406"
+    with pytest.raises(ConfigError, match=refused):
         load_config(path)
 
 

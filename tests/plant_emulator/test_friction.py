@@ -60,9 +60,8 @@ def test_the_defaults_are_the_catalogue_motors_and_b_is_part_of_a_m() -> None:
     assert m.damping == m.a_m + m.b / m.j == pytest.approx(16.0, rel=1e-12)  # (3.5)'s a_m + B/J
     assert m.b_m == pytest.approx(680.0, rel=1e-12)
     assert ImDrivePreset().friction == 0.0022  # Table II
-    with pytest.raises(
-        ValueError, match=r"friction=0.001: viscous friction B = 0.001 .* at most .* = 0.0001384"
-    ):
+    too_much = r"friction = 0.001: viscous friction B = 0.001 .* at most .* = 0.0001384"
+    with pytest.raises(ValueError, match=too_much):
         preset_params("dc-servo", {"friction": 1e-3})
 
 

@@ -11,9 +11,11 @@ import time
 import pytest
 from pymodbus.client import ModbusTcpClient
 
+from drivers.errors import ConfigError
 from drivers.maps import modbus_map
 from plant_emulator.inverter_model import COMM_LOSS
 from plant_emulator.modbus_inverter import InverterContext, InverterServer, default_model
+from rig.emulator_config import inverter_values
 
 ABB = modbus_map("abb-drives-profile")
 RUN, RESET, DT = 0x047F, 0x04FE, 0.01  # ABB drives profile control words; lock-step period [s]
@@ -35,11 +37,14 @@ def running_at_50(action: str = "ramp") -> tuple[InverterContext, float]:
 def test_on_by_default_and_checked() -> None:
     model = default_model("delta-vfd-b")
     assert model.comm_loss_timeout == 0.5 and model.comm_loss_action == "ramp"
-    for bad in (0.0, -1.0, math.nan):
-        with pytest.raises(ValueError, match=f"comm_loss_timeout {bad!r} s must be > 0"):
-            default_model("delta-vfd-b", comm_loss_timeout=bad)
-    with pytest.raises(ValueError, match="comm_loss_action 'brake' is not one of ramp, coast"):
-        default_model("delta-vfd-b", comm_loss_action="brake")
+    # its parameters are checked where they are read ([emulator.inverter], rig emulate --param)
+    for bad in (0.0, -1.0):
+        with pytest.raises(ConfigError, match=rf"comm_loss_timeout = {bad!r}: must be > 0 s \(inf: off\)"):
+            inverter_values({"comm_loss_timeout": bad}, "FILE: [emulator.inverter]")
+    with pytest.raises(ConfigError, match="comm_loss_timeout = nan: expected a number, not NaN"):
+        inverter_values({"comm_loss_timeout": math.nan}, "FILE: [emulator.inverter]")
+    with pytest.raises(ConfigError, match="comm_loss_action = 'brake': expected one of ramp, coast"):
+        inverter_values({"comm_loss_action": "brake"}, "FILE: [emulator.inverter]")
     assert default_model("delta-vfd-b", comm_loss_timeout=math.inf).comm_loss_timeout == math.inf
 
 

@@ -81,5 +81,5 @@ def test_the_presets_load_parameter_uses_it() -> None:
     assert load_torque("none") is None
     f = load_torque("pulse:5:2:4 + sine:5:2:8")
     assert f is not None and f(3.0) == 5.0
-    with pytest.raises(ValueError, match=r"preset parameter load='pulse:5:4:2': profile .* t1 > t0"):
+    with pytest.raises(ValueError, match=r"profile 'pulse:5:4:2': .* t1 > t0"):
         load_torque("pulse:5:4:2")

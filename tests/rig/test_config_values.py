@@ -93,18 +93,22 @@ BAD = {
     "emulator-param-negative": (
         'load = "pulse:0.0346:1.5:3"',
         "a_m = -16.0",
-        "parameter a_m must be > 0, got -16.0",
+        "[emulator.params] of preset dc-servo a_m = -16.0: must be > 0 [1/s]",
     ),
-    "emulator-param-load": ('load = "pulse:0.0346:1.5:3"', 'load = "step:x"', "parameter load='step:x'"),
+    "emulator-param-load": (
+        'load = "pulse:0.0346:1.5:3"',
+        'load = "step:x"',
+        "of preset dc-servo load = 'step:x': profile 'step:x': term 'step:x'",
+    ),
     "emulator-param-period": (
         'load = "pulse:0.0346:1.5:3"',
         "period = 1e-300",
-        "[emulator.params] of preset dc-servo: period = 1e-300",
+        "[emulator.params] of preset dc-servo period = 1e-300: must be a period of 1e-05 .. 10 s",
     ),
     "emulator-param-huge-int": (
         'load = "pulse:0.0346:1.5:3"',
         "counts_per_rev = 100000000000",
-        "counts_per_rev must be <= 2147483647, got 100000000000",
+        "counts_per_rev = 100000000000: must be 1 .. 2147483647 increments/rev",
     ),
     "limit-speed-inf": ("speed = 300.0", "speed = inf", "limits speed = inf: must be a finite number"),
     "limit-position-inf": ("position_max = 12.0", "position_max = inf", "limits position_max = inf"),
@@ -237,10 +241,13 @@ def test_a_bad_duration_on_the_command_line_is_one_line(
 @pytest.mark.parametrize(
     ("value", "needle"),
     [
-        ("accel = -5.0", "[emulator.inverter]: accel -5.0 must be finite and > 0"),
-        ("accel = inf", "[emulator.inverter]: accel inf must be finite and > 0"),
-        ("slip = -1.0", "[emulator.inverter]: slip -1.0 must be finite and >= 0"),
-        ("comm_loss_timeout = -1.0", "[emulator.inverter]: comm_loss_timeout -1.0 s must be > 0"),
+        ("accel = -5.0", "[emulator.inverter] accel = -5.0: must be > 0 rad/s^2"),
+        ("accel = inf", "[emulator.inverter] accel = inf: must be a finite number > 0 rad/s^2"),
+        ("slip = -1.0", "[emulator.inverter] slip = -1.0: must be >= 0 rad/s"),
+        (
+            "comm_loss_timeout = -1.0",
+            "[emulator.inverter] comm_loss_timeout = -1.0: must be > 0 s (inf: off)",
+        ),
         (
             "comm_loss_timeout = 0.001",
             "is not shorter than the emulated inverter's comm_loss_timeout 0.001 s",
@@ -266,8 +273,7 @@ def test_an_infinite_law_parameter_is_refused_not_a_nan_stop_at_cycle_0(
     path = _config(tmp_path, "f_line = 50.0", "f_line = inf", example=grid)
     assert main(["run", "--config", str(path), "--emulate"]) == 2
     err = capsys.readouterr().err
-    rule = "must be a finite number (leave a limit out for none)"
-    assert err == f"rig: {path}: [controller] dq-current f_line = inf: {rule}\n"
+    assert err == f"rig: {path}: [controller] dq-current f_line = inf: must be a finite number\n"
     assert not opened
 
 

@@ -206,7 +206,7 @@ def test_a_run_refused_at_discovery_sends_the_drive_nothing(
     lacks) is refused from what was read: not even the controlword of the close is sent."""
     example = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
     text = example.read_text().replace('output = "runs"', f'output = "{tmp_path / "runs"}"')
-    text = text.replace("[run]", "[run]\nperiod = 0.001", 1).replace('preset = "dc-servo"', "")
+    text = text.replace("[run]", "[run]\nperiod = 0.001", 1)
     text = text.replace('interface = "socketcand"', 'interface = "virtual"').replace(
         'channel = "can0"', f'channel = "{drive.channel}"'
     )

@@ -164,7 +164,7 @@ def _feedback(velocity: float) -> list[Feedback]:
 def test_the_loop_adds_the_excitation_and_stops_on_the_other_sign() -> None:
     """u = k_p e + k_i T sum(e) + r; the excitation is recorded; a reversed speed after the first
     tenth of the run is a safe stop naming what to do."""
-    p = ExcitedSpeedParams(dt=T, u=(0.01, -0.01), cycles=20, speed=10.0, kp=0.002, ki=0.04)
+    p = ExcitedSpeedParams(u=(0.01, -0.01), cycles=20, speed=10.0, kp=0.002, ki=0.04)
     law = ExcitedSpeedLaw(p, period=T, reference=lambda t: (0.0, 0.0))
     first = law.step(0.0, _feedback(4.0))
     assert first.commands[0] == pytest.approx(0.002 * 6.0 + 0.01) and first.internals == (

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from drivers.errors import ConfigError
-from rig.config import load_config, replace_axis
+from drivers.files import read_toml
+from rig.config import load_config, replace_axis, rig_config
 from rig.host.rundir import read_samples
 from rig.host.session import Session
 
@@ -46,12 +47,13 @@ def test_the_inverter_reaches_its_speed_and_ends_stopped(line: str, clock: str, 
 
 
 def test_a_period_the_inverter_would_trip_in_is_refused(tmp_path: Path) -> None:
-    cfg = load_config(EXAMPLE)
-    cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path), period=0.5))
+    """Refused when the file is loaded; with a longer comm_loss_timeout, the run goes."""
+    doc = read_toml(EXAMPLE)
+    doc["run"].update(output=str(tmp_path), period=0.5)
     with pytest.raises(ConfigError, match=r"period 0.5 s is not shorter than .* comm_loss_timeout 0.5 s"):
-        Session(cfg, emulate=True, duration=1.0)
-    emulator = dataclasses.replace(cfg.emulator, inverter={"comm_loss_timeout": 2.0})
-    slow = dataclasses.replace(cfg, emulator=emulator)
+        rig_config(doc, "FILE")
+    doc.setdefault("emulator", {})["inverter"] = {"comm_loss_timeout": 2.0}
+    slow = rig_config(doc, "FILE")
     with Session(slow, emulate=True, duration=1.0) as session:
         session.start()
         assert session.run()["safe_stop_reason"] is None

@@ -34,4 +34,5 @@ def test_the_observed_servo_over_the_bus(tmp_path: pathlib.Path, capsys: pytest.
 def test_a_wrong_speed_source_is_named(tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", "--config", _config(tmp_path, "psychic"), "--emulate"]) == 2
     err = capsys.readouterr().err
-    assert "speed = 'psychic': drive or observer" in err and len(err.strip().splitlines()) == 1, err
+    needle = "[controller] position-servo: speed = 'psychic': expected one of drive, observer"
+    assert needle in err and len(err.strip().splitlines()) == 1, err
