@@ -1,67 +1,44 @@
 """The ``rig-config`` directive: the configuration reference, generated from the schema.
 
-Every table is a dataclass of the loader (``rig.config.RigConfig``'s fields, walked: a dataclass
-field is a table, a tuple of them an array of tables, a dataclass field inside a table its
-sub-table); every key is a field: its type, its default, its unit and meaning from the
-field's ``#:`` comment (``[s]`` first: the unit). The range is what the loader itself refuses:
-each key is given a few values out of the ordinary (negative, zero, huge, infinite, empty, an
-unknown name) in an otherwise valid file (``examples/dc_servo_position.toml``), and the rule of
-each ``ConfigError`` that names the key is listed. The law's parameters (``[controller]``, per
-``kind``) and the presets' (``[emulator.params]``) are read and probed the same way from their
-``Params`` dataclasses. Nothing here lists a key by hand.
+The schema is the one the loader checks (``rig.config``): every table is a dataclass
+(``rig.config.RigConfig``'s fields, walked: a dataclass field is a table, a tuple of them an
+array of tables, a dataclass field inside a table its sub-table); every key is a field declared
+with ``drivers.schema.key``, whose metadata (``drivers.schema.Key``) holds its unit, its meaning
+and the values it allows (``Key.text()``: what the loader's "must be" says). The type and the
+default are the field's own. The laws' parameters (``[controller]``, per ``kind``:
+``rig.laws.LAWS``' ``Params``), the presets' (``[emulator.params]``: ``PRESETS``) and the
+emulated inverters' (``[emulator.inverter]``: ``InverterModel``) are read the same way. Nothing
+here lists a key by hand or asks the loader.
 """
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import math
-import re
 import types
 import typing
-from collections.abc import Callable, Iterator
-from pathlib import Path
+from collections.abc import Iterator
 from typing import Any
 
 from docutils import nodes
-from sphinx.pycode import ModuleAnalyzer
 from sphinx.util.docutils import SphinxDirective
 
-ROOT = Path(__file__).resolve().parents[2]
-BASE = ROOT / "examples" / "dc_servo_position.toml"  #: the valid file each probe changes one key of
 #: TOML names of RigConfig fields that differ from the field's own name
 TOML_NAMES = {"axes": "axis"}
-#: values tried for a key of each type (a rule is listed only if the loader refuses one)
-PROBES: dict[type, tuple[Any, ...]] = {
-    float: (-1e9, -1.0, 0.0, 1e-12, 1e9, math.inf, -math.inf),
-    int: (-(2**31) - 1, -1, 0, 128, 256, 70_000, 2**31, 2**32),
-    str: ("", "no-such-name", "a/b"),
-}
+#: how the file writes a value of a field whose type is what the loader makes of it
+FILE_TYPES = {"Model": "string (a file's path)"}
 
 
 @dataclasses.dataclass
-class Key:
-    """One key of a table."""
+class Row:
+    """One key of a table, as printed."""
 
     name: str
     kind: str  #: its type as the file writes it
     default: str
     unit: str
     meaning: str
-    rules: list[str]
-
-
-def _comments(cls: type) -> dict[str, str]:
-    """The ``#:`` comment of each field of dataclass ``cls`` (before or beside it)."""
-    try:
-        docs = ModuleAnalyzer.for_module(cls.__module__).find_attr_docs()
-    except Exception:  # no source: no comments
-        return {}
-    return {
-        attr: " ".join(" ".join(lines).split())
-        for (owner, attr), lines in docs.items()
-        if owner == cls.__qualname__
-    }
+    allowed: str
 
 
 def _kind(hint: Any) -> str:
@@ -72,8 +49,9 @@ def _kind(hint: Any) -> str:
         return f"list of {_kind(args[0]) if args else 'float'}"
     if origin in (typing.Union, types.UnionType):
         return " or ".join(_kind(a) for a in args if a is not type(None))
-    return {float: "float", int: "integer", str: "string", bool: "boolean"}.get(
-        hint, getattr(hint, "__name__", str(hint))
+    name = getattr(hint, "__name__", str(hint))
+    return {"float": "float", "int": "integer", "str": "string", "bool": "boolean"}.get(
+        name, FILE_TYPES.get(name, name)
     )
 
 
@@ -84,6 +62,8 @@ def _default(f: dataclasses.Field[Any]) -> str:
         value = f.default_factory()
     else:
         return "required"
+    if value is None:
+        return "none"
     if isinstance(value, str):
         return f'"{value}"'
     if isinstance(value, bool):
@@ -95,95 +75,43 @@ def _default(f: dataclasses.Field[Any]) -> str:
     return repr(value)
 
 
-def _rule(message: str, key: str, value: Any) -> str | None:
-    """The rule a refusal of ``key = value`` states, with the value taken out; None when the
-    message is about another key."""
-    match = re.search(rf"(?<![\w.]){re.escape(key)}\b", message)
-    if match is None:
-        return None
-    text = message[match.end() :]
-    for shown in (repr(value), str(value), repr(float(value)) if isinstance(value, int) else None):
-        if shown is not None:
-            text = text.replace(f" = {shown}", "", 1).replace(f"={shown}", "", 1)
-    text = re.sub(r",? got \S+$", "", text).strip(" :;,")
-    return text or None
+def rows(cls: type) -> list[Row]:
+    """The keys of schema dataclass ``cls`` (``drivers.schema.keys``), as printed."""
+    from drivers.schema import key_of, keys
 
-
-def _probe(refuse: Callable[[str, Any], str | None], key: str, hint: Any) -> list[str]:
-    """The rules the loader states when ``key`` is given each probe value of its type."""
-    origin = typing.get_origin(hint)
-    if origin is typing.Literal:
-        values: tuple[Any, ...] = ("no-such-name",)
-    elif origin in (typing.Union, types.UnionType):
-        inner = [a for a in typing.get_args(hint) if a is not type(None)]
-        values = PROBES.get(inner[0], ()) if inner else ()
-    else:
-        values = PROBES.get(hint, ())
-    rules: list[str] = []
-    for value in values:
-        message = refuse(key, value)
-        rule = _rule(message, key, value) if message else None
-        if rule and rule not in rules:
-            rules.append(rule)
-    return rules
-
-
-def _keys(cls: type, refuse: Callable[[str, Any], str | None] | None, skip: set[str]) -> list[Key]:
     hints = typing.get_type_hints(cls)
-    comments = _comments(cls)
     out = []
-    for f in dataclasses.fields(cls):
-        hint = hints[f.name]
-        if f.name in skip or dataclasses.is_dataclass(hint):
-            continue
-        comment = comments.get(f.name, "")
-        unit_match = re.match(r"\[([^\]]+)\]\s*[;:]?\s*", comment)
-        unit = unit_match.group(1) if unit_match else ""
-        meaning = comment[unit_match.end() :] if unit_match else comment
-        rules = _probe(refuse, f.name, hint) if refuse is not None else []
-        out.append(Key(f.name, _kind(hint), _default(f), unit, meaning, rules))
+    for name, f in keys(cls).items():
+        hint = hints[name]
+        if dataclasses.is_dataclass(hint) or typing.get_origin(hint) is dict:
+            continue  # a sub-table, printed as its own section
+        spec = key_of(f)
+        if spec is None:  # pragma: no cover - a schema field declared without key()
+            raise TypeError(f"{cls.__qualname__}.{name} is not declared with drivers.schema.key")
+        meaning = spec.doc + (f" ({' and '.join(spec.kinds)} axes)" if spec.kinds else "")
+        out.append(Row(name, _kind(hint), _default(f), spec.unit, meaning, _allowed(spec, hint)))
     return out
 
 
-def _loader_refusal(path: tuple[str, ...]) -> Callable[[str, Any], str | None]:
-    """``refuse(key, value)``: the loader's ConfigError for the base file with ``key = value`` in
-    the table at ``path`` (an array of tables: its first), or None when it loads."""
-    from drivers.errors import ConfigError
-    from drivers.files import read_toml
-    from rig.config import rig_config
-
-    base = read_toml(BASE)
-
-    def refuse(key: str, value: Any) -> str | None:
-        doc = copy.deepcopy(base)
-        table = doc
-        for part in path:
-            table = table.setdefault(part, {})
-            if isinstance(table, list):
-                table = table[0]
-        table[key] = value
-        try:
-            rig_config(doc, "FILE")
-        except ConfigError as exc:
-            return str(exc)
-        return None
-
-    return refuse
+def _allowed(spec: Any, hint: Any) -> str:
+    """The values a key allows beyond its type: a number's range (``Key.text()``), else its rule
+    in words, or the first sentence of its ``check`` function's docstring."""
+    inner = [a for a in typing.get_args(hint) if a is not type(None)] or [hint]
+    if typing.get_origin(inner[0]) is tuple:  # a list: what each of its items allows
+        inner = list(typing.get_args(inner[0])[:1]) or [float]
+    if typing.get_origin(inner[0]) is tuple:  # a list of lists (rows) of numbers
+        inner = [float]
+    if any(a in (float, int) for a in inner):
+        text: str = spec.text()
+        return text
+    if spec.rule:
+        return str(spec.rule)
+    doc = (getattr(spec.check, "__doc__", None) or "").strip().replace("``", "")
+    return " ".join(doc.split(". ")[0].split()).rstrip(".")
 
 
-def _built_refusal(build: Callable[[dict[str, Any]], Any]) -> Callable[[str, Any], str | None]:
-    def refuse(key: str, value: Any) -> str | None:
-        try:
-            build({key: value})
-        except Exception as exc:  # the law's or preset's own check: ConfigError or ValueError
-            return str(exc)
-        return None
-
-    return refuse
-
-
-def tables() -> Iterator[tuple[str, type, list[Key]]]:
-    """(title, dataclass, keys) of every table of a configuration file, in the file's order."""
+def tables() -> Iterator[tuple[str, type, list[Row]]]:
+    """(title, dataclass, rows) of every table of a configuration file, in the file's order."""
     from rig.config import RigConfig
 
     hints = typing.get_type_hints(RigConfig)
@@ -191,53 +119,50 @@ def tables() -> Iterator[tuple[str, type, list[Key]]]:
         hint = hints[f.name]
         array = typing.get_origin(hint) is tuple
         cls = typing.get_args(hint)[0] if array else hint
-        if not dataclasses.is_dataclass(cls):
+        if not (isinstance(cls, type) and dataclasses.is_dataclass(cls)):
             continue
         name = TOML_NAMES.get(f.name, f.name)
-        yield from _table_and_subtables(name, cls, array, (name,))
+        yield from _table_and_subtables(name, cls, array)
 
 
-def _table_and_subtables(
-    name: str, cls: type, array: bool, path: tuple[str, ...]
-) -> Iterator[tuple[str, type, list[Key]]]:
-    title = f"[[{name}]]" if array else f"[{name}]"
+def _table_and_subtables(name: str, cls: type, array: bool) -> Iterator[tuple[str, type, list[Row]]]:
+    yield (f"[[{name}]]" if array else f"[{name}]"), cls, rows(cls)
     hints = typing.get_type_hints(cls)
-    dict_fields = {f.name for f in dataclasses.fields(cls) if typing.get_origin(hints[f.name]) is dict}
-    yield title, cls, _keys(cls, _loader_refusal(path), dict_fields)
     for f in dataclasses.fields(cls):
         if dataclasses.is_dataclass(hints[f.name]):
-            sub = f"{name}.{f.name}"
-            yield from _table_and_subtables(sub, hints[f.name], False, (*path, f.name))
+            yield from _table_and_subtables(f"{name}.{f.name}", hints[f.name], False)
 
 
-def laws() -> Iterator[tuple[str, type, list[Key]]]:
-    """(kind, Params, keys) of each law ``[controller] kind`` names (the period fills dt, ts)."""
+def laws() -> Iterator[tuple[str, type, list[Row]]]:
+    """(kind, Params, rows) of each law ``[controller] kind`` names."""
     from rig.laws import LAWS, law_class
-    from rig.params import build
 
     for kind in LAWS:
         params = law_class(kind).Params
-        names = {f.name for f in dataclasses.fields(params)}
-        fixed = {k: 4e-4 for k in ("dt", "ts") if k in names}
-        refuse = _built_refusal(lambda items, p=params, x=fixed: build(p, items, "[controller]", **x))
-        yield kind, params, _keys(params, refuse, set(fixed))
+        yield kind, params, rows(params)
 
 
-def presets() -> Iterator[tuple[str, type, list[Key]]]:
-    """(preset, its parameters' dataclass, keys) for ``[emulator.params]``."""
-    from plant_emulator.parameters import with_params
+def presets() -> Iterator[tuple[str, type, list[Row]]]:
+    """(preset, its parameters' dataclass, rows) for ``[emulator.params]``."""
     from plant_emulator.presets import PRESETS
 
     for name, cls in PRESETS.items():
-        yield name, cls, _keys(cls, _built_refusal(lambda items, c=cls: with_params(c, items)), set())
+        yield name, cls, rows(cls)
 
 
-def _key_table(keys: list[Key]) -> nodes.table:
-    headers = ("key", "type", "default", "unit", "meaning", "refused unless")
+def inverter() -> tuple[type, list[Row]]:
+    """The emulated Modbus inverters' parameters, ``[emulator.inverter]``."""
+    from plant_emulator.inverter_model import InverterModel
+
+    return InverterModel, rows(InverterModel)
+
+
+def _key_table(keys: list[Row]) -> nodes.table:
+    headers = ("key", "type", "default", "unit", "meaning", "allowed")
     table = nodes.table()
     group = nodes.tgroup(cols=len(headers))
     table += group
-    for width in (14, 12, 10, 6, 30, 28):
+    for width in (14, 12, 10, 8, 32, 24):
         group += nodes.colspec(colwidth=width)
     head = nodes.thead()
     body = nodes.tbody()
@@ -245,8 +170,17 @@ def _key_table(keys: list[Key]) -> nodes.table:
     group += body
     head += _row(headers, literal_first=False)
     for k in keys:
-        body += _row((k.name, k.kind, k.default, k.unit, k.meaning, "; ".join(k.rules)), literal_first=True)
+        body += _row((k.name, k.kind, k.default, k.unit, k.meaning, k.allowed), literal_first=True)
     return table
+
+
+def _paragraph(text: str) -> nodes.paragraph:
+    """``text`` with its ````code```` spans as literals."""
+    paragraph = nodes.paragraph()
+    for i, part in enumerate(text.split("``")):
+        if part:
+            paragraph += nodes.literal(text=part) if i % 2 else nodes.Text(part)
+    return paragraph
 
 
 def _row(cells: tuple[str, ...], literal_first: bool) -> nodes.row:
@@ -261,7 +195,8 @@ def _row(cells: tuple[str, ...], literal_first: bool) -> nodes.row:
 
 
 class RigConfigDirective(SphinxDirective):
-    """``rig-config``: a section per table of the configuration file, then the laws' and presets'."""
+    """``rig-config``: a section per table of the configuration file, then the laws', the presets'
+    and the emulated inverters' parameters."""
 
     def run(self) -> list[nodes.Node]:
         out: list[nodes.Node] = []
@@ -275,17 +210,18 @@ class RigConfigDirective(SphinxDirective):
         for name, cls, keys in presets():
             presets_section += self._section(f'preset = "{name}"', cls, keys)
         out.append(presets_section)
+        out.append(self._section("[emulator.inverter]", *inverter()))
         return out
 
-    def _section(self, title: str, cls: type | None, keys: list[Key]) -> nodes.section:
+    def _section(self, title: str, cls: type | None, keys: list[Row]) -> nodes.section:
         section = nodes.section(
             ids=[nodes.make_id("config " + title)], names=[nodes.fully_normalize_name(title)]
         )
         self.state.document.note_implicit_target(section)
         section += nodes.title(text=title)
         doc = (cls.__doc__ or "") if cls is not None else ""
-        if doc and not doc.startswith(f"{cls.__name__}("):  # not the dataclass's own signature
-            section += nodes.paragraph(text=" ".join(doc.split()))
+        if cls is not None and doc and not doc.startswith(f"{cls.__name__}("):  # not its signature
+            section += _paragraph(" ".join(doc.split()))
         if keys:
             section += _key_table(keys)
         return section
