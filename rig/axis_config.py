@@ -183,7 +183,13 @@ class AxisConfig:
         rule=f"position and any of {', '.join(FEEDBACK_NAMES[1:])}",
         kinds=("cia402",),
     )
-    map: str = key("", "", "the register map (abb-drives-profile, delta-vfd-b)", kinds=("modbus",))
+    map: str = key(
+        "",
+        "",
+        "the register map (abb-drives-profile, delta-vfd-b)",
+        check=fmt.register_map,
+        kinds=("modbus",),
+    )
     unit: int = key(1, "", "the Modbus unit id", ge=0, le=247, kinds=("modbus",))
     host: str = key("", "", "Modbus TCP: the inverter's address", kinds=("modbus",))
     port: int = key(502, "", "Modbus TCP: the port", ge=1, le=65535, kinds=("modbus",))

@@ -2,9 +2,9 @@
 
 The ranges of single keys are data of their fields (``drivers.schema.key``); the formats
 here are their ``check`` functions (a run name, an output folder's path, a python-can
-interface, a time profile), each raising ValueError with the rule. The rules between keys and
-tables are ``rig.config_rules``'. ``require_limits`` is apart: ``rig run`` refuses a commanded
-axis without any limit unless ``--no-limits`` is given.
+interface, a Modbus register map, a time profile), each raising ValueError with the rule. The
+rules between keys and tables are ``rig.config_rules``'. ``require_limits`` is apart: ``rig run``
+refuses a commanded axis without any limit unless ``--no-limits`` is given.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ __all__ = [
     "interface",
     "output_path",
     "profile",
+    "register_map",
     "require_limits",
     "run_name",
 ]
@@ -62,6 +63,13 @@ def interface(name: str) -> None:
         check_interface(name, "")
     except ConfigError as exc:
         raise ValueError(str(exc).split(": ", 1)[1]) from None
+
+
+def register_map(name: str) -> None:
+    """A Modbus register map of ``drivers.maps`` (abb-drives-profile, delta-vfd-b)."""
+    from drivers.maps import modbus_map
+
+    modbus_map(name)
 
 
 def profile(text: str) -> None:

@@ -312,3 +312,16 @@ def test_a_run_period_the_emulated_devices_cannot_take_is_one_line(
         assert len(err.splitlines()) == 1 and err.startswith(f"rig: {bad}: [run] period = 0.001 s, but"), err
         assert needle in err, err
     assert not opened
+
+
+def test_an_unknown_register_map_is_one_line_at_load(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], opened: list[str]
+) -> None:
+    """A Modbus axis's map is checked with the file (it was a traceback from the emulated inverter)."""
+    modbus = EXAMPLES / "modbus_inverter_speed.toml"
+    path = _config(tmp_path, 'map = "abb-drives-profile"', 'map = "nope"', modbus)
+    assert main(["run", "--config", str(path), "--emulate"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f"rig: {path}: [[axis]] 'inverter' map = 'nope': unknown Modbus map 'nope'"), err
+    assert not opened
