@@ -22,6 +22,7 @@ extensions = [
     "rig_api",
     "rig_cli",
     "rig_config",
+    "rig_layout",
 ]
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
 exclude_patterns = ["_build", "_generated"]

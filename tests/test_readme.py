@@ -1,10 +1,15 @@
 """The shell blocks of the README and of the documentation's pages (``docs/*.md``) run as written
 (issues 19, 28): each ```sh block is either run here, in a fresh folder beside the examples, with
 the installed ``rig`` on PATH, or named below with the reason it is not (a new block must be given
-one or the other); what the page says a block does is checked where CLAIMS has a check for it.
-Two blocks in a row that begin ``# terminal 1`` and ``# terminal 2`` are run together, the first
-as a server (one ``rig`` command) until the second is done: in the timing tier (a fixed port,
-processes of their own)."""
+one or the other); what the page says a block does is checked where CLAIMS has a check for it, and
+a ```text block right after a block that runs is what it prints: each of its lines is a line of
+the block's output. A tutorial's blocks (``docs/tutorial-*.md``) run in order in one folder, as a
+reader follows the page. Two blocks in a row that begin ``# terminal 1`` and ``# terminal 2`` are
+run together, the first as a server (one ``rig`` command) until the second is done (on a tutorial,
+after the page's blocks before them): in the timing tier (a fixed port, processes of their own).
+A tutorial takes minutes to follow: the ``slow`` tier follows each, and the default run parses each
+``rig`` line of every block with rig's own parser. Every path in the repository a page names in
+backticks exists."""
 
 from __future__ import annotations
 
@@ -13,10 +18,13 @@ import json
 import os
 import pathlib
 import re
+import shlex
 import subprocess
 import sys
 
 import pytest
+
+from rig.cli import build_parser
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 #: the pages whose blocks and inline commands are tested: the README and the documentation's
@@ -75,24 +83,68 @@ def where(path: pathlib.Path) -> str:
     return str(path.relative_to(ROOT))
 
 
+def is_tutorial(line: str) -> bool:
+    """Whether the block at ``line`` (``docs/tutorial-servo.md:12``) is a tutorial's."""
+    return line.startswith("docs/tutorial-")
+
+
+def _fenced(text: str) -> list[tuple[int, str, str, str]]:
+    """(line, info, body, what follows up to the next fence) of each fenced block of ``text``."""
+    fences = list(re.finditer(r"^```([^\n]*)\n(.*?)^```", text, flags=re.M | re.S))
+    ends = [m.start() for m in fences[1:]] + [len(text)]
+    return [
+        (text[: m.start()].count("\n") + 1, m.group(1).strip(), m.group(2), text[m.end() : end])
+        for m, end in zip(fences, ends)
+    ]
+
+
 def blocks() -> list[tuple[str, str]]:
     """(where: file and line, text) of every ```sh block of the pages."""
-    found = []
+    return [
+        (f"{where(path)}:{line}", body)
+        for path in DOCS
+        for line, info, body, _ in _fenced(path.read_text())
+        if info == "sh"
+    ]
+
+
+def shown() -> dict[str, list[str]]:
+    """Where a ```sh block is -> the lines of the ```text block right after it (blank lines only
+    between): what the page says the block prints."""
+    found = {}
     for path in DOCS:
-        text = path.read_text()
-        found += [
-            (f"{where(path)}:{text[: m.start()].count(chr(10)) + 1}", m.group(1))
-            for m in re.finditer(r"^```sh\n(.*?)^```", text, flags=re.M | re.S)
-        ]
+        fenced = _fenced(path.read_text())
+        for (line, info, _, between), (_, next_info, body, _) in itertools.pairwise(fenced):
+            if info == "sh" and next_info == "text" and not between.strip():
+                found[f"{where(path)}:{line}"] = [s.strip() for s in body.splitlines() if s.strip()]
     return found
 
 
+def _runs_here(block: str) -> bool:
+    return not any(key in block for key in NOT_HERE) and not block.startswith(TERMINALS)
+
+
 def _runnable() -> list[tuple[str, str]]:
-    return [
-        (line, b)
-        for line, b in blocks()
-        if not any(key in b for key in NOT_HERE) and not b.startswith(TERMINALS)
-    ]
+    """The blocks run one by one: not a tutorial's, each text once (the same two commands are on
+    the README and on Getting started)."""
+    seen: set[str] = set()
+    found = []
+    for line, b in blocks():
+        if _runs_here(b) and not is_tutorial(line) and b not in seen:
+            seen.add(b)
+            found.append((line, b))
+    return found
+
+
+def tutorials() -> dict[str, list[tuple[str, str]]]:
+    """Each tutorial page -> its blocks run here, in order."""
+    found: dict[str, list[tuple[str, str]]] = {}
+    for line, b in blocks():
+        if is_tutorial(line):
+            found.setdefault(line.split(":")[0], [])
+            if _runs_here(b):
+                found[line.split(":")[0]].append((line, b))
+    return found
 
 
 def pairs() -> list[tuple[str, str, str]]:
@@ -106,23 +158,54 @@ def pairs() -> list[tuple[str, str, str]]:
 
 
 def test_every_block_is_run_or_has_a_reason() -> None:
-    runnable = _runnable()
+    runnable = _runnable() + [block for page in tutorials().values() for block in page]
     assert len(blocks()) >= 6 and runnable, blocks()
     paired = {b for _, first, second in pairs() for b in (first, second)}
     alone = [line for line, b in blocks() if b.startswith(TERMINALS) and b not in paired]
     assert not alone and pairs(), f"a terminal block without its other half: {alone}"
     assert any("rig demo" in b for _, b in runnable) and any("rig identify" in b for _, b in runnable)
+    assert len(tutorials()) >= 4 and all(tutorials().values()), tutorials()
     tried = [b for _, b in runnable] + [b for _, _, second in pairs() for b in [second]]
     assert all(any(key in b for b in tried) for key in CLAIMS)
+    run = {line for line, _ in runnable} | {line for line, _, _ in pairs()}
+    # a text block after a block nobody runs would be a claim nobody checks
+    unchecked = [line for line in shown() if line not in run and not _is_second(line)]
+    assert not unchecked, f"output shown after a block that is not run: {unchecked}"
+
+
+def _second_of(line: str) -> str:
+    """Where the second block is of the two-terminal pair whose first is at ``line``."""
+    found = blocks()
+    return next(second for (first, _), (second, _) in itertools.pairwise(found) if first == line)
+
+
+def _is_second(line: str) -> bool:
+    """Whether the block at ``line`` is the second of a two-terminal pair (run by the timing tier)."""
+    return any(_second_of(first) == line for first, _, _ in pairs())
+
+
+def check_output(line: str, proc: subprocess.CompletedProcess[str]) -> None:
+    """What the page shows after the block at ``line`` is what it printed: each shown line is a
+    line of its stdout or stderr (leading and trailing blanks aside)."""
+    printed = {s.strip() for s in (proc.stdout + "\n" + proc.stderr).splitlines()}
+    missing = [s for s in shown().get(line, []) if s not in printed]
+    assert not missing, (
+        f"{line}: the page shows lines the block did not print: {missing}\n"
+        f"{proc.stdout[-3000:]}\n{proc.stderr[-2000:]}"
+    )
 
 
 def run_here(
     script: str, folder: pathlib.Path, timeout: float = 300, *, link: bool = True
 ) -> subprocess.CompletedProcess[str]:
-    """``script`` run by bash -e in ``folder`` beside the examples (linked there unless ``link`` is
-    false: done before), with the installed ``rig`` on PATH."""
+    """``script`` run by bash -e in ``folder`` beside the examples and the zoo's device files, as in
+    a clone's top folder (linked there unless ``link`` is false: done before), with the installed
+    ``rig`` on PATH. ``plant_emulator/`` holds only ``devices/``: not a package that would shadow
+    the installed one for ``python -c``."""
     if link:
         (folder / "examples").symlink_to(ROOT / "examples")
+        (folder / "plant_emulator").mkdir()
+        (folder / "plant_emulator" / "devices").symlink_to(ROOT / "plant_emulator" / "devices")
     env = {**os.environ, "PATH": f"{pathlib.Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     return subprocess.run(
         ["bash", "-e", "-o", "pipefail", "-c", script],
@@ -141,31 +224,113 @@ def test_the_block_runs_as_written(line: str, block: str, tmp_path: pathlib.Path
     script = re.sub(r"python -m pip install [^&\n]*&&\s*", "", block)
     proc = run_here(script, tmp_path)
     assert proc.returncode == 0, f"{line}:\n{script}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
+    check_output(line, proc)
     for key, check in CLAIMS.items():
         if key in block:
             check(proc, tmp_path)
 
 
+def _follow(page: list[tuple[str, str]], folder: pathlib.Path) -> None:
+    """Run a tutorial's blocks in order in ``folder``, each checked as a block alone is."""
+    for i, (line, block) in enumerate(page):
+        proc = run_here(block, folder, link=i == 0)
+        assert proc.returncode == 0, f"{line}:\n{block}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
+        check_output(line, proc)
+        for key, check in CLAIMS.items():
+            if key in block:
+                check(proc, folder)
+
+
+#: what ends a command on a block's line: a redirection, a pipe, the next command
+_ENDS = ("||", "&&", "|", ";", "&", ">", ">>", "2>", "2>&1")
+
+
+def rig_lines(block: str) -> list[list[str]]:
+    """The arguments of each line of ``block`` that runs ``rig`` (continuations joined; a
+    comment, a redirection or what follows ``||``, ``&&`` or ``|`` left out)."""
+    found = []
+    for line in block.replace("\\\n", " ").splitlines():
+        if not line.strip().startswith("rig "):
+            continue
+        argv: list[str] = []
+        for word in shlex.split(line, comments=True):
+            if word in _ENDS or word.startswith((">", "2>")):
+                break
+            argv.append(word)
+        found.append(argv)
+    return found
+
+
+def test_every_rig_line_of_a_block_parses(capsys: pytest.CaptureFixture[str]) -> None:
+    """Each ``rig`` line of every block, the tutorials' (followed only in the slow tier) included,
+    is accepted by rig's own parser: a renamed option or command fails the default run."""
+    lines = [(where, argv) for where, block in blocks() for argv in rig_lines(block)]
+    refused = []
+    for where, argv in lines:
+        try:
+            build_parser().parse_args(argv[1:])
+        except SystemExit as exit_:
+            if exit_.code:
+                refused.append(f"{where}: {shlex.join(argv)}: {capsys.readouterr().err.strip()}")
+    assert len(lines) > 40 and not refused, "\n".join(refused)
+
+
+@pytest.mark.slow  # 30 s to 140 s a page under load 10: the default run parses their lines instead
+@pytest.mark.timeout(600)  # a tutorial's steps, each a command of seconds (under load, tens)
+@pytest.mark.parametrize("page", sorted(tutorials()))
+def test_the_tutorial_runs_as_written(page: str, tmp_path: pathlib.Path) -> None:
+    """A tutorial's blocks, in order, in one folder: each step on what the steps before it made."""
+    _follow(tutorials()[page], tmp_path)
+
+
 @pytest.mark.timing  # the server on the page's fixed port (29536), in a process of its own
+@pytest.mark.timeout(600)  # a tutorial's steps before the pair, then the pair
 @pytest.mark.parametrize(("line", "first", "second"), pairs(), ids=[line for line, _, _ in pairs()])
 def test_two_terminals_run_as_written(line: str, first: str, second: str, tmp_path: pathlib.Path) -> None:
     """Terminal 1's one ``rig`` command runs (until Ctrl-C) while terminal 2's block runs as
     written; then Ctrl-C stops it, cleanly."""
-    import shlex
 
     from rig.emulator.spawn import spawn_rig, stop_rig
 
     (command,) = [c for c in first.splitlines() if c.strip() and not c.startswith("#")]
     argv = shlex.split(command)
     assert argv[0] == "rig", command
+    page, at_line = line.split(":")
+    before = [(at, b) for at, b in tutorials().get(page, []) if int(at.split(":")[1]) < int(at_line)]
+    _follow(before, tmp_path)  # on a tutorial, the steps before the pair, in the same folder
     server, said = spawn_rig(*argv[1:], stderr=True)
     try:
         assert "Ctrl-C" in said, f"{line}: {command}: {said}"
-        proc = run_here(second, tmp_path)
+        proc = run_here(second, tmp_path, link=not before)
     finally:
         _out, err = stop_rig(server, timeout=20)
     assert proc.returncode == 0, f"{line}:\n{second}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
     assert server.returncode == 0, err
+    check_output(_second_of(line), proc)
     for key, check in CLAIMS.items():
         if key in second:
             check(proc, tmp_path)
+
+
+#: the folders a page may name a path in (`rig/host/loop.py`, `tests/`): each must exist
+TREE = ("controllers/", "drivers/", "plant_emulator/", "rig/", "tests/", "examples/", "docs/", ".ci/")
+
+
+def named_paths() -> list[tuple[str, str]]:
+    """(where, path) of each path into the repository that a page names in backticks: a word that
+    starts with one of TREE, without a placeholder (<name>, NAME, *)."""
+    found = []
+    for path in DOCS:
+        for m in re.finditer(r"(?<!`)`([^`\s]+)`(?!`)", path.read_text()):
+            name = m.group(1).rstrip(".,:;")
+            if name.startswith(TREE) and not re.search(r"[<>*{}$]|/[A-Z_]+(\.|/|$)|NAME", name):
+                found.append((f"{where(path)}:{path.read_text()[: m.start()].count(chr(10)) + 1}", name))
+    return found
+
+
+def test_the_paths_the_pages_name_exist() -> None:
+    """A module moved or renamed without its mention on a page fails here, naming both: the pages
+    (the layout's "where a new thing goes" most of all) stay true as the tree changes."""
+    found = named_paths()
+    missing = [f"{at}: `{name}`" for at, name in found if not (ROOT / name.split("::")[0]).exists()]
+    assert len(found) > 30 and not missing, "no such path in the repository:\n" + "\n".join(missing)

@@ -1,10 +1,10 @@
-"""The README's inline commands (issue 19): rig's own parser accepts every backticked ``rig ...``
-outside the sh blocks, its option names exactly as written (a synopsis through its concrete
-forms, a command elided with ``...`` through the forms given in ELIDED). Each whole
-command is run here in a fresh folder beside the examples, with the claims the README makes next
-to it checked (RUN), run in the ``slow`` tier (SLOW), or named with the reason it is not
-(NOT_RUN); a command or option only named in prose is in MENTIONS. A new span must be given one
-of these, and a name no span has any more is an error too."""
+"""The inline commands of the README and of the documentation's pages (issues 19, 28): rig's own
+parser accepts every backticked ``rig ...`` outside the sh blocks, its option names exactly as
+written (a synopsis through its concrete forms, a command elided with ``...`` through the forms
+given in ELIDED). Each whole command is run here in a fresh folder beside the examples, with the
+claims the pages make next to it checked (RUN), run in the ``slow`` tier (SLOW), or named with the
+reason it is not (NOT_RUN); a command or option only named in prose is in MENTIONS. A new span must
+be given one of these, and a name no span has any more is an error too."""
 
 from __future__ import annotations
 
@@ -30,8 +30,10 @@ from rig.config import FaultsConfig, load_config
 from rig.emulator.spawn import spawn_rig, stop_rig
 from tests.test_readme import DOCS, ROOT, run_here, where
 
-README = (ROOT / "README.md").read_text()
-FLAT = " ".join(README.split())  #: the README's prose with its line breaks as spaces
+#: the README and the documentation's pages, one after the other: a figure is checked on whichever
+#: page holds it (the README first)
+README = "\n".join(path.read_text() for path in DOCS)
+FLAT = " ".join(README.split())  #: the pages' prose with their line breaks as spaces
 
 Check = Callable[[subprocess.CompletedProcess[str], pathlib.Path], None]
 
@@ -246,15 +248,16 @@ def unknown_names(parser: argparse.ArgumentParser, text: str) -> list[str]:
 
 
 def said(pattern: str) -> re.Match[str]:
-    """Where the README's prose (line breaks as spaces) matches ``pattern``, in which ``(N)`` is a
+    """Where the pages' prose (line breaks as spaces) matches ``pattern``, in which ``(N)`` is a
     number; fails when it does not."""
     match = re.search(pattern.replace("(N)", r"(\d+(?:\.\d+)?)"), FLAT)
-    assert match, f"the README no longer says {pattern!r}: update this test with it"
+    assert match, f"neither the README nor docs/*.md says {pattern!r} any more: update this test with it"
     return match
 
 
 def table(header: str) -> list[list[str]]:
-    """The body rows' cells of the README table whose header row starts with ``header``."""
+    """The body rows' cells of the table (on the README or a page of docs/) whose header row starts
+    with ``header``."""
     lines = README.splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith(header))
     rows = []
@@ -682,6 +685,10 @@ MENTIONS = {
     "rig emulate --rt-priority 0",
     "rig identify --excitation friction",
     "rig tune",
+    "rig reproduce",
+    "rig export",
+    "rig design dtsm",
+    "rig design dtsm --from-identify",
 }
 
 
