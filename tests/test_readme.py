@@ -9,7 +9,7 @@ run together, the first as a server (one ``rig`` command) until the second is do
 after the page's blocks before them): in the timing tier (a fixed port, processes of their own).
 A tutorial takes minutes to follow: the ``slow`` tier follows each, and the default run parses each
 ``rig`` line of every block with rig's own parser. Every path in the repository a page names in
-backticks exists."""
+backticks exists, and the README stays a front door of at most 150 lines."""
 
 from __future__ import annotations
 
@@ -323,7 +323,8 @@ def named_paths() -> list[tuple[str, str]]:
     for path in DOCS:
         for m in re.finditer(r"(?<!`)`([^`\s]+)`(?!`)", path.read_text()):
             name = m.group(1).rstrip(".,:;")
-            if name.startswith(TREE) and not re.search(r"[<>*{}$]|/[A-Z_]+(\.|/|$)|NAME", name):
+            built = name.startswith(("docs/_build", "docs/_generated"))  # made by the docs' build
+            if name.startswith(TREE) and not built and not re.search(r"[<>*{}$]|/[A-Z_]+(\.|/|$)|NAME", name):
                 found.append((f"{where(path)}:{path.read_text()[: m.start()].count(chr(10)) + 1}", name))
     return found
 
@@ -334,3 +335,25 @@ def test_the_paths_the_pages_name_exist() -> None:
     found = named_paths()
     missing = [f"{at}: `{name}`" for at, name in found if not (ROOT / name.split("::")[0]).exists()]
     assert len(found) > 30 and not missing, "no such path in the repository:\n" + "\n".join(missing)
+
+
+#: the README's two commands, verbatim: the second is CI's own test command (.ci/run)
+COMMANDS = (
+    "python -m pip install -e . && rig demo",
+    "python -m pip install -e '.[test]' && python -m pytest",
+)
+
+
+def test_the_readme_is_a_front_door() -> None:
+    """The README is at most 150 lines: what the toolkit is, the two commands as written (the
+    second the one .ci/run runs), one picture that is in the repository, and links into the
+    documentation, each to a page that exists; the rest is on the pages."""
+    text = (ROOT / "README.md").read_text()
+    readme_blocks = [b.strip() for at, b in blocks() if at.startswith("README.md:")]
+    assert len(text.splitlines()) <= 150, f"README.md has {len(text.splitlines())} lines: move some to docs/"
+    assert readme_blocks == list(COMMANDS), readme_blocks
+    assert COMMANDS[1] in (ROOT / ".ci" / "run").read_text()
+    (picture,) = re.findall(r"!\[[^\]]*\]\(([^)\s]+)\)", text)
+    assert (ROOT / picture).is_file(), picture
+    links = re.findall(r"\]\((docs/[^)#\s]+)", text)
+    assert len(links) >= 10 and all((ROOT / link).is_file() for link in links), links
