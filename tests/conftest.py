@@ -35,7 +35,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     vcan = "vcan" in (config.getoption("markexpr") or "")
     skip_hw = pytest.mark.skip(reason="needs --can-interface/--can-channel (a real bus)")
     skip_vcan = pytest.mark.skip(
-        reason="the vcan tier runs only with -m vcan (see README, Testing with virtual CAN)"
+        reason="the vcan tier runs only with -m vcan (see docs/testing.md, Testing with virtual CAN)"
     )
     for tier in ("interop", "export"):  # these tiers only when asked for
         if tier not in (config.getoption("markexpr") or ""):

@@ -28,7 +28,7 @@ def add_parser(sub: Any) -> None:
         help="serve the virtual twin of a drive: a profile of the zoo (see --list) or a profile file (.toml)",
     )
     emulate.add_argument(
-        "--profile", metavar="FILE", help="your drive's device profile (TOML; see the README)"
+        "--profile", metavar="FILE", help="your drive's device profile (TOML; see docs/emulator.md)"
     )
     emulate.add_argument("--eds", metavar="FILE", help="your drive's EDS/DCF (with --profile, or alone)")
     emulate.add_argument("--list", action="store_true", help="list the zoo's device profiles and exit")

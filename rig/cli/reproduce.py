@@ -256,5 +256,5 @@ def _print_drives(doc: dict[str, Any]) -> None:
                 f" {r['chattering_count']:7d} {_cell(r['chattering_amplitude'], '9.2e')}"
             )
     print(
-        "chatter: sign alternations of the command increment beyond one count's effect (README, Chattering)"
+        "chatter: sign alternations of the command increment beyond one count's effect (docs/chattering.md)"
     )

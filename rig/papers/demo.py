@@ -135,7 +135,7 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
     out.write(
         "\n  chatter = sign alternations of the control increment du in steady state (t >= 2.5 s) larger\n"
         "  than one count of measurement can cause through the law (exact here: every one counts);\n"
-        '  du rms = chattering amplitude, RMS of du. README, section "Chattering".\n'
+        "  du rms = chattering amplitude, RMS of du. See docs/chattering.md.\n"
         "  (6.36*) is a documented reconstruction; u is in V, except the cascade (V at the q axis).\n"
     )
     out.write("\nOver the emulated CAN bus (CiA 402 drive, voltage mode, 4096-count encoder, lock-step):\n")
@@ -154,7 +154,7 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
     out.write(
         "  (chattering over the run's second half; a one-count change of the 4096-count encoder moves\n"
         "  (7.30)'s command by up to the volts in brackets, so its one-count limit cycle is not\n"
-        '  counted; README, section "Chattering")\n'
+        "  counted; see docs/chattering.md)\n"
     )
     if importlib.util.find_spec("matplotlib") is None:
         out.write("  (no plot.png: it needs matplotlib, python -m pip install -e '.[plot]')\n")

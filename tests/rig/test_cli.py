@@ -119,7 +119,7 @@ def test_demo_runs_and_reports(capsys: pytest.CaptureFixture[str]) -> None:
     assert "Over the emulated CAN bus" in out and "stop            none: the run ended" in out
     assert "rms error       " in out and " rad\n" in out  # with its unit
     # (7.30) over the 4096-count encoder: its one-count limit cycle is not chattering
-    assert "chattering      0 sign alternations" in out and 'README, section "Chattering"' in out
+    assert "chattering      0 sign alternations" in out and "docs/chattering.md" in out
     run_dir = pathlib.Path(out.split("run directory")[1].split()[0])
     assert (run_dir / "samples.csv").exists() and (run_dir / "summary.json").exists()
 

@@ -21,7 +21,7 @@ def vcan_unavailable() -> str | None:
         with socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW) as s:
             s.bind(("vcan0",))
     except OSError as exc:
-        return f"no SocketCAN vcan0 here ({exc.strerror}); see the README, Testing with virtual CAN"
+        return f"no SocketCAN vcan0 here ({exc.strerror}); see docs/testing.md, Testing with virtual CAN"
     return None
 
 
