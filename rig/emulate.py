@@ -201,7 +201,7 @@ def run_modbus_emulator(
     import asyncio
 
     from plant_emulator.modbus_inverter import default_model, serve_rtu, serve_tcp
-    from rig.emulator_config import inverter_values
+    from rig.config.emulator import inverter_values
 
     values = inverter_values(params, "rig emulate: --param", text=True)
     try:

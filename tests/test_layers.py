@@ -5,8 +5,10 @@ read from the source with ``ast``. The levels, lowest first (``LEVELS``):
 
 - the libraries: ``drivers`` (the wire), then ``controllers`` (the papers' laws as pure
   arithmetic) and ``plant_emulator`` (the other side of the wire);
-- ``rig.config``: a run's configuration, read and checked once at load;
-- ``rig.laws``: the control laws a run steps, built from a configuration;
+- ``rig.laws``: the control laws a run steps, each with its typed parameters, and the papers'
+  constants they default to;
+- ``rig.config``: a run's configuration, read and checked once at load (a ``[controller]``
+  table's keys are its law's parameters);
 - ``rig.report`` and ``rig.live``: what a run's samples become (metrics, summaries, plots, the live
   view);
 - ``rig.host``: one run on a bus (the session, the loop, the recorder, the safety);
@@ -33,8 +35,8 @@ PACKAGES = ("rig", "drivers", "controllers", "plant_emulator")
 LEVELS: tuple[tuple[str, ...], ...] = (
     ("drivers",),
     ("controllers", "plant_emulator"),
-    ("rig.config",),
     ("rig.laws",),
+    ("rig.config",),
     ("rig.report", "rig.live"),
     ("rig.host",),
     (
@@ -53,29 +55,12 @@ LEVELS: tuple[tuple[str, ...], ...] = (
 ENTRY_POINTS = {"rig", "rig.__main__"}
 
 #: modules still loose at rig/'s top, each with the group whose level it is held to until it moves
-LOOSE: dict[str, str] = {
-    "rig.axis_config": "rig.config",
-    "rig.config": "rig.config",
-    "rig.config_checks": "rig.config",
-    "rig.config_rules": "rig.config",
-    "rig.controller_config": "rig.config",
-    "rig.emulate": "rig.emulator",
-    "rig.emulator_config": "rig.config",
-    "rig.params": "rig.config",
-}
+LOOSE: dict[str, str] = {"rig.emulate": "rig.emulator"}
 
 #: imports that break the levels today, (importer, imported) module by module: each is a debt
 ALLOWED: set[tuple[str, str]] = {
     # a device profile's physics checked against the presets, which build drives from profiles
     ("plant_emulator.device_profile", "plant_emulator.presets"),
-    # a configuration naming a model file reads it with identification's reader
-    ("rig.config", "rig.identify.model_file"),
-    ("rig.controller_config", "rig.identify.model_file"),
-    # the [controller] table's keys are its law's Params (rig.laws.LAWS), checked at load
-    ("rig.controller_config", "rig.laws"),
-    # the cascade and the servo take the paper's constants from the papers' study
-    ("rig.laws.cascade", "rig.papers.drives"),
-    ("rig.laws.position_servo", "rig.papers.drives"),
 }
 
 

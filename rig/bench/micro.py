@@ -28,7 +28,7 @@ from controllers.pi import PI, PIParams
 from controllers.position_servo import PositionServo, PositionServoParams
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.rl_dq import ExactDqPlant, RLParams, StationaryRLConverter
-from rig.papers import drives
+from rig.laws import drives_paper as drives
 from rig.papers.dismc import dismc_laws
 
 __all__ = ["Figure", "bench_controllers", "bench_identify", "bench_physics", "bench_plant", "rate"]

@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
 
 from drivers.errors import ConfigError
-from rig.params import parse_items, typed_values
+from rig.config.params import parse_items, typed_values
 
 __all__ = [
     "EXIT_NOT_WRITTEN",
@@ -164,7 +164,8 @@ def add_params(parser: argparse.ArgumentParser, help: str, *, flag: str = "--par
 
 
 def params_of(items: Sequence[str], schema: type, source: str, **kw: Any) -> dict[str, Any]:
-    """``--param`` items typed against ``schema`` (``rig.params.typed_values``); UsageError when bad."""
+    """``--param`` items typed against ``schema`` (``rig.config.params.typed_values``); UsageError
+    when bad."""
     try:
         return typed_values(schema, parse_items(items, source), source, text=True, **kw)
     except ConfigError as exc:

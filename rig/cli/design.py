@@ -44,7 +44,7 @@ def add_parser(sub: Any) -> None:
 
 def _design(args: argparse.Namespace) -> DTSMDesign:
     from controllers.design import design_dtsm
-    from rig.identify.model_file import read_model
+    from rig.config.model import read_model
 
     a_m, b_m = args.a_m, args.b_m
     args.input = "voltage"

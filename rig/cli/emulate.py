@@ -6,7 +6,7 @@ import argparse
 from typing import Any
 
 from rig.cli.common import UsageError, add_params, tcp_port, tcp_port_or_any
-from rig.params import parse_items
+from rig.config.params import parse_items
 
 __all__ = ["add_parser"]
 
@@ -142,7 +142,7 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     from drivers.maps.od import load_od
     from plant_emulator.device_profile import default_profile, device_profile, load_profile
     from plant_emulator.presets import build_twin
-    from rig.emulator_config import physics
+    from rig.config.emulator import physics
 
     if args.device and (args.profile or args.eds):
         raise UsageError("rig emulate: --device takes a zoo profile; for your own drive give --profile/--eds")
@@ -173,8 +173,8 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
 
 def run(args: argparse.Namespace) -> int:
     from plant_emulator.presets import build_preset
+    from rig.config.emulator import physics
     from rig.emulate import run_emulator, run_modbus_emulator
-    from rig.emulator_config import physics
 
     if args.list:
         return _list()

@@ -17,7 +17,7 @@ from rig.cli.common import (
     out_file,
     print_json,
 )
-from rig.params import parse_items
+from rig.config.params import parse_items
 
 __all__ = ["add_parser"]
 
@@ -147,7 +147,7 @@ def _experiment(args: argparse.Namespace) -> str | None:
     from plant_emulator.presets import PRESETS
     from rig.cli.progress import Progress
     from rig.config import load_config
-    from rig.emulator_config import physics
+    from rig.config.emulator import physics
     from rig.identify.experiment import experiment_config, run_experiment
     from rig.papers.demo import demo_config
 
@@ -215,7 +215,7 @@ def _twin(args: argparse.Namespace) -> Any:
     from drivers.errors import ConfigError
     from plant_emulator.device_profile import device_profile
     from rig.config import rig_config
-    from rig.emulator_config import preset_params
+    from rig.config.emulator import preset_params
     from rig.papers.demo import demo_doc
 
     try:
@@ -242,7 +242,7 @@ def _twin(args: argparse.Namespace) -> Any:
 def _loop_model(args: argparse.Namespace) -> tuple[float, float]:
     """(a_m, b_m) of ``--loop-model`` for the closed-loop experiment's speed loop."""
     from drivers.errors import ConfigError
-    from rig.identify.model_file import read_model
+    from rig.config.model import read_model
 
     if args.loop_model is None:
         raise UsageError(

@@ -31,7 +31,7 @@ def add_parser(sub: Any) -> None:
     run = sub.add_parser(
         "run",
         help="run a configured control law over the wire (see examples/)",
-        description="Run the rig of a configuration file (rig/config.py documents every key): every "
+        description="Run the rig of a configuration file (rig/config/schema.py documents every key): every "
         "axis set up and enabled, the law on one SYNC per period, limits, watchdog and supervision per "
         "axis, the one safe stop, and a run directory. Exit code 3 after a safe stop, 4 when a "
         "drive's stop could not be confirmed.",
@@ -66,7 +66,7 @@ def add_parser(sub: Any) -> None:
     add_json(run, "print the summary as one JSON object")
     add_params(
         run,
-        "inject a fault (overrides [faults]); names as in [faults] (rig/config.py); the bus faults "
+        "inject a fault (overrides [faults]); names as in [faults] (rig/config/schema.py); the bus faults "
         "need --emulate",
         flag="--fault",
     )
@@ -102,9 +102,9 @@ def _strip(live: LiveView | None) -> bool:
 def execute(args: argparse.Namespace) -> int:
     from plant_emulator.faults import FAULT_NAMES
     from rig.config import Override, load_config
-    from rig.config_checks import require_limits
+    from rig.config.checks import require_limits
+    from rig.config.params import parse_items
     from rig.host.session import run_config
-    from rig.params import parse_items
 
     if args.duration is not None and args.duration <= 0.0:
         raise UsageError(f"rig run: argument --duration: must be > 0 s, got {args.duration:g}")

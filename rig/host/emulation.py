@@ -5,7 +5,7 @@ an emulated Modbus inverter for every Modbus axis (TCP on 127.0.0.1, or RTU over
 pseudo-terminal pair when the axis names a serial device), and the fault
 injector of ``[faults]``. The host's canopen network is ``network``; Modbus axes
 are pointed at their inverters by ``endpoint``. Everything is built from what the configuration
-checked when it was loaded (``rig.emulator_config``: the built preset, the inverters' values);
+checked when it was loaded (``rig.config.emulator``: the built preset, the inverters' values);
 nothing is checked again.
 """
 
@@ -80,7 +80,7 @@ class Emulation:
 
     def _inject(self, cfg: RigConfig) -> None:
         plan = FaultPlan(**{k: getattr(cfg.faults, k) for k in FAULT_NAMES})
-        if plan.active and self.bench is not None:  # without a bench, none is given (rig.config_rules)
+        if plan.active and self.bench is not None:  # without a bench, none is given (rig.config.rules)
             self.injector = FaultInjector(plan, self.bench.hub, self.bench.devices[0])
 
     def endpoint(self, a: AxisConfig) -> AxisConfig:

@@ -121,7 +121,7 @@ class Recorder:
         flush_period: float = 0.05,
         trace: str | bool = "asc",
     ) -> None:
-        out = output_folder(output)  # the name was checked at load (rig.config_checks.run_name)
+        out = output_folder(output)  # the name was checked at load (rig.config.checks.run_name)
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
         base = out / f"{name}-{stamp}"
         path, n = base, 1

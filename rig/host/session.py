@@ -39,6 +39,7 @@ from rig.host.bus_load import bus_load, warn_bus_load
 from rig.host.columns import describe_columns
 from rig.host.emulation import Emulation
 from rig.host.heartbeat import HostHeartbeat
+from rig.host.injected import with_injected_faults
 from rig.host.loop import HostLoop, Wiring
 from rig.host.pacing import (
     ExternalSync,
@@ -51,13 +52,12 @@ from rig.host.pacing import (
 )
 from rig.host.realtime import RealtimeRequest, receive_threads, request
 from rig.host.recorder import Recorder, output_folder
+from rig.host.references import reference_of
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
 from rig.host.time_mode import TimeModeProbe
 from rig.host.trace import TracedNetwork, attach_received, detach_received
 from rig.laws import Law, make_law
-from rig.laws.injected import with_injected_faults
-from rig.laws.references import reference_of
 from rig.live.channels import channels_of
 from rig.live.view import LiveView
 

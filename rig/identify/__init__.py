@@ -1,8 +1,8 @@
 """``rig identify``: a_m and b_m of (3.5) from an experiment on the drive, or from a recorded run.
 
 ``estimate`` holds the estimator, ``experiment`` runs the excitation through the
-host session like any other run. The names below come from ``estimate`` on first use, so the
-configuration reads ``model_file`` without importing the estimator (scipy.signal, scipy.stats);
+host session like any other run. The names below come from ``estimate`` on first use, so that
+importing a module of the package does not import the estimator (scipy.signal, scipy.stats);
 ``rig.identify.estimate`` is the function, as the name exported here, even once the module of
 the same name is imported.
 """

@@ -29,8 +29,8 @@ import numpy as np
 
 from drivers.errors import ConfigError
 from drivers.files import read_json
+from rig.config.model import FILE
 from rig.identify.frequency import longest_run
-from rig.identify.model_file import FILE
 
 __all__ = ["GM_MIN", "LAWS", "PM_MIN", "TuneRequest", "tune"]
 

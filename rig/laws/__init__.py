@@ -48,7 +48,7 @@ def make_law(
     origin: str = "start",
 ) -> Law:
     """The law ``kind`` with ``params`` (its ``Params``' keys, checked when the configuration was
-    loaded: ``rig.controller_config``) at ``period`` [s]; a position reference's ``origin``
+    loaded: ``rig.config.controller``) at ``period`` [s]; a position reference's ``origin``
     ("start" or "zero", ``Law.begin``)."""
     cls = law_class(kind)
     law = cls(cls.Params(**params), period=period, reference=reference)

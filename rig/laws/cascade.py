@@ -18,8 +18,8 @@ from typing import Any
 from controllers.cascade import TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoop, CascadeLoopParams
 from drivers.base import Feedback
 from drivers.schema import Refused, key
+from rig.laws import drives_paper as drives
 from rig.laws.base import Law, LawParams, LawStep, Reference
-from rig.papers import drives
 
 __all__ = ["CascadeParams", "CascadePositionLaw"]
 

@@ -17,8 +17,8 @@ from controllers.position_servo import PositionServo, PositionServoParams
 from controllers.speed_observer import SpeedObserver
 from drivers.base import Feedback
 from drivers.schema import Refused, key
+from rig.laws import drives_paper as drives
 from rig.laws.base import Law, LawParams, LawStep, Reference
-from rig.papers import drives
 
 __all__ = ["PositionServoLaw", "ServoParams"]
 

@@ -21,7 +21,7 @@ from rig.config import RigConfig, rig_config
 from rig.host.session import run_config
 from rig.identify import excitation
 from rig.identify.experiment import experiment_config, identify_from_log, run_experiment
-from rig.papers import drives
+from rig.laws import drives_paper as drives
 from rig.papers.scenarios import Trajectory, cascade_run, position_servo_run
 from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms
 from rig.report.summary import summary_lines

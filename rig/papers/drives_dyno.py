@@ -15,7 +15,7 @@ from controllers.idtsm import IDTSM, IDTSMParams
 from controllers.pi import PI, PIParams
 from plant_emulator.profiles import parse_profile
 from rig.config import rig_config
-from rig.papers import drives
+from rig.laws import drives_paper as drives
 from rig.papers.drives_setup import EXACT, DrivesStudy, Signals, bus_run
 from rig.papers.scenarios import cascade_run
 from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms

@@ -46,7 +46,7 @@ import numpy as np
 from controllers.cascade import TABLE_V_CURRENT, TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoopParams
 from controllers.design import design_dtsm
 from rig.config import rig_config
-from rig.papers import drives
+from rig.laws import drives_paper as drives
 from rig.papers.demo import DEMO_LOAD, demo_doc
 from rig.papers.drives_dyno import cascade_part, im_part
 from rig.papers.drives_setup import DRIVES_FIXED, DRIVES_PARAM_NAMES, EXACT, DrivesStudy, Signals, bus_run

@@ -29,8 +29,8 @@ from controllers.position_servo import PositionServo, PositionServoParams
 from controllers.speed_observer import SpeedObserver
 from plant_emulator.dc_motor import DCMotor, DCMotorParams, ReducedDCMotor
 from plant_emulator.encoder import Encoder
-from rig.laws.references import smooth_move
-from rig.papers import drives
+from rig.host.references import smooth_move
+from rig.laws import drives_paper as drives
 
 __all__ = [
     "Trajectory",

@@ -95,7 +95,7 @@ def _config_values(job: Job) -> dict[str, Any]:
 
 def _scenario_point(name: str, values: dict[str, Any], where: str) -> Any:
     """The scenario's typed point; ConfigError naming ``where`` and the value."""
-    from rig.params import build
+    from rig.config.params import build
     from rig.sweep.scenarios import SCENARIOS
 
     return build(SCENARIOS[name].schema, values, where)
@@ -104,7 +104,7 @@ def _scenario_point(name: str, values: dict[str, Any], where: str) -> Any:
 def _config(job: Job, where: str) -> Any:
     """The point's checked configuration, as ``rig run`` loads one (limits required)."""
     from rig.config import rig_config
-    from rig.config_checks import require_limits
+    from rig.config.checks import require_limits
 
     assert job.base_doc is not None
     cfg = rig_config(apply_values(job.base_doc, _config_values(job), where), job.base_source)

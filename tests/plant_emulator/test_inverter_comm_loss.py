@@ -15,7 +15,7 @@ from drivers.errors import ConfigError
 from drivers.maps import modbus_map
 from plant_emulator.inverter_model import COMM_LOSS
 from plant_emulator.modbus_inverter import InverterContext, InverterServer, default_model
-from rig.emulator_config import inverter_values
+from rig.config.emulator import inverter_values
 
 ABB = modbus_map("abb-drives-profile")
 RUN, RESET, DT = 0x047F, 0x04FE, 0.01  # ABB drives profile control words; lock-step period [s]

@@ -12,7 +12,7 @@ import pytest
 from drivers.errors import ConfigError
 from rig.cli import main
 from rig.config import load_config
-from rig.config_checks import require_limits
+from rig.config.checks import require_limits
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
 EXAMPLE = EXAMPLES / "dc_servo_position.toml"

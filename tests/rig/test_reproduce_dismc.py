@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from rig.cli import main
+from rig.config.params import parse_items, typed_values
 from rig.papers.dismc import ALIASES, FIXED, DismcExample, run_dismc
-from rig.params import parse_items, typed_values
 from rig.report.metrics import overshoot, rise_time, settling_time
 
 TABLE_1 = {"DISMC-LMI": (1.82, 2.88, -60.6, 135.8), "DISMC-LQR": (0.44, 0.72, -32.7, 175.1)}

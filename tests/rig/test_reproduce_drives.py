@@ -19,7 +19,7 @@ import pytest
 from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.presets import DcServoPreset
 from rig.cli import main
-from rig.papers import drives
+from rig.laws import drives_paper as drives
 from rig.papers.drives_study import DrivesStudy, drives_study, speed_error_theory
 from rig.papers.plots import DRIVES_PLOTS, plot_drives
 

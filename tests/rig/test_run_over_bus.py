@@ -17,9 +17,9 @@ from drivers.base import Feedback
 from drivers.errors import ConfigError
 from plant_emulator.presets import build_preset
 from rig.config import load_config, replace_axis
+from rig.host.references import reference_of
 from rig.host.session import Session
 from rig.laws import make_law
-from rig.laws.references import reference_of
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
 

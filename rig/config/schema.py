@@ -3,14 +3,14 @@
 A rig is a set of named axes and one control law (SI units; see ``examples/``): the tables
 ``[run]``, ``[bus]``, ``[emulator]`` (with ``[emulator.params]``, the preset's or the device's
 parameters, and ``[emulator.inverter]``, the emulated Modbus inverters'), ``[[axis]]`` (with
-``[axis.units]`` and ``[axis.limits]``, ``rig.axis_config``), ``[controller]`` (the law's
-``kind``, the axes it ``reads`` and ``commands``, its parameters, ``rig.controller_config``),
+``[axis.units]`` and ``[axis.limits]``, ``rig.config.axes``), ``[controller]`` (the law's
+``kind``, the axes it ``reads`` and ``commands``, its parameters, ``rig.config.controller``),
 ``[reference]`` and ``[faults]``. Each table is a dataclass here; each key a field declared
 with ``drivers.schema.key``: its type, default, unit, meaning and the values it allows are
 data, which the loader checks and ``docs/configuration.md`` prints.
 
 ``load_config(path)`` (or ``rig_config(doc, source)``) checks every key of every table, the
-law's and the preset's parameters and the rules between tables (``rig.config_rules``) in one
+law's and the preset's parameters and the rules between tables (``rig.config.rules``) in one
 pass; a ``RigConfig`` is valid, and what builds a run from it (``rig.host.session``) checks
 nothing again. An unknown table or key, a value of the wrong type or out of range is a
 ``ConfigError`` naming the file, the table (an axis by its name), the key and the value, and
@@ -30,10 +30,10 @@ from typing import Any, Literal
 from drivers.errors import ConfigError
 from drivers.files import read_toml
 from drivers.schema import MAX_PERIOD, MIN_PERIOD, key
-from rig import config_checks as fmt
-from rig.axis_config import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
-from rig.identify.model_file import Model
-from rig.params import typed_values
+from rig.config import checks as fmt
+from rig.config.axes import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
+from rig.config.model import Model
+from rig.config.params import typed_values
 
 __all__ = [
     "ABORT_CONNECTION",
@@ -154,7 +154,7 @@ class EmulatorConfig:
 
     @cached_property
     def profile(self) -> Any:
-        """The twin's ``DeviceProfile`` (None: a preset); ``rig.emulator_config`` read it at load."""
+        """The twin's ``DeviceProfile`` (None: a preset); ``rig.config.emulator`` read it at load."""
         from plant_emulator.device_profile import device_profile
 
         return device_profile(self.device) if self.device else None
@@ -162,7 +162,7 @@ class EmulatorConfig:
     @cached_property
     def physics(self) -> Any:
         """The preset's parameters built (its dataclass; a twin's over its profile's), None without a
-        preset; ``rig.emulator_config`` built and checked them at load (a copy made by
+        preset; ``rig.config.emulator`` built and checked them at load (a copy made by
         ``dataclasses.replace`` builds its own)."""
         from plant_emulator.presets import PRESETS
 
@@ -219,7 +219,7 @@ def _at(doc: str) -> Any:
 @dataclass(frozen=True)
 class FaultsConfig:
     """Fault injection: on the emulated bus (``plant_emulator.faults.FaultPlan``, --emulate only)
-    and in the host (``rig.laws.injected``); times [s] of the run."""
+    and in the host (``rig.host.injected``); times [s] of the run."""
 
     frame_loss: float = key(
         0.0, "", "emulated bus: the fraction of frames lost", ge=0.0, lt=1.0, rule="a fraction in [0, 1)"
@@ -264,7 +264,7 @@ class RigConfig:
     def physics(self) -> Any:
         """The emulated devices' parameters (``EmulatorConfig.physics``; None without a preset or
         device) at the run's period: the host's SYNC period is theirs (a plant stepped at its
-        preset's 0.4 ms by each 1 ms SYNC runs 2.5 times slow). ``rig.config_rules`` refused at load
+        preset's 0.4 ms by each 1 ms SYNC runs 2.5 times slow). ``rig.config.rules`` refused at load
         a ``[run] period`` the devices cannot take; nothing is checked here."""
         physics = self.emulator.physics
         if physics is None or not self.run.period > 0.0 or physics.period == self.run.period:
@@ -333,9 +333,9 @@ def _section(doc: dict[str, Any], name: str, source: str, overrides: Iterable[Ov
 def rig_config(doc: dict[str, Any], source: str, overrides: Iterable[Override] = ()) -> RigConfig:
     """The checked configuration of a parsed TOML document (``source`` names it in errors), with
     ``overrides`` applied (see the module docstring)."""
-    from rig.config_rules import check_rig
-    from rig.controller_config import controller_config
-    from rig.emulator_config import emulator_config
+    from rig.config.controller import controller_config
+    from rig.config.emulator import emulator_config
+    from rig.config.rules import check_rig
 
     overrides = tuple(overrides)
     for old in ("drive", "limits"):

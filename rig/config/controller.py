@@ -16,16 +16,16 @@ from typing import Any
 
 from drivers.errors import ConfigError
 from drivers.schema import Refused
-from rig.axis_config import AxisConfig
-from rig.identify.model_file import Model, read_model
-from rig.params import required, typed_values
+from rig.config.axes import AxisConfig
+from rig.config.model import Model, read_model
+from rig.config.params import required, typed_values
 
 __all__ = ["controller_config"]
 
 
 def controller_config(path: str, table: dict[str, Any], axes: tuple[AxisConfig, ...], period: float) -> Any:
     """The checked ``ControllerConfig`` of ``table`` in file ``path`` (see the module docstring)."""
-    from rig.config import ControllerConfig
+    from rig.config.schema import ControllerConfig
     from rig.laws import law_class
 
     table = dict(table)

@@ -16,8 +16,8 @@ from typing import Any, Literal
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
 from drivers.errors import ConfigError
 from drivers.schema import Refused, key, key_of, keys
-from rig import config_checks as fmt
-from rig.params import typed_values
+from rig.config import checks as fmt
+from rig.config.params import typed_values
 
 __all__ = ["ABORT_CONNECTION", "AXIS_KINDS", "AxisConfig", "AxisLimits", "AxisUnits", "axis_config"]
 

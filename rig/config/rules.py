@@ -1,7 +1,7 @@
 """The rules between the tables of a rig configuration, checked once when it is loaded.
 
 Each key's own range is data of its field (``drivers.schema``); the ``[controller]`` table's
-rules with the axes are ``rig.controller_config``'s. Here, what needs the whole file: a period
+rules with the axes are ``rig.config.controller``'s. Here, what needs the whole file: a period
 the run can have (``[run] period``, or the emulator preset's); a SYNC from another device in
 real time only; node ids and axis names that are unique and not the host's; the answer budget
 inside the period; a ``[run] period`` the emulated devices can take; the emulated inverters'

@@ -3,7 +3,7 @@
 The ranges of single keys are data of their fields (``drivers.schema.key``); the formats
 here are their ``check`` functions (a run name, an output folder's path, a python-can
 interface, a Modbus register map, a time profile), each raising ValueError with the rule. The
-rules between keys and tables are ``rig.config_rules``'. ``require_limits`` is apart: ``rig run``
+rules between keys and tables are ``rig.config.rules``'. ``require_limits`` is apart: ``rig run``
 refuses a commanded axis without any limit unless ``--no-limits`` is given.
 """
 

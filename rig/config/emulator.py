@@ -17,7 +17,7 @@ from typing import Any
 
 from drivers.errors import ConfigError
 from drivers.schema import Refused, keys
-from rig.params import typed_values
+from rig.config.params import typed_values
 
 __all__ = ["emulator_config", "inverter_values", "physics", "preset_params"]
 
@@ -76,7 +76,7 @@ def _table(path: str, where: str, value: Any) -> dict[str, Any]:
 
 def emulator_config(path: str, table: dict[str, Any]) -> Any:
     """The checked ``EmulatorConfig`` of ``table`` in file ``path`` (see the module docstring)."""
-    from rig.config import EmulatorConfig
+    from rig.config.schema import EmulatorConfig
 
     unknown = set(table) - set(_KNOWN)
     if unknown:
