@@ -55,7 +55,7 @@ LEVELS: tuple[tuple[str, ...], ...] = (
 ENTRY_POINTS = {"rig", "rig.__main__"}
 
 #: modules still loose at rig/'s top, each with the group whose level it is held to until it moves
-LOOSE: dict[str, str] = {"rig.emulate": "rig.emulator"}
+LOOSE: dict[str, str] = {}
 
 #: imports that break the levels today, (importer, imported) module by module: each is a debt
 ALLOWED: set[tuple[str, str]] = {

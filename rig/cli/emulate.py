@@ -174,7 +174,7 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
 def run(args: argparse.Namespace) -> int:
     from plant_emulator.presets import build_preset
     from rig.config.emulator import physics
-    from rig.emulate import run_emulator, run_modbus_emulator
+    from rig.emulator.serve import run_emulator, run_modbus_emulator
 
     if args.list:
         return _list()

@@ -12,7 +12,7 @@ import pytest
 
 from drivers.maps import CIA402_EDS
 from plant_emulator.lockstep import LockstepBench
-from rig.emulate import rest_plants
+from rig.emulator.serve import rest_plants
 from rig.emulator.spawn import spawn_emulator, stop_rig
 
 

@@ -316,8 +316,8 @@ def nothing_opens(monkeypatch: pytest.MonkeyPatch) -> list[str]:
 
     for target in (
         "drivers.bus.open_bus",
-        "rig.emulate.run_emulator",
-        "rig.emulate.run_modbus_emulator",
+        "rig.emulator.serve.run_emulator",
+        "rig.emulator.serve.run_modbus_emulator",
         "plant_emulator.lockstep.LockstepBench",
         "rig.identify.experiment.run_experiment",
         "rig.papers.dismc.run_dismc",
