@@ -306,7 +306,7 @@ def load_profile(path: str | Path) -> DeviceProfile:
     params = dict(physics.get("params", dict, {}))
     physics.done()
     preset = device.get("physics", str, "dc-servo")
-    from plant_emulator.presets import preset_params  # presets build drives, drives load profiles
+    from plant_emulator.preset_params import preset_params
 
     try:
         preset_params(preset, params)

@@ -33,98 +33,44 @@ first, and every node latches the shaft state at the SYNC instant.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, Literal, TypeVar
+from typing import TypeVar
 
 import canopen
 
 from drivers.maps import cia, cia406
 from drivers.maps.cia import Mode
-from drivers.schema import MAX_PERIOD, MIN_PERIOD, key
 from plant_emulator.axes import Axis, LoadProfile
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
-from plant_emulator.parameters import load_torque, node_key, profile_text, require_nodes
+from plant_emulator.parameters import load_torque
+from plant_emulator.preset_params import DynoPreset
 from plant_emulator.shaft import Shaft
 
-__all__ = ["DynoPreset", "LoadMachineAxis", "build_dyno"]
+__all__ = ["DynoPreset", "LoadMachineAxis", "build_dyno", "load_ratings", "motor_ratings"]
 
 T = TypeVar("T")
 _CST = Mode.CST  # looked up once, compared on every command
 
 
-def _rating(unit: str, doc: str, **allowed: Any) -> Any:
-    """A rating of the motor or the load machine; None: the motor under test's."""
-    return key(None, unit, doc, **allowed)
+def motor_ratings(p: DynoPreset, motor: Ratings) -> Ratings:
+    """The motor under test's ratings: those ``p`` gives, else the motor's own ``motor``."""
+    return Ratings(
+        rated_current=_given(p.rated_current, motor.rated_current),
+        rated_torque=_given(p.rated_torque, motor.rated_torque),
+        max_current_permille=_given(p.max_current_permille, motor.max_current_permille),
+        max_speed_rpm=_given(p.max_speed_rpm, motor.max_speed_rpm),
+    )
 
 
-@dataclass(frozen=True)
-class DynoPreset:
-    """Parameters of ``dyno`` (SI; see the module docstring); None: the motor under test's value."""
-
-    motor: Literal["dc", "im"] = key(
-        "dc", "", "dc: the DC motor (3.4) of dc-servo; im: IM1 under FOC of im-drive"
+def load_ratings(p: DynoPreset, motor: Ratings) -> Ratings:
+    """The load machine's ratings in ``p``, the motor under test's ``motor`` where not given."""
+    return Ratings(
+        rated_current=_given(p.load_rated_current, motor.rated_current),
+        rated_torque=_given(p.load_rated_torque, motor.rated_torque),
+        max_current_permille=p.load_max_permille,
+        max_speed_rpm=_given(p.load_max_speed_rpm, motor.max_speed_rpm),
     )
-    period: float = key(
-        0.4e-3,
-        "s",
-        "the SYNC period",
-        ge=MIN_PERIOD,
-        le=MAX_PERIOD,
-        rule=f"a period of {MIN_PERIOD:g} .. {MAX_PERIOD:g} s",
-    )
-    counts_per_rev: int = key(
-        4096, "increments/rev", "position resolution of both drives and the encoder", ge=1, le=0x7FFF_FFFF
-    )
-    j_load: float = key(0.0, "kg m^2", "inertia added to the motor's total J", ge=0.0)
-    load: str = key(
-        "none",
-        "N m",
-        "emulator-internal load torque T_ext of time (plant_emulator.profiles)",
-        check=profile_text,
-    )
-    rated_current: float | None = _rating("A", "motor, 0x6075 (dc 10 A, im 4.6 A)", gt=0.0)
-    rated_torque: float | None = _rating("N m", "motor, 0x6076 (dc k_t 10 A = 0.235 N m, im 5 N m)", gt=0.0)
-    max_current_permille: int | None = _rating(
-        "per mille", "motor, 0x6073 (dc 3000, im 2500)", ge=1, le=0xFFFF
-    )
-    max_speed_rpm: int | None = _rating("rpm", "motor, 0x6080 (dc 6000, im 3600)", ge=1, le=0xFFFF_FFFF)
-    friction: float | None = _rating("N m s/rad", "motor, viscous B (dc 2.29e-6, im 0.0022)", ge=0.0)
-    coulomb: float | None = _rating("N m", "motor, Coulomb friction T_c (dc 1.1e-3, im 2e-3)", ge=0.0)
-    load_rated_torque: float | None = _rating("N m", "load machine, 0x6076 (the motor's)", gt=0.0)
-    load_rated_current: float | None = _rating("A", "load machine, 0x6075 (the motor's)", gt=0.0)
-    load_max_permille: int = key(
-        3000, "per mille", "load machine, 0x6073, of its rated current", ge=1, le=0xFFFF
-    )
-    load_max_speed_rpm: int | None = _rating(
-        "rpm", "load machine, 0x6080 (the motor's)", ge=1, le=0xFFFF_FFFF
-    )
-    load_torque_lag: float = key(0.0, "s", "load machine's torque lag (0: ideal)", ge=0.0)
-    drive_node: int = node_key(1, "the motor under test's drive")
-    encoder_node: int = node_key(2, "the encoder")
-    load_node: int = node_key(3, "the load machine's drive")
-
-    def __post_init__(self) -> None:
-        require_nodes(self, "drive_node", "encoder_node", "load_node")
-
-    def motor_ratings(self, motor: Ratings) -> Ratings:
-        """The motor under test's ratings: those given here, else the motor's own ``motor``."""
-        return Ratings(
-            rated_current=_given(self.rated_current, motor.rated_current),
-            rated_torque=_given(self.rated_torque, motor.rated_torque),
-            max_current_permille=_given(self.max_current_permille, motor.max_current_permille),
-            max_speed_rpm=_given(self.max_speed_rpm, motor.max_speed_rpm),
-        )
-
-    def load_ratings(self, motor: Ratings) -> Ratings:
-        """The load machine's ratings, the motor under test's ``motor`` where not given."""
-        return Ratings(
-            rated_current=_given(self.load_rated_current, motor.rated_current),
-            rated_torque=_given(self.load_rated_torque, motor.rated_torque),
-            max_current_permille=self.load_max_permille,
-            max_speed_rpm=_given(self.load_max_speed_rpm, motor.max_speed_rpm),
-        )
 
 
 def _given(value: T | None, default: T) -> T:
@@ -211,11 +157,11 @@ def build_dyno(p: DynoPreset, network: canopen.Network, motor: Axis, ratings: Ra
     ``motor`` is the motor under test's axis, built with the total inertia and with
     ``load`` free (this sets it to the shaft's T_L); ``ratings`` are its drive's.
     """
-    load_ratings = p.load_ratings(ratings).as_stored()  # its torque = k_t i_q agrees with 0x6076, 0x6075
+    rated = load_ratings(p, ratings).as_stored()  # its torque = k_t i_q agrees with 0x6076, 0x6075
     machine = LoadMachineAxis(
         motor,
-        k_t=load_ratings.rated_torque / load_ratings.rated_current,
-        i_max=load_ratings.max_current_permille / 1000.0 * load_ratings.rated_current,
+        k_t=rated.rated_torque / rated.rated_current,
+        i_max=rated.max_current_permille / 1000.0 * rated.rated_current,
         tau=p.load_torque_lag,
     )
     motor.load = _shaft_load(load_torque(p.load), machine)
@@ -225,7 +171,7 @@ def build_dyno(p: DynoPreset, network: canopen.Network, motor: Axis, ratings: Ra
     encoder = EmulatedEncoder(p.encoder_node, network, shaft, period=p.period)
     encoder.write(cia406.ENCODER_RESOLUTION, 0, p.counts_per_rev)
     load = EmulatedDrive(p.load_node, network, machine, period=p.period, shaft=shaft)
-    load.rate(load_ratings, counts_per_rev=p.counts_per_rev)
+    load.rate(rated, counts_per_rev=p.counts_per_rev)
     # CST selected where the drive has no voltage mode (the load machine, the IM's FOC drive)
     for d in (drive, load):
         if Mode.VOLTAGE not in d.axis.modes:

@@ -42,26 +42,38 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
-from typing import Any, Literal
+from dataclasses import replace
+from typing import Any
 
 import canopen
 
 from drivers.maps import cia, cia406
 from drivers.maps.cia import Mode, map_entry
-from drivers.schema import MAX_PERIOD, MIN_PERIOD, Refused, key
 from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
 from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.device_profile import DeviceProfile
-from plant_emulator.dyno import DynoPreset, build_dyno
+from plant_emulator.dyno import build_dyno, motor_ratings
 from plant_emulator.induction_motor import ImAxis, ImParams
-from plant_emulator.parameters import load_torque, node_key, profile_text, require_nodes, with_params
+from plant_emulator.parameters import load_torque
+from plant_emulator.preset_params import (
+    DC_COULOMB,
+    DC_VISCOUS,
+    PRESETS,
+    DcServoPreset,
+    DynoPreset,
+    GridConverterPreset,
+    ImDrivePreset,
+    preset_params,
+    preset_period,
+)
 from plant_emulator.rl_dq import RLParams
 
 __all__ = [
+    "DC_COULOMB",
+    "DC_VISCOUS",
     "PRESETS",
     "DcServoPreset",
     "DynoPreset",
@@ -72,135 +84,6 @@ __all__ = [
     "preset_params",
     "preset_period",
 ]
-
-
-#: the dc-servo motor's friction (module docstring): FAULHABER 3564 K 024 B, C_o and C_v
-DC_COULOMB = 1.10e-3  #: [N m]
-DC_VISCOUS = 2.4e-7 * 60.0 / (2.0 * math.pi)  #: [N m s/rad] (2.4e-4 mN m/rpm)
-
-
-#: keys every preset with a drive and an encoder has
-_PERMILLE = "per mille of the rated current"
-
-
-def _period(default: float) -> Any:
-    rule = f"a period of {MIN_PERIOD:g} .. {MAX_PERIOD:g} s"
-    return key(default, "s", "the SYNC period", ge=MIN_PERIOD, le=MAX_PERIOD, rule=rule)
-
-
-def _counts() -> Any:
-    return key(4096, "increments/rev", "position resolution (0x608F, 0x6001)", ge=1, le=0x7FFF_FFFF)
-
-
-def _load() -> Any:
-    return key(
-        "none", "N m", "load torque of time, plant_emulator.profiles (e.g. sine:5:1)", check=profile_text
-    )
-
-
-@dataclass(frozen=True)
-class DcServoPreset:
-    """Parameters of ``dc-servo`` (SI; see the module docstring)."""
-
-    a_m: float = key(16.0, "1/s", "(3.5)", gt=0.0)
-    b_m: float = key(680.0, "rad/(V s^2)", "(3.5)", gt=0.0)
-    r_r: float = key(1.0, "Ohm", "armature resistance", gt=0.0)
-    tau_e: float = key(1e-4, "s", "electrical time constant L_r/R_r", gt=0.0)
-    friction: float = key(DC_VISCOUS, "N m s/rad", "viscous B, part of a_m (module docstring)", ge=0.0)
-    coulomb: float = key(DC_COULOMB, "N m", "Coulomb friction T_c, breakaway and kinetic", ge=0.0)
-    counts_per_rev: int = _counts()
-    period: float = _period(0.4e-3)
-    u_max: float = key(48.0, "V", "power stage voltage limit", gt=0.0)
-    rated_current: float = key(10.0, "A", "0x6075", gt=0.0)
-    max_current_permille: int = key(3000, _PERMILLE, "0x6073", ge=1, le=0xFFFF)
-    max_speed_rpm: int = key(6000, "rpm", "0x6080", ge=1, le=0xFFFF_FFFF)
-    speed_bandwidth_hz: float = key(100.0, "Hz", "of the drive's speed loop", gt=0.0)
-    load: str = _load()
-    drive_node: int = node_key(1, "the drive's node id")
-    encoder_node: int = node_key(2, "the encoder's node id")
-
-    def __post_init__(self) -> None:
-        require_nodes(self, "drive_node", "encoder_node")
-        try:
-            DCMotorParams.from_am_bm(a_m=self.a_m, b_m=self.b_m, r_r=self.r_r, b=self.friction)
-        except ValueError as exc:
-            raise Refused("friction", self.friction, str(exc)) from None
-
-
-@dataclass(frozen=True)
-class GridConverterPreset:
-    """Parameters of ``grid-converter`` (SI; see the module docstring)."""
-
-    L1: float = key(6e-3, "H", "the line inductance", gt=0.0)
-    R1: float = key(0.36, "Ohm", "its resistance", gt=0.0)
-    f_line: float = key(50.0, "Hz", "grid frequency", gt=0.0)
-    ratio: float = key(1.0 / 27.0, "", "omega_k/omega_s: the SYNC period is ratio/f_line", gt=0.0)
-    u_line_rms: float = key(400.0, "V", "line-to-line grid voltage (rms)", ge=0.0)
-    u_dc: float = key(700.0, "V", "DC link", gt=0.0)
-    rated_current: float = key(32.0 * math.sqrt(2.0), "A", "0x6075", gt=0.0)
-    max_current_permille: int = key(2000, _PERMILLE, "0x6073", ge=1, le=0xFFFF)
-    strategy: Literal["s-pwm-start", "s-pwm-middle"] = key(
-        "s-pwm-start",
-        "",
-        "s-pwm-start: RPDO1 applied at the next SYNC; s-pwm-middle: on receipt, 0x2001 = T_s/2",
-    )
-    drive_node: int = node_key(1, "the converter's node id")
-
-    def __post_init__(self) -> None:
-        period = self.period
-        if not MIN_PERIOD <= period <= MAX_PERIOD:
-            raise Refused("ratio/f_line", period, f"must be a period of {MIN_PERIOD:g} .. {MAX_PERIOD:g} s")
-
-    @property
-    def period(self) -> float:
-        """SYNC period [s]."""
-        return self.ratio / self.f_line
-
-
-@dataclass(frozen=True)
-class ImDrivePreset:
-    """Parameters of ``im-drive`` (SI; see the module docstring; the motor is ``ImParams``)."""
-
-    period: float = _period(0.5e-3)
-    counts_per_rev: int = _counts()
-    rated_torque: float = key(5.0, "N m", "0x6076", gt=0.0)
-    rated_current: float = key(3.25 * math.sqrt(2.0), "A", "0x6075", gt=0.0)
-    max_current_permille: int = key(2500, _PERMILLE, "0x6073", ge=1, le=0xFFFF)
-    max_speed_rpm: int = key(3600, "rpm", "0x6080", ge=1, le=0xFFFF_FFFF)
-    i_ds_ref: float = key(2.35, "A", "flux current (4.7)", gt=0.0)
-    friction: float = key(ImParams.b, "N m s/rad", "viscous B (Table II)", ge=0.0)
-    coulomb: float = key(ImParams.coulomb, "N m", "Coulomb friction T_c, breakaway and kinetic", ge=0.0)
-    load: str = _load()
-    drive_node: int = node_key(1, "the drive's node id")
-    encoder_node: int = node_key(2, "the encoder's node id")
-
-    def __post_init__(self) -> None:
-        require_nodes(self, "drive_node", "encoder_node")
-
-
-PRESETS: dict[str, type] = {
-    "dc-servo": DcServoPreset,
-    "im-drive": ImDrivePreset,
-    "grid-converter": GridConverterPreset,
-    "dyno": DynoPreset,
-}
-
-
-def preset_params(name: str, params: Mapping[str, object] | Any = None) -> Any:
-    """The parameters of preset ``name`` with ``params`` (typed values by name) applied, or
-    ``params`` itself where it is the preset's dataclass, built (and checked) already.
-
-    ValueError naming an unknown preset, an unknown parameter (with the known ones), a value
-    of the wrong type (with the expected one) or out of range.
-    """
-    if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
-    return with_params(PRESETS[name], params)
-
-
-def preset_period(name: str, params: Mapping[str, object] | Any = None) -> float:
-    """The SYNC period [s] preset ``name`` runs at, with ``params`` applied."""
-    return float(preset_params(name, params).period)
 
 
 def build_preset(
@@ -332,7 +215,7 @@ def _dyno(p: DynoPreset, network: canopen.Network) -> list[EmulatedNode]:
         axis, ratings = _dc_axis(replace(DcServoPreset(), **given), period=p.period, j_load=p.j_load)
     else:
         axis, ratings = _im_axis(replace(ImDrivePreset(), **given), j_load=p.j_load)
-    drive, encoder, load = build_dyno(p, network, axis, p.motor_ratings(ratings))
+    drive, encoder, load = build_dyno(p, network, axis, motor_ratings(p, ratings))
     if p.motor != "dc":
         _name(drive, "im")
     _name(load, "load")

@@ -58,10 +58,7 @@ ENTRY_POINTS = {"rig", "rig.__main__"}
 LOOSE: dict[str, str] = {}
 
 #: imports that break the levels today, (importer, imported) module by module: each is a debt
-ALLOWED: set[tuple[str, str]] = {
-    # a device profile's physics checked against the presets, which build drives from profiles
-    ("plant_emulator.device_profile", "plant_emulator.presets"),
-}
+ALLOWED: set[tuple[str, str]] = set()
 
 
 def modules() -> dict[str, pathlib.Path]:
