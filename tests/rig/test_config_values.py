@@ -325,3 +325,13 @@ def test_an_unknown_register_map_is_one_line_at_load(
     assert len(err.splitlines()) == 1, err
     assert err.startswith(f"rig: {path}: [[axis]] 'inverter' map = 'nope': unknown Modbus map 'nope'"), err
     assert not opened
+
+
+def test_the_lazy_package_exports_exactly_the_schema_s_names() -> None:
+    """rig.config names the schema's exports without importing it (rig --version stays light):
+    the two lists must not drift apart."""
+    import rig.config
+    import rig.config.schema
+
+    assert rig.config.__all__ == rig.config.schema.__all__
+    assert all(getattr(rig.config, name) is getattr(rig.config.schema, name) for name in rig.config.__all__)
