@@ -24,8 +24,7 @@ from canopen.sdo.base import SdoVariable
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drivers.base import AxisDriver
-from drivers.bus import brief
-from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault, SafetyStop, SdoAbort
+from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault, SafetyStop, SdoAbort, brief
 from drivers.maps import cia
 from drivers.maps.emcy import emcy_text
 from drivers.maps.od import load_od

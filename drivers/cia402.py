@@ -38,7 +38,6 @@ from typing import Any
 import canopen
 
 from drivers.base import AxisState, Feedback
-from drivers.bus import brief
 from drivers.canopen_axis import CanopenAxis, TpdoSlot, sample_interval
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
 from drivers.cia402_process import ProcessData
@@ -51,6 +50,7 @@ from drivers.errors import (
     DeviceFault,
     RigError,
     SafetyStop,
+    brief,
 )
 from drivers.maps import CIA402_EDS, cia
 from drivers.maps.cia import Controlword, Mode, PowerState

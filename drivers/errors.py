@@ -35,6 +35,7 @@ __all__ = [
     "SafetyStop",
     "SdoAbort",
     "StorageError",
+    "brief",
 ]
 
 
@@ -117,3 +118,8 @@ class SafetyStop(RigError):
 
 class StorageError(RigError):
     """A file of the run directory could not be written (disk full, directory removed, ...)."""
+
+
+def brief(exc: BaseException) -> str:
+    """An exception's words without the traceback text python-can puts in some of them."""
+    return str(exc).split("Traceback (most recent call last)")[0].strip()

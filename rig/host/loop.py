@@ -37,9 +37,8 @@ from typing import Any
 import can
 
 from drivers.base import AxisDriver, Feedback, feedback_fields
-from drivers.bus import brief
 from drivers.canopen_axis import CanopenAxis
-from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
+from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop, brief
 from rig.host.columns import MODE_UNITS
 from rig.host.loop_stats import RunMetrics, StageTimes, chatter_threshold
 from rig.host.pacing import Pacing

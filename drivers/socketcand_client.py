@@ -1,0 +1,208 @@
+"""The host's socketcand client: python-can's, with a bounded handshake and a lean frame path.
+
+``SocketcandBus`` is python-can's ``SocketCanDaemonBus`` (its connect, greeting and
+``< open CH >``/``< rawmode >`` handshake) with:
+
+- the connect and the whole handshake bounded by one deadline: where nothing listens, a server
+  accepts and never greets, or greets and then stalls, one ``CommunicationError`` names
+  host:port and what did not come (python-can's retries for 10 s with a warning per try, then
+  waits for each answer for ever); frames right behind the rawmode ``< ok >`` are kept
+  (socketcand sends them on a busy bus; python-can's refuses them);
+- a frame path of its own, because every frame of a cycle passes it (SYNC and RPDO out, the
+  TPDOs in) and the host's SYNC-to-RPDO response is the sum of such paths: a send is one
+  formatted line and one ``sendall``; a receive is one ``select`` and one ``recv`` for all the
+  frames that came, parsed by ``parse_frames`` (python-can's client did a ``select``, a
+  ``recv`` of at most 1 KiB, a ``TCP_QUICKACK`` system call and a string search per frame, and
+  warned "Got incomplete message" whenever TCP cut a line, which is ordinary). Both sockets
+  have ``TCP_NODELAY``, so no delayed acknowledgement holds a frame back;
+- a server that closed the connection: each receive waits its timeout and returns nothing
+  (said once), where python-can's returned at once for ever, a spin that at the receive
+  thread's real-time priority starved the host's loop on its CPU.
+
+Wire format (socketcand's rawmode): ``< send ID DLC B0 B1 ... >`` out (ID three hex digits, or
+eight for an extended one; the bytes in hex), ``< frame ID SEC.USEC HEXDATA >`` in.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import select
+import socket
+import threading
+import time
+from typing import Any
+
+import can
+from can.interfaces.socketcand import socketcand as python_can_socketcand
+
+from drivers.errors import CommunicationError, brief
+
+__all__ = ["SocketcandBus", "format_send", "install_bounded_connect", "parse_frames"]
+
+log = logging.getLogger(__name__)
+
+_CHUNK = 65536  #: [bytes] read at a time
+_LONGEST = 200  #: [characters] an unfinished line longer than this is not a frame: dropped
+
+#: the deadline [time.monotonic() s] of the socketcand connection this thread is opening (None:
+#: python-can's own connect, for whoever opens one without ``SocketcandBus``)
+_opening = threading.local()
+_plain_connect = python_can_socketcand.connect_to_server
+
+
+def _connect(sock: socket.socket, host: str, port: int) -> None:
+    """python-can's ``connect_to_server`` (retries for 10 s, a warning per try, then a blocking
+    socket with no timeout) where this thread has no deadline; one try within it where it has."""
+    deadline: float | None = getattr(_opening, "deadline", None)
+    if deadline is None:
+        _plain_connect(sock, host, port)  # type: ignore[no-untyped-call]
+        return
+    sock.settimeout(max(deadline - time.monotonic(), 1e-3))
+    sock.connect((host, port))
+
+
+def install_bounded_connect() -> None:
+    """python-can's client connects through ``_connect`` (bounded where a deadline is set)."""
+    if python_can_socketcand.connect_to_server is not _connect:
+        python_can_socketcand.connect_to_server = _connect
+
+
+def format_send(msg: can.Message) -> bytes:
+    """``msg`` as socketcand's ``< send ID DLC B0 ... >`` line."""
+    can_id = msg.arbitration_id
+    ident = f"{can_id & 0x1FFFFFFF:08X}" if msg.is_extended_id else f"{can_id & 0x7FF:03X}"
+    return f"< send {ident} {msg.dlc:X} {msg.data[: msg.dlc].hex(' ')} >".encode("ascii")
+
+
+def parse_frames(text: str, channel: Any, out: collections.deque[can.Message]) -> str:
+    """The ``< frame ID SEC.USEC HEXDATA >`` lines of ``text`` appended to ``out`` as received
+    frames on ``channel``; the unfinished rest of ``text`` is returned (it waits for the next
+    segment). Other lines (``< ok >``, ``< echo >``, a server's ``< error ... >``) and malformed
+    ones are no frames: logged at debug."""
+    end = text.find(">")
+    while end >= 0:
+        line = text[:end]
+        text = text[end + 1 :]
+        start = line.find("< frame ")
+        if start >= 0:
+            words = line[start + 8 :].split()
+            try:
+                ident = words[0]
+                msg = can.Message(
+                    timestamp=float(words[1]),
+                    arbitration_id=int(ident, 16),
+                    data=bytes.fromhex(words[2]) if len(words) > 2 else b"",
+                    is_extended_id=len(ident) != 3,
+                    is_rx=True,
+                    channel=channel,
+                )
+            except (ValueError, IndexError):
+                log.debug("socketcand: not a frame: %r", line + ">")
+            else:
+                msg.dlc = len(msg.data)
+                out.append(msg)
+        elif line.strip():
+            log.debug("socketcand: not a frame: %r", line + ">")
+        end = text.find(">")
+    if len(text) > _LONGEST:
+        log.warning("socketcand: %d characters without a '>': not a frame, dropped", len(text))
+        return ""
+    return text
+
+
+class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
+    """See the module docstring. ``timeout`` [s] bounds the connect and the handshake together."""
+
+    def __init__(self, channel: str, host: str, port: int, *, timeout: float, **kwargs: Any) -> None:
+        self._deadline = time.monotonic() + timeout
+        self._awaited = "the TCP connection"
+        self._closed = False  #: the server closed the connection (``_recv_internal``)
+        self._frames: collections.deque[can.Message] = collections.deque()
+        self._rest = ""  #: an unfinished line, waiting for the rest
+        install_bounded_connect()
+        _opening.deadline = self._deadline
+        try:
+            super().__init__(channel, host, port, tcp_tune=True, **kwargs)  # type: ignore[no-untyped-call]
+        except (OSError, can.CanError) as exc:
+            self._is_shutdown = True  # never opened: nothing for BusABC.__del__ to complain of
+            if hasattr(self, "_SocketCanDaemonBus__socket"):
+                self._socket.close()
+            raise CommunicationError(self._failure(host, port, timeout, exc)) from None
+        finally:
+            _opening.deadline = None
+        self._socket.settimeout(None)
+
+    @property
+    def _socket(self) -> socket.socket:
+        """python-can's socket (its name-mangled attribute)."""
+        sock: socket.socket = getattr(self, "_SocketCanDaemonBus__socket")  # noqa: B009
+        return sock
+
+    def _expect_msg(self, msg: str) -> None:
+        """``msg`` (``< hi >``, ``< ok >``) before the deadline, however TCP cuts it; what comes
+        after it in the same read (frames right behind the rawmode ``< ok >``, which socketcand
+        sends on a busy bus: SavvyCAN fixed the same in its pull request 495) is kept as frames
+        received, where python-can's own would raise."""
+        self._awaited = f"{msg!r}"
+        sock, got = self._socket, ""
+        while len(got) < len(msg) and msg.startswith(got):
+            sock.settimeout(max(self._deadline - time.monotonic(), 1e-3))
+            chunk = sock.recv(256).decode("ascii", errors="replace")
+            if not chunk:
+                break
+            got += chunk
+        if not got.startswith(msg):
+            raise can.CanError(f"Expected '{msg}' got: '{got}'")
+        self._rest = parse_frames(got[len(msg) :], self.channel, self._frames)
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        """``msg`` as one line, one ``sendall`` (``timeout``: ignored, as python-can's)."""
+        self._socket.sendall(format_send(msg))
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        """A frame already read, else one ``select`` (up to ``timeout`` [s]) and one ``recv`` of
+        whatever came. Once the server has closed the connection: no frame after waiting
+        ``timeout`` (said once; the next send meets the closed link: the host's safe stop)."""
+        frames = self._frames
+        if frames:
+            return frames.popleft(), False
+        if self._closed:
+            time.sleep(1.0 if timeout is None else timeout)
+            return None, False
+        sock = self._socket
+        try:
+            ready, _, _ = select.select([sock], [], [], timeout)
+            if not ready:
+                return None, False
+            chunk = sock.recv(_CHUNK)
+        except BlockingIOError:
+            return None, False
+        except OSError as exc:
+            raise can.CanError(f"Failed to receive: {exc}") from exc
+        if not chunk:
+            self._closed = True
+            log.warning("%s: the socketcand server closed the connection", self.channel_info)
+            return None, False
+        self._rest = parse_frames(self._rest + chunk.decode("ascii", errors="replace"), self.channel, frames)
+        return (frames.popleft() if frames else None), False
+
+    def _failure(self, host: str, port: int, timeout: float, exc: BaseException) -> str:
+        where = f"{host}:{port}"
+        if self._awaited == "the TCP connection":
+            if isinstance(exc, TimeoutError):
+                return f"cannot reach a socketcand server at {where}: no connection within {timeout:g} s"
+            return f"cannot reach a socketcand server at {where}: {exc}"
+        if isinstance(exc, TimeoutError):
+            if self._awaited == "'< hi >'":
+                return f"the socketcand server at {where} sent no greeting '< hi >' within {timeout:g} s"
+            return (
+                f"the socketcand server at {where} greeted, then sent no {self._awaited} within "
+                f"{timeout:g} s of the connect (a stalled server?)"
+            )
+        got = brief(exc).split(" got: ", 1)[-1].strip("'") if isinstance(exc, can.CanError) else None
+        if got == "":
+            return f"the socketcand server at {where} closed the connection waiting for {self._awaited}"
+        if self._awaited == "'< hi >'" and got is not None:
+            return f"{where} is not a socketcand server: it sent {got[:40]!r}, not '< hi >'"
+        return f"the socketcand server at {where}: waiting for {self._awaited}: {brief(exc)}"
