@@ -17,7 +17,12 @@
   have ``TCP_NODELAY``, so no delayed acknowledgement holds a frame back;
 - a server that closed the connection: each receive waits its timeout and returns nothing
   (said once), where python-can's returned at once for ever, a spin that at the receive
-  thread's real-time priority starved the host's loop on its CPU.
+  thread's real-time priority starved the host's loop on its CPU;
+- ``claim()``/``release()``: for a while only the claiming thread reads (the host loop during its
+  cycles: it waits for the TPDOs answering its SYNC on the socket itself, not for a receive
+  thread that reads them and then wakes it, two thread switches less per cycle); any other
+  reader (python-can's notifier thread) is woken from its ``select``, parks at once and reads
+  again after ``release``. Frames stay in the order they came.
 
 Wire format (socketcand's rawmode): ``< send ID DLC B0 B1 ... >`` out (ID three hex digits, or
 eight for an extended one; the bytes in hex), ``< frame ID SEC.USEC HEXDATA >`` in.
@@ -26,6 +31,7 @@ eight for an extended one; the bytes in hex), ``< frame ID SEC.USEC HEXDATA >`` 
 from __future__ import annotations
 
 import collections
+import contextlib
 import logging
 import select
 import socket
@@ -43,6 +49,7 @@ __all__ = ["SocketcandBus", "format_send", "install_bounded_connect", "parse_fra
 log = logging.getLogger(__name__)
 
 _CHUNK = 65536  #: [bytes] read at a time
+_DONTWAIT = getattr(socket, "MSG_DONTWAIT", 0)  #: a recv that never blocks (where the system has it)
 _LONGEST = 200  #: [characters] an unfinished line longer than this is not a frame: dropped
 
 #: the deadline [time.monotonic() s] of the socketcand connection this thread is opening (None:
@@ -120,11 +127,20 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
         self._closed = False  #: the server closed the connection (``_recv_internal``)
         self._frames: collections.deque[can.Message] = collections.deque()
         self._rest = ""  #: an unfinished line, waiting for the rest
+        self._owner: int | None = None  #: the thread that alone reads (``claim``), or None
+        self._resume = threading.Event()  #: set while nobody has claimed the reading
+        self._resume.set()
+        self._parked = threading.Event()  #: another reader has parked since the last claim
+        self._wake_r, self._wake_w = socket.socketpair()  #: wakes a reader in its select
+        self._wake_r.setblocking(False)
+        self._wake_w.setblocking(False)
         install_bounded_connect()
         _opening.deadline = self._deadline
         try:
             super().__init__(channel, host, port, tcp_tune=True, **kwargs)  # type: ignore[no-untyped-call]
         except (OSError, can.CanError) as exc:
+            self._wake_r.close()
+            self._wake_w.close()
             self._is_shutdown = True  # never opened: nothing for BusABC.__del__ to complain of
             if hasattr(self, "_SocketCanDaemonBus__socket"):
                 self._socket.close()
@@ -160,22 +176,48 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
         """``msg`` as one line, one ``sendall`` (``timeout``: ignored, as python-can's)."""
         self._socket.sendall(format_send(msg))
 
+    def claim(self, *, others: bool = True) -> None:
+        """From now on only the calling thread reads (until ``release``); with ``others`` (a
+        notifier thread reads too), wait (at most 1 s) until it has parked."""
+        self._parked.clear()
+        self._resume.clear()
+        self._owner = threading.get_ident()
+        with contextlib.suppress(OSError):  # full: a wake is pending already
+            self._wake_w.send(b"\0")
+        if others and not self._parked.wait(1.0):
+            log.debug("%s: no other reader parked within 1 s", self.channel_info)
+
+    def release(self) -> None:
+        """Every thread may read again (the parked one goes on)."""
+        self._owner = None
+        self._resume.set()
+
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         """A frame already read, else one ``select`` (up to ``timeout`` [s]) and one ``recv`` of
-        whatever came. Once the server has closed the connection: no frame after waiting
-        ``timeout`` (said once; the next send meets the closed link: the host's safe stop)."""
+        whatever came. A thread other than the one that claimed the reading (``claim``) parks
+        instead, up to ``timeout``. Once the server has closed the connection: no frame after
+        waiting ``timeout`` (said once; the next send meets the closed link: the host's safe
+        stop)."""
+        owner = self._owner
+        if owner is not None and owner != threading.get_ident():
+            self._parked.set()
+            self._resume.wait(timeout)
+            return None, False
         frames = self._frames
         if frames:
             return frames.popleft(), False
         if self._closed:
             time.sleep(1.0 if timeout is None else timeout)
             return None, False
-        sock = self._socket
+        sock, wake = self._socket, self._wake_r
         try:
-            ready, _, _ = select.select([sock], [], [], timeout)
-            if not ready:
-                return None, False
-            chunk = sock.recv(_CHUNK)
+            ready, _, _ = select.select([sock, wake], [], [], timeout)
+            if wake in ready:
+                with contextlib.suppress(OSError):
+                    wake.recv(64)
+            if sock not in ready or self._owner not in (None, threading.get_ident()):
+                return None, False  # (claimed meanwhile: the next call parks)
+            chunk = sock.recv(_CHUNK, _DONTWAIT)
         except BlockingIOError:
             return None, False
         except OSError as exc:
@@ -186,6 +228,12 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
             return None, False
         self._rest = parse_frames(self._rest + chunk.decode("ascii", errors="replace"), self.channel, frames)
         return (frames.popleft() if frames else None), False
+
+    def shutdown(self) -> None:
+        """python-can's (the socket closed), and the wake pair too."""
+        super().shutdown()  # type: ignore[no-untyped-call]
+        self._wake_r.close()
+        self._wake_w.close()
 
     def _failure(self, host: str, port: int, timeout: float, exc: BaseException) -> str:
         where = f"{host}:{port}"

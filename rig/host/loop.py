@@ -193,8 +193,9 @@ class HostLoop:
         try:
             self._span = reference_span(self.law, self.guards, self.wiring.reads, self.cycles, self.period)
             self.recorder.mark_start()
-            self._prime()
-            self._cycles(progress)
+            with self.pacing.owning():  # given back before any stop: its SDO needs the receive thread
+                self._prime()
+                self._cycles(progress)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP (``rig.host.signals``)
             self.safe_stop(stop_reason(exc))
         except SafetyStop as exc:

@@ -11,7 +11,11 @@ the clock the frames' timestamps are on (heartbeat ages are measured on it).
 - ``HostSync``: the host sends SYNC (in real time at each deadline), then waits until
   every CANopen axis's TPDOs answering it have arrived, up to a budget: the law acts
   on the sample of the same SYNC, as in lock-step. Answers that miss the budget make
-  the cycle ``late`` (the loop uses what it has, and counts it).
+  the cycle ``late`` (the loop uses what it has, and counts it). During the loop's cycles
+  (``owning``), on a bus that lets one thread claim its reading (``claim``/``release``:
+  socketcand's), the loop thread reads the frames itself and hands each to the network's
+  listeners as the receive thread would (``OwnedReceive``): it wakes on the answer itself,
+  not after a receive thread has read it and woken it, two thread switches less per cycle.
 - ``WireLockstep``: lock-step over a real bus: the same, with a budget as long as the
   transport may need (``timeout``).
 - ``KernelSync``: real time on SocketCAN; the kernel's broadcast manager sends
@@ -23,9 +27,10 @@ the clock the frames' timestamps are on (heartbeat ages are measured on it).
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from drivers.canopen_axis import CanopenAxis
@@ -49,6 +54,11 @@ class Pacing:
 
     def close(self) -> None:
         """Stop producing SYNC (idempotent)."""
+
+    @contextlib.contextmanager
+    def owning(self) -> Iterator[None]:
+        """While the loop's cycles run (``HostSync``: the loop thread reads the bus itself)."""
+        yield
 
 
 class FreeRun(Pacing):
@@ -124,6 +134,10 @@ class _Answers:
                     if not self._waiting:
                         self._done.notify_all()
 
+    def complete(self) -> bool:
+        """Every awaited frame has come."""
+        return not self._waiting
+
     def wait(self, timeout: float) -> bool:
         with self._done:
             return self._done.wait_for(lambda: not self._waiting, timeout)
@@ -138,6 +152,51 @@ def _cob_ids(axes: Sequence[CanopenAxis]) -> list[int]:
     return [cob for a in axes for cob in a.tpdo_cob_ids()]
 
 
+class OwnedReceive:
+    """The calling thread reads ``network``'s bus itself (``claim``) and hands each frame to the
+    network's listeners, in order, as python-can's notifier thread would (which parks meanwhile);
+    ``release`` gives the reading back. A receive error raises in the reading thread (the loop's
+    safe stop names a lost bus)."""
+
+    def __init__(self, network: Any) -> None:
+        self.bus = network.bus
+        self.listeners = network.notifier.listeners
+
+    @staticmethod
+    def possible(network: Any) -> bool:
+        """``network``'s bus lets a thread claim its reading (socketcand's does)."""
+        bus = getattr(network, "bus", None)
+        return callable(getattr(bus, "claim", None)) and network.notifier is not None
+
+    def claim(self, others: bool) -> None:
+        self.bus.claim(others=others)
+
+    def release(self) -> None:
+        self.bus.release()
+
+    def until(self, done: Callable[[], bool], timeout: float) -> bool:
+        """Frames read and handed on until ``done()`` or ``timeout`` [s], then every frame that
+        has come meanwhile (not waited for): after a stall, a node's burst of answers to the
+        SYNCs it owed is read at once, and the newest sample counts, as with a receive thread
+        (read only up to ``done()``, the rest of a burst stayed queued, and every later cycle
+        acted on a sample that many periods old). ``done()`` at the end."""
+        deadline = time.perf_counter() + timeout
+        recv, listeners = self.bus.recv, self.listeners
+        complete = done()
+        while True:
+            left = 0.0 if complete else deadline - time.perf_counter()
+            if left < 0.0:
+                return False
+            msg = recv(left)
+            if msg is None:
+                if complete:
+                    return True
+                continue
+            for listener in listeners:
+                listener(msg)
+            complete = complete or done()
+
+
 class HostSync(Pacing):
     """The host sends SYNC, then waits up to ``budget`` [s] for every CANopen axis's TPDOs
     answering it; ``late`` when some did not come in time (see the module docstring)."""
@@ -149,11 +208,33 @@ class HostSync(Pacing):
         self.answers = _Answers(network, _cob_ids(axes), owed=True)
         self.budget = budget
         self.late = False  #: the last tick's answers missed the budget
+        self._reader: OwnedReceive | None = None  #: the loop thread reads the bus (``owning``)
 
     def tick(self) -> None:
         self.answers.arm()
         self.network.sync.transmit()
-        self.late = not self.answers.wait(self.budget)
+        reader = self._reader
+        if reader is not None:
+            self.late = not reader.until(self.answers.complete, self.budget)
+        else:
+            self.late = not self.answers.wait(self.budget)
+
+    @contextlib.contextmanager
+    def owning(self) -> Iterator[None]:
+        """The calling thread reads the bus itself while the block runs, where the bus allows
+        (``OwnedReceive``); the receive thread reads again after it."""
+        if not OwnedReceive.possible(self.network):
+            yield
+            return
+        reader = OwnedReceive(self.network)
+        readers = getattr(self.network.notifier, "_readers", ())
+        reader.claim(others=any(isinstance(t, threading.Thread) and t.is_alive() for t in readers))
+        self._reader = reader
+        try:
+            yield
+        finally:
+            self._reader = None
+            reader.release()
 
     def close(self) -> None:
         self.answers.close()
