@@ -21,6 +21,7 @@ __all__ = [
     "CommandSplitter",
     "CommandTooLong",
     "ProtocolError",
+    "checked_send",
     "command_words",
     "format_frame",
     "parse_send",
@@ -36,6 +37,11 @@ _DLC = re.compile(r"[0-9]{1,2}")
 _BYTE = re.compile(r"[0-9A-Fa-f]{1,2}")
 STANDARD_MAX = 0x7FF
 EXTENDED_MAX = 0x1FFFFFFF
+#: a valid ``send`` in one match (the common case, every frame of every cycle); anything else
+#: goes through the field-by-field checks that name what is wrong
+_VALID_SEND = re.compile(
+    r"\s*<\s*send\s+([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8})\s+([0-8])((?:\s+[0-9A-Fa-f]{1,2})*)\s*>?\s*"
+)
 
 
 class ProtocolError(ValueError):
@@ -108,6 +114,19 @@ def _parse_id(word: str) -> tuple[int, bool]:
 
 def parse_send(text: str) -> can.Message:
     """``< send ID DLC B0 ... >`` -> Message; ProtocolError naming the field that is wrong."""
+    match = _VALID_SEND.fullmatch(text)
+    if match is not None:
+        ident, dlc_text, data_text = match.groups()
+        data_words = data_text.split()
+        can_id, extended = int(ident, 16), len(ident) == 8
+        if len(data_words) == int(dlc_text) and can_id <= (EXTENDED_MAX if extended else STANDARD_MAX):
+            data = bytes([int(word, 16) for word in data_words])
+            return can.Message(arbitration_id=can_id, is_extended_id=extended, data=data, dlc=len(data))
+    return checked_send(text)
+
+
+def checked_send(text: str) -> can.Message:
+    """``parse_send`` field by field: the path of a command that is not a plain valid ``send``."""
     words = command_words(text)
     if words[0] != "send":
         raise ProtocolError(f"not a send command: {shown(text)}")

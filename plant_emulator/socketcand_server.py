@@ -401,9 +401,10 @@ class SocketcandServer:
         with self.lock:  # one order of frames (and of stamps) for everyone; only queues are touched
             self.bus_time.carry(msg, time.monotonic())
             received = time.time()
-            line = format_frame(msg, received)
-            for client in self._clients:
-                if client is not sender:
+            others = [client for client in self._clients if client is not sender]
+            if others:
+                line = format_frame(msg, received)
+                for client in others:
                     self._put(client, line)
             self.hub.clock = received  # the devices get the frame stamped when it came
             self.bus.send(msg)

@@ -174,6 +174,10 @@ class OwnedReceive:
     def release(self) -> None:
         self.bus.release()
 
+    def arrived(self) -> None:
+        """Every frame that has come, handed on; none waited for."""
+        self.until(lambda: True, 0.0)
+
     def until(self, done: Callable[[], bool], timeout: float) -> bool:
         """Frames read and handed on until ``done()`` or ``timeout`` [s], then every frame that
         has come meanwhile (not waited for): after a stall, a node's burst of answers to the
@@ -211,9 +215,11 @@ class HostSync(Pacing):
         self._reader: OwnedReceive | None = None  #: the loop thread reads the bus (``owning``)
 
     def tick(self) -> None:
+        reader = self._reader
+        if reader is not None:  # handed on before the arm, as a receive thread would have as it
+            reader.arrived()  # came: an answer that came after its tick is not this SYNC's
         self.answers.arm()
         self.network.sync.transmit()
-        reader = self._reader
         if reader is not None:
             self.late = not reader.until(self.answers.complete, self.budget)
         else:

@@ -14,6 +14,7 @@ from plant_emulator.socketcand_protocol import (
     CommandSplitter,
     CommandTooLong,
     ProtocolError,
+    checked_send,
     format_frame,
     parse_send,
 )
@@ -77,6 +78,33 @@ def test_any_text_is_a_frame_in_range_or_a_protocol_error(text: str) -> None:
         return
     top = 0x1FFFFFFF if msg.is_extended_id else 0x7FF
     assert 0 <= msg.arbitration_id <= top and msg.dlc == len(msg.data) <= 8
+
+
+def _outcome(parse: object, text: str) -> object:
+    try:
+        msg = parse(text)  # type: ignore[operator]
+    except ProtocolError as exc:
+        return str(exc)
+    return (msg.arbitration_id, msg.is_extended_id, bytes(msg.data), msg.dlc)
+
+
+@CASES
+@given(
+    st.one_of(
+        st.text(max_size=60),
+        st.builds(
+            lambda i, n, bs, sp: f"<{sp}send {i} {n}{''.join(sp + ' ' + b for b in bs)}{sp}",
+            st.sampled_from(["000", "7FF", "800", "1FFFFFFF", "20000000", "12", "0x1", "abc"]),
+            st.sampled_from(["0", "1", "2", "8", "9", "08", "-1"]),
+            st.lists(st.sampled_from(["0", "ff", "1F", "100", "G1", "-1"]), max_size=9),
+            st.sampled_from(["", " ", "\t"]),
+        ),
+    )
+)
+def test_the_one_match_path_and_the_field_by_field_path_agree(text: str) -> None:
+    """``parse_send`` takes a plain valid ``send`` in one regular expression; on any text it
+    gives what the field-by-field checks give (the frame, or the same refusal)."""
+    assert _outcome(parse_send, text) == _outcome(checked_send, text)
 
 
 @CASES

@@ -112,3 +112,74 @@ def test_while_claimed_the_notifier_reads_nothing_and_after_release_it_reads_aga
     me = threading.current_thread().name
     assert seen[0] == (me, 1)
     assert seen[1][1] == 2 and seen[1][0] != me  # the notifier's thread again
+
+
+def test_an_answer_that_came_between_two_ticks_is_not_the_next_syncs(
+    link: tuple[canopen.Network, socket.socket],
+) -> None:
+    """A node stalls over two SYNCs, answers two of the three it owes at the third, and the third
+    answer between that tick and the next. With the loop reading the bus itself, the next tick
+    hands that answer on before it arms (as a receive thread would have, as it came), so it
+    returns with the answer to its own SYNC. Taken for it instead (a first version), every later
+    cycle acted on a sample one period old, and none was counted late. (No sleep decides: the
+    order is the node's and the test's; a tick's budget is long where an answer is due.)"""
+    import select
+    import types
+
+    from rig.host.pacing import HostSync
+
+    network, end = link
+    third = threading.Event()
+    replies = {3: [1, 2], 4: [4]}  # SYNC n -> the values answered on receiving it
+
+    def node() -> None:
+        held, count = b"", 0
+        while True:
+            try:
+                chunk = end.recv(4096)
+            except OSError:
+                return
+            if not chunk:
+                return
+            held += chunk
+            while b">" in held:
+                line, held = held.split(b">", 1)
+                if b"send 080" in line:
+                    count += 1
+                    if count == 4:
+                        third.wait(10.0)
+                    end.sendall(b"".join(_frame(0x181, v) for v in replies.get(count, [])))
+                    if count == 3:
+                        third.wait(10.0)
+                        end.sendall(_frame(0x181, 3))
+
+    threading.Thread(target=node, daemon=True).start()
+    seen: list[int] = []
+    network.subscribe(0x181, lambda cob, data, ts: seen.append(data[0]))
+    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181])
+    pacing = HostSync(network, [axis], 0.05)  # type: ignore[list-item]
+    at_sync: list[list[int]] = []  #: what had been handed on when each SYNC went out
+    transmit = network.sync.transmit
+
+    def sync() -> None:
+        at_sync.append(list(seen))
+        transmit()
+
+    network.sync.transmit = sync  # type: ignore[method-assign]
+    lates = []
+    try:
+        with pacing.owning():
+            for budget in (0.05, 0.05, 10.0):
+                pacing.budget = budget
+                pacing.tick()
+                lates.append(pacing.late)
+            third.set()  # the node sends the third answer now: between the ticks
+            assert select.select([network.bus._socket], [], [], 10.0)[0]  # it has come
+            pacing.tick()
+            lates.append(pacing.late)
+            last = seen[-1]
+    finally:
+        pacing.close()
+    assert lates == [True, True, False, False]
+    assert at_sync[3] == [1, 2, 3]  # the third answer handed on before the fourth SYNC
+    assert last == 4  # the fourth tick returned with its own SYNC's answer in
