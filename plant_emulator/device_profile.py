@@ -5,7 +5,7 @@ It does not say which modes the drive has where it lacks 0x6502, what its
 increments are where it lacks 0x608F, whether it lets its PDOs be remapped, how
 long it takes to answer, how it stops, or what the motor behind it is. A profile
 says that. One file per drive, next to its EDS; its sections (every key optional but
-``[device] eds``; the README's "A twin of your own drive" shows them all): ``[device]`` name,
+``[device] eds``; docs/emulator.md's "A twin of your own drive" shows them all): ``[device]`` name,
 description, modelled_on, eds, physics (the preset whose motor is behind the drive),
 node_id; ``[physics.params]`` the preset's parameters; ``[modes] supported`` (only where the
 EDS has no 0x6502), csp_enable ("target": enabled in CSP, the drive goes for 0x607A,

@@ -107,7 +107,7 @@ def build_parser() -> Parser:
     return parser
 
 
-#: the example each subcommand's --help ends with (commands the README runs too)
+#: the example each subcommand's --help ends with (commands the docs pages run too)
 EXAMPLES = {
     "demo": "rig demo",
     "design": "rig design dtsm --a-m 16 --b-m 680 --dt 0.4e-3 --lam -15 --error-space --json",

@@ -145,7 +145,7 @@ class HostLoop:
             [a.measures for a in self.axes],
             wiring.commanded,
             threshold=chatter_threshold(law, axes[wiring.reads[0]] if wiring.reads else None, period),
-            steady_from=cycles // 2,  # the run's second half is its steady state (README "Chattering")
+            steady_from=cycles // 2,  # the run's second half is its steady state (docs/chattering.md)
             command_range=2.0 * guards[wiring.commands[0]].limits.command if wiring.commands else math.inf,
         )
         #: per axis, its recorded feedback fields as a tuple (one attrgetter call per axis and cycle)

@@ -40,7 +40,7 @@ def _row(name: str, tr: Trajectory, settle: float) -> dict[str, Any]:
         "rms_tracking_error_rad": rms(tr.error[tr.window(0.0, 1.5)]),
         "steady_state_error_rad": float(tr.error[steady].mean()),
         "u_max": max_abs(tr.u),
-        # exact measurements: every alternation above rounding counts (README "Chattering")
+        # exact measurements: every alternation above rounding counts (docs/chattering.md)
         "chattering_steady": chattering_count(tr.u[steady]),
         "chattering_amplitude": chattering_amplitude(tr.u[steady]),
     }
