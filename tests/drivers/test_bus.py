@@ -10,6 +10,7 @@ import can
 import pytest
 
 from drivers.bus import open_bus
+from tests.drivers.scripted_socketcand import greet
 
 
 def test_a_frame_split_across_tcp_segments_is_received_whole_and_no_warning(
@@ -28,10 +29,7 @@ def test_a_frame_split_across_tcp_segments_is_received_whole_and_no_warning(
         def serve() -> None:
             link, _ = server.accept()
             with link:
-                link.sendall(b"< hi >")
-                for answer in (b"< ok >", b"< ok >"):
-                    link.recv(256)
-                    link.sendall(answer)
+                greet(link)
                 go.wait(5.0)
                 link.sendall(b"< frame 181 12.500000 0102")
                 time.sleep(0.05)  # the rest in a second segment
@@ -229,10 +227,7 @@ def test_a_server_that_greets_then_stalls_is_one_line_within_the_handshake_time(
         def serve() -> None:
             link, _ = server.accept()
             held.append(link)
-            link.sendall(b"< hi >")
-            for answer in answers:  # one answer per command
-                link.recv(256)
-                link.sendall(answer)
+            greet(link, tuple(answers))
 
         thread = threading.Thread(target=serve, daemon=True)
         thread.start()
@@ -304,10 +299,7 @@ def test_a_connection_the_server_closed_is_no_spin(caplog: pytest.LogCaptureFixt
         def serve() -> None:
             link, _ = server.accept()
             with link:
-                link.sendall(b"< hi >")
-                for answer in (b"< ok >", b"< ok >< frame 123 1.000000 01 >"):
-                    link.recv(256)
-                    link.sendall(answer)
+                greet(link, (b"< ok >", b"< ok >< frame 123 1.000000 01 >"))
 
         thread = threading.Thread(target=serve, daemon=True)
         thread.start()

@@ -16,6 +16,7 @@ import pytest
 
 from drivers.bus import open_bus
 from rig.host.pacing import OwnedReceive
+from tests.drivers.scripted_socketcand import greet
 
 
 def _frame(cob: int, value: int) -> bytes:
@@ -31,10 +32,7 @@ def link() -> Iterator[tuple[canopen.Network, socket.socket]]:
 
         def serve() -> None:
             end, _ = server.accept()
-            end.sendall(b"< hi >")
-            for _ in range(2):
-                end.recv(256)
-                end.sendall(b"< ok >")
+            greet(end)
             ends.append(end)
 
         thread = threading.Thread(target=serve, daemon=True)
