@@ -2,10 +2,10 @@
 
 Lock-step, in this process, each the median of ``repeats`` runs:
 
-- ``lockstep_cycles_per_s``: the section VII.B servo (``rig demo``'s configuration:
-  law, CiA 402 driver, canopen, emulated drive, physics, recorder and CAN trace);
+- ``lockstep_cycles_per_s``: the section VII.B servo (``rig demo``'s configuration and its
+  whole 3 s run: law, CiA 402 driver, canopen, emulated drive, physics, recorder and CAN trace);
 - ``lockstep_dyno_cycles_per_s``: ``examples/dyno_speed_load.toml`` (three nodes,
-  two commanded, one read);
+  two commanded, one read), its first 2 s;
 - ``canopen_baseline_cycles_per_s``: one SYNC, one TPDO and one RPDO per cycle
   between a canopen ``RemoteNode`` and a ``LocalNode`` on the same synchronous
   in-process bus, one value decoded on each side, and nothing else: no drive-rig
@@ -39,18 +39,26 @@ from rig.emulator.spawn import spawn_emulator, stop_rig
 from rig.host.session import Session
 from rig.papers.demo import demo_config
 
-__all__ = ["DYNO_EXAMPLE", "bench_loop", "canopen_baseline", "lockstep_rate"]
+__all__ = ["DYNO_EXAMPLE", "bench_loop", "canopen_baseline", "lockstep_rate", "lockstep_runs"]
 
 DYNO_EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "dyno_speed_load.toml"
 
 
 def lockstep_rate(cfg: RigConfig, seconds: float) -> float:
-    """Cycles/s of one lock-step run of ``cfg`` (emulated) for ``seconds`` of run time."""
+    """Cycles/s of one lock-step run of ``cfg`` (emulated) for ``seconds`` of run time.
+
+    A RuntimeError where the run did not end clean: a safe stop, a stop not confirmed, or a
+    drive that reported a fault (EMCY) during the run or its stop.
+    """
     with Session(cfg, emulate=True, duration=seconds) as session:
         session.start()
         summary = session.run()
+        faults = [f"{a.name}: {a.fault}" for a in session.axes if a.fault is not None]
     if summary["safe_stop_reason"]:
         raise RuntimeError(f"the benchmark run stopped: {summary['safe_stop_reason']}")
+    if faults or not summary["stop_confirmed"]:
+        said = "; ".join(faults) or f"still turning: {summary['still_turning']}"
+        raise RuntimeError(f"the benchmark run of {cfg.run.name} did not end clean: {said}")
     return float(summary["cycles"] / summary["elapsed_s"])
 
 
@@ -101,13 +109,27 @@ def canopen_baseline(cycles: int = 20_000, repeats: int = 3) -> float:
                 net.bus.shutdown()
 
 
-def _lockstep(out: str, seconds: float, repeats: int) -> list[Figure]:
+def lockstep_runs(out: str, seconds: float) -> list[tuple[RigConfig, float]]:
+    """The lock-step runs of the bench, (configuration, run time [s]): the servo and the dyno.
+
+    The servo runs ``rig demo``'s whole run (3 s): its load is the emulator's own (``pulse``
+    from 1.5 to 3 s), an active load that does not stop with the host, and cut at ``seconds``
+    = 2 s it turned the disabled motor after the stop up to 0x6080 (6000 rpm = 628.3 rad/s,
+    0.69 s later at 1000 rad/s^2): fault 0x8400, the drive's right reaction
+    (docs/emulator.md). The dyno's load is the host's own command to its load machine, which
+    the stop sets to 0 N m and quick-stops, so ``seconds`` of it end at rest.
+    """
     servo = demo_config(out)
     if not DYNO_EXAMPLE.exists():
         raise ConfigError(f"rig bench loop runs {DYNO_EXAMPLE}: run it from a source checkout")
     dyno = dataclasses.replace(load_config(DYNO_EXAMPLE), run=dataclasses.replace(servo.run, name="dyno"))
-    one = [lockstep_rate(servo, seconds) for _ in range(repeats)]
-    three = [lockstep_rate(dyno, seconds) for _ in range(repeats)]
+    return [(servo, servo.run.duration), (dyno, seconds)]
+
+
+def _lockstep(out: str, seconds: float, repeats: int) -> list[Figure]:
+    (servo, servo_s), (dyno, dyno_s) = lockstep_runs(out, seconds)
+    one = [lockstep_rate(servo, servo_s) for _ in range(repeats)]
+    three = [lockstep_rate(dyno, dyno_s) for _ in range(repeats)]
     base = canopen_baseline()
     one_axis = statistics.median(one)
     return [
@@ -204,7 +226,11 @@ def _realtime_figures(summary: dict[str, Any], arrivals: list[float], steal: flo
 
 def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0, repeats: int = 3) -> list[Figure]:
     """The full chain per cycle: lock-step cycles/s (one axis, the dyno, the bare canopen exchange)
-    and a 1 kHz real-time loop against rig emulate in another process."""
+    and a 1 kHz real-time loop against rig emulate in another process.
+
+    ``lockstep_s`` [s]: the dyno's run (the servo runs its own 3 s, ``lockstep_runs``); each
+    lock-step run must end clean (``lockstep_rate``), or the bench stops with a RuntimeError.
+    """
     with tempfile.TemporaryDirectory() as out:
         figures = _lockstep(out, lockstep_s, repeats)
         return figures + _realtime(out, realtime_s)
