@@ -43,6 +43,7 @@ import selectors
 import socket
 import threading
 import time
+from collections.abc import Callable
 
 import can
 
@@ -110,6 +111,9 @@ class SocketcandServer:
         self._tickets = 0  #: frames that came to wait for the bus so far (their order)
         self._stopping = threading.Event()
         self.accepted = 0  #: connections accepted so far
+        #: called by the I/O thread after each round of serving and sending, before it waits again
+        #: (its slack: a SYNC's answers are out by then); the emulator collects garbage there
+        self.idle: Callable[[], object] | None = None
         self.bus = hub.bus(queue=False, channel="socketcand")
         self.bus.listeners.append(self._to_clients)
         try:
@@ -192,6 +196,8 @@ class SocketcandServer:
                         self._receive(key.data)
                 self._serve()
                 self._send()
+                if self.idle is not None:
+                    self.idle()
         finally:
             self._close_all()
 

@@ -42,6 +42,7 @@ from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
 from rig.host.columns import MODE_UNITS
 from rig.host.loop_stats import RunMetrics, StageTimes, chatter_threshold
 from rig.host.pacing import Pacing
+from rig.host.realtime import YOUNG, collect_young
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.host.signals import stop_reason
@@ -126,7 +127,7 @@ class HostLoop:
         #: [s] before a deadline the loop stops sleeping and spins yielding (0: sleeps to it;
         #: never at real-time priority, where a spin starves the threads that carry the frames)
         self.spin = spin
-        self.gc_young = 700  #: young objects before a collection in the slack (``_collect``)
+        self.gc_young = YOUNG  #: young objects before a collection in the slack (``_collect``)
         self.collections = 0  #: collections run in the slack
         self.granted: dict[str, Any] | None = None  #: real time: what the system granted (the summary's)
         self._last_out: LawStep | None = None
@@ -303,9 +304,7 @@ class HostLoop:
         once they hold ``gc_young`` objects and the next ``deadline`` (perf_counter s) leaves half a
         period, so cyclic garbage does not pile up over a long run and no collection runs in a
         cycle's work."""
-        young, middle, _ = gc.get_count()
-        if young >= self.gc_young and deadline - time.perf_counter() > 0.5 * self.period:
-            gc.collect(1 if middle >= 10 else 0)
+        if deadline - time.perf_counter() > 0.5 * self.period and collect_young(self.gc_young):
             self.collections += 1
 
     def _read(self, k: int) -> list[Feedback]:

@@ -27,6 +27,7 @@ import ctypes
 import ctypes.util
 import errno
 import functools
+import gc
 import logging
 import os
 import threading
@@ -34,11 +35,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Grant", "RealtimeRequest", "receive_threads", "request"]
+__all__ = ["YOUNG", "Grant", "RealtimeRequest", "collect_young", "receive_threads", "request"]
 
 log = logging.getLogger(__name__)
 
 _MCL_CURRENT, _MCL_FUTURE, _MCL_ONFAULT = 1, 2, 4
+YOUNG = 700  #: young objects before a collection in the slack (CPython's own first threshold)
 _PR_SET_TIMERSLACK = 29
 _LAST, _UNPINNED = -1, -2
 
@@ -209,6 +211,17 @@ def request(ask: RealtimeRequest, receive: Sequence[threading.Thread] = ()) -> G
     if grant.refused:
         log.warning("real time not fully granted (%s): %s", grant.describe(), "; ".join(grant.refused))
     return grant
+
+
+def collect_young(threshold: int = YOUNG) -> bool:
+    """Where the collector is disabled for real time (the heap frozen before): the young
+    generations collected once ``threshold`` objects wait (the middle one too every tenth time),
+    called by a thread in its slack, so no collection runs in a cycle's work. True if one ran."""
+    young, middle, _ = gc.get_count()
+    if young < threshold:
+        return False
+    gc.collect(1 if middle >= 10 else 0)
+    return True
 
 
 def receive_threads(network: Any) -> list[threading.Thread]:

@@ -111,3 +111,69 @@ def test_a_realtime_run_records_its_grant(tmp_path: pathlib.Path) -> None:
         assert granted["policy"] == "SCHED_FIFO" and granted["priority"] == 50 and granted["memory_locked"]
     on_disk = json.loads((pathlib.Path(summary["run_dir"]) / "summary.json").read_text())
     assert on_disk["realtime"] == granted
+
+
+def test_young_garbage_is_collected_only_past_the_threshold() -> None:
+    """``collect_young`` (the host loop's slack and the emulator's frames thread, the collector
+    disabled): below the threshold nothing runs; past it the young generation is collected and
+    cyclic garbage freed."""
+    import gc
+    import weakref
+
+    from rig.host.realtime import collect_young
+
+    class Node:
+        pass
+
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        gc.collect()
+        a, b = Node(), Node()
+        a.other, b.other = b, a  # type: ignore[attr-defined]
+        gone = weakref.ref(a)
+        del a, b
+        assert not collect_young(threshold=10_000)
+        assert gone() is not None
+        assert collect_young(threshold=1)
+        assert gone() is None
+        assert gc.get_count()[0] < 10
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def test_the_emulators_frames_thread_calls_its_idle_hook_after_serving() -> None:
+    """The socketcand server's I/O thread calls ``idle`` after each round of serving and sending
+    (where ``rig emulate`` collects its young garbage in real time, after a SYNC's answers are
+    out, not inside one)."""
+    import can
+
+    from drivers.bus import open_bus
+    from plant_emulator.lockstep import SyncHub
+    from plant_emulator.socketcand_server import SocketcandServer
+
+    hub = SyncHub()
+    heard: list[int] = []
+    node = hub.bus(queue=False, channel="node")
+    node.listeners.append(lambda msg: heard.append(msg.arbitration_id))
+    server = SocketcandServer(hub, threading.RLock(), port=0)
+    calls: list[int] = []
+    server.idle = lambda: calls.append(len(heard))
+    server.start()
+    try:
+        bus = open_bus("socketcand", "can0", host="127.0.0.1", port=server.port)
+        try:
+            bus.send(can.Message(arbitration_id=0x080, is_extended_id=False, data=b""))
+            deadline = threading.Event()
+            for _ in range(500):
+                if heard and calls and calls[-1] >= 1:
+                    break
+                deadline.wait(0.01)
+        finally:
+            bus.shutdown()
+    finally:
+        server.stop()
+        node.shutdown()
+    assert heard == [0x080]
+    assert calls and calls[-1] == 1  # called after the frame was served
