@@ -149,7 +149,8 @@ def _figures(
     host = summaries[0].get("realtime") or {}
     scheduling = (
         f"{host.get('policy', '?')} {host.get('priority', 0)} (receive {host.get('receive_priority', 0)}), "
-        f"CPU {host.get('cpu')}, memory {'locked' if host.get('memory_locked') else 'not locked'}"
+        f"CPU {host.get('cpu')}, memory {'locked' if host.get('memory_locked') else 'not locked'}, "
+        f"bus read by the {host.get('bus_read_by')}"
     )
     return [
         {"name": "period", "value": period * 1e6, "unit": "us"},

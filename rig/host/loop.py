@@ -452,6 +452,6 @@ class HostLoop:
             "timing": self.times.stats(),
             "realtime": None
             if self.granted is None
-            else {**self.granted, "gc_collections": self.collections},
+            else {**self.granted, "gc_collections": self.collections, "bus_read_by": self.pacing.bus_read_by},
             "axes": m.axis_peaks(),
         }

@@ -44,6 +44,9 @@ class Pacing:
     paced_by_bus = False
     sends_sync = False  #: the host's own SYNC, whose answers ``tick`` waits for (``late``)
     late = False  #: the last tick's answers missed their budget
+    #: who read the host's CAN bus during the cycles: "receive thread" (python-can's notifier),
+    #: "loop thread" (``HostSync.owning``), None (no CAN bus: in process, Modbus only)
+    bus_read_by: str | None = None
 
     def tick(self) -> None:
         """Start a cycle."""
@@ -213,6 +216,7 @@ class HostSync(Pacing):
         self.budget = budget
         self.late = False  #: the last tick's answers missed the budget
         self._reader: OwnedReceive | None = None  #: the loop thread reads the bus (``owning``)
+        self.bus_read_by = "receive thread"
 
     def tick(self) -> None:
         reader = self._reader
@@ -236,6 +240,7 @@ class HostSync(Pacing):
         readers = getattr(self.network.notifier, "_readers", ())
         reader.claim(others=any(isinstance(t, threading.Thread) and t.is_alive() for t in readers))
         self._reader = reader
+        self.bus_read_by = "loop thread"
         try:
             yield
         finally:
@@ -270,6 +275,7 @@ class ExternalSync(Pacing):
 
     def __init__(self, network: Any, axes: Sequence[CanopenAxis], timeout: float) -> None:
         self.network = network
+        self.bus_read_by = "receive thread"
         self.answers = _Answers(network, _cob_ids(axes))
         self.timeout = timeout
         self._running = True

@@ -165,8 +165,10 @@ def test_an_answer_that_came_between_two_ticks_is_not_the_next_syncs(
 
     network.sync.transmit = sync  # type: ignore[method-assign]
     lates = []
+    assert pacing.bus_read_by == "receive thread"
     try:
         with pacing.owning():
+            assert pacing.bus_read_by == "loop thread"
             for budget in (0.05, 0.05, 10.0):
                 pacing.budget = budget
                 pacing.tick()
