@@ -212,22 +212,45 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
         sock, wake = self._socket, self._wake_r
         try:
             ready, _, _ = select.select([sock, wake], [], [], timeout)
-            if wake in ready:
-                with contextlib.suppress(OSError):
-                    wake.recv(64)
-            if sock not in ready or self._owner not in (None, threading.get_ident()):
-                return None, False  # (claimed meanwhile: the next call parks)
-            chunk = sock.recv(_CHUNK, _DONTWAIT)
+        except OSError as exc:
+            raise can.CanError(f"Failed to receive: {exc}") from exc
+        if wake in ready:
+            with contextlib.suppress(OSError):
+                wake.recv(64)
+        if sock not in ready or self._owner not in (None, threading.get_ident()):
+            return None, False  # (claimed meanwhile: the next call parks)
+        self._read()
+        return (frames.popleft() if frames else None), False
+
+    def _read(self) -> None:
+        """One ``recv`` of whatever the socket holds (not waiting), parsed into the frames read."""
+        try:
+            chunk = self._socket.recv(_CHUNK, _DONTWAIT)
         except BlockingIOError:
-            return None, False
+            return
         except OSError as exc:
             raise can.CanError(f"Failed to receive: {exc}") from exc
         if not chunk:
             self._closed = True
             log.warning("%s: the socketcand server closed the connection", self.channel_info)
-            return None, False
-        self._rest = parse_frames(self._rest + chunk.decode("ascii", errors="replace"), self.channel, frames)
-        return (frames.popleft() if frames else None), False
+            return
+        self._rest = parse_frames(
+            self._rest + chunk.decode("ascii", errors="replace"), self.channel, self._frames
+        )
+
+    def fill(self) -> int:
+        """The frames that have come, ready for ``recv`` without a wait: those read and not yet
+        taken, and those one read of the socket brings now (where it holds any). For the
+        claiming thread: a drain of what has come takes this many, so a sender that never
+        pauses cannot hold it for ever (``rig.host.pacing.OwnedReceive``)."""
+        if not self._closed:
+            try:
+                ready, _, _ = select.select([self._socket], [], [], 0.0)
+            except OSError as exc:
+                raise can.CanError(f"Failed to receive: {exc}") from exc
+            if ready:
+                self._read()
+        return len(self._frames)
 
     def shutdown(self) -> None:
         """python-can's (the socket closed), and the wake pair too."""

@@ -169,7 +169,11 @@ class OwnedReceive:
     def possible(network: Any) -> bool:
         """``network``'s bus lets a thread claim its reading (socketcand's does)."""
         bus = getattr(network, "bus", None)
-        return callable(getattr(bus, "claim", None)) and network.notifier is not None
+        return (
+            callable(getattr(bus, "claim", None))
+            and callable(getattr(bus, "fill", None))
+            and network.notifier is not None
+        )
 
     def claim(self, others: bool) -> None:
         self.bus.claim(others=others)
@@ -183,25 +187,29 @@ class OwnedReceive:
 
     def until(self, done: Callable[[], bool], timeout: float) -> bool:
         """Frames read and handed on until ``done()`` or ``timeout`` [s], then every frame that
-        has come meanwhile (not waited for): after a stall, a node's burst of answers to the
+        has come by then (not waited for; the bus's ``fill``: one read of the socket, so a
+        flood cannot hold the loop here): after a stall, a node's burst of answers to the
         SYNCs it owed is read at once, and the newest sample counts, as with a receive thread
         (read only up to ``done()``, the rest of a burst stayed queued, and every later cycle
         acted on a sample that many periods old). ``done()`` at the end."""
         deadline = time.perf_counter() + timeout
         recv, listeners = self.bus.recv, self.listeners
-        complete = done()
-        while True:
-            left = 0.0 if complete else deadline - time.perf_counter()
+        while not done():
+            left = deadline - time.perf_counter()
             if left < 0.0:
                 return False
             msg = recv(left)
-            if msg is None:
-                if complete:
-                    return True
-                continue
-            for listener in listeners:
-                listener(msg)
-            complete = complete or done()
+            if msg is not None:
+                for listener in listeners:
+                    listener(msg)
+        # what has come by now, and no more: a sender that never pauses (another client's flood)
+        # held a drain until nothing more came for ever (no SYNC, no RPDO: the drive's deadline)
+        for _ in range(self.bus.fill()):
+            msg = recv(0.0)
+            if msg is not None:
+                for listener in listeners:
+                    listener(msg)
+        return True
 
 
 class HostSync(Pacing):

@@ -183,3 +183,37 @@ def test_an_answer_that_came_between_two_ticks_is_not_the_next_syncs(
     assert lates == [True, True, False, False]
     assert at_sync[3] == [1, 2, 3]  # the third answer handed on before the fourth SYNC
     assert last == 4  # the fourth tick returned with its own SYNC's answer in
+
+
+def test_a_sender_that_never_pauses_cannot_hold_the_loop(link: tuple[canopen.Network, socket.socket]) -> None:
+    """Another client floods the bus (any COB-ID: here one nobody awaits) faster than the loop
+    hands frames on: the drain after the wait takes what had come when it began (one read of the
+    socket), not every frame that comes while it drains. Taking those too (a first version), the
+    tick never returned while the flood went on: no SYNC, no RPDO, until the drive's own deadline
+    for its commands ended the run (seen across processes: EMCY 0x8250 within 50 ms of a flood of
+    50 000 frames/s on COB-ID 0x123). Each frame handed on here makes the server send the next
+    (written before the listener returns), so the supply never ends while the drain reads."""
+    import select
+
+    network, end = link
+    seen: list[int] = []
+    supply = 10_000
+
+    def on_frame(cob: int, data: bytearray, ts: float) -> None:
+        seen.append(data[0])
+        if len(seen) < supply:
+            end.sendall(_frame(0x123, len(seen) % 256))
+
+    network.subscribe(0x123, on_frame)
+    reader = OwnedReceive(network)
+    reader.claim(others=True)
+    try:
+        end.sendall(b"".join(_frame(0x123, v) for v in range(1, 4)))
+        assert select.select([network.bus._socket], [], [], 10.0)[0]  # they have come
+        reader.arrived()
+        after_arrived = len(seen)
+        assert reader.until(lambda: True, 0.0)
+    finally:
+        reader.release()
+    assert 1 <= after_arrived <= 3, after_arrived  # what one read brings: the three, at most
+    assert len(seen) <= 2 * 3, len(seen)  # and the next tick's drain takes what came meanwhile
