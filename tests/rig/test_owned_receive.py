@@ -217,3 +217,47 @@ def test_a_sender_that_never_pauses_cannot_hold_the_loop(link: tuple[canopen.Net
         reader.release()
     assert 1 <= after_arrived <= 3, after_arrived  # what one read brings: the three, at most
     assert len(seen) <= 2 * 3, len(seen)  # and the next tick's drain takes what came meanwhile
+
+
+def test_a_listener_that_raises_stops_the_tick_and_loses_no_frame(
+    link: tuple[canopen.Network, socket.socket],
+) -> None:
+    """A listener raising while the loop thread hands a burst on (canopen's own catches what its
+    subscribers raise; a listener of the bus's, as the trace's, does not): the tick raises (the
+    loop's safe stop names it), and the frames after the one that raised stay for the receive
+    thread, which reads them after ``release`` (the stop's SDO answers come the same way)."""
+    import select
+    import types
+
+    from rig.host.pacing import HostSync
+
+    network, end = link
+    seen: list[tuple[str, int]] = []
+    got = threading.Event()
+
+    def tap(msg: object) -> None:
+        data = getattr(msg, "data", b"")
+        if getattr(msg, "arbitration_id", 0) == 0x181 and data[0] == 2:
+            raise RuntimeError("the trace's disk is gone")
+
+    def on_frame(cob: int, data: bytearray, ts: float) -> None:
+        seen.append((threading.current_thread().name, data[0]))
+        if data[0] == 4:
+            got.set()
+
+    assert network.notifier is not None
+    network.notifier.listeners = [tap, *network.notifier.listeners]  # as the trace's (rig.host.trace)
+    network.subscribe(0x181, on_frame)
+    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181])
+    pacing = HostSync(network, [axis], 10.0)  # type: ignore[list-item]
+    try:
+        with pytest.raises(RuntimeError, match="disk is gone"), pacing.owning():
+            end.sendall(b"".join(_frame(0x181, v) for v in range(1, 5)))
+            assert select.select([network.bus._socket], [], [], 10.0)[0]  # type: ignore[union-attr]
+            pacing.tick()
+        assert got.wait(10.0)  # the receive thread reads again, from where the loop left
+    finally:
+        pacing.close()
+    me = threading.current_thread().name
+    assert [v for _, v in seen] == [1, 3, 4]  # 2 went to the listener that raised, and no further
+    assert seen[0][0] == me and all(name != me for name, _ in seen[1:])
