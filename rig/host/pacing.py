@@ -246,10 +246,10 @@ class HostSync(Pacing):
             return
         reader = OwnedReceive(self.network)
         readers = getattr(self.network.notifier, "_readers", ())
-        reader.claim(others=any(isinstance(t, threading.Thread) and t.is_alive() for t in readers))
-        self._reader = reader
-        self.bus_read_by = "loop thread"
-        try:
+        try:  # a signal that lands in the claim (it waits for the receive thread) gives it back too
+            reader.claim(others=any(isinstance(t, threading.Thread) and t.is_alive() for t in readers))
+            self._reader = reader
+            self.bus_read_by = "loop thread"
             yield
         finally:
             self._reader = None

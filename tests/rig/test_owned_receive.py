@@ -261,3 +261,34 @@ def test_a_listener_that_raises_stops_the_tick_and_loses_no_frame(
     me = threading.current_thread().name
     assert [v for _, v in seen] == [1, 3, 4]  # 2 went to the listener that raised, and no further
     assert seen[0][0] == me and all(name != me for name, _ in seen[1:])
+
+
+def test_a_signal_while_claiming_gives_the_reading_back(link: tuple[canopen.Network, socket.socket]) -> None:
+    """Ctrl-C or SIGTERM (``rig.host.signals`` raises KeyboardInterrupt in the loop thread) that
+    lands while the loop claims the reading (the claim waits, up to 1 s, for the receive thread
+    to park): the reading is given back all the same, so the receive thread carries the stop's
+    SDO answers. Claimed outside the block that gives it back (a first version), the receive
+    thread stayed parked for good and every SDO of the stop went unanswered."""
+    import types
+
+    from rig.host.pacing import HostSync
+
+    network, end = link
+    bus = network.bus
+    got = threading.Event()
+    network.subscribe(0x181, lambda cob, data, ts: got.set())
+    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181])
+    pacing = HostSync(network, [axis], 0.05)  # type: ignore[list-item]
+
+    def interrupted(timeout: float | None = None) -> bool:
+        raise KeyboardInterrupt  # the signal's handler, while the claim waits
+
+    bus._parked.wait = interrupted  # type: ignore[union-attr]
+    try:
+        with pytest.raises(KeyboardInterrupt), pacing.owning():
+            pass
+    finally:
+        pacing.close()
+    assert bus._owner is None  # type: ignore[union-attr]
+    end.sendall(_frame(0x181, 1))
+    assert got.wait(10.0)  # the receive thread reads again
