@@ -333,8 +333,6 @@ class HostLoop:
         """Cycle ``k``, whose tick started at ``t0`` (perf_counter s) and has returned (``late``:
         its answers missed their budget)."""
         t = k * self.period
-        if self.heartbeat is not None:
-            self.heartbeat(k)
         samples = self._read(k)
         if not self._begun:
             self._begin(samples)
@@ -353,6 +351,8 @@ class HostLoop:
         for i, value in zip(targets, values):
             axes[i].command(value)
         t3 = time.perf_counter()
+        if self.heartbeat is not None:  # after the commands: not between a SYNC and its RPDOs
+            self.heartbeat(k)
         if self.realtime and send:
             if self.pacing.sends_sync:  # the host's SYNC to its RPDOs
                 self.times.response.append(t3 - t0)
