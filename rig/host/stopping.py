@@ -14,8 +14,11 @@ each axis with a shaft speed (``AxisDriver.has_shaft``; encoders too) kept it wi
 at-rest window ``rest_speed`` [rad/s] (or one speed unit of the axis, where that is coarser)
 for ``rest_time`` [s] of new samples in a row (``RestWatch``), as CiA 402's "speed = 0" is a
 speed within 0x606F for 0x6070. A ramp that ends in a coasting motor, or a drive that lets
-go of a turning shaft, is not at rest. The result (``StopResult``) says which axes were still
-turning and at what speed; a stop that was not confirmed is never reported as a clean one.
+go of a turning shaft, is not at rest; nor is a stop in which a device reported a fault (EMCY)
+it had not reported before the stop began confirmed (an active load that turned the disabled
+shaft up to over-speed, though the drive's fault reaction brought it back). The result
+(``StopResult``) says which axes were still turning and at what speed; a stop that was not
+confirmed is never reported as a clean one.
 """
 
 from __future__ import annotations
@@ -107,6 +110,7 @@ def bring_to_rest(
     """See the module docstring; ``period`` [s] of the loop, ``realtime``: wait it between ticks
     where the host keeps the pace; ``heartbeat(k)``: the host's, beating on meanwhile."""
     ok, problems = True, []
+    faulted = {a: a.fault for a in axes}  # a fault the stop began with is its cause, not news
     for a in commanded:
         neutral = a.neutral_command()
         if neutral is not None:
@@ -147,6 +151,10 @@ def bring_to_rest(
     for name, speed in turning.items():
         said = "no speed sample" if speed is None else f"{speed:.4g} rad/s"
         problems.append(f"{name}: still turning after the disable ({said})")
+    for a in axes:
+        fault = a.fault
+        if fault is not None and fault is not faulted[a]:
+            problems.append(f"{a.name}: {fault} during the stop")
     for a in stopping:
         state = _asked(a, a.read_state, "state")
         if state not in (AxisState.DISABLED, AxisState.FAULT):

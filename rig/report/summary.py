@@ -76,7 +76,7 @@ def _confirmed(summary: dict[str, Any]) -> str:
         return "yes"
     turning = summary.get("still_turning") or {}
     if not turning:
-        return "NO: an axis may still be moving"
+        return "NO: an axis may still be moving, or a drive faulted during the stop (see the log)"
     said = ", ".join(
         f"{name} at {speed:.4g} rad/s" if speed is not None else f"{name} (no speed sample)"
         for name, speed in turning.items()

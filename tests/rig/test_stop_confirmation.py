@@ -65,6 +65,23 @@ def test_an_active_load_that_turns_the_disabled_motor_is_no_confirmed_stop(tmp_p
     assert f"NO: still turning after the disable: motor at {speed:.4g} rad/s" in text
 
 
+def test_a_fault_during_the_stop_is_no_confirmed_stop(
+    tmp_path: pathlib.Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The example's load cut at 2 s of its 1.5-3 s: after the disable it turns the shaft up to
+    0x6080 (6000 rpm = 628.3 rad/s, 0.69 s later), the drive trips 0x8400, and its fault reaction
+    brakes the shaft to rest after the load ended. Before, the stop said "confirmed": the shaft
+    at rest for the hold at the end, the over-speed a warning in the log (``rig bench loop``)."""
+    summary = _run(tmp_path, "pulse:0.0346:1.5:3")
+    assert summary["stop_confirmed"] is False and summary["still_turning"] == {}
+    assert "NO: an axis may still be moving, or a drive faulted during the stop" in "\n".join(
+        summary_lines(summary)
+    )
+    assert "motor: node 1: EMCY 0x8400 (velocity speed controller), error register 0x21 during the stop" in (
+        caplog.text
+    )
+
+
 def test_a_window_and_hold_from_the_configuration(tmp_path: pathlib.Path) -> None:
     """A window wider than the turning speed passes for rest: the check is the axis's own."""
     summary = _run(tmp_path, "const:0.0012", rest_speed=1e3, rest_time=0.05)  # 0.1 mN m past T_c
