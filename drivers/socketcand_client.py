@@ -223,10 +223,15 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
         return (frames.popleft() if frames else None), False
 
     def _read(self) -> None:
-        """One ``recv`` of whatever the socket holds (not waiting), parsed into the frames read."""
+        """One ``recv`` of whatever the socket holds (not waiting), parsed into the frames read.
+        The unfinished line is let go of until the parse: a read lost to a signal in between
+        (the host loop reads here itself) drops the line it finished; the next read's tail
+        cannot finish it instead (one frame's start, another's data)."""
+        rest, self._rest = self._rest, ""
         try:
             chunk = self._socket.recv(_CHUNK, _DONTWAIT)
         except BlockingIOError:
+            self._rest = rest
             return
         except OSError as exc:
             raise can.CanError(f"Failed to receive: {exc}") from exc
@@ -234,9 +239,7 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
             self._closed = True
             log.warning("%s: the socketcand server closed the connection", self.channel_info)
             return
-        self._rest = parse_frames(
-            self._rest + chunk.decode("ascii", errors="replace"), self.channel, self._frames
-        )
+        self._rest = parse_frames(rest + chunk.decode("ascii", errors="replace"), self.channel, self._frames)
 
     def fill(self) -> int:
         """The frames that have come, ready for ``recv`` without a wait: those read and not yet

@@ -292,3 +292,43 @@ def test_a_signal_while_claiming_gives_the_reading_back(link: tuple[canopen.Netw
     assert bus._owner is None  # type: ignore[union-attr]
     end.sendall(_frame(0x181, 1))
     assert got.wait(10.0)  # the receive thread reads again
+
+
+def test_a_signal_between_a_read_and_its_parse_splices_no_two_frames(
+    link: tuple[canopen.Network, socket.socket], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The loop thread reads the socket itself, and a stop signal (KeyboardInterrupt, raised
+    where the main thread is) may land between a read and its parse: that read is lost. The line
+    it finished must not be finished by the next read's tail instead (the start of one frame and
+    the data of another: a TPDO with a position nobody sent); the cut line is dropped."""
+    import select
+
+    import drivers.socketcand_client as client
+
+    network, end = link
+    bus = network.bus
+    assert isinstance(bus, client.SocketcandBus)
+    parse = client.parse_frames
+    calls = []
+
+    def interrupted(text: str, channel: object, out: object) -> str:
+        calls.append(text)
+        if len(calls) == 2:
+            raise KeyboardInterrupt  # the signal, between the read and its parse
+        return parse(text, channel, out)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(client, "parse_frames", interrupted)
+    bus.claim(others=True)
+    try:
+        for chunk in (b"< frame 181 1.000001 0102", b"0304 >< frame 181 1.000002 AABB", b"CCDD >"):
+            end.sendall(chunk)
+            assert select.select([bus._socket], [], [], 10.0)[0]
+            if len(calls) == 1:
+                with pytest.raises(KeyboardInterrupt):
+                    bus.fill()
+            else:
+                bus.fill()
+        frames = [bus.recv(0.0) for _ in range(bus.fill())]
+    finally:
+        bus.release()
+    assert [bytes(m.data).hex() for m in frames if m is not None] == []
