@@ -85,13 +85,14 @@ def format_send(msg: can.Message) -> bytes:
 def parse_frames(text: str, channel: Any, out: collections.deque[can.Message]) -> str:
     """The ``< frame ID SEC.USEC HEXDATA >`` lines of ``text`` appended to ``out`` as received
     frames on ``channel``; the unfinished rest of ``text`` is returned (it waits for the next
-    segment). Other lines (``< ok >``, ``< echo >``, a server's ``< error ... >``) and malformed
+    segment). A frame starts at the last ``< frame`` before its ``>``: a broken line costs only
+    itself. Other lines (``< ok >``, ``< echo >``, a server's ``< error ... >``) and malformed
     ones are no frames: logged at debug."""
     end = text.find(">")
     while end >= 0:
         line = text[:end]
         text = text[end + 1 :]
-        start = line.find("< frame ")
+        start = line.rfind("< frame ")  # the last: an unfinished line before it is not this frame
         if start >= 0:
             words = line[start + 8 :].split()
             try:
@@ -114,7 +115,8 @@ def parse_frames(text: str, channel: Any, out: collections.deque[can.Message]) -
         end = text.find(">")
     if len(text) > _LONGEST:
         log.warning("socketcand: %d characters without a '>': not a frame, dropped", len(text))
-        return ""
+        start = text.rfind("<")  # a frame that began at the end of it is kept
+        return text[start:] if start >= 0 and len(text) - start <= _LONGEST else ""
     return text
 
 

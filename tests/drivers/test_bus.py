@@ -316,3 +316,21 @@ def test_a_connection_the_server_closed_is_no_spin(caplog: pytest.LogCaptureFixt
             assert "the socketcand server closed the connection" in record.getMessage()
         finally:
             bus.shutdown()
+
+
+def test_a_broken_line_does_not_swallow_the_frame_after_it(caplog: pytest.LogCaptureFixture) -> None:
+    """A frame starts at the last ``<`` before its ``>``: an unfinished line in the stream (a
+    broken server, a relay that cut one) costs only itself, not the whole frame that follows it
+    (seen across processes through a relay adding such lines every 5 ms: the drive's TPDOs lost,
+    800 late cycles in 2 s and the late-cycle stop), and an overlong unfinished rest keeps the
+    frame that began at its end."""
+    import collections
+
+    from drivers.socketcand_client import parse_frames
+
+    out: collections.deque[can.Message] = collections.deque()
+    assert parse_frames("< frame 181< frame 181 1.000001 0102 >", "can0", out) == ""
+    rest = parse_frames("x" * 300 + "< frame 182 1.000002 03", "can0", out)
+    with caplog.at_level(logging.WARNING):
+        assert parse_frames(rest + "04 >", "can0", out) == ""
+    assert [(m.arbitration_id, bytes(m.data).hex()) for m in out] == [(0x181, "0102"), (0x182, "0304")]
