@@ -33,6 +33,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import logging
+import math
 import select
 import socket
 import threading
@@ -50,6 +51,7 @@ log = logging.getLogger(__name__)
 
 _CHUNK = 65536  #: [bytes] read at a time
 _DONTWAIT = getattr(socket, "MSG_DONTWAIT", 0)  #: a recv that never blocks (where the system has it)
+_ID_MAX = {False: 0x7FF, True: 0x1FFFFFFF}  #: the largest standard and extended identifiers
 _LONGEST = 200  #: [characters] an unfinished line longer than this is not a frame: dropped
 
 #: the deadline [time.monotonic() s] of the socketcand connection this thread is opening (None:
@@ -86,8 +88,9 @@ def parse_frames(text: str, channel: Any, out: collections.deque[can.Message]) -
     """The ``< frame ID SEC.USEC HEXDATA >`` lines of ``text`` appended to ``out`` as received
     frames on ``channel``; the unfinished rest of ``text`` is returned (it waits for the next
     segment). A frame starts at the last ``< frame`` before its ``>``: a broken line costs only
-    itself. Other lines (``< ok >``, ``< echo >``, a server's ``< error ... >``) and malformed
-    ones are no frames: logged at debug."""
+    itself. A frame is a classic CAN frame: an id of 3 hex digits up to 7FF or 8 up to 1FFFFFFF,
+    at most 8 data bytes, a finite time. Other lines (``< ok >``, ``< echo >``, a server's
+    ``< error ... >``) and malformed ones are no frames: logged at debug."""
     end = text.find(">")
     while end >= 0:
         line = text[:end]
@@ -96,20 +99,27 @@ def parse_frames(text: str, channel: Any, out: collections.deque[can.Message]) -
         if start >= 0:
             words = line[start + 8 :].split()
             try:
-                ident = words[0]
-                msg = can.Message(
-                    timestamp=float(words[1]),
-                    arbitration_id=int(ident, 16),
-                    data=bytes.fromhex(words[2]) if len(words) > 2 else b"",
-                    is_extended_id=len(ident) != 3,
-                    is_rx=True,
-                    channel=channel,
-                )
+                ident, stamp = words[0], float(words[1])
+                data = bytes.fromhex(words[2]) if len(words) > 2 else b""
+                can_id = int(ident, 16)
+                if len(ident) not in (3, 8) or can_id > _ID_MAX[len(ident) == 8] or len(data) > 8:
+                    raise ValueError("not a classic CAN frame")
+                if not math.isfinite(stamp):
+                    raise ValueError("not a time")
             except (ValueError, IndexError):
                 log.debug("socketcand: not a frame: %r", line + ">")
             else:
-                msg.dlc = len(msg.data)
-                out.append(msg)
+                out.append(
+                    can.Message(
+                        timestamp=stamp,
+                        arbitration_id=can_id,
+                        data=data,
+                        dlc=len(data),
+                        is_extended_id=len(ident) == 8,
+                        is_rx=True,
+                        channel=channel,
+                    )
+                )
         elif line.strip():
             log.debug("socketcand: not a frame: %r", line + ">")
         end = text.find(">")
@@ -187,7 +197,11 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
         with contextlib.suppress(OSError):  # full: a wake is pending already
             self._wake_w.send(b"\0")
         if others and not self._parked.wait(1.0):
-            log.debug("%s: no other reader parked within 1 s", self.channel_info)
+            log.warning(
+                "%s: the bus's other reader did not park within 1 s: both read on (frames are "
+                "handed on all the same, with a thread switch more)",
+                self.channel_info,
+            )
 
     def release(self) -> None:
         """Every thread may read again (the parked one goes on)."""

@@ -334,3 +334,27 @@ def test_a_broken_line_does_not_swallow_the_frame_after_it(caplog: pytest.LogCap
     with caplog.at_level(logging.WARNING):
         assert parse_frames(rest + "04 >", "can0", out) == ""
     assert [(m.arbitration_id, bytes(m.data).hex()) for m in out] == [(0x181, "0102"), (0x182, "0304")]
+
+
+@pytest.mark.parametrize(
+    "line",
+    [
+        "< frame 181 1.000000 010203040506070809 >",  # 9 data bytes
+        "< frame 3FFFFFFFF 1.000000 01 >",  # 9 hex digits
+        "< frame 20000000 1.000000 01 >",  # over 29 bits
+        "< frame 800 1.000000 01 >",  # over 11 bits in 3 digits
+        "< frame 1234 1.000000 01 >",  # 4 digits: neither form
+        "< frame 181 nan 01 >",
+        "< frame 181 inf 01 >",
+    ],
+)
+def test_a_line_that_is_no_classic_can_frame_is_not_received(line: str) -> None:
+    """What only a broken server sends is no frame (python-can's own parser took these); the
+    frame after it is received."""
+    import collections
+
+    from drivers.socketcand_client import parse_frames
+
+    out: collections.deque[can.Message] = collections.deque()
+    assert parse_frames(line + "< frame 181 2.000000 0A >", "can0", out) == ""
+    assert [(m.arbitration_id, bytes(m.data), m.timestamp) for m in out] == [(0x181, b"\x0a", 2.0)]
