@@ -223,15 +223,19 @@ class HostLoop:
 
     def _prime(self) -> None:
         """Real time with the host's SYNC: SYNC a period apart until every axis has sent its
-        first sample (a TPDO answers a SYNC, after it), at most max(1 s, the watchdog's time),
-        so cycle 0 reads the drives, not the zeros of TPDOs still to come. The other pacings
-        bring them with cycle 0's own tick (``_begin`` checks)."""
+        first sample (a TPDO answers a SYNC, after it) and no answer is owed (a drive slow to
+        start answers the SYNCs it missed in a burst: cycle 0 does not begin behind it), at most
+        max(1 s, the watchdog's time), so cycle 0 reads the drives, not the zeros of TPDOs still
+        to come. The other pacings bring them with cycle 0's own tick (``_begin`` checks)."""
         if not self.realtime or self.pacing.paced_by_bus:
             return
         watchdog = max((g.watchdog_periods for g in self.guards), default=0) * self.period
         deadline = time.perf_counter() + max(1.0, watchdog)
         n = 0
-        while not all(axis.has_sample() for axis in self.axes) and time.perf_counter() < deadline:
+        pacing = self.pacing
+        while (
+            not all(axis.has_sample() for axis in self.axes) or pacing.owes()
+        ) and time.perf_counter() < deadline:
             if self.heartbeat is not None:
                 self.heartbeat(n)
             self.pacing.tick()

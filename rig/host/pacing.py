@@ -63,6 +63,10 @@ class Pacing:
         """While the loop's cycles run (``HostSync``: the loop thread reads the bus itself)."""
         yield
 
+    def owes(self) -> bool:
+        """Answers to SYNCs already sent are still to come (``HostSync``)."""
+        return False
+
 
 class FreeRun(Pacing):
     """Real time without a SYNC producer (the loop keeps the deadlines)."""
@@ -141,6 +145,10 @@ class _Answers:
     def complete(self) -> bool:
         """Every awaited frame has come."""
         return not self._waiting
+
+    def owed(self) -> bool:
+        """Frames are awaited (since the last ``arm``, or owed from before it)."""
+        return any(self._pending.values())
 
     def wait(self, timeout: float) -> bool:
         with self._done:
@@ -237,6 +245,12 @@ class HostSync(Pacing):
             self.late = not reader.until(self.answers.complete, self.budget)
         else:
             self.late = not self.answers.wait(self.budget)
+
+    def owes(self) -> bool:
+        """Answers to SYNCs already sent are still to come (what has come is handed on first)."""
+        if self._reader is not None:
+            self._reader.arrived()
+        return self.answers.owed()
 
     @contextlib.contextmanager
     def owning(self) -> Iterator[None]:
