@@ -151,3 +151,18 @@ def test_late_cycles_in_a_row_are_a_safe_stop_named_as_such(tmp_path: pathlib.Pa
     assert summary["late_cycles"] == 4 and summary["cycles"] == 33
     assert summary["stop_confirmed"] is True
     assert samples["late"][-1] == 1.0
+
+
+def test_owed_answers_are_known_until_the_burst_has_come(
+    bus: tuple[HostSync, list[dict[int, int]]],
+) -> None:
+    """``owes()`` (the real-time prime goes on while it is true: cycle 0 does not begin behind a
+    drive slow to start): true after SYNCs without their answers, false once all have come."""
+    pacing, script = bus
+    script += [{}, {}, dict.fromkeys(COBS, 2), dict.fromkeys(COBS, 2)]
+    assert not pacing.owes()
+    owes = []
+    for _ in script:
+        pacing.tick()
+        owes.append(pacing.owes())
+    assert owes == [True, True, True, False]
