@@ -33,7 +33,9 @@ from dataclasses import dataclass, field
 from drivers.base import AxisDriver, AxisState
 from rig.host.pacing import Pacing
 
-__all__ = ["RestWatch", "StopResult", "bring_to_rest"]
+__all__ = ["LOCKSTEP_HOLD_WALL", "RestWatch", "StopResult", "bring_to_rest"]
+
+LOCKSTEP_HOLD_WALL = 30.0  #: [s] of wall time at least for a lock-step stop's hold at rest
 
 log = logging.getLogger(__name__)
 
@@ -141,12 +143,16 @@ def bring_to_rest(
     watches = {a: RestWatch.of(a, period) for a in axes if a.has_shaft}
     hold = max((w.samples for w in watches.values()), default=0) * period
     left = max(deadline - time.monotonic(), 3.0 * hold)  # the hold gets its time after a slow ramp
+    # in lock-step its cycles are emulated time: over a slow wire (the vcan VM: a few ms a cycle)
+    # the wall clock must not cut them short (a shaft at 0 rad/s, its hold unfinished, was "still
+    # turning"); a dead wire still ends it, each tick failing or waiting out its answers
+    wall = left if realtime else max(left, LOCKSTEP_HOLD_WALL)
 
     def resting() -> bool:  # every watch sees its sample (a list, not all()'s short cut)
         return all([w.see(_asked(a, a.shaft_speed, "speed")) for a, w in watches.items()])  # type: ignore[arg-type]
 
     if watches:
-        _cycles(pacing, period, left, time.monotonic() + left, realtime=realtime, beat=beat, done=resting)
+        _cycles(pacing, period, left, time.monotonic() + wall, realtime=realtime, beat=beat, done=resting)
     turning = {a.name: w.speed for a, w in watches.items() if not w.done}
     for name, speed in turning.items():
         said = "no speed sample" if speed is None else f"{speed:.4g} rad/s"
