@@ -106,12 +106,11 @@ class _Answers:
     ``owed`` (the host's SYNC): a TPDO carries no SYNC number, but a node answers the SYNCs
     in order, so an answer that missed its cycle (still awaited when the next SYNC is armed)
     is owed: the next frame on that COB-ID is taken for it, the one after for the new SYNC.
-    Every answer owed is carried over: after a stall, a cycle is on time only once the whole
-    burst has come, so it acts on the answer to its own SYNC; a cycle with part of the burst is
-    late. (Carrying one at most, as a first version did, the cycles after a stall of five periods
-    or more acted on samples that many periods old and were not counted late.) A frame the node
-    never sends (lost) is taken for late ever after and ends in the late-cycle stop, named as
-    such; CAN does not lose frames it acknowledged, nor TCP.
+    At most one answer is carried over: after a longer stall the first frames of the burst
+    count for the current SYNC (one cycle reads a sample up to a few periods old, and the
+    stall itself shows as late cycles). A frame the node never sends (lost) is taken for
+    late ever after and ends in the late-cycle stop, named as such; CAN does not lose
+    frames it acknowledged, nor TCP.
     """
 
     def __init__(self, network: Any, cob_ids: Sequence[int], *, owed: bool = False) -> None:
@@ -127,7 +126,7 @@ class _Answers:
     def arm(self) -> None:
         with self._done:
             if self.carry:
-                self._pending = {cob: self._pending.get(cob, 0) + 1 for cob in self.cob_ids}
+                self._pending = {cob: min(self._pending.get(cob, 0), 1) + 1 for cob in self.cob_ids}
             else:
                 self._pending = dict.fromkeys(self.cob_ids, 1)
             self._waiting = len(self._pending)
