@@ -10,8 +10,10 @@ loop each, normal priority) load the machine. Any safe stop is a false one: noth
 injected. Figures, over the runs: the false stops (and why), the cycles, overruns and late
 cycles as a share of the cycles (the median and the worst run), the p99 of the period error
 and of the response (the host's SYNC to its RPDOs; the issue's bound is half the period), the
-medians and worst; the load average before and after; the scheduling the host and the
-emulator were granted (``rig.host.realtime``). A run whose bus did not open (the socketcand
+medians and worst; the CPU time a hypervisor took from the machine during each run's cycles
+(steal time, ``rig.host.realtime.cpu_stolen``: on a virtual machine, stalls no priority inside
+it can prevent; the median and worst run); the load average before and after; the scheduling
+the host and the emulator were granted (``rig.host.realtime``). A run whose bus did not open (the socketcand
 handshake failed) is tried again and named under ``bus_not_opened``.
 """
 
@@ -147,6 +149,7 @@ def _figures(
         ]
 
     host = summaries[0].get("realtime") or {}
+    stolen = [(s.get("realtime") or {}).get("cpu_stolen_s") for s in summaries]
     scheduling = (
         f"{host.get('policy', '?')} {host.get('priority', 0)} (receive {host.get('receive_priority', 0)}), "
         f"CPU {host.get('cpu')}, memory {'locked' if host.get('memory_locked') else 'not locked'}, "
@@ -168,5 +171,15 @@ def _figures(
         *spread("period_error_p99", timing("period_error_p99_us"), "us"),
         *spread("response_median", timing("response_median_us"), "us"),
         *spread("response_p99", timing("response_p99_us"), "us"),
+        *(
+            spread(
+                "cpu_stolen",
+                [1e3 * x for x in stolen if x is not None],
+                "ms per run (the hypervisor's; 10 ms steps)",
+                0,
+            )
+            if None not in stolen
+            else []
+        ),
         {"name": "response_bound", "value": period / 2 * 1e6, "unit": "us (half the period)"},
     ]

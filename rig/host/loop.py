@@ -42,7 +42,7 @@ from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
 from rig.host.columns import MODE_UNITS
 from rig.host.loop_stats import RunMetrics, StageTimes, chatter_threshold
 from rig.host.pacing import Pacing
-from rig.host.realtime import YOUNG, collect_young
+from rig.host.realtime import YOUNG, collect_young, cpu_stolen
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.host.signals import stop_reason
@@ -141,6 +141,9 @@ class HostLoop:
         self._span: ReferenceSpan | None = None  #: of a position reference (``run``)
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
         self._t_start = self._t_end = 0.0  #: perf_counter [s] of the first cycle, the last one's end
+        #: [s] of CPU time the hypervisor took during the cycles (``cpu_stolen``), and its count then
+        self.stolen: float | None = None
+        self._stolen_at: float | None = None
         self.metrics = RunMetrics(
             [a.name for a in self.axes],
             [a.measures for a in self.axes],
@@ -259,6 +262,7 @@ class HostLoop:
         self._begun = True
 
     def _cycles(self, progress: Callable[[int], None] | None) -> None:
+        self._stolen_at = cpu_stolen() if self.realtime else None
         start = self._t_start = self._t_end = time.perf_counter()
         deadline = start
         every = max(1, self.cycles // 100)
@@ -414,6 +418,8 @@ class HostLoop:
         if self.on_stop is not None:
             self.on_stop()
         self.elapsed = self._t_end - self._t_start  # a safe stop's too
+        if self._stolen_at is not None and (now := cpu_stolen()) is not None:
+            self.stolen = now - self._stolen_at
         stop = bring_to_rest(
             self.axes,
             [self.axes[i] for i in self.wiring.commanded],
@@ -456,6 +462,11 @@ class HostLoop:
             "timing": self.times.stats(),
             "realtime": None
             if self.granted is None
-            else {**self.granted, "gc_collections": self.collections, "bus_read_by": self.pacing.bus_read_by},
+            else {
+                **self.granted,
+                "gc_collections": self.collections,
+                "bus_read_by": self.pacing.bus_read_by,
+                "cpu_stolen_s": self.stolen,
+            },
             "axes": m.axis_peaks(),
         }

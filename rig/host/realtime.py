@@ -35,7 +35,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["YOUNG", "Grant", "RealtimeRequest", "collect_young", "receive_threads", "request"]
+__all__ = ["YOUNG", "Grant", "RealtimeRequest", "collect_young", "cpu_stolen", "receive_threads", "request"]
 
 log = logging.getLogger(__name__)
 
@@ -229,3 +229,16 @@ def receive_threads(network: Any) -> list[threading.Thread]:
     notifier = getattr(network, "notifier", None)
     readers = getattr(notifier, "_readers", ())
     return [t for t in readers if isinstance(t, threading.Thread) and t.is_alive()]
+
+
+def cpu_stolen(stat: str = "/proc/stat") -> float | None:
+    """[s] of CPU time a hypervisor has taken from this machine's CPUs since boot (steal time,
+    summed over them: time a virtual CPU had work and its host ran something else, when no
+    priority inside the machine helps), from /proc/stat in the kernel's ticks (10 ms steps
+    where USER_HZ is 100); None where the system does not say (not Linux, a kernel before 2.6.11)."""
+    try:
+        with open(stat, encoding="ascii") as f:
+            fields = f.readline().split()
+        return int(fields[8]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None

@@ -16,7 +16,7 @@ import threading
 import pytest
 
 from rig.config import load_config
-from rig.host.realtime import RealtimeRequest, request
+from rig.host.realtime import RealtimeRequest, cpu_stolen, request
 from rig.host.session import run_config
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_position.toml"
@@ -108,6 +108,8 @@ def test_a_realtime_run_records_its_grant(tmp_path: pathlib.Path) -> None:
     granted = summary["realtime"]
     assert set(granted) >= {"policy", "priority", "cpu", "memory_locked", "refused", "gc_collections"}
     assert granted["bus_read_by"] is None  # the emulated world in this process: no bus of the host's
+    if os.path.exists("/proc/stat"):  # Linux says how much CPU time a hypervisor took
+        assert granted["cpu_stolen_s"] is not None and granted["cpu_stolen_s"] >= 0.0
     if os.geteuid() == 0:
         assert granted["policy"] == "SCHED_FIFO" and granted["priority"] == 50 and granted["memory_locked"]
     on_disk = json.loads((pathlib.Path(summary["run_dir"]) / "summary.json").read_text())
@@ -178,3 +180,14 @@ def test_the_emulators_frames_thread_calls_its_idle_hook_after_serving() -> None
         node.shutdown()
     assert heard == [0x080]
     assert calls and calls[-1] == 1  # called after the frame was served
+
+
+def test_cpu_stolen_reads_the_steal_column(tmp_path: pathlib.Path) -> None:
+    """``cpu_stolen``: the eighth number of /proc/stat's ``cpu`` line, in the kernel's ticks, as
+    seconds; None where there is no such file or field."""
+    stat = tmp_path / "stat"
+    stat.write_text("cpu  4781734 964 477641 1669202 24899 0 60670 6684 0 0\ncpu0 1 2 3 4 5 6 7 8 9 10\n")
+    assert cpu_stolen(str(stat)) == pytest.approx(6684 / os.sysconf("SC_CLK_TCK"))
+    stat.write_text("cpu  1 2 3 4 5 6 7\n")  # a kernel without the steal field
+    assert cpu_stolen(str(stat)) is None
+    assert cpu_stolen(str(tmp_path / "none")) is None
