@@ -17,8 +17,12 @@ once the run is under way, after ``check``.
 - ``check(window)``: before anything is enabled: wait until ``window`` [s] have passed since the
   watch began (at the bus's opening) and raise ``OtherMaster`` naming what was heard (COB-ID and
   rate) and ``[bus] sync = "external"`` as the way to share a SYNC producer.
-- ``intruder(node_id)``: while running: an RPDO to that node, or an NMT command to it, that the
-  host did not send, in words (None: none); the axis's supervision makes it a safe stop.
+- ``watch_sync()``: once the run's pacing is the host's own SYNC, sent through the network (so
+  never heard back but as an adapter's echo): a SYNC heard from then on is a second producer's,
+  which paces every node of the bus (CiA 301 7.2.5: one SYNC producer per network).
+- ``intruder(node_id)``: while running: an RPDO to that node, an NMT command to it, or (after
+  ``watch_sync``) a SYNC, that the host did not send, in words (None: none); the axis's
+  supervision makes it a safe stop.
 """
 
 from __future__ import annotations
@@ -71,8 +75,10 @@ class MasterWatch:
         self.heard: dict[int, list[Any]] = {}
         self._rpdo_node: dict[int, int] = {}
         self._cobs: list[int] = []
-        #: an RPDO or an NMT command to the host's nodes was heard (the per-cycle test is this flag)
+        #: an RPDO or an NMT command to the host's nodes (or a SYNC, after ``watch_sync``) was heard
+        #: (the per-cycle test is this flag)
         self.alarm = False
+        self.sync_watched = False  #: the run's SYNC is the host's: another one is a second producer
         #: the bus gives the host its own frames back (learned from its SDO requests' echoes)
         self.echoes = False
         self.echoes_seen = 0  #: the host's own frames heard back and set aside
@@ -124,7 +130,7 @@ class MasterWatch:
             return  # the host's own frame, given back by its adapter
         if can_id == cia.COB_NMT and (len(data) < 2 or data[1] not in self.nodes | {0}):
             return  # an NMT command to other nodes: not this host's business
-        if can_id != cia.COB_SYNC:
+        if can_id != cia.COB_SYNC or self.sync_watched:
             self.alarm = True
         with self._lock:
             seen = self.heard.get(can_id)
@@ -185,8 +191,14 @@ class MasterWatch:
             f"{window:.3g} s of listening; nothing was enabled: {advice}"
         )
 
+    def watch_sync(self) -> None:
+        """From now on the host produces the SYNC through the network: one heard is another's."""
+        self.sync_watched = True
+        self._listen(cia.COB_SYNC)
+
     def intruder(self, node_id: int) -> str | None:
-        """While running: an RPDO to ``node_id`` or an NMT command to it that the host did not send."""
+        """While running: an RPDO to ``node_id``, an NMT command to it, or (``watch_sync``) a SYNC
+        that the host did not send."""
         heard = self.heard
         if not heard:
             return None
@@ -196,6 +208,7 @@ class MasterWatch:
                 for cob, seen in heard.items()
                 if self._rpdo_node.get(cob) == node_id
                 or (cob == cia.COB_NMT and seen[3][1:2] in (b"\x00", bytes([node_id])))
+                or (cob == cia.COB_SYNC and self.sync_watched)
             )
         if not mine:
             return None

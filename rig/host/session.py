@@ -295,6 +295,8 @@ class Session:
                 axis.enable(timeout=self._wait(a.enable_timeout))
             # after setup: it waits for the TPDOs the axes map; after enable: no SYNC during setup
             self.pacing = self._pacing(self.period)
+            if watch is not None and self.pacing.sends_sync:  # a SYNC heard now is a second producer's
+                watch.watch_sync()
             self._bus_load()
         except BaseException as exc:
             if probe is not None:

@@ -1,5 +1,6 @@
 """A second master on the bus is found before anything is enabled, and, while running, an RPDO to one
-of the host's nodes that it did not send is a safe stop named as such.
+of the host's nodes that it did not send, or a SYNC while the host produces it, is a safe stop
+named as such.
 
 In this process: the independent fake device (``tests/drivers/fake_device.py``) on python-can's
 virtual bus, which delivers a frame to every bus on the channel but its sender's, as SocketCAN and
@@ -83,14 +84,23 @@ def test_an_external_sync_is_shared(drive: ForeignDrive, tmp_path: pathlib.Path)
         assert drive.fake.state == "OPERATION ENABLED"
 
 
-def test_a_foreign_rpdo_while_running_is_a_safe_stop(drive: ForeignDrive, tmp_path: pathlib.Path) -> None:
+@pytest.mark.parametrize(
+    ("cob", "data", "said"),
+    [
+        (0x201, bytes(6), r"RPDO to node 1 0x201 \(1 frame\)"),
+        (0x080, b"", r"SYNC 0x080 \(1 frame\)"),  # a second SYNC producer, while the host's SYNC runs
+    ],
+)
+def test_a_foreign_rpdo_or_sync_while_running_is_a_safe_stop(
+    drive: ForeignDrive, tmp_path: pathlib.Path, cob: int, data: bytes, said: str
+) -> None:
     with Session(load_config(_config(tmp_path, drive)), emulate=False, cycles=200) as session:
         session.start()
-        drive.fake.inject[drive.fake.syncs + 50] = (0x201, bytes(6))  # before that SYNC's TPDOs
+        drive.fake.inject[drive.fake.syncs + 50] = (cob, data)  # before that SYNC's TPDOs
         summary = session.run()
     assert 45 <= summary["cycles"] <= 55, summary["cycles"]
     reason = summary["safe_stop_reason"]
-    assert re.search(r"node 1: another master on the bus: RPDO to node 1 0x201 \(1 frame\)", reason), reason
+    assert re.search(rf"node 1: another master on the bus: {said}, which this host did not send", reason)
     assert summary["stop_confirmed"] is True and drive.fake.state == "SWITCH ON DISABLED"
 
 
