@@ -204,3 +204,45 @@ def test_the_host_s_own_frames_echoed_by_its_adapter_are_not_another_master(driv
         OtherMaster, match=r"node 1: another master on the bus: RPDO to node 1 0x201 \(1 frame\)"
     ):
         axis.supervise(0.0)
+
+
+@pytest.mark.timing
+def test_a_second_sync_producer_stops_a_run_across_processes(tmp_path: pathlib.Path) -> None:
+    """``rig emulate`` (the EPOS4 twin) behind socketcand; ``rig run`` drives it in real time with
+    its own SYNC; another client of the same bus sends one SYNC: the run ends in a safe stop
+    naming it, confirmed (the drive disabled at rest), exit 3."""
+    from drivers.socketcand_client import SocketcandBus
+    from plant_emulator.device_profile import load_profile, zoo
+    from rig.emulator.spawn import spawn_emulator, stop_rig
+    from rig.faults.wire import CONFIG, PERIOD
+    from rig.faults.wire_probe import wait_for
+
+    eds = load_profile(zoo()["epos4"]).eds
+    emulator, port = spawn_emulator("--device", "epos4")
+    host: subprocess.Popen[str] | None = None
+    try:
+        text = CONFIG.format(duration=20.0, period=PERIOD, out=tmp_path / "a", port=port, eds=eds, speed=20.0)
+        (tmp_path / "a.toml").write_text(text.replace("speed = 250.0\n", "speed = 250.0\nwatchdog = 1.0\n"))
+        host = subprocess.Popen(
+            [sys.executable, "-m", "rig.cli", "run", "--config", str(tmp_path / "a.toml"), "--json"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        wait_for(lambda: any((tmp_path / "a").glob("*/samples.csv")), 30.0, "the host's run")
+        wait_for(lambda: next((tmp_path / "a").glob("*/samples.csv")).stat().st_size > 4096, 30.0, "running")
+        other = SocketcandBus("can0", "127.0.0.1", port, timeout=3.0)
+        try:
+            other.send(can.Message(arbitration_id=0x080, data=b"", is_extended_id=False))
+            out, err = host.communicate(timeout=60)
+        finally:
+            other.shutdown()
+        assert host.returncode == 3, err[-2000:]
+        summary = json.loads(out)
+        reason = summary["safe_stop_reason"]
+        assert re.search(r"node 1: another master on the bus: SYNC 0x080 \(1 frame\), which this host", reason)
+        assert summary["stop_confirmed"] is True, summary["still_turning"]
+    finally:
+        if host is not None and host.poll() is None:
+            stop_rig(host, timeout=20)
+        stop_rig(emulator, timeout=20)
