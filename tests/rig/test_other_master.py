@@ -240,7 +240,7 @@ def test_a_second_sync_producer_stops_a_run_across_processes(tmp_path: pathlib.P
         assert host.returncode == 3, err[-2000:]
         summary = json.loads(out)
         reason = summary["safe_stop_reason"]
-        assert re.search(r"node 1: another master on the bus: SYNC 0x080 \(1 frame\), which this host", reason)
+        assert re.search(r"node 1: another master on the bus: SYNC 0x080 \(1 frame\), which this", reason)
         assert summary["stop_confirmed"] is True, summary["still_turning"]
     finally:
         if host is not None and host.poll() is None:
