@@ -2,19 +2,22 @@
 
 ``runs`` runs of ``seconds`` each of ``examples/dc_servo_position_rt.toml`` (the VII.B servo
 with a lean process image) in real time at ``period`` (the example's limits and watchdog;
-``[run] time = "realtime"``), each against a
-fresh ``rig emulate`` of the example's ``[emulator]`` (the dc-servo preset, its load given an
-end so the disabled shaft is not pulled to over-speed between runs) at the same period in
-another process over socketcand (127.0.0.1), while ``load`` busy processes (a pure-Python
-loop each, normal priority) load the machine. Any safe stop is a false one: nothing is
-injected. Figures, over the runs: the false stops (and why), the cycles, overruns and late
-cycles as a share of the cycles (the median and the worst run), the p99 of the period error
-and of the response (the host's SYNC to its RPDOs; the issue's bound is half the period), the
-medians and worst; the CPU time a hypervisor took from the machine during each run's cycles
-(steal time, ``rig.host.realtime.cpu_stolen``: on a virtual machine, stalls no priority inside
-it can prevent; the median and worst run); the load average before and after; the scheduling
-the host and the emulator were granted (``rig.host.realtime``). A run whose bus did not open (the socketcand
-handshake failed) is tried again and named under ``bus_not_opened``.
+``[run] time = "realtime"``), each against a fresh ``rig emulate`` of the example's
+``[emulator]`` (the dc-servo preset, its load given an end so the disabled shaft is not pulled
+to over-speed between runs) at the same period in another process over socketcand
+(127.0.0.1), while ``load`` busy processes (a pure-Python loop each, normal priority) load the
+machine. Any safe stop is a false one: nothing is injected. Figures, over the runs: the false
+stops (and why), the cycles, overruns and late cycles as a share of the cycles (the median and
+the worst run), the p99 of the period error and of the response (the host's SYNC to its RPDOs;
+the issue's bound is half the period), the medians and worst; the CPU time a hypervisor took
+from the machine during each run's cycles (steal time, ``rig.host.realtime.cpu_stolen``: on a
+virtual machine, stalls no priority inside it can prevent; the median and worst run); the load
+average before and after; the scheduling the host and the emulator were granted
+(``rig.host.realtime``); and the machine's own floor, measured first under the same load for
+one run's length (``rig.bench.floor``: a loop that only sleeps to the same deadlines under the
+host's scheduling, as cyclictest does: the periods it missed, its lateness p99 and max). A run
+whose bus did not open (the socketcand handshake failed) is tried again and named under
+``bus_not_opened``.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.errors import CommunicationError
+from rig.bench.floor import sleep_floor
 from rig.bench.micro import Figure
 from rig.config import BusConfig, load_config
 from rig.emulator.spawn import spawn_emulator_line, stop_rig
@@ -103,6 +107,7 @@ def bench_stops(
     summaries, granted, unopened = [], "", []
     before = _loadavg()
     with busy(load), tempfile.TemporaryDirectory() as out:
+        floor = sleep_floor(period, seconds)  # the machine's own, under the same load
         for n in range(runs):
             for _ in range(3):  # a run whose bus did not open is no stop: said, and tried again
                 try:
@@ -120,7 +125,7 @@ def bench_stops(
         after = _loadavg()
     figures = _figures(
         summaries, period=period, seconds=seconds, load=load, loadavg=(before, after), emulator=granted
-    )
+    ) + _floor_figures(floor)
     return figures + [{"name": "bus_not_opened", "value": reason, "unit": ""} for reason in unopened]
 
 
@@ -182,4 +187,25 @@ def _figures(
             else []
         ),
         {"name": "response_bound", "value": period / 2 * 1e6, "unit": "us (half the period)"},
+    ]
+
+
+def _floor_figures(floor: dict[str, Any]) -> list[Figure]:
+    """The machine's floor (``rig.bench.floor``) as figures beside the runs'."""
+    late = floor["lateness_us"]
+    stolen = floor["cpu_stolen_s"]
+    return [
+        {"name": "floor_scheduling", "value": floor["granted"], "unit": ""},
+        {
+            "name": "floor_missed",
+            "value": round(100.0 * floor["missed"] / floor["periods"], 3),
+            "unit": "% of periods",
+        },
+        {"name": "floor_lateness_p99", "value": round(late["p99"], 1), "unit": "us"},
+        {"name": "floor_lateness_max", "value": round(late["max"], 1), "unit": "us"},
+        *(
+            [{"name": "floor_cpu_stolen", "value": round(1e3 * stolen), "unit": "ms"}]
+            if stolen is not None
+            else []
+        ),
     ]

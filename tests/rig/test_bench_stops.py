@@ -3,9 +3,13 @@ benchmark's, not a test's): the shares, the spreads, and the CPU time a hypervis
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
-from rig.bench.stops import _figures
+import pytest
+
+from rig.bench.floor import sleep_floor
+from rig.bench.stops import _figures, _floor_figures
 
 
 def summary(overruns: int, stolen: float | None, stop: str | None = None) -> dict[str, Any]:
@@ -36,3 +40,25 @@ def test_the_stolen_cpu_time_is_given_per_run_in_ms() -> None:
 def test_no_stolen_figure_where_a_run_could_not_say() -> None:
     got = figures([summary(1, 0.01), summary(1, None, stop="late")])
     assert "cpu_stolen_median" not in got and got["false_stops"] == 1
+
+
+def test_the_floor_counts_every_period_and_gives_its_scheduling_back() -> None:
+    """``sleep_floor`` (the machine's floor beside the runs): every period woken or missed, the
+    lateness ordered, the scheduling as before after it (what it measures is the machine's, so
+    no figure is checked)."""
+    before = (os.sched_getscheduler(0), os.sched_getaffinity(0))
+    floor = sleep_floor(0.001, 0.05)
+    assert (os.sched_getscheduler(0), os.sched_getaffinity(0)) == before
+    assert floor["periods"] == 50 and 0 <= floor["missed"] < 50
+    late = floor["lateness_us"]
+    assert 0.0 <= late["median"] <= late["p99"] <= late["max"]
+    assert floor["granted"]
+    figures = {f["name"]: f["value"] for f in _floor_figures(floor)}
+    assert figures["floor_missed"] == round(100.0 * floor["missed"] / 50, 3)
+
+
+def test_the_floor_refuses_a_period_it_cannot_run() -> None:
+    with pytest.raises(ValueError, match=r"period 0\.0 s"):
+        sleep_floor(0.0, 1.0)
+    with pytest.raises(ValueError, match=r"seconds 0\.0001 s"):
+        sleep_floor(0.001, 0.0001)

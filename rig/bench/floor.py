@@ -1,0 +1,67 @@
+"""The machine's own floor for a real-time period: what a loop that does nothing but sleep to its
+deadlines gets, under the host loop's scheduling, in this process.
+
+cyclictest's measure (rt-tests), in Python: with the host loop's real-time request (SCHED_FIFO,
+pinned, memory locked, ``rig.host.realtime``) and the collector disabled, sleep to absolute
+deadlines ``period`` apart on ``time.perf_counter`` for ``seconds``, and record how late each
+wake-up was. A wake-up a whole period late or more misses that many periods, counted as the host
+loop counts its overruns (``rig.host.loop``). Run beside ``rig bench stops``'s runs, under the
+same load, it says how much of their period error and overruns the machine itself gives (its
+timer wake-ups, other work, a hypervisor's steal) rather than the toolkit's loop.
+"""
+
+from __future__ import annotations
+
+import gc
+import time
+from typing import Any
+
+from rig.host.realtime import RealtimeRequest, cpu_stolen, request
+
+__all__ = ["sleep_floor"]
+
+
+def sleep_floor(period: float, seconds: float, ask: RealtimeRequest | None = None) -> dict[str, Any]:
+    """Sleep to deadlines ``period`` [s] apart for ``seconds`` [s] under ``ask`` (the host loop's
+    default request); ``periods``, ``missed`` (periods), ``lateness_us`` (median, p99, max of the
+    wake-ups' lateness), ``cpu_stolen_s`` (None where unknown) and ``granted`` (one line)."""
+    if not period > 0.0 or not seconds >= period:
+        raise ValueError(f"period {period} s, seconds {seconds} s: need 0 < period <= seconds")
+    n = int(seconds / period)
+    late = [0.0] * n
+    grant = request(ask or RealtimeRequest())
+    enabled = gc.isenabled()
+    gc.collect()
+    gc.disable()
+    try:
+        stolen = cpu_stolen()
+        k = woken = missed = 0
+        deadline = time.perf_counter() + period
+        while k < n:
+            left = deadline - time.perf_counter()
+            if left > 0.0:
+                time.sleep(left)
+            lateness = time.perf_counter() - deadline
+            late[woken] = lateness
+            woken += 1
+            skipped = int(lateness / period)  # a wake-up that many periods late: those are missed
+            missed += min(skipped, n - k - 1)
+            k += skipped + 1
+            deadline += (skipped + 1) * period
+        after = cpu_stolen()
+    finally:
+        if enabled:
+            gc.enable()
+        grant.release()
+    xs = sorted(late[:woken])
+    return {
+        "periods": n,
+        "missed": missed,
+        "lateness_us": {
+            "median": xs[len(xs) // 2] * 1e6,
+            "p99": xs[int(0.99 * (len(xs) - 1))] * 1e6,
+            "max": xs[-1] * 1e6,
+        },
+        "cpu_stolen_s": None if stolen is None or after is None else after - stolen,
+        "granted": grant.describe(),
+    }
