@@ -229,11 +229,14 @@ class HostLoop:
         first sample (a TPDO answers a SYNC, after it) and no answer is owed (a drive slow to
         start answers the SYNCs it missed in a burst: cycle 0 does not begin behind it), at most
         max(1 s, the watchdog's time), so cycle 0 reads the drives, not the zeros of TPDOs still
-        to come. The other pacings bring them with cycle 0's own tick (``_begin`` checks)."""
+        to come. Answers still owed at the deadline are not awaited by the cycles (the host
+        cannot know whether the drive will still send them; logged). The other pacings bring
+        them with cycle 0's own tick (``_begin`` checks)."""
         if not self.realtime or self.pacing.paced_by_bus:
             return
         watchdog = max((g.watchdog_periods for g in self.guards), default=0) * self.period
-        deadline = time.perf_counter() + max(1.0, watchdog)
+        wait = max(1.0, watchdog)
+        deadline = time.perf_counter() + wait
         n = 0
         pacing = self.pacing
         while (
@@ -244,6 +247,8 @@ class HostLoop:
             self.pacing.tick()
             time.sleep(self.period)
             n += 1
+        if pacing.owes():
+            pacing.forget_owed(f"still owed {wait:g} s after the first of {n} SYNCs before cycle 0")
 
     def _begin(self, samples: list[Feedback]) -> None:
         """Cycle 0: every axis has sent a sample (else CommunicationError naming the silent ones,

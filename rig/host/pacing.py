@@ -28,6 +28,7 @@ the clock the frames' timestamps are on (heartbeat ages are measured on it).
 from __future__ import annotations
 
 import contextlib
+import logging
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -36,6 +37,8 @@ from typing import Any
 from drivers.canopen_axis import CanopenAxis
 
 __all__ = ["ExternalSync", "FreeRun", "HostSync", "InProcessLockstep", "KernelSync", "Pacing", "WireLockstep"]
+
+log = logging.getLogger(__name__)
 
 
 class Pacing:
@@ -66,6 +69,9 @@ class Pacing:
     def owes(self) -> bool:
         """Answers to SYNCs already sent are still to come (``HostSync``)."""
         return False
+
+    def forget_owed(self, why: str) -> None:
+        """No answer is owed any more (``HostSync``); ``why``: the reason, for the log."""
 
 
 class FreeRun(Pacing):
@@ -106,11 +112,14 @@ class _Answers:
     ``owed`` (the host's SYNC): a TPDO carries no SYNC number, but a node answers the SYNCs
     in order, so an answer that missed its cycle (still awaited when the next SYNC is armed)
     is owed: the next frame on that COB-ID is taken for it, the one after for the new SYNC.
-    At most one answer is carried over: after a longer stall the first frames of the burst
-    count for the current SYNC (one cycle reads a sample up to a few periods old, and the
-    stall itself shows as late cycles). A frame the node never sends (lost) is taken for
-    late ever after and ends in the late-cycle stop, named as such; CAN does not lose
-    frames it acknowledged, nor TCP.
+    Every answer owed is carried over: after a stall of n periods, a cycle is on time only
+    once the whole burst of n answers has come, so it acts on the answer to its own SYNC; a
+    cycle with part of the burst is late. (Carrying one at most, as a first version did, the
+    cycles after a stall of two periods or more acted on samples that many periods old and
+    were not counted late.) A frame the node never sends (lost) is taken for late ever after
+    and ends in the late-cycle stop, named as such; CAN does not lose frames it acknowledged,
+    nor TCP. Where the host cannot know whether the node will still answer (the prime's
+    SYNCs, unanswered at its end), ``forget`` clears the debt.
     """
 
     def __init__(self, network: Any, cob_ids: Sequence[int], *, owed: bool = False) -> None:
@@ -126,7 +135,7 @@ class _Answers:
     def arm(self) -> None:
         with self._done:
             if self.carry:
-                self._pending = {cob: min(self._pending.get(cob, 0), 1) + 1 for cob in self.cob_ids}
+                self._pending = {cob: self._pending.get(cob, 0) + 1 for cob in self.cob_ids}
             else:
                 self._pending = dict.fromkeys(self.cob_ids, 1)
             self._waiting = len(self._pending)
@@ -148,6 +157,14 @@ class _Answers:
     def owed(self) -> bool:
         """Frames are awaited (since the last ``arm``, or owed from before it)."""
         return any(self._pending.values())
+
+    def forget(self) -> dict[int, int]:
+        """No frame is awaited any more; returns what was (COB-ID -> frames)."""
+        with self._done:
+            owed = {cob: n for cob, n in self._pending.items() if n}
+            self._pending = {}
+            self._waiting = 0
+            return owed
 
     def wait(self, timeout: float) -> bool:
         with self._done:
@@ -250,6 +267,15 @@ class HostSync(Pacing):
         if self._reader is not None:
             self._reader.arrived()
         return self.answers.owed()
+
+    def forget_owed(self, why: str) -> None:
+        """The answers still owed are not awaited any more (logged with ``why``): where the host
+        cannot know whether the node will still send them. Should they come, the first cycles
+        take them for their own SYNCs' (acting on older samples, not counted late)."""
+        owed = self.answers.forget()
+        if owed:
+            frames = ", ".join(f"{n} on 0x{cob:03X}" for cob, n in sorted(owed.items()))
+            log.warning("answers to the host's SYNCs not awaited any more (%s): %s", why, frames)
 
     @contextlib.contextmanager
     def owning(self) -> Iterator[None]:

@@ -112,15 +112,17 @@ def test_while_claimed_the_notifier_reads_nothing_and_after_release_it_reads_aga
     assert seen[1][1] == 2 and seen[1][0] != me  # the notifier's thread again
 
 
-def test_an_answer_that_came_between_two_ticks_is_not_the_next_syncs(
+def test_an_answer_that_came_between_two_ticks_is_handed_on_before_the_next_sync(
     link: tuple[canopen.Network, socket.socket],
 ) -> None:
-    """A node stalls over two SYNCs, answers two of the three it owes at the third, and the third
-    answer between that tick and the next. With the loop reading the bus itself, the next tick
-    hands that answer on before it arms (as a receive thread would have, as it came), so it
-    returns with the answer to its own SYNC. Taken for it instead (a first version), every later
-    cycle acted on a sample one period old, and none was counted late. (No sleep decides: the
-    order is the node's and the test's; a tick's budget is long where an answer is due.)"""
+    """A node stalls over two SYNCs, answers two of the three it owes at the third (that cycle is
+    late: it holds a sample two periods old), and the third answer between that tick and the
+    next. With the loop reading the bus itself, the next tick hands that answer on before it
+    sends its SYNC, as a receive thread would have as it came (a first version left it for the
+    next tick's wait, where, while one owed answer at most was carried, it was taken for that
+    SYNC's: every later cycle acted on a sample one period old, none counted late); it returns
+    with the answer to its own SYNC. (No sleep decides: the order is the node's and the test's;
+    a tick's budget is long where an answer is due.)"""
     import select
     import types
 
@@ -169,18 +171,19 @@ def test_an_answer_that_came_between_two_ticks_is_not_the_next_syncs(
     try:
         with pacing.owning():
             assert pacing.bus_read_by == "loop thread"
-            for budget in (0.05, 0.05, 10.0):
+            for budget in (0.05, 0.05, 0.05):
                 pacing.budget = budget
                 pacing.tick()
                 lates.append(pacing.late)
             third.set()  # the node sends the third answer now: between the ticks
             assert select.select([network.bus._socket], [], [], 10.0)[0]  # it has come
+            pacing.budget = 10.0
             pacing.tick()
             lates.append(pacing.late)
             last = seen[-1]
     finally:
         pacing.close()
-    assert lates == [True, True, False, False]
+    assert lates == [True, True, True, False]
     assert at_sync[3] == [1, 2, 3]  # the third answer handed on before the fourth SYNC
     assert last == 4  # the fourth tick returned with its own SYNC's answer in
 
