@@ -22,9 +22,9 @@ Set-up takes the drive as it is (``setup``):
 No manufacturer object (0x2000-0x5FFF) is written, by SDO or in an RPDO, and no manufacturer
 mode (negative, 0x6502 bits 16-31) is used, but on the toolkit's own drive, identified by its
 0x1018 (vendor 0xDB1, product 0x402; ``drivers.cia402_access``). Set-up writes only entries the
-EDS declares writable and reads the others. Every cycle ``supervise`` checks
-the statusword and, where mapped, 0x6061: a drive that leaves OPERATION ENABLED or changes
-mode stops the run, named.
+EDS declares writable and reads the others. The cycle is ``drivers.cia402_cycle``'s: every
+cycle ``supervise`` checks the statusword and, where mapped, 0x6061: a drive that leaves
+OPERATION ENABLED or changes mode stops the run, named.
 """
 
 from __future__ import annotations
@@ -38,22 +38,19 @@ from typing import Any
 import canopen
 
 from drivers.base import AxisState, Feedback
-from drivers.canopen_axis import CanopenAxis, TpdoSlot, sample_interval
+from drivers.cia402_cycle import Cia402Cycle, power_state
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
 from drivers.cia402_process import ProcessData
-from drivers.cia402_setup import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY, Cia402Setup
+from drivers.cia402_setup import SW, VELOCITY, Cia402Setup
 from drivers.cia402_units import DriveUnits
 from drivers.errors import (
-    CommunicationError,
     CommunicationTimeout,
     ConfigError,
     DeviceFault,
     RigError,
-    SafetyStop,
-    brief,
 )
 from drivers.maps import CIA402_EDS, cia
-from drivers.maps.cia import Controlword, Mode, PowerState
+from drivers.maps.cia import Controlword, PowerState
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_code
 
@@ -74,45 +71,9 @@ _AXIS_STATE = {
     PowerState.FAULT_REACTION_ACTIVE: AxisState.STOPPING,
     PowerState.FAULT: AxisState.FAULT,
 }
-_ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
-_ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
 
 
-def _object(key: tuple[int, int]) -> str:
-    return f"0x{key[0]:04X}" + (f":{key[1]:02X}" if key[1] else "")
-
-
-class _CyclePlan:
-    """What the cycle reads from the TPDOs of ``data`` and how it packs the RPDO, found once per
-    mapping (``data``) and ``measures``: the feedback's values (velocity where chosen; torque,
-    current: measured), the places of the statusword and of 0x6061 (None: not in a TPDO), the
-    RPDO of (controlword, target)."""
-
-    def __init__(
-        self, data: ProcessData | None, measures: frozenset[str], op_mode: Mode | None, velocity: bool = True
-    ) -> None:
-        self.data, self.measures = data, measures
-        self.velocity = velocity  #: 0x606C is read (else the position's backward difference)
-        self.torque, self.current = "torque" in measures, "current" in measures
-        self.feedback: Callable[[], tuple[Any, ...]] = tuple
-        self.status: tuple[TpdoSlot, int] | None = None
-        self.mode: tuple[TpdoSlot, int] | None = None
-        self.rpdo: Callable[..., bytes] | None = None
-        if data is None:
-            return
-        keys = [POSITION] + [VELOCITY] * velocity + [TORQUE] * self.torque + [CURRENT] * self.current
-        self.feedback = data.reader(keys)
-        self.status, self.mode = data.where(SW), data.where(MODE_SHOWN)
-        if data.rpdo is not None and op_mode in cia.TARGET_OF_MODE:
-            self.rpdo = data.packer((CW, cia.TARGET_OF_MODE[op_mode]))
-
-
-def power_state(statusword: int) -> PowerState:
-    """The state a statusword reports; DeviceFault-free: an undecodable word is NOT READY."""
-    return cia.decode_statusword(statusword) or PowerState.NOT_READY_TO_SWITCH_ON
-
-
-class Cia402Axis(Cia402Setup, CanopenAxis):
+class Cia402Axis(Cia402Setup, Cia402Cycle):
     """A CiA 402 drive at ``node_id`` in ``mode`` (``drivers.base.AXIS_MODES``); SI in and out.
 
     ``units``: factors the device may lack (``counts_per_rev``, ``position_unit``,
@@ -124,9 +85,6 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
     the velocity is the position's backward difference over the time between the two samples
     (``sample_interval``), 0 at the first.
     """
-
-    #: the cycle's reading and packing for the mapping in force, made on first use (per axis)
-    _plan = _CyclePlan(None, frozenset(), None)
 
     def __init__(
         self,
@@ -359,108 +317,3 @@ class Cia402Axis(Cia402Setup, CanopenAxis):
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
         self._unwatch_host()
         self._unwatch_commands()
-
-    # --- the cycle -------------------------------------------------------------------------------
-    def feedback(self) -> Feedback:
-        """The last TPDOs in SI (the frame angle unwrapped in mode -2)."""
-        data, u = self.data, self.units
-        assert data is not None
-        if self.op_mode == Mode.DQ_VOLTAGE:
-            return self._dq_feedback(data)
-        stamp = self._motion.timestamp if self._motion is not None else time.monotonic()
-        plan = self._plan
-        if plan.data is not data or plan.measures is not self.measures:
-            plan = self._plan = self._new_plan(data)
-        values = plan.feedback()
-        position = values[0] / u.position
-        v = plan.velocity
-        return Feedback(
-            position,
-            values[1] / u.velocity if v else self._difference(position, stamp),
-            values[1 + v] / 1000.0 * u.rated_torque if plan.torque else math.nan,
-            values[1 + v + plan.torque] / 1000.0 * u.rated_current if plan.current else math.nan,
-            stamp,
-        )
-
-    def _new_plan(self, data: ProcessData) -> _CyclePlan:
-        return _CyclePlan(data, self.measures, self.op_mode, velocity="velocity" in self.maps)
-
-    def _difference(self, position: float, stamp: float | None) -> float:
-        """[rad/s] the backward difference of ``position`` (the sample stamped ``stamp``) from the
-        sample before; the same again for the same sample; 0 at the first."""
-        last, before, speed = self._moved
-        if stamp is not None and stamp == last:
-            return speed
-        if last is not None and stamp is not None:
-            dt = sample_interval(last, stamp, self.period)
-            speed = (position - before) / dt if dt > 0.0 else speed
-        self._moved = (stamp, position, speed)
-        return speed
-
-    def cycle_frames(self) -> list[tuple[str, int]]:
-        """The TPDOs and the RPDO in force, each named with the objects it maps (see the base)."""
-        data = self.data
-        if data is None:
-            return super().cycle_frames()
-        pdos = [*data.tpdos, *([data.rpdo] if data.rpdo is not None else [])]
-        return [
-            (f"{p.name} 0x{p.cob_id:03X} ({' '.join(_object(e.key) for e in p.entries)})", (p.bits + 7) // 8)
-            for p in pdos
-        ]
-
-    def _dq_feedback(self, data: ProcessData) -> Feedback:
-        i_dq = complex(data.value((cia.DQ_CURRENT, 1)), data.value((cia.DQ_CURRENT, 2))) / 1000.0
-        angle = data.value((cia.FRAME_ANGLE, 0)) * 1e-6
-        if self._angle is not None:  # unwrap: a position like any other
-            self._turns += round((self._angle - angle) / (2.0 * math.pi))
-        self._angle = angle
-        slot = data.slot_of((cia.DQ_CURRENT, 1))
-        stamp = slot.timestamp if slot else None
-        speed = data.value((cia.FRAME_SPEED, 0)) * 1e-3
-        return Feedback(angle + 2.0 * math.pi * self._turns, speed, math.nan, abs(i_dq), stamp, i_dq)
-
-    def supervise(self, now: float) -> None:
-        """EMCY, NMT and heartbeat (``CanopenAxis``), the statusword and, where mapped, 0x6061."""
-        super().supervise(now)
-        data = self.data
-        assert data is not None
-        plan = self._plan
-        if plan.data is not data or plan.measures is not self.measures:
-            plan = self._plan = self._new_plan(data)
-        if plan.status is None:
-            return
-        slot, place = plan.status
-        if slot.timestamp is None or slot.timestamp == self._enabled_stamp:
-            return
-        word = slot.values()[place]
-        if word & _ENABLED_MASK != _ENABLED_BITS:
-            raise SafetyStop(
-                f"node {self.node_id}: the drive left OPERATION ENABLED: {power_state(word).value}"
-            )
-        if plan.mode is not None and plan.mode[0].timestamp is not None:  # not zeros before its first TPDO
-            shown = plan.mode[0].values()[plan.mode[1]]
-            if shown != self.op_mode:
-                raise SafetyStop(f"node {self.node_id}: the drive changed its mode to {shown} (0x6061)")
-
-    def command(self, value: float | complex) -> None:
-        """Send the SI command of the mode in the RPDO (applied per its transmission type)."""
-        data = self.data
-        assert data is not None and data.rpdo is not None
-        if self.op_mode == Mode.DQ_VOLTAGE:
-            u = complex(value)
-            frame = data.frame({DQ_RX[0]: round(u.real * 1000.0), DQ_RX[1]: round(u.imag * 1000.0)})
-        else:
-            plan = self._plan
-            if plan.data is not data or plan.measures is not self.measures:
-                plan = self._plan = self._new_plan(data)
-            raw = self.units.command_raw(self.op_mode, float(value))  # type: ignore[arg-type]
-            if plan.rpdo is not None:
-                frame = plan.rpdo(_ENABLE_OPERATION, raw)
-            else:
-                frame = data.frame({CW: _ENABLE_OPERATION, cia.TARGET_OF_MODE[self.op_mode]: raw})
-        try:
-            self.network.send_message(data.rpdo.cob_id, frame)
-        except RigError:
-            raise
-        except Exception as exc:  # python-can errors, a closed socket
-            raise CommunicationError(f"node {self.node_id}: {data.rpdo.name} not sent: {brief(exc)}") from exc
