@@ -9,6 +9,7 @@ socketcand do; the other master is a third bus on the channel. Across processes 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import pathlib
 import re
@@ -119,11 +120,11 @@ def test_rig_drive_checks_before_it_enables(drive: ForeignDrive) -> None:
     assert drive.fake.nmt_log == []
 
 
-@pytest.mark.timing
-def test_a_second_host_is_refused_across_processes(tmp_path: pathlib.Path) -> None:
-    """``rig emulate`` (the EPOS4 twin) behind socketcand; host A runs it in real time; host B, a
-    second ``rig run`` on the same node, hears A's SYNC and RPDOs and is refused before it sends a
-    frame; A's run goes on undisturbed to its end."""
+@contextlib.contextmanager
+def running_host(tmp_path: pathlib.Path, duration: float) -> Iterator[tuple[subprocess.Popen[str], int, str]]:
+    """``rig emulate`` (the EPOS4 twin) behind socketcand and host A, a real-time ``rig run`` of
+    ``duration`` [s] on it with ``--json``, once its run is under way: (host A, port, the EDS);
+    both stopped after the block if still running."""
     from plant_emulator.device_profile import load_profile, zoo
     from rig.emulator.spawn import spawn_emulator, stop_rig
     from rig.faults.wire import CONFIG, PERIOD
@@ -131,11 +132,13 @@ def test_a_second_host_is_refused_across_processes(tmp_path: pathlib.Path) -> No
 
     eds = load_profile(zoo()["epos4"]).eds
     emulator, port = spawn_emulator("--device", "epos4")
-    host_a: subprocess.Popen[str] | None = None
+    host: subprocess.Popen[str] | None = None
     try:
-        text = CONFIG.format(duration=8.0, period=PERIOD, out=tmp_path / "a", port=port, eds=eds, speed=20.0)
+        text = CONFIG.format(
+            duration=duration, period=PERIOD, out=tmp_path / "a", port=port, eds=eds, speed=20.0
+        )
         (tmp_path / "a.toml").write_text(text.replace("speed = 250.0\n", "speed = 250.0\nwatchdog = 1.0\n"))
-        host_a = subprocess.Popen(
+        host = subprocess.Popen(
             [sys.executable, "-m", "rig.cli", "run", "--config", str(tmp_path / "a.toml"), "--json"],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
@@ -145,6 +148,22 @@ def test_a_second_host_is_refused_across_processes(tmp_path: pathlib.Path) -> No
         wait_for(
             lambda: next((tmp_path / "a").glob("*/samples.csv")).stat().st_size > 4096, 30.0, "A running"
         )
+        yield host, port, eds
+    finally:
+        if host is not None and host.poll() is None:
+            stop_rig(host, timeout=20)
+        _out, err = stop_rig(emulator, timeout=20)
+    assert emulator.returncode == 0, err
+
+
+@pytest.mark.timing
+def test_a_second_host_is_refused_across_processes(tmp_path: pathlib.Path) -> None:
+    """``rig emulate`` (the EPOS4 twin) behind socketcand; host A runs it in real time; host B, a
+    second ``rig run`` on the same node, hears A's SYNC and RPDOs and is refused before it sends a
+    frame; A's run goes on undisturbed to its end."""
+    from rig.faults.wire import CONFIG, PERIOD
+
+    with running_host(tmp_path, 8.0) as (host_a, port, eds):
         text_b = CONFIG.format(
             duration=2.0, period=PERIOD, out=tmp_path / "b", port=port, eds=eds, speed=20.0
         )
@@ -170,11 +189,6 @@ def test_a_second_host_is_refused_across_processes(tmp_path: pathlib.Path) -> No
         out, err = host_a.communicate(timeout=60)
         summary = json.loads(out)
         assert summary["safe_stop_reason"] is None, (summary["safe_stop_reason"], err[-2000:])
-    finally:
-        if host_a is not None and host_a.poll() is None:
-            stop_rig(host_a, timeout=20)
-        _out, err = stop_rig(emulator, timeout=20)
-    assert emulator.returncode == 0, err
 
 
 def test_the_host_s_own_frames_echoed_by_its_adapter_are_not_another_master(drive: ForeignDrive) -> None:
@@ -212,37 +226,16 @@ def test_a_second_sync_producer_stops_a_run_across_processes(tmp_path: pathlib.P
     its own SYNC; another client of the same bus sends one SYNC: the run ends in a safe stop
     naming it, confirmed (the drive disabled at rest), exit 3."""
     from drivers.socketcand_client import SocketcandBus
-    from plant_emulator.device_profile import load_profile, zoo
-    from rig.emulator.spawn import spawn_emulator, stop_rig
-    from rig.faults.wire import CONFIG, PERIOD
-    from rig.faults.wire_probe import wait_for
 
-    eds = load_profile(zoo()["epos4"]).eds
-    emulator, port = spawn_emulator("--device", "epos4")
-    host: subprocess.Popen[str] | None = None
-    try:
-        text = CONFIG.format(duration=20.0, period=PERIOD, out=tmp_path / "a", port=port, eds=eds, speed=20.0)
-        (tmp_path / "a.toml").write_text(text.replace("speed = 250.0\n", "speed = 250.0\nwatchdog = 1.0\n"))
-        host = subprocess.Popen(
-            [sys.executable, "-m", "rig.cli", "run", "--config", str(tmp_path / "a.toml"), "--json"],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        wait_for(lambda: any((tmp_path / "a").glob("*/samples.csv")), 30.0, "the host's run")
-        wait_for(lambda: next((tmp_path / "a").glob("*/samples.csv")).stat().st_size > 4096, 30.0, "running")
+    with running_host(tmp_path, 20.0) as (host, port, _eds):
         other = SocketcandBus("can0", "127.0.0.1", port, timeout=3.0)
         try:
             other.send(can.Message(arbitration_id=0x080, data=b"", is_extended_id=False))
             out, err = host.communicate(timeout=60)
         finally:
             other.shutdown()
-        assert host.returncode == 3, err[-2000:]
-        summary = json.loads(out)
-        reason = summary["safe_stop_reason"]
-        assert re.search(r"node 1: another master on the bus: SYNC 0x080 \(1 frame\), which this", reason)
-        assert summary["stop_confirmed"] is True, summary["still_turning"]
-    finally:
-        if host is not None and host.poll() is None:
-            stop_rig(host, timeout=20)
-        stop_rig(emulator, timeout=20)
+    assert host.returncode == 3, err[-2000:]
+    summary = json.loads(out)
+    reason = summary["safe_stop_reason"]
+    assert re.search(r"node 1: another master on the bus: SYNC 0x080 \(1 frame\), which this", reason)
+    assert summary["stop_confirmed"] is True, summary["still_turning"]
