@@ -39,7 +39,7 @@ log = logging.getLogger(__name__)
 class TpdoSlot:
     """The last frame of one TPDO and its decoder (little-endian, per the mapping in force)."""
 
-    __slots__ = ("_decoded", "_decoded_of", "cob_id", "codec", "data", "node_id", "timestamp")
+    __slots__ = ("_decoded", "_decoded_of", "cob_id", "codec", "data", "node_id", "timestamp", "ttype")
 
     def __init__(self, node_id: int, cob_id: int, codec: struct.Struct) -> None:
         self.node_id = node_id
@@ -47,6 +47,9 @@ class TpdoSlot:
         self.codec = codec
         self.data: bytes | bytearray = bytes(codec.size)  #: zeros until the first frame (stamp None)
         self.timestamp: float | None = None
+        #: its transmission type (CiA 301, 0x1800 sub 2): 1 answers every SYNC, 2-240 every n-th,
+        #: 0 acyclic, 254/255 event-driven; set where the mapping in force is known
+        self.ttype = 1
         #: the values of the frame ``_decoded_of`` (a frame's data are not changed once received)
         self._decoded: tuple[Any, ...] = ()
         self._decoded_of: bytes | bytearray | None = None
@@ -262,6 +265,8 @@ class CanopenAxis(AxisDriver):
     def receive(self, pdo: Any) -> TpdoSlot:
         """Receive TPDO ``pdo`` (a saved canopen PdoMap) into a slot, instead of canopen's handler."""
         slot = TpdoSlot(self.node_id, pdo.cob_id, pdo_codec(pdo))
+        if pdo.trans_type is not None:
+            slot.ttype = int(pdo.trans_type)
         if pdo.on_message in self.network.subscribers.get(pdo.cob_id, ()):
             self.network.unsubscribe(pdo.cob_id, pdo.on_message)
         self.network.subscribe(pdo.cob_id, slot.on_frame)
@@ -285,8 +290,16 @@ class CanopenAxis(AxisDriver):
         return [(f"TPDO 0x{s.cob_id:03X}", s.codec.size) for s in self._slots]
 
     def tpdo_cob_ids(self) -> Sequence[int]:
-        """The COB-IDs of the TPDOs the axis receives (a pacing waits for them after a SYNC)."""
-        return [s.cob_id for s in self._slots]
+        """The COB-IDs of the TPDOs the axis receives that answer every SYNC (transmission type 1):
+        a pacing waits for them after each SYNC (``tpdos_not_awaited``: the others)."""
+        return [s.cob_id for s in self._slots if s.ttype == 1]
+
+    def tpdos_not_awaited(self) -> list[tuple[int, int]]:
+        """(COB-ID, transmission type) of the TPDOs the axis receives that do not answer every
+        SYNC (CiA 301: 2-240 every n-th, counted from a start the host does not know; 0, 254, 255
+        only on an event): a pacing cannot wait for them without counting as owed an answer the
+        node will not send."""
+        return [(s.cob_id, s.ttype) for s in self._slots if s.ttype != 1]
 
     def _release(self) -> None:
         for slot in self._slots:

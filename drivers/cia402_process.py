@@ -43,6 +43,7 @@ class ProcessData:
         self._where: dict[Key, tuple[TpdoSlot, int]] = {}
         for pdo in tpdos:
             slot = receive(pdo.cob_id, codec(od, pdo))
+            slot.ttype = pdo.ttype
             self.slots.append(slot)
             for pos, e in enumerate(pdo.entries):
                 self._where.setdefault(e.key, (slot, pos))

@@ -35,6 +35,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from drivers.canopen_axis import CanopenAxis
+from drivers.maps.cia import PDO_SYNC_MAX
 
 __all__ = ["ExternalSync", "FreeRun", "HostSync", "InProcessLockstep", "KernelSync", "Pacing", "WireLockstep"]
 
@@ -177,6 +178,20 @@ class _Answers:
 
 
 def _cob_ids(axes: Sequence[CanopenAxis]) -> list[int]:
+    """The COB-IDs awaited after each SYNC: the TPDOs that answer every SYNC. The others are not
+    awaited (logged): a node sends them on every n-th SYNC from a start the host does not know,
+    or on an event, so a cycle cannot know which SYNC they answer."""
+    for a in axes:
+        for cob, ttype in a.tpdos_not_awaited():
+            kind = f"every n-th SYNC, n = {ttype}" if 1 < ttype <= PDO_SYNC_MAX else "acyclic or event-driven"
+            log.warning(
+                "%s: TPDO 0x%03X has transmission type %d (%s): the cycles do not wait for it, and"
+                " its sample may be older than their SYNC (make it 1 to have it awaited)",
+                a.where,
+                cob,
+                ttype,
+                kind,
+            )
     return [cob for a in axes for cob in a.tpdo_cob_ids()]
 
 

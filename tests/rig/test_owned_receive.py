@@ -156,7 +156,7 @@ def test_an_answer_that_came_between_two_ticks_is_handed_on_before_the_next_sync
     threading.Thread(target=node, daemon=True).start()
     seen: list[int] = []
     network.subscribe(0x181, lambda cob, data, ts: seen.append(data[0]))
-    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181])
+    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181], tpdos_not_awaited=list)
     pacing = HostSync(network, [axis], 0.05)  # type: ignore[list-item]
     at_sync: list[list[int]] = []  #: what had been handed on when each SYNC went out
     transmit = network.sync.transmit
@@ -251,7 +251,7 @@ def test_a_listener_that_raises_stops_the_tick_and_loses_no_frame(
     assert network.notifier is not None
     network.notifier.listeners = [tap, *network.notifier.listeners]  # as the trace's (rig.host.trace)
     network.subscribe(0x181, on_frame)
-    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181])
+    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181], tpdos_not_awaited=list)
     pacing = HostSync(network, [axis], 10.0)  # type: ignore[list-item]
     try:
         with pytest.raises(RuntimeError, match="disk is gone"), pacing.owning():
@@ -280,7 +280,7 @@ def test_a_signal_while_claiming_gives_the_reading_back(link: tuple[canopen.Netw
     bus = network.bus
     got = threading.Event()
     network.subscribe(0x181, lambda cob, data, ts: got.set())
-    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181])
+    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: [0x181], tpdos_not_awaited=list)
     pacing = HostSync(network, [axis], 0.05)  # type: ignore[list-item]
 
     def interrupted(timeout: float | None = None) -> bool:

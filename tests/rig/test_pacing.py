@@ -16,7 +16,9 @@ import canopen
 import numpy as np
 import pytest
 
-from plant_emulator.lockstep import SyncHub, SyncNetwork, attach_network
+from drivers.cia402 import Cia402Axis
+from drivers.cia406 import Cia406Axis
+from plant_emulator.lockstep import LockstepBench, SyncHub, SyncNetwork, attach_network
 from rig.config import load_config
 from rig.host.loop import HostLoop
 from rig.host.pacing import HostSync, Pacing
@@ -46,7 +48,7 @@ def bus() -> Iterator[tuple[HostSync, list[dict[int, int]]]]:
                 node.send_message(cob, b"\x00" * 8)
 
     node.subscribe(0x80, on_sync)
-    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: list(COBS))
+    axis = types.SimpleNamespace(tpdo_cob_ids=lambda: list(COBS), tpdos_not_awaited=list)
     pacing = HostSync(host, [axis], 0.0)  # type: ignore[list-item]
     yield pacing, script
     pacing.close()
@@ -213,3 +215,32 @@ def test_the_prime_forgets_what_is_still_owed_at_its_end(
     script.clear()  # every later SYNC answered on both
     pacing.tick()
     assert not pacing.late
+
+
+def test_a_tpdo_that_does_not_answer_every_sync_is_not_awaited(caplog: pytest.LogCaptureFixture) -> None:
+    """CiA 301 0x1800 sub 2: a TPDO of transmission type n (2-240) answers every n-th SYNC,
+    counted from a start the host does not know (254/255: on an event). The drive's TPDOs
+    (type 1, the host's setting) are awaited; the encoder's TPDO2 set to type 2 is not (logged):
+    awaited, every other cycle was late and its owed answers grew without end (the late-cycle
+    stop), for frames the node never sends."""
+    bench = LockstepBench("dc-servo")
+    drive = Cia402Axis("motor", bench.host, 1, mode="voltage")
+    encoder = Cia406Axis("encoder", bench.host, 2, period=bench.period)
+    try:
+        drive.setup()
+        encoder.node.sdo[0x1801][2].raw = 2  # the node's TPDO2: every second SYNC
+        encoder.setup()
+        assert list(drive.tpdo_cob_ids()) == [0x181, 0x281] and encoder.tpdos_not_awaited() == [(0x282, 2)]
+        with caplog.at_level("WARNING", logger="rig.host.pacing"):
+            pacing = HostSync(bench.host, [drive, encoder], 0.0)
+        assert "node 2: TPDO 0x282 has transmission type 2 (every n-th SYNC, n = 2)" in caplog.text
+        late = []
+        for _ in range(6):
+            pacing.tick()
+            late.append(pacing.late)
+        assert late == [False] * 6 and not pacing.owes()
+        pacing.close()
+    finally:
+        for axis in (drive, encoder):
+            axis.close()
+        bench.close()
