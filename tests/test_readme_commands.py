@@ -678,6 +678,7 @@ MENTIONS = {
     "rig run --reset-fault",
     "rig emulate --param",
     "rig emulate --socketcand-port",
+    "rig emulate --rt-cpu 1",  # an experiment the benchmarks page reports (the emulator on the host's CPU)
     "rig drive sdo write",
     "rig emulate --device",
     "rig emulate --modbus-map",
