@@ -11,8 +11,8 @@ its axis's limits and only then all are written; the sample is recorded. Two
 time modes, same code path: lock-step (as fast as possible, deterministic) and
 real time (absolute deadlines on the monotonic clock, slept to; with ``spin`` [s], where
 the loop thread has no real-time priority, yielding spins over the last part; garbage
-collection frozen and young generations collected in a cycle's slack, ``gc_slack``;
-missed cycles skipped and counted).
+collection frozen and young generations collected in a cycle's slack; missed cycles
+skipped and counted: ``rig.host.cycle_clock``). The summary is ``rig.host.loop_summary``'s.
 
 Every way out (a limit, the watchdog, a lost heartbeat, an EMCY, a NaN or an
 exception from the law, Ctrl-C) goes through ``safe_stop``, and the end of a
@@ -39,10 +39,11 @@ import can
 from drivers.base import AxisDriver, Feedback, feedback_fields
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop, brief
-from rig.host.columns import MODE_UNITS
+from rig.host.cycle_clock import collect_in_slack, prime, sleep_until
 from rig.host.loop_stats import RunMetrics, StageTimes, chatter_threshold
+from rig.host.loop_summary import loop_summary
 from rig.host.pacing import Pacing
-from rig.host.realtime import YOUNG, collect_young, cpu_stolen
+from rig.host.realtime import YOUNG, cpu_stolen
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.host.signals import stop_reason
@@ -176,16 +177,6 @@ class HostLoop:
             "write_us",
         ]
 
-    def _wait(self, deadline: float) -> None:
-        """Sleep until ``deadline`` (perf_counter s); with ``spin``, until that long before it,
-        then spin yielding the GIL."""
-        spin = self.spin
-        while True:
-            left = deadline - time.perf_counter()
-            if left <= 0.0:
-                return
-            time.sleep(left - spin if left > spin + 0.0001 else (0.0 if spin else left))
-
     def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
         """Run the cycles (``progress(k)`` every 1 % of them); returns the summary."""
         frozen = False
@@ -225,30 +216,10 @@ class HostLoop:
         return self.summary()
 
     def _prime(self) -> None:
-        """Real time with the host's SYNC: SYNC a period apart until every axis has sent its
-        first sample (a TPDO answers a SYNC, after it) and no answer is owed (a drive slow to
-        start answers the SYNCs it missed in a burst: cycle 0 does not begin behind it), at most
-        max(1 s, the watchdog's time), so cycle 0 reads the drives, not the zeros of TPDOs still
-        to come. Answers still owed at the deadline are not awaited by the cycles (the host
-        cannot know whether the drive will still send them; logged). The other pacings bring
-        them with cycle 0's own tick (``_begin`` checks)."""
-        if not self.realtime or self.pacing.paced_by_bus:
-            return
-        watchdog = max((g.watchdog_periods for g in self.guards), default=0) * self.period
-        wait = max(1.0, watchdog)
-        deadline = time.perf_counter() + wait
-        n = 0
-        pacing = self.pacing
-        while (
-            not all(axis.has_sample() for axis in self.axes) or pacing.owes()
-        ) and time.perf_counter() < deadline:
-            if self.heartbeat is not None:
-                self.heartbeat(n)
-            self.pacing.tick()
-            time.sleep(self.period)
-            n += 1
-        if pacing.owes():
-            pacing.forget_owed(f"still owed {wait:g} s after the first of {n} SYNCs before cycle 0")
+        """Real time with the host's SYNC: ``rig.host.cycle_clock.prime`` before cycle 0 (the other
+        pacings bring the first samples with cycle 0's own tick: ``_begin`` checks)."""
+        if self.realtime and not self.pacing.paced_by_bus:
+            prime(self.pacing, self.axes, self.guards, self.period, self.heartbeat)
 
     def _begin(self, samples: list[Feedback]) -> None:
         """Cycle 0: every axis has sent a sample (else CommunicationError naming the silent ones,
@@ -277,7 +248,7 @@ class HostLoop:
         last_tick: float | None = None
         while k < self.cycles:
             if pace:
-                self._wait(deadline)
+                sleep_until(deadline, self.spin)
                 now = time.perf_counter()
                 self.times.period_error.append(now - deadline)
                 late = int((now - deadline) / self.period)
@@ -313,11 +284,8 @@ class HostLoop:
                 progress(k)
 
     def _collect(self, deadline: float) -> None:
-        """Real time, where the collector is disabled (``run``): the young generations collected
-        once they hold ``gc_young`` objects and the next ``deadline`` (perf_counter s) leaves half a
-        period, so cyclic garbage does not pile up over a long run and no collection runs in a
-        cycle's work."""
-        if deadline - time.perf_counter() > 0.5 * self.period and collect_young(self.gc_young):
+        """Real time, the collector disabled (``run``): young garbage in the slack (``collect_in_slack``)."""
+        if collect_in_slack(deadline, self.period, self.gc_young):
             self.collections += 1
 
     def _read(self, k: int) -> list[Feedback]:
@@ -436,42 +404,6 @@ class HostLoop:
         )
         self.stop_confirmed, self.still_turning = stop.confirmed, stop.turning
 
-    def _command_units(self) -> dict[str, str]:
-        """{axis: the unit of its command} for the axes with a mode (``MODE_UNITS``)."""
-        return {a.name: MODE_UNITS.get(a.mode, "") for a in self.axes if a.mode is not None}
-
     def summary(self) -> dict[str, Any]:
-        n = self.done
-        m = self.metrics
-        return {
-            "cycles": n,
-            "rms_error": m.rms_error(n),
-            "max_error": m.max_error if n else math.nan,
-            "error_unit": self.law.error_unit,
-            "chattering_count": m.chattering_count,
-            "chattering_amplitude": m.chatter.amplitude,
-            "chattering_threshold": m.threshold,
-            # the unit of the law's first command (chattering's) and of each axis's command
-            "command_unit": self._command_units().get(self.axes[self.wiring.commands[0]].name, "")
-            if self.wiring.commands
-            else "",
-            "command_units": self._command_units(),
-            "overruns": self.overruns,
-            "held_cycles": self.held,
-            "late_cycles": self.late,
-            "elapsed_s": self.elapsed,
-            "safe_stop_reason": self.safe_stop_reason,
-            "stop_confirmed": self.stop_confirmed,
-            "still_turning": self.still_turning,
-            "run_dir": str(self.recorder.dir),
-            "timing": self.times.stats(),
-            "realtime": None
-            if self.granted is None
-            else {
-                **self.granted,
-                "gc_collections": self.collections,
-                "bus_read_by": self.pacing.bus_read_by,
-                "cpu_stolen_s": self.stolen,
-            },
-            "axes": m.axis_peaks(),
-        }
+        """The run's summary as it stands (``rig.host.loop_summary``)."""
+        return loop_summary(self)

@@ -20,7 +20,7 @@ from drivers.cia402 import Cia402Axis
 from drivers.cia406 import Cia406Axis
 from plant_emulator.lockstep import LockstepBench, SyncHub, SyncNetwork, attach_network
 from rig.config import load_config
-from rig.host.loop import HostLoop
+from rig.host.cycle_clock import prime
 from rig.host.pacing import HostSync, Pacing
 from rig.host.rundir import read_samples
 from rig.host.session import Session
@@ -194,7 +194,7 @@ def test_answers_forgotten_are_not_awaited(
 def test_the_prime_forgets_what_is_still_owed_at_its_end(
     bus: tuple[HostSync, list[dict[int, int]]], caplog: pytest.LogCaptureFixture
 ) -> None:
-    """The real-time prime (``HostLoop._prime``) sends SYNC until no answer is owed, at most 1 s
+    """The real-time prime (``rig.host.cycle_clock.prime``) sends SYNC until no answer is owed, at most 1 s
     here; a node that never answers on 0x281 during it leaves answers owed, which cycle 0 does
     not await (logged with the prime's reason): it is on time with its own SYNC's answers.
     Awaited, every cycle would be late, the late-cycle stop after ``late_stop``. (The 1 s is the
@@ -204,11 +204,8 @@ def test_the_prime_forgets_what_is_still_owed_at_its_end(
     seen: list[int] = []  # the axis has a sample once a frame on 0x181 has come
     pacing.network.subscribe(0x181, lambda cob, data, ts: seen.append(cob))
     axis = types.SimpleNamespace(has_sample=lambda: bool(seen))
-    loop = types.SimpleNamespace(
-        realtime=True, pacing=pacing, guards=[], axes=[axis], period=0.001, heartbeat=None
-    )
     with caplog.at_level("WARNING", logger="rig.host.pacing"):
-        HostLoop._prime(loop)  # type: ignore[arg-type]
+        prime(pacing, [axis], [], 0.001)  # type: ignore[list-item]
     assert len(caplog.records) == 1 and "still owed 1 s after the first of" in caplog.text, caplog.text
     assert "on 0x281" in caplog.text and "0x181" not in caplog.text
     assert not pacing.owes()

@@ -1,0 +1,53 @@
+"""The summary of a host loop's run (``rig.host.loop.HostLoop.summary``): the tracking figures, the
+counts, the stop, the timing and what real time was granted; summary.json's keys
+(docs/files.md)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from rig.host.columns import MODE_UNITS
+
+if TYPE_CHECKING:
+    from rig.host.loop import HostLoop
+
+__all__ = ["loop_summary"]
+
+
+def loop_summary(loop: HostLoop) -> dict[str, Any]:
+    """``loop``'s summary as it stands (a safe stop's too)."""
+    n = loop.done
+    m = loop.metrics
+    units = {a.name: MODE_UNITS.get(a.mode, "") for a in loop.axes if a.mode is not None}
+    commands = loop.wiring.commands
+    return {
+        "cycles": n,
+        "rms_error": m.rms_error(n),
+        "max_error": m.max_error if n else math.nan,
+        "error_unit": loop.law.error_unit,
+        "chattering_count": m.chattering_count,
+        "chattering_amplitude": m.chatter.amplitude,
+        "chattering_threshold": m.threshold,
+        # the unit of the law's first command (chattering's) and of each axis's command
+        "command_unit": units.get(loop.axes[commands[0]].name, "") if commands else "",
+        "command_units": units,
+        "overruns": loop.overruns,
+        "held_cycles": loop.held,
+        "late_cycles": loop.late,
+        "elapsed_s": loop.elapsed,
+        "safe_stop_reason": loop.safe_stop_reason,
+        "stop_confirmed": loop.stop_confirmed,
+        "still_turning": loop.still_turning,
+        "run_dir": str(loop.recorder.dir),
+        "timing": loop.times.stats(),
+        "realtime": None
+        if loop.granted is None
+        else {
+            **loop.granted,
+            "gc_collections": loop.collections,
+            "bus_read_by": loop.pacing.bus_read_by,
+            "cpu_stolen_s": loop.stolen,
+        },
+        "axes": m.axis_peaks(),
+    }
