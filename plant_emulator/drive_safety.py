@@ -172,10 +172,18 @@ class DriveSafety:
         return now - self._following_since >= timeout - 1e-9
 
     def raise_fault(self, code: int) -> None:
-        """A device fault: state machine transition 13, 0x603F, 0x1001 and EMCY."""
+        """A device fault: state machine transition 13, 0x603F, 0x1001 and EMCY. A drive whose
+        function was disabled (not OPERATION ENABLED nor QUICK STOP ACTIVE: its power stage
+        gives no torque) has nothing to brake with: its fault reaction ends at once (transition
+        14, FAULT), the motor coasting, where an enabled one brakes along 0x605E's ramp."""
         log.warning("node %d: fault 0x%04X %s", self.node_id, code, FAULT_CODES.get(code, ""))
         self.fault_code = code
+        driven = self.sm.state is _ENABLED or self.sm.state is _QUICK_STOP_ACTIVE
         self.sm.fault()
+        if not driven and self.sm.state is _REACTION:
+            self.braking.release()
+            self.axis.coast()
+            self.sm.reaction_done()
         self._latch_status()  # the statusword says so at once, not at the next SYNC
         if self._has(cia.ERROR_CODE):
             self.write(cia.ERROR_CODE, 0, code)

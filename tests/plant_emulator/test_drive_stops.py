@@ -154,3 +154,18 @@ def test_a_fault_during_a_quick_stop_takes_the_fault_reaction(running, reaction:
         assert drive.axis.velocity == pytest.approx(coasted(drive, speed, 0.03), rel=1e-3)
     else:
         assert drive.axis.velocity == pytest.approx(speed - 2000.0 * 0.03, abs=3.0)  # 0x6084's
+
+
+@pytest.mark.parametrize("before", [0x00, 0x06, 0x07])  # SWITCH ON DISABLED, READY TO SWITCH ON, SWITCHED ON
+def test_a_fault_while_disabled_is_fault_at_once_and_the_motor_coasts(running, before: int) -> None:  # type: ignore[no-untyped-def]
+    """A drive whose function is disabled gives no torque: a fault then (a shaft spun past 0x6080
+    by its load, a supply fault) has no ramp to brake along. The fault reaction ends at once
+    (transition 14, FAULT) and the motor coasts on its friction, whatever 0x605E says."""
+    bench, node, drive = running
+    node.sdo[0x605E].raw = 2  # quick stop ramp: what an enabled drive would brake along
+    node.sdo[0x6040].raw = before
+    speed = drive.axis.velocity
+    drive.raise_fault(0x8400)
+    assert _state(node) is S.FAULT
+    _run(bench, 0.05)
+    assert drive.axis.velocity == pytest.approx(coasted(drive, speed, 0.05), rel=1e-3)
