@@ -3,11 +3,12 @@ deadlines gets, under the host loop's scheduling, in this process.
 
 cyclictest's measure (rt-tests), in Python: with the host loop's real-time request (SCHED_FIFO,
 pinned, memory locked, ``rig.host.realtime``) and the collector disabled, sleep to absolute
-deadlines ``period`` apart on ``time.perf_counter`` for ``seconds``, and record how late each
-wake-up was. A wake-up a whole period late or more misses that many periods, counted as the host
-loop counts its overruns (``rig.host.loop``). Run beside ``rig bench stops``'s runs, under the
-same load, it says how much of their period error and overruns the machine itself gives (its
-timer wake-ups, other work, a hypervisor's steal) rather than the toolkit's loop.
+deadlines ``period`` apart on ``time.perf_counter`` (the loop's own ``sleep_until``) for
+``seconds``, and record how late each wake-up was. A wake-up a whole period late or more misses
+that many periods, counted as the host loop counts its overruns (``rig.host.loop``). Run beside
+``rig bench stops``'s runs, under the same load, it says how much of their period error and
+overruns the machine itself gives (its timer wake-ups, other work, a hypervisor's steal) rather
+than the toolkit's loop.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import gc
 import time
 from typing import Any
 
+from rig.host.cycle_clock import sleep_until
 from rig.host.realtime import RealtimeRequest, cpu_stolen, request
 
 __all__ = ["sleep_floor"]
@@ -38,9 +40,7 @@ def sleep_floor(period: float, seconds: float, ask: RealtimeRequest | None = Non
         k = woken = missed = 0
         deadline = time.perf_counter() + period
         while k < n:
-            left = deadline - time.perf_counter()
-            if left > 0.0:
-                time.sleep(left)
+            sleep_until(deadline)
             lateness = time.perf_counter() - deadline
             late[woken] = lateness
             woken += 1
