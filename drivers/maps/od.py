@@ -1,5 +1,8 @@
 """Loading an object dictionary (EDS or DCF, CiA 306) with errors that name the file.
 
+Every numeric DefaultValue and ParameterValue is read again (``drivers.maps.eds_values``):
+one canopen left unread is refused naming the object, key and value.
+
 CiA 306 files are meant to be ASCII; real ones carry a degree or micro sign in
 a parameter name, in UTF-8 or, more often, in Windows-1252. The text is read as
 UTF-8 and, where that fails, as cp1252 (which decodes any byte but five), so
@@ -20,6 +23,7 @@ import canopen
 
 from drivers.errors import ConfigError
 from drivers.files import EDS_LIMIT, read_text
+from drivers.maps.eds_values import check_values
 
 __all__ = ["eds_text", "load_od"]
 
@@ -84,4 +88,5 @@ def _parse(p: Path, node_id: int) -> Any:
     for index in (0x1000, 0x1018):
         if index not in od:
             raise ConfigError(f"{p}: lacks the mandatory object 0x{index:04X}")
+    check_values(od, str(p), node_id)  # a value canopen could not read: refused, naming it
     return od
