@@ -24,12 +24,21 @@ from canopen.sdo.base import SdoVariable
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drivers.base import AxisDriver
-from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault, SafetyStop, SdoAbort, brief
+from drivers.errors import (
+    CommunicationError,
+    CommunicationTimeout,
+    DeviceFault,
+    DictionaryMismatch,
+    SafetyStop,
+    SdoAbort,
+    brief,
+)
 from drivers.maps import cia
 from drivers.maps.emcy import emcy_text
 from drivers.maps.od import load_od
 from drivers.maps.sdo_aborts import abort_text
 from drivers.master_watch import MasterWatch, OtherMaster
+from drivers.sdo_answer import sized
 
 __all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec", "sample_interval"]
 
@@ -129,6 +138,7 @@ class CanopenAxis(AxisDriver):
         except BaseException:
             self._forget()  # nothing was opened: not an unclosed axis
             raise
+        self.eds = str(eds)  #: the EDS/DCF file of the dictionary, for messages
         self.node: Any = canopen.RemoteNode(node_id, od)
         self.node.sdo.RESPONSE_TIMEOUT = self.SDO_TIMEOUT if sdo_timeout is None else sdo_timeout
         self.node.sdo.MAX_RETRIES = self.SDO_RETRIES if sdo_retries is None else sdo_retries
@@ -164,6 +174,11 @@ class CanopenAxis(AxisDriver):
             raise CommunicationTimeout(
                 f"node {self.node_id}: no SDO answer ({what}, 0x{index:04X}:{subindex:02X})"
             ) from exc
+        except canopen.ObjectDictionaryError as exc:  # canopen's decoding of an answer it read itself
+            raise DictionaryMismatch(
+                f"node {self.node_id}: 0x{index:04X}:{subindex:02X}: {what}: {exc} (the device's answer does "
+                f"not fit its type in {self.eds}): the EDS/DCF is not this device's; give the device's own"
+            ) from exc
         except KeyError as exc:
             code = cia.SdoAbortCode.NO_SUBINDEX
             raise SdoAbort(
@@ -177,11 +192,15 @@ class CanopenAxis(AxisDriver):
         return obj if isinstance(obj, SdoVariable) else obj[subindex]
 
     def sdo_read(self, index: int, subindex: int = 0) -> Any:
-        """Read an object by SDO (raw bytes if the EDS lacks it); SdoAbort or CommunicationTimeout."""
+        """Read an object by SDO (raw bytes if the EDS lacks it); SdoAbort or CommunicationTimeout,
+        DictionaryMismatch where the answer's size is not the type's (``drivers.sdo_answer``)."""
         with self._sdo("SDO upload", index, subindex):
             if index not in self.node.object_dictionary:
                 return self.node.sdo.upload(index, subindex)
-            return self._entry(index, subindex).raw
+            var = self._entry(index, subindex).od
+            with self.node.sdo.open(index, subindex, buffering=0) as fp:
+                data, indicated = fp.read(), fp.size
+            return var.decode_raw(sized(var, data, indicated, node_id=self.node_id, source=self.eds))
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """Write an object by SDO; SdoAbort or CommunicationTimeout on failure."""

@@ -51,6 +51,7 @@ from drivers.errors import (
 )
 from drivers.maps import CIA402_EDS, cia
 from drivers.maps.cia import Controlword, PowerState
+from drivers.maps.cia402_needs import needed, require
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_code
 
@@ -184,8 +185,12 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
     # --- set-up ----------------------------------------------------------------------------------
     def setup(self) -> None:
         """Identity, modes, units, the drive's own RPDO where its mapping is fixed (all read: a
-        refusal sends nothing), PRE-OPERATIONAL, mode, process data, OPERATIONAL (still disabled)."""
+        refusal sends nothing), PRE-OPERATIONAL, mode, process data, OPERATIONAL (still disabled).
+        A dictionary that lacks what the mode needs (``drivers.maps.cia402_needs``) is refused
+        once the drive is identified, before anything is written."""
         self.discover()
+        what = f"axis {self.name!r} ({self.where}) in mode {self.mode}"
+        require(self.node.object_dictionary, needed(self.op_mode), source=self.eds, what=what)
         self.refuse_foreign_rpdo()
         self.nmt("PRE-OPERATIONAL")
         self.set_mode(self.op_mode)

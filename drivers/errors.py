@@ -8,6 +8,7 @@ It lives in the lowest layer that raises it (``drivers``), so that ``drivers``,
 
     RigError
      +-- ConfigError (ValueError)          bad configuration or argument
+     |    +-- DictionaryMismatch            the device answers unlike its EDS/DCF says
      +-- CommunicationError                 the bus or the line failed
      |    +-- CommunicationTimeout (TimeoutError)
      |    |    +-- NodeSilent                no SDO answer at all: no such node on the bus?
@@ -29,6 +30,7 @@ __all__ = [
     "CommunicationTimeout",
     "ConfigError",
     "DeviceFault",
+    "DictionaryMismatch",
     "ModbusExceptionResponse",
     "NodeSilent",
     "RigError",
@@ -48,6 +50,11 @@ class ConfigError(RigError, ValueError):
 
     The message names the value and where it came from (file, key, option).
     """
+
+
+class DictionaryMismatch(ConfigError):
+    """The device's answer disagrees with the EDS/DCF in use (an object's size is not its type's):
+    the dictionary is not this device's. The message names node, object, file, type and answer."""
 
 
 class CommunicationError(RigError):

@@ -37,6 +37,7 @@ from drivers.errors import ConfigError
 from drivers.files import read_toml
 from drivers.maps import cia
 from drivers.maps.cia import MODE_BITS, Mode
+from drivers.maps.cia402_needs import EMULATED, needed, require
 from drivers.maps.mode_names import MODE_NAMES
 from drivers.maps.units import SiUnit
 
@@ -135,7 +136,8 @@ class DeviceProfile:
         return frozenset(m.index for m in self.manufacturer if m.harmful)
 
     def check_against(self, od: Any) -> tuple[Mode, ...]:
-        """Check this profile against its object dictionary ``od``; the drive's modes."""
+        """Check this profile against its object dictionary ``od``, which must have what an emulated
+        drive and each of its modes need (``drivers.maps.cia402_needs``); the drive's modes."""
         where = f"{self.source}"
         modes = self.modes
         if cia.SUPPORTED_MODES in od:
@@ -149,6 +151,8 @@ class DeviceProfile:
             modes = from_eds
         if not modes:
             raise ConfigError(f"{where}: {self.eds.name} has no 0x6502: set [modes] supported")
+        what = f"the emulated drive of {where} in its modes ({', '.join(_names(modes))})"
+        require(od, [*EMULATED, *(i for m in modes for i in needed(m))], source=str(self.eds), what=what)
         if cia.POSITION_ENCODER_RESOLUTION not in od and not self.units.counts_per_rev:
             raise ConfigError(f"{where}: {self.eds.name} has no 0x608F: set [units] counts_per_rev")
         if self.mapping == "fixed":

@@ -94,6 +94,7 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     """(the DriveTool, a closer) on the bus or on an in-process twin."""
     from drivers.cia402 import Cia402Axis
     from drivers.maps import CIA402_EDS
+    from drivers.maps.cia402_needs import CONTROL, STATUS, require
     from drivers.maps.od import load_od
     from drivers.master_watch import MasterWatch
     from rig.cli.common import params_of
@@ -113,6 +114,10 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     od = load_od(eds, args.node)  # a bad EDS, or an object it does not name, before the bus opens
     if args.action == "sdo":
         parse_object(args.object, od)
+    else:  # and one that lacks what the action needs to read the drive's state or move it (its
+        # mode's objects: DriveTool, once the drive says it offers the mode)
+        needs = STATUS if args.action == "status" else CONTROL
+        require(od, needs, source=str(eds), what=f"rig drive {args.action}")
     if profile is not None:
         from plant_emulator.lockstep import LockstepBench
 

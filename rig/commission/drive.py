@@ -27,6 +27,8 @@ from drivers.cia402_units import require
 from drivers.errors import ConfigError, DeviceFault, SafetyStop
 from drivers.maps import cia
 from drivers.maps.cia import Controlword, Mode, PowerState
+from drivers.maps.cia402_needs import needed
+from drivers.maps.cia402_needs import require as require_objects
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
@@ -204,7 +206,8 @@ class DriveTool:
 
     # --- moves ----------------------------------------------------------------------------------
     def _offers(self, mode: Mode, verb: str) -> None:
-        """ConfigError, before anything is sent, where the drive's 0x6502 does not list ``mode``."""
+        """ConfigError, before anything is sent, where the drive's 0x6502 does not list ``mode``, or
+        its dictionary lacks what the mode needs (``drivers.maps.cia402_needs``)."""
         a = self.axis
         if a.supported_modes is not None and int(mode) not in a.supported_modes:
             raise ConfigError(
@@ -212,6 +215,8 @@ class DriveTool:
                 f"offer ({a.offered(a._optional(cia.SUPPORTED_MODES))}); nothing was sent: use a mode it "
                 "offers (rig run with mode = csp, csv or cst, where it lists them)"
             )
+        needs = (*needed(mode), cia.VELOCITY_ACTUAL)  # the stop watches the speed to rest
+        require_objects(a.node.object_dictionary, needs, source=a.eds, what=f"rig drive {verb}")
 
     def _until(self, done: Callable[[], bool], seconds: float, what: str) -> None:
         late = self._deadline(seconds)

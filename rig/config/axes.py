@@ -259,9 +259,14 @@ def _check_kind(where: str, values: dict[str, Any]) -> None:
     if values.get("profile") and not mode:
         raise ConfigError(f"{where} has a profile but no mode to command it in")
     if values.get("eds"):
+        from drivers.maps.cia402_needs import needed, require
+        from drivers.maps.mode_names import mode_code
         from drivers.maps.od import load_od  # canopen: only where an axis names its own EDS
 
         try:
-            load_od(values["eds"], values["node_id"])
+            od = load_od(values["eds"], values["node_id"])
+            if kind == "cia402":  # and what its mode needs of it
+                needs = needed(mode_code(mode), manufacturer=False)  # the drive is not identified yet
+                require(od, needs, source=str(values["eds"]), what=f"mode {mode}")
         except ConfigError as exc:
             raise ConfigError(f"{where} eds: {exc}") from None
