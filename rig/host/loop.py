@@ -327,7 +327,7 @@ class HostLoop:
         targets = wiring.commanded
         guards, axes = self.guards, self.axes
         for i, value in zip(targets, values):
-            guards[i].check_command(value)
+            guards[i].check_command(value, k)
         t2 = time.perf_counter()
         for i, value in zip(targets, values):
             axes[i].command(value)

@@ -6,8 +6,10 @@ waited several periods counts as all of them, NaN in a measured quantity, speed,
 make, the position window, current); ``check_command`` on the command about to
 be sent: its size, or, for a position command (CSP), its travel from where the axis
 stood at the first sample, the position window, and its step from the last command (the
-first from the measured position), which no motor within the speed limit makes in a
-period. The host loop turns any ``SafetyStop`` into the one safe-stop path.
+first from the measured position), which no motor within the speed limit makes in the
+periods between them (counted, as the feedback's, in the loop's cycle index: a real-time
+cycle after a late one commands the reference of its own time, several periods on). The
+host loop turns any ``SafetyStop`` into the one safe-stop path.
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ class AxisGuard:
         self.position_command = getattr(axis, "mode", None) == "csp"
         self.origin: float | None = None  #: [rad] the first measured position
         self._last_command: float | None = None  #: [rad] the last position command
+        self._command_k = 0  #: the cycle index of ``_last_command``
         speed = limits.speed if math.isfinite(limits.speed) else 1000.0
         #: a position step no motor makes within the speed limit: an encoder glitch or a lost count
         self.max_step = speed * period * 3.0
@@ -98,16 +101,17 @@ class AxisGuard:
                 f"position {position:.4g} rad outside [{c.position_min:g}, {c.position_max:g}] rad"
             )
 
-    def check_command(self, command: float | complex) -> None:
+    def check_command(self, command: float | complex, k: int) -> None:
+        """Check the command of cycle ``k`` (the loop's cycle index, missed cycles included)."""
         size = abs(command)
         if not math.isfinite(size):
             raise SafetyStop(f"controller output is {command!r}")
         if self.position_command:
-            self._check_position_command(float(command))  # type: ignore[arg-type]
+            self._check_position_command(float(command), k)  # type: ignore[arg-type]
         elif size > self.limits.command:
             raise self._stop(f"command {size:.4g} exceeds the limit {self.limits.command:g}")
 
-    def _check_position_command(self, x: float) -> None:
+    def _check_position_command(self, x: float, k: int) -> None:
         c = self.limits
         origin = self.origin if self.origin is not None else 0.0
         if abs(x - origin) > c.command:
@@ -119,14 +123,16 @@ class AxisGuard:
             raise self._stop(
                 f"position command {x:.6g} rad outside [{c.position_min:g}, {c.position_max:g}] rad"
             )
-        last = self._last_command if self._last_command is not None else self._last_position
-        if last is not None and abs(x - last) > self.max_step:
-            what = "the last command" if self._last_command is not None else "the measured position"
+        commanded = self._last_command is not None
+        last = self._last_command if commanded else self._last_position
+        periods = max(1, k - (self._command_k if commanded else self._position_k))
+        if last is not None and abs(x - last) > self.max_step * periods:
+            what = "the last command" if commanded else "the measured position"
             raise self._stop(
-                f"position command {x:.6g} rad steps {x - last:.4g} rad from {what} "
-                f"(> {self.max_step:.3g} rad a period at the speed limit)"
+                f"position command {x:.6g} rad steps {x - last:.4g} rad from {what} in {periods} "
+                f"period(s) (> {self.max_step:.3g} rad a period at the speed limit)"
             )
-        self._last_command = x
+        self._last_command, self._command_k = x, k
 
     def _watchdog(self, stamp: float | None, k: int) -> bool:
         """Count the periods since the last new sample; stop after ``self.watchdog_periods``.

@@ -15,10 +15,10 @@ from rig.host.safety import AxisGuard
 PERIOD = 1e-3
 
 
-def _guard(**limits: float) -> AxisGuard:
-    axis = types.SimpleNamespace(
-        name="motor", where="node 1", measures=frozenset({"position", "velocity"}), sample_name="TPDO"
-    )
+def _guard(mode: str = "voltage", **limits: float) -> AxisGuard:
+    measures = frozenset({"position", "velocity"})
+    names = {"name": "motor", "where": "node 1", "sample_name": "TPDO", "mode": mode}
+    axis = types.SimpleNamespace(measures=measures, **names)
     return AxisGuard(axis, AxisLimits(**limits), PERIOD)  # type: ignore[arg-type]
 
 
@@ -82,3 +82,31 @@ def test_a_stall_is_not_a_position_jump() -> None:
     guard.check_feedback(Feedback(position=2.0, velocity=50.0, stamp=1.0), 41)  # 41 periods on
     with pytest.raises(SafetyStop, match=r"position jumped by 0.4 rad in 1 period\(s\)"):
         guard.check_feedback(Feedback(position=2.4, velocity=50.0, stamp=2.0), 42)
+
+
+def test_the_position_command_step_counts_the_periods_since_the_last_command() -> None:
+    """A real-time cycle after a late one (the loop's index jumped 3 periods) commands the
+    reference of its own time: 3 periods of motion on from the last command. The step is bounded
+    by the periods between the commands, as the feedback's is by the periods between the samples
+    (issue 33: CSP runs stopped themselves on 'position command steps 0.93 rad (> 0.9 rad a
+    period)' after a late cycle). Within one period the same step is still a stop."""
+    guard = _guard("csp", speed=100.0, command=100.0)  # 0.3 rad a period
+    guard.check_feedback(Feedback(position=0.0, velocity=90.0, stamp=0.0), 0)
+    guard.check_command(0.09, 0)  # 0.09 rad from the measured position in 1 period
+    guard.check_command(0.18, 1)
+    guard.check_command(0.18 + 0.8, 4)  # a late cycle: 3 periods on, 0.8 rad < 0.9 rad
+    step = r"steps 0\.8 rad from the last command in 1 period\(s\) \(> 0\.3 rad"
+    with pytest.raises(SafetyStop, match=step):
+        guard.check_command(0.98 + 0.8, 5)
+
+
+def test_the_first_position_command_counts_the_periods_since_the_sample() -> None:
+    """The first command is checked against the measured position, over the periods since that
+    sample was taken (at least one)."""
+    guard = _guard("csp", speed=100.0, command=100.0)
+    guard.check_feedback(Feedback(position=1.0, velocity=0.0, stamp=0.0), 0)
+    with pytest.raises(SafetyStop, match=r"steps 0\.5 rad from the measured position in 1 period\(s\)"):
+        guard.check_command(1.5, 0)
+    other = _guard("csp", speed=100.0, command=100.0)
+    other.check_feedback(Feedback(position=1.0, velocity=0.0, stamp=0.0), 0)
+    other.check_command(1.5, 2)  # two periods after the sample: 0.6 rad allowed
