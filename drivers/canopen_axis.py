@@ -33,6 +33,7 @@ from drivers.errors import (
     SdoAbort,
     brief,
 )
+from drivers.identity import Identity, check_identity, read_identity
 from drivers.maps import cia
 from drivers.maps.emcy import emcy_text
 from drivers.maps.od import load_od
@@ -106,9 +107,14 @@ def pdo_codec(pdo: Any) -> struct.Struct:
 
 
 class CanopenAxis(AxisDriver):
-    """An axis on CANopen node ``node_id`` of ``network``, described by the EDS/DCF ``eds``."""
+    """An axis on CANopen node ``node_id`` of ``network``, described by the EDS/DCF ``eds``
+    (``eds_given``: the device's own, given by the user; else the toolkit's, used as a generic
+    dictionary of the profile's standard objects)."""
 
     sample_name = "TPDO"
+    #: how the user gives the device's own EDS (``rig drive`` says ``--eds FILE``)
+    eds_hint = 'the axis\'s eds = "FILE"'
+    device_id = Identity()  #: 0x1018 as read at set-up (``check_identity``)
     #: SDO response timeout [s] and retries; a test may override them
     SDO_TIMEOUT = 0.3
     SDO_RETRIES = 1
@@ -121,6 +127,7 @@ class CanopenAxis(AxisDriver):
         node_id: int,
         *,
         eds: str,
+        eds_given: bool = True,
         heartbeat_timeout: float = 0.0,
         sdo_timeout: float | None = None,
         sdo_retries: int | None = None,
@@ -131,6 +138,9 @@ class CanopenAxis(AxisDriver):
             self._forget()
             raise ValueError(f"axis {name!r}: node id must be 1..127, got {node_id!r}")
         self.node_id = node_id
+        self.eds = eds
+        #: ``eds`` is the device's own (given by the user), not the toolkit's generic dictionary
+        self.eds_given = eds_given
         self.heartbeat_timeout = heartbeat_timeout  #: [s]; 0: not supervised
         self.network = network
         try:
@@ -201,6 +211,26 @@ class CanopenAxis(AxisDriver):
             with self.node.sdo.open(index, subindex, buffering=0) as fp:
                 data, indicated = fp.read(), fp.size
             return var.decode_raw(sized(var, data, indicated, node_id=self.node_id, source=self.eds))
+
+    def sdo_upload(self, index: int, subindex: int = 0) -> bytes:
+        """An object's raw bytes as the device answers, whatever the EDS names (the device's own
+        identity, units and modes: ``drivers.identity.read_standard``); SdoAbort or
+        CommunicationTimeout."""
+        with self._sdo("SDO upload", index, subindex):
+            return bytes(self.node.sdo.upload(index, subindex))
+
+    def check_identity(self, *, give: str) -> Identity:
+        """0x1018 read from the device and checked against the EDS in use
+        (``drivers.identity.check_identity``; ``give``: how the user gives the device's own)."""
+        device = read_identity(self.sdo_upload)
+        return check_identity(
+            device,
+            self.node.object_dictionary,
+            eds=self.eds,
+            given=self.eds_given,
+            where=f"axis {self.name!r} (node {self.node_id})",
+            give=give,
+        )
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """Write an object by SDO; SdoAbort or CommunicationTimeout on failure."""

@@ -4,11 +4,6 @@ The drive's own EDS says what each entry is (its access type: ro, wo, rw, const)
 writes only entries declared writable and only what its task needs, reads the others and
 takes their value as it is.
 
-- ``Identity``: 0x1018 as read, with the vendor's name where the EDS gives it; ``toolkit``
-  is the positive identification of the toolkit's own drive (vendor 0xDB1, product 0x402),
-  the one drive whose manufacturer objects (0x2000-0x5FFF) and manufacturer modes (0x6502
-  bits 16-31, negative mode numbers) the host knows. On every other drive they mean what
-  that vendor made them mean, and the host writes none of them.
 - ``Setting``: one write the set-up wants. ``apply`` reads an entry the EDS declares
   read-only or constant (never writes it) and says whether it already holds the value;
   writes a writable one; an abort is one warning for an optional setting, and, for a required
@@ -22,7 +17,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,40 +25,9 @@ from drivers.cia402_pdo import variable
 from drivers.errors import ConfigError, SdoAbort
 from drivers.maps.sdo_aborts import abort_text
 
-__all__ = ["TOOLKIT_DRIVE", "Identity", "Setting", "interpolation_period"]
+__all__ = ["Setting", "interpolation_period", "period_text"]
 
 log = logging.getLogger(__name__)
-
-TOOLKIT_DRIVE = (0xDB1, 0x402)  #: (vendor, product) of the toolkit's own drive (its EDS's 0x1018)
-
-
-@dataclass(frozen=True)
-class Identity:
-    """0x1018 as the drive reports it (None: not readable) and the vendor's name from its EDS."""
-
-    vendor: int | None = None
-    product: int | None = None
-    revision: int | None = None
-    serial: int | None = None
-    vendor_name: str = ""
-
-    @property
-    def toolkit(self) -> bool:
-        """The toolkit's own drive, positively identified by vendor id and product code."""
-        return (self.vendor, self.product) == TOOLKIT_DRIVE
-
-    def as_dict(self) -> dict[str, int]:
-        """The numbers read (``vendor``, ``product``, ``revision``, ``serial``)."""
-        fields = (("vendor", self.vendor), ("product", self.product), ("revision", self.revision))
-        return {k: v for k, v in (*fields, ("serial", self.serial)) if v is not None}
-
-    def text(self) -> str:
-        """``vendor 0x000000FB (maxon motor ag) / product 0x65520000 / revision ... / serial ...``."""
-        parts = []
-        for key, value in self.as_dict().items():
-            name = f" ({self.vendor_name})" if key == "vendor" and self.vendor_name else ""
-            parts.append(f"{key} 0x{value:08X}{name}")
-        return " / ".join(parts) or "no identity (0x1018 not readable)"
 
 
 def _name(od: Any, index: int, subindex: int) -> str:
@@ -146,9 +110,3 @@ def period_text(seconds: float) -> str:
     if seconds >= 1e-3:
         return f"{seconds * 1e3:g} ms"
     return f"{seconds * 1e6:g} us"
-
-
-def vendor_name(od: Any) -> str:
-    """The vendor's name the EDS gives ([DeviceInfo] VendorName), or ""."""
-    info: Mapping[str, Any] | Any = getattr(od, "device_information", None)
-    return str(getattr(info, "vendor_name", "") or "").strip()

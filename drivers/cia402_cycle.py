@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from drivers.base import Feedback
 from drivers.canopen_axis import CanopenAxis, TpdoSlot, sample_interval
@@ -46,6 +46,7 @@ class _CyclePlan:
     ) -> None:
         self.data, self.measures = data, measures
         self.velocity = velocity  #: 0x606C is read (else the position's backward difference)
+        self.position = "position" in measures  #: 0x6064 is read (a speed controller has none)
         self.torque, self.current = "torque" in measures, "current" in measures
         self.feedback: Callable[[], tuple[Any, ...]] = tuple
         self.status: tuple[TpdoSlot, int] | None = None
@@ -53,7 +54,8 @@ class _CyclePlan:
         self.rpdo: Callable[..., bytes] | None = None
         if data is None:
             return
-        keys = [POSITION] + [VELOCITY] * velocity + [TORQUE] * self.torque + [CURRENT] * self.current
+        keys = [POSITION] * self.position + [VELOCITY] * velocity + [TORQUE] * self.torque
+        keys += [CURRENT] * self.current
         self.feedback = data.reader(keys)
         self.status, self.mode = data.where(SW), data.where(MODE_SHOWN)
         if data.rpdo is not None and op_mode in cia.TARGET_OF_MODE:
@@ -80,6 +82,11 @@ class Cia402Cycle(CanopenAxis):
     _enabled_stamp: float | None
     _motion: TpdoSlot | None  #: the position's TPDO slot (set-up)
 
+    if TYPE_CHECKING:  # the mapping's (``drivers.cia402_mapping``)
+
+        @property
+        def reads_velocity(self) -> bool: ...
+
     #: the cycle's reading and packing for the mapping in force, made on first use (per axis)
     _plan = _CyclePlan(None, frozenset(), None)
 
@@ -94,18 +101,18 @@ class Cia402Cycle(CanopenAxis):
         if plan.data is not data or plan.measures is not self.measures:
             plan = self._plan = self._new_plan(data)
         values = plan.feedback()
-        position = values[0] / u.position
-        v = plan.velocity
+        p, v = plan.position, plan.velocity
+        position = values[0] / u.position if p else math.nan
         return Feedback(
             position,
-            values[1] / u.velocity if v else self._difference(position, stamp),
-            values[1 + v] / 1000.0 * u.rated_torque if plan.torque else math.nan,
-            values[1 + v + plan.torque] / 1000.0 * u.rated_current if plan.current else math.nan,
+            values[p] / u.velocity if v else self._difference(position, stamp),
+            values[p + v] / 1000.0 * u.rated_torque if plan.torque else math.nan,
+            values[p + v + plan.torque] / 1000.0 * u.rated_current if plan.current else math.nan,
             stamp,
         )
 
     def _new_plan(self, data: ProcessData) -> _CyclePlan:
-        return _CyclePlan(data, self.measures, self.op_mode, velocity="velocity" in self.maps)
+        return _CyclePlan(data, self.measures, self.op_mode, velocity=self.reads_velocity)
 
     def _difference(self, position: float, stamp: float | None) -> float:
         """[rad/s] the backward difference of ``position`` (the sample stamped ``stamp``) from the

@@ -10,7 +10,8 @@ toolkit's own it is refused for cyclic use, naming the object. Frames are decode
 mapping in force (``drivers.cia402_process``).
 
 ``maps`` (``FEEDBACK`` by default) chooses what the TPDOs carry beside the statusword and the
-position: the velocity 0x606C (needed where chosen), the mode shown 0x6061, the torque 0x6077
+position (where the drive has one: a speed controller without 0x6064 is read by its 0x606C):
+the velocity 0x606C (needed where chosen), the mode shown 0x6061, the torque 0x6077
 and the current 0x6078 (where there is room). A lean image (``maps = {"position"}``: one TPDO
 of statusword and position, 6 bytes) leaves a fast loop's bus its room: the velocity is then
 the position's backward difference (``drivers.cia402``).
@@ -22,12 +23,12 @@ import logging
 import math
 from typing import TYPE_CHECKING, Any
 
-from drivers.cia402_access import Identity
 from drivers.cia402_pdo import Key, Pdo, disable, numbers, plan_rpdo, plan_tpdos, read_mapping, variable
 from drivers.cia402_pdo import write_mapping as write_pdo
 from drivers.cia402_process import ProcessData
 from drivers.cia402_units import DriveUnits
 from drivers.errors import ConfigError, SdoAbort
+from drivers.identity import Identity
 from drivers.maps import cia
 from drivers.maps.cia import Mode
 
@@ -83,6 +84,7 @@ class Cia402Mapping:
     latency: float
     pdo: str
     maps: frozenset[str]
+    has_position: bool
     data: ProcessData | None
     measures: frozenset[str]
     _motion: TpdoSlot | None
@@ -101,13 +103,18 @@ class Cia402Mapping:
             self, index: int, subindex: int, value: Any, why: str, *, required: bool = False, then: str = ""
         ) -> bool: ...
 
+    @property
+    def reads_velocity(self) -> bool:
+        """0x606C is read: where chosen (``maps``), and always on a drive without a position."""
+        return "velocity" in self.maps or not self.has_position
+
     def _wanted(self) -> tuple[list[Key], list[Key], list[Key]]:
         """(RPDO keys, TPDO keys needed, TPDO keys wanted if there is room)."""
         if self.op_mode == Mode.DQ_VOLTAGE:
             return list(DQ_RX), list(DQ_TX), []
         if self.op_mode not in cia.TARGET_OF_MODE:
             raise ConfigError(f"axis {self.name!r}: mode {self.mode} has no cyclic target")
-        needed = [SW, POSITION] + [VELOCITY] * ("velocity" in self.maps)
+        needed = [SW] + [POSITION] * self.has_position + [VELOCITY] * self.reads_velocity
         optional = [FEEDBACK[name] for name in ("mode", "torque", "current") if name in self.maps]
         return [CW, cia.TARGET_OF_MODE[self.op_mode]], needed, optional
 
@@ -293,8 +300,9 @@ class Cia402Mapping:
             return
         u = self.units
         self.measures = frozenset(
-            {"position", "velocity"}
+            {"velocity"}
+            | ({"position"} if self.has_position else set())
             | ({"torque"} if math.isfinite(u.rated_torque) and data.mapped(TORQUE) else set())
             | ({"current"} if math.isfinite(u.rated_current) and data.mapped(CURRENT) else set())
         )
-        self._motion = data.slot_of(POSITION)
+        self._motion = data.slot_of(POSITION if self.has_position else VELOCITY)

@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from drivers.errors import ConfigError
+from drivers.errors import ConfigError, SdoAbort
 from drivers.maps import cia
 from drivers.maps.cia import PDO_INVALID, PDO_MAX_BITS, PDO_MAX_MAPPED, map_entry, split_map_entry
 
@@ -165,11 +165,18 @@ def disable(write: Callable[[int, int, int], None], number: int, *, receive: boo
 
 
 def read_mapping(read: Callable[[int, int], Any], od: Any, *, receive: bool) -> list[Pdo]:
-    """The device's PDOs as they are now (valid or not), read by SDO."""
+    """The device's PDOs as they are now (valid or not), read by SDO. A PDO the EDS names that
+    the device has not (its COB-ID answered "object does not exist", as a device with fewer PDOs
+    than the toolkit's generic EDS answers) is no PDO of the device."""
     out = []
     for n in numbers(od, receive=receive):
         pdo = Pdo(n, receive)
-        cob = int(read(pdo.comm, cia.PDO_COMM_COB_ID))
+        try:
+            cob = int(read(pdo.comm, cia.PDO_COMM_COB_ID))
+        except SdoAbort as exc:
+            if exc.code != cia.SdoAbortCode.NO_OBJECT:
+                raise
+            continue
         pdo.cob_id = cob & cia.COB_ID_MASK
         pdo.ttype = int(read(pdo.comm, cia.PDO_COMM_TYPE))
         count = int(read(pdo.mapping, 0))

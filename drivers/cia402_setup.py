@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from drivers.cia402_access import TOOLKIT_DRIVE, Identity, Setting, period_text, vendor_name
+from drivers.cia402_access import Setting, period_text
 from drivers.cia402_access import interpolation_period as interpolation_setting
 from drivers.cia402_mapping import (
     CURRENT,
@@ -35,6 +35,7 @@ from drivers.cia402_pdo import variable
 from drivers.cia402_process import ProcessData
 from drivers.cia402_units import DriveUnits, discover_units
 from drivers.errors import CommunicationTimeout, ConfigError, DeviceFault, NodeSilent, RigError, SdoAbort
+from drivers.identity import TOOLKIT_DRIVE, Identity, read_standard
 from drivers.maps import cia
 from drivers.maps.cia import CIA_MODE_BITS, MODE_BITS, SUPPORTED_MODE_BITS, Mode
 from drivers.maps.mode_names import MODE_NAMES, mode_text
@@ -78,8 +79,11 @@ class Cia402Setup(Cia402Mapping):
     given_units: dict[str, float]
     units: DriveUnits
     identity: dict[str, int]
-    device_id: Identity = Identity()
+    device_id: Identity
     units_hint: str = "[axis.units] {key}"  #: how the user gives a unit the drive lacks
+    eds_hint: str
+    #: the drive has a position actual value 0x6064 (``discover``; a velocity-only drive has none)
+    has_position: bool = True
     supported_modes: frozenset[int] | None
     sync_rpdo: bool
     latency: float
@@ -106,6 +110,8 @@ class Cia402Setup(Cia402Mapping):
         def sdo_read(self, index: int, subindex: int = 0) -> Any: ...
         def sdo_write(self, index: int, subindex: int, value: Any) -> None: ...
         def receive_cob(self, cob_id: int, codec: Any) -> TpdoSlot: ...
+        def sdo_upload(self, index: int, subindex: int = 0) -> bytes: ...
+        def check_identity(self, *, give: str) -> Identity: ...
 
     def configure_supervision(self) -> None:
         """Make the drive stop itself when the host dies, and tell it the cycle, where it can:
@@ -254,8 +260,11 @@ class Cia402Setup(Cia402Mapping):
             return None
 
     def discover(self, *, check_mode: bool = True) -> DriveUnits:
-        """Device type and identity, supported modes (0x6502) against the mode (unless not
-        ``check_mode``: commissioning, which picks its modes itself), and units."""
+        """Device type and identity (0x1000, 0x1018 read from the device and checked against the
+        EDS in use: ``check_identity``), supported modes (0x6502) against the mode (unless not
+        ``check_mode``: commissioning, which picks its modes itself), units, and whether the drive
+        has a position 0x6064. Identity, modes and units are read from the device by their
+        standard's types, whatever the EDS names (``drivers.identity.read_standard``)."""
         try:
             device_type = self.sdo_read(cia.DEVICE_TYPE)
         except CommunicationTimeout as exc:
@@ -270,27 +279,33 @@ class Cia402Setup(Cia402Mapping):
                 f"axis {self.name!r}: node {self.node_id} is not a CiA 402 drive "
                 f"(0x1000 = 0x{device_type:08X}: profile {device_type & 0xFFFF})"
             )
-        ids = {
-            k: self._optional(cia.IDENTITY, sub)
-            for k, sub in (("vendor", 1), ("product", 2), ("revision", 3), ("serial", 4))
-        }
-        self.device_id = Identity(**ids, vendor_name=vendor_name(self.node.object_dictionary))
+        try:
+            self.device_id = self.check_identity(give=self.eds_hint)
+        except ConfigError:
+            self.not_a_drive = True  # another device than the EDS's: closing writes nothing to it
+            raise
         self.identity = self.device_id.as_dict()
-        bits = self._optional(cia.SUPPORTED_MODES)
+        bits = self._standard(cia.SUPPORTED_MODES)
         table = MODE_BITS if self.toolkit_drive else CIA_MODE_BITS  # bits 16-31: the vendor's own
         self.supported_modes = (
             None if bits is None else frozenset(int(m) for m, bit in table.items() if bits & bit)
         )
         if check_mode:
             self._check_mode(bits)
+        self.has_position = self._standard(cia.POSITION_ACTUAL) is not None
         self.units = discover_units(
-            self._optional,
+            self._standard,
             self.given_units,
             where=f"{self.name!r} (node {self.node_id})",
             mode=int(self.op_mode) if check_mode else 0,
             hint=self.units_hint,
+            has_position=self.has_position,
         )
         return self.units
+
+    def _standard(self, index: int, subindex: int = 0) -> int | None:
+        """A standard object as the device answers (``drivers.identity.read_standard``)."""
+        return read_standard(self.sdo_upload, index, subindex)
 
     def offered(self, bits: int | None) -> str:
         """The modes the drive offers, as 0x6502 says: every mode CiA 402 gives a bit (vl and cstca

@@ -1,9 +1,11 @@
 """A CiA 402 drive's units, as the host finds them: from the drive's objects, else from configuration.
 
 The drive tells what it can: 0x608F (increments per motor revolution), 0x6091 (gear),
-0x6092 (feed constant), 0x60A8/0x60A9 (SI unit codes of position and velocity), 0x6076
-(rated torque, mN m) and 0x6075 (rated current, mA); ``drivers.maps.units`` turns them
-into factors. What the drive lacks comes from the axis's ``[axis.units]``:
+0x6092 (feed constant), 0x60A8/0x60A9 (SI unit codes of position and velocity), or the older
+notation and dimension indices 0x6089-0x608C where it has no 0x60A8/0x60A9, 0x6076 (rated
+torque, mN m) and 0x6075 (rated current, mA); ``drivers.maps.units`` turns them into factors.
+A drive without a position 0x6064 (a velocity-only drive) needs no position factor. What the
+drive lacks comes from the axis's ``[axis.units]``:
 ``counts_per_rev``, ``position_unit``/``velocity_unit`` (SI unit codes), ``rated_torque``
 [N m], ``rated_current`` [A]. A factor that the mode needs and nobody gives is a
 ConfigError naming the object and the key to set.
@@ -19,7 +21,13 @@ from typing import Any
 from drivers.errors import ConfigError
 from drivers.maps import cia
 from drivers.maps.cia import Mode
-from drivers.maps.units import INCREMENTS, SiUnit, position_per_revolution, velocity_per_revolution
+from drivers.maps.units import (
+    INCREMENTS,
+    SiUnit,
+    dimension_unit,
+    position_per_revolution,
+    velocity_per_revolution,
+)
 
 __all__ = ["DriveUnits", "discover_units", "require"]
 
@@ -87,12 +95,14 @@ def discover_units(
     where: str,
     mode: int,
     hint: str = "[axis.units] {key}",
+    has_position: bool = True,
 ) -> DriveUnits:
     """The drive's units: ``read(index, sub)`` gives an object's value or None (the drive lacks it
     or refused it); ``given`` the ``[axis.units]`` values (0 or absent: not given). ``mode`` 0
     (a status, which moves nothing) needs no factor: the ones nobody gives are NaN, and the
     drive's own units stand. ``hint`` says how the user gives a unit (``--units {key}=VALUE``
-    in ``rig drive``)."""
+    in ``rig drive``); ``has_position``: the drive has a position 0x6064 (else only the
+    position modes need its factor)."""
     source: dict[str, str] = {}
     increments = _ratio(read, cia.POSITION_ENCODER_RESOLUTION)
     if increments:
@@ -102,8 +112,10 @@ def discover_units(
         source["increments"] = "[axis.units] counts_per_rev"
     gear = _ratio(read, cia.GEAR_RATIO) or 1.0
     feed = _ratio(read, cia.FEED_CONSTANT)
-    pos_code = read(cia.SI_UNIT_POSITION, 0) or int(given.get("position_unit", 0))
-    vel_code = read(cia.SI_UNIT_VELOCITY, 0) or int(given.get("velocity_unit", 0))
+    pos_code = read(cia.SI_UNIT_POSITION, 0) or _dimension(read, where, hint, velocity=False)
+    pos_code = pos_code or int(given.get("position_unit", 0))
+    vel_code = read(cia.SI_UNIT_VELOCITY, 0) or _dimension(read, where, hint, velocity=True)
+    vel_code = vel_code or int(given.get("velocity_unit", 0))
     for code, key in ((pos_code, "position_unit"), (vel_code, "velocity_unit")):
         if code:
             try:
@@ -122,11 +134,15 @@ def discover_units(
             )
             / _TWO_PI
         )
-        source["position"] = "0x60A8" if pos_code else ("0x6092" if feed else source.get("increments", ""))
-        source["velocity"] = "0x60A9" if vel_code else source["position"]
+        source["position"] = _code_source(read, pos_code, cia.SI_UNIT_POSITION, cia.POSITION_DIMENSION) or (
+            "0x6092" if feed else source.get("increments", "")
+        )
+        source["velocity"] = (
+            _code_source(read, vel_code, cia.SI_UNIT_VELOCITY, cia.VELOCITY_DIMENSION) or (source["position"])
+        )
     elif vel_code and SiUnit.decode(vel_code).unit != INCREMENTS:  # rpm, rad/s: no increments needed
         velocity = velocity_per_revolution(math.nan, gear=gear, unit=vel_code) / _TWO_PI
-        source["velocity"] = "0x60A9"
+        source["velocity"] = _code_source(read, vel_code, cia.SI_UNIT_VELOCITY, cia.VELOCITY_DIMENSION)
     torque = read(cia.RATED_TORQUE, 0)
     current = read(cia.RATED_CURRENT, 0)
     rated_torque = torque / 1000.0 if torque else float(given.get("rated_torque", 0.0)) or math.nan
@@ -135,20 +151,64 @@ def discover_units(
     source["rated_current"] = "0x6075" if current else ("[axis.units]" if given.get("rated_current") else "")
     units = DriveUnits(position, velocity, rated_torque, rated_current, source)
     if mode:
-        require(units, mode, where=where, hint=hint)
+        require(units, mode, where=where, hint=hint, has_position=has_position)
     return units
 
 
-def require(units: DriveUnits, mode: int, *, where: str, hint: str = "[axis.units] {key}") -> None:
+def _dimension(read: Callable[[int, int], Any], where: str, hint: str, *, velocity: bool) -> int:
+    """The 0x60A8/0x60A9 code of the drive's older notation and dimension indices (0: none)."""
+    notation, dimension = (
+        (cia.VELOCITY_NOTATION, cia.VELOCITY_DIMENSION)
+        if velocity
+        else (cia.POSITION_NOTATION, cia.POSITION_DIMENSION)
+    )
+    try:
+        return dimension_unit(read(notation, 0), read(dimension, 0), velocity=velocity)
+    except ValueError as exc:
+        key = "velocity_unit" if velocity else "position_unit"
+        raise ConfigError(f"axis {where}: {exc}; set {hint.format(key=key)}") from None
+
+
+def _code_source(read: Callable[[int, int], Any], code: int, si_object: int, dimension: int) -> str:
+    """Where a unit code came from: the SI unit object, the older dimension index, or "" (given)."""
+    if not code:
+        return ""
+    if read(si_object, 0):
+        return f"0x{si_object:04X}"
+    if read(dimension, 0):
+        return f"0x{dimension - 1:04X}/0x{dimension:04X}"
+    return "[axis.units]"
+
+
+#: modes whose command or feedback is a position: they need the position's factor
+POSITION_MODES = frozenset({Mode.CSP, Mode.PROFILE_POSITION, Mode.HOMING})
+
+
+def require(
+    units: DriveUnits,
+    mode: int,
+    *,
+    where: str,
+    hint: str = "[axis.units] {key}",
+    has_position: bool = True,
+) -> None:
     """ConfigError naming the object and how to give it (``hint``) where ``mode`` needs a factor
-    that ``units`` lacks: every mode needs the position's, a mode's command its own."""
+    that ``units`` lacks: a mode's command its own; the position's every mode of a drive with a
+    position 0x6064 (``has_position``), and the position modes always."""
     need = NEEDS.get(Mode(mode)) if mode in {int(m) for m in Mode} else None
+    if need is not None and need[0] == "velocity" and not math.isfinite(units.velocity):
+        raise ConfigError(
+            f"axis {where}: mode {Mode(mode).name} needs the drive's velocity unit (0x60A9, 0x608B/0x608C, "
+            f"or increments per second by 0x608F), which it does not give; set "
+            f"{hint.format(key='velocity_unit')} (0x00B44700: rpm) or {hint.format(key='counts_per_rev')} "
+            "(increments per second)"
+        )
     if need is not None and not math.isfinite(getattr(units, need[0])):
         raise ConfigError(
             f"axis {where}: mode {Mode(mode).name} needs 0x{need[1]:04X}, which the drive does not "
             f"give; set {hint.format(key=need[2])}"
         )
-    if not math.isfinite(units.position):
+    if not math.isfinite(units.position) and (has_position or mode in POSITION_MODES):
         raise ConfigError(
             f"axis {where}: the drive gives no position resolution (0x608F, 0x60A8, 0x6092); "
             f"set {hint.format(key='counts_per_rev')}"

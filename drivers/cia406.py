@@ -36,11 +36,19 @@ class Cia406Axis(CanopenAxis):
         node_id: int,
         *,
         period: float,
-        eds: str = CIA406_EDS,
+        eds: str | None = None,
         speed_from_position: bool = False,
         heartbeat_timeout: float = 0.0,
     ) -> None:
-        super().__init__(name, None, network, node_id, eds=eds, heartbeat_timeout=heartbeat_timeout)
+        super().__init__(
+            name,
+            None,
+            network,
+            node_id,
+            eds=eds or CIA406_EDS,
+            eds_given=eds is not None,
+            heartbeat_timeout=heartbeat_timeout,
+        )
         if not period > 0.0:
             raise ConfigError(f"axis {name!r}: the SYNC period must be > 0 s, got {period!r}")
         self.period = period
@@ -53,10 +61,12 @@ class Cia406Axis(CanopenAxis):
         self._last: Feedback | None = None
 
     def setup(self) -> None:
-        """Check the device type, read the resolution and the TPDO carrying the position on SYNC."""
+        """Check the device type and identity (``check_identity``), read the resolution and the
+        TPDO carrying the position on SYNC."""
         device_type = self.sdo_read(cia.DEVICE_TYPE)
         if device_type & 0xFFFF != cia.PROFILE_ENCODER:
             raise ConfigError(f"node {self.node_id} is not a CiA 406 encoder (0x1000 = 0x{device_type:08X})")
+        self.device_id = self.check_identity(give=self.eds_hint)
         per_rev = self.sdo_read(cia406.ENCODER_RESOLUTION)
         if not per_rev:
             raise ConfigError(f"node {self.node_id}: 0x6001 measuring units per revolution is 0")

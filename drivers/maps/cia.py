@@ -209,6 +209,12 @@ PROFILE_VELOCITY = 0x6081  #: [velocity units]
 PROFILE_ACCELERATION = 0x6083
 PROFILE_DECELERATION = 0x6084
 QUICK_STOP_DECELERATION = 0x6085
+#: DSP 402 v2's older unit objects: a power of ten (notation, INTEGER8) and a unit code (dimension,
+#: UNSIGNED8) each for position and velocity (``drivers.maps.units.dimension_unit``)
+POSITION_NOTATION = 0x6089
+POSITION_DIMENSION = 0x608A
+VELOCITY_NOTATION = 0x608B
+VELOCITY_DIMENSION = 0x608C
 POSITION_ENCODER_RESOLUTION = 0x608F  #: sub 1 increments, sub 2 motor revolutions
 GEAR_RATIO = 0x6091
 FEED_CONSTANT = 0x6092

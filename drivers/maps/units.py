@@ -21,6 +21,14 @@ revolution per second of the driving shaft. ``position_per_revolution`` and
 from whichever of these objects it has. Acceleration is in velocity units
 per second.
 
+A drive of DSP 402 v2 may state them by the older notation and dimension indices instead:
+0x6089/0x608A (position) and 0x608B/0x608C (velocity), a power of ten and a unit code each.
+``dimension_unit`` turns such a pair into the equivalent 0x60A8/0x60A9 code: a position
+dimension is a rotary unit code of CiA 303-2 as 0x60A8 carries (0: increments, as without it);
+a velocity dimension is 0xA4, revolutions per minute (the one rotary speed the drives' manuals
+give this code for: Kollmorgen S300/S700 list 0xA4 = turn/min, 0xA6 = m/s, 0xA7 = m/min),
+a linear unit is refused by name.
+
 Decision: CiA 402 scales positions by the factor group only where the drive
 has a feed constant 0x6092; a drive without 0x6092 and without 0x60A8 counts
 positions in increments (its 0x608F, if any, then only tells the encoder's
@@ -32,7 +40,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["ROTARY_UNITS", "TIME_UNITS", "SiUnit", "position_per_revolution", "velocity_per_revolution"]
+__all__ = [
+    "ROTARY_UNITS",
+    "TIME_UNITS",
+    "SiUnit",
+    "dimension_unit",
+    "position_per_revolution",
+    "velocity_per_revolution",
+]
 
 #: rotary units of CiA 303-2 (code: how many make one revolution)
 ROTARY_UNITS: dict[int, float] = {
@@ -98,6 +113,31 @@ class SiUnit:
         scale = f"1e{self.prefix} " if self.prefix else ""
         per = f"/{_TIME_NAMES[self.per]}" if self.per else ""
         return f"{scale}{_NAMES.get(self.unit, hex(self.unit))}{per}"
+
+
+#: velocity dimension indices (0x608C) of rotary speeds: the unit and time unit they stand for
+VELOCITY_DIMENSIONS: dict[int, tuple[int, int]] = {0xA4: (0xB4, 0x47)}  # revolutions per minute
+
+
+def dimension_unit(notation: int | None, dimension: int | None, *, velocity: bool) -> int:
+    """The 0x60A8/0x60A9 code equivalent to a notation index (a power of ten; None: 0) and a
+    dimension index (0x608A/0x608C; None or 0: not given, 0 returned); ValueError naming a
+    dimension this toolkit cannot convert (a linear unit, an unknown code)."""
+    if not dimension:
+        return 0
+    prefix = notation or 0
+    obj = "0x608C" if velocity else "0x608A"
+    if velocity:
+        if dimension not in VELOCITY_DIMENSIONS:
+            raise ValueError(
+                f"{obj} = 0x{dimension:02X}: a velocity dimension index that is no rotary speed drive-rig "
+                "knows (0xA4: revolutions per minute)"
+            )
+        unit, per = VELOCITY_DIMENSIONS[dimension]
+        return SiUnit(prefix, unit, per).encode()
+    if dimension not in ROTARY_UNITS and dimension != INCREMENTS:
+        raise ValueError(f"{obj} = 0x{dimension:02X}: a position dimension index that is no rotary unit")
+    return SiUnit(prefix, dimension).encode()
 
 
 def position_per_revolution(

@@ -110,8 +110,8 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
         from plant_emulator.device_profile import device_profile
 
         profile = device_profile(args.emulate)
-    eds = args.eds or (str(profile.eds) if profile else CIA402_EDS)
-    od = load_od(eds, args.node)  # a bad EDS, or an object it does not name, before the bus opens
+    eds = args.eds or (str(profile.eds) if profile else None)  # None: the device's own units, modes
+    od = load_od(eds or CIA402_EDS, args.node)  # a bad EDS, or an object it does not name, first
     if args.action == "sdo":
         parse_object(args.object, od)
     else:  # and one that lacks what the action needs to read the drive's state or move it (its

@@ -32,6 +32,7 @@ from drivers.maps.cia402_needs import require as require_objects
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
+from rig.commission.motion_watch import MotionWatch
 from rig.commission.status import UNITS_HINT, device_units
 from rig.host.stopping import RestWatch
 
@@ -110,6 +111,9 @@ class DriveTool:
         self.emulated = idle is not None
         axis.idle = self.idle
         axis.units_hint = UNITS_HINT  # a factor the drive lacks is given by --units here
+        axis.eds_hint = "rig drive --eds FILE"  # the device's own dictionary
+        #: the move under way, watched at every look (``rig.commission.motion_watch``)
+        self.motion: MotionWatch | None = None
         #: ``rig drive --live``: each look during a move appends (t [s], target, actual, target) in SI
         self.live: collections.deque[Sequence[float]] | None = None
         self._watched: tuple[float, int, float] | None = None  #: target [SI], actual's index, its factor
@@ -239,7 +243,13 @@ class DriveTool:
         a.discover(check_mode=False)
         self._offers(mode, _VERB[mode])
         if mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):
-            require(a.units, int(mode), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
+            require(
+                a.units,
+                int(mode),
+                where=f"{a.name!r} ({a.where})",
+                hint=UNITS_HINT,
+                has_position=a.has_position,
+            )
         self._alone()
         a.nmt("OPERATIONAL")
         a.set_mode(mode)
@@ -254,14 +264,41 @@ class DriveTool:
             result = f"stopped: {exc}"
         finally:
             confirmed, turning = self.stop()
+        position, velocity = self._actual()
         return {
             "result": result,
-            "position_rad": a.sdo_read(cia.POSITION_ACTUAL) / a.units.position,
-            "velocity_rad_s": a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity,
+            **({"position_rad": position} if position is not None else {}),
+            "velocity_rad_s": velocity,
             "stop_confirmed": confirmed,
             "still_turning": turning,
             "state": a.read_power_state().value,
         }
+
+    def _actual(self) -> tuple[float | None, float]:
+        """(position [rad], None on a drive without 0x6064; speed [rad/s]) read by SDO."""
+        a = self.axis
+        velocity = a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity
+        if not a.has_position:
+            return None, velocity
+        return a.sdo_read(cia.POSITION_ACTUAL) / a.units.position, velocity
+
+    def _motion(self, **kw: Any) -> MotionWatch:
+        """A watch of the move about to start (``MotionWatch``), with the drive's quanta and units."""
+        a = self.axis
+        position_quantum, speed_quantum = a.quanta()
+        source = a.units.source
+        units = ", ".join(f"{k} {source[k]}" for k in ("position", "velocity") if source.get(k))
+        where = f"{a.where}: {kw.pop('what')}"
+        return MotionWatch(
+            where, speed_quantum=speed_quantum, position_quantum=position_quantum, units=units, **kw
+        )
+
+    def _profile_speed(self, index: int, subindex: int = 0) -> float:
+        """1.5 times a speed the drive declares (0x6081, 0x6099), in rad/s; inf where it has none."""
+        raw = self.axis._optional(index, subindex)
+        if raw is None or not raw or not math.isfinite(self.axis.units.velocity):
+            return math.inf
+        return 1.5 * abs(float(raw)) / self.axis.units.velocity
 
     def _watch(self, target: float, actual: int, factor: float) -> None:
         """From now on, with ``live``, each look reads ``actual`` (an object, / ``factor``: SI)
@@ -270,12 +307,19 @@ class DriveTool:
         self._looks, self._t0 = 0, time.monotonic()
 
     def _look(self) -> None:
-        """A row for the live view: time (lock-step: looks x period) [s], target, actual, target."""
-        if self.live is None or self._watched is None:
+        """One look during a move: the motion watch (``MotionWatch``: a SafetyStop where the shaft
+        does not do what was asked) and a row for the live view (time [s], lock-step: looks x
+        period; target, actual, target)."""
+        if self._watched is None or (self.live is None and self.motion is None):
             return
         target, index, factor = self._watched
         self._looks += 1
         t = self._looks * self.period if self.emulated else time.monotonic() - self._t0
+        if self.motion is not None:
+            position, speed = self._actual()
+            self.motion.see(t, speed, position)
+        if self.live is None:
+            return
         try:
             actual = self.axis.sdo_read(index) / factor
         except Exception as exc:  # the move's own reads say what is wrong; the live view ends
@@ -285,10 +329,12 @@ class DriveTool:
         self.live.append((t, target, actual, target))
 
     def stop(self, *, seconds: float = 3.0) -> tuple[bool, dict[str, float | None]]:
-        """Quick stop, the drive's ramp to rest (statusword and 0x606C by SDO), disable, then the
-        shaft at rest for the axis's hold (``rig.host.stopping.RestWatch``): (confirmed, {axis:
-        its speed [rad/s]} where the shaft was still turning)."""
+        """The move's watch ends (``motion``); quick stop, the drive's ramp to rest (statusword
+        and 0x606C by SDO), disable, then the shaft at rest for the axis's hold
+        (``rig.host.stopping.RestWatch``): (confirmed, {axis: its speed [rad/s]} where the shaft
+        was still turning)."""
         a = self.axis
+        self.motion = None
         a.quick_stop()
 
         def at_rest() -> bool:
@@ -312,28 +358,30 @@ class DriveTool:
         return confirmed, {}
 
     def jog(self, speed: float, seconds: float, *, limit: float) -> dict[str, Any]:
-        """Profile velocity at ``speed`` [rad/s] for ``seconds``; |speed| <= ``limit``."""
+        """Profile velocity at ``speed`` [rad/s] for ``seconds``; |speed| <= ``limit``, and the
+        shaft watched against both (``MotionWatch``); the result says the speed it reached."""
         if not abs(speed) <= limit:
             raise ConfigError(f"jog speed {speed:g} rad/s exceeds the limit {limit:g} rad/s (--limit)")
         a = self.axis
-        late = self._deadline(seconds)
+        late = [self._deadline(seconds)]
         ticks = [0]
+        watch: list[MotionWatch] = []
 
         def elapsed() -> bool:
             ticks[0] += 1
-            return ticks[0] * self.period >= seconds or late()
+            return ticks[0] * self.period >= seconds or late[0]()
 
         def start() -> None:
             self._watch(speed, cia.VELOCITY_ACTUAL, a.units.velocity)  # the units: once discovered
+            here, _ = self._actual()
+            self.motion = self._motion(what="the jog", speed_limit=limit, asked_speed=speed, start=here)
+            watch.append(self.motion)
             a.sdo_write(cia.TARGET_VELOCITY, 0, round(speed * a.units.velocity))
+            late[0] = self._deadline(seconds)  # the jog's time runs from its target, not the set-up
 
-        return self._run(
-            Mode.PROFILE_VELOCITY,
-            start,
-            elapsed,
-            seconds + 1.0,
-            "the jog",
-        )
+        result = self._run(Mode.PROFILE_VELOCITY, start, elapsed, seconds + 1.0, "the jog")
+        reached = watch[0].reached() if watch else math.nan
+        return {"asked_rad_s": speed, "reached_rad_s": reached} | result
 
     def move(self, position: float, *, limit: float, seconds: float = 30.0) -> dict[str, Any]:
         """Profile position to ``position`` [rad] (absolute); |move| <= ``limit`` [rad]. Where it
@@ -348,8 +396,10 @@ class DriveTool:
             raise ConfigError(f"move of {position - here:g} rad exceeds the limit {limit:g} rad (--limit)")
         self._watch(position, cia.POSITION_ACTUAL, a.units.position)
         seen = [0]  #: the statusword at the last look before the stop (its bits 10, 11, 13)
+        fast = self._profile_speed(cia.PROFILE_VELOCITY)
 
         def start() -> None:
+            self.motion = self._motion(what="the move", speed_limit=fast, start=here, target=position)
             a.sdo_write(cia.TARGET_POSITION, 0, round(position * a.units.position))
             a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
             self._until(lambda: bool(a.sdo_read(cia.STATUSWORD) & _BIT12), 1.0, "the set-point acknowledge")
@@ -390,6 +440,8 @@ class DriveTool:
 
         def start() -> None:
             self._watch(0.0, cia.POSITION_ACTUAL, a.units.position)
+            fast = max(self._profile_speed(cia.HOMING_SPEEDS, 1), self._profile_speed(cia.HOMING_SPEEDS, 2))
+            self.motion = self._motion(what="homing", speed_limit=fast)  # homing sets the position anew
             if method is not None:
                 a.sdo_write(cia.HOMING_METHOD, 0, method)
             a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)

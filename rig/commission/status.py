@@ -12,8 +12,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from drivers.cia402_access import Identity
 from drivers.cia402_units import DriveUnits
+from drivers.identity import Identity
 
 __all__ = ["UNITS_HINT", "device_units", "status_lines"]
 

@@ -15,7 +15,6 @@ from typing import Any
 from drivers.base import AxisDriver
 from drivers.errors import ConfigError
 from drivers.files import read_toml
-from drivers.maps import CIA402_EDS, CIA406_EDS
 from rig.config import ABORT_CONNECTION, AxisConfig, BusConfig
 
 __all__ = ["AXIS_DRIVERS", "open_axis"]
@@ -51,7 +50,12 @@ def _arguments(
     hb = a.limits.heartbeat_timeout
     if a.kind == "cia402":
         host = (bus.host_node, a.host_timeout or 3.0 * bus.heartbeat) if bus.heartbeat > 0.0 else None
-        kw = {"mode": a.mode, "eds": a.eds or CIA402_EDS, "units": _units(a), "sync_rpdo": a.sync_rpdo}
+        kw: dict[str, Any] = {
+            "mode": a.mode,
+            "eds": a.eds or None,
+            "units": _units(a),
+            "sync_rpdo": a.sync_rpdo,
+        }
         kw |= {"latency": a.latency, "heartbeat_timeout": hb, "pdo": a.pdo, "mode_timeout": a.mode_timeout}
         kw |= {
             "sdo_timeout": a.sdo_timeout or None,
@@ -66,7 +70,7 @@ def _arguments(
         }
         return (a.name, network, a.node_id), kw
     if a.kind == "cia406":
-        kw = {"period": period, "eds": a.eds or CIA406_EDS, "heartbeat_timeout": hb}
+        kw = {"period": period, "eds": a.eds or None, "heartbeat_timeout": hb}
         return (a.name, network, a.node_id), kw | {"speed_from_position": a.speed_from_position}
     kw = {"unit": a.unit, "host": a.host or None, "port": a.port, "serial": a.serial or None}
     return (a.name, a.map), kw | {"baudrate": a.baudrate}

@@ -3,7 +3,8 @@
 ``AxisGuard.check_feedback`` runs every cycle on an axis's sample (the watchdog on
 its ``stamp``, counted in periods of the loop's cycle index, so a real-time cycle that
 waited several periods counts as all of them, NaN in a measured quantity, speed, a position jump no motor can
-make, the position window, current); ``check_command`` on the command about to
+make, the position window, current, and in a speed mode the speed against the command:
+``rig.host.motion_check``); ``check_command`` on the command about to
 be sent: its size, or, for a position command (CSP), its travel from where the axis
 stood at the first sample, the position window, and its step from the last command (the
 first from the measured position), which no motor within the speed limit makes in the
@@ -20,6 +21,7 @@ from collections.abc import Callable
 from drivers.base import AxisDriver, Feedback, feedback_fields
 from drivers.errors import SafetyStop
 from rig.config import AxisLimits
+from rig.host.motion_check import SPEED_MODES, FollowCheck
 
 __all__ = ["AxisGuard"]
 
@@ -55,6 +57,12 @@ class AxisGuard:
         self.origin: float | None = None  #: [rad] the first measured position
         self._last_command: float | None = None  #: [rad] the last position command
         self._command_k = 0  #: the cycle index of ``_last_command``
+        #: a speed-commanded axis's speed against its command (``rig.host.motion_check``)
+        self.follow = (
+            FollowCheck(self.who, period, limits.speed, axis.quanta()[1])
+            if getattr(axis, "mode", None) in SPEED_MODES
+            else None
+        )
         speed = limits.speed if math.isfinite(limits.speed) else 1000.0
         #: a position step no motor makes within the speed limit: an encoder glitch or a lost count
         self.max_step = speed * period * 3.0
@@ -78,6 +86,8 @@ class AxisGuard:
                     raise self._stop(f"{name} feedback is {value!r}")
         if abs(fb.velocity) > c.speed:
             raise self._stop(f"speed {fb.velocity:.4g} rad/s exceeds the limit {c.speed:g} rad/s")
+        if self.follow is not None and fresh:
+            self.follow.see(fb.velocity)
         if "position" in self.measures and fresh:  # a repeated sample is no step (nor its time)
             self._check_position(fb.position, k if sample_k is None else sample_k)
         if abs(fb.current) > c.current:
@@ -110,6 +120,8 @@ class AxisGuard:
             self._check_position_command(float(command), k)  # type: ignore[arg-type]
         elif size > self.limits.command:
             raise self._stop(f"command {size:.4g} exceeds the limit {self.limits.command:g}")
+        if self.follow is not None:
+            self.follow.sent(float(command))  # type: ignore[arg-type]
 
     def _check_position_command(self, x: float, k: int) -> None:
         c = self.limits

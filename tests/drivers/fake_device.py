@@ -24,7 +24,8 @@ The device follows CiA 301 and CiA 402 as the standards write them, in this file
 ``tests/drivers/fake_socketcand.py`` serves it in a process of its own, behind a socketcand server.
 - CiA 402 (6.2): the power state machine on the controlword; 0x6061 follows 0x6060 when the
   mode is one of ``[device] modes``; profile position (new set-point, acknowledge, target
-  reached; ``[motion] pp_short_by`` increments short of the target), profile velocity, homing,
+  reached; ``[motion] pp_short_by`` increments short of the target), profile velocity (at its
+  target at once on an SDO write of 0x60FF, and on each SYNC), homing,
   cyclic synchronous position and velocity, each in the simplest form that shows the state.
 """
 
@@ -498,6 +499,8 @@ class FakeDrive:
         e.value = value
         if index == 0x6060:
             self._put(0x6061, 0, value)
+        if index == 0x60FF and self._mode() == 3 and self.state == "OPERATION ENABLED":
+            self._put(0x606C, 0, value)  # profile velocity: at the target at once, SYNC or not
         elif index == 0x6040:
             self._controlword(value)
 
@@ -637,5 +640,6 @@ class FakeDrive:
         elif mode in (3, 9) and (0x60FF, 0) in self.od.entries:
             v = int(self._get(0x60FF))
             self._put(0x606C, 0, v)
-            self._put(0x6064, 0, int(self._get(0x6064)) + v // 1000)
+            if (0x6064, 0) in self.od.entries:  # a speed controller may have no position
+                self._put(0x6064, 0, int(self._get(0x6064)) + v // 1000)
         self._put(0x6041, 0, self._statusword())

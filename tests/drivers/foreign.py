@@ -45,9 +45,8 @@ class ForeignDrive:
     def axis(self, mode: str, **kw: Any) -> Cia402Axis:
         kw.setdefault("sdo_timeout", 2.0)  # a thread answers: generous under load, never waited out
         network = kw.pop("network", None)  # a Network is a mapping: empty (no node yet), it is falsy
-        axis = Cia402Axis(
-            "motor", self.network() if network is None else network, 1, mode=mode, eds=self.eds, **kw
-        )
+        kw.setdefault("eds", self.eds)  # eds=None: no EDS of the device's own (the toolkit's generic one)
+        axis = Cia402Axis("motor", self.network() if network is None else network, 1, mode=mode, **kw)
         self._axes.append(axis)
         return axis
 

@@ -146,7 +146,12 @@ def _refused(r: Rig, mode: str, match: str, **kw: object) -> None:
 def test_a_factor_nobody_gives_is_named() -> None:
     r = Rig("tmcm-1160")
     try:
-        _refused(r, "csv", r"mode CSV needs 0x608F.*set \[axis.units\] counts_per_rev", units={})
+        _refused(
+            r,
+            "csv",
+            r"mode CSV needs the drive.s velocity unit.*set \[axis.units\] velocity_unit .*counts_per_rev",
+            units={},
+        )
     finally:
         r.close()
     r = Rig("compact-2pdo")

@@ -1,0 +1,179 @@
+"""Who a CANopen device is (CiA 301 0x1018), read from the device, and the check of it against the
+object dictionary in use, before the host writes anything but a read.
+
+- ``Identity``: 0x1018 as the device answers (None: not readable), with the vendor's name where
+  the dictionary in use is the device's own; ``toolkit`` is the positive identification of the
+  toolkit's own drive (vendor 0xDB1, product 0x402), the one drive whose manufacturer objects and
+  modes the host knows.
+- ``STANDARD`` and ``read_standard``: the objects the host reads from every device by their
+  standard's type (CiA 301, CiA 402), by SDO upload whatever the EDS in use names: identity,
+  units and modes are the device's, never the EDS's default values.
+- ``declared_identity``: what an EDS/DCF says its device is: 0x1018's default values, else
+  [DeviceInfo]'s VendorNumber, ProductNumber and RevisionNumber.
+- ``check_identity``: a device that is not the one its given dictionary describes (vendor or
+  product code) is refused in one line naming both identities and the dictionary to give; a
+  revision other than the dictionary's is a warning. Without a dictionary of the device's own
+  (none given: the toolkit's generic CiA 402 one), nothing is compared: the device's units and
+  modes are read from it, and nothing but standard objects is written.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+from drivers.errors import ConfigError, SdoAbort
+from drivers.maps import cia
+
+__all__ = [
+    "STANDARD",
+    "TOOLKIT_DRIVE",
+    "Identity",
+    "check_identity",
+    "declared_identity",
+    "read_identity",
+    "read_standard",
+    "vendor_name",
+]
+
+log = logging.getLogger(__name__)
+
+TOOLKIT_DRIVE = (0xDB1, 0x402)  #: (vendor, product) of the toolkit's own drive (its EDS's 0x1018)
+
+_U32, _I8, _U8, _I16, _I32 = (False, 4), (True, 1), (False, 1), (True, 2), (True, 4)
+#: (signed, bytes) of the objects read from a device by their standard's type (CiA 301, CiA 402
+#: and its older factor objects 0x6089-0x608C of DSP 402 v2)
+STANDARD: Mapping[tuple[int, int], tuple[bool, int]] = {
+    (cia.DEVICE_TYPE, 0): _U32,
+    **{(cia.IDENTITY, sub): _U32 for sub in (1, 2, 3, 4)},
+    (cia.SUPPORTED_MODES, 0): _U32,
+    **{(index, sub): _U32 for index in (0x608F, 0x6091, 0x6092) for sub in (1, 2)},
+    (cia.SI_UNIT_POSITION, 0): _U32,
+    (cia.SI_UNIT_VELOCITY, 0): _U32,
+    (cia.POSITION_NOTATION, 0): _I8,
+    (cia.POSITION_DIMENSION, 0): _U8,
+    (cia.VELOCITY_NOTATION, 0): _I8,
+    (cia.VELOCITY_DIMENSION, 0): _U8,
+    (cia.RATED_CURRENT, 0): _U32,
+    (cia.RATED_TORQUE, 0): _U32,
+    (cia.POSITION_ACTUAL, 0): _I32,
+    (cia.VELOCITY_ACTUAL, 0): _I32,
+    (cia.TORQUE_ACTUAL, 0): _I16,
+    (cia.STATUSWORD, 0): (False, 2),
+    (cia.MODES_DISPLAY, 0): _I8,
+}
+
+
+def read_standard(upload: Callable[[int, int], bytes], index: int, subindex: int = 0) -> int | None:
+    """Object (``index``, ``subindex``) of ``STANDARD`` as the device answers ``upload`` (an SDO
+    upload, raw bytes), by its standard's type; None where the device lacks it or refuses it (an
+    abort). An answer of another size than the type's is decoded as sent (CiA 301 lets an
+    expedited transfer say its size; a drive may keep an INTEGER32 object in two bytes)."""
+    signed, _size = STANDARD[(index, subindex)]
+    try:
+        data = upload(index, subindex)
+    except SdoAbort:
+        return None
+    if not data:
+        return None
+    return int.from_bytes(bytes(data[:8]), "little", signed=signed)
+
+
+@dataclass(frozen=True)
+class Identity:
+    """0x1018 of a device (None: not readable or not given) and its vendor's name."""
+
+    vendor: int | None = None
+    product: int | None = None
+    revision: int | None = None
+    serial: int | None = None
+    vendor_name: str = ""
+
+    @property
+    def toolkit(self) -> bool:
+        """The toolkit's own drive, positively identified by vendor id and product code."""
+        return (self.vendor, self.product) == TOOLKIT_DRIVE
+
+    def as_dict(self) -> dict[str, int]:
+        """The numbers known (``vendor``, ``product``, ``revision``, ``serial``)."""
+        fields = (("vendor", self.vendor), ("product", self.product), ("revision", self.revision))
+        return {k: v for k, v in (*fields, ("serial", self.serial)) if v is not None}
+
+    def text(self) -> str:
+        """``vendor 0x000000FB (maxon motor ag) / product 0x65520000 / revision ... / serial ...``."""
+        parts = []
+        for key, value in self.as_dict().items():
+            name = f" ({self.vendor_name})" if key == "vendor" and self.vendor_name else ""
+            parts.append(f"{key} 0x{value:08X}{name}")
+        return " / ".join(parts) or "no identity (0x1018 not readable)"
+
+
+def read_identity(upload: Callable[[int, int], bytes]) -> Identity:
+    """0x1018 sub 1-4 as the device answers (``read_standard``)."""
+    vendor, product, revision, serial = (read_standard(upload, cia.IDENTITY, sub) for sub in (1, 2, 3, 4))
+    return Identity(vendor, product, revision, serial)
+
+
+def vendor_name(od: Any) -> str:
+    """The vendor's name an EDS gives ([DeviceInfo] VendorName), or ""."""
+    info: Any = getattr(od, "device_information", None)
+    return str(getattr(info, "vendor_name", "") or "").strip()
+
+
+def _default(od: Any, index: int, subindex: int) -> int | None:
+    """An entry's default value where the EDS gives a number (not ``$NODEID``-relative or absent)."""
+    try:
+        value = od[index][subindex].default
+    except (KeyError, TypeError, AttributeError):
+        return None
+    return value if isinstance(value, int) and not isinstance(value, bool) else None
+
+
+def declared_identity(od: Any) -> Identity:
+    """The identity an EDS/DCF declares: 0x1018 sub 1-3 default values, else [DeviceInfo]'s
+    numbers (vendor, product code, revision; a serial number belongs to one device, not to its
+    EDS)."""
+    info: Any = getattr(od, "device_information", None)
+    numbers = [_default(od, cia.IDENTITY, sub) if cia.IDENTITY in od else None for sub in (1, 2, 3)]
+    for i, key in enumerate(("vendor_number", "product_number", "revision_number")):
+        if numbers[i] is None:
+            value = getattr(info, key, None)
+            numbers[i] = value if isinstance(value, int) else None
+    vendor, product, revision = numbers
+    return Identity(vendor, product, revision, vendor_name=vendor_name(od))
+
+
+def check_identity(device: Identity, od: Any, *, eds: str, given: bool, where: str, give: str) -> Identity:
+    """``device`` against the dictionary ``od`` (file ``eds``; ``given``: by the user, else the
+    toolkit's generic one): the identity to use, with the vendor's name where the dictionary is
+    the device's own. ConfigError where a given dictionary describes another device (vendor or
+    product code); a warning where only the revision differs. ``give``: how the user gives the
+    device's own dictionary (``--eds FILE``, the axis's ``eds`` key)."""
+    declared = declared_identity(od)
+    if not given and not device.toolkit:
+        log.info(
+            "%s: %s; no EDS of its own was given: its units and modes are read from it, and only "
+            "CiA 301/402 objects the standards declare writable are written (give %s for more)",
+            where,
+            device.text(),
+            give,
+        )
+        return device
+    for key in ("vendor", "product"):
+        said, held = getattr(declared, key), getattr(device, key)
+        if said is not None and held is not None and said != held:
+            raise ConfigError(
+                f"{where} is {device.text()}, but {eds} describes {declared.text()} ({key} differs): "
+                f"nothing was written; give the device's own EDS/DCF ({give})"
+            )
+    if declared.revision is not None and device.revision is not None and declared.revision != device.revision:
+        log.warning(
+            "%s: revision 0x%08X, %s describes revision 0x%08X: objects may differ from its EDS",
+            where,
+            device.revision,
+            eds,
+            declared.revision,
+        )
+    return replace(device, vendor_name=declared.vendor_name)
