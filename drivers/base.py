@@ -9,9 +9,10 @@ only, never their protocol::
     fb = axis.feedback()          # SI: rad, rad/s, N m, A
     axis.supervise(now)           # raises when the device reports trouble
     axis.command(u)               # SI, in the unit of the axis's mode
-    axis.quick_stop()             # the device's own ramp; then, once
+    axis.quick_stop()             # the device's own ramp; each cycle of it
+    axis.keep_stopping()          # keeps the device's watch of the host fed; once
     axis.at_rest(fb)              # says its stop ended,
-    axis.disable()
+    axis.disable()                # confirmed, and only then its watch lifted
     axis.close()                  # idempotent; leaves the device disabled
 
 Every library exception (canopen, pymodbus, python-can, OS) is translated into
@@ -133,6 +134,11 @@ class AxisDriver(abc.ABC):
     @abc.abstractmethod
     def quick_stop(self) -> None:
         """Stop with the device's own quick-stop ramp."""
+
+    def keep_stopping(self) -> None:  # noqa: B027 - a hook with a default
+        """Once a cycle of a stop, before its SYNC: what the device needs from the host meanwhile
+        so that its own watch of the host (a deadline on the commands) sees it alive until the
+        disable is confirmed. The default sends nothing."""
 
     @abc.abstractmethod
     def feedback(self) -> Feedback:

@@ -44,6 +44,7 @@ from drivers.cia402_process import ProcessData
 from drivers.cia402_setup import SW, VELOCITY, Cia402Setup
 from drivers.cia402_units import DriveUnits
 from drivers.errors import (
+    CommunicationError,
     CommunicationTimeout,
     ConfigError,
     DeviceFault,
@@ -55,7 +56,7 @@ from drivers.maps.cia402_needs import needed, require
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_code
 
-__all__ = ["Cia402Axis", "DriveUnits", "power_state"]
+__all__ = ["DISABLED_STATES", "Cia402Axis", "DriveUnits", "power_state"]
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +67,9 @@ _TOWARDS_ENABLED = {
     PowerState.SWITCHED_ON: Controlword.ENABLE_OPERATION,
     PowerState.QUICK_STOP_ACTIVE: Controlword.DISABLE_VOLTAGE,
 }
+#: the states a disable must reach before the drive's supervision is relaxed: the drive function
+#: off (CiA 402-2, 6.2), confirmed by the statusword
+DISABLED_STATES = frozenset({PowerState.SWITCH_ON_DISABLED, PowerState.READY_TO_SWITCH_ON, PowerState.FAULT})
 _AXIS_STATE = {
     PowerState.OPERATION_ENABLED: AxisState.ENABLED,
     PowerState.QUICK_STOP_ACTIVE: AxisState.STOPPING,
@@ -86,6 +90,8 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
     the velocity is the position's backward difference over the time between the two samples
     (``sample_interval``), 0 at the first.
     """
+
+    DISABLE_CONFIRM = 0.1  #: [s] a disable has for the statusword to show it
 
     def __init__(
         self,
@@ -161,6 +167,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
         self.idle: Callable[[], None] = lambda: time.sleep(0.001)
         self._sent = False  #: an SDO download or an NMT command went to the drive
+        self._disabled = False  #: the statusword confirmed the last disable (``disable``)
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """An SDO download, never to a manufacturer object (0x2000-0x5FFF) but on the toolkit's own
@@ -247,6 +254,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             log.warning("%s: the drive was in FAULT (%s): resetting it", self.where, what)
             self.fault_reset(timeout=timeout)
         self.clear_fault()
+        self._stop_word, self._disabled = None, False
         if self.host is not None and self._consumer_sub is None and self.data is not None:
             if cia.CONSUMER_HEARTBEAT in self.node.object_dictionary:
                 self._consumer_sub = self._watch_host(*self.host)
@@ -268,9 +276,10 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         )
 
     def quick_stop(self) -> None:
-        """Quick stop command (transition 11), by SDO so it acts now; first the drive's deadline
-        on the commands is lifted (its ramp needs none, and the host sends none meanwhile)."""
-        self._unwatch_commands()
+        """Quick stop command (transition 11), by SDO so it acts now, and in the RPDO from now on
+        (``keep_stopping``). The drive's watch of the host and of its commands stays: it is
+        lifted only once the disable is confirmed (``disable``)."""
+        self._stop_word = int(Controlword.QUICK_STOP)
         self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.QUICK_STOP))
 
     def quanta(self) -> tuple[float, float]:
@@ -316,10 +325,48 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             return None
 
     def disable(self) -> None:
-        """Disable voltage (transitions 7, 9, 10, 12), then stop watching the host's heartbeat and
-        commands; nothing on a node whose 0x1000 says it is no CiA 402 drive."""
+        """Disable voltage (transitions 7, 9, 10, 12), confirmed by the statusword (SWITCH ON
+        DISABLED, READY TO SWITCH ON or FAULT, read by SDO within ``DISABLE_CONFIRM`` [s]), and
+        only then the drive's watch of the host's heartbeat (0x1016) and of its commands (the
+        RPDO deadline) lifted. A disable not confirmed (the SDO lost, the drive still enabled)
+        leaves both in place, so the drive stops itself once the host goes quiet, and raises
+        CommunicationError saying so. Nothing on a node whose 0x1000 says it is no CiA 402 drive."""
         if self.not_a_drive:
             return
-        self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
+        self._stop_word = int(Controlword.DISABLE_VOLTAGE)
+        try:
+            self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
+            state = self._confirm_disabled()
+        except RigError as exc:
+            said = f"{self.where}: disable voltage not confirmed ({exc}); {self._kept()}"
+            raise CommunicationError(said) from exc
+        if state not in DISABLED_STATES:
+            raise CommunicationError(
+                f"{self.where}: disable voltage not confirmed: the statusword shows {state.value} "
+                f"{self.DISABLE_CONFIRM:g} s after it; {self._kept()}"
+            )
+        self._disabled = True
         self._unwatch_host()
         self._unwatch_commands()
+
+    def _confirm_disabled(self) -> PowerState:
+        """The state the statusword shows, read until it shows the drive disabled or
+        ``DISABLE_CONFIRM`` [s] have passed (time passing by ``idle``)."""
+        deadline = time.monotonic() + self.DISABLE_CONFIRM
+        while True:
+            state = self.read_power_state()
+            if state in DISABLED_STATES or time.monotonic() > deadline:
+                return state
+            self.idle()
+
+    def _kept(self) -> str:
+        """What the drive still watches, in words, after a disable not confirmed."""
+        kept = [f"its heartbeat consumer 0x1016:{self._consumer_sub:02X}"] if self._consumer_sub else []
+        if self._deadline_comm is not None:
+            kept.append(f"its deadline on the commands 0x{self._deadline_comm:04X}:05")
+        if not kept:
+            return "the drive may still be enabled"
+        return f"{' and '.join(kept)} left in place: the drive stops itself when the host goes quiet"
+
+    def _watched(self) -> bool:
+        return not self._disabled or self._deadline_comm is not None

@@ -81,6 +81,10 @@ class Cia402Cycle(CanopenAxis):
     _moved: tuple[float | None, float, float]
     _enabled_stamp: float | None
     _motion: TpdoSlot | None  #: the position's TPDO slot (set-up)
+    #: the controlword the RPDO carries from a stop on (quick stop, disable voltage); None: enable
+    #: operation (``drivers.cia402``: set by quick_stop and disable, cleared by enable)
+    _stop_word: int | None = None
+    _target_raw: int | None = None  #: the target of the last command, in the drive's units
 
     if TYPE_CHECKING:  # the mapping's (``drivers.cia402_mapping``)
 
@@ -172,21 +176,60 @@ class Cia402Cycle(CanopenAxis):
                 raise SafetyStop(f"node {self.node_id}: the drive changed its mode to {shown} (0x6061)")
 
     def command(self, value: float | complex) -> None:
-        """Send the SI command of the mode in the RPDO (applied per its transmission type)."""
+        """Send the SI command of the mode in the RPDO (applied per its transmission type), with the
+        controlword of the moment (``rpdo_word``: enable operation; from a stop on, its command)."""
         data = self.data
         assert data is not None and data.rpdo is not None
         if self.op_mode == Mode.DQ_VOLTAGE:
             u = complex(value)
             frame = data.frame({DQ_RX[0]: round(u.real * 1000.0), DQ_RX[1]: round(u.imag * 1000.0)})
         else:
-            plan = self._plan
-            if plan.data is not data or plan.measures is not self.measures:
-                plan = self._plan = self._new_plan(data)
             raw = self.units.command_raw(self.op_mode, float(value))  # type: ignore[arg-type]
-            if plan.rpdo is not None:
-                frame = plan.rpdo(_ENABLE_OPERATION, raw)
-            else:
-                frame = data.frame({CW: _ENABLE_OPERATION, cia.TARGET_OF_MODE[self.op_mode]: raw})
+            self._target_raw = raw
+            frame = self._pack(data, raw)
+        self._send_rpdo(data, frame)
+
+    def keep_stopping(self) -> None:
+        """Once a cycle of a stop (``rig.host.stopping``), before its SYNC: the command RPDO again,
+        with the stop's controlword (quick stop, then disable voltage: never enable operation,
+        which would take a drive whose 0x605A holds it in QUICK STOP ACTIVE back to OPERATION
+        ENABLED, transition 16) and the neutral target (CSP: the last target; none sent, nothing),
+        for as long as the drive may watch it: its disable not yet confirmed, or its deadline on
+        the commands (0x1400+n sub 5) not yet lifted. So the deadline a drive holds, or its own
+        watch of the cycle (0x60C2), sees the host alive through the ramp; a host that dies
+        meanwhile still has the drive stop itself; and a quick stop whose SDO was lost still
+        reaches the drive, in the RPDO's controlword."""
+        data = self.data
+        if self._stop_word is None or data is None or data.rpdo is None or not self._watched():
+            return
+        if self.op_mode == Mode.DQ_VOLTAGE:
+            frame = data.frame({DQ_RX[0]: 0, DQ_RX[1]: 0})
+        elif self.op_mode == Mode.CSP:
+            if self._target_raw is None:
+                return
+            frame = self._pack(data, self._target_raw)
+        elif self.op_mode in cia.TARGET_OF_MODE:
+            frame = self._pack(data, self.units.command_raw(self.op_mode, 0.0))
+        else:
+            return
+        self._send_rpdo(data, frame)
+
+    def _watched(self) -> bool:
+        """The drive may still watch the host's commands (see ``keep_stopping``)."""
+        return True
+
+    def _pack(self, data: ProcessData, raw: int) -> bytes:
+        """The RPDO's data: the controlword of the moment and the mode's target ``raw``."""
+        plan = self._plan
+        if plan.data is not data or plan.measures is not self.measures:
+            plan = self._plan = self._new_plan(data)
+        word = _ENABLE_OPERATION if self._stop_word is None else self._stop_word
+        if plan.rpdo is not None:
+            return plan.rpdo(word, raw)
+        return data.frame({CW: word, cia.TARGET_OF_MODE[self.op_mode]: raw})
+
+    def _send_rpdo(self, data: ProcessData, frame: bytes) -> None:
+        assert data.rpdo is not None
         try:
             self.network.send_message(data.rpdo.cob_id, frame)
         except RigError:

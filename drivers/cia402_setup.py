@@ -203,21 +203,24 @@ class Cia402Setup(Cia402Mapping):
         return sub if self._setting(cia.CONSUMER_HEARTBEAT, sub, entry, why) else None
 
     def _unwatch_host(self) -> None:
-        """Disabled on purpose: the drive stops watching the host (whose heartbeat ends with the
-        run; a drive that is disabled needs no watch). ``enable`` sets the watch again."""
-        if self._consumer_sub is not None:
-            sub, self._consumer_sub = self._consumer_sub, None
+        """Disabled on purpose, and confirmed (``disable``): the drive stops watching the host
+        (whose heartbeat ends with the run; a disabled drive needs no watch); an entry not cleared
+        stays the axis's (a warning). ``enable`` sets the watch again."""
+        sub = self._consumer_sub
+        if sub is not None:
             try:
                 self.sdo_write(cia.CONSUMER_HEARTBEAT, sub, 0)
             except RigError as exc:
                 log.warning("%s: heartbeat consumer entry not cleared: %s", self.where, exc)
+                return
+            self._consumer_sub = None
 
     def _watch_commands(self) -> None:
         """The toolkit's own drive: the deadline of its command RPDO, that RPDO's event timer
         (CiA 301 0x1400+n sub 5, which on an RPDO is its deadline: no RPDO within it, EMCY 0x8250
         and the drive's reaction 0x6007) at ``rpdo_deadline`` [s], rounded up to whole ms, so
         that a host that stops sending (dead, frozen) has the drive stop itself within a few
-        periods, not at its heartbeat's 0.3 s. ``quick_stop`` and ``disable`` lift it."""
+        periods, not at its heartbeat's 0.3 s. A confirmed ``disable`` lifts it."""
         data = self.data
         rpdo = data.rpdo if data is not None else None
         if not (self.rpdo_deadline > 0.0 and rpdo is not None and self.toolkit_drive):
@@ -242,13 +245,16 @@ class Cia402Setup(Cia402Mapping):
             self.sdo_write(target, 0, 0)
 
     def _unwatch_commands(self) -> None:
-        """Stopping on purpose: the drive's deadline on the commands is lifted (a warning if not)."""
-        if self._deadline_comm is not None:
-            comm, self._deadline_comm = self._deadline_comm, None
+        """Disabled on purpose, and confirmed (``disable``): the drive's deadline on the commands
+        is lifted; one not lifted stays the axis's (a warning: the stop's RPDOs go on meanwhile)."""
+        comm = self._deadline_comm
+        if comm is not None:
             try:
                 self.sdo_write(comm, cia.PDO_COMM_EVENT_TIMER, 0)
             except RigError as exc:
                 log.warning("%s: the commands' deadline (0x%04X:05) not lifted: %s", self.where, comm, exc)
+                return
+            self._deadline_comm = None
 
     def _optional(self, index: int, subindex: int = 0) -> Any:
         """An object the device may lack: its value, or None (absent from the EDS, or refused)."""

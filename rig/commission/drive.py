@@ -24,7 +24,7 @@ from typing import Any
 from drivers.cia402 import Cia402Axis, power_state
 from drivers.cia402_pdo import read_mapping, variable
 from drivers.cia402_units import require
-from drivers.errors import ConfigError, DeviceFault, SafetyStop
+from drivers.errors import ConfigError, DeviceFault, RigError, SafetyStop
 from drivers.maps import cia
 from drivers.maps.cia import Controlword, Mode, PowerState
 from drivers.maps.cia402_needs import needed
@@ -330,7 +330,8 @@ class DriveTool:
 
     def stop(self, *, seconds: float = 3.0) -> tuple[bool, dict[str, float | None]]:
         """The move's watch ends (``motion``); quick stop, the drive's ramp to rest (statusword
-        and 0x606C by SDO), disable, then the shaft at rest for the axis's hold
+        and 0x606C by SDO), disable (confirmed by the statusword, ``Cia402Axis.disable``: not
+        confirmed, the stop is not), then the shaft at rest for the axis's hold
         (``rig.host.stopping.RestWatch``): (confirmed, {axis: its speed [rad/s]} where the shaft
         was still turning)."""
         a = self.axis
@@ -348,7 +349,11 @@ class DriveTool:
             confirmed = True
         except SafetyStop:
             confirmed = False
-        a.disable()
+        try:
+            a.disable()  # the drive's own watch of the host is lifted only once it is confirmed
+        except RigError as exc:
+            log.error("%s: %s", a.where, exc)
+            return False, {}
         watch = RestWatch.of(a, self.period)
         try:
             self._until(lambda: watch.see(a.shaft_speed()), max(seconds, 3.0 * a.rest_time), "the rest")

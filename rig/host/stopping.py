@@ -7,7 +7,11 @@ time pass) until every axis reports its own stop ended (``AxisDriver.at_rest``: 
 drive in SWITCH ON DISABLED or FAULT after its ramp, or at rest in QUICK STOP ACTIVE), or
 ``timeout`` [s] passes (in cycles of the loop's period, and in wall time); then disable
 every axis. Disabling during the ramp would cut it (CiA 402 transition 12: the motor
-coasts), so disable comes only after.
+coasts), so disable comes only after. Each cycle of the stop, before its SYNC, every
+stopping axis keeps its device's watch of the host fed (``AxisDriver.keep_stopping``: a CiA
+402 drive's command RPDO with the quick stop and the neutral target) and the host's heartbeat
+beats on; a drive's supervision is lifted only by its own ``disable``, once the statusword
+shows it disabled (docs/stops.md, "Stops in the right order").
 
 A stop is confirmed only when every axis was disabled and then every shaft stayed at rest:
 each axis with a shaft speed (``AxisDriver.has_shaft``; encoders too) kept it within its
@@ -127,6 +131,10 @@ def bring_to_rest(
     def rested(a: AxisDriver) -> bool:
         return bool(_asked(a, lambda: a.at_rest(a.feedback()), "state"))
 
+    def keep() -> None:
+        for a in stopping:
+            _asked(a, a.keep_stopping, "command while stopping")
+
     if not _cycles(
         pacing,
         period,
@@ -134,6 +142,7 @@ def bring_to_rest(
         deadline,
         realtime=realtime,
         beat=beat,
+        keep=keep,
         done=lambda: _pending(pending, rested),
     ):
         for a in pending:
@@ -152,7 +161,8 @@ def bring_to_rest(
         return all([w.see(_asked(a, a.shaft_speed, "speed")) for a, w in watches.items()])  # type: ignore[arg-type]
 
     if watches:
-        _cycles(pacing, period, left, time.monotonic() + wall, realtime=realtime, beat=beat, done=resting)
+        end = time.monotonic() + wall
+        _cycles(pacing, period, left, end, realtime=realtime, beat=beat, keep=keep, done=resting)
     turning = {a.name: w.speed for a, w in watches.items() if not w.done}
     for name, speed in turning.items():
         said = "no speed sample" if speed is None else f"{speed:.4g} rad/s"
@@ -162,7 +172,9 @@ def bring_to_rest(
         if fault is not None and fault is not faulted[a]:
             problems.append(f"{a.name}: {fault} during the stop")
     for a in stopping:
-        state = _asked(a, a.read_state, "state")
+        state = None
+        for _ in range(3):  # a frame lost on the way is asked again
+            state = state or _asked(a, a.read_state, "state")
         if state not in (AxisState.DISABLED, AxisState.FAULT):
             problems.append(f"{a.name}: not disabled ({getattr(state, 'value', 'no answer')})")
     for text in problems:
@@ -184,10 +196,12 @@ def _cycles(
     *,
     realtime: bool,
     beat: list[Callable[[int], None] | None],
+    keep: Callable[[], None],
     done: Callable[[], bool],
 ) -> bool:
-    """SYNC cycles (the host's heartbeat ``beat[0]`` with each) until ``done()``, for at most
-    ``seconds`` of periods and the wall-clock ``deadline``; True when ``done``."""
+    """SYNC cycles (the host's heartbeat ``beat[0]`` and ``keep()`` before each) until
+    ``done()``, for at most ``seconds`` of periods and the wall-clock ``deadline``; True when
+    ``done``."""
     for k in range(max(1, math.ceil(seconds / period))):
         if done():
             return True
@@ -201,6 +215,7 @@ def _cycles(
                 beat[0] = None
         if realtime and not pacing.paced_by_bus:
             time.sleep(period)
+        keep()
         try:
             pacing.tick()
         except Exception as exc:

@@ -5,7 +5,8 @@ deadline, its event timer (CiA 301 0x1400+n sub 5) at ``rpdo_deadline_periods`` 
 lock-step; real time adds a floor in seconds, ``rpdo_deadline``); the emulated
 drive (``plant_emulator.supervision``, the same watch as every RPDO's) reports the silence
 (EMCY 0x8250) and reacts as 0x6007 says (the host sets quick stop): its ramp to rest. A stop
-the host makes on purpose lifts the deadline first. Lock-step on the in-process bus; the host's
+the host makes on purpose feeds the deadline through the ramp and lifts it once the disable is
+confirmed (``tests/rig/test_stop_order.py``). Lock-step on the in-process bus; the host's
 death is its cycle ending while SYNC goes on (as a SYNC producer of its own would keep it).
 """
 
@@ -113,17 +114,23 @@ def test_without_a_deadline_the_held_voltage_drives_on() -> None:
         rig.close()
 
 
-def test_a_stop_on_purpose_lifts_the_deadline_first(servo: Rig) -> None:
-    """Quick stop and disable by the host: the event timer is 0 before the controlword, so the
-    ramp (with no RPDO) reports no timeout; the next enable sets it again."""
+def test_a_stop_on_purpose_feeds_the_deadline_and_lifts_it_only_after_the_disable(servo: Rig) -> None:
+    """Quick stop by the host: the event timer stays while the drive brakes, fed by the stop's
+    RPDOs (``keep_stopping``: the quick stop and 0 V), so the ramp reports no timeout; the
+    disable, confirmed by the statusword, lifts it; the next enable sets it again. Before, the
+    quick stop lifted it first, while the drive was still enabled."""
     servo.cycles(100, 3.0)
     servo.axis.quick_stop()
-    assert servo.drive.read(0x1400, 5) == 0
-    servo.cycles(round(0.2 / servo.period), None)
+    assert servo.drive.read(0x1400, 5) == 2
+    for _ in range(round(0.2 / servo.period)):
+        servo.axis.keep_stopping()
+        servo.bench.sync()
+    assert servo.drive.sm.state is PowerState.SWITCH_ON_DISABLED  # its ramp ended (0x605A = 2)
+    assert servo.drive.read(0x1400, 5) == 2
     servo.axis.disable()
+    assert servo.drive.read(0x1400, 5) == 0
     servo.cycles(20, None)
     assert 0x8250 not in servo.emcy()
-    assert servo.drive.sm.state is PowerState.SWITCH_ON_DISABLED
     servo.axis.enable()
     assert servo.drive.read(0x1400, 5) == 2
 

@@ -52,12 +52,13 @@ def test_no_law_step_on_stale_feedback(tmp_path: pathlib.Path, missed: str) -> N
     before = u[~stale][-1]
     expected = before if missed == "hold" else 0.0
     assert np.all(u[stale] == expected), u[stale]
-    # the host's RPDOs (0x201) in the stall window, before the stop's neutral command
+    # the host's RPDOs (0x201) in the stall window, before the stop's neutral command (the last
+    # with enable operation, 0x000F: the stop's own RPDOs carry the quick stop)
     start = trace[0].timestamp
     window = [
         m for m in trace if not m.is_rx and m.arbitration_id == 0x201 and STALL + 0.002 < m.timestamp - start
     ]
-    sent_in_stall = window[:-1]  # the last one is the stop's zero command
+    sent_in_stall = [m for m in window if m.data[:2] == b"\x0f\x00"][:-1]
     if missed == "hold":  # the held command, each cycle until the watchdog
         held = [m for m in trace if not m.is_rx and m.arbitration_id == 0x201 and m not in window][-1]
         assert len(sent_in_stall) >= 10 and all(m.data == held.data for m in sent_in_stall)
