@@ -611,6 +611,12 @@ def _figures_named(header: str) -> Check:
     return check
 
 
+def _doctor(proc: subprocess.CompletedProcess[str]) -> None:
+    """docs/time.md's rows: what the kernel gives, a verdict for the period, the changes."""
+    keys = {line[:15].strip() for line in proc.stdout.splitlines()}
+    assert {"kernel", "cpuidle", "SCHED_FIFO", "PM QoS", "period 400 us"} <= keys, proc.stdout
+
+
 #: the whole commands that take half a minute or more: the ``slow`` tier (``-m slow``)
 SLOW: dict[str, Check] = {
     "rig reproduce drives": _drives,
@@ -622,6 +628,7 @@ SLOW: dict[str, Check] = {
     "rig bench loop": _loop,
     "rig bench soak": lambda proc, folder: None,  # its figures are wall-clock and memory
     "rig bench stops": lambda proc, folder: None,
+    "rig doctor --period 0.0004": lambda proc, folder: _doctor(proc),
     "rig bench socketcand": lambda proc, folder: None,  # wall-clock figures
     "rig sweep examples/sweeps/dismc_anti_windup.toml --plot figures": _dismc_sweep,
     "rig sweep examples/sweeps/dq_L_error.toml --plot figures": _dq_sweep,
@@ -672,6 +679,7 @@ MENTIONS = {
     "rig scan",
     "rig identify",
     "rig drive",
+    "rig doctor",
     "rig emulate",
     "rig run --config",
     "rig run --emulate",

@@ -31,7 +31,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +40,7 @@ from rig.bench.floor import sleep_floor
 from rig.bench.micro import Figure
 from rig.config import BusConfig, load_config
 from rig.emulator.spawn import spawn_emulator_line, stop_rig
+from rig.host.realtime import RealtimeRequest
 from rig.host.session import Session
 
 __all__ = ["EXAMPLE", "bench_stops"]
@@ -100,14 +101,65 @@ def bench_stops(
     runs: int = 20,
     seconds: float = 10.0,
     period: float = 0.001,
-    load: int = 0,
+    loads: Sequence[int] = (0,),
     progress: Callable[[int, int], None] | None = None,
 ) -> list[Figure]:
-    """See the module docstring; ``progress(run, runs)`` after each run."""
+    """See the module docstring; ``progress(run, runs)`` after each run. Several ``loads``: the
+    figures of each, named ``load{N}_...``, measured alternately a run of each at a time."""
+    if len(loads) == 1:
+        return _bench_load(runs=runs, seconds=seconds, period=period, load=loads[0], progress=progress)
+    blocks: dict[int, list[list[Figure]]] = {load: [] for load in loads}
+    done = 0
+    for _ in range(runs):  # alternated: each load's runs in the same minutes as the others'
+        for load in loads:
+            blocks[load].append(_bench_load(runs=1, seconds=seconds, period=period, load=load))
+            done += 1
+            if progress is not None:
+                progress(done, runs * len(loads))
+    return [{**f, "name": f"load{load}_{f['name']}"} for load in loads for f in _merge(blocks[load], runs)]
+
+
+def _merge(blocks: list[list[Figure]], runs: int) -> list[Figure]:
+    """One load's single-run blocks as one: every ``_median``/``_worst`` figure over the runs (the
+    median of the runs' values, and the worst), false stops summed, the rest from the first."""
+    out: list[Figure] = []
+    first = blocks[0]
+    by_name = [{str(f["name"]): f["value"] for f in reversed(b)} for b in blocks]  # the first of a name
+    for f in first:
+        name = str(f["name"])
+        values = [b[name] for b in by_name if name in b]
+        numbers = [float(v) for v in values if isinstance(v, (int, float))]
+        if name.endswith("_median") and len(numbers) == len(values):
+            out.append({**f, "value": round(statistics.median(numbers), 3)})
+        elif name.endswith("_worst") and len(numbers) == len(values):
+            out.append({**f, "value": max(numbers)})
+        elif name == "false_stops":
+            out.append({**f, "value": int(sum(numbers))})
+        elif name == "runs":
+            out.append({**f, "value": runs})
+        else:
+            out.append(f)
+    out = [f for f in out if f["name"] not in ("false_stop", "bus_not_opened")]
+    out += [f for b in blocks for f in b if f["name"] in ("false_stop", "bus_not_opened")]
+    return out
+
+
+def _bench_load(
+    *,
+    runs: int,
+    seconds: float,
+    period: float,
+    load: int,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[Figure]:
+    """The runs at one ``load``: the runs' figures, then the machine's floor with the PM QoS CPU
+    latency request the runs hold and without it (``floor_`` and ``floor_asleep_``)."""
     summaries, granted, unopened = [], "", []
     before = _loadavg()
     with busy(load), tempfile.TemporaryDirectory() as out:
-        floor = sleep_floor(period, seconds)  # the machine's own, under the same load
+        # the machine's own, under the same load: with the runs' request, and without it
+        floor = sleep_floor(period, seconds)
+        asleep = sleep_floor(period, seconds, RealtimeRequest(cpu_latency=-1))
         for n in range(runs):
             for _ in range(3):  # a run whose bus did not open is no stop: said, and tried again
                 try:
@@ -125,7 +177,8 @@ def bench_stops(
         after = _loadavg()
     figures = _figures(
         summaries, period=period, seconds=seconds, load=load, loadavg=(before, after), emulator=granted
-    ) + _floor_figures(floor)
+    )
+    figures += _floor_figures(floor) + _floor_figures(asleep, "floor_asleep")
     return figures + [{"name": "bus_not_opened", "value": reason, "unit": ""} for reason in unopened]
 
 
@@ -155,9 +208,11 @@ def _figures(
 
     host = summaries[0].get("realtime") or {}
     stolen = [(s.get("realtime") or {}).get("cpu_stolen_s") for s in summaries]
+    latency = host.get("cpu_latency_us")
     scheduling = (
         f"{host.get('policy', '?')} {host.get('priority', 0)} (receive {host.get('receive_priority', 0)}), "
         f"CPU {host.get('cpu')}, memory {'locked' if host.get('memory_locked') else 'not locked'}, "
+        f"{'CPU latency held at ' + str(latency) + ' us' if latency is not None else 'CPU may sleep'}, "
         f"bus read by the {host.get('bus_read_by')}"
     )
     return [
@@ -176,6 +231,11 @@ def _figures(
         *spread("period_error_p99", timing("period_error_p99_us"), "us"),
         *spread("response_median", timing("response_median_us"), "us"),
         *spread("response_p99", timing("response_p99_us"), "us"),
+        *spread("drive_answer_median", timing("drive_answer_median_us"), "us"),
+        *spread("drive_answer_p99", timing("drive_answer_p99_us"), "us"),
+        *spread("host_time_median", timing("host_time_median_us"), "us"),
+        *spread("host_time_p99", timing("host_time_p99_us"), "us"),
+        *spread("host_time_max", timing("host_time_max_us"), "us"),
         *(
             spread(
                 "cpu_stolen",
@@ -190,21 +250,21 @@ def _figures(
     ]
 
 
-def _floor_figures(floor: dict[str, Any]) -> list[Figure]:
-    """The machine's floor (``rig.bench.floor``) as figures beside the runs'."""
+def _floor_figures(floor: dict[str, Any], name: str = "floor") -> list[Figure]:
+    """The machine's floor (``rig.bench.floor``) as figures beside the runs', named ``name_...``."""
     late = floor["lateness_us"]
     stolen = floor["cpu_stolen_s"]
     return [
-        {"name": "floor_scheduling", "value": floor["granted"], "unit": ""},
+        {"name": f"{name}_scheduling", "value": floor["granted"], "unit": ""},
         {
-            "name": "floor_missed",
+            "name": f"{name}_missed",
             "value": round(100.0 * floor["missed"] / floor["periods"], 3),
             "unit": "% of periods",
         },
-        {"name": "floor_lateness_p99", "value": round(late["p99"], 1), "unit": "us"},
-        {"name": "floor_lateness_max", "value": round(late["max"], 1), "unit": "us"},
+        {"name": f"{name}_lateness_p99", "value": round(late["p99"], 1), "unit": "us"},
+        {"name": f"{name}_lateness_max", "value": round(late["max"], 1), "unit": "us"},
         *(
-            [{"name": "floor_cpu_stolen", "value": round(1e3 * stolen), "unit": "ms"}]
+            [{"name": f"{name}_cpu_stolen", "value": round(1e3 * stolen), "unit": "ms"}]
             if stolen is not None
             else []
         ),

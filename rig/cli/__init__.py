@@ -23,6 +23,7 @@ from rig.cli import (
     bench,
     demo,
     design,
+    doctor,
     drive,
     emulate,
     export,
@@ -51,6 +52,7 @@ SUBCOMMANDS = (
     faults,
     sweep,
     bench,
+    doctor,
     export,
 )
 
@@ -122,6 +124,7 @@ EXAMPLES = {
     "faults": "rig faults --scenario tpdo-stall --scenario host-sigkill",
     "sweep": "rig sweep examples/sweeps/servo_b_m.toml --workers 2 --plot sweep-plots",
     "bench": "rig bench loop --json",
+    "doctor": "rig doctor --period 0.0004",
     "export": "rig export runs/dc-servo-position-DATE-TIME --format mf4",
 }
 

@@ -25,7 +25,14 @@ def add_parser(sub: Any) -> None:
     bench.add_argument("name", choices=sorted(BENCHMARKS), help="what to measure")
     stops = bench.add_argument_group("rig bench stops")
     stops.add_argument("--period", type=finite, metavar="S", help="the period [s] (default 0.001)")
-    stops.add_argument("--load", type=int, metavar="N", help="busy processes loading the machine (default 0)")
+    stops.add_argument(
+        "--load",
+        type=int,
+        action="append",
+        metavar="N",
+        help="busy processes loading the machine (default 0); repeat it to measure several loads, "
+        "alternated, in one invocation (--load 0 --load 2)",
+    )
     stops.add_argument("--runs", type=int, metavar="N", help="runs (default 20)")
     stops.add_argument("--seconds", type=finite, metavar="S", help="each run's length [s] (default 10)")
     add_json(bench, 'print a list of {"name", "value", "unit"}')
@@ -42,11 +49,16 @@ def _stops_options(args: argparse.Namespace) -> dict[str, Any]:
         raise UsageError(f"rig bench {args.name}: {names}: only rig bench stops takes them")
     ranges = {"period": (0.0, 0.1, "s"), "load": (0, 64, "processes"), "runs": (1, 10_000, "runs")}
     ranges["seconds"] = (0.0, 3600.0, "s")
-    for key, value in given.items():
+    for key, values in given.items():
         low, high, unit = ranges[key]
-        if not (low < value <= high if isinstance(low, float) else low <= value <= high):
-            bounds = f"({low:g}, {high:g}]" if isinstance(low, float) else f"{low}..{high}"
-            raise UsageError(f"rig bench stops: argument --{key}: must be in {bounds} {unit}, got {value:g}")
+        for value in values if isinstance(values, list) else [values]:
+            if not (low < value <= high if isinstance(low, float) else low <= value <= high):
+                bounds = f"({low:g}, {high:g}]" if isinstance(low, float) else f"{low}..{high}"
+                raise UsageError(
+                    f"rig bench stops: argument --{key}: must be in {bounds} {unit}, got {value:g}"
+                )
+    if "load" in given:
+        given["loads"] = given.pop("load")
     return given
 
 

@@ -91,6 +91,14 @@ def add_parser(sub: Any) -> None:
         default=True,
         help="real time: lock the emulator's memory (default: yes)",
     )
+    emulate.add_argument(
+        "--rt-cpu-latency",
+        type=int,
+        default=0,
+        metavar="US",
+        help="real time: the PM QoS CPU latency [us] held while it serves (/dev/cpu_dma_latency; "
+        "default 0: the CPUs stay awake; -1: none asked)",
+    )
     add_params(emulate, "override a preset (or inverter) parameter")
     emulate.set_defaults(handler=run)
 
@@ -233,4 +241,8 @@ def _realtime(args: argparse.Namespace) -> Any:
         raise UsageError(
             f"rig emulate: --rt-cpu {args.rt_cpu}: a CPU number, -1 (the last) or -2 (not pinned)"
         )
-    return RealtimeRequest(args.rt_priority, args.rt_cpu, args.rt_lock_memory)
+    if args.rt_cpu_latency < -1:
+        raise UsageError(
+            f"rig emulate: --rt-cpu-latency {args.rt_cpu_latency}: microseconds >= 0, or -1 (none asked)"
+        )
+    return RealtimeRequest(args.rt_priority, args.rt_cpu, args.rt_lock_memory, args.rt_cpu_latency)

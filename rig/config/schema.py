@@ -112,6 +112,15 @@ class RunConfig:
         also={-1: "the last CPU", -2: "not pinned"},
     )
     rt_lock_memory: bool = key(True, "", "real time: lock the process's memory (mlockall)")
+    rt_cpu_latency: int = key(
+        0,
+        "us",
+        "real time: the PM QoS CPU latency held for the run (/dev/cpu_dma_latency): the CPUs stay out "
+        "of idle states slower to leave than this",
+        ge=0,
+        le=2_000_000_000,
+        also={-1: "none asked (the CPUs may sleep between periods)"},
+    )
 
 
 @dataclass(frozen=True)

@@ -54,6 +54,11 @@ def describe_columns(
         "read_us": ("us", "time to read every axis's feedback in this cycle"),
         "update_us": ("us", "time to compute the law and check the commands"),
         "write_us": ("us", "time to send the commands"),
+        "answer_us": (
+            "us",
+            "real time: the host's SYNC to the drives' last TPDO answering it (their answer)",
+        ),
+        "host_us": ("us", "real time: that TPDO to the commands sent (the host's own time)"),
         "late": ("", "1: the TPDOs answering this cycle's SYNC missed their budget ([run] answer_budget)"),
     }
     docs: dict[str, dict[str, str]] = {}

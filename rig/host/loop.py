@@ -112,6 +112,9 @@ class HostLoop:
         self.period = period
         self.cycles = cycles
         self.realtime = realtime
+        #: real time on the host's SYNC: each cycle's response is split in the drives' answer and
+        #: the host's own time (``HostSync.split``; the columns ``answer_us``, ``host_us``)
+        self.split = realtime and pacing.sends_sync
         self.times = StageTimes()
         self.overruns = 0
         self.safe_stop_reason: str | None = None
@@ -159,8 +162,9 @@ class HostLoop:
         ]
 
     @staticmethod
-    def columns(axes: Sequence[AxisDriver], law: Law, wiring: Wiring) -> list[str]:
-        """The recorder's columns: law level, the law's internals, per axis, timing [us]."""
+    def columns(axes: Sequence[AxisDriver], law: Law, wiring: Wiring, *, split: bool = False) -> list[str]:
+        """The recorder's columns: law level, the law's internals, per axis, timing [us] (with
+        ``split``, a real-time run on the host's SYNC: the response's two parts too)."""
         per_axis = [f"{a.name}.{f}" for a in axes for f in FIELDS if f in a.measures]
         commands = [f"{axes[i].name}.command" for i in wiring.commanded]
         return [
@@ -175,6 +179,7 @@ class HostLoop:
             "read_us",
             "update_us",
             "write_us",
+            *(("answer_us", "host_us") if split else ()),
         ]
 
     def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
@@ -334,6 +339,13 @@ class HostLoop:
         t3 = time.perf_counter()
         if self.heartbeat is not None:  # after the commands: not between a SYNC and its RPDOs
             self.heartbeat(k)
+        timing: tuple[float, ...] = (t1 - t0, t2 - t1, t3 - t2)
+        if self.split:
+            answer, host = self.pacing.split(t3) if send else (math.nan, math.nan)
+            timing += (answer, host)
+            if send:
+                self.times.drive_answer.append(answer)
+                self.times.host_time.append(host)
         if self.realtime and send:
             if self.pacing.sends_sync:  # the host's SYNC to its RPDOs
                 self.times.response.append(t3 - t0)
@@ -353,7 +365,7 @@ class HostLoop:
         row += scalars
         row.append(1.0 if late else 0.0)
         with self.uncut:  # a stop signal waits: the row on disk and the count agree
-            self.recorder.sample(row, (t1 - t0, t2 - t1, t3 - t2))
+            self.recorder.sample(row, timing)
             self.done += 1  #: cycles run (skipped ones are under ``overruns``)
 
     def _step(self, t: float, reads: list[Feedback]) -> tuple[LawStep, bool]:

@@ -39,11 +39,16 @@ class StageTimes:
     period_error: _Window = field(default_factory=_Window)
     #: real time: a read axis's newest TPDO on the bus to the RPDOs sent in answer
     response: _Window = field(default_factory=_Window)
+    #: real time with the host's SYNC, the response's two parts: the drives' answer (the SYNC
+    #: sent to their last awaited TPDO) and the host's own time (that TPDO to the RPDOs sent)
+    drive_answer: _Window = field(default_factory=_Window)
+    host_time: _Window = field(default_factory=_Window)
 
     def stats(self) -> dict[str, float]:
         out: dict[str, float] = {}
-        for name in ("read", "update", "write", "period_error", "response"):
+        for name in ("read", "update", "write", "period_error", "response", "drive_answer", "host_time"):
             a = np.abs(np.array(getattr(self, name))) * 1e6
+            a = a[np.isfinite(a)]
             if a.size:
                 out[f"{name}_median_us"] = float(np.median(a))
                 out[f"{name}_p99_us"] = float(np.percentile(a, 99))

@@ -12,7 +12,9 @@ from rig.host.columns import MODE_UNITS
 if TYPE_CHECKING:
     from rig.host.loop import HostLoop
 
-__all__ = ["loop_summary"]
+__all__ = ["MISSED_SHARE", "loop_summary", "missed_period"]
+
+MISSED_SHARE = 0.01  #: a real-time run whose skipped and late cycles exceed this share missed its period
 
 
 def loop_summary(loop: HostLoop) -> dict[str, Any]:
@@ -51,3 +53,20 @@ def loop_summary(loop: HostLoop) -> dict[str, Any]:
         },
         "axes": m.axis_peaks(),
     }
+
+
+def missed_period(summary: dict[str, Any], period: float) -> str | None:
+    """A real-time run that did not keep its period (skipped and late cycles over ``MISSED_SHARE``
+    of the cycles it was to run), in one line naming the figures and ``rig doctor``; else None."""
+    if summary.get("realtime") is None:
+        return None
+    skipped, late = int(summary.get("overruns") or 0), int(summary.get("late_cycles") or 0)
+    scheduled = int(summary.get("cycles") or 0) + skipped
+    if not scheduled or (skipped + late) <= MISSED_SHARE * scheduled:
+        return None
+    return (
+        f"this run did not keep its period of {period * 1e6:g} us: {skipped} of {scheduled} cycles skipped "
+        f"({100.0 * skipped / scheduled:.2g} %) and {late} late ({100.0 * late / scheduled:.2g} %), over "
+        f"{100.0 * MISSED_SHARE:g} %; its samples are not those of lock-step. `rig doctor --period "
+        f"{period:g}` says what this PC gives and what to change"
+    )

@@ -11,7 +11,9 @@ the clock the frames' timestamps are on (heartbeat ages are measured on it).
 - ``HostSync``: the host sends SYNC (in real time at each deadline), then waits until
   every CANopen axis's TPDOs answering it have arrived, up to a budget: the law acts
   on the sample of the same SYNC, as in lock-step. Answers that miss the budget make
-  the cycle ``late`` (the loop uses what it has, and counts it). During the loop's cycles
+  the cycle ``late`` (the loop uses what it has, and counts it). ``split`` gives a cycle's
+  response in its two parts: the drives' answer (SYNC to their last TPDO) and the host's own
+  time (that TPDO to its RPDOs). During the loop's cycles
   (``owning``), on a bus that lets one thread claim its reading (``claim``/``release``:
   socketcand's), the loop thread reads the frames itself and hands each to the network's
   listeners as the receive thread would (``OwnedReceive``): it wakes on the answer itself,
@@ -29,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -66,6 +69,11 @@ class Pacing:
     def owning(self) -> Iterator[None]:
         """While the loop's cycles run (``HostSync``: the loop thread reads the bus itself)."""
         yield
+
+    def split(self, done: float) -> tuple[float, float]:
+        """The last tick's response as (the drives' answer, the host's own time) [s] (``HostSync``);
+        NaN where the pacing does not send the SYNC."""
+        return math.nan, math.nan
 
     def owes(self) -> bool:
         """Answers to SYNCs already sent are still to come (``HostSync``)."""
@@ -129,6 +137,8 @@ class _Answers:
         self.carry = owed
         self._pending: dict[int, int] = {}  #: COB-ID -> frames still awaited
         self._waiting = 0  #: COB-IDs with frames still awaited
+        #: [perf_counter s] when the last awaited frame was handed on (the answer complete)
+        self.completed_at = 0.0
         self._done = threading.Condition()
         for cob in self.cob_ids:
             network.subscribe(cob, self._on_frame)
@@ -149,6 +159,7 @@ class _Answers:
                 if n == 1:
                     self._waiting -= 1
                     if not self._waiting:
+                        self.completed_at = time.perf_counter()
                         self._done.notify_all()
 
     def complete(self) -> bool:
@@ -263,6 +274,7 @@ class HostSync(Pacing):
         self.answers = _Answers(network, _cob_ids(axes), owed=True)
         self.budget = budget
         self.late = False  #: the last tick's answers missed the budget
+        self.sent_at = 0.0  #: [perf_counter s] the last SYNC sent
         self._reader: OwnedReceive | None = None  #: the loop thread reads the bus (``owning``)
         self.bus_read_by = "receive thread"
 
@@ -271,11 +283,21 @@ class HostSync(Pacing):
         if reader is not None:  # handed on before the arm, as a receive thread would have as it
             reader.arrived()  # came: an answer that came after its tick is not this SYNC's
         self.answers.arm()
-        self.network.sync.transmit()
+        self.sent_at = time.perf_counter()  # as the SYNC is handed to the bus: an answer may beat
+        self.network.sync.transmit()  # the return of the send (a bus that delivers at once)
         if reader is not None:
             self.late = not reader.until(self.answers.complete, self.budget)
         else:
             self.late = not self.answers.wait(self.budget)
+
+    def split(self, done: float) -> tuple[float, float]:
+        """The last tick's response in two [s]: the drives' answer (the SYNC sent to the last
+        awaited TPDO handed on) and the host's own time (that TPDO to ``done``, the
+        perf_counter time its commands were sent); NaN for both where the answer was late."""
+        answered = self.answers.completed_at
+        if self.late or answered < self.sent_at:
+            return math.nan, math.nan
+        return answered - self.sent_at, done - answered
 
     def owes(self) -> bool:
         """Answers to SYNCs already sent are still to come (what has come is handed on first)."""

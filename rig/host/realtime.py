@@ -13,7 +13,13 @@ before the loop starts, refused ones reported once and the run goes on.
 - memory locked (``mlockall``, on fault: the pages the process uses stay in memory, and each
   new one is locked as it is first touched; the libraries' untouched pages are not read in,
   which would take a Python process with numpy from about 170 to 510 MB and 0.14 s here);
-- a timer slack of 1 ns where the policy stays normal (real-time threads have none).
+- a timer slack of 1 ns where the policy stays normal (real-time threads have none);
+- the CPU kept awake: a PM QoS CPU latency request (``cpu_latency`` [us], 0 by default) on
+  ``/dev/cpu_dma_latency``, held open for the run and released with it, as cyclictest holds it.
+  The kernel then keeps every CPU out of the idle states that take longer to leave: on a virtual
+  machine whose idle vCPU halts (cpuidle's haltpoll with guest halt polling off), each wake-up
+  otherwise costs a VM exit, and a quiet machine missed 2-18 times the periods a loaded one did
+  (docs/benchmarks.md); the value in force after the request is recorded.
 
 ``request(...)`` asks for them, returns a ``Grant`` (its ``record()`` goes into the summary), and
 ``Grant.release()`` gives back what was taken (the process may go on: a benchmark, a test).
@@ -30,6 +36,7 @@ import functools
 import gc
 import logging
 import os
+import struct
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -42,17 +49,20 @@ log = logging.getLogger(__name__)
 _MCL_CURRENT, _MCL_FUTURE, _MCL_ONFAULT = 1, 2, 4
 YOUNG = 700  #: young objects before a collection in the slack (CPython's own first threshold)
 _PR_SET_TIMERSLACK = 29
+CPU_DMA_LATENCY = "/dev/cpu_dma_latency"  #: the kernel's PM QoS CPU latency request
 _LAST, _UNPINNED = -1, -2
 
 
 @dataclass(frozen=True)
 class RealtimeRequest:
     """What to ask for: ``priority`` (SCHED_FIFO 1-99; 0: the normal policy), ``cpu`` (-1: the
-    last CPU the process may use; -2: not pinned), ``lock_memory``."""
+    last CPU the process may use; -2: not pinned), ``lock_memory``, ``cpu_latency`` (the PM QoS
+    CPU latency [us] held for the run; -1: none asked)."""
 
     priority: int = 50
     cpu: int = _LAST
     lock_memory: bool = True
+    cpu_latency: int = 0
 
 
 @functools.cache
@@ -90,9 +100,13 @@ class Grant:
     receive_threads: int = 0  #: how many were raised
     cpu: int | None = None  #: pinned to (None: not)
     memory_locked: bool = False
+    #: [us] the PM QoS CPU latency held (None: none asked, or refused); and the one in force
+    cpu_latency: int | None = None
+    cpu_latency_in_force: int | None = None
     refused: list[str] = field(default_factory=list)
     _saved: list[_Thread] = field(default_factory=list)
     _locked_here: bool = False
+    _qos: int | None = None  #: the open /dev/cpu_dma_latency (the request lasts while it is open)
 
     @property
     def fifo(self) -> bool:
@@ -107,6 +121,8 @@ class Grant:
             "receive_threads": self.receive_threads,
             "cpu": self.cpu,
             "memory_locked": self.memory_locked,
+            "cpu_latency_us": self.cpu_latency,
+            "cpu_latency_in_force_us": self.cpu_latency_in_force,
             "refused": list(self.refused),
         }
 
@@ -117,7 +133,10 @@ class Grant:
             policy += f" (receive {self.receive_priority})"
         where = f"CPU {self.cpu}" if self.cpu is not None else "not pinned"
         memory = "memory locked" if self.memory_locked else "memory not locked"
-        return f"{policy}, {where}, {memory}"
+        awake = (
+            f"CPU latency held at {self.cpu_latency} us" if self.cpu_latency is not None else "CPU may sleep"
+        )
+        return f"{policy}, {where}, {memory}, {awake}"
 
     def release(self) -> None:
         """Every thread back to its scheduling and CPUs; memory unlocked if locked here."""
@@ -127,6 +146,10 @@ class Grant:
                     os.sched_setaffinity(saved.tid, saved.affinity)
                 os.sched_setscheduler(saved.tid, saved.policy, saved.param)
         self._saved.clear()
+        if self._qos is not None:
+            with contextlib.suppress(OSError):
+                os.close(self._qos)  # the kernel drops the request with its file
+            self._qos = None
         if self._locked_here:
             libc = _libc()
             if libc is not None:
@@ -186,6 +209,26 @@ def _lock(grant: Grant) -> None:
     grant.memory_locked = grant._locked_here = True
 
 
+def _keep_awake(grant: Grant, latency: int, path: str = CPU_DMA_LATENCY) -> None:
+    """Hold a PM QoS CPU latency request of ``latency`` [us] (``path`` open, the value written as
+    a binary 32-bit integer, as the kernel's PM QoS interface takes it); the value in force read
+    back."""
+    try:
+        fd = os.open(path, os.O_RDWR)
+    except OSError as exc:
+        grant.refused.append(f"PM QoS CPU latency {latency} us ({path}): {exc.strerror or exc}")
+        return
+    try:
+        os.write(fd, struct.pack("=i", latency))
+        data = os.pread(fd, 4, 0) if hasattr(os, "pread") else b""
+    except OSError as exc:
+        os.close(fd)
+        grant.refused.append(f"PM QoS CPU latency {latency} us ({path}): {exc.strerror or exc}")
+        return
+    grant._qos, grant.cpu_latency = fd, latency
+    grant.cpu_latency_in_force = struct.unpack("=i", data)[0] if len(data) == 4 else None
+
+
 def request(ask: RealtimeRequest, receive: Sequence[threading.Thread] = ()) -> Grant:
     """Ask for ``ask`` for the calling thread and, one priority above it, for the ``receive``
     threads; one warning lists what was refused. Call ``release()`` on the result at the end."""
@@ -208,6 +251,8 @@ def request(ask: RealtimeRequest, receive: Sequence[threading.Thread] = ()) -> G
         _slack()
     if ask.lock_memory:
         _lock(grant)
+    if ask.cpu_latency >= 0:
+        _keep_awake(grant, ask.cpu_latency)
     if grant.refused:
         log.warning("real time not fully granted (%s): %s", grant.describe(), "; ".join(grant.refused))
     return grant

@@ -41,6 +41,7 @@ from rig.host.emulation import Emulation
 from rig.host.heartbeat import HostHeartbeat
 from rig.host.injected import with_injected_faults
 from rig.host.loop import HostLoop, Wiring
+from rig.host.loop_summary import missed_period
 from rig.host.pacing import (
     ExternalSync,
     FreeRun,
@@ -344,7 +345,8 @@ class Session:
         guards = [
             AxisGuard(axis, a.limits, self.period, realtime=realtime) for axis, a in zip(self.axes, cfg.axes)
         ]
-        columns = HostLoop.columns(self.axes, self.law, self.wiring)
+        split = realtime and self.pacing.sends_sync
+        columns = HostLoop.columns(self.axes, self.law, self.wiring, split=split)
         self.recorder.begin(columns, describe_columns(columns, self.axes, self.law))
         return HostLoop(
             self.axes,
@@ -386,12 +388,15 @@ class Session:
         try:
             if self.cfg.run.time == "realtime":
                 run = self.cfg.run
-                ask = RealtimeRequest(run.rt_priority, run.rt_cpu, run.rt_lock_memory)
+                ask = RealtimeRequest(run.rt_priority, run.rt_cpu, run.rt_lock_memory, run.rt_cpu_latency)
                 grant = request(ask, receive_threads(self.network))
                 loop.granted = grant.record() | ({"bus_load": self.bus_figures} if self.bus_figures else {})
                 if grant.fifo:
                     loop.spin = 0.0  # sleeps to each deadline: no spin at real-time priority
             summary = loop.run(progress)
+            said = missed_period(summary, self.period)
+            if said:
+                log.warning("%s", said)
         finally:
             if grant is not None:
                 grant.release()

@@ -19,7 +19,7 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
     command_unit = summary.get("command_unit") or "command's unit"
     command_units = summary.get("command_units", {})
     rows = [
-        ("cycles", f"{summary['cycles']} run, {summary['overruns'] or 'none'} skipped"),
+        ("cycles", _cycles(summary)),
         ("rms error", f"{summary['rms_error']:.4g} {unit}".rstrip()),
         ("max error", f"{summary['max_error']:.4g} {unit}".rstrip()),
         ("chattering", _chattering(summary, command_unit)),
@@ -40,6 +40,20 @@ def summary_lines(summary: dict[str, Any]) -> list[str]:
         ]
         lines.append(f"axis {name:10s} " + ", ".join(said))
     return lines
+
+
+def _cycles(summary: dict[str, Any]) -> str:
+    """Cycles run and skipped; in real time, the skipped and late ones as shares of the cycles
+    the run was to have (a run that missed its period says so: ``rig.host.loop_summary``)."""
+    run, skipped = summary["cycles"], summary.get("overruns") or 0
+    if summary.get("realtime") is None:
+        return f"{run} run, {skipped or 'none'} skipped"
+    late = summary.get("late_cycles") or 0
+    total = max(1, run + skipped)
+    return (
+        f"{run} run, {skipped} skipped ({100.0 * skipped / total:.2g} %), "
+        f"{late} late ({100.0 * late / total:.2g} %)"
+    )
 
 
 def _peak_unit(key: str, command_unit: str) -> str:

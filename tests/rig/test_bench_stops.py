@@ -62,3 +62,34 @@ def test_the_floor_refuses_a_period_it_cannot_run() -> None:
         sleep_floor(0.0, 1.0)
     with pytest.raises(ValueError, match=r"seconds 0\.0001 s"):
         sleep_floor(0.001, 0.0001)
+
+
+def test_several_loads_merge_their_runs_figure_by_figure() -> None:
+    """``--load 0 --load 2``: each load's single-run blocks become one, medians of the runs'
+    figures and the worst of the worst, false stops summed and named, prefixed by the load."""
+    from rig.bench.stops import _merge
+
+    one = [_figures([summary(n, 0.01)], period=0.0004, seconds=0.4, load=2, loadavg=("1", "2"), emulator="x")
+           for n in (1, 5, 3)]  # fmt: skip
+    one[1] = _figures(
+        [summary(5, 0.01, stop="late")], period=0.0004, seconds=0.4, load=2, loadavg=("1", "2"), emulator="x"
+    )
+    merged = {f["name"]: f["value"] for f in _merge(one, 3)}
+    assert merged["runs"] == 3 and merged["false_stops"] == 1 and merged["false_stop"] == "late"
+    assert merged["overruns_median"] == 0.3 and merged["overruns_worst"] == 0.5  # % of cycles
+
+
+def test_the_cli_takes_several_loads(monkeypatch: pytest.MonkeyPatch) -> None:
+    import rig.bench
+
+    seen: dict[str, Any] = {}
+
+    def fake(**kw: Any) -> list[dict[str, Any]]:
+        seen.update(kw)
+        return []
+
+    monkeypatch.setitem(rig.bench.LONG, "stops", fake)
+    from rig.cli import main
+
+    assert main(["bench", "stops", "--load", "0", "--load", "2", "--runs", "1"]) == 0
+    assert seen["loads"] == [0, 2] and seen["runs"] == 1

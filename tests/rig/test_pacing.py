@@ -241,3 +241,22 @@ def test_a_tpdo_that_does_not_answer_every_sync_is_not_awaited(caplog: pytest.Lo
         for axis in (drive, encoder):
             axis.close()
         bench.close()
+
+
+def test_the_response_is_split_in_the_drives_answer_and_the_host_s_time(
+    bus: tuple[HostSync, list[dict[int, int]]],
+) -> None:
+    """``split``: the SYNC sent to the last awaited answer handed on, then that to the commands'
+    send; NaN for both where the answer was late (a late cycle's answer is not its SYNC's)."""
+    import math
+    import time
+
+    pacing, script = bus
+    script += [dict.fromkeys(COBS, 1), {0x181: 1}]
+    pacing.tick()
+    done = time.perf_counter()
+    answer, host = pacing.split(done)
+    assert not pacing.late and 0.0 <= answer < 1.0 and 0.0 <= host
+    assert answer + host == pytest.approx(done - pacing.sent_at)
+    pacing.tick()
+    assert pacing.late and all(math.isnan(x) for x in pacing.split(time.perf_counter()))

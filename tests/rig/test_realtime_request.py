@@ -60,6 +60,8 @@ def test_what_is_refused_is_one_warning_and_the_run_goes_on() -> None:
     assert record["memory_locked"] is False
     refused = " ".join(record["refused"])
     assert "SCHED_FIFO 50 for the loop thread" in refused and "memory lock" in refused, refused
+    assert "PM QoS CPU latency 0 us (/dev/cpu_dma_latency): Permission denied" in refused, refused
+    assert record["cpu_latency_us"] is None
     (warning,) = result["warnings"]
     assert warning.startswith("real time not fully granted (normal scheduling") and "SCHED_FIFO 50" in warning
 
@@ -84,6 +86,8 @@ def test_what_is_granted_is_taken_recorded_and_given_back() -> None:
                 "receive_threads": 1,
                 "cpu": last,
                 "memory_locked": True,
+                "cpu_latency_us": 0,
+                "cpu_latency_in_force_us": 0,
                 "refused": [],
             }
             assert os.sched_getscheduler(0) == os.SCHED_FIFO and os.sched_getparam(0).sched_priority == 50
@@ -191,3 +195,51 @@ def test_cpu_stolen_reads_the_steal_column(tmp_path: pathlib.Path) -> None:
     stat.write_text("cpu  1 2 3 4 5 6 7\n")  # a kernel without the steal field
     assert cpu_stolen(str(stat)) is None
     assert cpu_stolen(str(tmp_path / "none")) is None
+
+
+def _latency_in_force() -> int:
+    with open("/dev/cpu_dma_latency", "rb") as f:
+        return int.from_bytes(f.read(4), sys.byteorder, signed=True)
+
+
+@pytest.mark.skipif(
+    os.geteuid() != 0 or not os.path.exists("/dev/cpu_dma_latency"), reason="PM QoS needs root and the device"
+)
+def test_the_cpu_is_kept_awake_while_held_and_let_sleep_after() -> None:
+    """The PM QoS request is in force while the grant holds it (the kernel's aggregate, read from
+    the device, is the request's 0 us) and gone once released (back to what it was)."""
+    before = _latency_in_force()
+    grant = request(RealtimeRequest(0, -2, False, cpu_latency=0))
+    try:
+        assert grant.cpu_latency == 0 and grant.cpu_latency_in_force == 0 and _latency_in_force() == 0
+        assert "CPU latency held at 0 us" in grant.describe()
+    finally:
+        grant.release()
+    assert _latency_in_force() == before
+    none = request(RealtimeRequest(0, -2, False, cpu_latency=-1))
+    assert none.cpu_latency is None and "CPU may sleep" in none.describe() and _latency_in_force() == before
+    none.release()
+
+
+def test_a_refused_pm_qos_request_is_named_and_the_rest_goes_on(tmp_path: pathlib.Path) -> None:
+    from rig.host.realtime import Grant, _keep_awake
+
+    grant = Grant(RealtimeRequest())
+    _keep_awake(grant, 0, str(tmp_path / "no-such-device"))
+    assert grant.cpu_latency is None and grant._qos is None
+    (said,) = grant.refused
+    assert said.startswith(f"PM QoS CPU latency 0 us ({tmp_path / 'no-such-device'}): No such file")
+
+
+def test_a_run_that_misses_its_period_says_so() -> None:
+    from rig.host.loop_summary import missed_period
+
+    summary = {"realtime": {}, "cycles": 7400, "overruns": 100, "late_cycles": 0}
+    said = missed_period(summary, 0.0004)
+    assert (
+        said is not None
+        and "100 of 7500 cycles skipped (1.3 %)" in said
+        and "rig doctor --period 0.0004" in said
+    )
+    assert missed_period(summary | {"overruns": 75, "cycles": 7425}, 0.0004) is None  # 1 %: at the bound
+    assert missed_period(summary | {"realtime": None}, 0.0004) is None  # lock-step: no period to miss
