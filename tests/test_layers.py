@@ -13,7 +13,7 @@ read from the source with ``ast``. The levels, lowest first (``LEVELS``):
   view);
 - ``rig.host``: one run on a bus (the session, the loop, the recorder, the safety);
 - what builds runs: the studies and the commands' work (``rig.faults``, ``rig.commission``,
-  ``rig.identify``, ``rig.papers``, ``rig.sweep``, ``rig.bench``, ``rig.emulator``);
+  ``rig.identify``, ``rig.papers``, ``rig.sweep``, ``rig.bench``, ``rig.emulator``, ``rig.doctor``);
 - ``rig.cli``: the command line, on top.
 
 A package of rig/ is ``rig.NAME``; only the package's entry points sit loose at rig/'s top. Two
@@ -47,6 +47,7 @@ LEVELS: tuple[tuple[str, ...], ...] = (
         "rig.sweep",
         "rig.bench",
         "rig.emulator",
+        "rig.doctor",
     ),
     ("rig.cli",),
 )
