@@ -320,7 +320,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         except KeyError:
             return
         if pdo.number in self.rpdo_deadlines.times:
-            self.rpdo_deadlines.heard(pdo.number, self.clock)
+            self.rpdo_deadlines.heard(pdo.number, self.heard_now())
         if len(data) != pdo.size:  # CiA 301: not processed, EMCY 0x8210 (too short) / 0x8220 (too long)
             log.warning(
                 "node %d: RPDO%d with %d bytes, mapped %d: ignored",

@@ -352,9 +352,13 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
 
     def on_period(self) -> None:
         """Real time: a period of the drive's own clock has passed (``Shaft.advance_to``): its
-        cycle, and its objects show the new state (an SDO read needs no SYNC)."""
+        cycle, its objects show the new state (an SDO read needs no SYNC), and its supervision
+        (heartbeat consumer, RPDO deadlines) is checked at the period's end, as at each SYNC in
+        lock-step: a lost host is noticed within a period of its deadline on the drive's clock,
+        however late the emulator's loop ran, and its reaction acts from the next period."""
         self._cycle()
         self._latch()
+        self.supervise(self.shaft.t)
 
     def _cycle(self) -> None:
         """The drive's own work once per period: a due mode switch, a target written by SDO,

@@ -159,6 +159,7 @@ class Shaft:
             self.advance_to(now)
             if now - self.t >= 0.5 * self.period:  # the nearest period boundary is the SYNC's
                 self._advance(self.t)
+                self.t = now  # the period ends at the SYNC: the drives' cycles run at its end
                 for drive in self._drives:
                     drive.on_period()
             self.t = now  # the periods' phase locked to the SYNC (the module docstring)

@@ -11,13 +11,17 @@
 
 The device's reaction (EMCY 0x8130 / 0x8250, the NMT state of 0x1029, the
 drive's 0x6007) is the node's and the drive's; this module only keeps time.
-Times are the device's clock [s].
+Times are the device's clock [s]: a frame counts from the instant it came (``heard_now``),
+and the watch is checked at each SYNC and tick of the node and, on a drive in real time,
+at the end of each period of its own clock (``EmulatedDrive.on_period``), so a loss is
+found within a period of its deadline, as firmware checks it each cycle.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from canopen.sdo.exceptions import SdoAbortedError
@@ -114,6 +118,7 @@ class Supervision:
     od: Any
     network: Any
     clock: float
+    clock_source: Callable[[], float] | None
     heartbeats: HeartbeatConsumer
     rpdo_deadlines: Deadlines
     _consumed: list[int]
@@ -135,6 +140,12 @@ class Supervision:
             for number in self.rpdo_deadlines.expired(now):
                 self.communication_error(f"RPDO{number + 1} timed out", EmcyCode.RPDO_TIMEOUT)
 
+    def heard_now(self) -> float:
+        """The device time [s] a frame heard now is stamped with: the instant it came on the
+        emulator's clock in real time (not the latest tick's, which may be a loaded loop's several
+        ms earlier and would trip a deadline early), the latest SYNC's in lock-step."""
+        return self.clock if self.clock_source is None else self.clock_source()
+
     def communication_error(self, what: str, code: int) -> None:
         """A lost heartbeat or RPDO: EMCY ``code``, the drive's reaction, then the NMT state of 0x1029."""
         log.warning("node %d: %s", self.node_id, what)
@@ -149,7 +160,7 @@ class Supervision:
             self.node.nmt._state = STOPPED
 
     def _on_consumed_heartbeat(self, can_id: int, data: bytes, timestamp: float) -> None:
-        self.heartbeats.heard(can_id - COB_HEARTBEAT, self.clock)
+        self.heartbeats.heard(can_id - COB_HEARTBEAT, self.heard_now())
 
     def _consumer_entries(self) -> dict[int, int]:
         """The sub-indices 1-n of 0x1016 (none where the device has no heartbeat consumer)."""
