@@ -101,7 +101,11 @@ class KilledHost:
         """Wait for the drive's EMCY ``code``."""
         data = code.to_bytes(2, "little")
         frames = self.frames
-        wait_for(lambda: any(c == 0x81 and d[:2] == data for _, c, d in frames), 5.0, f"EMCY 0x{code:04X}")
+        try:
+            wait_for(lambda: any(c == 0x81 and d[:2] == data for _, c, d in frames), 5.0, f"EMCY {code:#06x}")
+        except TimeoutError as exc:
+            seen = [d[:2][::-1].hex() for _, c, d in frames if c == 0x81]
+            raise TimeoutError(f"{exc}; the drive's EMCYs: {seen}; {len(frames)} frames") from None
 
     def close(self) -> None:
         with contextlib.suppress(Exception):
@@ -111,6 +115,7 @@ class KilledHost:
             self.host.wait(timeout=10)
         self.stack.close()
         _out, err = stop_rig(self.emulator, timeout=10)
+        (self.tmp_path / "emulator.err").write_text(err)  # its log, kept for a failure's reading
         assert self.emulator.returncode == 0, err
 
 
@@ -131,32 +136,40 @@ def test_a_killed_host_leaves_a_drive_that_stops_itself(tmp_path: pathlib.Path) 
         world.close()
 
 
-def voltage_config(out: pathlib.Path, port: int, deadline: float) -> str:
-    """``run_config``'s on the toolkit's drive in voltage mode: 3 V held (``replay``), 1 ms
+def voltage_config(out: pathlib.Path, port: int, deadline: float, volts: float = 3.0) -> str:
+    """``run_config``'s on the toolkit's drive in voltage mode: ``volts`` [V] held (``replay``), 1 ms
     cycles, the drive's deadline on the commands 5 periods, in real time at least ``deadline`` [s]."""
     text = CONFIG.format(duration=60.0, period=0.001, out=out, port=port, eds=CIA402_EDS, speed=0.0)
     axis = f'mode = "voltage"\nrpdo_deadline_periods = 5\nrpdo_deadline = {deadline}'
     text = text.replace('mode = "csv"', axis)
-    text = text.replace('kind = "speed-reference"', 'kind = "replay"\nu = [3.0]')
+    text = text.replace('kind = "speed-reference"', f'kind = "replay"\nu = [{volts}]')
     return text.replace("speed = 250.0\n", "speed = 250.0\nwatchdog = 1.0\n")
 
 
-def test_a_killed_host_in_voltage_mode_moves_the_shaft_no_further_than_the_drive_s_ramp(
-    tmp_path: pathlib.Path,
+VOLTS = 4.4  #: [V] held: the preset's (3.5) turns at u b_m / a_m = 187 rad/s, issue 33's speed
+
+
+@pytest.mark.parametrize("run", range(10))
+def test_a_killed_host_in_voltage_mode_leaves_the_shaft_where_the_deadline_and_the_ramp_take_it(
+    tmp_path: pathlib.Path, run: int
 ) -> None:
     """``rig emulate --preset dc-servo`` (the toolkit's drive, real time) and ``rig run`` in
-    voltage mode (3 V held, 1 ms cycles) in processes of their own over socketcand; the run is
-    SIGKILLed at about 125 rad/s. The drive's deadline on its command RPDO (real time: 20 ms,
-    the default floor over 5 periods) starts its quick stop: the shaft moves no further than
-    that time (and 20 ms of scheduling) at the speed it had plus its ramp from that speed at
-    0x6085: about 10 rad. Before (the heartbeat's 0.3 s, the voltage held), the issue measured
-    -112 rad. The frames are this test's own client's, decoded after the kill with the drive's
-    TPDO mapping read by SDO."""
+    voltage mode (4.4 V held, 1 ms cycles) in processes of their own over socketcand; the run is
+    SIGKILLed at about 187 rad/s. The drive's deadline on its command RPDO (real time: 20 ms, the
+    default floor over 5 periods) starts its quick stop (0x6007 = 3, 0x605A = 2), found within a
+    period of it on the drive's own clock: the shaft travels, from the last sample before the
+    kill, what the deadline at the speed it had and then 0x6085's ramp from that speed need,
+    within 10 % (issue 33 item 5), in each of 10 runs (each a pair of processes of its own).
+    Measured on the wire: this test's own client's TPDOs before the kill (decoded with the
+    drive's mapping read by SDO after it) and the position by SDO once the drive is at rest, not
+    the run's samples on disk, which a SIGKILL leaves up to the recorder's flush period (50 ms)
+    short of the kill. Before the deadline was checked each period, the issue measured 112 rad
+    with the heartbeat's 0.3 s and the voltage held."""
     deadline = 0.02
-    config = functools.partial(voltage_config, tmp_path, deadline=deadline)
+    config = functools.partial(voltage_config, tmp_path, deadline=deadline, volts=VOLTS)
     world = KilledHost(tmp_path, ("--preset", "dc-servo"), config)
     try:
-        killed = world.kill(700)  # 0.7 s of 3 V: near its steady 127.5 rad/s
+        world.kill(700)  # 0.7 s of 4.4 V: 11 time constants (1/a_m), at its steady speed
         world.emcy(0x8250)
         node = canopen.RemoteNode(1, CIA402_EDS)
         world.network.add_node(node)
@@ -182,17 +195,16 @@ def test_a_killed_host_in_voltage_mode_moves_the_shaft_no_further_than_the_drive
                 out.append((t, var.raw / per_rad))
         return out
 
-    positions, speeds = values(0x6064), values(0x606C)
-    start = [p for t, p in positions if t < killed][-1]
-    w_kill = [w for t, w in speeds if t < killed][-1]
-    # no TPDO after the kill (SYNC was the host's): the speed until the trip is bounded by the
-    # held 3 V's steady speed u b_m / a_m of the preset's (3.5), 127.5 rad/s
-    w_max = max(abs(w_kill), 3.0 * 680.0 / 16.0)
+    # the drive's last TPDO answered the host's last SYNC (none without it): the state at the kill,
+    # up to a cycle before it; this client's receive times are no guide on a loaded machine (its
+    # thread ran up to 0.2 s behind here: a "last TPDO before the kill" that old is 37 rad back)
+    start, w_kill = values(0x6064)[-1][1], values(0x606C)[-1][1]
     travel = final / per_rad - start
-    bound = w_max * (timer_ms / 1000.0 + 0.02) + w_max * w_max / (2.0 * decel)
+    ramp = w_kill * w_kill / (2.0 * decel)
+    need = w_kill * timer_ms / 1000.0 + ramp
     print(
-        f"killed at {w_kill:.1f} rad/s, at most {w_max:.1f} until the trip; deadline {timer_ms} ms; "
-        f"travel {travel:.2f} rad, ramp alone {w_max * w_max / (2.0 * decel):.2f}, bound {bound:.2f}"
+        f"run {run}: killed at {w_kill:.1f} rad/s; deadline {timer_ms} ms, 0x6085 {decel:.0f} rad/s^2; "
+        f"travel {travel:.2f} rad, the deadline and the ramp need {need:.2f} ({travel / need:.3f})"
     )
-    assert timer_ms == round(deadline * 1000) and w_kill > 50.0
-    assert 0.0 < travel <= bound
+    assert timer_ms == round(deadline * 1000) and w_kill > 180.0
+    assert travel == pytest.approx(need, rel=0.10)
