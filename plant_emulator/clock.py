@@ -8,6 +8,11 @@ with the drives' own cycles) and runs the nodes' timers (heartbeats, event TPDOs
 heartbeat consumer and RPDO deadlines). A SYNC then decides when feedback is latched, and
 locks the periods' phase to itself (``Shaft.sync``).
 
+In real time the emulator's loop also wakes ``lead`` before each period's end (the next SYNC,
+the periods being locked to the SYNCs) and computes that period then (``prepare``): the SYNC
+finds its state ready and its TPDOs are a latch and a send, not a computation, as a drive's
+firmware answers from the process image it computed ahead.
+
 An emulator that falls behind (a machine too loaded to run it: its clock read nowhere for
 longer than ``max_lag`` [s], where its loop reads it every few ms) does not catch up: the
 time it did not run is not its world's time, as a device that was not running sees none
@@ -29,7 +34,12 @@ from collections.abc import Callable, Sequence
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.shaft import Shaft
 
-__all__ = ["WorldClock"]
+__all__ = ["LEAD", "WorldClock"]
+
+#: [s] at most, how long before a period's end the emulator computes its state (``prepare``):
+#: a period's physics takes tens of microseconds here, and the emulator's loop wakes that early
+#: for it
+LEAD = 250e-6
 
 log = logging.getLogger(__name__)
 
@@ -84,11 +94,33 @@ class WorldClock:
         """Periods skipped behind the clock by the shafts' own bound (``Shaft.catch_up``)."""
         return sum(shaft.skipped for shaft in self.shafts)
 
-    def advance(self) -> float:
-        """Bring every shaft and node to now; now [s]."""
+    def source(self) -> float:
+        """The source's time [s] as it reads (the world's is less the stalls: ``now``)."""
+        return self._source()
+
+    def lead(self) -> float:
+        """[s] how long before a period's end its state is prepared (``prepare``): half the
+        shortest period, at most ``LEAD``."""
+        return min([LEAD, *(0.5 * shaft.period for shaft in self.shafts)])
+
+    def next_boundary(self) -> float:
+        """The source's time [s] of the next period end of any shaft (the next SYNC expected:
+        the periods are locked to the SYNCs), inf without a shaft."""
+        ends = [shaft.t + shaft.period for shaft in self.shafts]
+        return min(ends) + self.stalled if ends else math.inf
+
+    def prepare(self) -> float:
+        """``advance`` with the state at each shaft's next period end computed now where that
+        end is within ``lead``: a SYNC then only latches and sends what was prepared, as a
+        drive's firmware answers from the process image it computed ahead; now [s]."""
+        return self.advance(ahead=self.lead())
+
+    def advance(self, *, ahead: float = 0.0) -> float:
+        """Bring every shaft and node to now (and each shaft ``ahead`` [s] more, ``prepare``);
+        now [s]."""
         now = self.now()
         for shaft in self.shafts:
-            shaft.advance_to(now)
+            shaft.advance_to(now, ahead=ahead)
         for d in self.devices:
             d.tick(now)
         if self.stalled > self._reported and now - self._reported_at >= 1.0:

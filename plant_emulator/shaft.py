@@ -178,21 +178,24 @@ class Shaft:
         self.t = now
         return True
 
-    def advance_to(self, t: float) -> int:
+    def advance_to(self, t: float, *, ahead: float = 0.0) -> int:
         """Real time: advance whole periods up to ``t`` [s]; each ends with every drive's cycle.
-        At most ``catch_up`` of them: the earlier ones are skipped (``skipped``). The number of
-        periods advanced."""
+        At most ``catch_up`` of them: the earlier ones are skipped (``skipped``). With ``ahead``
+        [s], a period that ends within ``ahead`` after ``t`` is advanced now too: the state at
+        the next SYNC prepared before it comes (``WorldClock.prepare``). A period's commands are
+        those due by its start (``take_timeline``), all known by then, so the state is the
+        one computed at the SYNC. The number of periods advanced."""
         behind = int((t - self.t) / self.period + 1e-9)
         if behind > self.catch_up:
             skip = behind - self.catch_up
             self.t += skip * self.period
             self.skipped += skip
         n = 0
-        while self.t + self.period <= t + 1e-12:
+        while self.t + self.period <= t + ahead + 1e-12:
             self._advance(self.t)
+            for drive in self._drives:  # its cycle sees the period's start, as at a SYNC (``sync``):
+                drive.on_period()  # what it queues is due at the next period's start either way
             self.t += self.period
-            for drive in self._drives:
-                drive.on_period()
             n += 1
         return n
 

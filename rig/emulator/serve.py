@@ -158,10 +158,14 @@ def run_emulator(
                     rest_plants(devices)
             if clock is not None:  # real time: the devices' own clock runs, SYNC or not
                 with lock:
-                    clock.advance()
+                    clock.prepare()  # the next SYNC's state, once it is within the lead
+                    wake = clock.next_boundary() - clock.lead()
                 if collect is not None and server is None:  # no frames' thread of ours: here
                     collect()
-            stop.wait(_TICK if clock is not None else 0.1)
+                # up to the next period's preparation (or the tick, where that is sooner)
+                stop.wait(min(_TICK, max(0.0, wake - clock.source())))
+            else:
+                stop.wait(0.1)
     except KeyboardInterrupt:
         log.info("interrupted")
     finally:
