@@ -675,6 +675,9 @@ NOT_RUN = {
 MENTIONS = {
     "rig",
     "rig -v",
+    "rig --help",
+    "rig emulate &",  # a script's background job (docs/cli.md: stop signals)
+    "rig bench",
     "rig run",
     "rig scan",
     "rig identify",

@@ -2,10 +2,11 @@
 
 Each subcommand module has ``add_parser(sub)``, which adds its parser and sets
 its handler with ``set_defaults(handler=...)``. Only this module configures
-logging. Exit codes: 0 done, 1 a failure of the rig (communication, device),
-2 a bad argument or configuration, 3 a safety stop, 4 a stop the drives did not
-confirm (they may still be moving), 5 ``rig identify --strict`` warned, 130 interrupted,
-141 the reader of stdout left (``rig ... | head``). ``-v`` goes before or after the
+logging, and only ``main`` answers the stop signals for the whole command (``rig.host.signals``:
+SIGINT and SIGTERM whatever the parent set, SIGHUP unless ignored): a command a signal stopped
+prints no result, one line on stderr, and exits 128 + the signal's number, or 4 where its
+drives' stop was not confirmed. The exit codes, the same for every command, are
+``rig.cli.common.EXIT_CODES`` (``rig --help``, docs/cli.md). ``-v`` goes before or after the
 subcommand.
 """
 
@@ -14,8 +15,10 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
 
 from drivers.errors import ConfigError, RigError
@@ -35,7 +38,8 @@ from rig.cli import (
     sweep,
     tune,
 )
-from rig.cli.common import EXIT_USAGE, Parser, UsageError
+from rig.cli.common import EXIT_CODES, EXIT_UNCONFIRMED, EXIT_USAGE, Parser, UsageError
+from rig.host.signals import SIGNALS, StopRequested, StopRequests, forget
 
 __all__ = ["main"]
 
@@ -94,7 +98,14 @@ class BriefFormatter(logging.Formatter):
 
 
 def build_parser() -> Parser:
-    parser = Parser(prog="rig", description="drive-rig: electrical-drive lab rig toolkit.")
+    parser = Parser(
+        prog="rig",
+        description="drive-rig: electrical-drive lab rig toolkit.",
+        epilog="Exit codes, the same for every command: "
+        + "; ".join(f"{code} {words}" for code, words in EXIT_CODES.items())
+        + ". SIGINT and SIGTERM stop every command, whatever the parent set; rig emulate serves "
+        "until one comes and then exits 0.",
+    )
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages to stderr")
     parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
@@ -153,11 +164,65 @@ def _said(exc: Exception) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``rig`` command line; returns the process exit code."""
+    restore = _answer_signals()
+    try:
+        return _main(argv)
+    finally:
+        restore()
+
+
+def _answer_signals() -> Callable[[], None]:
+    """SIGINT and SIGTERM stop the command whatever the parent set: a background job of a
+    script starts with SIGINT ignored, and a blocked signal stays blocked across exec; both are
+    undone here (SIGHUP left ignored where it is: ``nohup``). Each stop signal then raises
+    ``StopRequested`` once (``rig.host.signals``); returns what puts everything back."""
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    forget()
+    mask = signal.pthread_sigmask(signal.SIG_UNBLOCK, set(SIGNALS))
+    ignored = [s for s in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(s) is signal.SIG_IGN]
+    for sig in ignored:
+        signal.signal(sig, signal.SIG_DFL)
+    requests = StopRequests(doing=None)
+    requests.install()
+
+    def restore() -> None:
+        requests.restore()
+        for sig in ignored:
+            signal.signal(sig, signal.SIG_IGN)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        forget()
+
+    return restore
+
+
+def stopped(exc: KeyboardInterrupt, who: str) -> int:
+    """One line on stderr for a command a stop signal cut short, and its exit code: 128 + the
+    signal's number, or 4 where its drives' stop was not confirmed."""
+    if isinstance(exc, StopRequested) and exc.signum is not None:
+        request = exc
+    else:  # a KeyboardInterrupt not raised by our handlers: Ctrl-C
+        request = StopRequested(SIGNALS[signal.SIGINT], signal.SIGINT)
+    line = f"{who}: stopped by {request.reason}"
+    if request.confirmed is False:
+        line += "; the drives' stop was NOT confirmed: they may still be moving (the log names them)"
+    elif request.confirmed:
+        line += "; every drive stopped, at rest and disabled"
+    if request.kept and os.path.exists(request.kept):  # not a study's temporary run, removed
+        line += f"; what was done is in {request.kept}"
+    print(line, file=sys.stderr)
+    assert request.signum is not None
+    return EXIT_UNCONFIRMED if request.confirmed is False else 128 + request.signum
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
+    who = "rig"
     try:
         args, extra = parser.parse_known_args(argv)
+        who = getattr(args, "prog", who)
         if extra:  # named by the subcommand that was given them, not by the top parser
-            raise UsageError(f"{getattr(args, 'prog', 'rig')}: unrecognized arguments: {' '.join(extra)}")
+            raise UsageError(f"{who}: unrecognized arguments: {' '.join(extra)}")
         handler = logging.StreamHandler(sys.stderr)
         handler.setFormatter((logging.Formatter if args.verbose else BriefFormatter)(FORMAT))
         logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, handlers=[handler])
@@ -174,9 +239,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RigError as exc:
         print(_said(exc), file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("rig: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # a stop signal (rig.host.signals), after the drives' stop
+        return stopped(exc, who)
     except BrokenPipeError:  # ``rig ... | head``: the reader left; no traceback at exit either
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 128 + 13  # as a process SIGPIPE ended

@@ -2,7 +2,7 @@
 
 Conventions: ``--help`` on every level; ``--json`` prints one JSON document on
 stdout and nothing else there; a bad argument gives one line on stderr naming
-it and exit code 2; a safety stop exits 3.
+it and exit code 2; the exit codes are ``EXIT_CODES``, the same for every command.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from drivers.errors import ConfigError
 from rig.config.params import parse_items, typed_values
 
 __all__ = [
+    "EXIT_CODES",
     "EXIT_NOT_WRITTEN",
     "EXIT_STOPPED",
     "EXIT_UNCONFIRMED",
@@ -46,6 +47,22 @@ EXIT_STOPPED = 3
 EXIT_UNCONFIRMED = 4  #: the drives' stop could not be confirmed: they may still be moving
 EXIT_UNTRUSTED = 5  #: rig identify --strict: closed-loop data or a poor held-out fit
 EXIT_NOT_WRITTEN = 6  #: a file of the run is missing or cut short (``files_not_written``)
+
+#: every exit code of ``rig`` and what it says, the same for every command (``rig --help`` and
+#: docs/cli.md show them; ``rig.cli.stopped`` makes the stop signals')
+EXIT_CODES = {
+    "0": "done",
+    "1": "a failure (of the rig: communication, a device; or of the command)",
+    "2": "a bad argument or configuration (one line on stderr naming it)",
+    "3": "a safety stop (a limit, the watchdog, a device fault, ...), every drive confirmed at rest "
+    "and disabled",
+    "4": "a stop not confirmed, whatever began it (a safety stop or a signal): a drive may still be moving",
+    "5": "--strict (rig identify, rig tune) and a warning",
+    "6": "a file of the run not written whole (named on stderr)",
+    "128+N": "stopped by signal N (130 Ctrl-C/SIGINT, 143 SIGTERM, 129 SIGHUP), every drive the command "
+    "moved confirmed at rest; no result printed, one line on stderr saying what was kept",
+    "141": "the reader of stdout left (rig ... | head)",
+}
 
 
 def exit_code(summary: dict[str, Any]) -> int:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import io
 import sys
 from typing import Any
 
@@ -15,12 +16,21 @@ def add_parser(sub: Any) -> None:
         help="design and simulate the DC position servo (section VII.B), then run it over the emulated bus",
         description="Identifies the emulated DC motor (PRBS over the emulated CAN bus), designs the DTSM "
         "(7.31) from the result, simulates (7.30) with and without its integral and the sign law (6.8), "
-        "and runs (7.30) over the emulated bus; writes a run directory under runs/.",
+        "and runs (7.30) over the emulated bus; writes a run directory under runs/. Prints its report "
+        "once it is whole (a progress line on a terminal meanwhile).",
     )
     demo.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from rig.cli.progress import Progress
     from rig.papers.demo import run_demo
 
-    return run_demo(sys.stdout)
+    report = io.StringIO()  # printed whole: a demo a stop signal cuts short prints nothing
+    bar = Progress("rig demo", 3, "parts")
+    try:
+        code = run_demo(report, progress=bar.cycles)
+    finally:
+        bar.close()
+    sys.stdout.write(report.getvalue())
+    return code

@@ -31,9 +31,9 @@ def add_parser(sub: Any) -> None:
         help="commission one CiA 402 drive: status, enable/disable/reset, SDO, jog, home, move",
         description="Talks to one CiA 402 node by SDO: its status (state, mode, statusword bits, 0x603F, "
         "last EMCY, units and PDO mapping in force), its state machine, its objects by index[:sub] or EDS "
-        "name, and short moves on its own profile modes. A move ends, as Ctrl-C does, with the drive's "
-        "quick stop ramp to rest and then disable. Exit code 3 when a move was stopped, 4 when the stop "
-        "was not confirmed.",
+        "name, and short moves on its own profile modes. A move ends, as Ctrl-C or SIGTERM does, with the "
+        "drive's quick stop ramp to rest and then disable. Exit code 3 when a move was stopped, 4 when the "
+        "stop was not confirmed, 130 or 143 (and no result) after Ctrl-C or SIGTERM.",
     )
     add_bus_arguments(drive)
     drive.add_argument("--node", type=int, default=1, help="the drive's node id (default 1)")

@@ -9,6 +9,7 @@ from typing import Any
 
 from rig.cli.common import (
     EXIT_STOPPED,
+    EXIT_UNCONFIRMED,
     EXIT_UNTRUSTED,
     UsageError,
     add_json,
@@ -142,8 +143,9 @@ def _check(args: argparse.Namespace) -> None:
         raise UsageError(f"rig identify: argument --seed: must be >= 0, got {args.seed}")
 
 
-def _experiment(args: argparse.Namespace) -> str | None:
-    """Run the experiment; its run directory, or None after a safe stop."""
+def _experiment(args: argparse.Namespace) -> str | int:
+    """Run the experiment; its run directory, or the exit code after a safe stop (3; 4 where the
+    stop was not confirmed)."""
     from plant_emulator.presets import PRESETS
     from rig.cli.progress import Progress
     from rig.config import load_config
@@ -205,7 +207,7 @@ def _experiment(args: argparse.Namespace) -> str | None:
     if summary["safe_stop_reason"] or summary.get("stop_confirmed") is False:
         why = summary["safe_stop_reason"] or "the drive's stop was not confirmed"
         print(f"rig identify: the experiment stopped: {why}", file=sys.stderr)
-        return None
+        return EXIT_UNCONFIRMED if summary.get("stop_confirmed") is False else EXIT_STOPPED
     return str(summary["run_dir"])
 
 
@@ -382,8 +384,8 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         run_dir = args.from_log or _experiment(args)
-        if run_dir is None:
-            return EXIT_STOPPED
+        if isinstance(run_dir, int):
+            return run_dir
         frequency = args.excitation is not None and _frequency(args)
         result = identify_from_log(run_dir, f_min=args.f_min if frequency else None, f_max=args.f_max)
         response = _response(args, run_dir, result)

@@ -34,7 +34,8 @@ def add_parser(sub: Any) -> None:
         description="Run the rig of a configuration file (rig/config/schema.py documents every key): every "
         "axis set up and enabled, the law on one SYNC per period, limits, watchdog and supervision per "
         "axis, the one safe stop, and a run directory. Exit code 3 after a safe stop, 4 when a "
-        "drive's stop could not be confirmed.",
+        "drive's stop could not be confirmed; Ctrl-C or SIGTERM is that stop too, then 130 or 143 and "
+        "no summary printed (it is in the run directory's summary.json).",
     )
     run.add_argument("--config", required=True, metavar="FILE", help="the rig configuration (TOML)")
     run.add_argument("--emulate", action="store_true", help="run the configured emulator in this process")

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import signal
+import sys
 import time
 from typing import Any
 
@@ -96,6 +98,15 @@ def execute(args: argparse.Namespace) -> int:
     finally:
         bar.close()
         close_client(client)
+    if done.interrupted:  # no table or plots of a cut-short sweep: where its rows are, on stderr
+        from rig.host.signals import SIGNALS, StopRequested, taken
+
+        stop = taken() or StopRequested(SIGNALS[signal.SIGINT], signal.SIGINT)
+        print(
+            f"rig sweep: {done.results.done} of {done.total} points done; --resume runs the others",
+            file=sys.stderr,
+        )
+        raise stop.after(confirmed=None, kept=str(spec.directory / "results.parquet"))
     plots: list[str] = []
     if args.plot:
         from rig.sweep.plot import plot_results
@@ -129,6 +140,4 @@ def execute(args: argparse.Namespace) -> int:
         print(f"record   {spec.directory / 'sweep.json'}")
         for p in plots:
             print(f"plot     {p}")
-        if done.interrupted:
-            print("interrupted: the rows of the points that finished are kept; --resume runs the others")
-    return 130 if done.interrupted else 0
+    return 0

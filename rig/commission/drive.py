@@ -7,7 +7,9 @@ with a new drive before any control law runs: read what it is and how it is set 
 and disable it, reset a fault, read and write an object by index or by its EDS name, jog it
 in profile velocity, home it, and move it in profile position. A move ends the way every
 stop of the toolkit ends: quick stop, the drive's ramp to rest (watched by SDO), disable; so
-does Ctrl-C. Time passes through ``idle`` (a sleep on a real bus; a SYNC in lock-step).
+does a stop signal (Ctrl-C, SIGTERM; ``rig.host.signals``), which no second one cuts short, and
+which is then raised again with the stop's confirmation: a move cut short has no result. Time
+passes through ``idle`` (a sleep on a real bus; a SYNC in lock-step).
 With ``live`` (``rig drive ... --live``) each look at the drive during a move also reads its
 actual speed or position by SDO for the live view (``rig.live``).
 """
@@ -34,6 +36,7 @@ from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
 from rig.commission.motion_watch import MotionWatch
 from rig.commission.status import UNITS_HINT, device_units
+from rig.host.signals import StopRequests
 from rig.host.stopping import RestWatch
 
 __all__ = ["STATUS_BITS", "DriveTool", "parse_object"]
@@ -255,15 +258,22 @@ class DriveTool:
         a.set_mode(mode)
         a.enable(timeout=2.0, mode=int(mode))
         confirmed, result = False, "done"
+        requests = StopRequests()  # a stop signal is this stop, which no later one cuts short
+        requests.install()
         try:
-            start()
-            self._until(done, seconds, what)
-        except KeyboardInterrupt:
-            result = "interrupted (Ctrl-C)"
-        except (SafetyStop, DeviceFault) as exc:
-            result = f"stopped: {exc}"
+            try:
+                start()
+                self._until(done, seconds, what)
+            except KeyboardInterrupt:
+                result = "interrupted (Ctrl-C)"
+            except (SafetyStop, DeviceFault) as exc:
+                result = f"stopped: {exc}"
+            finally:
+                requests.stopping()
+                confirmed, turning = self.stop()
         finally:
-            confirmed, turning = self.stop()
+            requests.restore()
+        requests.pass_on(confirmed)  # a move a signal cut short has no result to report
         position, velocity = self._actual()
         return {
             "result": result,

@@ -160,7 +160,8 @@ class _World:
         return (self.out / "host.err").read_text()[-2000:]
 
     def finish(self, *, timeout: float = 60.0) -> dict[str, Any]:
-        """Wait for ``rig run`` to exit; its summary (empty when it printed none)."""
+        """Wait for ``rig run`` to exit; its summary: the one it printed, else (a run a signal
+        stopped prints none) its run directory's summary.json; empty where there is neither."""
         assert self.host is not None
         try:
             out, _ = self.host.communicate(timeout=timeout)
@@ -168,8 +169,13 @@ class _World:
             self.host.kill()
             out, _ = self.host.communicate()
         with contextlib.suppress(ValueError):
-            summary: dict[str, Any] = json.loads(out.strip().splitlines()[-1]) if out.strip() else {}
-            return summary
+            if out.strip():
+                summary: dict[str, Any] = json.loads(out.strip().splitlines()[-1])
+                return summary
+            start = self.started()
+            if start is not None and (start[1] / "summary.json").is_file():
+                summary = json.loads((start[1] / "summary.json").read_text())
+                return summary
         return {}
 
     def read_drive(self) -> tuple[float | None, bool | None]:

@@ -11,7 +11,9 @@ frame). ``start()`` sets every
 axis up, enables it, and makes the pacing and the loop. ``run()`` runs the loop and then,
 in this order, stops SYNC, stops the frames that feed the trace, and closes the
 recorder with the summary. ``close()`` disables and releases every axis and
-the transports; a session is a context manager. ``rig run``, ``rig identify``,
+the transports; a session is a context manager, which, where a stop signal came during it
+(``rig.host.signals``), raises it once it has closed: a study of many runs ends with the one
+the signal stopped. ``rig run``, ``rig identify``,
 the benchmarks and the fault suite all run through here.
 """
 
@@ -404,7 +406,13 @@ class Session:
                 self.recorder.live = None
                 live.stop()
             self._frozen = False  # the loop's run unfroze the heap
-            self._finish(summary or loop.summary())
+            summary = summary or loop.summary()
+            if self.signals.taken is not None:  # the command ends: its data, not the plot (0.5 s of CPU)
+                self.recorder.PLOT = False
+                summary.setdefault("warnings", []).append(
+                    f"{self.signals.taken.reason}: no plot.png drawn (samples.csv holds every sample)"
+                )
+            self._finish(summary)
         return summary
 
     def _bus_load(self) -> None:
@@ -463,5 +471,7 @@ class Session:
     def __enter__(self) -> Session:
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
         self.close()
+        if kind is None:  # the run a signal cut short is the command's last
+            self.signals.pass_on(None if self.loop is None else self.loop.stop_confirmed, self.recorder.dir)

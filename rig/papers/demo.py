@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib.util
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TextIO
 
@@ -115,9 +116,13 @@ def demo_doc(output: str = "runs", *, a_m: float = drives.A_M, b_m: float = driv
     return doc
 
 
-def run_demo(out: TextIO, *, output: str = "runs") -> int:
-    """Print the demo to ``out``; returns the exit code."""
+def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int], None] | None = None) -> int:
+    """Print the demo to ``out``; ``progress(parts done, 3)`` after the simulations, the
+    identification and the run over the bus; returns the exit code: 1 a simulation not finite,
+    else the run's (0 done, 3 a safe stop, 4 its stop not confirmed)."""
+    step = progress or (lambda k, n: None)
     s = demo_summary()
+    step(1, 3)
     d = s.design
     out.write("drive-rig demo: DC position servo, section VII.B\n")
     out.write(f"  design (7.31): c_delta = {list(d.c_delta)}, c_delta A_delta = {list(d.c_delta_A_delta)}\n")
@@ -143,6 +148,7 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
     u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=drives.T_SERVO, duration=3.0, seed=1)
     ident = run_experiment(experiment_config(cfg, u, params={}), emulate=True)
     model = identify_from_log(ident["run_dir"])
+    step(2, 3)
     out.write(
         f"  identify (PRBS 3 +- 2 V, 3 s): a_m = {model.a_m:.4f} +- {model.a_m_stderr:.1g} 1/s, "
         f"b_m = {model.b_m:.2f} +- {model.b_m_stderr:.1g}, delay {model.delay_samples}, "
@@ -150,6 +156,7 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
     )
     out.write("  design (7.31) from the identified model, lambda = -15; run over the bus:\n")
     wire = run_config(demo_config(output, a_m=model.a_m, b_m=model.b_m), emulate=True)
+    step(3, 3)
     out.write("".join(f"  {line}\n" for line in summary_lines(wire)))
     out.write(
         "  (chattering over the run's second half; a one-count change of the 4096-count encoder moves\n"
@@ -159,4 +166,8 @@ def run_demo(out: TextIO, *, output: str = "runs") -> int:
     if importlib.util.find_spec("matplotlib") is None:
         out.write("  (no plot.png: it needs matplotlib, python -m pip install -e '.[plot]')\n")
     simulated_ok = all(math.isfinite(float(r["steady_state_error_rad"])) for r in s.rows)
-    return 0 if simulated_ok and wire["safe_stop_reason"] is None else 1
+    if not simulated_ok:
+        return 1
+    if wire["stop_confirmed"] is False:
+        return 4
+    return 0 if wire["safe_stop_reason"] is None else 3

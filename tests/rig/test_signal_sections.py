@@ -9,11 +9,12 @@ import signal
 
 import pytest
 
-from rig.host.signals import StopRequested, StopRequests
+from rig.host.signals import StopRequested, StopRequests, forget
 
 
 @pytest.fixture
 def requests():  # type: ignore[no-untyped-def]
+    forget()  # each test's signal is the process's first
     r = StopRequests()
     r.install()
     yield r

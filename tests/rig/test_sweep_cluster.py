@@ -121,8 +121,9 @@ def test_a_killed_worker_costs_only_its_points_and_each_point_is_one_row(tmp_pat
 
 def test_ctrl_c_on_the_terminal_keeps_the_finished_rows_and_says_nothing_else(tmp_path: pathlib.Path) -> None:
     """SIGINT to the whole process group, as a terminal's Ctrl-C sends it (the client and the local
-    cluster's worker processes): exit code 130, the rows that finished in the table, sweep.json
-    'interrupted', and no worker's KeyboardInterrupt traceback on stderr; --resume runs the rest."""
+    cluster's worker processes): exit code 130, no summary on stdout, the rows that finished in the
+    table (named on stderr), sweep.json 'interrupted', and no worker's KeyboardInterrupt traceback
+    on stderr; --resume runs the rest."""
     import pyarrow.parquet as pq
 
     spec = tmp_path / "spec.toml"
@@ -150,7 +151,9 @@ def test_ctrl_c_on_the_terminal_keeps_the_finished_rows_and_says_nothing_else(tm
     assert sweep.returncode == 130, (out, err)
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
     kept = len(pq.read_table(table))
-    assert 2 <= kept < 40 and "interrupted" in out
+    assert 2 <= kept < 40 and out == "", out
+    assert f"rig sweep: {kept} of 40 points done; --resume runs the others" in err, err
+    assert "rig sweep: stopped by Ctrl-C (SIGINT); what was done is in sweeps/cut/results.parquet" in err
     assert json.loads((table.parent / "sweep.json").read_text())["status"] == "interrupted"
     rest = subprocess.run(
         [sys.executable, "-m", "rig.cli", "sweep", str(spec), "--workers", "2", "--resume", "--json"],
