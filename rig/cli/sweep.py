@@ -93,11 +93,12 @@ def execute(args: argparse.Namespace) -> int:
             bar.cycles(0, total)
         bar.update(results.done, f"{rate:.2f} points/s, {results.failed} failed")
 
+    done = None
     try:
         done = run_sweep(spec, client, engine, resume=args.resume, on_row=on_row)
     finally:
         bar.close()
-        close_client(client)
+        close_client(client, quick=done is None or done.interrupted)
     if done.interrupted:  # no table or plots of a cut-short sweep: where its rows are, on stderr
         from rig.host.signals import SIGNALS, StopRequested, taken
 

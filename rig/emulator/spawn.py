@@ -22,14 +22,23 @@ def spawn_rig(*args: str, quiet: bool = False, stderr: bool = False) -> tuple[su
         text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
-    line = "" if quiet or proc.stdout is None else proc.stdout.readline()
+    try:
+        line = "" if quiet or proc.stdout is None else proc.stdout.readline()
+    except BaseException:  # a stop signal while it starts: it is not left running, unowned
+        stop_rig(proc, timeout=10)
+        raise
     return proc, line
 
 
 def stop_rig(proc: subprocess.Popen[str], *, timeout: float = 60.0) -> tuple[str, str]:
     """Ctrl-C (SIGINT) and wait; returns the rest of (stdout, stderr)."""
     proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=timeout)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except BaseException:  # it did not end in time, or a stop signal came to us meanwhile
+        proc.kill()
+        proc.communicate()
+        raise
     return out or "", err or ""
 
 
