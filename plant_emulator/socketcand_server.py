@@ -17,8 +17,12 @@ made per client, so a connection costs a few system calls, not thread starts und
 devices' clock. Every frame a client sends goes to the hub (the devices answer at once,
 under their lock) and to the other clients; every frame the devices send goes to all
 clients. Each client has its own bounded queue (``socketcand_link``): a client that does not
-read is dropped, and no socket write waits with the devices' lock held (the I/O thread hands a
-device's answer to the kernel at once, non-blocking; every other write is done after).
+read is dropped, and no socket write waits with the devices' lock held. A device's answer to a
+client's frame (the TPDOs answering its SYNC) goes to that client's kernel at once; every other
+client gets its lines in one write a round, so a round costs a write per client however many
+frames it carried (a write per frame and client fell behind a 1 kHz host with 200 readers, its
+frames waiting 30-130 ms in its socket). A client's frames reach the bus in the order it sent
+them: they wait in one queue, and only the first of them competes in arbitration.
 
 The bus has a bit rate (``bitrate``, 1 Mbit/s by default): every frame, the devices' and the
 clients', takes its time on it (``bus_time``: worst-case stuffing), and a client's frame waits
@@ -109,6 +113,7 @@ class SocketcandServer:
         self._dirty: collections.deque[ClientLink] = collections.deque()  #: links with lines to send
         self._signalled = False  #: the I/O thread has been woken and not yet looked
         self._tickets = 0  #: frames that came to wait for the bus so far (their order)
+        self._sender: ClientLink | None = None  #: the client whose frame the devices answer now
         self._stopping = threading.Event()
         self.accepted = 0  #: connections accepted so far
         #: called by the I/O thread after each round of serving and sending, before it waits again
@@ -167,18 +172,19 @@ class SocketcandServer:
 
     def _to_clients(self, msg: can.Message) -> None:
         """A device's frame (called under the devices' lock): on the bus now, queued for every
-        client, stamped now. On the I/O thread (a device answering a client's frame: the TPDOs
-        answering a SYNC) it is handed to the kernel at once, as socketcand writes each frame as it
-        comes, not after the devices' other work on that SYNC (a non-blocking write, never a wait:
-        what the kernel does not take waits in the queue as any line does)."""
+        client, stamped now. A device answering a client's frame (on the I/O thread, in
+        ``_relay``: the TPDOs answering a SYNC) has it handed to that client's kernel at once, as
+        socketcand writes each frame as it comes, not after the devices' other work on that SYNC
+        (a non-blocking write, never a wait: what the kernel does not take waits in the queue as
+        any line does); the other clients get it with the round's writes (``_send``)."""
         now = time.monotonic()
         self.bus_time.carry(msg, now)
         line = format_frame(msg, time.time())
-        at_once = threading.get_ident() == self.thread.ident
         for client in self._clients:
             self._put(client, line)
-            if at_once:
-                client.send(now)
+        sender = self._sender  # (set only by the I/O thread, and only while it relays a frame)
+        if sender is not None and threading.get_ident() == self.thread.ident and not sender.closed:
+            sender.send(now)
 
     # --- the I/O thread ---------------------------------------------------------------------
 
@@ -413,4 +419,8 @@ class SocketcandServer:
                 for client in others:
                     self._put(client, line)
             self.hub.clock = received  # the devices get the frame stamped when it came
-            self.bus.send(msg)
+            self._sender = sender  # the devices' answers go to it at once (``_to_clients``)
+            try:
+                self.bus.send(msg)
+            finally:
+                self._sender = None

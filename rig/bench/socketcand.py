@@ -33,6 +33,7 @@ import contextlib
 import dataclasses
 import json
 import os
+import selectors
 import socket
 import statistics
 import subprocess
@@ -60,6 +61,7 @@ __all__ = [
     "flood",
     "flood_beside_reader",
     "flood_ceiling",
+    "hold",
     "realtime_run",
 ]
 
@@ -89,13 +91,13 @@ def _handshake(port: int) -> None:
             got += chunk
 
 
-def churn(port: int, seconds: float, rate: float = 0.0) -> dict[str, Any]:
+def churn(port: int, seconds: float, rate: float = 0.0, count: int = 0) -> dict[str, Any]:
     """Connections one after another for ``seconds`` [s], ``rate`` [1/s] of them (0: as fast as
-    they go): how many, how many failed, the slowest handshake [ms]."""
+    they go), ``count`` at most (0: no limit): how many, how many failed, the slowest handshake [ms]."""
     done = failed = 0
     slowest = 0.0
     start = time.monotonic()
-    while (now := time.monotonic()) - start < seconds:
+    while (now := time.monotonic()) - start < seconds and not 0 < count <= done + failed:
         if rate > 0.0:
             due = start + (done + failed) / rate
             if due > now:
@@ -140,6 +142,33 @@ def burst(port: int, count: int) -> dict[str, Any]:
     }
 
 
+def hold(port: int, seconds: float, count: int) -> dict[str, Any]:
+    """``count`` clients in rawmode at once for ``seconds`` [s], each reading every frame it is
+    sent (a bus with that many listeners): how many were held to the end, and frames read."""
+    links = [socket.create_connection(("127.0.0.1", port), timeout=10.0) for _ in range(count)]
+    with selectors.DefaultSelector() as selector:
+        for link in links:
+            link.sendall(b"< open can0 >< rawmode >")
+            link.setblocking(False)
+            selector.register(link, selectors.EVENT_READ, link)
+        frames, end = 0, time.monotonic() + seconds
+        while time.monotonic() < end:
+            for key, _ in selector.select(0.1):
+                try:
+                    chunk = key.data.recv(65536)
+                except BlockingIOError:
+                    continue
+                except OSError:  # dropped by the server
+                    chunk = b""
+                frames += chunk.count(b"< frame ")
+                if not chunk:
+                    selector.unregister(key.data)
+        held = len(selector.get_map())
+    for link in links:
+        link.close()
+    return {"held": held, "frames": frames}
+
+
 def flood(port: int, seconds: float) -> dict[str, Any]:
     """``< send 7FF 8 ... >`` as fast as the socket takes them for ``seconds`` [s] (what comes
     back is read and thrown away): how many were written, per second."""
@@ -174,8 +203,9 @@ def flood(port: int, seconds: float) -> dict[str, Any]:
 
 
 def client_process(kind: str, port: int, seconds: float, rate: float = 0.0) -> subprocess.Popen[str]:
-    """``churn`` (``rate``), ``burst`` (``rate`` connections at once, after ``seconds``) or
-    ``flood`` in a process of its own; its JSON result is its stdout."""
+    """``churn`` (``rate``), ``connects`` (``rate`` of them), ``burst`` (``rate`` connections at
+    once, after ``seconds``), ``hold`` (``rate`` clients) or ``flood`` in a process of its own;
+    its JSON result is its stdout."""
     return subprocess.Popen(
         [sys.executable, "-m", "rig.bench.socketcand", kind, str(port), str(seconds), str(rate)],
         stdout=subprocess.PIPE,
@@ -371,11 +401,17 @@ def bench_socketcand(progress: Callable[[int, int], None] | None = None) -> list
 
 
 def main(argv: list[str]) -> int:
-    """``churn|burst|flood PORT SECONDS [RATE]``: one client's JSON result on stdout."""
+    """``churn|connects|burst|hold|flood PORT SECONDS [RATE]``: one client's JSON result on stdout
+    (``connects``: RATE connections one after another, as fast as they go; ``hold``: RATE clients
+    in rawmode for SECONDS)."""
     kind, port, seconds = argv[0], int(argv[1]), float(argv[2])
     rate = float(argv[3]) if len(argv) > 3 else 0.0
     if kind == "churn":
         result = churn(port, seconds, rate)
+    elif kind == "connects":
+        result = churn(port, seconds, count=int(rate))
+    elif kind == "hold":
+        result = hold(port, seconds, int(rate))
     elif kind == "burst":
         time.sleep(seconds)
         result = burst(port, int(rate))

@@ -19,6 +19,7 @@ import pytest
 from drivers.maps import CIA402_EDS
 from plant_emulator.lockstep import SyncHub, attach_network
 from plant_emulator.presets import build_preset
+from plant_emulator.socketcand_link import ClientLink
 from plant_emulator.socketcand_server import SocketcandServer
 
 WAIT = 10.0  #: [s] generous: only a failure waits this long
@@ -345,3 +346,65 @@ def test_frames_wait_for_the_bus_and_the_lowest_identifier_goes_first() -> None:
         for c in (flooder, other, watcher):
             c.close()
         emu.close()
+
+
+def test_a_client_s_frames_reach_the_bus_in_the_order_it_sent_them() -> None:
+    """At 10 kbit/s a frame holds the bus for about 6 ms, so frames wait for it. One client's
+    frames, sent with falling identifiers (which arbitration would let through lowest first),
+    and another's, sent meanwhile with identifiers between theirs, reach the devices each in the
+    order its client sent them: arbitration decides only between the two clients' first frames.
+    (It held on the server before this guarantee was written down; this keeps it.)"""
+    emu = Emulator(bitrate=10_000)
+    first, second = Raw(emu.server.port), Raw(emu.server.port)
+    ours = [0x7E0, 0x6F0, 0x500, 0x3F0, 0x110, 0x050]  # none a device of the preset takes
+    theirs = [0x7F8, 0x450, 0x060]
+    try:
+        first.send("".join(f"< send {i:03X} 1 01 >" for i in ours))
+        second.send("".join(f"< send {i:03X} 1 02 >" for i in theirs))
+        wait_for(lambda: len(emu.heard) == len(ours) + len(theirs), "every frame on the bus")
+        assert [i for i, data, _ in emu.heard if data == b"\x01"] == ours
+        assert [i for i, data, _ in emu.heard if data == b"\x02"] == theirs
+    finally:
+        for c in (first, second):
+            c.close()
+        emu.close()
+
+
+def test_a_device_s_answer_is_written_at_once_only_to_the_client_it_answers(
+    emulator: Emulator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An SDO request from one client among 20 rawmode readers: the drive's answer goes to that
+    client's socket while the server relays the request; the readers get it with the round's
+    one write each, never a write per frame. Before, every device frame was written to every
+    client at once: with 200 readers a 1 kHz host's SYNC cost some 600 writes, the server fell
+    behind, and the host's frames waited 30-130 ms in its socket (issue 33)."""
+    readers = [Raw(emulator.server.port) for _ in range(20)]
+    host = Raw(emulator.server.port)
+    written: list[ClientLink] = []
+    relaying = [False]
+    send, relay = ClientLink.send, emulator.server._relay
+
+    def counted(link: ClientLink, now: float) -> bool:
+        if relaying[0]:
+            written.append(link)
+        return send(link, now)
+
+    def relayed(sender: ClientLink, msg: can.Message) -> None:
+        relaying[0] = True
+        try:
+            relay(sender, msg)
+        finally:
+            relaying[0] = False
+
+    monkeypatch.setattr(ClientLink, "send", counted)
+    monkeypatch.setattr(emulator.server, "_relay", relayed)
+    try:
+        host.send("< send 601 8 40 00 10 00 00 00 00 00 >")  # upload 0x1000
+        assert host.line().startswith("< frame 581 ")
+        for reader in readers:
+            assert reader.lines_until("< frame 581 ")[-1].startswith("< frame 581 ")
+        ip, port = host.sock.getsockname()[:2]
+        assert written and {link.name for link in written} == {f"{ip}:{port}"}
+    finally:
+        for c in (*readers, host):
+            c.close()
