@@ -37,7 +37,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     skip_vcan = pytest.mark.skip(
         reason="the vcan tier runs only with -m vcan (see docs/testing.md, Testing with virtual CAN)"
     )
-    for tier in ("interop", "export"):  # these tiers only when asked for
+    for tier in ("interop", "export", "browser"):  # these tiers only when asked for
         if tier not in (config.getoption("markexpr") or ""):
             chosen = [item for item in items if tier not in item.keywords]
             if len(chosen) != len(items):

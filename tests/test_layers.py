@@ -48,6 +48,7 @@ LEVELS: tuple[tuple[str, ...], ...] = (
         "rig.bench",
         "rig.emulator",
         "rig.doctor",
+        "rig.view",
     ),
     ("rig.cli",),
 )

@@ -106,6 +106,7 @@ ELIDED = {
         "rig drive --emulate epos4 disable",
     ],
     "rig run --config ...": ["rig run --config my_rig.toml"],
+    "rig view FOLDER ...": ["rig view runs sweeps"],
 }
 
 
@@ -704,6 +705,9 @@ MENTIONS = {
     "rig export",
     "rig design dtsm",
     "rig design dtsm --from-identify",
+    "rig view",
+    "rig run --view",
+    "rig bench view",
 }
 
 

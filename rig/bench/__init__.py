@@ -91,6 +91,12 @@ def _memory(progress: Progress | None = None) -> list[Figure]:
     return bench_memory(progress=progress)
 
 
+def _view(progress: Progress | None = None, **options: Any) -> list[Figure]:
+    from rig.bench.view import bench_view
+
+    return bench_view(progress=progress, **options)
+
+
 _loop.__doc__ = (
     "full-chain lock-step cycles/s (one axis, the dyno, the bare canopen exchange), 1 kHz real time"
 )
@@ -103,6 +109,12 @@ _stops.__doc__ = (
 _socketcand.__doc__ = (
     "rig emulate's socketcand server: connections/s during a real-time run, the run's overruns "
     "with and without 200 connections/s, a flood held to the bit rate and a reader kept (minutes)"
+)
+
+_view.__doc__ = (
+    "overruns, late cycles, period error and response of 1 kHz real-time runs without a view and with "
+    "rig run --view and a browser attached (headless Chromium, or a websocket client), --runs pairs "
+    "(5) of --seconds (10) alternated in the same minutes (minutes)"
 )
 
 #: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}
@@ -118,6 +130,14 @@ BENCHMARKS: dict[str, Callable[[], list[Figure]]] = {
     "sweep": _sweep,
     "startup": _startup,
     "memory": _memory,
+    "view": _view,
 }
 #: the benchmarks that take minutes and take a ``progress`` callback
-LONG = {"soak": _soak, "stops": _stops, "socketcand": _socketcand, "sweep": _sweep, "memory": _memory}
+LONG = {
+    "soak": _soak,
+    "stops": _stops,
+    "socketcand": _socketcand,
+    "sweep": _sweep,
+    "memory": _memory,
+    "view": _view,
+}

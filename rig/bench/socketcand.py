@@ -42,11 +42,15 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import can
 
 from rig.bench.micro import Figure
+
+if TYPE_CHECKING:
+    from drivers.base import AxisDriver
+    from rig.live import LiveView
 
 __all__ = [
     "BURST",
@@ -221,10 +225,17 @@ def client_result(proc: subprocess.Popen[str]) -> dict[str, Any]:
     return result
 
 
-def realtime_run(out: str, port: int, seconds: float) -> dict[str, Any]:
-    """A real-time 1 kHz run of the servo held at 0 rad against the emulator on ``port``."""
+def realtime_run(
+    out: str,
+    port: int,
+    seconds: float,
+    live: LiveView | None = None,
+    started: Callable[[list[AxisDriver]], None] | None = None,
+) -> dict[str, Any]:
+    """A real-time 1 kHz run of the servo held at 0 rad against the emulator on ``port`` (``live``
+    and ``started`` as ``rig.host.session.run_config`` takes them)."""
     from rig.config import BusConfig, replace_axis
-    from rig.host.session import Session
+    from rig.host.session import run_config
     from rig.papers.demo import demo_config
 
     cfg = demo_config(out)
@@ -235,9 +246,7 @@ def realtime_run(out: str, port: int, seconds: float) -> dict[str, Any]:
         bus=BusConfig(interface="socketcand", channel="can0", port=port),
     )
     cfg = replace_axis(cfg, "motor", limits={"watchdog_periods": 1000})
-    with Session(cfg, emulate=False, duration=seconds) as session:
-        session.start()
-        return session.run()
+    return run_config(cfg, emulate=False, duration=seconds, live=live, started=started)
 
 
 class _Arrivals(can.Listener):

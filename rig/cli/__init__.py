@@ -37,6 +37,7 @@ from rig.cli import (
     scan,
     sweep,
     tune,
+    view,
 )
 from rig.cli.common import EXIT_CODES, EXIT_UNCONFIRMED, EXIT_USAGE, Parser, UsageError
 from rig.host.signals import SIGNALS, StopRequested, StopRequests, forget
@@ -58,6 +59,7 @@ SUBCOMMANDS = (
     bench,
     doctor,
     export,
+    view,
 )
 
 
@@ -137,6 +139,7 @@ EXAMPLES = {
     "bench": "rig bench loop --json",
     "doctor": "rig doctor --period 0.0004",
     "export": "rig export runs/dc-servo-position-DATE-TIME --format mf4",
+    "view": "rig view runs   (then open http://127.0.0.1:8050/ in a browser)",
 }
 
 

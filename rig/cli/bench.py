@@ -23,7 +23,7 @@ def add_parser(sub: Any) -> None:
         ),
     )
     bench.add_argument("name", choices=sorted(BENCHMARKS), help="what to measure")
-    stops = bench.add_argument_group("rig bench stops")
+    stops = bench.add_argument_group("rig bench stops (and view: --runs, --seconds)")
     stops.add_argument("--period", type=finite, metavar="S", help="the period [s] (default 0.001)")
     stops.add_argument(
         "--load",
@@ -44,8 +44,9 @@ def _stops_options(args: argparse.Namespace) -> dict[str, Any]:
     given = {
         k: getattr(args, k) for k in ("period", "load", "runs", "seconds") if getattr(args, k) is not None
     }
-    if given and args.name != "stops":
-        names = ", ".join(f"--{k}" for k in given)
+    takes = {"stops": set(given), "view": {"runs", "seconds"}}.get(args.name, set())
+    if set(given) - takes:
+        names = ", ".join(f"--{k}" for k in given if k not in takes)
         raise UsageError(f"rig bench {args.name}: {names}: only rig bench stops takes them")
     ranges = {"period": (0.0, 0.1, "s"), "load": (0, 64, "processes"), "runs": (1, 10_000, "runs")}
     ranges["seconds"] = (0.0, 3600.0, "s")
@@ -55,7 +56,7 @@ def _stops_options(args: argparse.Namespace) -> dict[str, Any]:
             if not (low < value <= high if isinstance(low, float) else low <= value <= high):
                 bounds = f"({low:g}, {high:g}]" if isinstance(low, float) else f"{low}..{high}"
                 raise UsageError(
-                    f"rig bench stops: argument --{key}: must be in {bounds} {unit}, got {value:g}"
+                    f"rig bench {args.name}: argument --{key}: must be in {bounds} {unit}, got {value:g}"
                 )
     if "load" in given:
         given["loads"] = given.pop("load")

@@ -64,6 +64,16 @@ def add_parser(sub: Any) -> None:
         "(a window that cannot open: exit 2 before anything moves). Example: rig run --config "
         "examples/dyno_speed_load.toml --emulate --live=terminal",
     )
+    run.add_argument(
+        "--view",
+        nargs="?",
+        const="127.0.0.1:8050",
+        metavar="[HOST:]PORT",
+        help="serve the view (rig view) beside the run: a live scope of each axis's reference, "
+        "measurement, command, state and faults at 25 updates/s, fed off the control thread, and the "
+        "runs of [run] output; 127.0.0.1:8050 unless given (another host prints a token every request "
+        "needs). Read-only. Needs the view extra: pip install 'drive-rig[view]'",
+    )
     add_json(run, "print the summary as one JSON object")
     add_params(
         run,
@@ -122,16 +132,25 @@ def execute(args: argparse.Namespace) -> int:
     if args.reset_fault:
         axes = tuple(dataclasses.replace(a, reset_fault=True) if a.kind == "cia402" else a for a in cfg.axes)
         cfg = dataclasses.replace(cfg, axes=axes)
-    live = open_view(args.live, "rig run")
+    if args.live is not None and args.view is not None:
+        raise UsageError("rig run: --live and --view: give one (the view's page shows what --live shows)")
+    live, started, view = open_view(args.live, "rig run"), None, None
+    if args.view is not None:
+        from rig.cli.view import start_beside
+
+        live, started, view = start_beside(args.view, cfg)
     bar = Progress("rig run", 0, "cycles", json=args.json or _strip(live))  # the strip shows the time
+    summary: dict[str, Any] = {}
     try:
         summary = run_config(
-            cfg, emulate=args.emulate, duration=args.duration, progress=bar.cycles, live=live
+            cfg, emulate=args.emulate, duration=args.duration, progress=bar.cycles, live=live, started=started
         )
     finally:
         bar.close()
         if live is not None:
             live.stop()
+        if view is not None:
+            view.finish(summary)
     if args.json:
         print_json(summary)
     else:

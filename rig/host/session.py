@@ -79,11 +79,15 @@ def run_config(
     duration: float | None = None,
     progress: Callable[[int, int], None] | None = None,
     live: LiveView | None = None,
+    started: Callable[[list[AxisDriver]], None] | None = None,
 ) -> dict[str, Any]:
     """Build, start and run ``cfg``; returns the summary (``cycles``, ``rms_error``, ..., ``run_dir``).
-    ``progress(k, cycles)`` every 1 % of the run; ``live`` shows the rows as they come."""
+    ``progress(k, cycles)`` every 1 % of the run; ``live`` shows the rows as they come;
+    ``started(axes)`` once every axis is set up and enabled, before the first cycle."""
     with Session(cfg, emulate=emulate, duration=duration) as session:
         session.start()
+        if started is not None:
+            started(session.axes)
         n = session.cycles
         return session.run(None if progress is None else lambda k: progress(k, n), live=live)
 

@@ -1,0 +1,149 @@
+"""The view's server in a process of its own beside a run (``rig run --view``, ``rig bench view``).
+
+The run's process keeps only the LiveView's thread (``rig.view.feed.RingFeed``), which sends
+each update, already decimated, over a pipe (``PipeSink``); the server, its event loop, the
+JSON for the browsers and every request (a hostile one too) are the other process's, which
+never holds the run's interpreter lock. A first measure with the server in the run's own
+process (``rig bench view``, 2 pairs of 5 s at 1 kHz under a load of 17) gave 10-22 % overruns
+and two stops of 2, against 0.2-0.3 % and none without the view: a thread of normal priority
+holding the lock while the machine's other processes run keeps the real-time loop waiting.
+
+The child binds the address (a port in use: ConfigError in the run's process before anything
+moves), ignores Ctrl-C (the run's to handle: the page then gets the run's summary), serves from
+a thread of its own, and ends when the run's process says so or its pipe closes.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import signal
+import threading
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivers.errors import ConfigError
+
+__all__ = ["PipeSink", "ViewProcess", "serve_child"]
+
+log = logging.getLogger(__name__)
+
+
+def serve_child(conn: Any, folders: list[str], host: str, port: int, where: str) -> None:
+    """The child: ("url", url) or ("error", text) on ``conn``, then serve what comes over it:
+    ("open", meta), ("rows", rows, states), ("stop",), ("finish", summary, grace)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from rig.view.scope import Scope
+    from rig.view.server import ViewServer
+
+    scope = Scope()
+    try:
+        server = ViewServer([Path(f) for f in folders], scope, host, port, where)
+    except ConfigError as exc:
+        conn.send(("error", str(exc)))
+        return
+    conn.send(("url", server.url))
+    server.start()
+    try:
+        while True:
+            msg = conn.recv()
+            if msg[0] == "rows":
+                scope.push(msg[1], msg[2])
+            elif msg[0] == "open":
+                scope.open(msg[1])
+            elif msg[0] == "stop":
+                scope.stop()
+            elif msg[0] == "finish":
+                server.finish(msg[1], msg[2])
+                conn.send(("done",))
+                return
+    except (EOFError, OSError):  # the run's process is gone
+        scope.stop()
+    finally:
+        server.close()
+
+
+class PipeSink:
+    """What ``RingFeed`` feeds, sent to the child: ``open``, ``push`` and ``stop`` as a Scope's.
+    A child that is gone is logged once; the run goes on."""
+
+    def __init__(self, conn: Any) -> None:
+        self._conn = conn
+        self.failed = False
+
+    def _send(self, msg: tuple[Any, ...]) -> None:
+        if self.failed:
+            return
+        try:
+            self._conn.send(msg)
+        except (OSError, EOFError, ValueError) as exc:
+            self.failed = True
+            log.warning("the view's process is gone (%s); the run goes on", exc)
+
+    def open(self, meta: dict[str, Any]) -> None:
+        self._send(("open", meta))
+
+    def push(self, rows: np.ndarray, states: Mapping[str, Mapping[str, Any]] | None = None) -> None:
+        self._send(("rows", rows, None if states is None else {k: dict(v) for k, v in states.items()}))
+
+    def stop(self) -> None:
+        self._send(("stop",))
+
+
+class ViewProcess:
+    """The server over ``folders`` on ``host``:``port`` in a child process; ``url`` says where
+    (with the token where one is needed); ``sink`` feeds its live scope."""
+
+    def __init__(self, folders: list[Path], host: str, port: int, where: str, timeout: float = 120.0) -> None:
+        ctx = multiprocessing.get_context("spawn")
+        self._conn, child = ctx.Pipe()
+        self._proc = ctx.Process(
+            target=serve_child,
+            args=(child, [str(f) for f in folders], host, port, where),
+            name="rig-view",
+            daemon=True,
+        )
+        self._proc.start()
+        child.close()
+        try:
+            if not self._conn.poll(timeout):
+                raise ConfigError(f"{where}: the view's server did not start within {timeout:g} s")
+            kind, text = self._conn.recv()
+        except (EOFError, OSError):
+            self.close()
+            raise ConfigError(f"{where}: the view's server ended before it started") from None
+        except ConfigError:
+            self.close()
+            raise
+        if kind != "url":
+            self.close()
+            raise ConfigError(text)
+        self.url: str = text
+        self.sink = PipeSink(self._conn)
+        self._lock = threading.Lock()
+
+    def finish(self, summary: Mapping[str, Any], grace: float = 2.0) -> None:
+        """The run's ``summary`` to every browser (``grace`` s to take it), then the child ends."""
+        if not self.sink.failed:
+            try:
+                self._conn.send(("finish", dict(summary), grace))
+                until = time.monotonic() + grace + 5.0
+                while time.monotonic() < until and not self._conn.poll(0.1):
+                    pass
+            except (OSError, EOFError, ValueError):
+                pass
+        self.close()
+
+    def close(self) -> None:
+        try:
+            self._conn.close()
+        except OSError:
+            pass
+        self._proc.join(3.0)
+        if self._proc.is_alive():
+            self._proc.terminate()
+            self._proc.join(2.0)
