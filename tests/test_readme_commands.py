@@ -708,6 +708,7 @@ MENTIONS = {
     "rig view",
     "rig run --view",
     "rig bench view",
+    "rig bench view --runs 2 --seconds 5",  # the benchmarks page's figures: minutes of real-time runs
 }
 
 
