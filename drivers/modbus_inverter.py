@@ -42,6 +42,7 @@ __all__ = ["ModbusInverterAxis"]
 
 #: what the host loop reads every cycle
 _FEEDBACK_ROLES = ("actual_speed", "current", "status_word")
+_READ, _WRITE = 3, 6  #: the function codes used: read holding registers, write single register
 
 
 class ModbusInverterAxis(AxisDriver):
@@ -130,31 +131,50 @@ class ModbusInverterAxis(AxisDriver):
             register=register,
         )
 
-    def _check(self, rr: Any, what: str, register: int, count: int = 1) -> list[int]:
+    def _undecoded(self, exc: Exception, what: str, register: int) -> CommunicationError:
+        """The toolkit error for an answer pymodbus failed on with ``exc`` (not its own kind)."""
+        return CommunicationError(
+            f"{self.map.name} at {self.where}: the answer {what} (register {register}) is not one "
+            f"pymodbus decodes ({type(exc).__name__}: {exc})"
+        )
+
+    def _check(self, rr: Any, what: str, register: int, count: int = 1, function: int = _READ) -> list[int]:
+        """The ``count`` registers of answer ``rr`` to a request of ``function`` (a read of
+        holding registers; a write's echo), or the toolkit's error naming what was asked: an
+        exception answer, an answer of another function, another number of registers."""
         if rr is None:
             raise CommunicationTimeout(f"{self.where}: no answer {what} (register {register})")
         if rr.isError():
             raise self._exception(rr, what, register)
+        code = getattr(rr, "function_code", function)
+        if code != function:
+            raise CommunicationError(
+                f"{self.map.name} at {self.where}: the answer {what} (register {register}) is one of "
+                f"function {code!r}, not {function}"
+            )
         registers = getattr(rr, "registers", None)
         if (
             not isinstance(registers, list)
-            or len(registers) < count
-            or not all(isinstance(v, int) and 0 <= v <= 0xFFFF for v in registers[:count])
+            or len(registers) != count
+            or not all(isinstance(v, int) and 0 <= v <= 0xFFFF for v in registers)
         ):
+            shown = repr(registers)[:60]
             raise CommunicationError(
-                f"{self.map.name} at {self.where}: the answer {what} (register {register}) holds no "
-                f"{count} 16-bit register value(s): {registers!r}"
+                f"{self.map.name} at {self.where}: the answer {what} (register {register}) does not hold "
+                f"{count} 16-bit register value(s): {shown}"
             )
-        return registers[:count]
+        return registers
 
     def _read_group(self, group: list[Register]) -> dict[str, float]:
         start = group[0].address
         what = "reading " + ", ".join(r.role for r in group)
         try:
             rr = self.client.read_holding_registers(start, count=len(group), device_id=self.unit)
-        except ModbusException as exc:
+        except ModbusException as exc:  # none, or none pymodbus could decode
             span = f"register {start}" if len(group) == 1 else f"registers {start}-{group[-1].address}"
             raise CommunicationTimeout(f"{self.where}: no answer {what} ({span})") from exc
+        except Exception as exc:  # pymodbus decodes an answer blindly: struct.error, IndexError ...
+            raise self._undecoded(exc, what, start) from exc
         raw = self._check(rr, what, start, len(group))
         return {reg.role: reg.to_si(v) for reg, v in zip(group, raw)}
 
@@ -175,16 +195,19 @@ class ModbusInverterAxis(AxisDriver):
             raw = reg.to_raw(value)
         except ValueError as exc:
             raise ConfigError(f"{self.where}: {exc}") from None
+        what = f"writing {role}"
         try:
             rr = self.client.write_register(reg.address, raw, device_id=self.unit)
         except ModbusException as exc:
-            raise CommunicationTimeout(
-                f"{self.where}: no answer writing {role} (register {reg.address})"
-            ) from exc
-        if rr is None:
-            raise CommunicationTimeout(f"{self.where}: no answer writing {role} (register {reg.address})")
-        if rr.isError():
-            raise self._exception(rr, f"writing {role}", reg.address)
+            raise CommunicationTimeout(f"{self.where}: no answer {what} (register {reg.address})") from exc
+        except Exception as exc:  # as in _read_group
+            raise self._undecoded(exc, what, reg.address) from exc
+        echo = self._check(rr, what, reg.address, function=_WRITE)
+        if echo != [raw] or getattr(rr, "address", reg.address) != reg.address:
+            raise CommunicationError(
+                f"{self.map.name} at {self.where}: the answer {what} (register {reg.address}) is not "
+                f"the echo of {raw} to register {reg.address}: {echo} to {getattr(rr, 'address', None)}"
+            )
 
     # --- the axis contract ------------------------------------------------------------------------
     def setup(self) -> None:
