@@ -21,10 +21,18 @@ silence it for good. pymodbus' own settings do the addressing (``ignore_missing_
   of the CRC-16 has a chance of 2^-16 per candidate start.
 
 A request that cannot be decoded gets exception 01 (unknown function code) or 03 (a
-known one, malformed, longer than the 253 bytes a PDU may have, or a byte count that
-disagrees with its quantity). Frames with a function code of 128 and up are other
-servers' exception answers and are ignored. Addressing (which units are answered,
-broadcasts) follows pymodbus' rules, as for the requests it decodes.
+known one, malformed: shorter or longer than its function's request, longer than the 253
+bytes a PDU may have, a byte count that disagrees with its quantity; application protocol
+section 6 gives each request's size, ``request_problem``). Frames with a function code of
+128 and up are other servers' exception answers and are ignored. Addressing (which units
+are answered, broadcasts) follows pymodbus' rules, as for the requests it decodes.
+
+Every malformed frame, answered with an exception or dropped, is one warning line naming
+the peer (its address and port; the serial device) and the frame's bytes (at most
+``TOLD`` lines a connection, then one that says the rest go unlogged). Nothing a peer sends
+ends in an exception out of the framing (asyncio's "data_received() call failed" and its
+traceback): should one escape all the same, it is that one line and the connection is
+dropped (on RTU the bytes received so far are).
 """
 
 from __future__ import annotations
@@ -36,14 +44,14 @@ import struct
 from typing import Any
 
 from pymodbus.constants import ExcCodes
-from pymodbus.exceptions import ModbusException, NoSuchIdException
+from pymodbus.exceptions import NoSuchIdException
 from pymodbus.framer.rtu import FramerRTU
 from pymodbus.pdu import DecodePDU, ExceptionResponse, ModbusPDU
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.transport import CommType
 
-__all__ = ["SpecSerialServer", "SpecTcpServer", "split_rtu", "split_tcp"]
+__all__ = ["SpecSerialServer", "SpecTcpServer", "request_problem", "split_rtu", "split_tcp"]
 
 log = logging.getLogger(__name__)
 MAX_PDU = 253  #: [bytes] (application protocol 4.1)
@@ -51,26 +59,40 @@ MAX_PDU = 253  #: [bytes] (application protocol 4.1)
 #: longer than 256 (address, PDU, CRC) is still taken, to be answered with exception 03
 MAX_RTU_FRAME = 268
 MAX_RTU_ADDRESS = 247  #: 0 broadcast, 1..247 servers, 248..255 reserved
+#: the largest MBAP length field taken: an ADU has at most 260 bytes (TCP/IP implementation
+#: guide, 3.1.3), its length field 254; a few bytes more are still answered (exception 03)
+MAX_TCP_LENGTH = 260
+TOLD = 10  #: malformed frames logged per connection
+SHOWN = 32  #: [bytes] of a frame shown in its line
+
+#: [bytes] the request PDU of each function whose request has a fixed size (application
+#: protocol V1.1b3, section 6: read coils .. write single register, read exception status,
+#: get comm event counter and log, report server id, mask write register, read FIFO queue)
+REQUEST_SIZE = {1: 5, 2: 5, 3: 5, 4: 5, 5: 5, 6: 5, 7: 1, 11: 1, 12: 1, 17: 1, 22: 7, 24: 3}
 
 #: one frame: (unit id, transaction id (0 on RTU), PDU bytes)
 Frame = tuple[int, int, bytes]
 
 
-def split_tcp(data: bytes) -> tuple[list[Frame], bytes]:
-    """The Modbus ADUs complete in ``data``, and the bytes left over (the start of the next)."""
+def split_tcp(data: bytes) -> tuple[list[Frame], bytes, tuple[bytes, str] | None]:
+    """The Modbus ADUs complete in ``data``, the bytes left over (the start of the next), and the
+    first ADU that is no Modbus request with why (then nothing after it is taken): a protocol id
+    not 0, a length with no function code in it, or more than an ADU may hold (not waited for)."""
     frames: list[Frame] = []
     pos = 0
     while len(data) - pos >= 6:
         tid, pid, length = struct.unpack_from(">HHH", data, pos)
         end = pos + 6 + length
+        if length > MAX_TCP_LENGTH:
+            return frames, b"", (data[pos:end], f"MBAP length {length}: more than {MAX_TCP_LENGTH}")
         if end > len(data):
             break
-        if pid == 0 and length >= 2:
-            frames.append((data[pos + 6], tid, data[pos + 7 : end]))
-        else:
-            log.debug("Modbus TCP: ADU of protocol id %d, length %d dropped: no Modbus request", pid, length)
+        if pid != 0 or length < 2:
+            why = f"protocol id {pid}, not Modbus" if pid else f"MBAP length {length}: no function code"
+            return frames, b"", (data[pos:end], why)
+        frames.append((data[pos + 6], tid, data[pos + 7 : end]))
         pos = end
-    return frames, data[pos:]
+    return frames, data[pos:], None
 
 
 def _rtu_size(frame: bytes, decoder: DecodePDU) -> int:
@@ -81,7 +103,7 @@ def _rtu_size(frame: bytes, decoder: DecodePDU) -> int:
         if pdu_class is None:
             return -1
         return int(pdu_class.calculateRtuFrameSize(frame))
-    except (ModbusException, IndexError):
+    except Exception:  # pymodbus' guess at a frame of noise: whatever it raises, no size known
         return -1
 
 
@@ -115,13 +137,40 @@ def split_rtu(data: bytes, decoder: DecodePDU) -> tuple[list[Frame], bytes]:
     return frames, data[-(MAX_RTU_FRAME - 1) :]
 
 
-def _malformed(pdu: bytes) -> bool:
-    """A write-multiple request whose byte count is not what its quantity needs (exception 03)."""
-    if pdu[0] == 16 and len(pdu) >= 6:
-        return pdu[5] != 2 * int.from_bytes(pdu[3:5], "big") or len(pdu) != 6 + pdu[5]
-    if pdu[0] == 15 and len(pdu) >= 6:
-        return pdu[5] != (int.from_bytes(pdu[3:5], "big") + 7) // 8 or len(pdu) != 6 + pdu[5]
-    return False
+def request_problem(pdu: bytes) -> str:
+    """What makes ``pdu``, a request of a function code the server knows, malformed (exception
+    03), or "": a size other than its function's (application protocol V1.1b3, section 6), a
+    byte count that disagrees with its quantity or with the bytes that follow it."""
+    fc, n = pdu[0], len(pdu)
+    if n > MAX_PDU:
+        return f"a PDU of {n} bytes (at most {MAX_PDU})"
+    size = REQUEST_SIZE.get(fc)
+    if size is not None:
+        return "" if n == size else f"function 0x{fc:02X} with {n - 1} data bytes (its request: {size - 1})"
+    if fc in (15, 16, 23):
+        head = 10 if fc == 23 else 6  # 23: read start, quantity, write start, quantity, count
+        if n < head:
+            return f"function 0x{fc:02X} with {n - 1} data bytes (at least {head - 1})"
+        quantity = int.from_bytes(pdu[head - 3 : head - 1], "big")
+        need = (quantity + 7) // 8 if fc == 15 else 2 * quantity
+        if pdu[head - 1] != need or n != head + need:
+            return f"function 0x{fc:02X}: byte count {pdu[head - 1]} for {quantity} and {n - head} bytes"
+        return ""
+    if fc in (20, 21) and (n < 2 or n != 2 + pdu[1]):
+        return f"function 0x{fc:02X}: byte count {pdu[1] if n > 1 else None} and {n - 2} bytes"
+    if fc == 8 and n < 3:
+        return "function 0x08 without its sub-function"
+    if fc == 43 and (n < 2 or (pdu[1] == 14 and n != 4)):
+        return "function 0x2B without its MEI type and codes"
+    return ""
+
+
+def _decoded(decoder: DecodePDU, pdu: bytes) -> ModbusPDU | None:
+    """pymodbus' request of ``pdu``, or None where it cannot decode it (whatever it raises)."""
+    try:
+        return decoder.decode(pdu)
+    except Exception:  # struct.error, IndexError ... on a malformed PDU pymodbus decodes blindly
+        return None
 
 
 class _Handler(ServerRequestHandler):
@@ -134,27 +183,81 @@ class _Handler(ServerRequestHandler):
         self._bytes = b""
         self._queue: collections.deque[tuple[ModbusPDU, Any]] = collections.deque()
         self._drainer: asyncio.Task[None] | None = None
+        self._peer = ""
+        self._told = 0  #: malformed frames logged on this connection
+        self._dropping = False  #: the stream is no Modbus: answer what came before, then close
 
     def callback_data(self, data: bytes, addr: tuple[Any, ...] | None = None) -> int:
-        """Frame the bytes, queue every request; all bytes are taken (what is left is kept here)."""
+        """Frame the bytes, queue every request; all bytes are taken (what is left is kept here).
+        Nothing a peer sends raises out of here (see the module docstring)."""
+        try:
+            self._take(data, addr)
+        except Exception as exc:
+            self.tell(self._bytes or data, f"{type(exc).__name__}: {exc}")
+            self._drop()
+        return len(data)
+
+    def _take(self, data: bytes, addr: tuple[Any, ...] | None) -> None:
+        if self._dropping:
+            return
         self._bytes += data
+        bad = None
         if self.rtu:
             frames, self._bytes = split_rtu(self._bytes, self.server.decoder)
         else:
-            frames, self._bytes = split_tcp(self._bytes)
-        for unit, tid, pdu in frames:
+            frames, self._bytes, bad = split_tcp(self._bytes)
+        for unit, tid, pdu in frames:  # (an exception answer's function code on TCP ends them)
             self._enqueue(unit, tid, pdu, addr)
+            if self._dropping:
+                break
+        if bad is not None and not self._dropping:  # no Modbus from here on (TCP):
+            self.tell(bad[0], f"{bad[1]}: connection closed")  # what came before is answered
+            self._dropping = True
         if self._queue and (self._drainer is None or self._drainer.done()):
             self._drainer = asyncio.get_running_loop().create_task(self._drain())
-        return len(data)
+        elif self._dropping and (self._drainer is None or self._drainer.done()):
+            self._drop()  # (a drain under way drops at its end)
+
+    def _drop(self) -> None:
+        """Forget the bytes received; on TCP close the connection (the line of RTU stays)."""
+        self._bytes, self._dropping = b"", not self.rtu
+        if not self.rtu and self.transport:
+            self.transport.close()
+
+    def peer(self) -> str:
+        """Who sent the bytes: the TCP client's address and port, or the serial device."""
+        if not self._peer:
+            info = self.transport.get_extra_info("peername") if self.transport else None
+            where = f"{info[0]}:{info[1]}" if isinstance(info, tuple) and len(info) >= 2 else "a client"
+            self._peer = str(self.server.comm_params.source_address[0]) if self.rtu else where
+        return self._peer
+
+    def tell(self, frame: bytes, what: str) -> None:
+        """One warning line naming the peer and ``frame`` (its first ``SHOWN`` bytes); at most
+        ``TOLD`` a connection."""
+        self._told += 1
+        if self._told > TOLD + 1:
+            return
+        kind = "RTU" if self.rtu else "TCP"
+        if self._told > TOLD:
+            log.warning("Modbus %s %s: more malformed frames, not logged", kind, self.peer())
+            return
+        shown = frame[:SHOWN].hex(" ") + (" ..." if len(frame) > SHOWN else "")
+        log.warning("Modbus %s %s: frame %s: %s", kind, self.peer(), shown or "(empty)", what)
 
     def _enqueue(self, unit: int, tid: int, pdu: bytes, addr: Any) -> None:
+        adu = bytes([unit]) + pdu if self.rtu else struct.pack(">HHHB", tid, 0, len(pdu) + 1, unit) + pdu
         if pdu[0] & 0x80:
-            return  # an exception answer of another server (RTU), never a request
-        request = None if len(pdu) > MAX_PDU or _malformed(pdu) else self.server.decoder.decode(pdu)
+            if not self.rtu:  # on a line, another server's exception answer; on TCP, nobody's request
+                self.tell(adu, f"function code 0x{pdu[0]:02X} is an exception answer's: connection closed")
+                self._dropping = True
+            return
+        known = pdu[0] in self.server.decoder.pdu_table
+        problem = request_problem(pdu) if known else f"function code 0x{pdu[0]:02X} is not one the server has"
+        request = None if problem else _decoded(self.server.decoder, pdu)
         if request is None:
-            known = pdu[0] in self.server.decoder.pdu_table
             code = ExcCodes.ILLEGAL_VALUE if known else ExcCodes.ILLEGAL_FUNCTION
+            self.tell(adu, f"{problem or 'not a request pymodbus decodes'}: exception {int(code):02X}")
             answer = ExceptionResponse(pdu[0], code, device_id=unit, transaction=tid)
             self._queue.append((answer, addr))
             return
@@ -165,13 +268,18 @@ class _Handler(ServerRequestHandler):
         """Handle the queued requests one after the other (pymodbus' ``handle_request`` each)."""
         while self._queue:
             pdu, addr = self._queue.popleft()
-            if isinstance(pdu, ExceptionResponse):  # the answer to a request that could not be decoded
-                answer = self._route(pdu)
-                if answer is not None:
-                    self.server_send(answer, addr)  # type: ignore[no-untyped-call]
-                continue
-            self.last_pdu, self.last_addr = pdu, addr
-            await self.handle_request()  # type: ignore[no-untyped-call]
+            try:
+                if isinstance(pdu, ExceptionResponse):  # the answer to a request that could not be decoded
+                    answer = self._route(pdu)
+                    if answer is not None:
+                        self.server_send(answer, addr)  # type: ignore[no-untyped-call]
+                    continue
+                self.last_pdu, self.last_addr = pdu, addr
+                await self.handle_request()  # type: ignore[no-untyped-call]
+            except Exception as exc:  # a request pymodbus could not answer: one line, the next goes on
+                self.tell(pdu.encode() if hasattr(pdu, "encode") else b"", f"not answered: {exc}")
+        if self._dropping:
+            self._drop()
 
     def _route(self, answer: ExceptionResponse) -> ExceptionResponse | None:
         """What a request that could not be decoded gets, by pymodbus' addressing rules: nothing for
