@@ -26,9 +26,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+from canopen.objectdictionary import INTEGER_TYPES
+
 from drivers.errors import ConfigError
 from drivers.maps import cia
 from drivers.maps.cia import Mode
+from drivers.maps.eds_values import TYPE_NAMES
 
 __all__ = ["CONTROL", "EMULATED", "MODE_SELECT", "OF_MODE", "STATUS", "missing", "needed", "require"]
 
@@ -95,12 +98,31 @@ def missing(od: Any, indices: Iterable[int]) -> list[int]:
     return [i for i in dict.fromkeys(indices) if i not in od]
 
 
+def _kind(obj: Any) -> str:
+    """What ``obj`` is, where it is not the integer variable CiA gives each object here ("" where it is)."""
+    if hasattr(obj, "subindices"):
+        return "a record or an array"
+    if obj.data_type not in INTEGER_TYPES:
+        return TYPE_NAMES.get(obj.data_type, f"data type 0x{obj.data_type:04X}")
+    return ""
+
+
 def require(od: Any, indices: Iterable[int], *, source: str, what: str) -> None:
-    """ConfigError naming ``source`` (the file), the objects ``od`` lacks and ``what`` needs them."""
-    lacks = missing(od, indices)
+    """ConfigError naming ``source`` (the file), the objects ``od`` lacks and ``what`` needs them;
+    or the first that is not an integer variable, as CiA 301/402 define each of them (the toolkit's
+    dq voltage 0x2200, a record, aside)."""
+    wanted = list(indices)
+    lacks = missing(od, wanted)
     if lacks:
         names = ", ".join(f"0x{i:04X} ({_NAMES.get(i, 'CiA 402')})" for i in lacks)
         raise ConfigError(
             f"{source}: lacks {names}, which {what} needs (CiA 402): give the drive's own EDS/DCF, "
             "which declares them"
         )
+    for i in dict.fromkeys(wanted):
+        kind = "" if i == cia.DQ_VOLTAGE else _kind(od[i])
+        if kind:
+            raise ConfigError(
+                f"{source}: 0x{i:04X} ({_NAMES.get(i, 'CiA 402')}) is {kind}, not the integer variable "
+                f"{what} needs (CiA 402): give the drive's own EDS/DCF"
+            )

@@ -1,4 +1,5 @@
-"""The values an EDS/DCF gives its objects (DefaultValue, ParameterValue), read as CiA 306 writes them.
+"""The values an EDS/DCF gives its objects (DefaultValue, ParameterValue), read as CiA 306 writes them,
+and the types it gives the objects CiA makes integers (``check_types``).
 
 canopen's parser leaves a value it cannot read as None without a word: a drive built
 from such a file (the emulator's) then aborts every read of the object, and a host that
@@ -30,7 +31,18 @@ from canopen.objectdictionary import BOOLEAN, FLOAT_TYPES, INTEGER_TYPES, REAL32
 
 from drivers.errors import ConfigError
 
-__all__ = ["TYPE_NAMES", "check_values", "parse_value", "variables"]
+__all__ = ["INTEGER_OBJECTS", "TYPE_NAMES", "check_types", "check_values", "parse_value", "variables"]
+
+#: the objects CiA 301 and CiA 402 give an integer type (each entry of a record or an array too),
+#: of the ranges the toolkit and its emulated devices read and write: device type .. sync window,
+#: guarding, store/restore .. verify configuration, error behaviour, SDO and PDO parameters;
+#: abort connection option, 0x603F .. 0x60FF, supported drive modes (0x1008-0x100A, 0x6503-0x6505
+#: are strings, 0x1F50 a domain: not among them)
+INTEGER_OBJECTS = (
+    range(0x1000, 0x1008), range(0x100C, 0x100E), range(0x1010, 0x1021), range(0x1029, 0x102A),
+    range(0x1200, 0x1300), range(0x1400, 0x1C00), range(0x6007, 0x6008), range(0x603F, 0x6100),
+    range(0x6502, 0x6503),
+)  # fmt: skip
 
 #: CiA 301's names of the data types (0x0001-0x001B), for messages
 TYPE_NAMES = {
@@ -138,3 +150,16 @@ def check_values(od: Any, source: str, node_id: int) -> None:
                     f"{key}={raw}: {exc}; correct the value in the file (CiA 306)"
                 ) from None
             setattr(var, attr, value)
+
+
+def check_types(od: Any, source: str) -> None:
+    """ConfigError naming the file, the object and its type where ``od`` declares an object of
+    ``INTEGER_OBJECTS`` with another type (a string, a REAL, a domain): the host reads it as an
+    integer and an emulated device writes one to it."""
+    for var in variables(od):
+        if var.data_type not in INTEGER_TYPES and any(var.index in r for r in INTEGER_OBJECTS):
+            kind = TYPE_NAMES.get(var.data_type, f"data type 0x{var.data_type:04X}")
+            raise ConfigError(
+                f"{source}: object 0x{var.index:04X}:{var.subindex:02X} ({var.name}) is {kind} in the file; "
+                "CiA 301/402 make it an integer: correct its DataType, or give the device's own EDS/DCF"
+            )

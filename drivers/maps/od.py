@@ -1,7 +1,8 @@
 """Loading an object dictionary (EDS or DCF, CiA 306) with errors that name the file.
 
 Every numeric DefaultValue and ParameterValue is read again (``drivers.maps.eds_values``):
-one canopen left unread is refused naming the object, key and value.
+one canopen left unread is refused naming the object, key and value; so is an object CiA 301/402
+make an integer that the file declares another type.
 
 CiA 306 files are meant to be ASCII; real ones carry a degree or micro sign in
 a parameter name, in UTF-8 or, more often, in Windows-1252. The text is read as
@@ -23,7 +24,7 @@ import canopen
 
 from drivers.errors import ConfigError
 from drivers.files import EDS_LIMIT, read_text
-from drivers.maps.eds_values import check_values
+from drivers.maps.eds_values import check_types, check_values
 
 __all__ = ["eds_text", "load_od"]
 
@@ -88,5 +89,6 @@ def _parse(p: Path, node_id: int) -> Any:
     for index in (0x1000, 0x1018):
         if index not in od:
             raise ConfigError(f"{p}: lacks the mandatory object 0x{index:04X}")
+    check_types(od, str(p))  # an integer of CiA 301/402 declared a string, a REAL ...: refused
     check_values(od, str(p), node_id)  # a value canopen could not read: refused, naming it
     return od

@@ -141,3 +141,30 @@ def test_mutated_values_are_read_or_refused_in_one_line(changes: list[tuple[int,
                 assert re.search(r": object 0x[0-9A-F]{4}:[0-9A-F]{2} \(.+\): DefaultValue=", said), said
             return
     _numeric_values_readable(od)
+
+
+def test_an_integer_of_cia_declared_another_type_is_refused(tmp_path: pathlib.Path) -> None:
+    """0x6041 declared a string: the host would read text where it reads a statusword, and an
+    emulated drive could not write its statusword."""
+    path = tmp_path / "drive.eds"
+    path.write_text(re.sub(r"(?s)(\[6041\][^\[]*?DataType=)[^\n]*", r"\g<1>0x0009", EDS_TEXT))
+    with pytest.raises(ConfigError) as err:
+        load_od(path, 1)
+    assert str(err.value) == (
+        f"{path}: object 0x6041:00 (Statusword) is VISIBLE_STRING in the file; CiA 301/402 make it an "
+        "integer: correct its DataType, or give the device's own EDS/DCF"
+    )
+
+
+def test_what_a_mode_needs_must_be_an_integer_variable(tmp_path: pathlib.Path) -> None:
+    """The toolkit's voltage target 0x2100 (a manufacturer object, which CiA gives no type) declared
+    REAL32: refused by what the voltage mode needs (``drivers.maps.cia402_needs``)."""
+    from drivers.maps.cia import Mode
+    from drivers.maps.cia402_needs import needed, require
+
+    path = tmp_path / "drive.eds"
+    path.write_text(re.sub(r"(?s)(\[2100\][^\[]*?DataType=)[^\n]*", r"\g<1>0x0008", EDS_TEXT))
+    with pytest.raises(
+        ConfigError, match=r"0x2100 \(drive-rig's target voltage\) is REAL32, not the integer"
+    ):
+        require(load_od(path, 1), needed(Mode.VOLTAGE), source=str(path), what="mode voltage")
