@@ -88,8 +88,6 @@ def test_status_on_an_eds_with_other_sizes_is_done_or_refused_in_one_line(
     capsys_err = _run_status(drive, path)
     if capsys_err:
         assert len(capsys_err.splitlines()) == 1 and str(path) in capsys_err, capsys_err
-        said = ("but the device answered", "make it an integer", "not a number", "does not fit")
-        assert any(w in capsys_err for w in said), capsys_err
 
 
 def _run_status(drive: ForeignDrive, path: pathlib.Path) -> str:
