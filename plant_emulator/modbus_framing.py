@@ -173,6 +173,13 @@ def _decoded(decoder: DecodePDU, pdu: bytes) -> ModbusPDU | None:
         return None
 
 
+def _retrieved(task: asyncio.Task[None]) -> None:
+    """A drain's outcome, taken: a stop (Ctrl-C, SIGTERM) that landed while it ran has gone on out
+    of the loop and stops the server; asyncio need not also log it as "never retrieved"."""
+    if not task.cancelled():
+        task.exception()
+
+
 class _Handler(ServerRequestHandler):
     """One connection (a TCP client, or the serial line): every request in the bytes, in order."""
 
@@ -215,6 +222,7 @@ class _Handler(ServerRequestHandler):
             self._dropping = True
         if self._queue and (self._drainer is None or self._drainer.done()):
             self._drainer = asyncio.get_running_loop().create_task(self._drain())
+            self._drainer.add_done_callback(_retrieved)
         elif self._dropping and (self._drainer is None or self._drainer.done()):
             self._drop()  # (a drain under way drops at its end)
 
