@@ -146,8 +146,7 @@ def test_mutated_values_are_read_or_refused_in_one_line(changes: list[tuple[int,
 def test_an_integer_of_cia_declared_another_type_is_refused(tmp_path: pathlib.Path) -> None:
     """0x6041 declared a string: the host would read text where it reads a statusword, and an
     emulated drive could not write its statusword."""
-    path = tmp_path / "drive.eds"
-    path.write_text(re.sub(r"(?s)(\[6041\][^\[]*?DataType=)[^\n]*", r"\g<1>0x0009", EDS_TEXT))
+    path = _with_value(tmp_path, "6041", "0x0009", key="DataType")
     with pytest.raises(ConfigError) as err:
         load_od(path, 1)
     assert str(err.value) == (
@@ -162,8 +161,7 @@ def test_what_a_mode_needs_must_be_an_integer_variable(tmp_path: pathlib.Path) -
     from drivers.maps.cia import Mode
     from drivers.maps.cia402_needs import needed, require
 
-    path = tmp_path / "drive.eds"
-    path.write_text(re.sub(r"(?s)(\[2100\][^\[]*?DataType=)[^\n]*", r"\g<1>0x0008", EDS_TEXT))
+    path = _with_value(tmp_path, "2100", "0x0008", key="DataType")
     with pytest.raises(
         ConfigError, match=r"0x2100 \(drive-rig's target voltage\) is REAL32, not the integer"
     ):
