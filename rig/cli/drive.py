@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from drivers.errors import NodeSilent, RigError
+from rig.cli import drive_dictionary
 from rig.cli.common import (
     EXIT_STOPPED,
     EXIT_UNCONFIRMED,
@@ -63,6 +64,7 @@ def add_parser(sub: Any) -> None:
     move = actions.add_parser("move", help="profile position to a position")
     move.add_argument("position", type=finite, help="[rad], absolute")
     move.add_argument("--limit", type=finite, default=10.0, help="largest move allowed [rad] (10)")
+    drive_dictionary.add_actions(actions)
     for action in (jog, home, move):
         action.add_argument(
             "--live",
@@ -114,8 +116,9 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     od = load_od(eds or CIA402_EDS, args.node)  # a bad EDS, or an object it does not name, first
     if args.action == "sdo":
         parse_object(args.object, od)
-    else:  # and one that lacks what the action needs to read the drive's state or move it (its
-        # mode's objects: DriveTool, once the drive says it offers the mode)
+    elif args.action not in drive_dictionary.ACTIONS:  # and one that lacks what the action needs to
+        # read the drive's state or move it (its mode's objects: DriveTool, once the drive says it
+        # offers the mode)
         needs = STATUS if args.action == "status" else CONTROL
         require(od, needs, source=str(eds), what=f"rig drive {args.action}")
     if profile is not None:
@@ -169,6 +172,8 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
     a = tool.axis
     if args.action == "status":
         return tool.status()
+    if args.action in drive_dictionary.ACTIONS:
+        return drive_dictionary.act(tool, args)
     if args.action in ("enable", "disable", "reset"):
         return {"state": getattr(tool, args.action)()}
     if args.action == "sdo":
@@ -234,6 +239,8 @@ def run(args: argparse.Namespace) -> int:
         print_json(result)
     elif args.action == "status":
         print("\n".join(status_lines(result, tool.object_name)))
+    elif args.action in drive_dictionary.ACTIONS:
+        print("\n".join(drive_dictionary.result_lines(result)))
     else:
         for key, value in result.items():
             if value is not None or key != "stopped_short":

@@ -1,0 +1,101 @@
+"""``rig drive dump`` (``rig.commission.dictionary``, ``rig.commission.dcf``): the actions on a
+drive's whole dictionary, registered on ``rig drive``'s parser by ``add_actions``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from drivers.errors import ConfigError
+from rig.cli.common import out_file
+
+__all__ = ["ACTIONS", "act", "add_actions", "result_lines"]
+
+ACTIONS = ("dump",)  #: the actions of this module
+
+
+def add_actions(actions: Any) -> None:
+    """The actions on ``rig drive``'s sub-parsers ``actions``."""
+    dump = actions.add_parser(
+        "dump",
+        help="every object of the drive's dictionary with its value now, read by SDO (text, --json, --dcf)",
+        description="Reads every object the EDS/DCF in use names (without the drive's own EDS: the "
+        "standard objects only) and lists each with its value in hex and decimal, type, access and "
+        "unit (and in SI where the drive's factors are known); an object the drive refuses is listed "
+        "with the abort in words. Writes nothing to the drive.",
+    )
+    dump.add_argument(
+        "--dcf",
+        metavar="FILE",
+        type=out_file,
+        help="also write a DCF (CiA 306): the drive's EDS with each value read as ParameterValue and "
+        "its node id and bit rate in [DeviceComissioning] (needs the drive's own EDS, --eds)",
+    )
+
+
+def act(tool: Any, args: argparse.Namespace) -> dict[str, Any]:
+    """Run action ``args.action`` with ``tool`` (a ``rig.commission.drive.DriveTool``)."""
+    return _dump(tool, args)
+
+
+def _dump(tool: Any, args: argparse.Namespace) -> dict[str, Any]:
+    from drivers.maps.od import eds_text
+    from rig.commission.dcf import dcf_text
+    from rig.commission.dictionary import read_dictionary
+
+    a = tool.axis
+    a.discover(check_mode=False)  # the device against its EDS (identity), and its units
+    own = bool(a.eds_given or a.toolkit_drive)  # the dictionary in use is the device's own
+    if args.dcf and not own:
+        raise ConfigError(
+            f"rig drive dump --dcf: node {a.node_id} is {a.device_id.text()}, and the dictionary in use "
+            f"is the toolkit's generic one: a DCF is the drive's own EDS with its values; give it (--eds "
+            "FILE); nothing was read"
+        )
+    entries = read_dictionary(a, standard_only=not own)
+    result: dict[str, Any] = {
+        "node": a.node_id,
+        "identity": a.device_id.text(),
+        "eds": a.eds,
+        "standard_only": not own,
+        "read": sum(e.refused is None for e in entries),
+        "not_read": sum(e.refused is not None for e in entries),
+        "objects": [e.as_dict() for e in entries],
+        "dcf": None,
+    }
+    if args.dcf:
+        names = [e.value for e in entries if (e.index, e.subindex) == (0x1008, 0) and e.refused is None]
+        info = getattr(a.node.object_dictionary, "device_information", None)
+        text = dcf_text(
+            eds_text(a.eds),
+            entries,
+            eds_path=a.eds,
+            dcf_path=args.dcf,
+            node_id=a.node_id,
+            node_name=str(names[0] if names else getattr(info, "product_name", "") or ""),
+            bitrate=getattr(args, "bitrate", None) if not args.emulate else None,
+            serial=a.device_id.serial,
+        )
+        try:
+            Path(args.dcf).write_text(text, encoding="utf-8")
+        except OSError as exc:
+            raise ConfigError(f"rig drive dump --dcf {args.dcf}: not written: {exc.strerror}") from None
+        result["dcf"] = args.dcf
+    return result
+
+
+def result_lines(result: dict[str, Any]) -> list[str]:
+    """The text report of an action's ``result``."""
+    from rig.commission.dictionary import dump_lines
+
+    heading = f"node {result['node']}: {result['identity']} (dictionary {result['eds']})"
+    if result["standard_only"]:
+        heading += (
+            "\nthe standard objects only (0x1000-0x1FFF, 0x6000-0x9FFF): the dictionary in use is not "
+            "the drive's own; give its EDS (--eds FILE) for the manufacturer objects"
+        )
+    lines = dump_lines(result["objects"], heading)
+    if result["dcf"]:
+        lines += ["", f"DCF written to {result['dcf']}"]
+    return lines
