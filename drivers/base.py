@@ -157,6 +157,12 @@ class AxisDriver(abc.ABC):
         0 where the axis does not say or does not measure (after ``setup``)."""
         return (0.0, 0.0)
 
+    def foreign_sample(self, before: Feedback, after: Feedback) -> str | None:
+        """Where the sample ``after``, taken one SYNC after ``before``, cannot be the device's
+        (its position contradicts its own measured speed: another producer's frame), in words
+        naming the COB-ID or register and the device; None where it can (the default: no check)."""
+        return None
+
     def has_sample(self) -> bool:
         """Every value ``feedback`` gives has come from the device at least once (not the
         placeholder zeros of a TPDO still to arrive). The default: feedback reads the device."""

@@ -39,17 +39,33 @@ from drivers.maps.emcy import emcy_text
 from drivers.maps.od import load_od
 from drivers.maps.sdo_aborts import abort_text
 from drivers.master_watch import MasterWatch, OtherMaster
+from drivers.producer_watch import OtherProducer, ProducerWatch
 from drivers.sdo_answer import sized
 
 __all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec", "sample_interval"]
 
 log = logging.getLogger(__name__)
 
+#: EMCY codes of a PDO not processed for its length (CiA 301: too short, too long)
+_PDO_LENGTH = frozenset({cia.EmcyCode.PDO_TOO_SHORT, cia.EmcyCode.PDO_TOO_LONG})
+
 
 class TpdoSlot:
     """The last frame of one TPDO and its decoder (little-endian, per the mapping in force)."""
 
-    __slots__ = ("_decoded", "_decoded_of", "cob_id", "codec", "data", "node_id", "timestamp", "ttype")
+    __slots__ = (
+        "_decoded",
+        "_decoded_of",
+        "cob_id",
+        "codec",
+        "data",
+        "frames",
+        "node_id",
+        "producers",
+        "since",
+        "timestamp",
+        "ttype",
+    )
 
     def __init__(self, node_id: int, cob_id: int, codec: struct.Struct) -> None:
         self.node_id = node_id
@@ -63,8 +79,16 @@ class TpdoSlot:
         #: the values of the frame ``_decoded_of`` (a frame's data are not changed once received)
         self._decoded: tuple[Any, ...] = ()
         self._decoded_of: bytes | bytearray | None = None
+        #: the bus's watch for another producer on this COB-ID (``ProducerWatch.watch``: it counts
+        #: ``frames`` against the SYNCs since the count ``since``), or None
+        self.producers: ProducerWatch | None = None
+        self.frames = 0
+        self.since = 0
 
     def on_frame(self, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
+        producers = self.producers
+        if producers is not None and not producers.take(self, data):
+            return  # not its node's (``ProducerWatch``): not taken
         self.data = data
         self.timestamp = timestamp
 
@@ -164,6 +188,11 @@ class CanopenAxis(AxisDriver):
         self.node.nmt.add_heartbeat_callback(self._on_heartbeat)
         #: the bus's watch for another master (``drivers.master_watch``), set by the session
         self.master_watch: MasterWatch | None = None
+        #: the bus's watch for another producer on the node's TPDOs (``drivers.producer_watch``),
+        #: set by the session before ``setup`` (each slot is counted from its making)
+        self.producer_watch: ProducerWatch | None = None
+        #: an RPDO of another length than its mapping reached the node (its EMCY 0x8210/0x8220)
+        self._foreign_rpdo: str | None = None
 
     @property
     def where(self) -> str:
@@ -269,7 +298,18 @@ class CanopenAxis(AxisDriver):
         words = emcy_text(err.code, self.emcy_texts)
         text = f"EMCY 0x{err.code:04X} ({words}), error register 0x{err.register:02X}"
         self.emcy_log.append(text)
-        if err.code:
+        if err.code in _PDO_LENGTH and self._foreign_rpdo is None:
+            # CiA 301: the node did not process a PDO whose length is not its mapping's; it tells,
+            # and goes on (no state change: a drive's "info" reaction). The host's RPDOs have their
+            # mapping's length: another producer sent on the node's RPDO COB-ID. A stop, named so;
+            # not a fault of the drive (a stop it comes in stays confirmable by state and rest)
+            self._foreign_rpdo = (
+                f"node {self.node_id}: another producer on an RPDO COB-ID of node {self.node_id}: the node "
+                f"refused a PDO of another length than its mapping ({text}), which this host did not send"
+            )
+            log.warning("%s", self._foreign_rpdo)
+            return
+        if err.code and err.code not in _PDO_LENGTH:
             log.warning("node %d: %s", self.node_id, text)
             self._fault = DeviceFault(text, device=f"node {self.node_id}", code=err.code)
 
@@ -295,6 +335,13 @@ class CanopenAxis(AxisDriver):
             said = watch.intruder(self.node_id)
             if said is not None:
                 raise OtherMaster(said)
+        producers = self.producer_watch
+        if producers is not None and producers.alarm:
+            said = producers.intruder(self.node_id)
+            if said is not None:
+                raise OtherProducer(said)
+        if self._foreign_rpdo is not None:
+            raise OtherProducer(self._foreign_rpdo)
         lost = getattr(self.network.notifier, "exception", None)  # python-can's receive thread
         if lost is not None:
             raise CommunicationError(f"node {self.node_id}: the bus is lost: {brief(lost)}")
@@ -313,7 +360,7 @@ class CanopenAxis(AxisDriver):
     # --- process data ---------------------------------------------------------------------------
     def receive(self, pdo: Any) -> TpdoSlot:
         """Receive TPDO ``pdo`` (a saved canopen PdoMap) into a slot, instead of canopen's handler."""
-        slot = TpdoSlot(self.node_id, pdo.cob_id, pdo_codec(pdo))
+        slot = self._new_slot(pdo.cob_id, pdo_codec(pdo))
         if pdo.trans_type is not None:
             slot.ttype = int(pdo.trans_type)
         if pdo.on_message in self.network.subscribers.get(pdo.cob_id, ()):
@@ -324,9 +371,16 @@ class CanopenAxis(AxisDriver):
 
     def receive_cob(self, cob_id: int, codec: struct.Struct) -> TpdoSlot:
         """Receive the TPDO on ``cob_id`` into a slot decoded by ``codec`` (its mapping in force)."""
-        slot = TpdoSlot(self.node_id, cob_id, codec)
+        slot = self._new_slot(cob_id, codec)
         self.network.subscribe(cob_id, slot.on_frame)
         self._slots.append(slot)
+        return slot
+
+    def _new_slot(self, cob_id: int, codec: struct.Struct) -> TpdoSlot:
+        """A slot for the TPDO on ``cob_id``, counted by the producer watch from now on."""
+        slot = TpdoSlot(self.node_id, cob_id, codec)
+        if self.producer_watch is not None:
+            self.producer_watch.watch(slot)
         return slot
 
     def has_sample(self) -> bool:

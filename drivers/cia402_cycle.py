@@ -24,6 +24,7 @@ from drivers.cia402_units import DriveUnits
 from drivers.errors import CommunicationError, RigError, SafetyStop, brief
 from drivers.maps import cia
 from drivers.maps.cia import Controlword, Mode, PowerState
+from drivers.producer_watch import travel_band
 
 __all__ = ["Cia402Cycle", "power_state"]
 
@@ -129,6 +130,41 @@ class Cia402Cycle(CanopenAxis):
             speed = (position - before) / dt if dt > 0.0 else speed
         self._moved = (stamp, position, speed)
         return speed
+
+    def foreign_sample(self, before: Feedback, after: Feedback) -> str | None:
+        """A position that contradicts the drive's own speed 0x606C (``travel_band``) from one
+        sample to the next (one SYNC apart): another producer's frame, named with the COB-ID that
+        carried the odd value (the position's, or the speed's where the position agrees with the
+        speed before). The elapsed time is the period where the stamps are on its grid (lock-step),
+        else anything from 0 (a burst after a stall) to the stamps' difference or the period,
+        whichever longer, and two periods more. Not checked without 0x606C mapped, nor in dq."""
+        data = self.data
+        if data is None or self.op_mode == Mode.DQ_VOLTAGE or "velocity" not in self.maps:
+            return None
+        s1, s2 = before.stamp, after.stamp
+        if s1 is None or s2 is None or s2 == s1:
+            return None
+        resolution = self.quanta()
+        period = self.period
+        dt_lo = dt_hi = period
+        if abs(s2 - s1 - period) > 1e-6 * period:  # receive times, not the SYNC grid
+            dt_lo, dt_hi = 0.0, max(period, s2 - s1) + 2.0 * period
+        v1, v2 = before.velocity, after.velocity
+        travel = after.position - before.position
+        lo, hi = travel_band(v1, v2, dt_lo, dt_hi, resolution=resolution)
+        if lo <= travel <= hi:
+            return None
+        position, speed = data.slot_of(POSITION), data.slot_of(VELOCITY)
+        odd = position
+        if speed is not None and speed is not position:
+            lo1, hi1 = travel_band(v1, v1, dt_lo, dt_hi, resolution=resolution)
+            odd = speed if lo1 <= travel <= hi1 else position  # the position agrees with the speed before
+        where = f"COB-ID 0x{odd.cob_id:03X} (a TPDO of node {self.node_id})" if odd is not None else "a TPDO"
+        return (
+            f"node {self.node_id}: another producer on {where}: the position moved {travel:.4g} rad in one "
+            f"period where the drive's own speed (0x606C: {v1:.4g}, then {v2:.4g} rad/s) allows "
+            f"{lo:.4g} to {hi:.4g} rad"
+        )
 
     def cycle_frames(self) -> list[tuple[str, int]]:
         """The TPDOs and the RPDO in force, each named with the objects it maps (see the base)."""

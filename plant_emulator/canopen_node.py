@@ -319,8 +319,6 @@ class EmulatedNode(Supervision, DeviceHooks):
             pdo = self._rpdo_of_cob[can_id]
         except KeyError:
             return
-        if pdo.number in self.rpdo_deadlines.times:
-            self.rpdo_deadlines.heard(pdo.number, self.heard_now())
         if len(data) != pdo.size:  # CiA 301: not processed, EMCY 0x8210 (too short) / 0x8220 (too long)
             log.warning(
                 "node %d: RPDO%d with %d bytes, mapped %d: ignored",
@@ -331,7 +329,9 @@ class EmulatedNode(Supervision, DeviceHooks):
             )
             code = EmcyCode.PDO_TOO_SHORT if len(data) < pdo.size else EmcyCode.PDO_TOO_LONG
             self.emcy(code, ErrorRegister.GENERIC | ErrorRegister.COMMUNICATION)
-            return
+            return  # nor is it the master alive: the RPDO's deadline is not fed by it
+        if pdo.number in self.rpdo_deadlines.times:
+            self.rpdo_deadlines.heard(pdo.number, self.heard_now())
         if pdo.ttype <= PDO_SYNC_MAX:
             self._pending_sync_rpdo[pdo.number] = bytes(data)
         else:

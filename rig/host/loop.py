@@ -39,6 +39,8 @@ import can
 from drivers.base import AxisDriver, Feedback, feedback_fields
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop, brief
+from drivers.master_watch import OtherMaster
+from drivers.producer_watch import OtherProducer, ProducerWatch
 from rig.host.cycle_clock import collect_in_slack, prime, sleep_until
 from rig.host.loop_stats import RunMetrics, StageTimes, chatter_threshold
 from rig.host.loop_summary import loop_summary
@@ -102,6 +104,7 @@ class HostLoop:
         held: AbstractContextManager[None] | None = None,
         late_stop: int = 0,
         spin: float = 0.0004,
+        producers: ProducerWatch | None = None,
     ) -> None:
         self.axes = list(axes)
         self.guards = list(guards)
@@ -127,6 +130,7 @@ class HostLoop:
         self.held = 0  #: cycles in which a read axis had no new sample
         self.late = 0  #: cycles whose answers missed the pacing's budget (``Pacing.late``)
         self.late_stop = late_stop  #: that many late cycles in a row: a safe stop (0: never)
+        self.producers = producers  #: another producer's watch (``safe_stop``)
         self._late_run = 0
         #: [s] before a deadline the loop stops sleeping and spins yielding (0: sleeps to it;
         #: never at real-time priority, where a spin starves the threads that carry the frames)
@@ -199,7 +203,7 @@ class HostLoop:
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP (``rig.host.signals``)
             self.safe_stop(stop_reason(exc))
         except SafetyStop as exc:
-            self.safe_stop(str(exc))
+            self.safe_stop(str(exc), suspect=not isinstance(exc, (OtherMaster, OtherProducer)))
         except DeviceFault as exc:
             self.safe_stop(f"device fault: {exc}")
         except RigError as exc:
@@ -392,11 +396,15 @@ class HostLoop:
         commands = tuple(c if n is None else n for c, n in zip(last.commands, neutral))
         return LawStep(commands, last.reference, last.measurement, last.internals), True
 
-    def safe_stop(self, reason: str) -> None:
-        """The one way out: a neutral command, quick stop, the drives' ramps to rest, disable."""
+    def safe_stop(self, reason: str, *, suspect: bool = False) -> None:
+        """The one way out: a neutral command, quick stop, the drives' ramps to rest, disable.
+        ``suspect``: a check of a sample stopped it (``ProducerWatch.cause`` may name another producer)."""
         self.safe_stop_reason = reason
         log.warning("safe stop: %s", reason)
+        mark = self.producers.syncs if self.producers is not None else 0
         self._stop_axes()
+        if self.producers is not None and suspect:
+            self.safe_stop_reason = self.producers.cause(reason, mark)
 
     def _stop_axes(self) -> None:
         """Bring every axis to rest by its own ramp, then disable it (``rig.host.stopping``)."""

@@ -3,8 +3,9 @@
 ``AxisGuard.check_feedback`` runs every cycle on an axis's sample (the watchdog on
 its ``stamp``, counted in periods of the loop's cycle index, so a real-time cycle that
 waited several periods counts as all of them, NaN in a measured quantity, speed, a position jump no motor can
-make, the position window, current, and in a speed mode the speed against the command:
-``rig.host.motion_check``); ``check_command`` on the command about to
+make, a position that contradicts the axis's own speed (``AxisDriver.foreign_sample``: another
+producer's frame), the position window, current, and in a speed mode the speed against the
+command: ``rig.host.motion_check``); ``check_command`` on the command about to
 be sent: its size, or, for a position command (CSP), its travel from where the axis
 stood at the first sample, the position window, and its step from the last command (the
 first from the measured position), which no motor within the speed limit makes in the
@@ -20,6 +21,7 @@ from collections.abc import Callable
 
 from drivers.base import AxisDriver, Feedback, feedback_fields
 from drivers.errors import SafetyStop
+from drivers.producer_watch import OtherProducer
 from rig.config import AxisLimits
 from rig.host.motion_check import SPEED_MODES, FollowCheck
 
@@ -52,6 +54,7 @@ class AxisGuard:
         self._fresh_k = -1  #: the cycle index of the last new sample (-1: none yet)
         self._last_stamp: float | None = None
         self._last_position: float | None = None
+        self._last_sample: Feedback | None = None  #: the sample of ``_last_position``
         self._position_k = 0  #: the cycle index of ``_last_position``
         self.position_command = getattr(axis, "mode", None) == "csp"
         self.origin: float | None = None  #: [rad] the first measured position
@@ -89,11 +92,11 @@ class AxisGuard:
         if self.follow is not None and fresh:
             self.follow.see(fb.velocity)
         if "position" in self.measures and fresh:  # a repeated sample is no step (nor its time)
-            self._check_position(fb.position, k if sample_k is None else sample_k)
+            self._check_position(fb.position, k if sample_k is None else sample_k, fb)
         if abs(fb.current) > c.current:
             raise self._stop(f"current {fb.current:.4g} A exceeds the limit {c.current:g} A")
 
-    def _check_position(self, position: float, k: int) -> None:
+    def _check_position(self, position: float, k: int, fb: Feedback | None = None) -> None:
         c = self.limits
         last = self._last_position
         if last is not None:
@@ -103,7 +106,12 @@ class AxisGuard:
                     f"position jumped by {position - last:.4g} rad in {periods} period(s) "
                     f"(> {self.max_step * periods:.3g} rad): encoder glitch?"
                 )
-        self._last_position, self._position_k = position, k
+            before = self._last_sample
+            if periods == 1 and before is not None and fb is not None:
+                said = self.axis.foreign_sample(before, fb)
+                if said is not None:
+                    raise OtherProducer(said)
+        self._last_position, self._position_k, self._last_sample = position, k, fb
         if self.origin is None:
             self.origin = position
         if not c.position_min <= position <= c.position_max:

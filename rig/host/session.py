@@ -34,6 +34,7 @@ from drivers.bus import ReceiveWatch, open_bus, scan_command
 from drivers.canopen_axis import CanopenAxis
 from drivers.errors import ConfigError, NodeSilent, RigError
 from drivers.master_watch import MasterWatch, OtherMaster
+from drivers.producer_watch import ProducerWatch
 from plant_emulator.profiles import parse_profile
 from rig.config import RigConfig
 from rig.host.axes import open_axis
@@ -116,6 +117,7 @@ class Session:
         self._rx_tap: Callable[[Any], None] | None = None  #: the trace's listener of frames received
         self.pacing: Pacing = Pacing()
         self.master_watch: MasterWatch | None = None  #: another master on a real CAN bus
+        self.producer_watch: ProducerWatch | None = None  #: another producer on its TPDOs' COB-IDs
         self.bus_figures: dict[str, Any] = {}  #: real time over a CAN bus: the cycle's share of it
         self.loop: HostLoop | None = None
         self.signals = StopRequests()  #: SIGINT, SIGTERM, SIGHUP: the one safe stop
@@ -172,7 +174,8 @@ class Session:
             self.network.connect()
             self.network.notifier.add_listener(ReceiveWatch())  # a lost bus: a safe stop, not a dead thread
             nodes = [a.node_id for a in cfg.axes if a.kind != "modbus"]  # heard from the bus's opening
-            self.master_watch = MasterWatch(self.network, nodes, sync=b.sync != "external")
+            watch = self.master_watch = MasterWatch(self.network, nodes, sync=b.sync != "external")
+            self.producer_watch = ProducerWatch(self.network, echoes=lambda: watch.echoes)
 
     def _build(self, duration: float | None, cycles: int | None) -> None:
         cfg = self.cfg
@@ -197,6 +200,8 @@ class Session:
             realtime = cfg.run.time == "realtime"
             axis = open_axis(spec, network=self.network, period=period, bus=cfg.bus, realtime=realtime)
             self.axes.append(axis)
+            if isinstance(axis, CanopenAxis):  # before set-up: a TPDO is counted from its slot's making
+                axis.producer_watch = self.producer_watch
         self._made_output = not Path(cfg.run.output).exists()  #: the recorder makes the folder
         # flushed every 50 ms of run time: a killed host loses at most that
         self.recorder = Recorder(cfg.run.output, cfg.run.name, flush_period=0.05, trace=cfg.run.trace)
@@ -370,6 +375,7 @@ class Session:
             held=self.signals.held,
             missed_sample=cfg.run.missed_sample,
             late_stop=cfg.run.late_stop,
+            producers=self.producer_watch,
         )
 
     def _heartbeat(self) -> Callable[[int], None] | None:
@@ -456,6 +462,8 @@ class Session:
 
     def _close(self) -> None:
         self._thaw()
+        if self.producer_watch is not None:
+            self.producer_watch.close()
         if self.master_watch is not None:
             self.master_watch.close()
         for axis in self.axes:

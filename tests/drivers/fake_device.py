@@ -636,7 +636,10 @@ class FakeDrive:
             return
         mode = self._mode()
         if mode == 8 and (0x607A, 0) in self.od.entries:
-            self._put(0x6064, 0, int(self._get(0x607A)))
+            target = int(self._get(0x607A))
+            if (0x606C, 0) in self.od.entries:  # the speed of that step (1 ms a SYNC), as a drive reports it
+                self._put(0x606C, 0, (target - int(self._get(0x6064))) * 1000)
+            self._put(0x6064, 0, target)
         elif mode in (3, 9) and (0x60FF, 0) in self.od.entries:
             v = int(self._get(0x60FF))
             self._put(0x606C, 0, v)

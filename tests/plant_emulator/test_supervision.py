@@ -157,6 +157,25 @@ def test_an_rpdo_that_stops_coming_times_out(rig: Rig) -> None:
     assert rig.state() is S.SWITCH_ON_DISABLED
 
 
+def test_an_rpdo_refused_for_its_length_does_not_feed_the_deadline(rig: Rig) -> None:
+    """Frames of 3 bytes on RPDO1's COB-ID (another producer's) are not processed (EMCY 0x8210) and
+    do not keep the deadline from expiring: they are not the master's RPDO (they did)."""
+    rig.node.sdo[0x1400][5].raw = 10  # ms
+    rig.node.sdo[0x6007].raw = 3
+    rig.enable()
+    rig.node.rpdo.read()
+    rpdo = rig.node.rpdo[1]
+    for _ in range(100):
+        rpdo["Controlword"].raw = 0x0F
+        rpdo.transmit()
+        rig.bench.sync()
+    for _ in range(round(0.03 / PERIOD)):
+        rig.bench.host.send_message(rpdo.cob_id, b"\x0f\x00\x00")
+        rig.bench.sync()
+    codes = rig.emcy_codes()
+    assert 0x8210 in codes and 0x8250 in codes
+
+
 def test_a_consumer_entry_written_takes_effect_at_once(rig: Rig) -> None:
     """A write to 0x1016 changes the watch when it is stored, not at the next SYNC: a host that
     clears its entry and leaves (no SYNC after it) is not reported lost later (real time)."""

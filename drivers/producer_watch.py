@@ -1,0 +1,190 @@
+"""Another producer on a COB-ID of the host's nodes: frames on a TPDO's COB-ID its node cannot
+have sent, and a sample whose position contradicts the drive's own speed.
+
+A COB-ID has one producer (CiA 301 7.2.2): a TPDO is its node's. Beside ``drivers.master_watch``
+(another master: the frames only a master sends), ``ProducerWatch`` counts, on the host's canopen
+``Network``, the SYNCs on the bus and the frames on each TPDO COB-ID the host receives
+(``TpdoSlot``, from the slot's making on, the mapping in force):
+
+- a frame of another length than the mapping in force is not its node's (CiA 301: such a PDO is
+  not processed);
+- a TPDO of transmission type 1 answers each SYNC once, one of type 0 (acyclic synchronous) at
+  most once, one of type n = 2-240 every n-th SYNC (from a start the host does not know: at most
+  SYNCs // n + 1 frames): more frames than that are more answers than SYNCs. The count is of all
+  SYNCs and all frames since the slot was made, so a drive's burst of answers after a stall (the
+  SYNCs it owed) is no surplus; a SYNC the node never answered leaves room for one frame more.
+  Event-driven TPDOs (254, 255) have no such bound.
+
+The SYNCs counted are the ones the host sends through the network (its ``send_message`` is
+wrapped, as ``MasterWatch`` wraps it) and the ones heard: another device's, the kernel broadcast
+manager's (sent through its own socket, heard on the host's), or a second producer's (named by
+the master watch; the answers to it are the node's own). On a bus that gives the host its own
+frames back (``echoes()``: ``MasterWatch.echoes``) a SYNC heard while the host's own are still to
+come back is its echo, not counted twice.
+
+What is found (``found``: COB-ID -> ``Finding``) is kept with the SYNC count at the time; from then
+on that COB-ID's frames are not taken (two producers' frames carry nothing the host can trust:
+a stop reads the node's state by SDO), and the axis's supervision raises ``OtherProducer`` naming
+the COB-ID and the node.
+
+``travel_band`` is the second rule's measure (the axis's ``foreign_sample``): the travel between
+two consecutive samples that the drive's own speeds at both (0x606C) allow, with the resolution.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+from drivers.errors import SafetyStop
+from drivers.maps.cia import COB_SYNC, PDO_SYNC_MAX
+
+__all__ = ["Finding", "OtherProducer", "ProducerWatch", "travel_band"]
+
+log = logging.getLogger(__name__)
+
+
+class TpdoSlot(Protocol):
+    """What the watch needs of ``drivers.canopen_axis.TpdoSlot`` (which imports this module)."""
+
+    node_id: int
+    cob_id: int
+    codec: Any  #: its struct (``size``: the mapping's bytes)
+    ttype: int
+    producers: ProducerWatch | None
+    frames: int
+    since: int
+
+
+class OtherProducer(SafetyStop):
+    """Another producer on a COB-ID of one of the host's nodes, found while running: a stop."""
+
+
+@dataclass(frozen=True)
+class Finding:
+    """Another producer on ``cob_id`` of node ``node_id``, in words; ``syncs``: the SYNC count then."""
+
+    cob_id: int
+    node_id: int
+    text: str
+    syncs: int
+
+
+def travel_band(
+    v1: float, v2: float, dt_lo: float, dt_hi: float, *, resolution: tuple[float, float]
+) -> tuple[float, float]:
+    """[rad] the least and the most travel from one sample to the next that a drive reporting the
+    speeds ``v1`` then ``v2`` [rad/s] (0x606C, latched with the positions) can have made in an
+    elapsed time between ``dt_lo`` and ``dt_hi`` [s]: the speed between two samples lies between
+    the two (less or more by half their difference where it did not change monotonically), and the
+    travel is its integral; widened by one position count (``resolution[0]`` [rad]) for each of
+    the two positions and one speed unit (``resolution[1]`` [rad/s]) over the time (each speed is
+    rounded by half a unit)."""
+    q_position, q_speed = resolution
+    low, high = min(v1, v2), max(v1, v2)
+    slack = 2.0 * q_position + (q_speed + 0.5 * abs(v2 - v1)) * dt_hi
+    return min(low * dt_lo, low * dt_hi) - slack, max(high * dt_lo, high * dt_hi) + slack
+
+
+class ProducerWatch:
+    """See the module docstring; ``echoes()``: the bus gives the host its own frames back."""
+
+    def __init__(self, network: Any, *, echoes: Callable[[], bool] = lambda: False) -> None:
+        self.network = network
+        self.echoes = echoes
+        self.syncs = 0  #: SYNCs on the bus since the watch began (sent and heard)
+        self._own = 0  #: the host's own SYNCs not heard back (their echo, on a bus that echoes)
+        #: COB-ID -> the first finding on it (the per-cycle test is ``alarm``)
+        self.found: dict[int, Finding] = {}
+        self.alarm = False
+        self._lock = threading.Lock()
+        self._own_attr = "send_message" in vars(network)  #: another wrapper was there (MasterWatch's)
+        self._send = network.send_message
+        network.send_message = self._sending
+        network.subscribe(COB_SYNC, self._on_sync)
+
+    def _sending(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        """The network's ``send_message``, counting the SYNCs it sends (before it sends them: an
+        answer comes after its SYNC)."""
+        if can_id == COB_SYNC:
+            self.syncs += 1
+            self._own += 1
+        self._send(can_id, data, remote)
+
+    def _on_sync(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        if self._own and self.echoes():
+            self._own -= 1  # the host's own SYNC given back by its adapter
+            return
+        self.syncs += 1
+
+    def watch(self, slot: TpdoSlot) -> None:
+        """Count ``slot``'s frames from now on against the SYNCs from now on."""
+        slot.producers = self
+        slot.frames = 0
+        slot.since = self.syncs
+
+    def take(self, slot: TpdoSlot, data: bytes | bytearray) -> bool:
+        """A frame on ``slot``'s COB-ID (its receive path): False where it is not its node's (found,
+        or its COB-ID found before)."""
+        if slot.cob_id in self.found:
+            return False
+        size = slot.codec.size
+        if len(data) != size:
+            self._found(slot, f"a frame of {len(data)} bytes where its mapping has {size}")
+            return False
+        slot.frames += 1
+        ttype = slot.ttype
+        if ttype <= PDO_SYNC_MAX:
+            syncs = self.syncs - slot.since
+            allowed = syncs if ttype <= 1 else syncs // ttype + 1
+            if slot.frames > allowed:
+                every = (
+                    "once a SYNC" if ttype == 1 else f"once every {ttype} SYNCs" if ttype else "once at most"
+                )
+                self._found(
+                    slot, f"{slot.frames} frames for {syncs} SYNCs, where type {ttype} answers {every}"
+                )
+                return False
+        return True
+
+    def _found(self, slot: TpdoSlot, what: str) -> None:
+        node = slot.node_id
+        text = (
+            f"node {node}: another producer on COB-ID 0x{slot.cob_id:03X} (a TPDO of node {node}): {what}, "
+            f"which node {node} did not send"
+        )
+        with self._lock:
+            if slot.cob_id not in self.found:
+                self.found[slot.cob_id] = Finding(slot.cob_id, node, text, self.syncs)
+                self.alarm = True
+
+    def intruder(self, node_id: int) -> str | None:
+        """The first finding on a COB-ID of ``node_id``, in words (None: none)."""
+        with self._lock:
+            mine = [f for f in self.found.values() if f.node_id == node_id]
+        return min(mine, key=lambda f: f.syncs).text if mine else None
+
+    def cause(self, reason: str, mark: int) -> str:
+        """The cause of a stop that a check of a sample made (``reason``) at the SYNC count
+        ``mark``: where another producer was found by the answers to the next SYNC (the node's
+        own answer came after a frame the cycle took for it), the stop's sample may have been
+        that frame, and the stop is named for the other producer; else ``reason``."""
+        with self._lock:
+            found = [f for f in self.found.values() if f.syncs <= mark + 1]
+        if not found:
+            return reason
+        first = min(found, key=lambda f: f.syncs)
+        log.warning("the safe stop's cause: %s", first.text)
+        return f"{first.text}; the run had stopped on a sample it may have sent: {reason}"
+
+    def close(self) -> None:
+        if COB_SYNC in self.network.subscribers and self._on_sync in self.network.subscribers[COB_SYNC]:
+            self.network.unsubscribe(COB_SYNC, self._on_sync)
+        if vars(self.network).get("send_message") == self._sending:
+            if self._own_attr:
+                self.network.send_message = self._send
+            else:
+                del self.network.send_message  # the network's own again
