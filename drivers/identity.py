@@ -1,8 +1,9 @@
 """Who a CANopen device is (CiA 301 0x1018), read from the device, and the check of it against the
 object dictionary in use, before the host writes anything but a read.
 
-- ``Identity``: 0x1018 as the device answers (None: not readable), with the vendor's name where
-  the dictionary in use is the device's own; ``toolkit`` is the positive identification of the
+- ``Identity``: 0x1018 as the device answers (None: not readable), with the vendor's name: the
+  EDS's where the dictionary in use is the device's own, else CiA's vendor list's
+  (``drivers.maps.vendors``); ``toolkit`` is the positive identification of the
   toolkit's own drive (vendor 0xDB1, product 0x402), the one drive whose manufacturer objects and
   modes the host knows.
 - ``STANDARD`` and ``read_standard``: the objects the host reads from every device by their
@@ -26,6 +27,7 @@ from typing import Any
 
 from drivers.errors import ConfigError, SdoAbort
 from drivers.maps import cia
+from drivers.maps.vendors import vendor_of
 
 __all__ = [
     "STANDARD",
@@ -63,6 +65,26 @@ STANDARD: Mapping[tuple[int, int], tuple[bool, int]] = {
     (cia.TORQUE_ACTUAL, 0): _I16,
     (cia.STATUSWORD, 0): (False, 2),
     (cia.MODES_DISPLAY, 0): _I8,
+    # what a drive's status shows besides (``rig.commission.picture``)
+    (cia.ERROR_REGISTER, 0): _U8,
+    (cia.ERROR_CODE, 0): (False, 2),
+    (cia.ERROR_HISTORY, 0): _U8,
+    **{(cia.ERROR_HISTORY, sub): _U32 for sub in range(1, 17)},
+    (cia.SOFTWARE_POSITION_LIMIT, 1): _I32,
+    (cia.SOFTWARE_POSITION_LIMIT, 2): _I32,
+    (cia.MAX_MOTOR_SPEED, 0): _U32,
+    (cia.MAX_TORQUE, 0): (False, 2),
+    (cia.MAX_CURRENT, 0): (False, 2),
+    (0x607F, 0): _U32,  # max profile velocity
+    (cia.PROFILE_VELOCITY, 0): _U32,
+    (cia.PROFILE_ACCELERATION, 0): _U32,
+    (cia.PROFILE_DECELERATION, 0): _U32,
+    (cia.QUICK_STOP_DECELERATION, 0): _U32,
+    (cia.FOLLOWING_ERROR_WINDOW, 0): _U32,
+    (cia.FOLLOWING_ERROR_TIMEOUT, 0): (False, 2),
+    (cia.POSITION_WINDOW, 0): _U32,
+    (cia.DIGITAL_INPUTS, 0): _U32,
+    (cia.CURRENT_ACTUAL, 0): _I16,
 }
 
 
@@ -113,7 +135,7 @@ class Identity:
 def read_identity(upload: Callable[[int, int], bytes]) -> Identity:
     """0x1018 sub 1-4 as the device answers (``read_standard``)."""
     vendor, product, revision, serial = (read_standard(upload, cia.IDENTITY, sub) for sub in (1, 2, 3, 4))
-    return Identity(vendor, product, revision, serial)
+    return Identity(vendor, product, revision, serial, vendor_name=vendor_of(vendor))
 
 
 def vendor_name(od: Any) -> str:
@@ -176,4 +198,4 @@ def check_identity(device: Identity, od: Any, *, eds: str, given: bool, where: s
             eds,
             declared.revision,
         )
-    return replace(device, vendor_name=declared.vendor_name)
+    return replace(device, vendor_name=declared.vendor_name or device.vendor_name)

@@ -458,8 +458,20 @@ def _identify_bench(proc: subprocess.CompletedProcess[str], folder: pathlib.Path
 
 def _scan(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
     said(r"\| the CANopen nodes on a bus: node id, NMT state, device type, profile \(")
+    said(r"vendor and its name from CiA's vendor-ID list")
     header, *rows = proc.stdout.splitlines()
-    assert header.split() == ["node", "NMT", "state", "device", "type", "profile", "vendor", "product"]
+    assert header.split() == [
+        "node",
+        "NMT",
+        "state",
+        "device",
+        "type",
+        "profile",
+        "vendor",
+        "vendor",
+        "name",
+        "product",
+    ]
     assert [row.split()[0] for row in rows] == ["1", "2"], proc.stdout  # drive and encoder
 
 
@@ -477,8 +489,8 @@ def _json_keys(pattern: str) -> Check:
 
 def _drive(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
     """status says the state and mode by name, identity, statusword bits, 0x603F and the last EMCY
-    in words, units and the PDO mapping as a table; a jog ends at rest and disabled, its stop
-    confirmed."""
+    in words, units and the PDO mapping as a table; a jog's report ends at rest and disabled, its
+    stop confirmed."""
     said(r"status` writes nothing and needs no factor: it says its state and mode by name, its identity")
     said(r"end, as Ctrl-C does, with the drive's quick-stop ramp to rest and then disable")
     status, _, jog = proc.stdout.partition("PDO mapping in force:")
@@ -487,11 +499,10 @@ def _drive(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None
         assert key in rows, key
     assert rows["identity"].startswith("vendor 0x000000FB (maxon motor ag) / product 0x")
     assert "RPDO1  0x201" in jog and "0x603F = 0x0000, no error" in proc.stdout
-    lines = dict(
-        line.split(None, 1) for line in jog.splitlines() if line.strip() and not line.startswith(" ")
-    )
-    assert lines["result"] == "done" and lines["stop_confirmed"] == "True"
-    assert lines["state"] == "SWITCH ON DISABLED"  # the jog's, printed last
+    assert "statusword bits:" in jog and "  bit 12" in jog  # every bit, named
+    lines = {line[:15].strip(): line[16:] for line in jog.splitlines() if line.strip() and line[0] != " "}
+    assert lines["result"] == "done" and lines["asked"] == "10 rad/s"  # the jog's report, printed last
+    assert lines["stop"] == "at rest and disabled (SWITCH ON DISABLED); the stop confirmed"
 
 
 #: synopses (and an elided command) run in the default pass in a concrete form, with the claims

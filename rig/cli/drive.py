@@ -21,7 +21,7 @@ from rig.cli.common import (
     print_json,
 )
 from rig.cli.run import LIVE_MODES, open_view
-from rig.commission.status import status_lines
+from rig.commission.status import object_lines, status_lines
 
 __all__ = ["add_parser"]
 
@@ -30,11 +30,12 @@ def add_parser(sub: Any) -> None:
     drive = sub.add_parser(
         "drive",
         help="commission one CiA 402 drive: status, enable/disable/reset, SDO, jog, home, move",
-        description="Talks to one CiA 402 node by SDO: its status (state, mode, statusword bits, 0x603F, "
-        "last EMCY, units and PDO mapping in force), its state machine, its objects by index[:sub] or EDS "
-        "name, and short moves on its own profile modes. A move ends, as Ctrl-C or SIGTERM does, with the "
-        "drive's quick stop ramp to rest and then disable. Exit code 3 when a move was stopped, 4 when the "
-        "stop was not confirmed, 130 or 143 (and no result) after Ctrl-C or SIGTERM.",
+        description="Talks to one CiA 402 node by SDO: its status (identity, state and every statusword bit, "
+        "mode, actual values, limits, ramps, windows, errors, inputs, units and PDO mapping in force), its "
+        "state machine, its objects by index[:sub] or EDS name, and short moves on its own profile modes. A "
+        "move ends, as Ctrl-C or SIGTERM does, with the drive's quick stop ramp to rest and then disable. "
+        "Exit code 3 when a move was stopped, 4 when the stop was not confirmed, 130 or 143 (and no result) "
+        "after Ctrl-C or SIGTERM.",
     )
     add_bus_arguments(drive)
     drive.add_argument("--node", type=int, default=1, help="the drive's node id (default 1)")
@@ -58,14 +59,45 @@ def add_parser(sub: Any) -> None:
     jog = actions.add_parser("jog", help="profile velocity for a while")
     jog.add_argument("speed", type=finite, help="[rad/s]")
     jog.add_argument("--for", dest="seconds", type=finite, required=True, help="[s]")
-    jog.add_argument("--limit", type=finite, default=20.0, help="largest |speed| allowed [rad/s] (20)")
     home = actions.add_parser("home", help="homing")
     home.add_argument("--method", type=int, help="0x6098 homing method (default: the drive's)")
     move = actions.add_parser("move", help="profile position to a position")
-    move.add_argument("position", type=finite, help="[rad], absolute")
-    move.add_argument("--limit", type=finite, default=10.0, help="largest move allowed [rad] (10)")
+    move.add_argument("position", type=finite, help="[rad], absolute (or, with --relative, from here)")
+    move.add_argument("--relative", action="store_true", help="the position is a travel from where it stands")
+    move.add_argument(
+        "--speed",
+        type=finite,
+        metavar="RAD_S",
+        help="the move's speed [rad/s] (0x6081; default: the drive's)",
+    )
+    move.add_argument(
+        "--max-travel", type=finite, default=10.0, metavar="RAD", help="the farthest a move may go [rad] (10)"
+    )
+    move.add_argument(
+        "--hold",
+        type=finite,
+        nargs="?",
+        const=math.inf,
+        metavar="S",
+        help="stay enabled holding the target that long [s] (no value: until Ctrl-C, at most an hour), "
+        "then the stop",
+    )
+    for action in (jog, move):
+        action.add_argument(
+            "--accel", type=finite, metavar="RAD_S2", help="acceleration [rad/s^2] (0x6083/0x6084)"
+        )
+        action.add_argument(
+            "--limit", type=finite, help="deprecated: --max-speed on jog, --max-travel on move"
+        )
     drive_dictionary.add_actions(actions)
     for action in (jog, home, move):
+        action.add_argument(
+            "--max-speed",
+            type=finite,
+            default=20.0,
+            metavar="RAD_S",
+            help="the fastest the shaft may turn [rad/s] (20): faster is a stop",
+        )
         action.add_argument(
             "--live",
             nargs="?",
@@ -86,8 +118,15 @@ def _check(args: argparse.Namespace) -> None:
         raise UsageError(f"rig drive jog: argument --for: must be in (0, 60] s, got {args.seconds:g}")
     if args.action == "home" and args.method is not None and not -128 <= args.method <= 127:
         raise UsageError(f"rig drive home: argument --method: must be -128..127, got {args.method}")
-    if args.action in ("jog", "move") and not args.limit > 0.0:
-        raise UsageError(f"rig drive {args.action}: argument --limit: must be > 0, got {args.limit:g}")
+    if args.action in ("jog", "move") and args.limit is not None:
+        new = "--max-speed" if args.action == "jog" else "--max-travel"
+        print(f"rig drive {args.action}: --limit is deprecated: use {new}", file=sys.stderr)
+        setattr(args, "max_speed" if args.action == "jog" else "max_travel", args.limit)
+    for key in ("max_speed", "max_travel", "speed", "accel", "hold"):
+        value = getattr(args, key, None)
+        if value is not None and not value > 0.0:
+            name = "--" + key.replace("_", "-")
+            raise UsageError(f"rig drive {args.action}: argument {name}: must be > 0, got {value:g}")
     if args.action == "sdo" and args.op == "write":
         _value(args.value)
 
@@ -179,11 +218,7 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
     if args.action == "sdo":
         index, sub = parse_object(args.object, a.node.object_dictionary)
         if args.op == "read":
-            value = a.sdo_read(index, sub)
-            return {
-                "object": f"0x{index:04X}:{sub:02X}",
-                "value": value if not isinstance(value, bytes) else value.hex(),
-            }
+            return tool.read_object(index, sub)
         var = variable(a.node.object_dictionary, (index, sub))
         if var is not None and not var.writable:
             raise UsageError(
@@ -200,11 +235,22 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
                 f" ({exc})"
             ) from None
         return {"object": f"0x{index:04X}:{sub:02X}", "written": _value(args.value)}
+    from rig.commission import moves
+
     if args.action == "jog":
-        return tool.jog(args.speed, args.seconds, limit=args.limit)
+        return moves.jog(tool, args.speed, args.seconds, max_speed=args.max_speed, accel=args.accel)
     if args.action == "home":
-        return tool.home(args.method)
-    return tool.move(args.position, limit=args.limit)
+        return moves.home(tool, args.method, max_speed=args.max_speed)
+    return moves.move(
+        tool,
+        args.position,
+        relative=args.relative,
+        speed=args.speed,
+        accel=args.accel,
+        max_speed=args.max_speed,
+        max_travel=args.max_travel,
+        hold=args.hold,
+    )
 
 
 def _watch(live: Any, args: argparse.Namespace, tool: Any) -> None:
@@ -241,10 +287,16 @@ def run(args: argparse.Namespace) -> int:
         print("\n".join(status_lines(result, tool.object_name)))
     elif args.action in drive_dictionary.ACTIONS:
         print("\n".join(drive_dictionary.result_lines(result)))
+    elif args.action in ("jog", "move", "home"):
+        from rig.commission.moves import report_lines
+
+        units = tool.axis.units
+        print("\n".join(report_lines(args.action, result, units.position, units.velocity)))
+    elif args.action == "sdo" and args.op == "read":
+        print("\n".join(object_lines(result)))
     else:
         for key, value in result.items():
-            if value is not None or key != "stopped_short":
-                print(f"{key:16s} {value}")
+            print(f"{key:16s} {value}")
     if isinstance(result, dict) and result.get("stop_confirmed") is False:
         print("rig drive: the drive's stop was not confirmed", file=sys.stderr)
         return EXIT_UNCONFIRMED

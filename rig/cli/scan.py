@@ -78,6 +78,7 @@ COLUMNS = (
     ("device type", "device_type"),
     ("profile", "profile"),
     ("vendor", "vendor_id"),
+    ("vendor name", "vendor_name"),
     ("product", "product_name"),
 )
 

@@ -28,44 +28,30 @@ from drivers.cia402_pdo import read_mapping, variable
 from drivers.cia402_units import require
 from drivers.errors import ConfigError, DeviceFault, RigError, SafetyStop
 from drivers.maps import cia
-from drivers.maps.cia import Controlword, Mode, PowerState
+from drivers.maps.cia import Mode, PowerState
 from drivers.maps.cia402_needs import needed
 from drivers.maps.cia402_needs import require as require_objects
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
 from rig.commission.motion_watch import MotionWatch
+from rig.commission.picture import picture
+from rig.commission.quantities import quantity
 from rig.commission.status import UNITS_HINT, device_units
 from rig.host.signals import StopRequests
 from rig.host.stopping import RestWatch
 
-__all__ = ["STATUS_BITS", "DriveTool", "parse_object"]
+__all__ = ["DriveTool", "parse_object"]
 
 log = logging.getLogger(__name__)
 
-#: statusword bits 0-15 by name (CiA 402-2)
-STATUS_BITS = (
-    "ready to switch on",
-    "switched on",
-    "operation enabled",
-    "fault",
-    "voltage enabled",
-    "quick stop",
-    "switch on disabled",
-    "warning",
-    "manufacturer 8",
-    "remote",
-    "target reached",
-    "internal limit active",
-    "operation mode 12",
-    "operation mode 13",
-    "manufacturer 14",
-    "manufacturer 15",
-)
-_NEW_SETPOINT, _HALT = 0x10, 0x100
-_BIT12, _HOMING_ERROR, _TARGET_REACHED = 1 << 12, 1 << 13, 1 << 10  #: bit 12: set-point ack / attained
-_LIMIT, _FOLLOWING_ERROR = 1 << 11, 1 << 13  #: internal limit active; following error (profile position)
 
+#: CiA 301 data type codes by name (what ``sdo read`` says an object is)
+_TYPE_NAMES = {
+    0x01: "BOOLEAN", 0x02: "INTEGER8", 0x03: "INTEGER16", 0x04: "INTEGER32", 0x05: "UNSIGNED8",
+    0x06: "UNSIGNED16", 0x07: "UNSIGNED32", 0x08: "REAL32", 0x09: "VISIBLE_STRING", 0x0A: "OCTET_STRING",
+    0x0B: "UNICODE_STRING", 0x0F: "DOMAIN", 0x11: "REAL64", 0x15: "INTEGER64", 0x1B: "UNSIGNED64",
+}  # fmt: skip
 
 #: the ``rig drive`` action that runs the drive in each profile mode
 _VERB = {Mode.PROFILE_VELOCITY: "jog", Mode.PROFILE_POSITION: "move", Mode.HOMING: "home"}
@@ -123,7 +109,7 @@ class DriveTool:
         self._looks = 0
         self._t0 = time.monotonic()
 
-    def _deadline(self, seconds: float) -> Callable[[], bool]:
+    def deadline(self, seconds: float) -> Callable[[], bool]:
         """A predicate, true once ``seconds`` [s] have passed: on the wall clock on a real bus;
         in lock-step never (the callers count their idles)."""
         if self.emulated:
@@ -133,8 +119,10 @@ class DriveTool:
 
     # --- what the drive is ----------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        """State, mode, statusword bits, 0x603F, last EMCY, units in force, PDO mapping in force.
-        Moves nothing and needs no factor: where the drive gives none, its own units stand."""
+        """The drive's whole picture: identity, state with every statusword bit named, mode,
+        actual values, limits, profile and ramps, windows, errors, inputs (``picture``), units
+        and the PDO mapping in force. Moves nothing and needs no factor: where the drive gives
+        none, its own units stand."""
         a = self.axis
         units = a.discover(check_mode=False)
         word = int(a.sdo_read(cia.STATUSWORD))
@@ -150,13 +138,14 @@ class DriveTool:
                 }
         mode = a._optional(cia.MODES_DISPLAY)
         bits = a._optional(cia.SUPPORTED_MODES)
+        seen = picture(a, units, word, None if mode is None else int(mode))
         return {
             "node": a.node_id,
             "identity": {k: f"0x{v:08X}" for k, v in a.identity.items()},
             "vendor_name": a.device_id.vendor_name,
             "state": power_state(word).value,
             "statusword": f"0x{word:04X}",
-            "statusword_bits": [name for bit, name in enumerate(STATUS_BITS) if word >> bit & 1],
+            "statusword_bits": [b["name"] for b in seen["bits"] if b["set"]],
             "mode": mode,
             "mode_name": "not readable (0x6061)"
             if mode is None
@@ -167,7 +156,32 @@ class DriveTool:
             "last_emcy": a.emcy_log[-1] if a.emcy_log else self._last_error(),
             "units": units.describe() | device_units(units),
             "pdo_mapping": mapping,
+            **seen,
         }
+
+    def read_object(self, index: int, subindex: int) -> dict[str, Any]:
+        """One object read by SDO, for a person: its name, type and access in the EDS, its value
+        in decimal and hex, and where it holds a quantity (``rig.commission.quantities``), that
+        in SI and in the drive's units (the units read from the drive; nothing written)."""
+        a = self.axis
+        value = a.sdo_read(index, subindex)
+        var = variable(a.node.object_dictionary, (index, subindex))
+        kind = getattr(var, "data_type", None)
+        fmt = var.STRUCT_TYPES.get(kind) if var is not None and kind is not None else None
+        out: dict[str, Any] = {
+            "object": f"0x{index:04X}:{subindex:02X}",
+            "name": str(var.name) if var is not None else "",
+            "type": _TYPE_NAMES.get(kind, "") if kind is not None else "",
+            "access": str(getattr(var, "access_type", "")),
+            "value": value if not isinstance(value, bytes) else value.hex(),
+        }
+        if isinstance(value, int) and not isinstance(value, bool):
+            bits = 8 * (fmt.size if fmt is not None else 4)
+            out["hex"] = f"0x{value & ((1 << bits) - 1):0{bits // 4}X}"
+            q = quantity(a.discover(check_mode=False), index, value)
+            if q is not None:
+                out["quantity"] = q.as_dict()
+        return out
 
     def object_name(self, index: int, subindex: int) -> str:
         """An object's name in the drive's EDS ("" where it has none)."""
@@ -212,7 +226,7 @@ class DriveTool:
         return f"{self.axis.read_power_state().value} (was: {was})"
 
     # --- moves ----------------------------------------------------------------------------------
-    def _offers(self, mode: Mode, verb: str) -> None:
+    def offers(self, mode: Mode, verb: str) -> None:
         """ConfigError, before anything is sent, where the drive's 0x6502 does not list ``mode``, or
         its dictionary lacks what the mode needs (``drivers.maps.cia402_needs``)."""
         a = self.axis
@@ -225,8 +239,8 @@ class DriveTool:
         needs = (*needed(mode), cia.VELOCITY_ACTUAL)  # the stop watches the speed to rest
         require_objects(a.node.object_dictionary, needs, source=a.eds, what=f"rig drive {verb}")
 
-    def _until(self, done: Callable[[], bool], seconds: float, what: str) -> None:
-        late = self._deadline(seconds)
+    def until(self, done: Callable[[], bool], seconds: float, what: str) -> None:
+        late = self.deadline(seconds)
         for _ in range(max(1, math.ceil(seconds / self.period))):
             if done():
                 return
@@ -237,14 +251,14 @@ class DriveTool:
         if not done():
             raise SafetyStop(f"{self.axis.where}: {what} not within {seconds:g} s")
 
-    def _run(
+    def run_profile(
         self, mode: Mode, start: Callable[[], None], done: Callable[[], bool], seconds: float, what: str
     ) -> dict[str, Any]:
         """Enable in ``mode``, ``start``, wait for ``done`` (``seconds``), then the stop; the stop
         also on any error or Ctrl-C. A mode the drive lacks, a factor it needs: refused first."""
         a = self.axis
         a.discover(check_mode=False)
-        self._offers(mode, _VERB[mode])
+        self.offers(mode, _VERB[mode])
         if mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):
             require(
                 a.units,
@@ -263,7 +277,7 @@ class DriveTool:
         try:
             try:
                 start()
-                self._until(done, seconds, what)
+                self.until(done, seconds, what)
             except KeyboardInterrupt:
                 result = "interrupted (Ctrl-C)"
             except (SafetyStop, DeviceFault) as exc:
@@ -274,7 +288,7 @@ class DriveTool:
         finally:
             requests.restore()
         requests.pass_on(confirmed)  # a move a signal cut short has no result to report
-        position, velocity = self._actual()
+        position, velocity = self.actual()
         return {
             "result": result,
             **({"position_rad": position} if position is not None else {}),
@@ -284,7 +298,7 @@ class DriveTool:
             "state": a.read_power_state().value,
         }
 
-    def _actual(self) -> tuple[float | None, float]:
+    def actual(self) -> tuple[float | None, float]:
         """(position [rad], None on a drive without 0x6064; speed [rad/s]) read by SDO."""
         a = self.axis
         velocity = a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity
@@ -292,7 +306,7 @@ class DriveTool:
             return None, velocity
         return a.sdo_read(cia.POSITION_ACTUAL) / a.units.position, velocity
 
-    def _motion(self, **kw: Any) -> MotionWatch:
+    def motion_watch(self, **kw: Any) -> MotionWatch:
         """A watch of the move about to start (``MotionWatch``), with the drive's quanta and units."""
         a = self.axis
         position_quantum, speed_quantum = a.quanta()
@@ -303,18 +317,22 @@ class DriveTool:
             where, speed_quantum=speed_quantum, position_quantum=position_quantum, units=units, **kw
         )
 
-    def _profile_speed(self, index: int, subindex: int = 0) -> float:
-        """1.5 times a speed the drive declares (0x6081, 0x6099), in rad/s; inf where it has none."""
+    def profile_speed(self, index: int, subindex: int = 0) -> float:
+        """A speed the drive declares (0x6081, 0x6099) in rad/s; inf where it has none."""
         raw = self.axis._optional(index, subindex)
         if raw is None or not raw or not math.isfinite(self.axis.units.velocity):
             return math.inf
-        return 1.5 * abs(float(raw)) / self.axis.units.velocity
+        return abs(float(raw)) / self.axis.units.velocity
 
-    def _watch(self, target: float, actual: int, factor: float) -> None:
+    def watch_actual(self, target: float, actual: int, factor: float) -> None:
         """From now on, with ``live``, each look reads ``actual`` (an object, / ``factor``: SI)
-        against ``target`` [SI]."""
+        against ``target`` [SI]; the move's time starts (``elapsed``)."""
         self._watched = (target, actual, factor)
         self._looks, self._t0 = 0, time.monotonic()
+
+    def elapsed(self) -> float:
+        """[s] since ``watch_actual``: looks x period in lock-step, the wall clock's on a bus."""
+        return self._looks * self.period if self.emulated else time.monotonic() - self._t0
 
     def _look(self) -> None:
         """One look during a move: the motion watch (``MotionWatch``: a SafetyStop where the shaft
@@ -324,9 +342,9 @@ class DriveTool:
             return
         target, index, factor = self._watched
         self._looks += 1
-        t = self._looks * self.period if self.emulated else time.monotonic() - self._t0
+        t = self.elapsed()
         if self.motion is not None:
-            position, speed = self._actual()
+            position, speed = self.actual()
             self.motion.see(t, speed, position)
         if self.live is None:
             return
@@ -355,7 +373,7 @@ class DriveTool:
             return bool(abs(a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity) < a.rest_speed)
 
         try:
-            self._until(at_rest, seconds, "the drive's stop")
+            self.until(at_rest, seconds, "the drive's stop")
             confirmed = True
         except SafetyStop:
             confirmed = False
@@ -366,105 +384,8 @@ class DriveTool:
             return False, {}
         watch = RestWatch.of(a, self.period)
         try:
-            self._until(lambda: watch.see(a.shaft_speed()), max(seconds, 3.0 * a.rest_time), "the rest")
+            self.until(lambda: watch.see(a.shaft_speed()), max(seconds, 3.0 * a.rest_time), "the rest")
         except SafetyStop:
             log.error("%s: still turning after the disable (%s rad/s)", a.where, watch.speed)
             return False, {a.name: watch.speed}
         return confirmed, {}
-
-    def jog(self, speed: float, seconds: float, *, limit: float) -> dict[str, Any]:
-        """Profile velocity at ``speed`` [rad/s] for ``seconds``; |speed| <= ``limit``, and the
-        shaft watched against both (``MotionWatch``); the result says the speed it reached."""
-        if not abs(speed) <= limit:
-            raise ConfigError(f"jog speed {speed:g} rad/s exceeds the limit {limit:g} rad/s (--limit)")
-        a = self.axis
-        late = [self._deadline(seconds)]
-        ticks = [0]
-        watch: list[MotionWatch] = []
-
-        def elapsed() -> bool:
-            ticks[0] += 1
-            return ticks[0] * self.period >= seconds or late[0]()
-
-        def start() -> None:
-            self._watch(speed, cia.VELOCITY_ACTUAL, a.units.velocity)  # the units: once discovered
-            here, _ = self._actual()
-            self.motion = self._motion(what="the jog", speed_limit=limit, asked_speed=speed, start=here)
-            watch.append(self.motion)
-            a.sdo_write(cia.TARGET_VELOCITY, 0, round(speed * a.units.velocity))
-            late[0] = self._deadline(seconds)  # the jog's time runs from its target, not the set-up
-
-        result = self._run(Mode.PROFILE_VELOCITY, start, elapsed, seconds + 1.0, "the jog")
-        reached = watch[0].reached() if watch else math.nan
-        return {"asked_rad_s": speed, "reached_rad_s": reached} | result
-
-    def move(self, position: float, *, limit: float, seconds: float = 30.0) -> dict[str, Any]:
-        """Profile position to ``position`` [rad] (absolute); |move| <= ``limit`` [rad]. Where it
-        ends short of the target by more than an increment, ``stopped_short`` says by how much and
-        why (the position window it stopped in, a limit, a following error)."""
-        a = self.axis
-        a.discover(check_mode=False)
-        self._offers(Mode.PROFILE_POSITION, "move")
-        require(a.units, int(Mode.PROFILE_POSITION), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
-        here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
-        if not abs(position - here) <= limit:
-            raise ConfigError(f"move of {position - here:g} rad exceeds the limit {limit:g} rad (--limit)")
-        self._watch(position, cia.POSITION_ACTUAL, a.units.position)
-        seen = [0]  #: the statusword at the last look before the stop (its bits 10, 11, 13)
-        fast = self._profile_speed(cia.PROFILE_VELOCITY)
-
-        def start() -> None:
-            self.motion = self._motion(what="the move", speed_limit=fast, start=here, target=position)
-            a.sdo_write(cia.TARGET_POSITION, 0, round(position * a.units.position))
-            a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
-            self._until(lambda: bool(a.sdo_read(cia.STATUSWORD) & _BIT12), 1.0, "the set-point acknowledge")
-            a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION))
-
-        def done() -> bool:
-            seen[0] = int(a.sdo_read(cia.STATUSWORD))
-            return bool(seen[0] & _TARGET_REACHED)
-
-        result = self._run(Mode.PROFILE_POSITION, start, done, seconds, "the target")
-        return result | {"target_rad": position, **self._short_of(position, result["position_rad"], seen[0])}
-
-    def _short_of(self, target: float, reached: float, word: int) -> dict[str, Any]:
-        """How far short of ``target`` [rad] the move ended at ``reached`` and why (statusword ``word``)."""
-        a = self.axis
-        short = target - reached
-        increments = abs(short) * a.units.position
-        if increments <= 1.0:
-            return {"short_by_rad": short, "stopped_short": None}
-        if word & _LIMIT:
-            why = "internal limit active (statusword bit 11: a position limit 0x607D or a limit switch)"
-        elif word & _FOLLOWING_ERROR:
-            why = "following error (statusword bit 13: more than 0x6065 behind the profile)"
-        else:
-            window = a._optional(cia.POSITION_WINDOW)
-            why = (
-                "the drive said target reached within its position window (0x6067 = "
-                f"{window} increments, {int(window) / a.units.position:.4g} rad)"
-                if window is not None
-                else "the drive said target reached (its position window 0x6067 is not readable)"
-            )
-        said = f"stopped {abs(short):.4g} rad ({increments:.0f} increments) short of {target:g} rad: {why}"
-        return {"short_by_rad": short, "stopped_short": said}
-
-    def home(self, method: int | None, *, seconds: float = 30.0) -> dict[str, Any]:
-        """Homing with ``method`` (0x6098; None: the drive's); attained or an error."""
-        a = self.axis
-
-        def start() -> None:
-            self._watch(0.0, cia.POSITION_ACTUAL, a.units.position)
-            fast = max(self._profile_speed(cia.HOMING_SPEEDS, 1), self._profile_speed(cia.HOMING_SPEEDS, 2))
-            self.motion = self._motion(what="homing", speed_limit=fast)  # homing sets the position anew
-            if method is not None:
-                a.sdo_write(cia.HOMING_METHOD, 0, method)
-            a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
-
-        def done() -> bool:
-            word = int(a.sdo_read(cia.STATUSWORD))
-            if word & _HOMING_ERROR:
-                raise DeviceFault(f"homing error (method {method})", device=a.where)
-            return bool(word & _BIT12 and word & _TARGET_REACHED)
-
-        return self._run(Mode.HOMING, start, done, seconds, "homing")

@@ -19,6 +19,7 @@ import canopen
 from canopen.sdo.client import SdoClient
 
 from drivers.maps import cia
+from drivers.maps.vendors import vendor_of
 
 __all__ = ["DEVICE_PROFILES", "profile_of", "scan"]
 
@@ -70,6 +71,8 @@ def _identity(client: Any, row: dict[str, Any]) -> None:
             row[key] = f"0x{value:08X}"
             if key == "device_type":
                 row["profile"] = profile_of(value)
+            else:
+                row["vendor_name"] = vendor_of(value) or None  # CiA's vendor list (drivers.maps.vendors)
 
 
 def _row(network: canopen.Network, node_id: int, state: int, sdo_timeout: float) -> dict[str, Any]:
@@ -79,7 +82,10 @@ def _row(network: canopen.Network, node_id: int, state: int, sdo_timeout: float)
     client.network = network
     client.RESPONSE_TIMEOUT = sdo_timeout
     row: dict[str, Any] = {"node_id": node_id, "nmt_state": NMT.get(state, "unknown")}
-    row.update({"device_type": None, "profile": None, "vendor_id": None, "product_name": None, "errors": []})
+    row.update(
+        {"device_type": None, "profile": None, "vendor_id": None, "vendor_name": None, "product_name": None}
+    )
+    row["errors"] = []
     network.subscribe(cia.COB_SDO_TX + node_id, client.on_response)
     try:
         _identity(client, row)
@@ -92,7 +98,7 @@ def scan(
     network: canopen.Network, *, listen: Callable[[], None], sdo_timeout: float = 0.1
 ) -> list[dict[str, Any]]:
     """Scan ``network``; ``listen()`` lets heartbeats arrive (waits, or advances emulated time).
-    A row per node: ``node_id``, ``nmt_state``, ``device_type``, ``profile``, ``vendor_id``,
+    A row per node: ``node_id``, ``nmt_state``, ``device_type``, ``profile``, ``vendor_id``, ``vendor_name``,
     ``product_name`` (None where not read) and ``errors`` (what could not be read, and why)."""
     states: dict[int, int] = {}
 

@@ -14,8 +14,9 @@ from typing import Any
 
 from drivers.cia402_units import DriveUnits
 from drivers.identity import Identity
+from rig.commission.picture import SECTIONS
 
-__all__ = ["UNITS_HINT", "device_units", "status_lines"]
+__all__ = ["UNITS_HINT", "device_units", "object_lines", "picture_lines", "status_lines"]
 
 UNITS_HINT = "--units {key}=VALUE"  #: how ``rig drive`` is given a unit the drive lacks
 
@@ -90,4 +91,60 @@ def status_lines(status: dict[str, Any], name_of: Callable[[int, int], str]) -> 
             entries.append(f"{obj} {name} ({size} bit)" if name else f"{obj} ({size} bit)")
         valid = "yes" if m["valid"] else "no"
         lines.append(f"  {pdo:6s} {m['cob_id']:7s} {valid:6s} {m['type']!s:5s} {', '.join(entries) or '-'}")
+    return lines + picture_lines(status)
+
+
+def _number(value: float | None) -> str:
+    return "-" if value is None else f"{value:.6g}"
+
+
+def picture_lines(status: dict[str, Any]) -> list[str]:
+    """The rest of the picture (``rig.commission.picture``): who it is, every statusword bit, the
+    quantities in a table (SI value, its unit, the drive's number and unit), errors, inputs."""
+    lines = []
+    strings = [f"{k} {status[k]}" for k in ("device_name", "hardware", "firmware") if status.get(k)]
+    if strings:
+        lines.append(f"{'device':15s} " + "; ".join(s.replace("_", " ") for s in strings))
+    lines.append("statusword bits:")
+    for b in status.get("bits", []):
+        lines.append(f"  bit {b['bit']:2d}  {'1' if b['set'] else '0'}  {b['name']}")
+    for section, _rows in SECTIONS:
+        values = status.get(section) or {}
+        if not values:
+            continue
+        lines.append(f"{section}:")
+        lines.append(f"  {'':34s} {'value':>12s} {'unit':8s} drive value")
+        for name, q in values.items():
+            lines.append(
+                f"  {name:34s} {_number(q['value']):>12s} {q['unit']:8s} {q['drive_value']} {q['drive_unit']}"
+            )
+    if status.get("error_register") is not None:
+        lines.append(f"{'error register':15s} {status['error_register']} (0x1001)")
+    history = status.get("error_history") or []
+    lines.append(
+        f"{'error history':15s} "
+        + ("; ".join(f"{h['code']} {h['text']}" for h in history) if history else "none kept (0x1003)")
+    )
+    inputs = status.get("digital_inputs")
+    if inputs is not None:
+        lines.append(
+            f"{'inputs':15s} {inputs['raw']} (0x60FD): {', '.join(inputs['active']) or 'none active'}"
+        )
+    return lines
+
+
+def object_lines(read: dict[str, Any]) -> list[str]:
+    """``sdo read``'s report: the object, its name, type and access, its value in decimal and hex,
+    and the quantity it holds in SI and the drive's units (``DriveTool.read_object``)."""
+    what = ", ".join(x for x in (read.get("type"), read.get("access")) if x)
+    lines = [
+        f"{'object':15s} {read['object']}  {read.get('name') or '(not in the EDS)'}"
+        + (f" ({what})" if what else "")
+    ]
+    value = read["value"]
+    lines.append(f"{'value':15s} {value}" + (f" ({read['hex']})" if "hex" in read else ""))
+    q = read.get("quantity")
+    if q is not None:
+        si = "-" if q["value"] is None else f"{q['value']:.6g} {q['unit']}"
+        lines.append(f"{'means':15s} {si} ({q['drive_value']} {q['drive_unit']})")
     return lines

@@ -92,7 +92,7 @@ def test_an_eds_of_another_device_is_refused_before_anything_is_written(
         axis.setup()
     text = str(err.value)
     assert "\n" not in text
-    assert "is vendor 0x0000026C / product 0x00000010" in text
+    assert "is vendor 0x0000026C (Nanotec Electronic GmbH & Co. KG) / product 0x00000010" in text
     declared = declared_identity(load_od(eds, 1))
     assert f"describes vendor 0x{declared.vendor:08X}" in text and eds in text
     assert "give the device's own EDS/DCF" in text
@@ -114,10 +114,11 @@ def test_another_revision_is_a_warning(drive: ForeignDrive, caplog: pytest.LogCa
 
 
 @pytest.mark.parametrize("drive", ["nanotec-c5e"], indirect=True)
-def test_no_eds_names_no_vendor_of_the_toolkit(drive: ForeignDrive) -> None:
+def test_no_eds_names_the_vendor_from_the_vendor_list_not_the_toolkit(drive: ForeignDrive) -> None:
     axis = drive.axis("csp", eds=None)
     axis.discover(check_mode=False)
-    assert axis.device_id.vendor == 0x26C and axis.device_id.vendor_name == ""
+    assert axis.device_id.vendor == 0x26C
+    assert axis.device_id.vendor_name == "Nanotec Electronic GmbH & Co. KG"  # CiA's list, not the EDS
     assert "drive-rig" not in axis.device_id.text()
     own = drive.axis("csp")
     own.discover(check_mode=False)

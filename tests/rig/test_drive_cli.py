@@ -44,8 +44,10 @@ def test_sdo_by_index_and_by_name(capsys: pytest.CaptureFixture[str]) -> None:
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["jog", "50", "--for", "1"], "jog speed 50 rad/s exceeds the limit 20 rad/s"),
-        (["move", "50"], "move of 50 rad exceeds the limit 10 rad"),
+        (["jog", "50", "--for", "1"], "jog speed 50 rad/s exceeds --max-speed 20 rad/s"),
+        (["move", "50"], "a move of 50 rad exceeds --max-travel 10 rad"),
+        (["move", "1", "--speed", "25"], "--speed 25 rad/s: must be in (0, --max-speed 20] rad/s"),
+        (["move", "1", "--hold", "-1"], "argument --hold: must be > 0, got -1"),
         (["sdo", "read", "No such thing"], "neither index[:sub] nor a name in the EDS"),
         (["--node", "200", "status"], "--node: must be 1..127"),
         (["jog", "1", "--for", "0"], "--for: must be in (0, 60] s"),

@@ -80,17 +80,23 @@ def test_an_action_that_needs_a_factor_names_the_units_option(
 
 
 @pytest.mark.parametrize("drive", ["faulhaber-mc5004"], indirect=True)
-def test_a_move_says_where_it_stopped_short_and_why(
+def test_a_move_says_where_it_stopped_and_whether_that_is_its_window(
     drive: ForeignDrive, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    drive.fake.pp_short_by = 10  # the drive says target reached 10 increments short (its window)
+    """The drive says target reached 10 increments short: within its position window (0x6067 =
+    10), a normal arrival; 15 short, outside it: stopped short, and why."""
+    per_rad = 4096 / (2 * 3.141592653589793)
+    drive.fake.pp_short_by = 10
     assert main(_rig(drive, "--json", "move", "1")) == 0
     r = json.loads(capsys.readouterr().out)
-    assert r["result"] == "done" and r["target_rad"] == 1.0
-    per_rad = 4096 / (2 * 3.141592653589793)
-    assert r["short_by_rad"] == pytest.approx(1.0 - (round(per_rad) - 10) / per_rad)
-    assert r["stopped_short"].startswith("stopped 0.01518 rad (10 increments) short of 1 rad")
-    assert "within its position window (0x6067 = 10 increments, 0.01534 rad)" in r["stopped_short"]
+    assert r["result"] == "done" and r["target_rad"] == 1.0 and r["stopped_short"] is None
+    assert r["error_rad"] == pytest.approx(1.0 - (round(per_rad) - 10) / per_rad) and r["error_units"] == 10
+    assert r["error_said"] == "within the drive's position window (0x6067 = 10, 0.01534 rad)"
+    drive.fake.pp_short_by = 15
+    assert main(_rig(drive, "--json", "move", "0")) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["stopped_short"].startswith("stopped 0.02301 rad (15 position units) short of 0 rad")
+    assert "outside its position window (0x6067 = 10)" in r["stopped_short"]
 
 
 @pytest.mark.parametrize("drive", ["faulhaber-mc5004"], indirect=True)

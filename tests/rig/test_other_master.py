@@ -113,7 +113,11 @@ def test_rig_drive_checks_before_it_enables(drive: ForeignDrive) -> None:
     tool = DriveTool(drive.axis("csp", network=net), watch=watch)
     drive.send(0x080, b"")
     until(lambda: 0x080 in watch.heard, "the SYNC heard")
-    for action in (tool.enable, lambda: tool.jog(1.0, 0.1, limit=5.0), lambda: tool.move(0.1, limit=1.0)):
+    from rig.commission import moves
+
+    jog = lambda: moves.jog(tool, 1.0, 0.1, max_speed=5.0)  # noqa: E731
+    move = lambda: moves.move(tool, 0.1, max_travel=1.0)  # noqa: E731
+    for action in (tool.enable, jog, move):
         with pytest.raises(OtherMaster, match=r"rig drive: another master is on the bus: heard SYNC 0x080"):
             action()
     assert [w for w in drive.fake.downloads if w[0] in (0x6040, 0x6060)] == []

@@ -1,0 +1,264 @@
+"""``rig drive``'s moves on the drive's own profile modes, as an engineer asks for them, each ending
+in a short report: ``jog`` (profile velocity at a speed for a while), ``move`` (profile position
+to a position, absolute or relative, at a speed and acceleration, optionally held there) and
+``home`` (homing by a method). One meaning per option: ``max_speed`` [rad/s] is the fastest the
+shaft may turn in any move (the motion watch stops it beyond), ``max_travel`` [rad] the farthest a
+move may go; ``speed`` [rad/s] and ``accel`` [rad/s^2] are what the move asks of the drive's
+profile (0x6081, 0x6083/0x6084), written only where the drive declares them writable.
+
+Each move runs through ``DriveTool.run_profile`` (enable, the move watched at every look, the
+drive's own stop to rest, disable) and reports: what was asked, where the shaft ended (SI and the
+drive's units), the error, the time, and how it stopped, in words.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from drivers.cia402_access import Setting
+from drivers.cia402_units import require
+from drivers.errors import ConfigError, DeviceFault
+from drivers.identity import read_standard
+from drivers.maps import cia
+from drivers.maps.cia import Controlword, Mode
+from rig.commission.motion_watch import MotionWatch
+from rig.commission.status import UNITS_HINT
+
+if TYPE_CHECKING:
+    from rig.commission.drive import DriveTool
+
+__all__ = ["MAX_HOLD", "home", "jog", "move", "report_lines"]
+
+_NEW_SETPOINT = 0x10  #: controlword bit 4: new set-point (profile position, homing)
+_RELATIVE = 0x40  #: controlword bit 6: the target is relative (profile position)
+_BIT12, _HOMING_ERROR, _TARGET_REACHED = 1 << 12, 1 << 13, 1 << 10  #: set-point ack / attained
+_LIMIT, _FOLLOWING_ERROR = 1 << 11, 1 << 13  #: internal limit active; following error (pp)
+#: [s] at most a hold lasts (``move --hold`` without a time holds until Ctrl-C or this)
+MAX_HOLD = 3600.0
+
+
+def _profile(tool: DriveTool, speed: float | None, accel: float | None, max_speed: float) -> dict[str, Any]:
+    """The move's speed and acceleration written to the drive's profile (0x6081, 0x6083 and 0x6084,
+    where it declares them writable), after checking them against ``max_speed``; what it asked."""
+    a = tool.axis
+    asked: dict[str, Any] = {}
+    if speed is not None:
+        if not 0.0 < speed <= max_speed:
+            raise ConfigError(f"--speed {speed:g} rad/s: must be in (0, --max-speed {max_speed:g}] rad/s")
+        Setting(cia.PROFILE_VELOCITY, 0, round(speed * a.units.velocity), "the move's speed", True).apply(
+            a.node.object_dictionary, a.sdo_read, a.sdo_write, a.where
+        )
+        asked["speed_rad_s"] = speed
+    if accel is not None:
+        if not accel > 0.0:
+            raise ConfigError(f"--accel {accel:g} rad/s^2: must be > 0")
+        raw = round(accel * a.units.velocity)
+        for index in (cia.PROFILE_ACCELERATION, cia.PROFILE_DECELERATION):
+            Setting(index, 0, raw, "the move's acceleration", True).apply(
+                a.node.object_dictionary, a.sdo_read, a.sdo_write, a.where
+            )
+        asked["accel_rad_s2"] = accel
+    return asked
+
+
+def _stop_words(result: dict[str, Any]) -> str:
+    """How the move ended, in words."""
+    state = result["state"]
+    if result["stop_confirmed"]:
+        return f"at rest and disabled ({state}); the stop confirmed"
+    turning = ", ".join(f"{k} at {v} rad/s" for k, v in result["still_turning"].items())
+    return f"NOT confirmed: {state}" + (f"; still turning: {turning}" if turning else "")
+
+
+def jog(
+    tool: DriveTool, speed: float, seconds: float, *, max_speed: float = 20.0, accel: float | None = None
+) -> dict[str, Any]:
+    """Profile velocity at ``speed`` [rad/s] for ``seconds``; |speed| <= ``max_speed``, and the
+    shaft watched against both (``MotionWatch``); the report says the speed it reached."""
+    if not abs(speed) <= max_speed:
+        raise ConfigError(f"jog speed {speed:g} rad/s exceeds --max-speed {max_speed:g} rad/s")
+    a = tool.axis
+    late = [tool.deadline(seconds)]
+    ticks = [0]
+    watch: list[MotionWatch] = []
+    asked: dict[str, Any] = {}
+
+    def elapsed() -> bool:
+        ticks[0] += 1
+        return ticks[0] * tool.period >= seconds or late[0]()
+
+    def start() -> None:
+        asked.update(_profile(tool, None, accel, max_speed))
+        tool.watch_actual(speed, cia.VELOCITY_ACTUAL, a.units.velocity)  # the units: once discovered
+        here, _ = tool.actual()
+        tool.motion = tool.motion_watch(what="the jog", speed_limit=max_speed, asked_speed=speed, start=here)
+        watch.append(tool.motion)
+        a.sdo_write(cia.TARGET_VELOCITY, 0, round(speed * a.units.velocity))
+        late[0] = tool.deadline(seconds)  # the jog's time runs from its target, not the set-up
+
+    result = tool.run_profile(Mode.PROFILE_VELOCITY, start, elapsed, seconds + 1.0, "the jog")
+    reached = watch[0].reached() if watch else math.nan
+    return {"asked_rad_s": speed, "reached_rad_s": reached, **asked, "stop": _stop_words(result)} | result
+
+
+def move(
+    tool: DriveTool,
+    position: float,
+    *,
+    relative: bool = False,
+    speed: float | None = None,
+    accel: float | None = None,
+    max_speed: float = 20.0,
+    max_travel: float = 10.0,
+    hold: float | None = None,
+    seconds: float = 30.0,
+) -> dict[str, Any]:
+    """Profile position to ``position`` [rad] (from where the shaft stands with ``relative``) at
+    ``speed`` [rad/s] (default: the drive's 0x6081, at most ``max_speed``) and ``accel``
+    [rad/s^2]; the travel at most ``max_travel`` [rad]. ``hold`` [s]: stay enabled at the target
+    that long (inf: until Ctrl-C) before the stop. The report says where it ended, the error
+    (within the drive's position window 0x6067, or why not) and the time."""
+    a = tool.axis
+    a.discover(check_mode=False)
+    tool.offers(Mode.PROFILE_POSITION, "move")
+    require(a.units, int(Mode.PROFILE_POSITION), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
+    here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
+    target = here + position if relative else position
+    if not abs(target - here) <= max_travel:
+        raise ConfigError(f"a move of {target - here:g} rad exceeds --max-travel {max_travel:g} rad")
+    if speed is None:  # the drive's own profile velocity, at most the speed limit
+        own = tool.profile_speed(cia.PROFILE_VELOCITY)
+        speed = None if own <= max_speed else max_speed
+    tool.watch_actual(target, cia.POSITION_ACTUAL, a.units.position)
+    seen = [0]  #: the statusword at the last look before the stop (its bits 10, 11, 13)
+    asked: dict[str, Any] = {}
+    arrived: list[float] = []
+
+    def start() -> None:
+        asked.update(_profile(tool, speed, accel, max_speed))
+        tool.watch_actual(target, cia.POSITION_ACTUAL, a.units.position)
+        tool.motion = tool.motion_watch(what="the move", speed_limit=max_speed, start=here, target=target)
+        a.sdo_write(cia.TARGET_POSITION, 0, round(target * a.units.position))
+        a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
+        tool.until(lambda: bool(a.sdo_read(cia.STATUSWORD) & _BIT12), 1.0, "the set-point acknowledge")
+        a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION))
+
+    def done() -> bool:
+        seen[0] = int(a.sdo_read(cia.STATUSWORD))
+        if not seen[0] & _TARGET_REACHED:
+            return False
+        if not arrived:
+            arrived.append(tool.elapsed())
+        return hold is None or tool.elapsed() - arrived[0] >= min(hold, MAX_HOLD)
+
+    wait = seconds + (min(hold, MAX_HOLD) if hold is not None else 0.0)
+    result = tool.run_profile(Mode.PROFILE_POSITION, start, done, wait, "the target")
+    reached = result["position_rad"]
+    report = {
+        "target_rad": target,
+        "relative": relative,
+        **asked,
+        "reached_rad": reached,
+        "time_s": arrived[0] if arrived else tool.elapsed(),
+        "held_s": tool.elapsed() - arrived[0] if arrived and hold is not None else 0.0,
+        **_error(tool, target, reached, seen[0]),
+        "stop": _stop_words(result),
+    }
+    return report | result
+
+
+def _error(tool: DriveTool, target: float, reached: float, word: int) -> dict[str, Any]:
+    """The move's error at ``reached`` [rad] from ``target``, in SI and the drive's units, and in
+    words: within the drive's position window (0x6067), or said reached by the drive whose window
+    cannot be read; else ``stopped_short`` says how far and why (statusword ``word``: an internal
+    limit, a following error, no target reached)."""
+    a = tool.axis
+    short = target - reached
+    units = short * a.units.position
+    window = read_standard(a.sdo_upload, cia.POSITION_WINDOW)
+    out = {"error_rad": short, "error_units": round(units), "short_by_rad": short, "stopped_short": None}
+    if word & _TARGET_REACHED and not word & (_LIMIT | _FOLLOWING_ERROR):
+        if window is None:
+            return out | {"error_said": "the drive said target reached (its position window 0x6067 unread)"}
+        if abs(units) <= window + 0.5:
+            in_rad = window / a.units.position
+            return out | {
+                "error_said": f"within the drive's position window (0x6067 = {window}, {in_rad:.4g} rad)"
+            }
+        why = f"the drive said target reached, outside its position window (0x6067 = {window})"
+    elif word & _LIMIT:
+        why = "internal limit active (statusword bit 11: a position limit 0x607D or a limit switch)"
+    elif word & _FOLLOWING_ERROR:
+        why = "following error (statusword bit 13: more than 0x6065 behind the profile)"
+    else:
+        why = "the drive did not say target reached (statusword bit 10)"
+    said = f"stopped {abs(short):.4g} rad ({abs(units):.0f} position units) short of {target:g} rad: {why}"
+    return out | {"error_said": said, "stopped_short": said}
+
+
+def home(
+    tool: DriveTool, method: int | None, *, max_speed: float = 20.0, seconds: float = 30.0
+) -> dict[str, Any]:
+    """Homing with ``method`` (0x6098; None: the drive's); attained or an error; the shaft no
+    faster than ``max_speed`` [rad/s]."""
+    a = tool.axis
+
+    def start() -> None:
+        tool.watch_actual(0.0, cia.POSITION_ACTUAL, a.units.position)
+        tool.motion = tool.motion_watch(what="homing", speed_limit=max_speed)  # the position is set anew
+        if method is not None:
+            a.sdo_write(cia.HOMING_METHOD, 0, method)
+        a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
+
+    def done() -> bool:
+        word = int(a.sdo_read(cia.STATUSWORD))
+        if word & _HOMING_ERROR:
+            raise DeviceFault(f"homing error (method {method})", device=a.where)
+        return bool(word & _BIT12 and word & _TARGET_REACHED)
+
+    result = tool.run_profile(Mode.HOMING, start, done, seconds, "homing")
+    return {"method": method, "time_s": tool.elapsed(), "stop": _stop_words(result)} | result
+
+
+def _si(value: float | None, unit: str, factor: float) -> str:
+    """``value`` [unit] and its drive units (``factor`` per unit)."""
+    if value is None or not math.isfinite(value):
+        return "-"
+    units = f" ({value * factor:.0f} drive units)" if math.isfinite(factor) and factor else ""
+    return f"{value:.6g} {unit}{units}"
+
+
+def report_lines(action: str, r: dict[str, Any], position_factor: float, velocity_factor: float) -> list[str]:
+    """A move's report for a person: asked, reached, error, time, the stop in words (``action``:
+    jog, move, home); the factors: the drive's units per rad and per rad/s."""
+    rows: list[tuple[str, str]] = []
+    if action == "jog":
+        rows.append(("asked", f"{r['asked_rad_s']:g} rad/s" + _also(r)))
+        rows.append(("reached", _si(r.get("reached_rad_s"), "rad/s", velocity_factor)))
+    elif action == "move":
+        how = "relative" if r.get("relative") else "absolute"
+        rows.append(("target", f"{r['target_rad']:.6g} rad ({how})" + _also(r)))
+        rows.append(("reached", _si(r.get("reached_rad"), "rad", position_factor)))
+        rows.append(
+            ("error", f"{r['error_rad']:.4g} rad ({r['error_units']} drive units): {r['error_said']}")
+        )
+        rows.append(
+            ("time", f"{r['time_s']:.3g} s" + (f", held {r['held_s']:.3g} s" if r.get("held_s") else ""))
+        )
+    else:
+        method = r.get("method")
+        rows.append(("homing", f"method {method}" if method is not None else "the drive's own method"))
+        rows.append(("time", f"{r['time_s']:.3g} s"))
+    rows.append(("result", str(r["result"])))
+    if "position_rad" in r:
+        rows.append(("position", _si(r["position_rad"], "rad", position_factor)))
+    rows.append(("velocity", _si(r["velocity_rad_s"], "rad/s", velocity_factor)))
+    rows.append(("stop", r["stop"]))
+    return [f"{key:15s} {text}" for key, text in rows]
+
+
+def _also(r: dict[str, Any]) -> str:
+    parts = [f"at {r['speed_rad_s']:g} rad/s"] if "speed_rad_s" in r else []
+    parts += [f"{r['accel_rad_s2']:g} rad/s^2"] if "accel_rad_s2" in r else []
+    return (", " + ", ".join(parts)) if parts else ""
