@@ -150,7 +150,9 @@ def _default(od: Any, index: int, subindex: int) -> int | None:
         value = od[index][subindex].default
     except (KeyError, TypeError, AttributeError):
         return None
-    return value if isinstance(value, int) and not isinstance(value, bool) else None
+    if not isinstance(value, int) or isinstance(value, bool):
+        return None
+    return value & 0xFFFFFFFF  # 0x1018's entries are UNSIGNED32 (an EDS declaring one signed: its bits)
 
 
 def declared_identity(od: Any) -> Identity:

@@ -119,6 +119,8 @@ def _check(args: argparse.Namespace) -> None:
     if args.action == "home" and args.method is not None and not -128 <= args.method <= 127:
         raise UsageError(f"rig drive home: argument --method: must be -128..127, got {args.method}")
     if args.action in ("jog", "move") and args.limit is not None:
+        if not args.limit > 0.0:
+            raise UsageError(f"rig drive {args.action}: argument --limit: must be > 0, got {args.limit:g}")
         new = "--max-speed" if args.action == "jog" else "--max-travel"
         print(f"rig drive {args.action}: --limit is deprecated: use {new}", file=sys.stderr)
         setattr(args, "max_speed" if args.action == "jog" else "max_travel", args.limit)

@@ -207,13 +207,14 @@ def test_scan_a_node_without_a_name_or_a_profile(tmp_path: pathlib.Path) -> None
         "device_type": "0x00000000",
         "profile": "none given",
         "vendor_id": "0x00000DB1",
+        "vendor_name": "drive-rig",  # CiA's vendor-ID list (drivers.maps.vendors)
         "product_name": None,
         "errors": [abort],
     }
     assert (rows[9]["device_type"], rows[9]["profile"]) == ("0x00010999", "2457 (unknown profile)")
     lines = table(list(rows.values()))
-    assert lines[2] == "   7  unknown    0x00000000   none given              0x00000DB1  -"
-    assert lines[3] == "   9  unknown    0x00010999   2457 (unknown profile)  0x00000DB1  -"
+    assert lines[2] == "   7  unknown    0x00000000   none given              0x00000DB1  drive-rig    -"
+    assert lines[3] == "   9  unknown    0x00010999   2457 (unknown profile)  0x00000DB1  drive-rig    -"
     assert lines[4:] == [f"node 7: {abort}", f"node 9: {abort}"]
 
 
