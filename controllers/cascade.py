@@ -138,6 +138,9 @@ class CascadeLoop:
     params: CascadeLoopParams
     g: float = field(default=0.0, init=False)  #: sliding variable g_k
     v: float = field(default=0.0, init=False)  #: disturbance estimate v_k [unit of u]
+    #: the last step was in the loop's linear region: its reaching linear (c), its sign inside the
+    #: boundary layer (d: |g| <= c_1 beta) and its output below U_0 (f)
+    linear: bool = field(default=True, init=False)
 
     def __post_init__(self) -> None:
         p = self.params
@@ -158,6 +161,7 @@ class CascadeLoop:
         """Restore the initial state."""
         self.g = 0.0
         self.v = 0.0
+        self.linear = True
         self._r_prev = math.nan
         self._sat = 0
 
@@ -177,22 +181,26 @@ class CascadeLoop:
             u = -self._k1 * y1
         self.g = g
         reach = self._kr1 * abs(g) * self._inv_dt
-        reach = min(reach, self._kr2u0)
+        linear = reach <= self._kr2u0
+        reach = reach if linear else self._kr2u0
         u += reach if g >= 0.0 else -reach
         psi = g * self._inv_layer
-        psi = 1.0 if psi > 1.0 else (-1.0 if psi < -1.0 else psi)
+        if psi > 1.0:
+            psi, linear = 1.0, False
+        elif psi < -1.0:
+            psi, linear = -1.0, False
         if not ((self._sat > 0 and psi > 0.0) or (self._sat < 0 and psi < 0.0)):
             v = self.v + self._kint_dt * psi
             u0 = self._u0
             self.v = u0 if v > u0 else (-u0 if v < -u0 else v)
         u += self.v
         if u >= self._u0:
-            self._sat = 1
+            self._sat, self.linear = 1, False
             return self._u0
         if u <= -self._u0:
-            self._sat = -1
+            self._sat, self.linear = -1, False
             return -self._u0
-        self._sat = 0
+        self._sat, self.linear = 0, linear
         return u
 
 

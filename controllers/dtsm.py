@@ -85,6 +85,9 @@ class DTSM:
     params: DTSMParams
     compensator: Compensator | None = None
     g: float = field(default=0.0, init=False)  #: last sliding variable g_k (6.10)
+    #: the last step was in the law's linear region: (6.14) and (6.15b) below U0, (6.15a) with
+    #: |g|/T <= sigma; never for the relay (6.8) while g != 0 (its sign term is the whole reaching)
+    linear: bool = field(default=True, init=False)
 
     def __post_init__(self) -> None:
         d = self.params.design
@@ -101,6 +104,7 @@ class DTSM:
     def reset(self) -> None:
         """Restore the initial state (and the compensator's)."""
         self.g = 0.0
+        self.linear = True
         if self.compensator is not None:
             self.compensator.reset()
 
@@ -110,16 +114,19 @@ class DTSM:
         self.g = g
         u_eq = -(self._k1 * x1 + self._k2 * x2)
         law = self._law
+        linear = True
         if law == 0:  # (6.14)
             u = u_eq - g * self._inv_dt
         elif law == 1:  # (6.15a)
             reach = abs(g) * self._inv_dt
-            reach = min(reach, self._sigma)
+            if reach > self._sigma:
+                reach, linear = self._sigma, False
             u = u_eq - reach if g > 0.0 else u_eq + reach
         elif law == 2:  # (6.15b), saturated below after compensation
             u = u_eq - g * self._inv_dt
         else:  # relay, (6.8) sampled
             u = u_eq - (self._sigma if g > 0.0 else -self._sigma if g < 0.0 else 0.0)
+            linear = g == 0.0
         comp = self.compensator
         if comp is not None:
             if self._linear_only and abs(g) * self._inv_dt > self._sigma:
@@ -127,7 +134,10 @@ class DTSM:
             else:
                 u += comp.step(g)
         if u > self._u0:
+            self.linear = False
             return self._u0
         if u < -self._u0:
+            self.linear = False
             return -self._u0
+        self.linear = linear
         return u

@@ -60,6 +60,9 @@ class IDTSM:
 
     params: IDTSMParams
     g: float = field(default=0.0, init=False)  #: integral sliding variable g_k (6.20)
+    #: the last step was in the law's linear region: (6.21) has no sign term, so it is left only
+    #: where a bound acts (the integrator at +-g_limit, the output at +-U0)
+    linear: bool = field(default=True, init=False)
 
     def __post_init__(self) -> None:
         p = self.params
@@ -76,16 +79,27 @@ class IDTSM:
     def reset(self) -> None:
         """Restore the initial state: the next error starts on the sliding line."""
         self.g = 0.0
+        self.linear = True
         self._e_prev = math.nan
 
     def step(self, e: float) -> float:
         """One control update from the tracking error e_k = r_k - y_k."""
         e_prev = self._e_prev
+        linear = True
         if e_prev == e_prev:  # noqa: PLR0124 (not NaN: integrate (6.20))
             g = self.g + self._inv_b * (e - e_prev - self._t_lam * e_prev)
             lim = self.params.g_limit
-            self.g = lim if g > lim else (-lim if g < -lim else g)
+            if g > lim:
+                g, linear = lim, False
+            elif g < -lim:
+                g, linear = -lim, False
+            self.g = g
         self._e_prev = e
         u = self.g * self._inv_dt + self.k_eq * e  # (6.21)
         u0 = self.params.u0
-        return u0 if u > u0 else (-u0 if u < -u0 else u)
+        if u > u0:
+            u, linear = u0, False
+        elif u < -u0:
+            u, linear = -u0, False
+        self.linear = linear
+        return u

@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import importlib
 import json
+import math
 from typing import TYPE_CHECKING, Any
 
 from rig.cli.common import (
@@ -220,7 +221,11 @@ def _drives(args: argparse.Namespace) -> int:
 
 
 def _cell(value: Any, fmt: str) -> str:
-    return "-" if value is None else format(value, fmt)
+    """``value`` in ``fmt``; "-" for none or NaN (not measured: the table's note says why)."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        width = "".join(c for c in fmt.split(".", maxsplit=1)[0] if c.isdigit())
+        return "-".rjust(int(width or 1))
+    return format(value, fmt)
 
 
 def _print_drives(doc: dict[str, Any]) -> None:
@@ -241,6 +246,7 @@ def _print_drives(doc: dict[str, Any]) -> None:
         print(f"  {r['name']:26s} {_cell(r['error_amplitude'], '11.4g')} {_cell(r['theory'], '11.4g')}")
     head = (
         f"  {'':34s} {'bus':>3s} {'rms e':>9s} {'max |e|':>9s} {'e_ss':>10s} {'chatter':>7s} {'du rms':>9s}"
+        f" {'sign %':>7s}"
     )
     for key, title in (
         ("position_servo", "Section VII.B position servo [rad; u in V]:"),
@@ -253,8 +259,13 @@ def _print_drives(doc: dict[str, Any]) -> None:
             print(
                 f"  {r['name']:34s} {'yes' if r['over_bus'] else 'no':>3s} {_cell(r['rms_error'], '9.3g')}"
                 f" {_cell(r['max_error'], '9.3g')} {_cell(r['steady_state_error'], '10.2e')}"
-                f" {r['chattering_count']:7d} {_cell(r['chattering_amplitude'], '9.2e')}"
+                f" {_cell(r['chattering_count'], '7.0f')} {_cell(r['chattering_amplitude'], '9.2e')}"
+                f" {_cell(None if r['sign_law_share'] is None else 100.0 * r['sign_law_share'], '7.3g')}"
             )
+            if r.get("chattering_note"):
+                print(f"  {'':34s} chatter {r['chattering_note']}")
     print(
-        "chatter: sign alternations of the command increment beyond one count's effect (docs/chattering.md)"
+        "chatter: sign alternations of the command increment beyond one step of the feedback's resolution's\n"
+        "effect; sign %: the steady window's cycles outside the law's linear region (- : the law has\n"
+        "none); docs/chattering.md"
     )

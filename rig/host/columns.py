@@ -31,6 +31,7 @@ INTERNALS = {
     "u_q": ("V", "the q-axis voltage command"),
     "integral": ("", "the speed law's integral state"),
     "excitation": ("", "the excitation r added to the command (rig identify's closed-loop experiment)"),
+    "sign_law": ("", "1 where the sliding-mode law was outside its linear region this cycle, else 0"),
 }
 _FIELDS = {
     "position": ("rad", "the axis's position"),

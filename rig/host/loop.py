@@ -42,7 +42,7 @@ from drivers.errors import CommunicationError, DeviceFault, RigError, SafetyStop
 from drivers.master_watch import OtherMaster
 from drivers.producer_watch import OtherProducer, ProducerWatch
 from rig.host.cycle_clock import collect_in_slack, prime, sleep_until
-from rig.host.loop_stats import RunMetrics, StageTimes, chatter_threshold
+from rig.host.loop_stats import StageTimes, run_metrics
 from rig.host.loop_summary import loop_summary
 from rig.host.pacing import Pacing
 from rig.host.realtime import YOUNG, cpu_stolen
@@ -152,14 +152,8 @@ class HostLoop:
         #: [s] of CPU time the hypervisor took during the cycles (``cpu_stolen``), and its count then
         self.stolen: float | None = None
         self._stolen_at: float | None = None
-        self.metrics = RunMetrics(
-            [a.name for a in self.axes],
-            [a.measures for a in self.axes],
-            wiring.commanded,
-            threshold=chatter_threshold(law, axes[wiring.reads[0]] if wiring.reads else None, period),
-            steady_from=cycles // 2,  # the run's second half is its steady state (docs/chattering.md)
-            command_range=2.0 * guards[wiring.commands[0]].limits.command if wiring.commands else math.inf,
-        )
+        limit = guards[wiring.commands[0]].limits.command if wiring.commands else math.inf
+        self.metrics = run_metrics(self.axes, law, wiring, limit, cycles)
         #: per axis, its recorded feedback fields as a tuple (one attrgetter call per axis and cycle)
         self._recorded = [
             (i, feedback_fields([f for f in FIELDS if f in a.measures])) for i, a in enumerate(self.axes)
@@ -358,7 +352,7 @@ class HostLoop:
                 if newest is not None:
                     self.times.response.append(time.time() - newest)
         scalars = [abs(v) if isinstance(v, complex) else v for v in values]  # a dq command as its magnitude
-        self.metrics.add(out.reference, out.measurement, values, samples)
+        self.metrics.add(out.reference, out.measurement, values, samples, out.internals)
         self.times.read.append(t1 - t0)
         self.times.update.append(t2 - t1)
         self.times.write.append(t3 - t2)

@@ -1,5 +1,6 @@
-"""The host loop's streaming figures: stage durations and period errors over a window, and the
-chattering count, kept as the cycles go (nothing grows with the run's length)."""
+"""The host loop's streaming figures: stage durations and period errors over a window, the
+tracking error, the peaks and the chattering (``rig.host.chatter``), kept as the cycles go
+(nothing grows with the run's length)."""
 
 from __future__ import annotations
 
@@ -11,13 +12,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rig.report.metrics import ROUNDING, count_threshold
+from rig.host.chatter import RunChatter
+from rig.laws.base import SIGN_LAW
 
 if TYPE_CHECKING:
     from drivers.base import AxisDriver
+    from rig.host.loop import Wiring
     from rig.laws.base import Law
 
-__all__ = ["ChatterCounter", "RunMetrics", "StageTimes", "chatter_threshold"]
+__all__ = ["RunMetrics", "StageTimes", "run_metrics"]
 
 
 class _Window(collections.deque):  # type: ignore[type-arg]
@@ -56,55 +59,25 @@ class StageTimes:
         return out
 
 
-class ChatterCounter:
-    """``rig.report.metrics.chattering_count`` and ``chattering_amplitude`` computed as the samples arrive.
-
-    Only the samples from index ``start`` on (the steady state) count; ``threshold`` is
-    ``rig.report.metrics.count_threshold`` for the law and the read axis (``ROUNDING`` at least).
-    """
-
-    def __init__(self, threshold: float, *, start: int = 0) -> None:
-        self.threshold = max(threshold, ROUNDING)
-        self.start = start  #: the first sample of the steady state
-        self.count = 0
-        self._n = 0
-        self._sq = 0.0
-        self._increments = 0
-        self._last: float | None = None
-        self._sign = 0.0
-
-    @property
-    def amplitude(self) -> float:
-        """RMS of the command increment over the steady state [unit of u]; NaN before two samples."""
-        return math.sqrt(self._sq / self._increments) if self._increments else math.nan
-
-    def add(self, u: float) -> None:
-        n = self._n
-        self._n = n + 1
-        if n < self.start:
-            return
-        if self._last is not None:
-            du = u - self._last
-            self._sq += du * du
-            self._increments += 1
-            if abs(du) > self.threshold:
-                sign = 1.0 if du > 0 else -1.0
-                if self._sign and sign != self._sign:
-                    self.count += 1
-                self._sign = sign
-        self._last = u
-
-
-def chatter_threshold(law: Law, axis: AxisDriver | None, period: float) -> float:
-    """The change of the law's first command that one count of the first read axis's measurement
-    can cause (``rig.report.metrics.count_threshold``): the law's ``sensitivity`` times the axis's
-    ``quanta``, with the speed quantum at least a count per period [unit of the command]."""
-    if axis is None:
-        return 0.0
-    q_theta, q_omega = axis.quanta()
-    return count_threshold(
-        law.sensitivity(), position_quantum=q_theta, velocity_quantum=max(q_omega, q_theta / period)
+def run_metrics(
+    axes: Sequence[AxisDriver], law: Law, wiring: Wiring, command_limit: float, cycles: int
+) -> RunMetrics:
+    """The run's ``RunMetrics``: the chattering of the law's first command against the resolution of
+    its first read axis (``rig.host.chatter``), over the run's second half (its steady state,
+    docs/chattering.md); ``command_limit``: the first commanded axis's limit [command unit]."""
+    read = wiring.reads[0] if wiring.reads else None
+    inner = getattr(law, "inner", law)  # (a FaultyLaw's own law)
+    internals = inner.internals
+    chatter = RunChatter(
+        inner.sensitivity(),
+        axes[read].quanta() if read is not None else (0.0, 0.0),
+        read=read,
+        measures=axes[read].measures if read is not None else (),
+        sign_column=internals.index(SIGN_LAW) if SIGN_LAW in internals else None,
+        steady_from=cycles // 2,
+        command_range=2.0 * command_limit,
     )
+    return RunMetrics([a.name for a in axes], [a.measures for a in axes], wiring.commanded, chatter)
 
 
 class RunMetrics:
@@ -116,20 +89,13 @@ class RunMetrics:
         names: Sequence[str],
         measures: Sequence[Collection[str]],
         commanded: Sequence[int],
-        *,
-        threshold: float,
-        steady_from: int,
-        command_range: float = math.inf,
+        chatter: RunChatter,
     ) -> None:
         """Axes by ``names`` with the quantities each ``measures``; ``commanded``: the axes (indices)
-        of a cycle's commands, in order; ``threshold``: the chattering threshold [command unit]
-        (``chatter_threshold``), counted from cycle ``steady_from``; ``command_range``: the
-        largest increment the first command can make (twice its limit) [command unit]."""
-        self.threshold = threshold
-        self.command_range = command_range
+        of a cycle's commands, in order; ``chatter``: the chattering of the first command."""
         self.sq_error = 0.0
         self.max_error = 0.0
-        self.chatter = ChatterCounter(threshold, start=steady_from)
+        self.chatter = chatter
         self.peaks = {name: dict.fromkeys(("velocity", "current", "command"), 0.0) for name in names}
         #: per axis, its peaks and the measured quantities whose peak is kept
         self._fields = [
@@ -138,15 +104,25 @@ class RunMetrics:
         ]
         self._command_peaks = [self.peaks[names[i]] for i in commanded]
 
-    def add(self, ref: float, y: float, values: Sequence[Any], samples: Sequence[Any]) -> None:
-        """One cycle: reference and measurement, its commands (``values``), the axes' feedback."""
+    def add(
+        self,
+        ref: float,
+        y: float,
+        values: Sequence[Any],
+        samples: Sequence[Any],
+        internals: Sequence[float] = (),
+    ) -> None:
+        """One cycle: reference and measurement, its commands (``values``), the axes' feedback, the
+        law's internals."""
         e = ref - y
         self.sq_error += e * e
         e = abs(e)
         if e > self.max_error:  # noqa: PLR1730 - max() without its call, per cycle (NaN alike)
             self.max_error = e
         if values:
-            self.chatter.add(abs(values[0]) if isinstance(values[0], complex) else values[0])
+            self.chatter.add(
+                abs(values[0]) if isinstance(values[0], complex) else values[0], samples, internals
+            )
         for (peaks, names), fb in zip(self._fields, samples):
             for name in names:
                 value = abs(getattr(fb, name))
@@ -156,12 +132,6 @@ class RunMetrics:
             value = abs(command)
             if value > peaks["command"]:  # noqa: PLR1730 (as above)
                 peaks["command"] = value
-
-    @property
-    def chattering_count(self) -> int | None:
-        """The chattering count; None (not measurable) where one count's effect, the threshold, is
-        at least ``command_range``: no increment of the command can exceed it."""
-        return None if self.threshold >= self.command_range else self.chatter.count
 
     def rms_error(self, n: int) -> float:
         """The RMS tracking error over ``n`` cycles (NaN for none)."""

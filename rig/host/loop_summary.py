@@ -8,6 +8,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from rig.host.columns import MODE_UNITS
+from rig.report.summary import failed_figures
 
 if TYPE_CHECKING:
     from rig.host.loop import HostLoop
@@ -18,19 +19,23 @@ MISSED_SHARE = 0.01  #: a real-time run whose skipped and late cycles exceed thi
 
 
 def loop_summary(loop: HostLoop) -> dict[str, Any]:
-    """``loop``'s summary as it stands (a safe stop's too)."""
+    """``loop``'s summary as it stands (a safe stop's too: ``status`` "stopped", every performance
+    figure NaN, and what they were when it stopped under ``cut_short``)."""
     n = loop.done
     m = loop.metrics
     units = {a.name: MODE_UNITS.get(a.mode, "") for a in loop.axes if a.mode is not None}
     commands = loop.wiring.commands
-    return {
-        "cycles": n,
+    figures = {
         "rms_error": m.rms_error(n),
         "max_error": m.max_error if n else math.nan,
+        **m.chatter.figures(),
+    }
+    status = "completed" if loop.safe_stop_reason is None else "stopped"
+    return {
+        "status": status,
+        "cycles": n,
+        **(figures if status == "completed" else failed_figures(figures, "the run stopped")),
         "error_unit": loop.law.error_unit,
-        "chattering_count": m.chattering_count,
-        "chattering_amplitude": m.chatter.amplitude,
-        "chattering_threshold": m.threshold,
         # the unit of the law's first command (chattering's) and of each axis's command
         "command_unit": units.get(loop.axes[commands[0]].name, "") if commands else "",
         "command_units": units,

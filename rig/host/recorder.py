@@ -92,6 +92,17 @@ def write_atomic(
         raise
 
 
+def _finite(value: Any) -> Any:
+    """``value`` with every non-finite float, nested ones too, as None (JSON has no NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
 def _json(data: dict[str, Any]) -> Callable[[Any], None]:
     return lambda f: f.write(json.dumps(data, indent=2) + "\n")
 
@@ -343,11 +354,8 @@ class Recorder:
             with _suppressed("plot.png not written", summary, "plot.png"):
                 self.plot(envelope.rows())
         self._reserve.release()
-        clean = {
-            k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()
-        }
         with _suppressed("summary.json not written", summary, "summary.json"):
-            write_atomic(self.dir / "summary.json", _json(clean), sync=self.DURABLE)
+            write_atomic(self.dir / "summary.json", _json(_finite(summary)), sync=self.DURABLE)
 
     def _write_mat(self, f: Any, columns: Columns) -> None:
         write_mat(f, self.columns, columns.column, self.docs)

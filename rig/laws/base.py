@@ -6,7 +6,10 @@ the loop period and the reference, and is never changed afterwards. Each cycle
 ``[controller] reads`` names them) and returns a ``LawStep``: one command per
 axis it commands (in the order of ``[controller] commands``), the reference and
 the measured value of the controlled variable, and its internals (the columns
-``internals`` names). Before the first step, ``begin(feedback)`` gets the first samples:
+``internals`` names). A sliding-mode law names ``SIGN_LAW`` among them: 1 for a cycle whose
+command came from outside its linear region (the sign term of (6.8), (7.30b)'s sigma branch, a
+bound that acts), else 0; the run's ``sign_law_share`` is its mean (docs/chattering.md).
+Before the first step, ``begin(feedback)`` gets the first samples:
 a law whose reference is a position (``position_reference``) puts the reference's zero
 where the read axis stands (``[reference] origin = "start"``, the default: a move by
 ``distance`` from there), or keeps it absolute (``origin = "zero"``, after homing).
@@ -21,10 +24,13 @@ from typing import Any, ClassVar
 
 from drivers.base import Feedback
 
-__all__ = ["Law", "LawParams", "LawStep", "Reference"]
+__all__ = ["SIGN_LAW", "Law", "LawParams", "LawStep", "Reference"]
 
 #: reference(t) -> (value, rate) at time t [s]
 Reference = Callable[[float], tuple[float, float]]
+
+#: the internal column of a sliding-mode law: 1.0 where the cycle was outside its linear region
+SIGN_LAW = "sign_law"
 
 
 @dataclass(frozen=True, slots=True)

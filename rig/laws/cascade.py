@@ -19,7 +19,7 @@ from controllers.cascade import TABLE_V_POSITION, TABLE_V_SPEED, CascadeLoop, Ca
 from drivers.base import Feedback
 from drivers.schema import Refused, key
 from rig.laws import drives_paper as drives
-from rig.laws.base import Law, LawParams, LawStep, Reference
+from rig.laws.base import SIGN_LAW, Law, LawParams, LawStep, Reference
 
 __all__ = ["CascadeParams", "CascadePositionLaw"]
 
@@ -97,7 +97,7 @@ class CascadePositionLaw(Law):
     error_unit = "rad"
     modes = (frozenset({"cst", "voltage"}),)
     position_reference = True
-    internals = ("omega_ref", "i_q_ref")
+    internals = ("omega_ref", "i_q_ref", SIGN_LAW)
 
     def __init__(self, params: CascadeParams, *, period: float, reference: Reference) -> None:
         super().__init__(params, period=period, reference=reference)
@@ -132,4 +132,5 @@ class CascadePositionLaw(Law):
             self._omega_ref = self.position.step(theta_r, fb.position, fb.velocity)
         self._k += 1
         i_q = self.speed.step(self._omega_ref, fb.velocity)
-        return LawStep((self.params.k_t * i_q,), theta_r, fb.position, (self._omega_ref, i_q))
+        sign = 0.0 if self.position.linear and self.speed.linear else 1.0
+        return LawStep((self.params.k_t * i_q,), theta_r, fb.position, (self._omega_ref, i_q, sign))

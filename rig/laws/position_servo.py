@@ -18,7 +18,7 @@ from controllers.speed_observer import SpeedObserver
 from drivers.base import Feedback
 from drivers.schema import Refused, key
 from rig.laws import drives_paper as drives
-from rig.laws.base import Law, LawParams, LawStep, Reference
+from rig.laws.base import SIGN_LAW, Law, LawParams, LawStep, Reference
 
 __all__ = ["PositionServoLaw", "ServoParams"]
 
@@ -58,7 +58,7 @@ class PositionServoLaw(Law):
     error_unit = "rad"
     modes = (frozenset({"voltage", "cst"}),)
     position_reference = True
-    internals = ("g", "u_i")
+    internals = ("g", "u_i", SIGN_LAW)
 
     def __init__(self, params: ServoParams, *, period: float, reference: Reference) -> None:
         super().__init__(params, period=period, reference=reference)
@@ -78,15 +78,20 @@ class PositionServoLaw(Law):
         )
         (c1, c2), (k1, k2) = design.c_delta, design.c_delta_A_delta
         if p.law == "sign":  # the continuous part -c_delta A_delta e only
-            self._sensitivity = (abs(k1), abs(k2))
+            s1, s2 = k1, k2
         else:  # linear mode of (7.30): u = -(k + c/T + h c) e
             inv_dt = 1.0 / period
-            self._sensitivity = (abs(k1 + (inv_dt + p.h) * c1), abs(k2 + (inv_dt + p.h) * c2))
+            s1, s2 = k1 + (inv_dt + p.h) * c1, k2 + (inv_dt + p.h) * c2
+        observer = self.observer
+        # with the observer the law reads no speed: a count of position moves its estimate by gain[1]
+        self._sensitivity = (abs(s1), abs(s2)) if observer is None else (abs(s1 + s2 * observer.gain[1]), 0.0)
 
     def sensitivity(self) -> tuple[float, float]:
         """|du/de_1| [V/rad] and |du/de_2| [V/(rad/s)] of (7.30)'s linear mode,
         -(c_delta A_delta + (1/T + h) c_delta) (the integral's step h g included); of the
-        sign law, its continuous part -c_delta A_delta."""
+        sign law, its continuous part -c_delta A_delta. With ``speed = "observer"`` the law reads
+        the position only: (|du/de_1 + du/de_2 l_w|, 0), l_w the observer's speed gain per rad
+        of a new sample (``SpeedObserver.gain``)."""
         return self._sensitivity
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
@@ -97,4 +102,5 @@ class PositionServoLaw(Law):
         u = servo.step(theta_r - fb.position, omega_r - omega)
         if observer is not None:
             observer.command(u)
-        return LawStep((u,), theta_r, fb.position, (servo.g, getattr(servo, "u_i", 0.0)))
+        sign = 0.0 if servo.linear else 1.0
+        return LawStep((u,), theta_r, fb.position, (servo.g, getattr(servo, "u_i", 0.0), sign))

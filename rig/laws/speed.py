@@ -15,7 +15,7 @@ from controllers.idtsm import IDTSM, IDTSMParams
 from controllers.pi import PI, PIParams
 from drivers.base import Feedback
 from drivers.schema import Refused, key
-from rig.laws.base import Law, LawParams, LawStep, Reference
+from rig.laws.base import SIGN_LAW, Law, LawParams, LawStep, Reference
 
 __all__ = ["IdtsmSpeedLaw", "IdtsmSpeedParams", "PiSpeedLaw", "PiSpeedParams"]
 
@@ -82,6 +82,7 @@ class IdtsmSpeedLaw(Law):
 
     Params = IdtsmSpeedParams
     modes = _EFFORT
+    internals = (SIGN_LAW,)
 
     def __init__(self, params: IdtsmSpeedParams, *, period: float, reference: Reference) -> None:
         super().__init__(params, period=period, reference=reference)
@@ -96,4 +97,6 @@ class IdtsmSpeedLaw(Law):
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         w_r, _ = self.reference(t)
         w = feedback[0].velocity
-        return LawStep((self.idtsm.step(w_r - w),), w_r, w)
+        c = self.idtsm
+        u = c.step(w_r - w)
+        return LawStep((u,), w_r, w, (0.0 if c.linear else 1.0,))

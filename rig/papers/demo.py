@@ -24,7 +24,7 @@ from rig.identify import excitation
 from rig.identify.experiment import experiment_config, identify_from_log, run_experiment
 from rig.laws import drives_paper as drives
 from rig.papers.scenarios import Trajectory, cascade_run, position_servo_run
-from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms
+from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms, sign_law_share
 from rig.report.summary import summary_lines
 
 __all__ = ["DemoSummary", "demo_config", "demo_doc", "demo_summary", "run_demo"]
@@ -44,6 +44,9 @@ def _row(name: str, tr: Trajectory, settle: float) -> dict[str, Any]:
         # exact measurements: every alternation above rounding counts (docs/chattering.md)
         "chattering_steady": chattering_count(tr.u[steady]),
         "chattering_amplitude": chattering_amplitude(tr.u[steady]),
+        "sign_law_share": sign_law_share(tr.extra["sign_law"][steady])
+        if "sign_law" in tr.extra
+        else math.nan,
     }
 
 
@@ -129,18 +132,21 @@ def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int]
     out.write("  move 0 -> 10 rad in 1 s, load step f = T_L/J = 1000 rad/s^2 at 1.5 s\n")
     out.write(f"  theory, h = 0: e_1 = T c_2 f / c_1 = {s.load_error_theory_rad:.6f} rad\n\n")
     head = f"  {'controller':24s} {'max|e| rad':>11s} {'rms e rad':>11s} {'e_ss rad':>12s}"
-    head += f" {'max|u|':>8s} {'chatter':>8s} {'du rms':>9s}\n"
+    head += f" {'max|u|':>8s} {'chatter':>8s} {'du rms':>9s} {'sign %':>7s}\n"
     out.write(head)
     for r in s.rows:
         out.write(
             f"  {r['controller']:24s} {r['max_tracking_error_rad']:11.2e} {r['rms_tracking_error_rad']:11.2e}"
             f" {r['steady_state_error_rad']:12.3e} {r['u_max']:8.2f} {r['chattering_steady']:8d}"
-            f" {r['chattering_amplitude']:9.2e}\n"
+            f" {r['chattering_amplitude']:9.2e} {100.0 * r['sign_law_share']:7.3g}\n"
         )
     out.write(
         "\n  chatter = sign alternations of the control increment du in steady state (t >= 2.5 s) larger\n"
-        "  than one count of measurement can cause through the law (exact here: every one counts);\n"
-        "  du rms = chattering amplitude, RMS of du. See docs/chattering.md.\n"
+        "  than one step of the feedback's resolution can cause through the law (exact here: every one\n"
+        "  counts);\n"
+        "  du rms = chattering amplitude, RMS of du; sign % = the steady state's cycles outside the\n"
+        "  law's linear region ((6.8)'s sign term, (7.30b)'s sigma branch, a bound).\n"
+        "  See docs/chattering.md.\n"
         "  (6.36*) is a documented reconstruction; u is in V, except the cascade (V at the q axis).\n"
     )
     out.write("\nOver the emulated CAN bus (CiA 402 drive, voltage mode, 4096-count encoder, lock-step):\n")
@@ -159,9 +165,9 @@ def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int]
     step(3, 3)
     out.write("".join(f"  {line}\n" for line in summary_lines(wire)))
     out.write(
-        "  (chattering over the run's second half; a one-count change of the 4096-count encoder moves\n"
-        "  (7.30)'s command by up to the volts in brackets, so its one-count limit cycle is not\n"
-        "  counted; see docs/chattering.md)\n"
+        "  (chattering over the run's second half, beyond what one step of the feedback's resolution\n"
+        "  (one encoder count, one increment/s of 0x606C, measured in the samples) moves the command:\n"
+        "  a one-count limit cycle is not counted; see docs/chattering.md)\n"
     )
     if importlib.util.find_spec("matplotlib") is None:
         out.write("  (no plot.png: it needs matplotlib, python -m pip install -e '.[plot]')\n")

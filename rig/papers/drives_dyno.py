@@ -18,7 +18,7 @@ from rig.config import rig_config
 from rig.laws import drives_paper as drives
 from rig.papers.drives_setup import EXACT, DrivesStudy, Signals, bus_run
 from rig.papers.scenarios import cascade_run
-from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms
+from rig.report.metrics import max_abs, rms, steady_chattering
 
 __all__ = ["cascade_part", "im_part", "im_speed_run"]
 
@@ -26,6 +26,7 @@ __all__ = ["cascade_part", "im_part", "im_speed_run"]
 PI_KP = 0.673  #: [N m s/rad]
 PI_KI = 60.0  #: [N m/rad]
 IM_TORQUE_LIMIT = 10.0  #: [N m] both speed laws' output limit
+IM_DYNO_LIMIT = 12.0  #: [N m] the motor axis's command limit over the dyno
 #: [N m s] the limit of the IDTSM's integrator "Int 1" of section VII.C (+-0.01); without it the
 #: 100 rad/s step winds it up while the torque is at its limit: 58 % overshoot
 IDTSM_G_LIMIT = 0.01
@@ -44,9 +45,15 @@ def _windows(t_end: float) -> tuple[float, float, float]:
     return 1.0 if t_end > 2.0 else 0.5 * t_end, min(3.0, 0.75 * t_end), min(4.0, t_end)
 
 
-def _im_metrics(
-    t: np.ndarray, e: np.ndarray, u: np.ndarray, t_end: float, threshold: float
-) -> dict[str, float | int]:
+def _im_metrics(  # noqa: PLR0917 - a row's signals
+    t: np.ndarray,
+    e: np.ndarray,
+    u: np.ndarray,
+    sign_law: np.ndarray | None,
+    t_end: float,
+    threshold: float,
+    command_range: float = math.inf,
+) -> dict[str, Any]:
     t0, s0, s1 = _windows(t_end)
     after = t >= t0
     steady = (t >= s0) & (t < s1)
@@ -54,8 +61,12 @@ def _im_metrics(
         "rms_error": rms(e[after]),
         "max_error": max_abs(e[after]),
         "steady_state_error": float(np.mean(e[steady])) if steady.any() else math.nan,
-        "chattering_count": chattering_count(u[steady], threshold=threshold),
-        "chattering_amplitude": chattering_amplitude(u[steady]),
+        **steady_chattering(
+            u[steady],
+            None if sign_law is None else sign_law[steady],
+            threshold=threshold,
+            command_range=command_range,
+        ),
     }
 
 
@@ -78,15 +89,17 @@ def im_speed_run(law: str, *, t_end: float, load: Any, dt: float = drives.T_SPEE
     phi = math.exp(a * dt)
     gain = (phi - 1.0) / a
     w = 0.0
-    ref, y, u_out, tl = (np.empty(n) for _ in range(4))
+    ref, y, u_out, tl, sign = (np.empty(n) for _ in range(5))
     for k in range(n):
         tk = k * dt
         w_r = 100.0 if tk >= 0.3 else 0.0
         u = ctl.step(w_r - w)
         torque_load = load(tk + 0.5 * dt)
         ref[k], y[k], u_out[k], tl[k] = w_r, w, u, torque_load
+        sign[k] = 0.0 if getattr(ctl, "linear", True) else 1.0
         w = phi * w + gain * b * (u - torque_load)
-    return Signals(law, t, {"omega_ref": ref, "omega": y, "torque": u_out, "T_L": tl})
+    series = {"omega_ref": ref, "omega": y, "torque": u_out, "T_L": tl}
+    return Signals(law, t, series | ({"sign_law": sign} if law == "idtsm" else {}))
 
 
 def _dyno_doc(study: DrivesStudy, output: str, name: str, controller: dict[str, Any]) -> dict[str, Any]:
@@ -104,7 +117,7 @@ def _dyno_doc(study: DrivesStudy, output: str, name: str, controller: dict[str, 
                 "node_id": 1,
                 "mode": "cst",
                 "sync_rpdo": False,  # applied on receipt, as the pure simulation's torque
-                "limits": {"command": 12.0, "speed": 320.0, "current": 12.0},
+                "limits": {"command": IM_DYNO_LIMIT, "speed": 320.0, "current": 12.0},
             },
             {
                 "name": "load",
@@ -131,7 +144,8 @@ def im_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) ->
         sig = im_speed_run(law, t_end=study.im_t_end, load=load)
         e = sig.series["omega_ref"] - sig.series["omega"]
         row = {"name": name, "law": law, "over_bus": False}
-        row |= _im_metrics(sig.t, e, sig.series["torque"], study.im_t_end, 0.0) | EXACT
+        torque = sig.series["torque"]
+        row |= _im_metrics(sig.t, e, torque, sig.series.get("sign_law"), study.im_t_end, 0.0) | EXACT
         rows.append(row)
         sig.name = name
         plots.setdefault("im_speed", []).append(sig)
@@ -159,7 +173,8 @@ def im_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) ->
         summary, c = bus_run(rig_config(doc, "rig reproduce drives"))
         row = {"name": name, "law": law, "over_bus": True}
         e = c["reference"] - c["measurement"]
-        row |= _im_metrics(c["t"], e, c["command"], study.im_t_end, summary["chattering_threshold"])
+        threshold, limit = summary["chattering_threshold"], 2.0 * IM_DYNO_LIMIT
+        row |= _im_metrics(c["t"], e, c["command"], c.get("sign_law"), study.im_t_end, threshold, limit)
         row["chattering_threshold"] = summary["chattering_threshold"]
         row["safe_stop_reason"] = summary["safe_stop_reason"]
         rows.append(row)
@@ -183,7 +198,7 @@ def cascade_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]
     tr = cascade_run(t_end=study.im_t_end, load=load, move_start=0.3)
     name = "cascade (6.36*), Table V"
     row: dict[str, Any] = {"name": name, "law": "cascade", "over_bus": False}
-    row |= _im_metrics(tr.t, tr.error, tr.extra["i_ref"], study.im_t_end, 0.0) | EXACT
+    row |= _im_metrics(tr.t, tr.error, tr.extra["i_ref"], tr.extra["sign_law"], study.im_t_end, 0.0) | EXACT
     row["command_unit"] = "A (q-current reference)"
     rows = [row]
     plots.setdefault("cascade", []).append(
@@ -208,7 +223,8 @@ def cascade_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]
         e = c["reference"] - c["measurement"]
         k_t = drives.B_W * drives.J_IM
         row = {"name": name, "law": "cascade", "over_bus": True}
-        row |= _im_metrics(c["t"], e, c["i_q_ref"], study.im_t_end, summary["chattering_threshold"] / k_t)
+        threshold = summary["chattering_threshold"] / k_t
+        row |= _im_metrics(c["t"], e, c["i_q_ref"], c["sign_law"], study.im_t_end, threshold)
         row["command_unit"] = "A (q-current reference)"
         row["chattering_threshold"] = summary["chattering_threshold"] / k_t
         row["safe_stop_reason"] = summary["safe_stop_reason"]

@@ -28,9 +28,11 @@ Six parts, one per key of the JSON document:
   FOC in place of the current loop.
 
 Chattering figures follow ``rig.report.metrics``: the amplitude is the RMS of the command increment in
-the steady-state window, the count the sign alternations larger than one count of measurement
-can cause through the law (0 threshold for the pure simulations' exact measurements; over the
-bus, the summary's ``chattering_threshold``).
+the steady-state window, the count the sign alternations larger than one step of the feedback's
+resolution can cause through the law (0 threshold for the pure simulations' exact measurements;
+over the bus, the summary's ``chattering_threshold``, from the resolution the samples show), the
+sign-law share the part of the window's cycles the law spent outside its linear region (NaN for
+the PI, which has none).
 """
 
 from __future__ import annotations
@@ -51,7 +53,7 @@ from rig.papers.demo import DEMO_LOAD, demo_doc
 from rig.papers.drives_dyno import cascade_part, im_part
 from rig.papers.drives_setup import DRIVES_FIXED, DRIVES_PARAM_NAMES, EXACT, DrivesStudy, Signals, bus_run
 from rig.papers.scenarios import Trajectory, position_servo_run, speed_loop_run
-from rig.report.metrics import chattering_amplitude, chattering_count, max_abs, rms
+from rig.report.metrics import max_abs, rms, steady_chattering
 
 __all__ = [
     "DRIVES_FIXED",
@@ -217,16 +219,15 @@ def _speed_part(study: DrivesStudy, plots: dict[str, list[Signals]]) -> list[dic
     return rows
 
 
-def _servo_metrics(
-    t: np.ndarray, e: np.ndarray, u: np.ndarray, settle: float, threshold: float
-) -> dict[str, float | int]:
+def _servo_metrics(  # noqa: PLR0917 - a row's signals
+    t: np.ndarray, e: np.ndarray, u: np.ndarray, sign_law: np.ndarray, settle: float, threshold: float
+) -> dict[str, Any]:
     steady = t >= settle
     return {
         "rms_error": rms(e),
         "max_error": max_abs(e),
         "steady_state_error": float(np.mean(e[steady])) if steady.any() else math.nan,
-        "chattering_count": chattering_count(u[steady], threshold=threshold),
-        "chattering_amplitude": chattering_amplitude(u[steady]),
+        **steady_chattering(u[steady], sign_law[steady], threshold=threshold),
     }
 
 
@@ -246,7 +247,7 @@ def _servo_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]
             law="relay" if law == "sign" else "7.30",
         )
         row = {"name": name, "law": law, "h": h if law == "7.30" else None, "over_bus": False}
-        row |= _servo_metrics(tr.t, tr.error, tr.u, study.servo_settle, 0.0) | EXACT
+        row |= _servo_metrics(tr.t, tr.error, tr.u, tr.extra["sign_law"], study.servo_settle, 0.0) | EXACT
         rows.append(row)
         plots.setdefault("position_servo", []).append(
             Signals(name, tr.t, {"theta_r": tr.ref, "theta": tr.y, "u": tr.u})
@@ -259,7 +260,8 @@ def _servo_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]
         summary, c = bus_run(rig_config(doc, "rig reproduce drives"))
         t, e = c["t"], c["reference"] - c["measurement"]
         row = {"name": name, "law": law, "h": h if law == "7.30" else None, "over_bus": True}
-        row |= _servo_metrics(t, e, c["command"], study.servo_settle, summary["chattering_threshold"])
+        threshold = summary["chattering_threshold"]
+        row |= _servo_metrics(t, e, c["command"], c["sign_law"], study.servo_settle, threshold)
         row["chattering_threshold"] = summary["chattering_threshold"]
         row["safe_stop_reason"] = summary["safe_stop_reason"]
         rows.append(row)

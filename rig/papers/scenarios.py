@@ -120,7 +120,7 @@ def position_servo_run(
     ref = smooth_move(distance, move_time)
     n = round(t_end / dt)
     t = np.arange(n) * dt
-    out = {k: np.empty(n) for k in ("ref", "y", "u", "g", "u_i")}
+    out = {k: np.empty(n) for k in ("ref", "y", "u", "g", "u_i", "sign_law")}
     for k in range(n):
         tk = k * dt
         theta_r, omega_r = ref(tk)
@@ -135,8 +135,10 @@ def position_servo_run(
         out["ref"][k], out["y"][k], out["u"][k] = theta_r, motor.theta, u
         out["g"][k] = ctl.g
         out["u_i"][k] = getattr(ctl, "u_i", 0.0)
+        out["sign_law"][k] = 0.0 if ctl.linear else 1.0
         motor.step(u, j * load if tk >= load_time else 0.0)
-    return Trajectory(t, out["ref"], out["y"], out["u"], out["g"], {"u_i": out["u_i"]})
+    extra = {"u_i": out["u_i"], "sign_law": out["sign_law"]}
+    return Trajectory(t, out["ref"], out["y"], out["u"], out["g"], extra)
 
 
 def speed_loop_run(
@@ -241,7 +243,7 @@ def cascade_run(
     load = load or (lambda t: 0.0)
     n = round(t_end / dt)
     t = np.arange(n) * dt
-    names = ("ref", "y", "u", "g", "omega_ref", "omega", "i_ref", "i_q")
+    names = ("ref", "y", "u", "g", "omega_ref", "omega", "i_ref", "i_q", "sign_law")
     out = {k: np.empty(n) for k in names}
     theta_m, omega_m = 0.0, 0.0
     for k in range(n):
@@ -252,7 +254,18 @@ def cascade_run(
             theta_m, omega_m = encoder.sample(motor.theta)
         theta_r = ref(tk)[0]
         u = ctl.step(theta_r, theta_m, omega_m, motor.current)
-        row = (theta_r, motor.theta, u, ctl.position.g, ctl.omega_ref, motor.omega, ctl.i_ref, motor.current)
+        outside = 0.0 if ctl.position.linear and ctl.speed.linear else 1.0  # the loops the host runs
+        row = (
+            theta_r,
+            motor.theta,
+            u,
+            ctl.position.g,
+            ctl.omega_ref,
+            motor.omega,
+            ctl.i_ref,
+            motor.current,
+            outside,
+        )
         for name, value in zip(names, row):
             out[name][k] = value
         motor.step(u, load(tk))

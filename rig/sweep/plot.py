@@ -6,8 +6,9 @@
 - two numeric parameters on a grid: a heatmap (the mean over repeats and any other parameter);
   sampled (random, lhs): a scatter coloured by the metric.
 
-A point that failed (its row has an error: a safe stop, a time-out) has the figures of a run cut
-short: it is left out of the lines and the cells and drawn as a red x. A true/false metric
+A point that failed (its status not "completed": a safe stop, a time-out, an error) has NaN for
+its performance figures: it is left out of the lines and the cells and drawn as a red x (at the
+foot of a line plot, in its cell of a heatmap). A true/false metric
 (stop_confirmed) is 1/0. A parameter's axis is logarithmic where its scale is, or where its
 values (a list) span a decade or more; a metric's where its values span more than two decades.
 Axes carry units: a parameter's
@@ -46,6 +47,7 @@ UNITS = {
     "ratio": "-",
     "gamma": "-",
     "chattering_count": "alternations",
+    "sign_law_share": "share of the cycles",
     "cycles": "-",
     "overruns": "cycles",
     "held_cycles": "cycles",
@@ -75,7 +77,13 @@ def _number(v: Any) -> float:
 
 
 def _failed(row: dict[str, Any]) -> bool:
-    return row.get("error") is not None
+    """The point did not complete (a safe stop, its time-out, an exception): its performance
+    figures are NaN (``rig.sweep.point``)."""
+    return row.get("error") is not None or row.get("status", "completed") != "completed"
+
+
+#: what a failed point's marker says
+FAILED = "failed: stopped or an error (its status and error in the table)"
 
 
 def _log_axis(p: Parameter) -> bool:
@@ -157,10 +165,10 @@ def _lines(  # noqa: PLR0917 - one figure's parts
         if any(len(points[v]) > 1 for v in xs):
             every = [(v, y) for v in xs for y in points[v]]
             ax.plot([v for v, _ in every], [y for _, y in every], ".", color=line.get_color(), alpha=0.4)
-    failed = [(_number(r.get(x.name)), _number(r.get(metric))) for r in rows if _failed(r)]
-    if failed:
-        ys = [y if math.isfinite(y) else 0.0 for _, y in failed]
-        ax.plot([v for v, _ in failed], ys, "x", color="red", label="failed (its error in the table)")
+    failed = [_number(r.get(x.name)) for r in rows if _failed(r)]
+    if failed:  # at the foot of the axes, whatever their scale: its figures are NaN
+        foot = [0.03] * len(failed)
+        ax.plot(failed, foot, "x", color="red", ms=9, mew=2, transform=ax.get_xaxis_transform(), label=FAILED)
     if _log_axis(x):
         ax.set_xscale("log")
     if _spans_decades([y for points in by.values() for ys in points.values() for y in ys]):
@@ -201,7 +209,7 @@ def _heat(  # noqa: PLR0917 - one figure's parts
     failed = [r for r in rows if _failed(r)]
     if failed:
         xy = [_number(r.get(x.name)) for r in failed], [_number(r.get(y.name)) for r in failed]
-        ax.plot(*xy, "x", color="red", label="failed (its error in the table)")
+        ax.plot(*xy, "x", color="red", ms=9, mew=2, label=FAILED)
         ax.legend(fontsize="small")
     for axis, p in (("x", x), ("y", y)):
         if _log_axis(p):

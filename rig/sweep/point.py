@@ -9,7 +9,9 @@ fsync), unless the spec keeps runs (then ``<sweep>/runs/point-NNNNN-...``). A sc
 is a pure simulation (``rig.sweep.scenarios``).
 
 Nothing a point does ends the sweep: a bad value, an exception, a safe stop or the time-out
-is the row's ``error`` (a rig run's time-out is a safe stop at the next 1 % of its cycles).
+is the row's ``error`` (a rig run's time-out is a safe stop at the next 1 % of its cycles) and its
+``status``; its performance figures are NaN, never 0, so a filter on small errors or on no
+chattering keeps none of them.
 """
 
 from __future__ import annotations
@@ -224,15 +226,24 @@ def _run(job: Job) -> tuple[dict[str, Any], float]:
     return summary, float(summary.get("elapsed_s") or 0.0)
 
 
+def _failed_metrics(metrics: tuple[str, ...], scenario: str) -> dict[str, Any]:
+    """The metrics of a point that raised: a performance figure (every scenario's; a run's
+    ``PERFORMANCE``) NaN, never 0 or empty; the others (stop_confirmed, cycles) unknown."""
+    from rig.report.summary import PERFORMANCE
+
+    return {m: math.nan if scenario or m in PERFORMANCE else None for m in metrics}
+
+
 def run_point(job: Job) -> dict[str, Any]:
-    """The row of ``job``'s point: its values and seed, each metric, the stop reason and the
-    error (None when it ran to its end), its seconds in the worker (``elapsed_s``; ``run_s``:
-    the loop's or the simulation's own) and the worker."""
+    """The row of ``job``'s point: its values and seed, its ``status`` ("completed"; "stopped": a
+    safe stop, the time-out's too; "error": an exception), each metric (a performance figure NaN
+    unless completed), the stop reason and the error (None when it ran to its end), its seconds
+    in the worker (``elapsed_s``; ``run_s``: the loop's or the simulation's own) and the worker."""
     start = time.perf_counter()
     p = job.point
     row: dict[str, Any] = {"point": p.index, **p.values, "seed": p.seed, "repeat": p.repeat}
-    row.update(dict.fromkeys(job.metrics))
-    row.update({"stop_reason": None, "error": None, "run_s": math.nan})
+    row.update(_failed_metrics(job.metrics, job.scenario))
+    row.update({"status": "error", "stop_reason": None, "error": None, "run_s": math.nan})
     try:
         if job.scenario:
             from rig.sweep.scenarios import SCENARIOS
@@ -249,6 +260,7 @@ def run_point(job: Job) -> dict[str, Any]:
             if reason is not None:
                 row["error"] = f"safe stop: {reason}"
         row.update({m: _figure(summary, m) for m in job.metrics})
+        row["status"] = summary.get("status", "completed")
     except Exception as exc:  # a point's failure is its row, never the sweep's end
         row["error"] = f"{type(exc).__name__}: {exc}"
     row["elapsed_s"] = time.perf_counter() - start

@@ -103,14 +103,16 @@ def test_servo_7_30_does_not_chatter_the_sign_law_does(study: tuple[dict[str, An
     for r in rows:
         assert r["safe_stop_reason"] is None if r["over_bus"] else True
         if r["law"] == "7.30":
-            assert r["chattering_count"] == 0, r
+            assert r["chattering_count"] == 0 and r["sign_law_share"] == 0.0, r
             assert r["chattering_amplitude"] < 0.2, r  # V: a one-count limit cycle at most
         else:
             assert r["chattering_count"] > 100, r  # about one per sample in 0.2 s of 0.4 ms
             assert r["chattering_amplitude"] > 10.0, r  # 2 sigma = 20 V jumps
+            assert r["sign_law_share"] == 1.0, r
     bus = {(r["law"], r["h"]): r for r in rows if r["over_bus"]}
     assert bus[("sign", None)]["chattering_threshold"] < 0.01  # the sign law's continuous part only
-    assert bus[("7.30", 16.0)]["chattering_threshold"] > 10.0  # a count over T through c_2/T
+    # one count (1.5 mrad) and one increment/s of 0x606C (1.5 mrad/s) through (7.30)'s gradient
+    assert 0.08 < bus[("7.30", 16.0)]["chattering_threshold"] < 0.1
 
 
 def test_servo_integral_removes_the_load_error_h0_keeps_t_c2_f_over_c1(

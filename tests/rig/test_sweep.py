@@ -263,7 +263,8 @@ def test_ctrl_c_keeps_what_finished_and_resume_runs_the_rest(tmp_path: pathlib.P
 
 
 def test_a_failing_point_is_a_row_never_the_end_of_the_sweep(tmp_path: pathlib.Path, client: object) -> None:
-    """The law raises at 0.05 s on one point: a safe stop, its row says so; the others ran."""
+    """The law raises at 0.05 s on one point: a safe stop, its row says so, and its performance
+    figures are NaN, never 0 (a filter on chattering-free rows kept it: issue 35); the others ran."""
     from rig.sweep.engine import run_sweep
 
     text = SERVO_SPEC.replace('"faults.frame_loss" = [0.0, 0.02]', '"faults.law_error_at" = [0.05, 1.0]')
@@ -274,6 +275,10 @@ def test_a_failing_point_is_a_row_never_the_end_of_the_sweep(tmp_path: pathlib.P
     assert done.results.failed == 1 and rows[1.0]["error"] is None
     assert rows[0.05]["error"].startswith("safe stop: exception in the control loop")
     assert rows[0.05]["stop_reason"] and rows[0.05]["stop_confirmed"] is True
+    assert rows[0.05]["status"] == "stopped" and rows[1.0]["status"] == "completed"
+    for metric in ("rms_error", "max_error", "chattering_count", "chattering_amplitude"):
+        assert math.isnan(rows[0.05][metric]) and math.isfinite(rows[1.0][metric]), metric
+    assert rows[0.05]["cycles"] > 0  # not a performance figure: how far it came
 
 
 def test_a_point_past_its_time_out_stops_safely_and_is_a_row(tmp_path: pathlib.Path) -> None:
@@ -281,6 +286,7 @@ def test_a_point_past_its_time_out_stops_safely_and_is_a_row(tmp_path: pathlib.P
     row = run_point(job_of(spec, read_base(spec), make_points(spec)[0]))
     assert row["error"].startswith("safe stop: time-out") and row["stop_confirmed"] is True
     assert 0 < row["cycles"] < 250  # stopped at the first 1 % of its cycles
+    assert row["status"] == "stopped" and math.isnan(row["rms_error"]) and math.isnan(row["chattering_count"])
 
 
 def test_the_plots_draw_each_metric_with_units(tmp_path: pathlib.Path, client: object) -> None:
@@ -435,3 +441,56 @@ def test_the_plots_leave_failed_points_out_and_take_true_false_and_empty_metrics
     ]
     paths = plot_results(spec, rows, str(tmp_path / "plots"))
     assert len(paths) == len(spec.metrics) and all(p.stat().st_size > 10_000 for p in paths)
+
+
+def test_a_point_that_raises_has_status_error_and_nan_figures_never_0(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A scenario that raises: its row's status is "error" and every metric NaN (was None, which
+    a table reads as missing, and a rig run's stopped point had its 0 chattering: issue 35)."""
+    import dataclasses
+
+    from rig.sweep import scenarios
+
+    def boom(point: object) -> dict[str, object]:
+        raise RuntimeError("diverged")
+
+    monkeypatch.setitem(
+        scenarios.SCENARIOS, "dismc", dataclasses.replace(scenarios.SCENARIOS["dismc"], run=boom)
+    )
+    spec = load_spec(_spec(tmp_path, DISMC))
+    row = run_point(job_of(spec, read_base(spec), make_points(spec)[0]))
+    assert row["status"] == "error" and row["error"] == "RuntimeError: diverged"
+    assert all(math.isnan(row[m]) for m in spec.metrics)
+
+
+def test_failed_points_are_marked_at_the_foot_of_a_log_axis(tmp_path: pathlib.Path) -> None:
+    """A stopped point's figures are NaN: its red x stands at the foot of the axes (their x in
+    data, their y in axes units), seen on a logarithmic metric axis too (at 0 it was not)."""
+    from rig.sweep.plot import figure
+
+    spec = load_spec(
+        _spec(
+            tmp_path,
+            SERVO_SPEC.replace('"faults.frame_loss" = [0.0, 0.02]', "").replace(
+                "[1360.0, 340.0]", "[170.0, 680.0, 2720.0]"
+            ),
+        )
+    )
+    rows = [
+        {"point": 0, "emulator.params.b_m": 170.0, "status": "completed", "error": None, "rms_error": 0.001},
+        {
+            "point": 1,
+            "emulator.params.b_m": 680.0,
+            "status": "stopped",
+            "error": "safe stop: x",
+            "rms_error": math.nan,
+        },
+        {"point": 2, "emulator.params.b_m": 2720.0, "status": "completed", "error": None, "rms_error": 0.5},
+    ]
+    ax = figure(spec, rows, "rms_error").axes[0]
+    assert ax.get_yscale() == "log"
+    failed = ax.lines[-1]
+    assert list(failed.get_xdata()) == [680.0] and list(failed.get_ydata()) == [0.03]
+    assert failed.get_transform() == ax.get_xaxis_transform()
+    assert "failed" in ax.get_legend().get_texts()[-1].get_text()
