@@ -16,7 +16,7 @@ import contextlib
 import logging
 import struct
 from collections.abc import Iterator, Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import canopen
 from canopen.emcy import EmcyError
@@ -36,6 +36,7 @@ from drivers.errors import (
 from drivers.identity import Identity, check_identity, read_identity
 from drivers.maps import cia
 from drivers.maps.emcy import emcy_text
+from drivers.maps.logical import axis_dictionary, axis_object
 from drivers.maps.od import load_od
 from drivers.maps.sdo_aborts import abort_text
 from drivers.master_watch import MasterWatch, OtherMaster
@@ -133,7 +134,11 @@ def pdo_codec(pdo: Any) -> struct.Struct:
 class CanopenAxis(AxisDriver):
     """An axis on CANopen node ``node_id`` of ``network``, described by the EDS/DCF ``eds``
     (``eds_given``: the device's own, given by the user; else the toolkit's, used as a generic
-    dictionary of the profile's standard objects)."""
+    dictionary of the profile's standard objects); ``axis``: which of the device's logical
+    devices (``drivers.maps.logical``: its objects 0x800 (axis - 1) above axis 1's, which are
+    the indices this class and its subclasses name). Axes of one node share the node's
+    communication objects; each has its own canopen ``RemoteNode`` on the network (the first on
+    its node id holds ``network[node_id]``)."""
 
     sample_name = "TPDO"
     #: how the user gives the device's own EDS (``rig drive`` says ``--eds FILE``)
@@ -142,6 +147,8 @@ class CanopenAxis(AxisDriver):
     #: SDO response timeout [s] and retries; a test may override them
     SDO_TIMEOUT = 0.3
     SDO_RETRIES = 1
+    #: the axes alive on each (network, node id): the axes of one device (``siblings``)
+    _ON_NODE: ClassVar[dict[tuple[int, int], list[CanopenAxis]]] = {}
 
     def __init__(
         self,
@@ -155,6 +162,7 @@ class CanopenAxis(AxisDriver):
         heartbeat_timeout: float = 0.0,
         sdo_timeout: float | None = None,
         sdo_retries: int | None = None,
+        axis: int = 1,
     ) -> None:
         """``sdo_timeout`` [s] and ``sdo_retries``: of every SDO transfer (None: the class's)."""
         super().__init__(name, mode)
@@ -168,15 +176,23 @@ class CanopenAxis(AxisDriver):
         self.heartbeat_timeout = heartbeat_timeout  #: [s]; 0: not supervised
         self.network = network
         try:
-            od = load_od(eds, node_id)
+            od = axis_dictionary(load_od(eds, node_id), axis, source=str(eds), generic=not eds_given)
         except BaseException:
             self._forget()  # nothing was opened: not an unclosed axis
             raise
         self.eds = str(eds)  #: the EDS/DCF file of the dictionary, for messages
+        self.axis_number = axis  #: the device's logical device (``drivers.maps.logical``)
         self.node: Any = canopen.RemoteNode(node_id, od)
         self.node.sdo.RESPONSE_TIMEOUT = self.SDO_TIMEOUT if sdo_timeout is None else sdo_timeout
         self.node.sdo.MAX_RETRIES = self.SDO_RETRIES if sdo_retries is None else sdo_retries
-        network.add_node(self.node)
+        #: the first axis on its node id holds ``network[node_id]``; another axis of the device joins
+        #: the network beside it (canopen's ``add_node`` would take the first one's off)
+        self._holds_id = node_id not in network
+        if self._holds_id:
+            network.add_node(self.node)
+        else:
+            self.node.associate_network(network)
+        self._ON_NODE.setdefault((id(network), node_id), []).append(self)
         self._fault: DeviceFault | None = None
         self.emcy_log: list[str] = []
         self.emcy_texts: dict[int, str] = {}  #: the device's own EMCY texts (its profile's)
@@ -194,14 +210,22 @@ class CanopenAxis(AxisDriver):
         #: an RPDO of another length than its mapping reached the node (its EMCY 0x8210/0x8220)
         self._foreign_rpdo: str | None = None
 
+    def siblings(self) -> list[CanopenAxis]:
+        """The other axes alive on this axis's node (the other axes of a drive of several)."""
+        return [a for a in self._ON_NODE.get((id(self.network), self.node_id), []) if a is not self]
+
     @property
     def where(self) -> str:
-        return f"node {self.node_id}"
+        """``node 5``, and the axis on a device of several (``node 5 axis 2``)."""
+        axes = getattr(self.node.object_dictionary, "axes", 1)
+        return f"node {self.node_id}" + (f" axis {self.axis_number}" if axes > 1 else "")
 
     # --- SDO with the toolkit's errors ---------------------------------------------------
     @contextlib.contextmanager
     def _sdo(self, what: str, index: int, subindex: int) -> Iterator[None]:
-        """canopen's SDO errors (and an object the EDS lacks) as the toolkit's, naming node and object."""
+        """canopen's SDO errors (and an object the EDS lacks) as the toolkit's, naming node and object
+        (the object on the wire: axis 2's 0x6041 is 0x6841)."""
+        index = axis_object(index, self.axis_number)
         try:
             yield
         except SdoAbortedError as exc:
@@ -235,9 +259,9 @@ class CanopenAxis(AxisDriver):
         DictionaryMismatch where the answer's size is not the type's (``drivers.sdo_answer``)."""
         with self._sdo("SDO upload", index, subindex):
             if index not in self.node.object_dictionary:
-                return self.node.sdo.upload(index, subindex)
+                return self.node.sdo.upload(axis_object(index, self.axis_number), subindex)
             var = self._entry(index, subindex).od
-            with self.node.sdo.open(index, subindex, buffering=0) as fp:
+            with self.node.sdo.open(var.index, subindex, buffering=0) as fp:
                 data, indicated = fp.read(), fp.size
             return var.decode_raw(sized(var, data, indicated, node_id=self.node_id, source=self.eds))
 
@@ -246,7 +270,7 @@ class CanopenAxis(AxisDriver):
         identity, units and modes: ``drivers.identity.read_standard``); SdoAbort or
         CommunicationTimeout."""
         with self._sdo("SDO upload", index, subindex):
-            return bytes(self.node.sdo.upload(index, subindex))
+            return bytes(self.node.sdo.upload(axis_object(index, self.axis_number), subindex))
 
     def check_identity(self, *, give: str) -> Identity:
         """0x1018 read from the device and checked against the EDS in use
@@ -408,5 +432,12 @@ class CanopenAxis(AxisDriver):
         for slot in self._slots:
             self.network.unsubscribe(slot.cob_id, slot.on_frame)
         self._slots.clear()
-        if self.node_id in self.network:
+        on_node = self._ON_NODE.get((id(self.network), self.node_id), [])
+        if self in on_node:
+            on_node.remove(self)
+            if not on_node:
+                del self._ON_NODE[(id(self.network), self.node_id)]
+        if self._holds_id and self.node_id in self.network and self.network[self.node_id] is self.node:
             del self.network[self.node_id]
+        else:
+            self.node.remove_network()

@@ -84,7 +84,8 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
     ``units``: factors the device may lack (``counts_per_rev``, ``position_unit``,
     ``velocity_unit``, ``rated_torque`` [N m], ``rated_current`` [A]). ``sync_rpdo``: the RPDO
     acts at the next SYNC (one period of delay), else on receipt (``latency`` [s] later on the
-    toolkit's own drive). ``pdo``: "remap" or "device" (see the module docstring).
+    toolkit's own drive). ``pdo``: "remap" or "device" (see the module docstring). ``axis``: which
+    axis of a drive of several (``drivers.maps.logical``; its objects 0x800 (axis - 1) higher).
     ``mode_timeout`` [s]: how long 0x6061 may take to follow 0x6060. ``feedback``: what the
     TPDOs carry (``drivers.cia402_feedback``; the position always): without "velocity"
     the velocity is the position's backward difference over the time between the two samples
@@ -116,6 +117,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         reset_fault: bool = False,
         emcy_texts: Mapping[int, str] | None = None,
         feedback: Iterable[str] = FEEDBACK_NAMES,
+        axis: int = 1,
     ) -> None:
         try:
             self.op_mode = mode_code(mode)
@@ -137,6 +139,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             heartbeat_timeout=heartbeat_timeout,
             sdo_timeout=sdo_timeout,
             sdo_retries=sdo_retries,
+            axis=axis,
         )
         self.given_units = dict(units or {})
         self.sync_rpdo = sync_rpdo

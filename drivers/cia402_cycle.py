@@ -32,8 +32,8 @@ _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPE
 _ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
 
 
-def _object(key: tuple[int, int]) -> str:
-    return f"0x{key[0]:04X}" + (f":{key[1]:02X}" if key[1] else "")
+def _object(index: int, subindex: int) -> str:
+    return f"0x{index:04X}" + (f":{subindex:02X}" if subindex else "")
 
 
 class _CyclePlan:
@@ -173,7 +173,11 @@ class Cia402Cycle(CanopenAxis):
             return super().cycle_frames()
         pdos = [*data.tpdos, *([data.rpdo] if data.rpdo is not None else [])]
         return [
-            (f"{p.name} 0x{p.cob_id:03X} ({' '.join(_object(e.key) for e in p.entries)})", (p.bits + 7) // 8)
+            (
+                f"{p.name} 0x{p.cob_id:03X} "
+                f"({' '.join(_object(e.wire(self.axis_number), e.subindex) for e in p.entries)})",
+                (p.bits + 7) // 8,
+            )
             for p in pdos
         ]
 

@@ -23,7 +23,7 @@ import logging
 import math
 from typing import TYPE_CHECKING, Any
 
-from drivers.cia402_pdo import Key, Pdo, disable, numbers, plan_rpdo, plan_tpdos, read_mapping, variable
+from drivers.cia402_pdo import Key, Pdo, disable, plan_rpdo, plan_tpdos, read_mapping, share, variable
 from drivers.cia402_pdo import write_mapping as write_pdo
 from drivers.cia402_process import ProcessData
 from drivers.cia402_units import DriveUnits
@@ -83,6 +83,7 @@ class Cia402Mapping:
     sync_rpdo: bool
     latency: float
     pdo: str
+    axis_number: int
     maps: frozenset[str]
     has_position: bool
     data: ProcessData | None
@@ -183,7 +184,7 @@ class Cia402Mapping:
             write_pdo(write, pdo, node_id=self.node_id, od=od)
         used = {(True, rpdo.number)} | {(False, p.number) for p in tpdos}
         for receive in (True, False):
-            for n in numbers(od, receive=receive):
+            for n in share(od, receive=receive):  # an axis of several leaves the others' PDOs alone
                 if (receive, n) not in used:
                     cob = (cia.COB_RPDO if receive else cia.COB_TPDO)[n] + self.node_id if n < 4 else 0
                     disable(self._disable_write, n, receive=receive, cob_id=cob)
@@ -214,7 +215,7 @@ class Cia402Mapping:
         self._use(rpdo, ttype=1 if self.sync_rpdo else cia.PDO_EVENT)
         tpdos = []
         for pdo in read_mapping(self.sdo_read, od, receive=False):
-            if any(e.key in tx_keys for e in pdo.entries):
+            if any(e.mine and e.key in tx_keys for e in pdo.entries):
                 self._use(pdo, ttype=1)
                 tpdos.append(pdo)
         return rpdo, tpdos
@@ -233,7 +234,7 @@ class Cia402Mapping:
         objects beside it; ConfigError where none carries it, or where it carries one (on any drive
         but the toolkit's the host would write that object every cycle)."""
         od = self.node.object_dictionary
-        carrying = [p for p in rpdos if all(k in [e.key for e in p.entries] for k in rx_keys[1:])]
+        carrying = [p for p in rpdos if all(k in [e.key for e in p.entries if e.mine] for k in rx_keys[1:])]
         if not carrying:
             raise ConfigError(
                 f"{self.where}: no RPDO of the drive carries 0x{rx_keys[-1][0]:04X} (the mode's target); "
@@ -243,22 +244,28 @@ class Cia402Mapping:
         foreign = self._foreign_entries(rpdo)
         if foreign:
             e = foreign[0]
-            var = variable(od, e.key)
+            wire = e.wire(self.axis_number)
+            var = variable(od, e.key) if e.mine else None
             name = f" ({var.name})" if var is not None else ""
+            whose = (
+                f"an object of the device's axis {e.axis} (its 0x{e.index:04X})"
+                if e.axis
+                else f"a manufacturer object of {self.device_id.text()}"
+            )
             raise ConfigError(
                 f"{self.where}: the drive's own {rpdo.name}, which carries the mode's target, also carries "
-                f"0x{e.index:04X}:{e.subindex:02X}{name}, a manufacturer object of {self.device_id.text()}; "
-                "its mapping cannot be changed, and the host would write that object every cycle: the drive "
-                "is refused for cyclic use (rig drive still commissions it by SDO; map that RPDO without "
-                f"0x{e.index:04X} with the vendor's tool, then run)"
+                f"0x{wire:04X}:{e.subindex:02X}{name}, {whose}; its mapping cannot be changed, and the host "
+                "would write that object every cycle: the drive is refused for cyclic use (rig drive still "
+                f"commissions it by SDO; map that RPDO without 0x{wire:04X} with the vendor's tool, then run)"
             )
         return rpdo
 
     def _foreign_entries(self, pdo: Pdo) -> list[Any]:
-        """The entries of ``pdo`` that are manufacturer objects of a drive not the toolkit's."""
-        if self.toolkit_drive:
-            return []
-        return [e for e in pdo.entries if e.index in cia.MANUFACTURER_AREA]
+        """The entries of ``pdo`` the host must not write every cycle: another axis's objects (on a
+        drive of several), manufacturer objects of a drive not the toolkit's."""
+        return [
+            e for e in pdo.entries if e.axis or (e.index in cia.MANUFACTURER_AREA and not self.toolkit_drive)
+        ]
 
     def _use(self, pdo: Pdo, *, ttype: int) -> None:
         """Make a PDO of the device's own mapping valid with transmission type ``ttype``."""

@@ -6,6 +6,13 @@ EDS, at most 8 entries and 64 bits each, PDO-mappable objects only); ``write_map
 it by the CiA 301 protocol (COB-ID invalid, sub 0 = 0, the entries, sub 0 = n, COB-ID valid),
 and ``read_mapping`` reads the mapping in force from a device that keeps its own. Frames are
 then packed and unpacked by ``codec``, from the mapping actually in force.
+
+On a drive of several axes (``drivers.maps.logical``: the dictionary is one axis's view) the
+node's PDOs are shared out among its axes in order, an equal block each (``share``: 4 RPDOs and
+2 axes, RPDO1-2 are axis 1's and RPDO3-4 axis 2's; CiA 402 leaves the split to the device, and
+this one keeps every axis's frames its own); a mapping entry is written with the object's index
+on the wire (0x6841 for axis 2's statusword) and read back as the axis names it, or as another
+axis's (``Entry.axis``).
 """
 
 from __future__ import annotations
@@ -18,6 +25,7 @@ from typing import Any
 from drivers.errors import ConfigError, SdoAbort
 from drivers.maps import cia
 from drivers.maps.cia import PDO_INVALID, PDO_MAX_BITS, PDO_MAX_MAPPED, map_entry, split_map_entry
+from drivers.maps.logical import axis_object, object_axis
 
 __all__ = [
     "Entry",
@@ -28,6 +36,7 @@ __all__ = [
     "plan_rpdo",
     "plan_tpdos",
     "read_mapping",
+    "share",
     "variable",
     "write_mapping",
 ]
@@ -37,15 +46,27 @@ Key = tuple[int, int]  #: (index, subindex)
 
 @dataclass(frozen=True)
 class Entry:
-    """One mapped object: (index, subindex) and its size [bits]."""
+    """One mapped object: (index, subindex) as the axis names it, its size [bits], and ``axis``: 0
+    for the axis's own object or the node's, n for axis n's (another axis of the device; its
+    index then as axis 1's)."""
 
     index: int
     subindex: int
     bits: int
+    axis: int = 0
 
     @property
     def key(self) -> Key:
         return self.index, self.subindex
+
+    @property
+    def mine(self) -> bool:
+        """The object is the axis's own (or the node's), not another axis's."""
+        return not self.axis
+
+    def wire(self, axis: int) -> int:
+        """The object's index on the wire, for the axis ``axis`` whose entry this is."""
+        return axis_object(self.index, self.axis or axis)
 
 
 @dataclass
@@ -82,6 +103,28 @@ def numbers(od: Any, *, receive: bool) -> list[int]:
     return [n for n in range(cia.PDO_BLOCK) if comm + n in od and mapping + n in od]
 
 
+def share(od: Any, *, receive: bool) -> list[int]:
+    """The PDOs of ``numbers`` that are the axis's to map: on a drive of several axes (``od`` one
+    axis's view: its ``axis`` of ``axes``) an equal block of them each, in order; all of them on a
+    drive of one axis."""
+    pdos = numbers(od, receive=receive)
+    axis, axes = getattr(od, "axis", 1), getattr(od, "axes", 1)
+    per = len(pdos) // axes
+    return pdos[(axis - 1) * per : axis * per]
+
+
+def _none_left(od: Any, receive: bool) -> str:
+    """Why no PDO is free: the device has none, or none is this axis's."""
+    kind = "RPDO" if receive else "TPDO"
+    axes = getattr(od, "axes", 1)
+    if axes > 1:
+        return (
+            f"none of the device's {len(numbers(od, receive=receive))} {kind}s is axis "
+            f"{getattr(od, 'axis', 1)}'s (they are shared by its {axes} axes in equal blocks)"
+        )
+    return f"the device has no {kind}"
+
+
 def variable(od: Any, key: Key) -> Any:
     """The OD variable of ``key``, or None where the EDS lacks it."""
     index, sub = key
@@ -101,9 +144,9 @@ def mappable(od: Any, key: Key) -> bool:
 def plan_rpdo(od: Any, keys: Sequence[Key], *, ttype: int) -> Pdo:
     """The host's objects (controlword and target) together in the device's first RPDO: an RPDO
     is sent whole, so they go in one or the plan fails (ConfigError naming the object)."""
-    free = numbers(od, receive=True)
+    free = share(od, receive=True)
     if not free:
-        raise ConfigError("the device has no RPDO")
+        raise ConfigError(_none_left(od, True))
     pdo = Pdo(free[0], True, ttype=ttype)
     for key in keys:
         var = variable(od, key)
@@ -118,7 +161,7 @@ def plan_rpdo(od: Any, keys: Sequence[Key], *, ttype: int) -> Pdo:
 def plan_tpdos(od: Any, keys: Sequence[Key], *, ttype: int) -> tuple[list[Pdo], list[Key]]:
     """Place ``keys`` (the needed ones first) in the device's TPDOs, first fit in order, 64 bits
     and 8 objects each: (the PDOs, the keys left out: not mappable, or no room left)."""
-    free = numbers(od, receive=False)
+    free = share(od, receive=False)
     pdos: list[Pdo] = []
     left: list[Key] = []
     for key in keys:
@@ -152,8 +195,9 @@ def write_mapping(write: Callable[[int, int, int], None], pdo: Pdo, *, node_id: 
     if variable(od, (pdo.comm, cia.PDO_COMM_TYPE)) is not None:
         write(pdo.comm, cia.PDO_COMM_TYPE, pdo.ttype)
     write(pdo.mapping, 0, 0)
+    axis = getattr(od, "axis", 1)
     for sub, e in enumerate(pdo.entries, start=1):
-        write(pdo.mapping, sub, map_entry(e.index, e.subindex, e.bits))
+        write(pdo.mapping, sub, map_entry(e.wire(axis), e.subindex, e.bits))
     write(pdo.mapping, 0, len(pdo.entries))
     write(pdo.comm, cia.PDO_COMM_COB_ID, cob)
 
@@ -167,7 +211,9 @@ def disable(write: Callable[[int, int, int], None], number: int, *, receive: boo
 def read_mapping(read: Callable[[int, int], Any], od: Any, *, receive: bool) -> list[Pdo]:
     """The device's PDOs as they are now (valid or not), read by SDO. A PDO the EDS names that
     the device has not (its COB-ID answered "object does not exist", as a device with fewer PDOs
-    than the toolkit's generic EDS answers) is no PDO of the device."""
+    than the toolkit's generic EDS answers) is no PDO of the device. An entry is named as the
+    axis of ``od`` names it (``Entry``)."""
+    own = getattr(od, "axis", 1)
     out = []
     for n in numbers(od, receive=receive):
         pdo = Pdo(n, receive)
@@ -182,7 +228,8 @@ def read_mapping(read: Callable[[int, int], Any], od: Any, *, receive: bool) -> 
         count = int(read(pdo.mapping, 0))
         for sub in range(1, count + 1):
             index, subindex, bits = split_map_entry(int(read(pdo.mapping, sub)))
-            pdo.entries.append(Entry(index, subindex, bits))
+            axis, first = object_axis(index)
+            pdo.entries.append(Entry(first, subindex, bits, 0 if axis in (0, own) else axis))
         pdo.valid = not cob & PDO_INVALID
         out.append(pdo)
     return out

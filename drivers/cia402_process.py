@@ -46,7 +46,8 @@ class ProcessData:
             slot.ttype = pdo.ttype
             self.slots.append(slot)
             for pos, e in enumerate(pdo.entries):
-                self._where.setdefault(e.key, (slot, pos))
+                if e.mine:  # another axis's object in it (a drive of several axes): not this axis's
+                    self._where.setdefault(e.key, (slot, pos))
         self.rpdo = rpdo
         self._codec = codec(od, rpdo) if rpdo is not None else None
         self._template = [held.get(e.key, 0) for e in rpdo.entries] if rpdo is not None else []

@@ -1,8 +1,8 @@
 """How the host sets a CiA 402 drive up: discovery, the mode, the process data, the supervision.
 
 ``Cia402Setup`` is the set-up part of ``drivers.cia402.Cia402Axis`` (a mixin over its SDO
-access): ``discover`` (0x1000, 0x1018, 0x6502 against the mode, the units of
-``drivers.cia402_units``), ``set_mode`` (0x6060 written, never read; 0x6061 awaited),
+access): ``discover`` (``drivers.cia402_discovery``: 0x1000 and the axis, 0x1018, 0x6502 against
+the mode, the units of ``drivers.cia402_units``), ``set_mode`` (0x6060 written, never read; 0x6061 awaited),
 ``map_process_data`` (``drivers.cia402_mapping``), and ``configure_supervision`` (the drive's
 heartbeat consumer for the host, 0x6007, 0x1017, 0x60C2 / 0x1006), and before each enable the
 target the mode acts on as it stands (``_hold_still``). It writes no manufacturer
@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from drivers.cia402_access import Setting, period_text
 from drivers.cia402_access import interpolation_period as interpolation_setting
+from drivers.cia402_discovery import Cia402Discovery
 from drivers.cia402_mapping import (
     CURRENT,
     CW,
@@ -33,12 +34,12 @@ from drivers.cia402_mapping import (
 )
 from drivers.cia402_pdo import variable
 from drivers.cia402_process import ProcessData
-from drivers.cia402_units import DriveUnits, discover_units
-from drivers.errors import CommunicationTimeout, ConfigError, DeviceFault, NodeSilent, RigError, SdoAbort
-from drivers.identity import TOOLKIT_DRIVE, Identity, read_standard
+from drivers.cia402_units import DriveUnits
+from drivers.errors import ConfigError, DeviceFault, RigError
+from drivers.identity import TOOLKIT_DRIVE, Identity
 from drivers.maps import cia
-from drivers.maps.cia import CIA_MODE_BITS, MODE_BITS, SUPPORTED_MODE_BITS, Mode
-from drivers.maps.mode_names import MODE_NAMES, mode_text
+from drivers.maps.cia import Mode
+from drivers.maps.mode_names import mode_text
 
 if TYPE_CHECKING:
     from drivers.canopen_axis import TpdoSlot
@@ -68,7 +69,7 @@ _STILL_TARGET: dict[int, int] = {
 }
 
 
-class Cia402Setup(Cia402Mapping):
+class Cia402Setup(Cia402Discovery, Cia402Mapping):
     """See the module docstring."""
 
     node: Any
@@ -76,20 +77,10 @@ class Cia402Setup(Cia402Mapping):
     name: str
     mode: str | None
     op_mode: Mode
-    given_units: dict[str, float]
     units: DriveUnits
-    identity: dict[str, int]
-    device_id: Identity
-    units_hint: str = "[axis.units] {key}"  #: how the user gives a unit the drive lacks
-    eds_hint: str
-    #: the drive has a position actual value 0x6064 (``discover``; a velocity-only drive has none)
-    has_position: bool = True
-    supported_modes: frozenset[int] | None
     sync_rpdo: bool
     latency: float
     pdo: str
-    #: 0x1000 named another profile (``discover``): the axis must not write CiA 402 objects
-    not_a_drive: bool = False
     mode_timeout: float
     host: tuple[int, float] | None
     abort_connection: int | None
@@ -112,6 +103,7 @@ class Cia402Setup(Cia402Mapping):
         def receive_cob(self, cob_id: int, codec: Any) -> TpdoSlot: ...
         def sdo_upload(self, index: int, subindex: int = 0) -> bytes: ...
         def check_identity(self, *, give: str) -> Identity: ...
+        def siblings(self) -> list[Any]: ...
 
     def configure_supervision(self) -> None:
         """Make the drive stop itself when the host dies, and tell it the cycle, where it can:
@@ -205,8 +197,13 @@ class Cia402Setup(Cia402Mapping):
     def _unwatch_host(self) -> None:
         """Disabled on purpose, and confirmed (``disable``): the drive stops watching the host
         (whose heartbeat ends with the run; a disabled drive needs no watch); an entry not cleared
-        stays the axis's (a warning). ``enable`` sets the watch again."""
+        stays the axis's (a warning). ``enable`` sets the watch again. On a drive of several axes
+        the entry is the node's: the last of its axes to be disabled clears it, never one while
+        another may still be enabled."""
         sub = self._consumer_sub
+        if sub is not None and any(getattr(a, "_consumer_sub", None) == sub for a in self.siblings()):
+            self._consumer_sub = None  # another axis of the node still holds the watch
+            return
         if sub is not None:
             try:
                 self.sdo_write(cia.CONSUMER_HEARTBEAT, sub, 0)
@@ -255,122 +252,6 @@ class Cia402Setup(Cia402Mapping):
                 log.warning("%s: the commands' deadline (0x%04X:05) not lifted: %s", self.where, comm, exc)
                 return
             self._deadline_comm = None
-
-    def _optional(self, index: int, subindex: int = 0) -> Any:
-        """An object the device may lack: its value, or None (absent from the EDS, or refused)."""
-        if variable(self.node.object_dictionary, (index, subindex)) is None:
-            return None
-        try:
-            return self.sdo_read(index, subindex)
-        except SdoAbort:
-            return None
-
-    def discover(self, *, check_mode: bool = True) -> DriveUnits:
-        """Device type and identity (0x1000, 0x1018 read from the device and checked against the
-        EDS in use: ``check_identity``), supported modes (0x6502) against the mode (unless not
-        ``check_mode``: commissioning, which picks its modes itself), units, and whether the drive
-        has a position 0x6064. Identity, modes and units are read from the device by their
-        standard's types, whatever the EDS names (``drivers.identity.read_standard``)."""
-        try:
-            device_type = self.sdo_read(cia.DEVICE_TYPE)
-        except CommunicationTimeout as exc:
-            self.not_a_drive = True  # it never answered: closing sends it no controlword
-            raise NodeSilent(
-                f"node {self.node_id}: no SDO answer to 0x1000 (device type): no node {self.node_id} on "
-                "this bus, or it is not powered"
-            ) from exc
-        if device_type & 0xFFFF != cia.PROFILE_DRIVE:
-            self.not_a_drive = True  # closing writes no controlword to it (0x6040 is not ours there)
-            raise ConfigError(
-                f"axis {self.name!r}: node {self.node_id} is not a CiA 402 drive "
-                f"(0x1000 = 0x{device_type:08X}: profile {device_type & 0xFFFF})"
-            )
-        try:
-            self.device_id = self.check_identity(give=self.eds_hint)
-        except ConfigError:
-            self.not_a_drive = True  # another device than the EDS's: closing writes nothing to it
-            raise
-        self.identity = self.device_id.as_dict()
-        bits = self._standard(cia.SUPPORTED_MODES)
-        table = MODE_BITS if self.toolkit_drive else CIA_MODE_BITS  # bits 16-31: the vendor's own
-        self.supported_modes = (
-            None if bits is None else frozenset(int(m) for m, bit in table.items() if bits & bit)
-        )
-        if check_mode:
-            self._check_mode(bits)
-        self.has_position = self._standard(cia.POSITION_ACTUAL) is not None
-        self.units = discover_units(
-            self._standard,
-            self.given_units,
-            where=f"{self.name!r} (node {self.node_id})",
-            mode=int(self.op_mode) if check_mode else 0,
-            hint=self.units_hint,
-            has_position=self.has_position,
-        )
-        return self.units
-
-    def _standard(self, index: int, subindex: int = 0) -> int | None:
-        """A standard object as the device answers (``drivers.identity.read_standard``)."""
-        return read_standard(self.sdo_upload, index, subindex)
-
-    def offered(self, bits: int | None) -> str:
-        """The modes the drive offers, as 0x6502 says: every mode CiA 402 gives a bit (vl and cstca
-        too, which the toolkit does not drive), and bits 16-31 only on the toolkit's own drive."""
-        if bits is None:
-            return "no 0x6502 (the drive does not say which modes it has)"
-        codes = [m for m, bit in SUPPORTED_MODE_BITS.items() if bits & bit]
-        if self.toolkit_drive:
-            codes = sorted(int(m) for m, bit in MODE_BITS.items() if bit >> 16 and bits & bit) + codes
-        names = ", ".join(mode_text(m) for m in codes) or "no mode CiA 402 names"
-        return f"0x6502 = 0x{bits:08X}: {names}"
-
-    def _check_mode(self, bits: int | None) -> None:
-        """The configured mode against the drive, before anything is written: a manufacturer mode
-        (negative) only on the toolkit's own drive; a mode 0x6502 lists, where it has one."""
-        where = f"axis {self.name!r} (node {self.node_id})"
-        if int(self.op_mode) < 0 and not self.toolkit_drive:
-            raise ConfigError(
-                f"{where}: mode {self.mode!r} is a manufacturer mode of drive-rig's own drive (vendor "
-                f"0x{TOOLKIT_DRIVE[0]:X}, product 0x{TOOLKIT_DRIVE[1]:X}); this drive is "
-                f"{self.device_id.text()}, whose manufacturer modes mean what its vendor made them mean; "
-                f"it offers {self.offered(bits)}: {self.choose()}"
-            )
-        if self.supported_modes is not None and int(self.op_mode) not in self.supported_modes:
-            raise ConfigError(
-                f"{where}: mode {self.mode} is not in 0x6502 ({self.offered(bits)}): {self.choose()}"
-            )
-
-    def choose(self) -> str:
-        """What to do about a mode the drive does not take: the other modes with a cyclic target
-        that it offers (all, where it has no 0x6502), or rig drive where it offers none."""
-        offered = self.supported_modes
-        names = [
-            name
-            for name, m in MODE_NAMES.items()
-            if m in cia.TARGET_OF_MODE and m >= 0 and m != self.op_mode and (offered is None or m in offered)
-        ]
-        if not names:
-            return (
-                "it offers no other mode rig run commands (pv, csp, csv, cst): commission it with rig drive"
-            )
-        return f"set the axis's mode to another it offers ({', '.join(names)})"
-
-    @property
-    def toolkit_drive(self) -> bool:
-        """The toolkit's own drive, positively identified (0x1018 vendor and product), whose
-        manufacturer objects and modes the host knows."""
-        return self.device_id.toolkit
-
-    def guard_manufacturer(self, index: int, what: str) -> None:
-        """ConfigError before ``what`` would write manufacturer object ``index`` of a drive that is
-        not the toolkit's own (its meaning is that vendor's)."""
-        if index in cia.MANUFACTURER_AREA and not self.toolkit_drive:
-            var = variable(self.node.object_dictionary, (index, 0))
-            name = f" ({var.name})" if var is not None else ""
-            raise ConfigError(
-                f"{self.where}: {what} would write 0x{index:04X}{name}, a manufacturer object of "
-                f"{self.device_id.text()}; drive-rig writes no manufacturer object but on its own drive"
-            )
 
     def set_mode(self, mode: Mode) -> None:
         """Write 0x6060 (no read first) and wait for 0x6061 to show it, ``mode_timeout`` [s]; a

@@ -27,6 +27,7 @@ from typing import Any
 
 from drivers.errors import ConfigError, SdoAbort
 from drivers.maps import cia
+from drivers.maps.logical import DEVICE_TYPE_OF_AXIS
 from drivers.maps.vendors import vendor_of
 
 __all__ = [
@@ -49,6 +50,7 @@ _U32, _I8, _U8, _I16, _I32 = (False, 4), (True, 1), (False, 1), (True, 2), (True
 #: and its older factor objects 0x6089-0x608C of DSP 402 v2)
 STANDARD: Mapping[tuple[int, int], tuple[bool, int]] = {
     (cia.DEVICE_TYPE, 0): _U32,
+    (DEVICE_TYPE_OF_AXIS, 0): _U32,  #: a logical device's type (``drivers.maps.logical``)
     **{(cia.IDENTITY, sub): _U32 for sub in (1, 2, 3, 4)},
     (cia.SUPPORTED_MODES, 0): _U32,
     **{(index, sub): _U32 for index in (0x608F, 0x6091, 0x6092) for sub in (1, 2)},

@@ -10,7 +10,7 @@ Per SYNC (period ``period`` [s]): the physics advances one period with the
 commands in force (the drive's ``Shaft``, once for all the nodes on it), the
 drive runs its own cycle (a pending mode switch, its limits, the stop ramps)
 and latches the feedback into the objects it has (``ProcessImage``, in its own
-units) before its synchronous TPDOs go out. A drive whose power stage is off
+units) before its synchronous TPDOs go out (``plant_emulator.drive_cycle``). A drive whose power stage is off
 gives no commands and lets its axis coast; an NMT reset lets go of the axis
 (the shaft keeps its motion). Command timing is the two delay cases of the
 dq-current paper: a synchronous RPDO (type 0-240) is applied at the next SYNC
@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import functools
 import logging
+from typing import Any
 
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError
@@ -40,9 +41,6 @@ from canopen.sdo.exceptions import SdoAbortedError
 from drivers.maps import cia
 from drivers.maps.cia import (
     MODE_BITS,
-    SW_FOLLOWING_ERROR,
-    SW_FOLLOWS_COMMAND,
-    SW_REMOTE,
     TARGET_OF_MODE,
     EmcyCode,
     Mode,
@@ -55,9 +53,10 @@ from plant_emulator.braking import Braking
 from plant_emulator.canopen_node import OPERATIONAL, EmulatedNode
 from plant_emulator.cia402_state import PowerStateMachine
 from plant_emulator.device_profile import DEVICES_DIR, DeviceProfile, load_profile
+from plant_emulator.drive_cycle import DriveCycle
 from plant_emulator.drive_safety import FAULT_CODES, DriveSafety
 from plant_emulator.process_image import UNIT_OBJECTS, ProcessImage, Ratings
-from plant_emulator.profile_modes import HOME_SWITCH, PROFILE_MODES, ProfileModes
+from plant_emulator.profile_modes import PROFILE_MODES, ProfileModes
 from plant_emulator.shaft import Shaft, Timed
 
 __all__ = ["FAULT_CODES", "EmulatedDrive", "Ratings", "toolkit_profile"]
@@ -75,10 +74,8 @@ _SIGNED = (
 _QUICK_STOP_OPTIONS = frozenset(int(o) for o in QuickStopOption)
 S = PowerState
 # Module globals for the per-SYNC path: an enum member's lookup (or hash) takes ~0.2 us, a global's 0.03
-_CSV, _CSP, _CST, _PP = int(Mode.CSV), int(Mode.CSP), int(Mode.CST), int(Mode.PROFILE_POSITION)
-_CYCLIC = (_CSP, _CSV, _CST)
+_CSP, _CST = int(Mode.CSP), int(Mode.CST)
 _ENABLED = S.OPERATION_ENABLED
-_FOLLOWING_ERROR = int(EmcyCode.FOLLOWING_ERROR)
 
 
 @functools.lru_cache(maxsize=1)
@@ -87,7 +84,7 @@ def toolkit_profile() -> DeviceProfile:
     return load_profile(DEVICES_DIR / "drive-rig.toml")
 
 
-class EmulatedDrive(DriveSafety, EmulatedNode):
+class EmulatedDrive(DriveCycle, DriveSafety, EmulatedNode):
     """A CiA 402 drive node with ``axis`` behind it; see the module docstring.
 
     ``profile``: the drive's device profile (default: the toolkit's own). ``shaft``: the plant
@@ -105,15 +102,21 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         profile: DeviceProfile | None = None,
         shaft: Shaft | None = None,
     ) -> None:
+        self._own(axis, period, profile, shaft)
+        super().__init__(node_id, str(self.profile.eds), network)
+        self.fixed_mapping = self.profile.mapping == "fixed"
+        self.sdo_delay = self.profile.timing.sdo_response
+        self._objects(self.node.object_dictionary)
+
+    def _own(self, axis: Axis, period: float, profile: DeviceProfile | None, shaft: Shaft | None) -> None:
+        """The drive's own state, before its node's (``plant_emulator.multi_axis`` shares a node)."""
         shaft = shaft or Shaft(axis, period=period)
         if axis not in shaft.axes:
             raise ValueError("the drive's axis must be one of its shaft's axes")
         if period != shaft.period:
             raise ValueError(f"the drive's period {period!r} s is not its shaft's, {shaft.period!r} s")
         self.profile = profile or toolkit_profile()
-        self.axis = axis
-        self.shaft = shaft
-        self.period = period
+        self.axis, self.shaft, self.period = axis, shaft, period
         self._speed_limited = Mode.DQ_VOLTAGE not in axis.modes  # a grid converter has no speed
         self.sm = PowerStateMachine()
         self.braking = Braking()
@@ -125,28 +128,30 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
         self._pending_cw: int | None = None
         self._mode_switch: tuple[int, float] | None = None  #: (mode, device time [s] it shows)
         self.harmful_writes: list[tuple[int, int, bytes]] = []  #: (index, subindex, data)
-        super().__init__(node_id, str(self.profile.eds), network)
-        self.fixed_mapping = self.profile.mapping == "fixed"
-        self.sdo_delay = self.profile.timing.sdo_response
-        self._present = frozenset(self.node.object_dictionary.indices)
-        self.modes = self._modes()
+
+    def _objects(self, od: Any) -> None:
+        """What the drive takes from its object dictionary ``od`` (one axis's view on a drive of
+        several), then its place on its shaft."""
+        self._present = frozenset(od.indices)
+        self.modes = self._modes(od)
         self._latency_object = self.profile.role_object("command-latency")
         ratings = Ratings(1.0, 1.0, 3000, 6000)  # until ``rate``: a preset rates every drive
-        self.image = ProcessImage(self.od, self._has, self.profile.units, ratings, dq=hasattr(axis, "i_dq"))
+        dq = hasattr(self.axis, "i_dq")
+        self.image = ProcessImage(self.od, self._has, self.profile.units, ratings, dq=dq)
         self.profiles = ProfileModes(self.od, self._has, self.image, self.profile)
         self._following_since: float | None = None  #: device time [s] the following error began
         self._defaults()
-        shaft.attach(self)
+        self.shaft.attach(self)
 
     def _has(self, index: int) -> bool:
         return index in self._present
 
-    def _modes(self) -> tuple[int, ...]:
+    def _modes(self, od: Any) -> tuple[int, ...]:
         """The profile's modes the physics can run (profile modes need the loops they use)."""
         capable = set(self.axis.modes)
         if Mode.CSP in capable:
             capable |= {Mode.PROFILE_POSITION, Mode.HOMING}
-        modes = tuple(int(m) for m in self.profile.check_against(self.node.object_dictionary) if m in capable)
+        modes = tuple(int(m) for m in self.profile.check_against(od) if m in capable)
         if self._has(cia.SUPPORTED_MODES):
             self.write(cia.SUPPORTED_MODES, 0, sum(MODE_BITS[Mode(m)] for m in modes))
         return modes
@@ -324,77 +329,5 @@ class EmulatedDrive(DriveSafety, EmulatedNode):
             self.sm.quick_stop_option = self._option(cia.QUICK_STOP_OPTION, self.profile.reactions.quick_stop)
         self._latch_status()
 
-    # --- the cycle ----------------------------------------------------------
-    def take_timeline(self, t_start: float) -> list[Timed]:
-        """The commands of the period from ``t_start`` [s], for the shaft, at their offsets into it
-        (real time: those due by then, at its start); none (and the axis coasts) when the power
-        stage is off."""
-        if not self.sm.power_stage_on:
-            self._pending = []
-            self.axis.coast()
-            return []
-        if self.shaft.clock is None:
-            pending, self._pending = self._pending, []
-            return [(due - t_start, *rest) for due, *rest in pending]  # type: ignore[misc]
-        due = [c for c in self._pending if c[0] <= t_start + 1e-12]
-        self._pending = [c for c in self._pending if c[0] > t_start + 1e-12]
-        return [(0.0, *rest) for _, *rest in due]  # type: ignore[misc]
-
     def sync_time(self, timestamp: float) -> float:
         return self.shaft.t if self.shaft.lockstep else super().sync_time(timestamp)
-
-    def on_sync_latch(self, timestamp: float) -> None:
-        self.shaft.sync(self, timestamp)  # the shaft at this SYNC, advanced once for all its nodes
-        self._t_sync = timestamp
-        if self.shaft.clock is None:  # lock-step: the drive's cycle comes with the SYNC
-            self._cycle()
-        self._latch(ahead=self.shaft.sync_offset)  # sampled at the SYNC (CiA 301), not the period's start
-
-    def on_period(self) -> None:
-        """Real time: a period of the drive's own clock has passed (``Shaft.advance_to``): its
-        cycle, its objects show the new state (an SDO read needs no SYNC), and its supervision
-        (heartbeat consumer, RPDO deadlines) is checked at the period's end, as at each SYNC in
-        lock-step: a lost host is noticed within a period of its deadline on the drive's clock,
-        however late the emulator's loop ran, and its reaction acts from the next period."""
-        self._cycle()
-        self._latch()
-        self.supervise(self.shaft.t)
-
-    def _cycle(self) -> None:
-        """The drive's own work once per period: a due mode switch, a target written by SDO,
-        its limits, the stop ramps."""
-        if self._mode_switch is not None and self.shaft.t >= self._mode_switch[1] - 1e-9:
-            mode, self._mode_switch = self._mode_switch[0], None
-            self._show_mode(mode)
-        mode = self.od.read(cia.MODES_DISPLAY, 0)
-        if self._sdo_target:
-            self._sdo_target = False
-            if self.sm.state is _ENABLED and mode in self.axis.modes and mode not in PROFILE_MODES:
-                self._pending.append((self.shaft.t, self.axis, mode, self._target(mode), False))
-        if self.sm.state is _ENABLED and mode in PROFILE_MODES:
-            ax = self.axis
-            loop, value = self.profiles.cycle(mode, self.period, ax.position, ax.velocity)
-            ax.set_command(loop, value)
-        self._check_limits()
-        self._stop_reaction()
-
-    def _latch_status(self) -> None:
-        word = self.sm.statusword() | SW_REMOTE
-        if self.sm.state is _ENABLED:
-            mode = self.od.read(cia.MODES_DISPLAY, 0)
-            if mode in _CYCLIC:
-                word |= SW_FOLLOWS_COMMAND
-            elif mode in PROFILE_MODES:
-                word |= self.profiles.status
-        if self.fault_code == _FOLLOWING_ERROR:
-            word |= SW_FOLLOWING_ERROR
-        self.od.write(cia.STATUSWORD, 0, word)
-
-    def _latch(self, *, ahead: float = 0.0) -> None:
-        """The feedback objects, sampled ``ahead`` [s] after the latest period boundary."""
-        inputs = HOME_SWITCH if self.profiles.switch(self.axis.position) else 0
-        self.image.latch(
-            self.axis, demand=self._demand(), inputs=inputs, offset=self.glitch_counts, ahead=ahead
-        )
-        self.axis.latch()
-        self._latch_status()

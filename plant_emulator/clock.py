@@ -32,7 +32,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from plant_emulator.canopen_node import EmulatedNode
-from plant_emulator.shaft import Shaft
+from plant_emulator.shaft import Shaft, shafts_of
 
 __all__ = ["LEAD", "WorldClock"]
 
@@ -67,8 +67,7 @@ class WorldClock:
         self.stalled = 0.0  #: [s] of the source's time the world stood still
         self._read = source()
         self.devices = list(devices)
-        shafts = [getattr(d, "shaft", None) for d in self.devices]
-        self.shafts: list[Shaft] = list({id(s): s for s in shafts if s is not None}.values())
+        self.shafts: list[Shaft] = shafts_of(self.devices)
         t = self.now()
         for shaft in self.shafts:
             shaft.clock = self.now

@@ -7,7 +7,8 @@ long it takes to answer, how it stops, or what the motor behind it is. A profile
 says that. One file per drive, next to its EDS; its sections (every key optional but
 ``[device] eds``; docs/emulator.md's "A twin of your own drive" shows them all): ``[device]`` name,
 description, modelled_on, eds, physics (the preset whose motor is behind the drive),
-node_id; ``[physics.params]`` the preset's parameters; ``[modes] supported`` (only where the
+node_id, axes (a drive of several axes on one node, ``drivers.maps.logical``: a motor of the
+physics behind each); ``[physics.params]`` the preset's parameters; ``[modes] supported`` (only where the
 EDS has no 0x6502), csp_enable ("target": enabled in CSP, the drive goes for 0x607A,
 absolute, as CiA 402 has it; "hold": it holds where it stands until a new target comes);
 ``[units]`` counts_per_rev, position, velocity (where the EDS lacks
@@ -38,8 +39,10 @@ from drivers.files import read_toml
 from drivers.maps import cia
 from drivers.maps.cia import MODE_BITS, Mode
 from drivers.maps.cia402_needs import EMULATED, needed, require
+from drivers.maps.logical import MAX_AXES, axes_of
 from drivers.maps.mode_names import MODE_NAMES
 from drivers.maps.units import SiUnit
+from plant_emulator.toml_table import Table
 
 __all__ = [
     "DEVICES_DIR",
@@ -116,6 +119,7 @@ class DeviceProfile:
     physics: str = "dc-servo"
     params: Mapping[str, Any] = field(default_factory=dict)
     node_id: int = 1
+    axes: int = 1  #: logical devices of the drive, each with a motor of ``physics``
     modes: tuple[Mode, ...] = ()
     csp_enable: str = "target"  #: enabled in CSP: go for 0x607A ("target") or hold ("hold")
     mapping: str = "remappable"
@@ -136,9 +140,16 @@ class DeviceProfile:
         return frozenset(m.index for m in self.manufacturer if m.harmful)
 
     def check_against(self, od: Any) -> tuple[Mode, ...]:
-        """Check this profile against its object dictionary ``od``, which must have what an emulated
-        drive and each of its modes need (``drivers.maps.cia402_needs``); the drive's modes."""
+        """Check this profile against its object dictionary ``od`` (on a drive of several axes, one
+        axis's view: ``drivers.maps.logical``), which must have what an emulated drive and each of
+        its modes need (``drivers.maps.cia402_needs``); the drive's modes."""
         where = f"{self.source}"
+        axes = axes_of(od)
+        if axes != self.axes:
+            raise ConfigError(
+                f"{where}: [device] axes = {self.axes} but {self.eds.name} describes {axes} (the logical "
+                "devices with a statusword, 0x6041 + 0x800 per axis); give one of them"
+            )
         modes = self.modes
         if cia.SUPPORTED_MODES in od:
             bits = _default(od[cia.SUPPORTED_MODES])
@@ -180,36 +191,6 @@ def _names(modes: tuple[Mode, ...]) -> list[str]:
 
 
 # --- loading ---------------------------------------------------------------------------------------
-class _Table:
-    """One TOML table of file ``path`` (``section``: its dotted name), for messages; every key read
-    is ticked off, and ``done`` names the keys nobody read."""
-
-    def __init__(self, data: Mapping[str, Any], path: Path, section: str = "") -> None:
-        self.data, self.path, self.section = data, path, section
-        self.read: set[str] = set()
-        self.where = f"{path} [{section}]" if section else f"{path}:"
-
-    def get(self, key: str, kind: type | tuple[type, ...], default: Any = None) -> Any:
-        self.read.add(key)
-        if key not in self.data:
-            return default
-        value = self.data[key]
-        if kind is float and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-            name = kind.__name__ if isinstance(kind, type) else " or ".join(k.__name__ for k in kind)
-            raise ConfigError(f"{self.where} {key} = {value!r}: must be {name}")
-        return value
-
-    def sub(self, key: str) -> _Table:
-        return _Table(self.get(key, dict, {}), self.path, f"{self.section}.{key}" if self.section else key)
-
-    def done(self) -> None:
-        unknown = sorted(set(self.data) - self.read)
-        if unknown:
-            raise ConfigError(f"{self.where}: unknown key(s) {', '.join(unknown)}")
-
-
 def _hex(text: str, where: str) -> int:
     try:
         return int(text, 0)
@@ -217,14 +198,14 @@ def _hex(text: str, where: str) -> int:
         raise ConfigError(f"{where}: {text!r} is not a number (write 0x2001)") from None
 
 
-def _nonnegative(table: _Table, key: str, default: float) -> float:
+def _nonnegative(table: Table, key: str, default: float) -> float:
     value = float(table.get(key, float, default))
     if not (math.isfinite(value) and value >= 0.0):
         raise ConfigError(f"{table.where} {key} = {value!r}: must be >= 0")
     return value
 
 
-def _units(t: _Table) -> Units:
+def _units(t: Table) -> Units:
     codes = {}
     for key in ("position", "velocity"):
         text = t.get(key, str, "")
@@ -241,7 +222,7 @@ def _units(t: _Table) -> Units:
     return Units(cpr, codes["position"], codes["velocity"])
 
 
-def _reactions(t: _Table) -> Reactions:
+def _reactions(t: Table) -> Reactions:
     r = Reactions(
         t.get("quick_stop", int, 2),
         t.get("fault", int, 2),
@@ -263,7 +244,7 @@ def _reactions(t: _Table) -> Reactions:
     return r
 
 
-def _manufacturer(t: _Table) -> tuple[ManufacturerObject, ...]:
+def _manufacturer(t: Table) -> tuple[ManufacturerObject, ...]:
     out = []
     for key in list(t.data):
         index = _hex(key, f"{t.where} {key}")
@@ -283,7 +264,7 @@ def _manufacturer(t: _Table) -> tuple[ManufacturerObject, ...]:
     return tuple(out)
 
 
-def _modes(t: _Table) -> tuple[tuple[Mode, ...], str]:
+def _modes(t: Table) -> tuple[tuple[Mode, ...], str]:
     names = t.get("supported", list, [])
     csp_enable = t.get("csp_enable", str, "target")
     t.done()
@@ -300,7 +281,7 @@ def _modes(t: _Table) -> tuple[tuple[Mode, ...], str]:
 def load_profile(path: str | Path) -> DeviceProfile:
     """The profile in the TOML file ``path``; ConfigError naming the file and the key on any defect."""
     p = Path(path)
-    top = _Table(read_toml(p, what="device profile"), p)
+    top = Table(read_toml(p, what="device profile"), p)
     device = top.sub("device")
     name = device.get("name", str, p.stem)
     eds_name = device.get("eds", str)
@@ -328,6 +309,7 @@ def load_profile(path: str | Path) -> DeviceProfile:
         physics=preset,
         params=params,
         node_id=device.get("node_id", int, 1),
+        axes=device.get("axes", int, 1),
         modes=modes,
         csp_enable=csp_enable,
         mapping=_pdo_mapping(top.sub("pdo")),
@@ -343,17 +325,19 @@ def load_profile(path: str | Path) -> DeviceProfile:
     top.done()
     if not 1 <= profile.node_id <= 127:
         raise ConfigError(f"{p} [device] node_id = {profile.node_id}: must be 1..127")
+    if not 1 <= profile.axes <= MAX_AXES:
+        raise ConfigError(f"{p} [device] axes = {profile.axes}: must be 1..{MAX_AXES}")
     return profile
 
 
-def _finite(t: _Table, key: str, default: float) -> float:
+def _finite(t: Table, key: str, default: float) -> float:
     value = float(t.get(key, float, default))
     if not math.isfinite(value):
         raise ConfigError(f"{t.where} {key} = {value!r}: must be finite")
     return value
 
 
-def _pdo_mapping(t: _Table) -> str:
+def _pdo_mapping(t: Table) -> str:
     mapping = t.get("mapping", str, "remappable")
     t.done()
     if mapping not in ("remappable", "fixed"):
@@ -361,13 +345,13 @@ def _pdo_mapping(t: _Table) -> str:
     return str(mapping)
 
 
-def _timing(t: _Table) -> Timing:
+def _timing(t: Table) -> Timing:
     timing = Timing(*(_nonnegative(t, k, 0.0) for k in ("sdo_response", "pdo_latency", "mode_switch")))
     t.done()
     return timing
 
 
-def _emcy(t: _Table) -> dict[int, str]:
+def _emcy(t: Table) -> dict[int, str]:
     out = {_hex(k, f"{t.where} {k}"): t.get(k, str) for k in list(t.data)}
     t.done()
     return out

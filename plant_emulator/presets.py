@@ -119,7 +119,8 @@ def build_twin(
 ) -> tuple[list[EmulatedNode], float]:
     """The virtual twin of ``profile``'s drive on ``network``: (its one drive, SYNC period [s]).
 
-    The motor is the profile's physics preset with the profile's ``[physics.params]`` and then
+    The motor (a motor per axis on a drive of several: ``plant_emulator.multi_axis``) is the
+    profile's physics preset with the profile's ``[physics.params]`` and then
     ``params`` applied (or ``params``, the preset's dataclass built over the profile's already);
     the drive keeps its own EDS's resolution (0x608F), and takes the motor's ratings into the
     objects it has.
@@ -131,14 +132,23 @@ def build_twin(
     schema = PRESETS.get(profile.physics)
     built = schema is not None and isinstance(params, schema)
     p: Any = params if built else preset_params(profile.physics, {**profile.params, **(params or {})})
-    axis: Axis
-    if isinstance(p, DcServoPreset):
-        axis, ratings = _dc_axis(p, period=p.period)
+    motors = [_motor(p) for _ in range(profile.axes)]  # a drive of several axes: a motor each
+    node = node_id or profile.node_id
+    drive: EmulatedDrive
+    if profile.axes > 1:
+        from plant_emulator.multi_axis import MultiAxisDrive
+
+        axes = [axis for axis, _ in motors]
+        drive = MultiAxisDrive(node, network, axes, period=p.period, profile=profile)
     else:
-        axis, ratings = _im_axis(p)
-    drive = EmulatedDrive(node_id or profile.node_id, network, axis, period=p.period, profile=profile)
-    drive.rate(ratings, counts_per_rev=None)
+        drive = EmulatedDrive(node, network, motors[0][0], period=p.period, profile=profile)
+    drive.rate(motors[0][1], counts_per_rev=None)
     return [drive], p.period
+
+
+def _motor(p: DcServoPreset | ImDrivePreset) -> tuple[Axis, Ratings]:
+    """The motor of a twin's preset ``p`` behind its drive, and its ratings."""
+    return _dc_axis(p, period=p.period) if isinstance(p, DcServoPreset) else _im_axis(p)
 
 
 def _dc_axis(p: DcServoPreset, *, period: float, j_load: float = 0.0) -> tuple[DcServoAxis, Ratings]:

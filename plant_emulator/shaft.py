@@ -47,12 +47,12 @@ in 1.5 s into the run, not onto a disabled motor 1.5 s after the emulator starte
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Protocol
 
 from plant_emulator.axes import Axis
 
-__all__ = ["Shaft", "Timed", "run_period"]
+__all__ = ["Shaft", "Timed", "run_period", "shafts_of"]
 
 #: a command taking effect ``offset`` [s] into the period: (offset, axis, mode, value SI,
 #: computed one SYNC ago)
@@ -81,6 +81,17 @@ def run_period(
             axis.set_command(mode, value, computed_one_sync_ago=one_ago)
             done = offset
     advance(period - done, t + done)
+
+
+def shafts_of(devices: Iterable[object]) -> list[Shaft]:
+    """The shafts of ``devices``, each once: a drive's, each axis's of a drive of several
+    (``plant_emulator.multi_axis``), an encoder's."""
+    found: dict[int, Shaft] = {}
+    for d in devices:
+        for shaft in getattr(d, "shafts", None) or [getattr(d, "shaft", None)]:
+            if shaft is not None:
+                found.setdefault(id(shaft), shaft)
+    return list(found.values())
 
 
 class Coupled(Protocol):

@@ -9,6 +9,11 @@ The tables are written here from published facts (which objects a drive has, the
 and mappability, PDO counts and default mappings, units, manufacturer objects); the object
 names are CiA 402's. Nothing is taken from a vendor's file. Defaults given in SI below are
 converted to each drive's own units.
+
+A drive of several axes (``Twin.axes``) has each axis's objects as CiA 301 and 402 lay out a
+module of several logical devices (``drivers.maps.logical``): axis n's 0x800 (n - 1) above
+axis 1's, named with their axis (``Controlword axis 2``), each axis's device type at 0x67FF +
+0x800 (n - 1), and 0x1000's additional information FFFFh.
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from drivers.maps.eds_writer import (
     pdo_objects,
     var,
 )
+from drivers.maps.logical import AXIS_OFFSET, DEVICE_TYPE_OF_AXIS, MULTIPLE_DEVICES, axis_object
 from plant_emulator.devices.catalog import catalog as make_catalog
 
 __all__ = ["ZOO", "Twin", "eds_of", "write_all"]
@@ -70,6 +76,7 @@ class Twin:
     access: tuple[tuple[int, str], ...] = ()  #: (index, AccessType) overriding CiA 402's
     names: tuple[tuple[int, str], ...] = ()  #: (index, ParameterName) overriding CiA 402's
     heartbeat_ms: int = 0  #: 0x1017 default
+    axes: int = 1  #: logical devices (axes), each with the objects above (module docstring)
 
     def per_rad(self, velocity: bool) -> float:
         """Device units per rad (or per rad/s), as ``drivers.maps.units`` reads them."""
@@ -100,8 +107,9 @@ _ALWAYS = (
 
 def _comm(t: Twin, name: str) -> list[Obj]:
     info = t.info
+    device_type = t.device_type if t.axes == 1 else MULTIPLE_DEVICES << 16 | t.device_type & 0xFFFF
     objs = cia301_objects(
-        device_type=t.device_type,
+        device_type=device_type,
         name=name,
         vendor=info.vendor_number,
         product=info.product_number,
@@ -128,7 +136,27 @@ def _objects(t: Twin, name: str) -> list[Obj]:
     objs += [catalog[i] for i in sorted(t.objects)]
     if t.modes:
         objs.append(var(0x6502, Var("Supported drive modes", UINT32, "ro", f"0x{t.modes:08X}")))
-    return [_override(o, access.get(o.index), names.get(o.index)) for o in objs]
+    objs = [_override(o, access.get(o.index), names.get(o.index)) for o in objs]
+    if t.axes == 1:
+        return objs
+    axis_1 = [o for o in objs if 0x6000 <= o.index < 0x6000 + AXIS_OFFSET]
+    kind = Var("Device type", UINT32, "ro", f"0x{t.device_type:08X}")
+    axis_1.append(var(DEVICE_TYPE_OF_AXIS, kind))
+    objs.append(var(DEVICE_TYPE_OF_AXIS, kind))
+    for n in range(2, t.axes + 1):
+        objs += [_on_axis(o, n) for o in axis_1]
+    return sorted(objs, key=lambda o: o.index)
+
+
+def _on_axis(o: Obj, n: int) -> Obj:
+    """Axis 1's object ``o`` as axis ``n``'s: 0x800 (n - 1) higher, its name saying the axis."""
+    name = f"{o.name} axis {n}"
+    subs = tuple((sub, Var(name, *_rest(v))) if o.kind == 0x7 else (sub, v) for sub, v in o.subs)
+    return Obj(axis_object(o.index, n), name, subs, o.kind)
+
+
+def _rest(v: Var) -> tuple[int, str, str, bool]:
+    return v.data_type, v.access, v.default, v.pdo
 
 
 def _override(o: Obj, access: str | None, name: str | None) -> Obj:
@@ -259,6 +287,29 @@ ZOO: dict[str, Twin] = {
             (0x6077, "Torque actual value (\u2030 of rated torque)"),
             (0x6080, "Max motor speed (U/min, Drehzahl-\u00dcberwachung)"),
         ),
+    ),
+    "dual-axis": _twin(
+        info=DeviceInfo(
+            "drive-rig",
+            0xDB1,
+            "dual-axis drive",
+            0x2402,
+            "a dual-axis CiA 402 servo drive: two motors on one node (drive-rig zoo)",
+        ),
+        device_type=0x00020192,
+        modes=PP | PV | HM | CSP | CSV | CST,
+        rpdo=(
+            (CW, TARGET_POS),
+            (CW, TARGET_VEL),
+            (mapped(0x6840, 0, 16), mapped(0x687A, 0, 32)),
+            (mapped(0x6840, 0, 16), mapped(0x68FF, 0, 32)),
+        ),
+        tpdo=((SW, POS), (VEL, TQ), (mapped(0x6841, 0, 16), mapped(0x6864, 0, 32)), (mapped(0x686C, 0, 32),)),
+        rpdo_types=(1, 1, 1, 1),
+        tpdo_types=(1, 1, 1, 1),
+        objects=_SERVO,
+        increments=4096,
+        axes=2,
     ),
     "compact-2pdo": _twin(
         info=DeviceInfo(

@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from drivers.errors import NodeSilent, RigError
+from drivers.maps.logical import MAX_AXES, axis_object
 from rig.cli import drive_dictionary
 from rig.cli.common import (
     EXIT_STOPPED,
@@ -39,6 +40,13 @@ def add_parser(sub: Any) -> None:
     )
     add_bus_arguments(drive)
     drive.add_argument("--node", type=int, default=1, help="the drive's node id (default 1)")
+    drive.add_argument(
+        "--axis",
+        type=int,
+        default=1,
+        help="which axis of a drive of several on the node (default 1; axis N's objects are 0x800 (N - 1) "
+        "above axis 1's: an object named here, as in sdo, is axis N's)",
+    )
     drive.add_argument("--eds", metavar="FILE", help="the drive's EDS/DCF (default: the toolkit's)")
     drive.add_argument(
         "--emulate", metavar="DEVICE", help="a zoo twin in this process instead (rig emulate --list)"
@@ -114,6 +122,8 @@ def add_parser(sub: Any) -> None:
 def _check(args: argparse.Namespace) -> None:
     if not 1 <= args.node <= 127:
         raise UsageError(f"rig drive: argument --node: must be 1..127, got {args.node}")
+    if not 1 <= args.axis <= MAX_AXES:
+        raise UsageError(f"rig drive: argument --axis: must be 1..{MAX_AXES}, got {args.axis}")
     if args.action == "jog" and not 0.0 < args.seconds <= 60.0:
         raise UsageError(f"rig drive jog: argument --for: must be in (0, 60] s, got {args.seconds:g}")
     if args.action == "home" and args.method is not None and not -128 <= args.method <= 127:
@@ -138,6 +148,7 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     from drivers.cia402 import Cia402Axis
     from drivers.maps import CIA402_EDS
     from drivers.maps.cia402_needs import CONTROL, STATUS, require
+    from drivers.maps.logical import axis_dictionary
     from drivers.maps.od import load_od
     from drivers.master_watch import MasterWatch
     from rig.cli.common import params_of
@@ -154,7 +165,8 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
 
         profile = device_profile(args.emulate)
     eds = args.eds or (str(profile.eds) if profile else None)  # None: the device's own units, modes
-    od = load_od(eds or CIA402_EDS, args.node)  # a bad EDS, or an object it does not name, first
+    od = load_od(eds or CIA402_EDS, args.node)  # a bad EDS, an axis it lacks, an object it does not name
+    od = axis_dictionary(od, args.axis, source=str(eds or CIA402_EDS), generic=eds is None)
     if args.action == "sdo":
         parse_object(args.object, od)
     elif args.action not in drive_dictionary.ACTIONS:  # and one that lacks what the action needs to
@@ -172,7 +184,7 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
         network = open_network(args, "rig drive")
         idle, period, close = None, 0.01, network.disconnect
         watch = MasterWatch(network, [args.node])  # heard from the bus's opening on
-    axis = Cia402Axis("drive", network, args.node, mode="csp", eds=eds, units=units)
+    axis = Cia402Axis("drive", network, args.node, mode="csp", eds=eds, units=units, axis=args.axis)
 
     def done() -> None:
         axis._forget()  # the tool leaves the drive as its command left it (enable: enabled)
@@ -219,13 +231,13 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
         return {"state": getattr(tool, args.action)()}
     if args.action == "sdo":
         index, sub = parse_object(args.object, a.node.object_dictionary)
+        where = f"0x{axis_object(index, args.axis):04X}:{sub:02X}"  # the object on the wire: axis N's
         if args.op == "read":
             return tool.read_object(index, sub)
         var = variable(a.node.object_dictionary, (index, sub))
         if var is not None and not var.writable:
             raise UsageError(
-                f"rig drive sdo write: 0x{index:04X}:{sub:02X} ({var.name}) is {var.access_type} in the EDS: "
-                "nothing was sent"
+                f"rig drive sdo write: {where} ({var.name}) is {var.access_type} in the EDS: nothing was sent"
             )
         try:  # what the operator names is the task: a manufacturer object too (not Cia402Axis's guard)
             CanopenAxis.sdo_write(a, index, sub, _value(args.value))
@@ -236,7 +248,7 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
                 f"rig drive sdo write: value {args.value!r} does not fit the type of 0x{index:04X}:{sub:02X}"
                 f" ({exc})"
             ) from None
-        return {"object": f"0x{index:04X}:{sub:02X}", "written": _value(args.value)}
+        return {"object": where, "written": _value(args.value)}
     from rig.commission import moves
 
     if args.action == "jog":

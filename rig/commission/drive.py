@@ -32,6 +32,7 @@ from drivers.maps.cia import Mode, PowerState
 from drivers.maps.cia402_needs import needed
 from drivers.maps.cia402_needs import require as require_objects
 from drivers.maps.emcy import emcy_text
+from drivers.maps.logical import axis_object
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
 from rig.commission.motion_watch import MotionWatch
@@ -134,13 +135,16 @@ class DriveTool:
                     "valid": pdo.valid,
                     "cob_id": f"0x{pdo.cob_id:03X}",
                     "type": pdo.ttype,
-                    "entries": [f"0x{e.index:04X}:{e.subindex:02X}/{e.bits}" for e in pdo.entries],
+                    "entries": [
+                        f"0x{e.wire(a.axis_number):04X}:{e.subindex:02X}/{e.bits}" for e in pdo.entries
+                    ],
                 }
         mode = a._optional(cia.MODES_DISPLAY)
         bits = a._optional(cia.SUPPORTED_MODES)
         seen = picture(a, units, word, None if mode is None else int(mode))
         return {
             "node": a.node_id,
+            "axis": a.axis_number,
             "identity": {k: f"0x{v:08X}" for k, v in a.identity.items()},
             "vendor_name": a.device_id.vendor_name,
             "state": power_state(word).value,
@@ -169,7 +173,7 @@ class DriveTool:
         kind = getattr(var, "data_type", None)
         fmt = var.STRUCT_TYPES.get(kind) if var is not None and kind is not None else None
         out: dict[str, Any] = {
-            "object": f"0x{index:04X}:{subindex:02X}",
+            "object": f"0x{axis_object(index, a.axis_number):04X}:{subindex:02X}",  # on the wire: axis N's
             "name": str(var.name) if var is not None else "",
             "type": _TYPE_NAMES.get(kind, "") if kind is not None else "",
             "access": str(getattr(var, "access_type", "")),
@@ -184,8 +188,9 @@ class DriveTool:
         return out
 
     def object_name(self, index: int, subindex: int) -> str:
-        """An object's name in the drive's EDS ("" where it has none)."""
-        var = variable(self.axis.node.object_dictionary, (index, subindex))
+        """An object's name in the drive's EDS, by its index on the wire ("" where it has none)."""
+        od = self.axis.node.object_dictionary
+        var = variable(getattr(od, "device", od), (index, subindex))
         return str(var.name) if var is not None else ""
 
     def _last_error(self) -> str | None:

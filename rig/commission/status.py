@@ -67,7 +67,7 @@ def status_lines(status: dict[str, Any], name_of: Callable[[int, int], str]) -> 
     bits = ", ".join(status["statusword_bits"]) or "none"
     u = status["units"]
     rows = [
-        ("node", str(status["node"])),
+        ("node", str(status["node"]) + (f", axis {status['axis']}" if status.get("axis", 1) > 1 else "")),
         ("identity", identity),
         ("state", f"{status['state']} (statusword {status['statusword']}: {bits})"),
         ("mode", f"{status['mode_name']} (0x6061 = {status['mode']})"),

@@ -15,6 +15,7 @@ from typing import Any, Literal
 
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
 from drivers.errors import ConfigError
+from drivers.maps.logical import MAX_AXES
 from drivers.schema import Refused, key, key_of, keys
 from rig.config import checks as fmt
 from rig.config.params import typed_values
@@ -105,6 +106,15 @@ class AxisConfig:
     name: str = key(doc="the axis's name, as [controller] reads and commands name it")
     kind: Literal["cia402", "modbus", "cia406"] = key(doc="the device's profile")
     node_id: int = key(0, "", "CANopen node id", ge=1, le=127, kinds=CANOPEN)
+    axis: int = key(
+        1,
+        "",
+        "which axis of a drive of several on one node (CiA 402: axis n's objects 0x800 (n - 1) above "
+        "axis 1's, 0x6840, 0x6841, ...)",
+        ge=1,
+        le=MAX_AXES,
+        kinds=("cia402",),
+    )
     mode: str = key(
         "",
         "",
@@ -260,11 +270,13 @@ def _check_kind(where: str, values: dict[str, Any]) -> None:
         raise ConfigError(f"{where} has a profile but no mode to command it in")
     if values.get("eds"):
         from drivers.maps.cia402_needs import needed, require
+        from drivers.maps.logical import axis_dictionary
         from drivers.maps.mode_names import mode_code
         from drivers.maps.od import load_od  # canopen: only where an axis names its own EDS
 
         try:
             od = load_od(values["eds"], values["node_id"])
+            od = axis_dictionary(od, values.get("axis", 1), source=str(values["eds"]))  # it has the axis
             if kind == "cia402":  # and what its mode needs of it
                 needs = needed(mode_code(mode), manufacturer=False)  # the drive is not identified yet
                 require(od, needs, source=str(values["eds"]), what=f"mode {mode}")

@@ -3,7 +3,8 @@
 Each key's own range is data of its field (``drivers.schema``); the ``[controller]`` table's
 rules with the axes are ``rig.config.controller``'s. Here, what needs the whole file: a period
 the run can have (``[run] period``, or the emulator preset's); a SYNC from another device in
-real time only; node ids and axis names that are unique and not the host's; the answer budget
+real time only; node ids and axis names that are unique and not the host's (the axes of one
+drive of several, each its own ``axis`` on one node id, are one device); the answer budget
 inside the period; a ``[run] period`` the emulated devices can take; the emulated inverters'
 communication-loss time longer than the period; faults of the emulated bus only with an
 emulated bus; a profile for a profile reference.
@@ -32,8 +33,11 @@ def check_rig(cfg: Any) -> None:
         if names.count(name) > 1:
             raise ConfigError(f"{src}: two [[axis]] tables are named {name!r}")
     nodes = [a.node_id for a in cfg.axes if a.kind != "modbus"]
-    for node in nodes:
-        if nodes.count(node) > 1:
+    places = [(a.node_id, a.axis if a.kind == "cia402" else 0) for a in cfg.axes if a.kind != "modbus"]
+    for node, axis in places:
+        if places.count((node, axis)) > 1 and axis:
+            raise ConfigError(f"{src}: two [[axis]] tables are axis {axis} of node_id {node}")
+        if places.count((node, axis)) > 1 or (not axis and nodes.count(node) > 1):
             raise ConfigError(f"{src}: two CANopen axes have node_id {node}")
     if b.host_node in nodes:
         raise ConfigError(f"{src}: [bus] host_node = {b.host_node} is also an axis's node_id")

@@ -32,6 +32,7 @@ from plant_emulator.bus_time import DEFAULT_BITRATE
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.clock import WorldClock
 from plant_emulator.lockstep import SyncHub, attach_network
+from plant_emulator.shaft import shafts_of
 from plant_emulator.socketcand_server import SocketcandServer
 from rig.host.realtime import Grant, RealtimeRequest, collect_young, request
 
@@ -191,8 +192,7 @@ def rest_plants(devices: list[EmulatedNode]) -> bool:
     if enabled:
         log.warning("plant reset refused: node(s) %s enabled; disable them first", enabled)
         return False
-    shafts = {id(s): s for d in devices if (s := getattr(d, "shaft", None)) is not None}
-    for shaft in shafts.values():
+    for shaft in shafts_of(devices):
         shaft.rest()
     print("rig emulate: the plant is back at rest (angle 0, speed 0)", flush=True)
     return True

@@ -67,6 +67,7 @@ def _arguments(
             "reset_fault": a.reset_fault,
             "emcy_texts": device_emcy_texts(a.eds),
             "feedback": a.feedback,
+            "axis": a.axis,
         }
         return (a.name, network, a.node_id), kw
     if a.kind == "cia406":

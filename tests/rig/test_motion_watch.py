@@ -145,7 +145,7 @@ def test_the_nanotec_jog_with_its_units_taken_wrong_is_stopped(
             looks.append((t, speed, position))
             super().see(t, speed, position)
 
-    monkeypatch.setattr("drivers.cia402_setup.read_standard", blind)
+    monkeypatch.setattr("drivers.cia402_discovery.read_standard", blind)
     monkeypatch.setattr(rig.commission.drive, "MotionWatch", Counted)
     r = _json(capsys, 3, "jog", "5", "--for", "1")
     assert r["result"].startswith("stopped: node 1: the jog: ")

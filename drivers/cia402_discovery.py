@@ -1,0 +1,196 @@
+"""How the host finds out what a CiA 402 drive is, before it writes anything: its type and axis, its
+identity, its modes, its units.
+
+``Cia402Discovery`` is the discovery part of ``drivers.cia402_setup.Cia402Setup`` (a mixin over
+the axis's SDO access): ``discover`` reads 0x1000 (a CiA 402 drive; on a drive of several axes,
+the axis's own device type 0x67FF + 0x800 (n - 1): ``drivers.maps.logical``), 0x1018 against the
+EDS in use, 0x6502 against the mode, and the units of ``drivers.cia402_units``, each by its
+standard's type whatever the EDS names (``drivers.identity.read_standard``). A drive that is
+not what the configuration says is refused in one line, and marked so that closing writes
+nothing to it. ``toolkit_drive`` and ``guard_manufacturer`` keep the toolkit's manufacturer
+objects and modes to its own drive.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from drivers.cia402_pdo import variable
+from drivers.cia402_units import DriveUnits, discover_units
+from drivers.errors import CommunicationTimeout, ConfigError, NodeSilent, SdoAbort
+from drivers.identity import TOOLKIT_DRIVE, Identity, read_standard
+from drivers.maps import cia
+from drivers.maps.cia import CIA_MODE_BITS, MODE_BITS, SUPPORTED_MODE_BITS, Mode
+from drivers.maps.logical import DEVICE_TYPE_OF_AXIS, MULTIPLE_DEVICES, axis_object
+from drivers.maps.mode_names import MODE_NAMES, mode_text
+
+__all__ = ["Cia402Discovery"]
+
+
+class Cia402Discovery:
+    """See the module docstring (a mixin of ``Cia402Setup``)."""
+
+    node: Any
+    node_id: int
+    name: str
+    mode: str | None
+    op_mode: Mode
+    axis_number: int
+    given_units: dict[str, float]
+    units: DriveUnits
+    identity: dict[str, int]
+    device_id: Identity
+    units_hint: str = "[axis.units] {key}"  #: how the user gives a unit the drive lacks
+    eds_hint: str
+    #: the drive has a position actual value 0x6064 (``discover``; a velocity-only drive has none)
+    has_position: bool = True
+    supported_modes: frozenset[int] | None
+    #: 0x1000 named another profile (``discover``): the axis must not write CiA 402 objects
+    not_a_drive: bool = False
+
+    if TYPE_CHECKING:  # the axis's own, used here
+
+        @property
+        def where(self) -> str: ...
+        def sdo_read(self, index: int, subindex: int = 0) -> Any: ...
+        def sdo_upload(self, index: int, subindex: int = 0) -> bytes: ...
+        def check_identity(self, *, give: str) -> Identity: ...
+
+    def _optional(self, index: int, subindex: int = 0) -> Any:
+        """An object the device may lack: its value, or None (absent from the EDS, or refused)."""
+        if variable(self.node.object_dictionary, (index, subindex)) is None:
+            return None
+        try:
+            return self.sdo_read(index, subindex)
+        except SdoAbort:
+            return None
+
+    def discover(self, *, check_mode: bool = True) -> DriveUnits:
+        """Device type and identity (0x1000, 0x1018 read from the device and checked against the
+        EDS in use: ``check_identity``), supported modes (0x6502) against the mode (unless not
+        ``check_mode``: commissioning, which picks its modes itself), units, and whether the drive
+        has a position 0x6064. Identity, modes and units are read from the device by their
+        standard's types, whatever the EDS names (``drivers.identity.read_standard``)."""
+        try:
+            device_type = self.sdo_read(cia.DEVICE_TYPE)
+        except CommunicationTimeout as exc:
+            self.not_a_drive = True  # it never answered: closing sends it no controlword
+            raise NodeSilent(
+                f"node {self.node_id}: no SDO answer to 0x1000 (device type): no node {self.node_id} on "
+                "this bus, or it is not powered"
+            ) from exc
+        if device_type & 0xFFFF != cia.PROFILE_DRIVE:
+            self.not_a_drive = True  # closing writes no controlword to it (0x6040 is not ours there)
+            raise ConfigError(
+                f"axis {self.name!r}: node {self.node_id} is not a CiA 402 drive "
+                f"(0x1000 = 0x{device_type:08X}: profile {device_type & 0xFFFF})"
+            )
+        self._check_axis(device_type)
+        try:
+            self.device_id = self.check_identity(give=self.eds_hint)
+        except ConfigError:
+            self.not_a_drive = True  # another device than the EDS's: closing writes nothing to it
+            raise
+        self.identity = self.device_id.as_dict()
+        bits = self._standard(cia.SUPPORTED_MODES)
+        table = MODE_BITS if self.toolkit_drive else CIA_MODE_BITS  # bits 16-31: the vendor's own
+        self.supported_modes = (
+            None if bits is None else frozenset(int(m) for m, bit in table.items() if bits & bit)
+        )
+        if check_mode:
+            self._check_mode(bits)
+        self.has_position = self._standard(cia.POSITION_ACTUAL) is not None
+        self.units = discover_units(
+            self._standard,
+            self.given_units,
+            where=f"{self.name!r} (node {self.node_id})",
+            mode=int(self.op_mode) if check_mode else 0,
+            hint=self.units_hint,
+            has_position=self.has_position,
+        )
+        return self.units
+
+    def _check_axis(self, device_type: int) -> None:
+        """Axis n > 1 of a drive of several (``drivers.maps.logical``): the device must have it, as
+        its logical device's type (0x67FF + 0x800 (n - 1), profile 402) says, or, where it keeps
+        none, its statusword; else ConfigError before anything is written."""
+        n = self.axis_number
+        if n == 1:
+            return
+        own = self._standard(DEVICE_TYPE_OF_AXIS)
+        if own is not None and own & 0xFFFF == cia.PROFILE_DRIVE:
+            return
+        if own is None and self._standard(cia.STATUSWORD) is not None:
+            return
+        self.not_a_drive = True  # closing writes no controlword to an axis that is not there
+        wire = axis_object(DEVICE_TYPE_OF_AXIS, n)
+        said = "does not answer" if own is None else f"= 0x{own:08X}: profile {own & 0xFFFF}, not 402"
+        raise ConfigError(
+            f"axis {self.name!r}: node {self.node_id} has no CiA 402 axis {n}: 0x{wire:04X} (axis {n}'s "
+            f"device type) {said}, and 0x1000 = 0x{device_type:08X} "
+            f"({'a module of several devices' if device_type >> 16 == MULTIPLE_DEVICES else 'one device'}): "
+            "give the axis the drive has (axis = 1 on a drive of one axis)"
+        )
+
+    def _standard(self, index: int, subindex: int = 0) -> int | None:
+        """A standard object as the device answers (``drivers.identity.read_standard``)."""
+        return read_standard(self.sdo_upload, index, subindex)
+
+    def offered(self, bits: int | None) -> str:
+        """The modes the drive offers, as 0x6502 says: every mode CiA 402 gives a bit (vl and cstca
+        too, which the toolkit does not drive), and bits 16-31 only on the toolkit's own drive."""
+        if bits is None:
+            return "no 0x6502 (the drive does not say which modes it has)"
+        codes = [m for m, bit in SUPPORTED_MODE_BITS.items() if bits & bit]
+        if self.toolkit_drive:
+            codes = sorted(int(m) for m, bit in MODE_BITS.items() if bit >> 16 and bits & bit) + codes
+        names = ", ".join(mode_text(m) for m in codes) or "no mode CiA 402 names"
+        return f"0x6502 = 0x{bits:08X}: {names}"
+
+    def _check_mode(self, bits: int | None) -> None:
+        """The configured mode against the drive, before anything is written: a manufacturer mode
+        (negative) only on the toolkit's own drive; a mode 0x6502 lists, where it has one."""
+        where = f"axis {self.name!r} (node {self.node_id})"
+        if int(self.op_mode) < 0 and not self.toolkit_drive:
+            raise ConfigError(
+                f"{where}: mode {self.mode!r} is a manufacturer mode of drive-rig's own drive (vendor "
+                f"0x{TOOLKIT_DRIVE[0]:X}, product 0x{TOOLKIT_DRIVE[1]:X}); this drive is "
+                f"{self.device_id.text()}, whose manufacturer modes mean what its vendor made them mean; "
+                f"it offers {self.offered(bits)}: {self.choose()}"
+            )
+        if self.supported_modes is not None and int(self.op_mode) not in self.supported_modes:
+            raise ConfigError(
+                f"{where}: mode {self.mode} is not in 0x6502 ({self.offered(bits)}): {self.choose()}"
+            )
+
+    def choose(self) -> str:
+        """What to do about a mode the drive does not take: the other modes with a cyclic target
+        that it offers (all, where it has no 0x6502), or rig drive where it offers none."""
+        offered = self.supported_modes
+        names = [
+            name
+            for name, m in MODE_NAMES.items()
+            if m in cia.TARGET_OF_MODE and m >= 0 and m != self.op_mode and (offered is None or m in offered)
+        ]
+        if not names:
+            return (
+                "it offers no other mode rig run commands (pv, csp, csv, cst): commission it with rig drive"
+            )
+        return f"set the axis's mode to another it offers ({', '.join(names)})"
+
+    @property
+    def toolkit_drive(self) -> bool:
+        """The toolkit's own drive, positively identified (0x1018 vendor and product), whose
+        manufacturer objects and modes the host knows."""
+        return self.device_id.toolkit
+
+    def guard_manufacturer(self, index: int, what: str) -> None:
+        """ConfigError before ``what`` would write manufacturer object ``index`` of a drive that is
+        not the toolkit's own (its meaning is that vendor's)."""
+        if index in cia.MANUFACTURER_AREA and not self.toolkit_drive:
+            var = variable(self.node.object_dictionary, (index, 0))
+            name = f" ({var.name})" if var is not None else ""
+            raise ConfigError(
+                f"{self.where}: {what} would write 0x{index:04X}{name}, a manufacturer object of "
+                f"{self.device_id.text()}; drive-rig writes no manufacturer object but on its own drive"
+            )
