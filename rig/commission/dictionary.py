@@ -130,6 +130,7 @@ def read_dictionary(axis: Cia402Axis, *, standard_only: bool) -> list[Entry]:
     ``standard_only``: not 0x2000-0x5FFF. ``axis.units`` (``discover``) give the SI values.
     CommunicationTimeout where the drive stops answering (``_SILENT`` objects in a row)."""
     od = axis.node.object_dictionary
+    od = getattr(od, "device", od)  # the node's whole dictionary, each object at its own index
     units = getattr(axis, "units", None)
     entries: list[Entry] = []
     silent = 0
