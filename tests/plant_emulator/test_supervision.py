@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from typing import Any
 
 import canopen
 import pytest
@@ -139,8 +140,9 @@ def test_nmt_stop_while_enabled_stops_the_motor(rig: Rig) -> None:
     assert abs(rig.drive.axis.velocity) < 0.05
 
 
-def test_an_rpdo_that_stops_coming_times_out(rig: Rig) -> None:
-    """RPDO1's event timer (sub 5) as its deadline: EMCY 0x8250 and the 0x6007 reaction."""
+def _rpdo_with_a_deadline(rig: Rig) -> Any:
+    """RPDO1 with a deadline of 10 ms (its event timer, sub 5) and the quick stop as 0x6007's
+    reaction, sent with the enabled controlword for 100 SYNCs: the drive enabled."""
     rig.node.sdo[0x1400][5].raw = 10  # ms
     rig.node.sdo[0x6007].raw = 3
     rig.enable()
@@ -151,6 +153,12 @@ def test_an_rpdo_that_stops_coming_times_out(rig: Rig) -> None:
         rpdo.transmit()
         rig.bench.sync()
     assert rig.state() is S.OPERATION_ENABLED
+    return rpdo
+
+
+def test_an_rpdo_that_stops_coming_times_out(rig: Rig) -> None:
+    """RPDO1's event timer (sub 5) as its deadline: EMCY 0x8250 and the 0x6007 reaction."""
+    _rpdo_with_a_deadline(rig)
     rig.run(0.02)
     assert 0x8250 in rig.emcy_codes()
     rig.run(0.2)
@@ -160,15 +168,7 @@ def test_an_rpdo_that_stops_coming_times_out(rig: Rig) -> None:
 def test_an_rpdo_refused_for_its_length_does_not_feed_the_deadline(rig: Rig) -> None:
     """Frames of 3 bytes on RPDO1's COB-ID (another producer's) are not processed (EMCY 0x8210) and
     do not keep the deadline from expiring: they are not the master's RPDO (they did)."""
-    rig.node.sdo[0x1400][5].raw = 10  # ms
-    rig.node.sdo[0x6007].raw = 3
-    rig.enable()
-    rig.node.rpdo.read()
-    rpdo = rig.node.rpdo[1]
-    for _ in range(100):
-        rpdo["Controlword"].raw = 0x0F
-        rpdo.transmit()
-        rig.bench.sync()
+    rpdo = _rpdo_with_a_deadline(rig)
     for _ in range(round(0.03 / PERIOD)):
         rig.bench.host.send_message(rpdo.cob_id, b"\x0f\x00\x00")
         rig.bench.sync()

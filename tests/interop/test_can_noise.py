@@ -1,0 +1,233 @@
+"""cangen's random frames at the running chain (the servo in lock-step: ``rig emulate`` on vcan0 in
+its own process, drive-rig's host in this one), judged frame by frame by the rules the host
+follows, not by which identifiers cangen happens to draw.
+
+cangen (``-v``) says what it sent, candump (``-L``) where on the bus each frame went. Each noise
+frame is put against the bus's own frames: before the host's last SYNC of the run's cycles (the run
+sees it) or after it (the stop does). By CiA 301 and the host's rules (docs/stops.md):
+
+- on a TPDO COB-ID of the run (any length): another producer on that COB-ID
+  (``drivers.producer_watch``): a safe stop naming COB-ID and node;
+- on an RPDO COB-ID of a node, on the SYNC, an NMT command to a node: another master
+  (``drivers.master_watch``): a safe stop naming them (an RPDO of the wrong length also makes the
+  drive refuse it with EMCY 0x8210: named as another producer, no fault of the drive's);
+- an EMCY (8 bytes, a code): a device fault, a safe stop naming its code;
+- a heartbeat not OPERATIONAL: may stop the run naming the NMT state (the first heartbeat after an
+  NMT command is not taken as the node's state);
+- anything else: nothing.
+
+A run that such a frame reached before its last cycle stops, and every stop names a cause the
+noise explains. A stop is confirmed unless noise after the run's last SYNC could undo it: a TPDO
+or the drive's RPDO of their mapping's length (taken as the node's; the drive acts on an RPDO), an
+EMCY (a fault during the stop), an SDO frame of a node (the stop's SDO transfers), an NMT command.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+import re
+import subprocess
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import canopen
+import pytest
+
+from drivers.bus import open_bus
+from drivers.cia402 import Cia402Axis
+from drivers.maps import CIA406_EDS
+from drivers.maps.cia import COB_RPDO, PowerState
+from rig.host.session import Session
+from tests.interop.conftest import CanDump, Frame
+from tests.vcan.conftest import lockstep_servo
+
+pytestmark = [pytest.mark.interop, pytest.mark.timeout(600)]  # the VM is slow
+
+NODES = (1, 2)  #: the servo's drive and encoder
+#: the host's quick stop, by SDO to the drive: where a stop (of a run or at its end) begins
+QUICK_STOP = Frame(0.0, 0x601, bytes([0x2B, 0x40, 0x60, 0x00, 0x02, 0x00, 0x00, 0x00]))
+SENT = re.compile(r"^\s*vcan0\s+([0-9A-F]{3,8})#(R\d?|[0-9A-F.]*)\s*$")
+
+
+@dataclasses.dataclass(frozen=True)
+class Rig:
+    """The COB-IDs of the run: TPDO COB-ID -> (node, bytes); RPDO COB-ID -> node (the predefined
+    ones of each node and the mapped one); the drive's RPDO in force and its length."""
+
+    tpdos: dict[int, tuple[int, int]]
+    rpdos: dict[int, int]
+    rpdo: tuple[int, int]
+
+    @classmethod
+    def of(cls, session: Session) -> Rig:
+        tpdos = {s.cob_id: (s.node_id, s.codec.size) for a in session.axes for s in a._slots}  # type: ignore[attr-defined]
+        rpdos = {base + node: node for node in NODES for base in COB_RPDO}
+        pdo = session.axes[0].data.rpdo  # type: ignore[attr-defined]
+        rpdos[pdo.cob_id] = 1
+        return cls(tpdos, rpdos, (pdo.cob_id, (pdo.bits + 7) // 8))
+
+
+def sent_by_cangen(text: str) -> list[Frame]:
+    """The frames ``cangen -v`` printed (one it could not send, -i, is printed all the same)."""
+    frames = []
+    for line in text.splitlines():
+        m = SENT.match(line)
+        if m and not m.group(2).startswith("R"):
+            frames.append(Frame(0.0, int(m.group(1), 16), bytes.fromhex(m.group(2).replace(".", ""))))
+    return frames
+
+
+def noise_on_the_bus(bus: list[Frame], sent: list[Frame]) -> set[int]:
+    """The indices in ``bus`` (candump's, in the bus's order) of cangen's frames ``sent``, matched in
+    order; a printed frame not on the bus within 1 s of the last one found was never sent."""
+    found: set[int] = set()
+    at, last = 0, None
+    for frame in sent:
+        for i in range(at, len(bus)):
+            f = bus[i]
+            if last is not None and f.stamp > last + 1.0:
+                break
+            if (f.can_id, f.data) == (frame.can_id, frame.data):
+                found.add(i)
+                at, last = i + 1, f.stamp
+                break
+    return found
+
+
+def what_noise_does(f: Frame, rig: Rig, *, stopping: bool) -> str:
+    """What a noise frame makes the host do by its rules: "stop" (a safe stop), "may" (may stop:
+    a heartbeat), "spoil" (may keep a stop from being confirmed), or "" (nothing)."""
+    cid, data = f.can_id, f.data
+    if cid in rig.tpdos:
+        if stopping:  # one of its length may be taken for the node's (a statusword, a speed)
+            return "spoil" if len(data) == rig.tpdos[cid][1] else ""
+        return "stop"
+    if cid in rig.rpdos or cid == 0x080:
+        if stopping:
+            return "spoil" if (cid, len(data)) == rig.rpdo else ""
+        return "stop"
+    if cid == 0x000 and len(data) >= 2 and data[1] in (0, *NODES):
+        return "spoil" if stopping else "stop"
+    if (
+        cid - 0x080 in NODES
+        and len(data) == 8
+        and int.from_bytes(data[:2], "little") not in (0, 0x8210, 0x8220)
+    ):
+        return "spoil" if stopping else "stop"
+    if cid - 0x700 in NODES and data and data[0] & 0x7F != 0x05:
+        return "" if stopping else "may"
+    if stopping and (cid - 0x580 in NODES or cid - 0x600 in NODES):
+        return "spoil"
+    return ""
+
+
+def explained(reason: str, noise: list[Frame]) -> bool:
+    """``reason`` names a cause a noise frame gives by the rules (``what_noise_does``)."""
+    on = {f.can_id for f in noise}
+    if m := re.match(r"node (\d+): another producer on COB-ID 0x([0-9A-F]{3}) \(a TPDO of node \1\)", reason):
+        return int(m.group(2), 16) in on
+    if m := re.match(r"node (\d+): another producer on an RPDO COB-ID of node \1: .*EMCY 0x82[12]0", reason):
+        return any(base + int(m.group(1)) in on for base in COB_RPDO)
+    if m := re.match(r"node \d+: another master on the bus: (.*), which this host did not send", reason):
+        return all(int(c, 16) in on for c in re.findall(r"0x([0-9A-F]{3})", m.group(1)))
+    if m := re.match(r"device fault: node (\d+): EMCY 0x([0-9A-F]{4})", reason):
+        code, cob = int(m.group(2), 16), 0x080 + int(m.group(1))
+        return any(f.can_id == cob and f.data[:2] == code.to_bytes(2, "little") for f in noise)
+    if m := re.match(r"node (\d+): NMT state .* \(the node reset or was stopped\)", reason):
+        return bool({0x700 + int(m.group(1)), 0x000} & on)
+    return False
+
+
+def test_cangen_noise_at_the_running_chain(
+    candump: CanDump, start_emulator: Callable[..., subprocess.Popen[str]], tmp_path: pathlib.Path
+) -> None:
+    """cangen's random frames (random 11-bit ids, lengths and data, one every 5 ms; -i: a full send
+    queue of the slow VM is not cangen's error) at the host running the servo against the emulator,
+    after set-up: the host does with each what its rules say (module docstring), the emulator keeps
+    answering SDOs, and the drive ends disabled."""
+    _, wire = lockstep_servo(start_emulator, str(tmp_path))
+    answers: list[int] = []
+    failures: list[str] = []
+    stop = threading.Event()
+
+    def ask() -> None:  # the emulator's SDO server under noise, by drive-rig's own client (node 2)
+        network = canopen.Network(open_bus("socketcan", "vcan0"))
+        network.connect()
+        node = network.add_node(2, CIA406_EDS)
+        node.sdo.RESPONSE_TIMEOUT = 2.0
+        try:
+            while not stop.is_set() and len(answers) < 20 and len(failures) < 5:
+                try:
+                    answers.append(int.from_bytes(node.sdo.upload(0x1000, 0), "little"))
+                except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as exc:
+                    failures.append(str(exc))  # a noise frame on 0x602/0x582 hit the transfer
+        finally:
+            network.disconnect()
+
+    asker = threading.Thread(target=ask, name="sdo under noise")
+    printed = tmp_path / "cangen.txt"
+    with Session(wire, emulate=False, duration=0.1) as session:
+        session.start()  # set-up and enable, then the noise: at the running chain
+        rig = Rig.of(session)
+        start = candump.mark()
+        with printed.open("w") as out:
+            noise = subprocess.Popen(
+                ["stdbuf", "-oL", "cangen", "vcan0", "-g", "5", "-I", "r", "-L", "r", "-D", "r", "-i", "-v"],
+                stdout=out,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+            try:
+                asker.start()
+                summary = session.run()
+                asker.join(timeout=300)
+            finally:
+                stop.set()
+                noise_ran = noise.poll() is None  # cangen was sending all along
+                noise.terminate()
+                _, err = noise.communicate(timeout=10)
+    end = candump.mark()
+    assert noise_ran, f"cangen stopped early: exit {noise.returncode}: {err}"
+    assert len(answers) == 20 and set(answers) == {0x00010196}, failures
+
+    bus = candump.snapshot()[start + 1 : end]
+    mine = noise_on_the_bus(bus, sent_by_cangen(printed.read_text()))
+    stops = [i for i, f in enumerate(bus) if (f.can_id, f.data) == (QUICK_STOP.can_id, QUICK_STOP.data)]
+    assert stops, "no quick stop of the host's on the bus"
+    first_stop = stops[0]
+    last_sync = max(
+        i for i in range(first_stop) if bus[i].can_id == 0x080 and not bus[i].data and i not in mine
+    )
+    noise = [bus[i] for i in sorted(mine)]
+    does = {i: what_noise_does(bus[i], rig, stopping=i > last_sync) for i in mine}
+    reason: Any = summary["safe_stop_reason"]
+    said = [f"{bus[i]} {'stop' if i > last_sync else 'run'}: {does[i]}" for i in sorted(mine) if does[i]]
+    print(
+        f"\nunder cangen noise: {summary['cycles']} cycles, stop: {reason}, "
+        f"confirmed: {summary['stop_confirmed']}; "
+        f"{len(noise)} noise frames on the bus, acted on: {said}; {len(answers)} SDO answers, "
+        f"{len(failures)} transfers hit"
+    )
+    if any(does[i] == "stop" for i in mine):
+        assert reason is not None, "noise the host's rules stop at reached the run, and it went on"
+    if reason is None:
+        assert summary["cycles"] == 250
+    else:
+        assert explained(reason, noise), f"a stop no noise frame explains: {reason}"
+    if not any(does[i] == "spoil" for i in mine):
+        assert summary["stop_confirmed"] is True, summary
+    # the drive ends disabled: asked after the noise, by drive-rig's driver
+    network = canopen.Network(open_bus("socketcan", "vcan0"))
+    network.connect()
+    try:
+        network.nmt.send_command(0x80)  # pre-operational, whatever the noise made of NMT
+        with Cia402Axis("drive", network, 1, mode="csv") as axis:
+            assert axis.read_power_state() in (
+                PowerState.SWITCH_ON_DISABLED,
+                PowerState.READY_TO_SWITCH_ON,
+                PowerState.FAULT,
+            )
+    finally:
+        network.disconnect()
