@@ -53,6 +53,7 @@ from drivers.maps.od import load_od
 from plant_emulator.device_hooks import DeviceHooks
 from plant_emulator.frame import Frame
 from plant_emulator.od_store import ObjectStore, StoreNode
+from plant_emulator.param_store import ParameterStore
 from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
 from plant_emulator.sdo_server import SdoServer
 from plant_emulator.supervision import Deadlines, HeartbeatConsumer, Supervision, check_consumer_entry
@@ -103,9 +104,12 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
         self.node.add_write_callback(self._on_write)
         cached = self.od.values  # what ObjectStore.forget drops, without its call per object stored
+        self.params = ParameterStore(local.object_dictionary, self.od.raw)  #: 0x1010/0x1011
 
         def stored(index: int, subindex: int) -> None:
             cached.pop((index, subindex), None)
+            if self.params.handles(index):  # a signature is a command, not a value to keep
+                self.node.data_store.get(index, {}).pop(subindex, None)
             if index == cia.CONSUMER_HEARTBEAT:  # the watch changes at once, not at the next SYNC
                 self._configure_consumer()
             elif index in RPDO_COMMS and subindex == cia.PDO_COMM_EVENT_TIMER:  # so does a deadline
@@ -148,10 +152,12 @@ class EmulatedNode(Supervision, DeviceHooks):
         """Power on: INITIALISING, boot-up message, PRE-OPERATIONAL.
 
         The object dictionary as it is now (defaults plus the preset's device-side
-        writes) is what the NMT resets restore, like parameters stored in 0x1010.
+        writes) is what the NMT resets restore until parameters are stored (0x1010,
+        ``plant_emulator.param_store``).
         """
         if self._power_on is None:
             self._power_on = {i: dict(subs) for i, subs in self.node.data_store.items()}
+            self.params.power_on(self._power_on)
         self.node.nmt._state = INITIALISING
         self.on_reset(application=True)
         self._send(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
@@ -244,6 +250,8 @@ class EmulatedNode(Supervision, DeviceHooks):
             self._dirty = True
         if index == cia.COB_ID_SYNC:
             self._dirty = True
+        if self.params.handles(index) and self._power_on is not None:
+            self.params.on_write(index, subindex, bytes(data), self._power_on)
         self.on_write(index, subindex, data)
 
     # --- object dictionary access ----------------------------------------

@@ -63,6 +63,7 @@ def _comm_objects(
         heartbeat_ms=100,
         consumers=4,
         software="drive-rig emulator 1",
+        store=device_type & 0xFFFF == 402,  # the drive stores its parameters; the encoder, none
     )
     return objs + pdo_objects(
         rpdo,

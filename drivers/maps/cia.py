@@ -55,7 +55,9 @@ COMM_CYCLE_PERIOD = 0x1006  #: [us]
 ERROR_HISTORY = 0x1003  #: pre-defined error field: sub 0 the count, sub 1 the newest (code in the low word)
 DEVICE_NAME = 0x1008
 SOFTWARE_VERSION = 0x100A
-STORE_PARAMETERS = 0x1010
+STORE_PARAMETERS = 0x1010  #: sub 1 all, 2 communication, 3 application parameters
+RESTORE_DEFAULTS = 0x1011  #: the same sub-indices
+SAVE_SIGNATURE, LOAD_SIGNATURE = 0x65766173, 0x64616F6C  #: "save", "load" written as UNSIGNED32
 COB_ID_EMCY = 0x1014
 CONSUMER_HEARTBEAT = 0x1016  #: sub n: node id << 16 | time [ms]
 PRODUCER_HEARTBEAT = 0x1017  #: [ms]
@@ -103,6 +105,7 @@ class SdoAbortCode(enum.IntEnum):
     VALUE_RANGE_EXCEEDED = 0x06090030  #: value range of parameter exceeded (write access)
     VALUE_TOO_HIGH = 0x06090031
     PARAMETER_INCOMPATIBLE = 0x06040043  #: general parameter incompatibility
+    STORE_FAILED = 0x08000020  #: data cannot be transferred or stored to the application
     DEVICE_STATE = 0x08000022  #: data cannot be stored because of the present device state
 
 

@@ -30,6 +30,7 @@ __all__ = [
     "pdo_map",
     "pdo_objects",
     "record",
+    "store_objects",
     "var",
 ]
 
@@ -128,10 +129,11 @@ def cia301_objects(
     heartbeat_ms: int,
     consumers: int,
     software: str = "",
+    store: bool = False,
 ) -> list[Obj]:
     """The CiA 301 objects of a device: type, error register, SYNC and EMCY COB-IDs, name
     (and software version), ``consumers`` heartbeat consumer entries, producer heartbeat,
-    identity, error behaviour."""
+    identity, error behaviour; with ``store``, 0x1010/0x1011 sub 1 (``store_objects``)."""
     objs = [
         var(0x1000, Var("Device type", UINT32, "ro", f"0x{device_type:08X}")),
         var(0x1001, Var("Error register", UINT8, "ro", "0", pdo=True)),
@@ -161,7 +163,27 @@ def cia301_objects(
         ),
         record(0x1029, "Error behavior", [(1, Var("Communication error", UINT8, "rw", "0"))], kind=0x8),
     ]
-    return objs
+    return objs + (store_objects() if store else [])
+
+
+def store_objects() -> list[Obj]:
+    """0x1010 and 0x1011 with sub 1 (all parameters), as CiA 301 has them: read, 1 says the device
+    saves (restores) on command; written with the signature "save" (0x65766173) it stores them,
+    with "load" (0x64616F6C) it takes back the defaults at its next reset."""
+    return [
+        record(
+            0x1010,
+            "Store parameters",
+            [(1, Var("Save all parameters", UINT32, "rw", "0x00000001"))],
+            kind=0x8,
+        ),
+        record(
+            0x1011,
+            "Restore default parameters",
+            [(1, Var("Restore all default parameters", UINT32, "rw", "0x00000001"))],
+            kind=0x8,
+        ),
+    ]
 
 
 def pdo_objects(

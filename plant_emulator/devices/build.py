@@ -77,6 +77,7 @@ class Twin:
     names: tuple[tuple[int, str], ...] = ()  #: (index, ParameterName) overriding CiA 402's
     heartbeat_ms: int = 0  #: 0x1017 default
     axes: int = 1  #: logical devices (axes), each with the objects above (module docstring)
+    store: bool = True  #: 0x1010/0x1011: it stores its parameters on command
 
     def per_rad(self, velocity: bool) -> float:
         """Device units per rad (or per rad/s), as ``drivers.maps.units`` reads them."""
@@ -115,6 +116,7 @@ def _comm(t: Twin, name: str) -> list[Obj]:
         product=info.product_number,
         heartbeat_ms=t.heartbeat_ms,
         consumers=2,
+        store=t.store,
     )
     return objs + pdo_objects(
         t.rpdo,
@@ -328,6 +330,7 @@ ZOO: dict[str, Twin] = {
         objects=_SERVO - {0x6075, 0x6076, 0x6078, 0x6098, 0x6099, 0x609A, 0x60FD, 0x607C},
         increments=2048,
         access=((0x6060, "wo"),),
+        store=False,  # a drive that keeps no parameters of its own (0x1010/0x1011 absent)
     ),
 }
 

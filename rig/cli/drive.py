@@ -141,6 +141,7 @@ def _check(args: argparse.Namespace) -> None:
             raise UsageError(f"rig drive {args.action}: argument {name}: must be > 0, got {value:g}")
     if args.action == "sdo" and args.op == "write":
         _value(args.value)
+    drive_dictionary.check(args)
 
 
 def _tool(args: argparse.Namespace) -> tuple[Any, Any]:

@@ -1,18 +1,25 @@
-"""``rig drive dump`` (``rig.commission.dictionary``, ``rig.commission.dcf``): the actions on a
-drive's whole dictionary, registered on ``rig drive``'s parser by ``add_actions``."""
+"""``rig drive dump`` (``rig.commission.dictionary``, ``rig.commission.dcf``), ``store`` and
+``restore`` (``rig.commission.store``): the actions on a drive's whole dictionary, registered on
+``rig drive``'s parser by ``add_actions``.
+
+A store or a restore asks the person at the terminal first (on stderr; ``y`` or ``yes``
+confirms); ``--yes`` confirms for a script. Without a terminal, or with ``--json`` (a program
+reads stdout), it is refused before the bus opens unless ``--yes`` is given.
+"""
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
 from drivers.errors import ConfigError
-from rig.cli.common import out_file
+from rig.cli.common import UsageError, out_file
 
-__all__ = ["ACTIONS", "act", "add_actions", "result_lines"]
+__all__ = ["ACTIONS", "act", "add_actions", "check", "result_lines"]
 
-ACTIONS = ("dump",)  #: the actions of this module
+ACTIONS = ("dump", "store", "restore")  #: the actions of this module
 
 
 def add_actions(actions: Any) -> None:
@@ -32,11 +39,60 @@ def add_actions(actions: Any) -> None:
         help="also write a DCF (CiA 306): the drive's EDS with each value read as ParameterValue and "
         "its node id and bit rate in [DeviceComissioning] (needs the drive's own EDS, --eds)",
     )
+    store = actions.add_parser(
+        "store",
+        help="store the drive's parameters in its non-volatile memory (0x1010:01 'save'), once confirmed",
+        description="Writes the signature 'save' to 0x1010:01 (CiA 301): the drive keeps the parameters "
+        "it holds now over a power cycle. Asks first, naming the drive.",
+    )
+    restore = actions.add_parser(
+        "restore",
+        help="restore the drive's default parameters (0x1011:01 'load'), once confirmed",
+        description="Writes the signature 'load' to 0x1011:01 (CiA 301): the drive's defaults replace "
+        "its stored parameters at its next reset (power cycle, or --reset). Asks first, naming the drive.",
+    )
+    restore.add_argument(
+        "--reset",
+        action="store_true",
+        help="then reset the drive (NMT reset node) and wait for its boot-up, so the defaults are in force "
+        "(refused while it is enabled)",
+    )
+    for action in (store, restore):
+        action.add_argument("--yes", action="store_true", help="do not ask (a script's confirmation)")
+
+
+def check(args: argparse.Namespace) -> None:
+    """UsageError, before the bus opens, for a store or restore nobody can confirm."""
+    if args.action not in ("store", "restore") or args.yes:
+        return
+    if args.json:
+        raise UsageError(f"rig drive {args.action}: --json without --yes: a program confirms with --yes")
+    if not sys.stdin.isatty():
+        raise UsageError(
+            f"rig drive {args.action}: no terminal to confirm on: give --yes to {args.action} without asking"
+        )
+
+
+def _confirm(args: argparse.Namespace) -> Any:
+    """The confirmation of ``args``: --yes, or the person's answer at the terminal."""
+
+    def ask(question: str) -> bool:
+        if args.yes:
+            return True
+        print(f"{question} [y/N] ", end="", file=sys.stderr, flush=True)
+        return sys.stdin.readline().strip().lower() in ("y", "yes")
+
+    return ask
 
 
 def act(tool: Any, args: argparse.Namespace) -> dict[str, Any]:
     """Run action ``args.action`` with ``tool`` (a ``rig.commission.drive.DriveTool``)."""
-    return _dump(tool, args)
+    if args.action == "dump":
+        return _dump(tool, args)
+    from rig.commission.store import store
+
+    restore = args.action == "restore"
+    return store(tool, restore=restore, confirm=_confirm(args), reset=restore and args.reset)
 
 
 def _dump(tool: Any, args: argparse.Namespace) -> dict[str, Any]:
@@ -87,7 +143,11 @@ def _dump(tool: Any, args: argparse.Namespace) -> dict[str, Any]:
 
 def result_lines(result: dict[str, Any]) -> list[str]:
     """The text report of an action's ``result``."""
+    from rig.commission import store
     from rig.commission.dictionary import dump_lines
+
+    if "written" in result:
+        return store.result_lines(result)
 
     heading = f"node {result['node']}: {result['identity']} (dictionary {result['eds']})"
     if result["standard_only"]:

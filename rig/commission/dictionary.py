@@ -12,14 +12,13 @@ An answer whose size is not the type's is listed as refused too, with the bytes 
 
 Each ``Entry`` has the object's name, CiA 301 type and access as the dictionary gives them, the
 value decoded by that type, the value in hex (an integer at its type's width, two's complement
-for a negative one; a REAL's bit pattern), the unit where CiA 301/402 give one
-(``drivers.maps.object_units``) and, where the drive's factors are known, the value in SI.
-``dump_lines`` lays it out for a person: one row per object, the units in a column.
+for a negative one; a REAL's bit pattern) and, where the object holds a quantity
+(``rig.commission.quantities``), that quantity in SI and the drive's unit in words.
+``dump_lines`` lays it out for a person: one row per object, the values in SI in a column.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -29,16 +28,14 @@ from drivers.cia402 import Cia402Axis
 from drivers.errors import CommunicationTimeout, DictionaryMismatch, SdoAbort
 from drivers.maps.cia import MANUFACTURER_AREA
 from drivers.maps.eds_values import TYPE_NAMES, variables
-from drivers.maps.object_units import object_unit
 from drivers.maps.sdo_aborts import abort_text
 from drivers.sdo_answer import sized
+from rig.commission.quantities import quantity
 
 __all__ = ["Entry", "dump_lines", "read_dictionary"]
 
 #: [objects] answered in a row with no answer at all: the node has gone (a timeout each is slow)
 _SILENT = 3
-#: SI unit and the factor's role of each kind of ``drivers.maps.object_units``
-_SI = {"position": "rad", "velocity": "rad/s", "acceleration": "rad/s^2", "torque": "N m", "current": "A"}
 
 
 @dataclass
@@ -50,11 +47,10 @@ class Entry:
     name: str
     type: str
     access: str
-    unit: str = ""
     value: Any = None  #: decoded by the type (int, float, str, bytes); None where not read
     hex: str = ""
-    si: float | None = None  #: the value in ``si_unit``, where the drive's factor is known
-    si_unit: str = ""
+    #: the quantity it holds (``Quantity.as_dict``: value in SI, None where no factor is known)
+    quantity: dict[str, Any] | None = None
     refused: str | None = None  #: why it was not read (None: it was)
     whole: bool = True  #: a VAR (its value in the object's own section of the EDS), not an entry
 
@@ -82,37 +78,13 @@ def _hex(var: Any, value: Any, data: bytes) -> str:
     return ""
 
 
-def _si(entry: Entry, kind: str | None, units: Any) -> None:
-    """Set the entry's value in SI where its unit is one the drive's factors scale."""
-    value = entry.value
-    if kind is None or units is None or isinstance(value, (bytes, str, bool)) or value is None:
-        return
-    factor = {
-        "position": units.position,
-        "velocity": units.velocity,
-        "acceleration": units.velocity,  # velocity units per second (CiA 402's default)
-        "torque": 1000.0 / units.rated_torque if units.rated_torque else math.inf,
-        "current": 1000.0 / units.rated_current if units.rated_current else math.inf,
-    }[kind]
-    if math.isfinite(factor) and factor:
-        entry.si, entry.si_unit = float(value) / factor, _SI[kind]
-
-
 def _entry(var: Any, od: Any) -> Entry:
     """The entry of canopen variable ``var`` before it is read."""
     parent = od[var.index]
     whole = not hasattr(parent, "subindices")
     name = var.name if whole else f"{parent.name}: {var.name}"
-    unit = object_unit(var.index) if whole or var.subindex else None  # a record's sub 0 is a count
-    return Entry(
-        var.index,
-        var.subindex,
-        name,
-        TYPE_NAMES.get(var.data_type, f"0x{var.data_type:04X}"),
-        var.access_type,
-        unit=unit.words if unit else "",
-        whole=whole,
-    )
+    kind = TYPE_NAMES.get(var.data_type, f"0x{var.data_type:04X}")
+    return Entry(var.index, var.subindex, name, kind, var.access_type, whole=whole)
 
 
 def _upload(axis: Cia402Axis, var: Any) -> bytes:
@@ -127,7 +99,7 @@ def _upload(axis: Cia402Axis, var: Any) -> bytes:
 
 def read_dictionary(axis: Cia402Axis, *, standard_only: bool) -> list[Entry]:
     """Every variable of ``axis``'s dictionary, read from the drive (see the module docstring);
-    ``standard_only``: not 0x2000-0x5FFF. ``axis.units`` (``discover``) give the SI values.
+    ``standard_only``: not 0x2000-0x5FFF. ``axis.units`` (``discover``) give the quantities.
     CommunicationTimeout where the drive stops answering (``_SILENT`` objects in a row)."""
     od = axis.node.object_dictionary
     od = getattr(od, "device", od)  # the node's whole dictionary, each object at its own index
@@ -166,9 +138,10 @@ def read_dictionary(axis: Cia402Axis, *, standard_only: bool) -> list[Entry]:
         silent = 0
         entry.value = var.decode_raw(data)
         entry.hex = _hex(var, entry.value, data)
-        unit = object_unit(var.index)
-        if entry.unit and unit is not None:
-            _si(entry, unit.kind, units)
+        numeric = isinstance(entry.value, (int, float)) and not isinstance(entry.value, bool)
+        if numeric and units is not None and (entry.whole or var.subindex):  # a record's sub 0: a count
+            held = quantity(units, var.index, entry.value)
+            entry.quantity = held.as_dict() if held is not None else None
     return entries
 
 
@@ -185,17 +158,25 @@ def _shown(row: dict[str, Any]) -> str:
     return f"{row['hex']} = {value}"
 
 
+def _si(held: dict[str, Any] | None) -> str:
+    """A quantity's value in SI with its unit; its unit on the drive where no factor is known."""
+    if held is None:
+        return ""
+    if held["value"] is None:
+        return str(held["drive_unit"]).split(" (")[0]
+    return f"{held['value']:.6g} {held['unit']}"
+
+
 def dump_lines(rows: list[dict[str, Any]], heading: str) -> list[str]:
     """The dump for a person (rows of ``Entry.as_dict``): ``heading``, then one row per object
-    (object, access, type, value, unit, the value in SI), the name on the row's right."""
+    (object, access, type, value, the quantity in SI), the name on the row's right."""
     read = sum(r["refused"] is None for r in rows)
     lines = [heading, f"{len(rows)} objects, {read} read, {len(rows) - read} not read", ""]
-    lines.append(f"{'object':9s}  {'access':6s} {'type':14s} {'value':26s} {'unit':16s} {'SI':18s} name")
+    lines.append(f"{'object':9s}  {'access':6s} {'type':14s} {'value':26s} {'SI':18s} name")
     for r in rows:
         start = f"{r['object']:9s}  {r['access']:6s} {r['type']:14s}"
         if r["refused"] is not None:
-            lines.append(f"{start} {'(not read)':26s} {'':16s} {'':18s} {r['name']}: {r['refused']}")
+            lines.append(f"{start} {'(not read)':26s} {'':18s} {r['name']}: {r['refused']}")
             continue
-        si = f"{r['si']:.6g} {r['si_unit']}" if r["si"] is not None else ""
-        lines.append(f"{start} {_shown(r):26s} {r['unit']:16s} {si:18s} {r['name']}")
+        lines.append(f"{start} {_shown(r):26s} {_si(r['quantity']):18s} {r['name']}")
     return lines

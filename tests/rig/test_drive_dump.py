@@ -44,13 +44,14 @@ def test_every_object_of_the_eds_is_read_with_its_value_type_unit_and_si(
     assert vendor["access"] == "ro"
     assert rows["0x1008:00"]["value"] == "EPOS4 twin"
     low = rows["0x607D:01"]  # a negative INTEGER32: decimal, and its two's complement in hex
-    assert (low["value"], low["hex"], low["unit"]) == (-(2**31), "0x80000000", "position units")
+    assert (low["value"], low["hex"]) == (-(2**31), "0x80000000")
+    assert low["quantity"]["unit"] == "rad" and low["quantity"]["drive_unit"].startswith("position units")
     speed = rows["0x6081:00"]  # 100 rad/s in the twin's rpm (the EDS's default), and back in SI
-    assert speed["unit"] == "velocity units" and speed["si_unit"] == "rad/s"
-    assert speed["si"] == pytest.approx(100.0, rel=1e-3)
     assert speed["value"] == round(100.0 * 60.0 / (2.0 * math.pi))
-    assert rows["0x6075:00"]["unit"] == "mA" and rows["0x6075:00"]["si"] is None
-    assert rows["0x1018:00"]["unit"] == ""  # a record's count has no unit
+    held = speed["quantity"]
+    assert held["unit"] == "rad/s" and held["value"] == pytest.approx(100.0, rel=1e-3)
+    assert rows["0x6075:00"]["quantity"]["value"] == 10.0  # 10000 mA
+    assert rows["0x1018:00"]["quantity"] is None and rows["0x607D:00"]["quantity"] is None  # counts
 
 
 def test_objects_the_drive_refuses_are_listed_with_the_abort_in_words(
