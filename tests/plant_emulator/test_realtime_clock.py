@@ -147,10 +147,11 @@ def test_the_sdo_answer_takes_the_profile_s_response_time() -> None:
 
 
 def test_a_sync_locks_the_drives_periods_to_itself(world: World) -> None:
-    """A CiA 402 drive synchronises its cycle to SYNC: a SYNC 0.3 periods after the emulator's
-    latest period boundary starts the next period (the boundary nearest it moves to it), one
-    0.7 periods after it ends that period there; the TPDO samples the shaft at the SYNC, and
-    the next period ends a period after it."""
+    """A CiA 402 drive synchronises its cycle to SYNC: the first SYNC (after half a second without
+    one), 0.3 periods after the emulator's latest period boundary, moves that boundary to itself;
+    the next, 0.7 periods after it, ends the period there (the boundary nearest it) and moves the
+    phase by a sixteenth of its offset (a phase-locked loop: ``Shaft._lock``); the TPDO samples
+    the shaft at the boundary, and the next period ends a period after it."""
     world.enable(9)  # CSV
     world.host.send_message(0x000, bytes([0x01, 2]))  # NMT start the encoder (node 2)
     world.node.sdo[0x60FF].raw = round(50.0 * CPR / (2 * math.pi))
@@ -158,22 +159,25 @@ def test_a_sync_locks_the_drives_periods_to_itself(world: World) -> None:
     shaft = world.drive.shaft
     tpdos: dict[int, bytes] = {}
     world.hub.taps.append(lambda m: tpdos.__setitem__(m.arbitration_id, bytes(m.data)))
-    for fraction, periods in ((0.3, 0), (0.7, 1)):
-        boundary = shaft.position
-        sync = world.time = world.hub.clock = shaft.t + fraction * world.period
+    for fraction, periods, moved_by in ((0.3, 0, 1.0), (0.7, 1, 1 / 16)):
+        before, position = shaft.t, shaft.position
+        sync = world.time = world.hub.clock = before + fraction * world.period
         world.host.send_message(0x80, b"")
-        assert shaft.t == sync and shaft.sync_offset == 0.0
-        moved = shaft.position - boundary
+        boundary = before + periods * world.period
+        assert shaft.t == pytest.approx(boundary + moved_by * (sync - boundary), abs=1e-12)
+        assert shaft.sync_offset == 0.0
+        moved = shaft.position - position
         assert moved == pytest.approx(50.0 * periods * world.period, rel=0.05, abs=1e-9)
         expected = math.floor(shaft.position * CPR / (2 * math.pi))
         assert world.node.sdo[0x6064].raw == expected
         assert tpdos[0x282][:4] == expected.to_bytes(4, "little")  # the encoder's TPDO2: 0x6004 first
-    world.time = sync + 0.99 * world.period
+    end = shaft.t
+    world.time = end + 0.99 * world.period
     world.clock.advance()
-    assert shaft.t == sync  # the next period ends a period after the SYNC
-    world.time = sync + world.period
+    assert shaft.t == end  # the next period ends a period after the boundary
+    world.time = end + world.period
     world.clock.advance()
-    assert shaft.t == pytest.approx(sync + world.period)
+    assert shaft.t == pytest.approx(end + world.period)
 
 
 def test_an_emulator_that_did_not_run_does_not_catch_up(world: World) -> None:
