@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import logging
+import math
 import os
 import re
 import statistics
@@ -89,6 +91,25 @@ def _run(out: str, seconds: float, period: float) -> tuple[dict[str, Any], str]:
         stop_rig(proc, timeout=20)
 
 
+@functools.cache
+def lockstep_rms(seconds: float, period: float) -> float:
+    """The example's rms error [rad] over ``seconds`` in lock-step with the emulated drive in this
+    process (the same emulator parameters as the real-time runs'): the reference the runs' own
+    rms error is compared with."""
+    cfg = load_config(EXAMPLE)
+    with tempfile.TemporaryDirectory() as out:
+        cfg = dataclasses.replace(
+            cfg,
+            run=dataclasses.replace(cfg.run, time="lockstep", period=period, output=out),
+            emulator=dataclasses.replace(
+                cfg.emulator, params={**cfg.emulator.params, "load": LOAD, "period": period}
+            ),
+        )
+        with Session(cfg, emulate=True, duration=seconds) as session:
+            session.start()
+            return float(session.run()["rms_error"])
+
+
 def _loadavg() -> str:
     try:
         return " ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -121,7 +142,8 @@ def bench_stops(
 
 def _merge(blocks: list[list[Figure]], runs: int) -> list[Figure]:
     """One load's single-run blocks as one: every ``_median``/``_worst`` figure over the runs (the
-    median of the runs' values, and the worst), false stops summed, the rest from the first."""
+    median of the runs' values, and the worst), each floor figure the median of the floors measured
+    beside them, false stops summed, the rest from the first."""
     out: list[Figure] = []
     first = blocks[0]
     by_name = [{str(f["name"]): f["value"] for f in reversed(b)} for b in blocks]  # the first of a name
@@ -129,10 +151,13 @@ def _merge(blocks: list[list[Figure]], runs: int) -> list[Figure]:
         name = str(f["name"])
         values = [b[name] for b in by_name if name in b]
         numbers = [float(v) for v in values if isinstance(v, (int, float))]
-        if name.endswith("_median") and len(numbers) == len(values):
-            out.append({**f, "value": round(statistics.median(numbers), 3)})
-        elif name.endswith("_worst") and len(numbers) == len(values):
-            out.append({**f, "value": max(numbers)})
+        given = [x for x in numbers if math.isfinite(x)]  # a stopped run's NaN is no figure
+        if len(numbers) != len(values):
+            out.append(f)
+        elif name.endswith("_median") or name.startswith("floor"):  # the floors' median too
+            out.append({**f, "value": round(statistics.median(given), 3) if given else math.nan})
+        elif name.endswith("_worst"):
+            out.append({**f, "value": max(given) if given else math.nan})
         elif name == "false_stops":
             out.append({**f, "value": int(sum(numbers))})
         elif name == "runs":
@@ -176,7 +201,13 @@ def _bench_load(
                 progress(n + 1, runs)
         after = _loadavg()
     figures = _figures(
-        summaries, period=period, seconds=seconds, load=load, loadavg=(before, after), emulator=granted
+        summaries,
+        period=period,
+        seconds=seconds,
+        load=load,
+        loadavg=(before, after),
+        emulator=granted,
+        reference=lockstep_rms(seconds, period),
     )
     figures += _floor_figures(floor) + _floor_figures(asleep, "floor_asleep")
     return figures + [{"name": "bus_not_opened", "value": reason, "unit": ""} for reason in unopened]
@@ -190,6 +221,7 @@ def _figures(
     load: int,
     loadavg: tuple[str, str],
     emulator: str,
+    reference: float,
 ) -> list[Figure]:
     stops = [s["safe_stop_reason"] for s in summaries if s["safe_stop_reason"]]
     cycles = [max(1, s["cycles"] + s["overruns"]) for s in summaries]
@@ -201,11 +233,14 @@ def _figures(
         return [float(s["timing"].get(key, float("nan"))) for s in summaries]
 
     def spread(name: str, values: list[float], unit: str, digits: int = 1) -> list[Figure]:
+        if not values:  # no run gave the figure (every run stopped): NaN, never 0
+            return [{"name": f"{name}_{k}", "value": math.nan, "unit": unit} for k in ("median", "worst")]
         return [
             {"name": f"{name}_median", "value": round(statistics.median(values), digits), "unit": unit},
             {"name": f"{name}_worst", "value": round(max(values), digits), "unit": unit},
         ]
 
+    rms = [float(s["rms_error"]) for s in summaries if math.isfinite(float(s.get("rms_error", math.nan)))]
     host = summaries[0].get("realtime") or {}
     stolen = [(s.get("realtime") or {}).get("cpu_stolen_s") for s in summaries]
     latency = host.get("cpu_latency_us")
@@ -246,6 +281,10 @@ def _figures(
             if None not in stolen
             else []
         ),
+        # the runs' rms error [mrad], against lock-step's (NaN for a run that stopped: rig.report)
+        {"name": "rms_lockstep", "value": round(1e3 * reference, 3), "unit": "mrad (lock-step, same plant)"},
+        *spread("rms_error", [1e3 * x for x in rms], "mrad (runs that completed)", 3),
+        *spread("rms_ratio", [x / reference for x in rms], "x lock-step's (runs that completed)", 3),
         {"name": "response_bound", "value": period / 2 * 1e6, "unit": "us (half the period)"},
     ]
 

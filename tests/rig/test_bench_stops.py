@@ -3,6 +3,7 @@ benchmark's, not a test's): the shares, the spreads, and the CPU time a hypervis
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Any
 
@@ -12,7 +13,9 @@ from rig.bench.floor import sleep_floor
 from rig.bench.stops import _figures, _floor_figures
 
 
-def summary(overruns: int, stolen: float | None, stop: str | None = None) -> dict[str, Any]:
+def summary(
+    overruns: int, stolen: float | None, stop: str | None = None, rms: float = 0.003
+) -> dict[str, Any]:
     timing = {"period_error_p99_us": 50.0, "response_median_us": 150.0, "response_p99_us": 300.0}
     realtime = {"policy": "SCHED_FIFO", "priority": 50, "cpu": 1, "cpu_stolen_s": stolen}
     return {
@@ -20,13 +23,16 @@ def summary(overruns: int, stolen: float | None, stop: str | None = None) -> dic
         "overruns": overruns,
         "late_cycles": 0,
         "safe_stop_reason": stop,
+        "rms_error": math.nan if stop else rms,
         "timing": timing,
         "realtime": realtime,
     }
 
 
 def figures(summaries: list[dict[str, Any]]) -> dict[str, Any]:
-    out = _figures(summaries, period=0.0004, seconds=0.4, load=2, loadavg=("1", "2"), emulator="x")
+    out = _figures(
+        summaries, period=0.0004, seconds=0.4, load=2, loadavg=("1", "2"), emulator="x", reference=0.002
+    )
     return {f["name"]: f["value"] for f in out}
 
 
@@ -35,6 +41,14 @@ def test_the_stolen_cpu_time_is_given_per_run_in_ms() -> None:
     assert got["cpu_stolen_median"] == 10 and got["cpu_stolen_worst"] == 30
     assert got["overruns_median"] == 0.2 and got["overruns_worst"] == 0.3  # % of the cycles
     assert got["false_stops"] == 0
+
+
+def test_the_rms_error_is_compared_with_lock_step_s_over_the_runs_that_completed() -> None:
+    got = figures([summary(0, 0.0, rms=0.002), summary(0, 0.0, rms=0.004), summary(0, 0.0, stop="late")])
+    assert got["rms_lockstep"] == 2.0 and got["rms_error_median"] == 3.0  # mrad
+    assert got["rms_ratio_median"] == 1.5 and got["rms_ratio_worst"] == 2.0
+    every = figures([summary(0, 0.0, stop="late")])  # no run completed: NaN, never 0
+    assert math.isnan(every["rms_error_median"]) and math.isnan(every["rms_ratio_worst"])
 
 
 def test_no_stolen_figure_where_a_run_could_not_say() -> None:
@@ -69,14 +83,22 @@ def test_several_loads_merge_their_runs_figure_by_figure() -> None:
     figures and the worst of the worst, false stops summed and named, prefixed by the load."""
     from rig.bench.stops import _merge
 
-    one = [_figures([summary(n, 0.01)], period=0.0004, seconds=0.4, load=2, loadavg=("1", "2"), emulator="x")
-           for n in (1, 5, 3)]  # fmt: skip
-    one[1] = _figures(
-        [summary(5, 0.01, stop="late")], period=0.0004, seconds=0.4, load=2, loadavg=("1", "2"), emulator="x"
-    )
+    def block(*summaries: dict[str, Any]) -> list[dict[str, Any]]:
+        return _figures(
+            list(summaries),
+            period=0.0004,
+            seconds=0.4,
+            load=2,
+            loadavg=("1", "2"),
+            emulator="x",
+            reference=0.002,
+        )
+
+    one = [block(summary(1, 0.01, rms=0.002)), block(summary(5, 0.01, stop="late")), block(summary(3, 0.01))]
     merged = {f["name"]: f["value"] for f in _merge(one, 3)}
     assert merged["runs"] == 3 and merged["false_stops"] == 1 and merged["false_stop"] == "late"
     assert merged["overruns_median"] == 0.3 and merged["overruns_worst"] == 0.5  # % of cycles
+    assert merged["rms_error_median"] == 2.5 and merged["rms_ratio_worst"] == 1.5  # the stopped run left out
 
 
 def test_the_cli_takes_several_loads(monkeypatch: pytest.MonkeyPatch) -> None:
