@@ -242,4 +242,6 @@ def test_a_run_that_misses_its_period_says_so() -> None:
         and "rig doctor --period 0.0004" in said
     )
     assert missed_period(summary | {"overruns": 75, "cycles": 7425}, 0.0004) is None  # 1 %: at the bound
+    both = missed_period(summary | {"overruns": 40, "cycles": 7460, "late_cycles": 40}, 0.0004)
+    assert both is not None and "(0.53 %) and 40 late (0.53 %), 1.07 % together, over 1 %" in both
     assert missed_period(summary | {"realtime": None}, 0.0004) is None  # lock-step: no period to miss
