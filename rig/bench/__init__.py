@@ -112,9 +112,10 @@ _socketcand.__doc__ = (
 )
 
 _view.__doc__ = (
-    "overruns, late cycles, period error and response of 1 kHz real-time runs without a view and with "
-    "rig run --view and a browser attached (headless Chromium, or a websocket client), --runs pairs "
-    "(5) of --seconds (10) alternated in the same minutes (minutes)"
+    "overruns, late cycles, period error and response of 1 kHz real-time runs without a view, with "
+    "rig run --view and a browser on this machine (headless Chromium), and with the view read from "
+    "elsewhere (a websocket client drawing nothing), --runs rounds (5) of --seconds (10) alternated "
+    "in the same minutes (minutes)"
 )
 
 #: ``rig bench NAME`` -> function returning a list of {"name", "value", "unit"}

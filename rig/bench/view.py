@@ -1,16 +1,18 @@
 """``rig bench view``: what the view costs a 1 kHz real-time run (issue 38 item 2).
 
-``runs`` pairs, alternated in the same minutes: a real-time 1 kHz run of the section VII.B
-servo held at 0 rad (``rig.bench.socketcand.realtime_run``, against ``rig emulate --preset
-dc-servo`` at 1 kHz in another process over socketcand) without a view, then the same run with
-the view served beside it as ``rig run --view`` serves it (``rig.view``: the LiveView's thread
-feeding the scope, uvicorn in a thread) and a browser attached: headless Chromium (Playwright,
-``/usr/bin/chromium``) showing the live scope, or where there is none a websocket client in a
-process of its own that reads and parses every update as the page does. Each run ``seconds``
-long. Figures, each the median and the range over the runs of its kind: overruns and late
-cycles (% of cycles), the period error's p99 and the response's median and p99 (the host's,
-from the last awaited TPDO to its RPDOs, ``rig.host.loop_stats``); with the view, the updates
-a second the browser received; the load average before and after.
+``runs`` rounds of three runs, alternated in the same minutes: a real-time 1 kHz run of the
+section VII.B servo held at 0 rad (``rig.bench.socketcand.realtime_run``, against ``rig emulate
+--preset dc-servo`` at 1 kHz in another process over socketcand) without a view (``plain_``);
+the same run with the view served beside it as ``rig run --view`` serves it (``rig.view``: the
+LiveView's thread feeding the view's own process) and a browser on this machine: headless
+Chromium (Playwright, ``/usr/bin/chromium``) showing the live scope, or where there is none a
+websocket client (``view_``); and the view served with its reader elsewhere, as a laptop's
+browser is: a websocket client in a process of its own that reads and parses every update as the
+page does, drawing nothing (``remote_``). Each run ``seconds`` long. Figures, each the median and
+the range over the runs of its kind: overruns and late cycles (% of cycles), the period error's
+p99 and the response's median and p99 (the host's, from the last awaited TPDO to its RPDOs,
+``rig.host.loop_stats``); with the view, the updates a second the reader received; the load
+average before and after.
 """
 
 from __future__ import annotations
@@ -43,9 +45,10 @@ def _has_chromium() -> bool:
     return Path(CHROMIUM).exists()
 
 
-def browser_process(url: str, seconds: float) -> subprocess.Popen[str]:
-    """A browser on ``url`` for ``seconds`` in a process of its own; its JSON result on stdout."""
-    kind = "chromium" if _has_chromium() else "websocket"
+def browser_process(url: str, seconds: float, kind: str = "") -> subprocess.Popen[str]:
+    """A browser on ``url`` for ``seconds`` in a process of its own; its JSON result on stdout.
+    ``kind``: "chromium", "websocket", or "" for Chromium where there is one."""
+    kind = kind or ("chromium" if _has_chromium() else "websocket")
     return subprocess.Popen(
         [sys.executable, "-m", "rig.bench.view", kind, url, str(seconds)],
         stdout=subprocess.PIPE,
@@ -112,9 +115,9 @@ def _websocket(url: str, seconds: float) -> dict[str, Any]:
     return asyncio.run(read())
 
 
-def _with_view(out: str, port: int, seconds: float) -> tuple[dict[str, Any], dict[str, Any]]:
-    """One run with the view beside it as ``rig run --view`` serves it, and a browser attached:
-    (its summary, the browser's)."""
+def _with_view(out: str, port: int, seconds: float, kind: str = "") -> tuple[dict[str, Any], dict[str, Any]]:
+    """One run with the view beside it as ``rig run --view`` serves it, and a browser attached
+    (``kind``: ``browser_process``'s): (its summary, the browser's)."""
     from rig.bench.socketcand import realtime_run
     from rig.live import LiveView
     from rig.view.feed import RATE, RingFeed
@@ -123,7 +126,7 @@ def _with_view(out: str, port: int, seconds: float) -> tuple[dict[str, Any], dic
 
     view = ViewProcess([Path(out)], "127.0.0.1", 0, "rig bench view")
     feed = RingFeed(view.sink, out)
-    client = browser_process(view.url, seconds + 15.0)
+    client = browser_process(view.url, seconds + 15.0, kind)
     time.sleep(5.0)  # the browser is up and connected before the cycles begin
     summary: dict[str, Any] = {}
     try:
@@ -149,19 +152,22 @@ def bench_view(
     before = " ".join(f"{x:.2f}" for x in os.getloadavg())
     plain: list[dict[str, Any]] = []
     viewed: list[dict[str, Any]] = []
+    remote: list[dict[str, Any]] = []  #: the view served, its reader elsewhere's stand-in
     clients: list[dict[str, Any]] = []
+    readers: list[dict[str, Any]] = []
     proc, port = spawn_emulator("--preset", "dc-servo", "--param", "period=0.001")
     try:
         with tempfile.TemporaryDirectory() as out:
             for n in range(runs):
                 plain.append(realtime_run(out, port, seconds))
-                if progress is not None:
-                    progress(2 * n + 1, 2 * runs)
                 summary, client = _with_view(out, port, seconds)
                 viewed.append(summary)
                 clients.append(client)
+                summary, client = _with_view(out, port, seconds, "websocket")
+                remote.append(summary)
+                readers.append(client)
                 if progress is not None:
-                    progress(2 * n + 2, 2 * runs)
+                    progress(n + 1, runs)
     finally:
         stop_rig(proc, timeout=20)
     after = " ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -171,7 +177,7 @@ def bench_view(
         {"name": "runs", "value": runs, "unit": f"pairs of {seconds:g} s at 1 kHz, alternated"},
         *({"name": "browser", "value": c["client"], "unit": ""} for c in clients),
     ]
-    for kind, summaries in (("plain", plain), ("view", viewed)):
+    for kind, summaries in (("plain", plain), ("view", viewed), ("remote", remote)):
         figures += _spread(f"{kind}_overruns", [_share(s, "overruns") for s in summaries], "% of cycles", 3)
         figures += _spread(f"{kind}_late", [_share(s, "late_cycles") for s in summaries], "% of cycles", 3)
         for key in ("period_error_p99_us", "response_median_us", "response_p99_us"):
@@ -185,6 +191,7 @@ def bench_view(
             }
         )
     figures += _spread("view_updates_per_s", [c["updates_per_s"] for c in clients], "1/s", 1)
+    figures += _spread("remote_updates_per_s", [c["updates_per_s"] for c in readers], "1/s", 1)
     return figures
 
 
