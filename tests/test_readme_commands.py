@@ -702,7 +702,9 @@ NOT_RUN = {
     "rig bench stops --period 0.001 --load 2": "20 real-time runs of 10 s under two busy processes "
     "(minutes, and it loads the machine): the slow tier runs rig bench stops",
     "rig bench stops --period 0.0004 --load 2": "as rig bench stops --period 0.001 --load 2",
-    "rig bench stops --period 0.0004 --load 0 --load 2": "as rig bench stops --period 0.001 --load 2 (two loads)",
+    "rig bench stops --period 0.0004 --load 0 --load 2": (
+        "as rig bench stops --period 0.001 --load 2 (two loads)"
+    ),
     "rig bench stops --period 0.0004 --load 2 --runs 4 --seconds 5": (
         "as rig bench stops --period 0.001 --load 2 (four runs: the A/B of two commits)"
     ),

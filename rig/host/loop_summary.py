@@ -72,6 +72,7 @@ def missed_period(summary: dict[str, Any], period: float) -> str | None:
     return (
         f"this run did not keep its period of {period * 1e6:g} us: {skipped} of {scheduled} cycles skipped "
         f"({100.0 * skipped / scheduled:.2g} %) and {late} late ({100.0 * late / scheduled:.2g} %), "
-        f"{100.0 * (skipped + late) / scheduled:.3g} % together, over {100.0 * MISSED_SHARE:g} %; its samples are not those of lock-step. `rig doctor --period "
+        f"{100.0 * (skipped + late) / scheduled:.3g} % together, over {100.0 * MISSED_SHARE:g} %; "
+        "its samples are not those of lock-step. `rig doctor --period "
         f"{period:g}` says what this PC gives and what to change"
     )
