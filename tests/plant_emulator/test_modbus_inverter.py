@@ -175,6 +175,6 @@ def test_inverter_server_handle_over_rtu_on_a_pty_pair() -> None:
         rr = client.read_holding_registers(f.address, count=1, device_id=3)
         assert f.to_si(rr.registers[0]) == pytest.approx(2 * math.pi * 10, abs=0.04)
         client.close()
-    with pytest.raises(OSError):
+    with pytest.raises(OSError, match="Modbus inverter server: Could not start listen"):
         InverterServer(default_model("delta-vfd-b"), serial="/dev/no-such-tty", timeout=5.0).start()
     gc.collect()

@@ -204,10 +204,16 @@ def test_rtu_noise_that_announces_a_long_frame_does_not_block(line: Line) -> Non
 
 
 def test_rtu_a_corrupted_request_is_ignored_the_next_answered(line: Line) -> None:
+    """A request whose CRC fails gets no answer: the first bytes on the line after it are the
+    answer to the request that follows it, a read of another register holding a value of its own
+    (a server that took the corrupted read of register 2 would put its answer first)."""
+    line.send(rtu(3, write_single(REF, 1234)))
+    assert line.receive(8) == rtu(3, write_single(REF, 1234))  # the write's echo
     bad = bytearray(rtu(3, read_holding(STATUS, 1)))
-    bad[3] ^= 0x01  # a flipped bit: the CRC fails, no answer
+    bad[3] ^= 0x01  # a flipped bit: a well-formed read of register 2 whose CRC fails
     line.send(bytes(bad))
-    status_answer(line)
+    line.send(rtu(3, read_holding(REF, 1)))
+    assert line.receive(7) == rtu(3, bytes([3, 2]) + (1234).to_bytes(2, "big"))
 
 
 def test_rtu_exceptions_unknown_function_and_quantity(line: Line) -> None:

@@ -196,7 +196,7 @@ def test_an_endless_command_drops_only_its_client(emulator: Emulator) -> None:
         long.send("< send " + "0" * 4100)
         rest = long.rest()
         assert rest.startswith(b"< error ") and b"4096" in rest and rest.endswith(b" >"), rest
-        with pytest.raises(OSError):
+        with pytest.raises((BrokenPipeError, ConnectionResetError)):  # the server hung up on it
             huge.send(b"A" * (64 << 20))
         other.send("< echo >")
         assert other.lines_until("< echo") == ["< echo >"]

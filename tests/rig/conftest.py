@@ -6,15 +6,18 @@ import contextlib
 import io
 import json
 import pathlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import pytest
 
+from tests.patching import forget, stand_in
+
 
 @pytest.fixture
-def opened(monkeypatch: pytest.MonkeyPatch) -> list[str]:
-    """What a run opened of the bus and the emulated world: each is refused (a run given a bad
-    input must not get there), so the list is empty unless a check came too late."""
+def opened(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
+    """What a run opened of the bus and the emulated world: each is refused wherever a module
+    bound it (``tests.patching``; a run given a bad input must not get there), so the list is
+    empty unless a check came too late."""
     seen: list[str] = []
 
     def refuse(what: str) -> Callable[..., None]:
@@ -24,9 +27,12 @@ def opened(monkeypatch: pytest.MonkeyPatch) -> list[str]:
 
         return opener
 
-    monkeypatch.setattr("rig.host.session.open_bus", refuse("bus"))
-    monkeypatch.setattr("rig.host.session.Emulation", refuse("emulation"))
-    return seen
+    stand_ins = [
+        stand_in(monkeypatch, "drivers.bus.open_bus", refuse("bus")),
+        stand_in(monkeypatch, "rig.host.emulation.Emulation", refuse("emulation")),
+    ]
+    yield seen
+    forget(stand_ins)
 
 
 @pytest.fixture(scope="session")

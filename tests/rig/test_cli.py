@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 import pathlib
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
 
+import drivers.bus
+import rig.host.emulation
+import rig.host.session
 from rig.cli import main
+from tests.patching import forget, stand_in
 
 
 def test_design_dtsm_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
@@ -302,8 +306,9 @@ def test_every_subcommand_s_help_ends_with_an_example_that_parses(capsys: pytest
     names = set(EXAMPLES)
     assert len(names) == len(SUBCOMMANDS)
     for name, example in EXAMPLES.items():
-        with pytest.raises(SystemExit):
+        with pytest.raises(SystemExit) as exited:
             main([name, "--help"])
+        assert exited.value.code == 0, name  # the help, not a usage error
         assert f"Example: {example.split()[0]}" in capsys.readouterr().out
         argv = example.split("(")[0].split()
         assert argv[0] == "rig" and argv[1] == name
@@ -311,15 +316,11 @@ def test_every_subcommand_s_help_ends_with_an_example_that_parses(capsys: pytest
 
 
 @pytest.fixture
-def nothing_opens(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+def nothing_opens(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
     """Each way a command opens a bus, serves, builds an emulated world or runs an experiment,
-    refused: a bad argument must be found before any of them."""
-    # the modules that bind these names when first imported: imported before the patch, or a
-    # first import under it keeps the refusing stand-in for the rest of the worker's tests
-    importlib.import_module("rig.faults.wire_probe")
-    importlib.import_module("rig.host.emulation")
-    importlib.import_module("rig.host.session")
-    importlib.import_module("rig.papers.demo")
+    refused wherever the command finds it (the defining module and each module that bound the
+    name at import: rig.host.session's open_bus, rig.host.emulation's LockstepBench): a bad
+    argument must be found before any of them."""
     seen: list[str] = []
 
     def refuse(what: str) -> object:
@@ -329,16 +330,33 @@ def nothing_opens(monkeypatch: pytest.MonkeyPatch) -> list[str]:
 
         return opener
 
-    for target in (
-        "drivers.bus.open_bus",
-        "rig.emulator.serve.run_emulator",
-        "rig.emulator.serve.run_modbus_emulator",
-        "plant_emulator.lockstep.LockstepBench",
-        "rig.identify.experiment.run_experiment",
-        "rig.papers.dismc.run_dismc",
-    ):
-        monkeypatch.setattr(target, refuse(target))
-    return seen
+    stand_ins = [stand_in(monkeypatch, target, refuse(target)) for target in OPENERS]
+    yield seen
+    forget(stand_ins)
+
+
+#: what opens a bus, serves, builds an emulated world or runs an experiment
+OPENERS = (
+    "drivers.bus.open_bus",
+    "rig.emulator.serve.run_emulator",
+    "rig.emulator.serve.run_modbus_emulator",
+    "plant_emulator.lockstep.LockstepBench",
+    "rig.identify.experiment.run_experiment",
+    "rig.papers.dismc.run_dismc",
+)
+
+
+def test_nothing_opens_sees_each_opener_where_the_commands_find_it(
+    monkeypatch: pytest.MonkeyPatch, nothing_opens: list[str]
+) -> None:
+    """The fixture's stand-ins are what the modules that bound the openers at import call: the
+    session's bus and emulated world included (patching the defining modules alone left those
+    calling the real ones, unseen). Both modules were imported with this one, before the patch."""
+    for module, name in ((rig.host.session, "open_bus"), (rig.host.emulation, "LockstepBench")):
+        with pytest.raises(AssertionError, match="before the arguments were checked"):
+            getattr(module, name)()
+    assert nothing_opens == ["drivers.bus.open_bus", "plant_emulator.lockstep.LockstepBench"]
+    assert rig.host.session.open_bus is drivers.bus.open_bus
 
 
 def _one_line(capsys: pytest.CaptureFixture[str], needles: tuple[str, ...]) -> None:
@@ -375,6 +393,8 @@ HOSTILE_ARGUMENTS = [
     ("emulate --profile /", ("/: a directory", "device profile")),
     ("emulate --profile /nonexistent.toml", ("/nonexistent.toml: no such device profile",)),
     ("run --config examples/dc_servo_position.toml --emulate --duraton 1", ("rig run: ", "--duraton 1")),
+    ("run --config examples/dc_servo_position.toml --emulate --duration 0", ("--duration", "got 0")),
+    ("run --config examples/dc_servo_position_rt.toml --duration -1", ("--duration", "got -1")),
     ("design dtsm --a-m 16 --b-m 680 --lam -15 --dtt 1e-3", ("rig design dtsm: ", "--dtt 1e-3")),
     ("emulate --preset dc-serv", ("--preset dc-serv: unknown preset", "known: dc-servo")),
     ("emulate --device epos5", ("--device epos5", "unknown device profile", "epos4")),
@@ -409,8 +429,15 @@ HOSTILE_ARGUMENTS = [
 @pytest.mark.timeout(30)
 @pytest.mark.parametrize(("argv", "needles"), HOSTILE_ARGUMENTS, ids=[a for a, _ in HOSTILE_ARGUMENTS])
 def test_a_hostile_argument_is_one_line_exit_2_before_anything_opens(
-    argv: str, needles: tuple[str, ...], capsys: pytest.CaptureFixture[str], nothing_opens: list[str]
+    argv: str,
+    needles: tuple[str, ...],
+    tmp_path: pathlib.Path,
+    capsys: pytest.CaptureFixture[str],
+    nothing_opens: list[str],
 ) -> None:
+    (tmp_path / "examples").symlink_to(
+        pathlib.Path(__file__).resolve().parents[2] / "examples"
+    )  # as in a clone
     assert main(argv.split()) == 2
     _one_line(capsys, needles)
     assert not nothing_opens

@@ -4,6 +4,7 @@ and nothing opened (no bus, no emulated world, no run directory); runs without l
 from __future__ import annotations
 
 import json
+import math
 import pathlib
 import re
 
@@ -212,8 +213,14 @@ def test_a_profile_commanded_axis_needs_limits_too(tmp_path: pathlib.Path) -> No
 
 @pytest.mark.parametrize("name", sorted(p.name for p in EXAMPLES.glob("*.toml")))
 def test_every_example_has_limits(name: str) -> None:
-    """``rig run --config examples/...`` (the README's commands) needs no --no-limits."""
-    require_limits(load_config(EXAMPLES / name))
+    """``rig run --config examples/...`` (the README's commands) needs no --no-limits: each
+    commanded axis has a finite limit, and the check that refuses one without is what passes."""
+    cfg = load_config(EXAMPLES / name)
+    require_limits(cfg)
+    commanded = {*cfg.controller.commands, *(a.name for a in cfg.axes if a.profile)}
+    for axis in (a for a in cfg.axes if a.name in commanded):
+        kinds = ("command", "speed", "current", "position_min", "position_max")
+        assert any(math.isfinite(getattr(axis.limits, k)) for k in kinds), (name, axis.name, axis.limits)
 
 
 def test_faults_from_the_command_line_are_text_and_checked(

@@ -263,7 +263,8 @@ def test_rig_drive_jog_live(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_the_help_says_how(capsys: pytest.CaptureFixture[str]) -> None:
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as exited:
         main(["run", "--help"])
+    assert exited.value.code == 0  # the help, not a usage error
     text = " ".join(capsys.readouterr().out.split())
     assert "--live [{terminal,window}]" in text and "--emulate --live=terminal" in text

@@ -49,9 +49,14 @@ def test_watchdog_before_the_first_sample() -> None:
 
 
 def test_fresh_samples_after_skipped_periods_pass() -> None:
+    """Each new sample restarts the count, however many periods it skipped: the watchdog counts
+    from the last of them (cycle 500), not from the first."""
     guard = _guard(watchdog_periods=3)
     for stamp, k in enumerate((0, 10, 20, 500)):
         guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=float(stamp)), k)
+    guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=3.0), 502)  # the same sample
+    with pytest.raises(SafetyStop, match="no TPDO for 3 periods"):
+        guard.check_feedback(Feedback(position=0.0, velocity=0.0, stamp=3.0), 503)
 
 
 def test_position_step_allowed_per_period() -> None:

@@ -86,7 +86,7 @@ def test_write_atomic_leaves_the_old_file_or_the_new_one(tmp_path: pathlib.Path)
         f.write("ne")  # type: ignore[attr-defined]
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    with pytest.raises(OSError):
+    with pytest.raises(OSError, match="No space left on device"):  # the writer's own error
         write_atomic(path, half)
     assert path.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["summary.json"]
     write_atomic(path, lambda f: f.write("new"))

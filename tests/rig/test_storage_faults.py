@@ -11,6 +11,7 @@ capabilities are dropped first, which the child does.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import pathlib
@@ -95,8 +96,9 @@ def test_row_file_cuts_a_torn_row_and_keeps_the_rest_for_later(tmp_path: pathlib
     try:
         for line in lines[1000:]:
             rows.write(line)
-        with pytest.raises(OSError):
+        with pytest.raises(OSError) as refused:
             rows.flush()
+        assert refused.value.errno == errno.EFBIG, refused.value  # the file size limit's
     finally:
         resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
         signal.signal(signal.SIGXFSZ, old)
