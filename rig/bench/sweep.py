@@ -46,7 +46,7 @@ def _spec(folder: str, points: int) -> Path:
 def _sweep(workers: int, points: int) -> tuple[float, float, list[dict[str, Any]]]:
     """(seconds from submit to the last row, the client's CPU seconds meanwhile, the rows)."""
     from rig.sweep.engine import close_client, open_client, run_sweep
-    from rig.sweep.spec import load_spec
+    from rig.sweep.load import load_spec
 
     with tempfile.TemporaryDirectory() as folder:
         spec = load_spec(_spec(folder, points))

@@ -71,7 +71,7 @@ def execute(args: argparse.Namespace) -> int:
         ) from None
     from rig.cli.progress import Progress
     from rig.sweep.engine import close_client, open_client, resumable, run_sweep
-    from rig.sweep.spec import load_spec
+    from rig.sweep.load import load_spec
 
     spec = load_spec(args.spec)
     if args.plot:

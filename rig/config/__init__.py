@@ -1,13 +1,14 @@
 """A run's configuration, read from its TOML file and checked once, at load (``load_config``).
 
-``schema`` holds the file's tables as typed dataclasses and the loader; ``axes`` the axes' tables;
+``schema`` holds the file's tables as typed dataclasses, ``load`` the loader; ``axes`` the axes' tables;
 ``controller`` and ``emulator`` the ``[controller]`` and ``[emulator]`` tables; ``checks`` and
 ``rules`` the value rules; ``params`` the one typed NAME=VALUE parser (``--param``). Above
 ``rig.laws`` (a ``[controller]`` table's keys are its law's parameters), below ``rig.host``
 (which builds a run from a configuration that is valid).
 
-The names below are ``schema``'s, imported on first use (PEP 562), so that a command line that
-only parses ``--param`` (``rig.config.params``) does not load the whole schema.
+The names below are ``schema``'s and ``load``'s (``load_config``, ``rig_config``), imported on
+first use (PEP 562), so that a command line that only parses ``--param`` (``rig.config.params``)
+does not load the whole schema.
 """
 
 from __future__ import annotations
@@ -16,6 +17,12 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from rig.config.load import (
+        load_config as load_config,
+    )
+    from rig.config.load import (
+        rig_config as rig_config,
+    )
     from rig.config.schema import (
         ABORT_CONNECTION as ABORT_CONNECTION,
     )
@@ -56,13 +63,7 @@ if TYPE_CHECKING:
         RunConfig as RunConfig,
     )
     from rig.config.schema import (
-        load_config as load_config,
-    )
-    from rig.config.schema import (
         replace_axis as replace_axis,
-    )
-    from rig.config.schema import (
-        rig_config as rig_config,
     )
 
 __all__ = [
@@ -88,5 +89,6 @@ __all__ = [
 def __getattr__(name: str) -> Any:
     if name not in __all__:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = globals()[name] = getattr(importlib.import_module(f"{__name__}.schema"), name)
+    home = "load" if name in ("load_config", "rig_config") else "schema"
+    value = globals()[name] = getattr(importlib.import_module(f"{__name__}.{home}"), name)
     return value

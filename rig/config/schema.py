@@ -9,31 +9,28 @@ parameters, and ``[emulator.inverter]``, the emulated Modbus inverters'), ``[[ax
 with ``drivers.schema.key``: its type, default, unit, meaning and the values it allows are
 data, which the loader checks and ``docs/configuration.md`` prints.
 
-``load_config(path)`` (or ``rig_config(doc, source)``) checks every key of every table, the
-law's and the preset's parameters and the rules between tables (``rig.config.rules``) in one
-pass; a ``RigConfig`` is valid, and what builds a run from it (``rig.host.session``) checks
-nothing again. An unknown table or key, a value of the wrong type or out of range is a
-``ConfigError`` naming the file, the table (an axis by its name), the key and the value, and
-saying what is allowed. Command-line overrides (``rig run --fault``, ``--duration``) are
+``rig.config.load``'s ``load_config(path)`` (or ``rig_config(doc, source)``) checks every key of
+every table, the law's and the preset's parameters and the rules between tables
+(``rig.config.rules``) in one pass; a ``RigConfig`` is valid, and what builds a run from it
+(``rig.host.session``) checks nothing again. An unknown table or key, a value of the wrong type or
+out of range is a ``ConfigError`` naming the file, the table (an axis by its name), the key and the
+value, and saying what is allowed. Command-line overrides (``rig run --fault``, ``--duration``) are
 ``Override``s checked in the same pass, named by their option.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
-from pathlib import Path
 from typing import Any, Literal
 
 from drivers.errors import ConfigError
-from drivers.files import read_toml
 from drivers.schema import MAX_PERIOD, MIN_PERIOD, key
 from rig.config import checks as fmt
-from rig.config.axes import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits, axis_config
+from rig.config.axes import ABORT_CONNECTION, AXIS_KINDS, AxisConfig, AxisLimits, AxisUnits
 from rig.config.model import Model
-from rig.config.params import typed_values
 
 __all__ = [
     "ABORT_CONNECTION",
@@ -49,9 +46,7 @@ __all__ = [
     "ReferenceConfig",
     "RigConfig",
     "RunConfig",
-    "load_config",
     "replace_axis",
-    "rig_config",
 ]
 
 
@@ -316,11 +311,6 @@ def resolved_period(run: RunConfig, emulator: EmulatorConfig) -> float:
 
 
 TABLES = {"run": RunConfig, "bus": BusConfig, "reference": ReferenceConfig, "faults": FaultsConfig}
-_OLD_FORM = (
-    "is the old single-drive form: describe each device as an [[axis]] table (name, kind, node_id, mode, "
-    "[axis.limits]) and name the axes in [controller] reads and commands "
-    "(see examples/dc_servo_position.toml)"
-)
 
 
 def table(path: str, where: str, value: Any) -> dict[str, Any]:
@@ -328,45 +318,6 @@ def table(path: str, where: str, value: Any) -> dict[str, Any]:
     if not isinstance(value, dict):
         raise ConfigError(f"{path}: {where} must be a table")
     return value
-
-
-def _section(doc: dict[str, Any], name: str, source: str, overrides: Iterable[Override]) -> Any:
-    cls = TABLES[name]
-    values = typed_values(cls, table(source, f"[{name}]", doc.get(name, {})), f"{source}: [{name}]")
-    for o in overrides:
-        if o.table == name:
-            values.update(typed_values(cls, o.items, o.source, text=o.text))
-    return cls(**values)
-
-
-def rig_config(doc: dict[str, Any], source: str, overrides: Iterable[Override] = ()) -> RigConfig:
-    """The checked configuration of a parsed TOML document (``source`` names it in errors), with
-    ``overrides`` applied (see the module docstring)."""
-    from rig.config.controller import controller_config
-    from rig.config.emulator import emulator_config
-    from rig.config.rules import check_rig
-
-    overrides = tuple(overrides)
-    for old in ("drive", "limits"):
-        if old in doc:
-            raise ConfigError(f"{source}: [{old}] {_OLD_FORM}")
-    known = {*TABLES, "emulator", "axis", "controller"}
-    for name in doc:
-        if name not in known:
-            raise ConfigError(f"{source}: unknown section [{name}]; known: {', '.join(sorted(known))}")
-    sections = {name: _section(doc, name, source, overrides) for name in TABLES}
-    raw_axes = doc.get("axis", [])
-    if not isinstance(raw_axes, list) or not raw_axes:
-        raise ConfigError(f"{source}: describe at least one device as an [[axis]] table")
-    axes = tuple(axis_config(source, n, t) for n, t in enumerate(raw_axes))
-    if "controller" not in doc:
-        raise ConfigError(f"{source}: [controller] is missing: name the law (kind) and its axes")
-    emulator = emulator_config(source, table(source, "[emulator]", doc.get("emulator", {})))
-    period = resolved_period(sections["run"], emulator)
-    controller = controller_config(source, table(source, "[controller]", doc["controller"]), axes, period)
-    cfg = RigConfig(source=source, emulator=emulator, axes=axes, controller=controller, **sections)
-    check_rig(cfg)
-    return cfg
 
 
 def replace_axis(
@@ -385,10 +336,3 @@ def replace_axis(
         changes["units"] = replace(a.units, **units)
     axes = tuple(replace(x, **changes) if x.name == name else x for x in cfg.axes)
     return replace(cfg, axes=axes)
-
-
-def load_config(path: str | Path, overrides: Iterable[Override] = ()) -> RigConfig:
-    """Load and check a rig configuration file (``drivers.files.read_toml``: a regular file of at
-    most ``CONFIG_LIMIT``, UTF-8, not nested deeper than ``MAX_DEPTH``), with ``overrides``."""
-    p = Path(path)
-    return rig_config(read_toml(p, what="rig configuration"), str(p), overrides)

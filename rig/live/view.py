@@ -21,8 +21,8 @@ import os
 import sys
 import threading
 from collections.abc import Sequence
-from typing import Protocol
 
+from rig.live.backend import Backend, LiveUnavailable
 from rig.live.channels import Channel
 
 __all__ = ["MODES", "Backend", "LiveUnavailable", "LiveView", "open_live", "window_problem"]
@@ -30,20 +30,6 @@ __all__ = ["MODES", "Backend", "LiveUnavailable", "LiveView", "open_live", "wind
 log = logging.getLogger(__name__)
 
 MODES = ("auto", "terminal", "window")
-
-
-class LiveUnavailable(Exception):
-    """The live view asked for cannot be shown (no matplotlib, no display, the window closed)."""
-
-
-class Backend(Protocol):
-    """What draws the rows: ``open`` once, ``draw`` a few times a second, ``close`` once."""
-
-    def open(self, channels: Sequence[Channel], title: str) -> None: ...
-
-    def draw(self, rows: Sequence[Sequence[float]], final: bool = False) -> None: ...
-
-    def close(self) -> None: ...
 
 
 class LiveView:

@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from rig.live.backend import LiveUnavailable
 from rig.live.channels import Channel
-from rig.live.view import LiveUnavailable
 
 __all__ = ["MOST", "SPAN", "WindowBackend", "build_figure", "serve", "update_figure", "window_points"]
 

@@ -2,6 +2,7 @@
 
 - ``spec``: the study's TOML file (its base, the parameters to vary and how, the metrics), checked
   once at load;
+- ``load``: ``load_spec``, the file read and every value checked against the base;
 - ``points``: the points of a grid, of random or Latin hypercube samples, with repeats over seeds;
 - ``point``: one point on a worker: a ``rig run --emulate`` of the base configuration with the
   point's values (through ``rig.host.session``, the public path) or a paper's pure simulation

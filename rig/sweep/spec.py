@@ -35,14 +35,13 @@ before anything runs.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from drivers.errors import ConfigError
-from drivers.files import read_toml
 
-__all__ = ["METHODS", "Parameter", "SweepSpec", "load_spec", "spec_from_doc"]
+__all__ = ["METHODS", "Parameter", "SweepSpec", "spec_from_doc"]
 
 METHODS = ("grid", "random", "lhs")
 #: the table's own columns: no parameter or metric may take these names
@@ -245,7 +244,7 @@ def _sweep_table(source: str, table: Any) -> dict[str, Any]:
 
 def spec_from_doc(doc: dict[str, Any], source: str) -> SweepSpec:
     """A checked spec from a parsed TOML document (``source`` names it in errors); the values are
-    checked against the base by ``rig.sweep.point.check_values`` (``load_spec`` does both)."""
+    checked against the base by ``rig.sweep.point.check_values`` (``rig.sweep.load.load_spec`` does both)."""
     unknown = sorted(set(doc) - {"sweep", "parameters", "fixed"})
     if unknown:
         raise ConfigError(f"{source}: unknown section(s) {unknown}; known: [sweep], [parameters], [fixed]")
@@ -323,15 +322,3 @@ def _table(source: str, name: str, value: Any) -> dict[str, Any]:
     if not isinstance(value, dict):
         raise ConfigError(f"{source}: [{name}] must be a table")
     return value
-
-
-def load_spec(path: str | Path) -> SweepSpec:
-    """Load ``path`` and check it, every value against the base included (ConfigError naming the
-    file, the key and the value); the metrics default to the base's."""
-    from rig.sweep.point import check_values, default_metrics
-
-    p = Path(path)
-    spec = spec_from_doc(read_toml(p, what="sweep specification"), str(p))
-    spec = replace(spec, metrics=spec.metrics or default_metrics(spec))
-    check_values(spec)
-    return spec

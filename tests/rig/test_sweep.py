@@ -17,9 +17,9 @@ import pytest
 from drivers.errors import ConfigError
 from drivers.files import read_toml
 from rig.cli import main
+from rig.sweep.load import load_spec
 from rig.sweep.point import job_of, read_base, run_point
 from rig.sweep.points import make_points
-from rig.sweep.spec import load_spec
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
 SERVO = EXAMPLES / "dc_servo_position.toml"
