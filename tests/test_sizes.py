@@ -28,7 +28,7 @@ DEBTS: dict[str, int] = {
     "plant_emulator/socketcand_server.py": 426,
     "plant_emulator/socketcand_server.py::SocketcandServer": 341,
     "rig/bench/socketcand.py": 434,
-    "rig/bench/stops.py::_figures": 66,
+    "rig/bench/stops.py::_figures": 74,
     "rig/cli/drive.py::add_parser": 90,
     "rig/cli/emulate.py::add_parser": 88,
     "rig/cli/identify.py": 435,
