@@ -26,10 +26,10 @@ import threading
 import time
 from collections.abc import Callable
 
-import can
 import canopen
 import pytest
 
+from drivers.bus import open_bus
 from drivers.maps import CIA402_EDS
 from plant_emulator.device_profile import load_profile, zoo
 from rig.emulator.spawn import spawn_emulator, stop_rig
@@ -61,7 +61,7 @@ class KilledHost:
         self.stack = contextlib.ExitStack()
         self.frames: list[tuple[float, int, bytes]] = []
         self._lock = threading.Lock()
-        bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="can0", ignore_config=True)
+        bus = open_bus("socketcand", "can0", host="127.0.0.1", port=port)  # frames behind < ok > kept
         self.network = canopen.Network(bus)
         self.network.connect()
         for cob in (0x81, 0x181, 0x281, 0x381, 0x481):

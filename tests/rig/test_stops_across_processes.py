@@ -16,11 +16,11 @@ import subprocess
 import sys
 import threading
 
-import can
 import canopen
 import pytest
 import scipy.io
 
+from drivers.bus import open_bus
 from plant_emulator.device_profile import load_profile, zoo
 from rig.emulator.spawn import spawn_emulator, stop_rig
 from rig.faults.wire_probe import wait_for
@@ -54,7 +54,7 @@ def test_a_stop_signal_is_the_safe_stop(
     emulator, port = spawn_emulator("--device", "epos4")
     host: subprocess.Popen[str] | None = None
     try:
-        bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="can0", ignore_config=True)
+        bus = open_bus("socketcand", "can0", host="127.0.0.1", port=port)  # frames behind < ok > kept
         network = canopen.Network(bus)
         network.connect()
         tpdos = [0]
