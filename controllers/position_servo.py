@@ -1,7 +1,7 @@
 """DC position servo with chattering-free DTSM and switching integral, eqs. (7.30a-d).
 
 The state is the error vector of (7.28), e = [theta_r - theta_m, omega_r - omega_m],
-and the design is ``design_dtsm`` on A = [0 1; 0 -a_m], b = [0, -b_m] (7.31).
+and the design is ``design_dtsm`` on A = [0 1; 0 -a_m], b = [0, -b_m] (7.31)::
 
     u_k   = u_s,k - u_I,k                                               (7.30a)
     u_s,k = -c_delta A_delta e_k - min{v_k, w_k} sgn(g_k),

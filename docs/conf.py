@@ -35,6 +35,10 @@ autodoc_typehints = "description"
 html_theme = "alabaster"
 html_title = f"drive-rig {release}"
 nitpicky = False
+# What is typed renders as typed: docutils' smart quotes would turn ``--json`` in prose (the CLI
+# reference's help texts, generated from argparse) into an en dash and quotes into curly ones, which
+# fail when copied into a shell.
+smartquotes = False
 
 #: the reproductions' figures (reproductions.md), drawn by the commands themselves at each build
 FIGURES = {
@@ -76,6 +80,22 @@ def _plain_bars(*args: Any) -> None:
         lines[i] = "".join(p if p.startswith("``") else p.replace("|", "\\|") for p in parts)
 
 
-def setup(app: object) -> None:
-    app.connect("builder-inited", _figures)  # type: ignore[attr-defined]
-    app.connect("autodoc-process-docstring", _plain_bars)  # type: ignore[attr-defined]
+def _numpydoc_but_attributes(app: Any, what: str, *args: Any) -> None:
+    """napoleon for functions', classes' and modules' docstrings (numpydoc sections), not for
+    attributes': their ``#:`` comments are prose, which napoleon would split at the first ``: ``
+    into a type and a description (``[s]: the period`` shown as of type ``[s]``)."""
+    from sphinx.ext.napoleon import _process_docstring
+
+    if what not in ("attribute", "data", "property"):
+        _process_docstring(app, what, *args)
+
+
+def setup(app: Any) -> None:
+    from sphinx.ext.napoleon import _process_docstring
+
+    app.connect("builder-inited", _figures)
+    app.connect("autodoc-process-docstring", _plain_bars)
+    listeners = app.events.listeners["autodoc-process-docstring"]
+    (napoleon,) = (lsn for lsn in listeners if lsn.handler is _process_docstring)
+    app.disconnect(napoleon.id)
+    app.connect("autodoc-process-docstring", _numpydoc_but_attributes, priority=napoleon.priority)

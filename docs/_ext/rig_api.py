@@ -3,11 +3,17 @@
 It walks ``controllers``, ``drivers``, ``plant_emulator`` and ``rig`` (``pkgutil``) and gives
 each module a section with ``automodule`` and its members: a module added to a package is in
 the reference without an edit here.
+
+autodoc writes reStructuredText (``.. py:class::`` ...), which a MyST page reads as a paragraph:
+each section's directives are in an ``eval-rst`` block. A class or function that a module only
+re-exports (in its ``__all__``, defined elsewhere) is described once, where it is defined; the
+module that re-exports it lists it with a link there.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 import pkgutil
 from typing import Any
 
@@ -29,16 +35,37 @@ def modules(package: str) -> list[str]:
     return sorted(n for n in found if not n.endswith("__main__"))
 
 
+def reexports(name: str) -> dict[str, str]:
+    """The classes and functions module ``name`` exports (``__all__``) but does not define:
+    exported name -> where it is defined (``module.qualname``)."""
+    module = importlib.import_module(name)
+    found = {}
+    for export in getattr(module, "__all__", ()):
+        obj = getattr(module, export)
+        home = getattr(obj, "__module__", name)
+        if (inspect.isclass(obj) or inspect.isfunction(obj)) and home != name:
+            found[export] = f"{home}.{obj.__qualname__}"
+    return found
+
+
+def section(name: str) -> list[str]:
+    """The MyST lines of module ``name``'s section."""
+    lines = [f"## {name}", "", "```{eval-rst}", f".. automodule:: {name}", "   :members:"]
+    elsewhere = reexports(name)
+    if elsewhere:
+        lines += [f"   :exclude-members: {', '.join(elsewhere)}", ""]
+        links = ", ".join(f":py:obj:`{export} <{home}>`" for export, home in elsewhere.items())
+        lines += [f"   Re-exported here (described where they are defined): {links}."]
+    return [*lines, "```", ""]
+
+
 class RigApi(SphinxDirective):
     """``rig-api PACKAGE``: a section per module of PACKAGE."""
 
     required_arguments = 1
 
     def run(self) -> list[nodes.Node]:
-        lines = []
-        for name in modules(self.arguments[0]):
-            # the page is MyST: its nested content is parsed as MyST too
-            lines += [f"## {name}", "", f"```{{automodule}} {name}", ":members:", "```", ""]
+        lines = [line for name in modules(self.arguments[0]) for line in section(name)]
         node = nodes.section()
         node.document = self.state.document
         nested_parse_with_titles(self.state, StringList(lines, source="rig-api"), node)

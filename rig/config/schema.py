@@ -15,7 +15,7 @@ every table, the law's and the preset's parameters and the rules between tables
 (``rig.host.session``) checks nothing again. An unknown table or key, a value of the wrong type or
 out of range is a ``ConfigError`` naming the file, the table (an axis by its name), the key and the
 value, and saying what is allowed. Command-line overrides (``rig run --fault``, ``--duration``) are
-``Override``s checked in the same pass, named by their option.
+``Override`` objects checked in the same pass, named by their option.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The SYNC-driven host loop of ARCHITECTURE.md: every axis of the rig, one law, one safe-stop path.
+"""The SYNC-driven host loop of docs/architecture.md: every axis of the rig, one law, one safe-stop path.
 
 Each cycle: ``pacing.tick()`` (the SYNC and, where the host sends it, the wait for the
 TPDOs answering it: the law acts on the sample of the same SYNC in both time modes;

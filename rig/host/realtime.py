@@ -7,7 +7,7 @@ before the loop starts, refused ones reported once and the run goes on.
 - ``SCHED_FIFO`` at ``priority`` for the thread that keeps the period (the host loop, or the
   emulator's clock), and one above it for the threads that carry its frames (the bus's receive
   thread: a frame never waits behind the loop it feeds). A thread at real-time priority must
-  sleep between its cycles: none here spins (ARCHITECTURE.md "The cycle").
+  sleep between its cycles: none here spins (docs/architecture.md, "One cycle").
 - pinned to one CPU (``cpu``: -1 the last one the process may use, -2 not pinned), so the
   loop's caches and the handoffs between its threads stay on one core;
 - memory locked (``mlockall``, on fault: the pages the process uses stay in memory, and each

@@ -89,8 +89,8 @@ class ReplayParams(LawParams):
 
 class Excitation:
     """The sequence a replay sends: ``u`` (one value per cycle, its last held), or ``u`` as one
-        period repeated over ``cycles``; plus a seeded white dither of standard deviation ``dither``
-        over the run. ``next()`` gives the next value. Its values were checked when the configuration
+    period repeated over ``cycles``; plus a seeded white dither of standard deviation ``dither``
+    over the run. ``next()`` gives the next value. Its values were checked when the configuration
     was loaded (``ReplayParams``, ``ExcitedSpeedParams``: u not empty, cycles and dither >= 0)."""
 
     def __init__(self, u: tuple[float, ...], cycles: int, dither: float, seed: int) -> None:

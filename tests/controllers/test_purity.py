@@ -1,4 +1,4 @@
-"""Layer rules of ARCHITECTURE.md and each package's public ``__all__``."""
+"""Layer rules of docs/architecture.md and each package's public ``__all__``."""
 
 from __future__ import annotations
 
