@@ -52,7 +52,13 @@ __all__ = [
 
 @dataclass(frozen=True, slots=True)
 class CascadeLoopParams:
-    """One loop of the reconstructed (6.36); the fields are Table V's symbols."""
+    """One loop of the reconstructed (6.36); the fields are Table V's symbols.
+
+    Raises
+    ------
+    ValueError
+        If ``c_s`` and ``k_s`` do not both have 1 or 2 entries, or a field is out of its range.
+    """
 
     dt: float  #: sample period T [s]
     k_s: tuple[float, ...]  #: equivalent-control gain c_s A_delta (k_eq for n = 1)
@@ -91,7 +97,20 @@ class CascadeLoopParams:
 
     @classmethod
     def from_design(cls, design: DTSMDesign, **kwargs: float) -> CascadeLoopParams:
-        """Build from a ``design_dtsm`` result: k_s = c_delta A_delta, c_s = c_delta."""
+        """Build from a ``design_dtsm`` result: k_s = c_delta A_delta, c_s = c_delta.
+
+        Parameters
+        ----------
+        design : DTSMDesign
+            The delta model and sliding vector of (6.9), (6.16).
+        **kwargs : float
+            The other fields (``k_r1``, ``k_r2``, ``k_int``, ``u0``, ``beta``, ``alpha``).
+
+        Returns
+        -------
+        CascadeLoopParams
+            The loop's parameters with ``dt``, ``k_s`` and ``c_s`` from the design.
+        """
         return cls(dt=design.dt, k_s=design.c_delta_A_delta, c_s=design.c_delta, **kwargs)
 
 
@@ -133,7 +152,13 @@ TABLE_V_POSITION = CascadeLoopParams(
 
 @dataclass
 class CascadeLoop:
-    """One reconstructed (6.36) loop; ``step(r, y1, y2)`` returns u_k."""
+    """One reconstructed (6.36) loop; ``step(r, y1, y2)`` returns u_k.
+
+    Parameters
+    ----------
+    params : CascadeLoopParams
+        The loop's Table V parameters.
+    """
 
     params: CascadeLoopParams
     g: float = field(default=0.0, init=False)  #: sliding variable g_k
@@ -166,9 +191,23 @@ class CascadeLoop:
         self._sat = 0
 
     def step(self, r: float, y1: float, y2: float = 0.0) -> float:
-        """One update from the reference r and the measured state [y1, y2].
+        """One update from the reference and the measured state [y1, y2].
 
         For n = 2 the reference state is [r, (r_k - r_k-1)/T] (Euler backward).
+
+        Parameters
+        ----------
+        r : float
+            Reference x*_k of the loop's first state.
+        y1 : float
+            Measured first state.
+        y2 : float
+            Measured second state (n = 2 only).
+
+        Returns
+        -------
+        float
+            The loop's output u_k of (f), |u_k| <= U_0.
         """
         r_prev = self._r_prev if self._r_prev == self._r_prev else r
         self._r_prev = r
@@ -211,6 +250,16 @@ class Cascade:
     ``step`` is called at the current loop's period; the speed and position loops
     run every ``speed_every`` and ``position_every`` calls and hold their outputs
     (the speed reference [rad/s] and the q-current reference [A]) in between.
+
+    Parameters
+    ----------
+    position, speed, current : CascadeLoop
+        The three loops, outermost first.
+
+    Raises
+    ------
+    ValueError
+        If a rate ratio is below 1.
     """
 
     position: CascadeLoop
@@ -234,7 +283,24 @@ class Cascade:
         self._count = 0
 
     def step(self, theta_ref: float, theta: float, omega: float, i_q: float) -> float:
-        """One current-loop period: returns the q-axis voltage u_q [V]."""
+        """One current-loop period.
+
+        Parameters
+        ----------
+        theta_ref : float
+            Position reference [rad].
+        theta : float
+            Measured position [rad].
+        omega : float
+            Measured speed [rad/s].
+        i_q : float
+            Measured q-axis current [A].
+
+        Returns
+        -------
+        float
+            The q-axis voltage u_q [V].
+        """
         k = self._count
         self._count = k + 1
         if k % self.position_every == 0:

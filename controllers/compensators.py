@@ -21,6 +21,11 @@ class FirstOrderCompensator:
     g(z) = T (z - 1) / (z (z - (1 - alpha))) d(z). The paper states stability for
     0 < alpha <= 1; the pole 1 - alpha is inside the unit circle for
     0 < alpha < 2, which is the range accepted here (a known misprint).
+
+    Raises
+    ------
+    ValueError
+        If alpha is outside (0, 2) or dt is not a finite period > 0.
     """
 
     alpha: float  #: compensator gain, 0 < alpha < 2 [-]
@@ -39,7 +44,18 @@ class FirstOrderCompensator:
         self.u_c = 0.0
 
     def step(self, g: float) -> float:
-        """Return u_c,k from the current sliding variable g_k."""
+        """One step of (6.30b).
+
+        Parameters
+        ----------
+        g : float
+            The sliding variable g_k.
+
+        Returns
+        -------
+        float
+            The compensational control u_c,k [control unit].
+        """
         self.u_c -= self._gain * g
         return self.u_c
 
@@ -54,6 +70,11 @@ class SecondOrderCompensator:
     u_c2(z) = -(2z - 1) z / (T (z - 1)^2) g(z). Eq. (6.35) as printed has d(z) in
     place of g(z) and no minus sign; the sign and variable here are the ones
     (6.29) gives, consistent with (6.33). With it, g_{k+1} = T (d_k - 2 d_k-1 + d_k-2).
+
+    Raises
+    ------
+    ValueError
+        If dt is not a finite period > 0.
     """
 
     dt: float  #: sample period T [s]
@@ -71,7 +92,18 @@ class SecondOrderCompensator:
         self.d_prev = 0.0
 
     def step(self, g: float) -> float:
-        """Return u_c,k from the current sliding variable g_k."""
+        """One step of (6.35).
+
+        Parameters
+        ----------
+        g : float
+            The sliding variable g_k.
+
+        Returns
+        -------
+        float
+            The compensational control u_c,k [control unit].
+        """
         d_est = g * self._inv_dt - self.u_c  # (6.29)
         self.u_c = -(2.0 * d_est - self.d_prev)
         self.d_prev = d_est

@@ -40,7 +40,13 @@ class DTSMDesign:
         return len(self.b_delta)
 
     def as_dict(self) -> dict[str, object]:
-        """Plain lists and floats under the names of the ``rig design dtsm --json`` contract."""
+        """The design as plain data.
+
+        Returns
+        -------
+        dict
+            Lists and floats under the names of the ``rig design dtsm --json`` contract.
+        """
         return {
             "A_delta": [list(row) for row in self.A_delta],
             "b_delta": list(self.b_delta),
@@ -54,7 +60,17 @@ class DTSMDesign:
 def lambda_delta(lam: float, *, dt: float) -> float:
     """Map a continuous-time eigenvalue to the delta domain, eq. (6.19).
 
-    lambda_delta = (e^(lambda T) - 1) / T, with ``lam`` in 1/s and ``dt`` = T in s.
+    Parameters
+    ----------
+    lam : float
+        Continuous-time eigenvalue lambda [1/s].
+    dt : float
+        Sample period T [s].
+
+    Returns
+    -------
+    float
+        lambda_delta = (e^(lambda T) - 1) / T [1/s].
     """
     return math.expm1(lam * dt) / dt
 
@@ -64,6 +80,20 @@ def acker(A: np.ndarray, b: np.ndarray, poles: list[float]) -> np.ndarray:
 
     Unlike scipy.signal.place_poles it accepts repeated poles, which the design
     [lambda_delta, 0] of (6.18) produces for n = 1 and n = 3.
+
+    Parameters
+    ----------
+    A : numpy.ndarray, shape (n, n)
+        State matrix.
+    b : numpy.ndarray, shape (n,)
+        Input vector.
+    poles : list of float
+        The closed-loop eigenvalues wanted, n of them.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        The gain row k.
 
     Raises
     ------

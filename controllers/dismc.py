@@ -41,7 +41,31 @@ def _eq_system(A: npt.ArrayLike, B: npt.ArrayLike, S: npt.ArrayLike) -> tuple[np
 def dismc_lqr_gain(
     *, A: npt.ArrayLike, B: npt.ArrayLike, S: npt.ArrayLike, Q: npt.ArrayLike, R: float
 ) -> np.ndarray:
-    """K = (B_eq^T P B_eq + R)^-1 B_eq^T P A_eq (31), P from the DARE (32) (scipy)."""
+    """The DISMC feedback gain by LQR on the equivalent system (28), eqs. (31)-(32).
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Plant state matrix of (1).
+    B : array_like, shape (n,)
+        Plant input vector of (1).
+    S : array_like, shape (n,)
+        Sliding matrix, SB != 0.
+    Q : array_like, shape (n, n)
+        State weight of the LQR cost.
+    R : float
+        Input weight, > 0.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        K = (B_eq^T P B_eq + R)^-1 B_eq^T P A_eq (31), P from the DARE (32) (scipy).
+
+    Raises
+    ------
+    ValueError
+        If R is not > 0.
+    """
     import scipy.linalg
 
     A_eq, B_eq = _eq_system(A, B, S)
@@ -56,7 +80,26 @@ def dismc_lqr_gain(
 def lmi_28_holds(
     *, A: npt.ArrayLike, B: npt.ArrayLike, S: npt.ArrayLike, X: npt.ArrayLike, W: npt.ArrayLike
 ) -> bool:
-    """True when X > 0 and [[-X, (A_eq X - B_eq W)^T], [A_eq X - B_eq W, -X]] < 0 (28)."""
+    """Check the LMI (28) for a candidate X, W.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Plant state matrix of (1).
+    B : array_like, shape (n,)
+        Plant input vector of (1).
+    S : array_like, shape (n,)
+        Sliding matrix, SB != 0.
+    X : array_like, shape (n, n)
+        The symmetric matrix of (28).
+    W : array_like, shape (n,)
+        The gain variable of (28) (K = W X^-1).
+
+    Returns
+    -------
+    bool
+        True when X > 0 and [[-X, (A_eq X - B_eq W)^T], [A_eq X - B_eq W, -X]] < 0.
+    """
     A_eq, B_eq = _eq_system(A, B, S)
     X_ = np.asarray(X, dtype=float)
     off = A_eq @ X_ - np.outer(B_eq, np.asarray(W, dtype=float).ravel())
@@ -74,7 +117,14 @@ def _mat(M: npt.ArrayLike) -> tuple[tuple[float, ...], ...]:
 
 @dataclass(frozen=True, slots=True)
 class DISMCParams:
-    """Plant (1), model following (3) and the design parameters (51)-(53) of the DISMC paper."""
+    """Plant (1), model following (3) and the design parameters (51)-(53) of the DISMC paper.
+
+    Raises
+    ------
+    ValueError
+        If the variant is unknown, the shapes of A, S and K do not match B, SB = 0, or a design
+        parameter is out of its range.
+    """
 
     A: tuple[tuple[float, ...], ...]  #: plant state matrix of (1)
     B: tuple[float, ...]  #: plant input vector of (1)
@@ -124,13 +174,32 @@ class DISMCParams:
         K: npt.ArrayLike = (),
         **kw: float | str,
     ) -> DISMCParams:
-        """Build from array-likes."""
+        """Build from array-likes.
+
+        Parameters
+        ----------
+        A, B, A_m, G, H, S, K : array_like
+            The fields of the same names, as arrays (K empty for DSMC).
+        **kw : float or str
+            The scalar fields (``phi``, ``eta``, ``varphi``, ``beta``, ``mu``, ``variant``).
+
+        Returns
+        -------
+        DISMCParams
+            The parameters, each array a tuple of floats.
+        """
         return cls(A=_mat(A), B=_row(B), A_m=_mat(A_m), G=_mat(G), H=_row(H), S=_row(S), K=_row(K), **kw)  # type: ignore[arg-type]
 
 
 @dataclass
 class DISMC:
-    """The DSMC / DISMC / DISMC-AW law; ``step(x, x_m)`` returns u(k) = H x_m + v (4)."""
+    """The DSMC / DISMC / DISMC-AW law; ``step(x, x_m)`` returns u(k) = H x_m + v (4).
+
+    Parameters
+    ----------
+    params : DISMCParams
+        The plant, the model following and the design.
+    """
 
     params: DISMCParams
     sigma: float = field(default=0.0, init=False)  #: sliding function sigma(k)
@@ -165,7 +234,20 @@ class DISMC:
         return 1.0 if r > 1.0 else (-1.0 if r < -1.0 else r)
 
     def step(self, x: tuple[float, ...] | list[float], x_m: tuple[float, ...] | list[float]) -> float:
-        """One update from the plant state x(k) and the model state x_m(k)."""
+        """One update from the plant state and the model state.
+
+        Parameters
+        ----------
+        x : sequence of float
+            The plant state x(k).
+        x_m : sequence of float
+            The reference model's state x_m(k).
+
+        Returns
+        -------
+        float
+            The control u(k) = H x_m + v (4), v by (12), (34) or (45).
+        """
         p = self.params
         z = [xi - sum(g * xm for g, xm in zip(row, x_m)) for xi, row in zip(x, self._G)]
         sz = sum(s * zi for s, zi in zip(p.S, z))

@@ -31,7 +31,23 @@ PWM_STRATEGIES: dict[str, float] = {"s-pwm-start": 0.0, "s-pwm-middle": 0.5, "a-
 
 
 def dead_time_fraction(strategy: str) -> float:
-    """m of (21) for ``strategy``; ValueError naming the strategy when unknown."""
+    """The fraction m of (21) for a PWM strategy.
+
+    Parameters
+    ----------
+    strategy : str
+        One of ``PWM_STRATEGIES``.
+
+    Returns
+    -------
+    float
+        m = 1 - T_d/T_s.
+
+    Raises
+    ------
+    ValueError
+        Naming the strategy when it is unknown.
+    """
     try:
         return PWM_STRATEGIES[strategy]
     except KeyError:
@@ -54,8 +70,25 @@ def _check_limit(u_max: float) -> None:
 class DqCurrentParams:
     """Parameters of the controller (32)-(34) / (32), (37).
 
-    r1 [Ohm], l1 [H] (the plant's R_1, L_1), ts = T_s [s], gamma the tuning
-    factor of (34) (> 0), u_max the converter voltage limit |u| [V] (inf: none).
+    Parameters
+    ----------
+    r1 : float
+        The plant's R_1 [Ohm], >= 0.
+    l1 : float
+        The plant's L_1 [H], > 0.
+    ts : float
+        Sample period T_s [s], > 0.
+    gamma : float
+        Tuning factor of (34), > 0.
+    strategy : str
+        PWM strategy of Table I (``PWM_STRATEGIES``).
+    u_max : float
+        Converter voltage limit |u| [V] (inf: none).
+
+    Raises
+    ------
+    ValueError
+        If a value is out of its range or the strategy is unknown.
     """
 
     r1: float
@@ -101,6 +134,11 @@ class ComplexVectorCurrentController:
     With the exact plant (29) the open loop is gamma/(z^2 - z) (35) for
     s-PWM-start/a-PWM-double and gamma (z + beta_1)/(z^2 - z) (38) for s-PWM-middle,
     where beta_1 = beta_0 e^{-j omega_k T_s / 2}: the j is missing in the print.
+
+    Parameters
+    ----------
+    params : DqCurrentParams
+        The plant, the period, gamma, the strategy and the voltage limit.
     """
 
     params: DqCurrentParams
@@ -122,7 +160,18 @@ class ComplexVectorCurrentController:
         self._e = 0j
 
     def gains(self, omega_k: float) -> tuple[complex, complex, complex]:
-        """(K_rz, z_0, e^{j omega_k T_d}) of (32)-(34) / (37) at frame speed omega_k [rad/s]."""
+        """The controller's gains at a frame speed, (32)-(34) / (37).
+
+        Parameters
+        ----------
+        omega_k : float
+            Frame speed [rad/s].
+
+        Returns
+        -------
+        tuple of complex
+            (K_rz, z_0, e^{j omega_k T_d}).
+        """
         p = self.params
         z0 = self._alpha0 * cmath.exp(-1j * omega_k * p.ts)  # (33)
         if self._middle:
@@ -133,12 +182,40 @@ class ComplexVectorCurrentController:
         return k_rz, z0, cmath.exp(1j * omega_k * p.td)
 
     def transfer(self, z: complex, omega_k: float) -> complex:
-        """R(z) of (32) at constant omega_k."""
+        """R(z) of (32) at a constant frame speed.
+
+        Parameters
+        ----------
+        z : complex
+            The point of the z-plane.
+        omega_k : float
+            Frame speed [rad/s].
+
+        Returns
+        -------
+        complex
+            R(z).
+        """
         k_rz, z0, rot = self.gains(omega_k)
         return k_rz * (z - z0) / (z - 1.0) * rot
 
     def step(self, i_ref: complex, i: complex, omega_k: float) -> complex:
-        """One sample: dq reference and measured current [A], frame speed [rad/s] -> u_ref [V]."""
+        """One sample.
+
+        Parameters
+        ----------
+        i_ref : complex
+            dq current reference [A].
+        i : complex
+            Measured dq current [A].
+        omega_k : float
+            Frame speed [rad/s].
+
+        Returns
+        -------
+        complex
+            The voltage reference u_ref [V], |u_ref| <= u_max.
+        """
         e = i_ref - i
         k_rz, z0, rot = self.gains(omega_k)
         v = self._v + k_rz * (e - z0 * self._e)
@@ -158,8 +235,23 @@ class ComplexVectorCurrentController:
 class DqPIParams:
     """Conventional dq PI: u = (k_p + k_i z/(z - 1)) e [+ j omega_k L_1 i].
 
-    k_p [V/A], k_i [V/A per sample]; ``decouple`` adds the j omega_k L_1 i
-    feed-forward of the cross-coupling term in (6) with ``l1`` [H].
+    Parameters
+    ----------
+    k_p : float
+        Proportional gain [V/A], > 0.
+    k_i : float
+        Integral gain [V/A per sample], >= 0.
+    l1 : float
+        L_1 [H] of the decoupling feed-forward.
+    decouple : bool
+        Add the feed-forward j omega_k L_1 i of the cross-coupling term in (6).
+    u_max : float
+        Voltage limit |u| [V] (inf: none).
+
+    Raises
+    ------
+    ValueError
+        If a gain or the limit is out of its range, or decoupling has no l1 > 0.
     """
 
     k_p: float
@@ -184,6 +276,22 @@ def pi_gains_like(r1: float, l1: float, ts: float, gamma: float) -> tuple[float,
     k_p = K_rz alpha_0 and k_i = K_rz (1 - alpha_0) = gamma R_1: the zero cancels
     the RL pole and the only difference left is the frame rotation, which is
     what the baseline is meant to show. For R_1 = 0 the limit is k_p = gamma L_1/T_s.
+
+    Parameters
+    ----------
+    r1 : float
+        R_1 [Ohm].
+    l1 : float
+        L_1 [H].
+    ts : float
+        Sample period T_s [s].
+    gamma : float
+        Tuning factor of (34).
+
+    Returns
+    -------
+    tuple of float
+        (k_p [V/A], k_i [V/A per sample]).
     """
     if r1 > 0.0:
         alpha0 = math.exp(-ts * r1 / l1)
@@ -200,6 +308,11 @@ class DqPI:
     with ``decouple`` the feed-forward j omega_k L_1 i_k is added outside the
     integral. When |u| exceeds u_max the output is scaled to the limit and the PI
     part is set to what was applied minus the feed-forward (back-calculation).
+
+    Parameters
+    ----------
+    params : DqPIParams
+        Gains, decoupling and the voltage limit.
     """
 
     params: DqPIParams
@@ -212,7 +325,22 @@ class DqPI:
         self._e = 0j
 
     def step(self, i_ref: complex, i: complex, omega_k: float) -> complex:
-        """One sample: dq reference and measured current [A], frame speed [rad/s] -> u_ref [V]."""
+        """One sample.
+
+        Parameters
+        ----------
+        i_ref : complex
+            dq current reference [A].
+        i : complex
+            Measured dq current [A].
+        omega_k : float
+            Frame speed [rad/s].
+
+        Returns
+        -------
+        complex
+            The voltage reference u_ref [V], |u_ref| <= u_max.
+        """
         p = self.params
         e = i_ref - i
         v = self._v + p.k_p * (e - self._e) + p.k_i * e

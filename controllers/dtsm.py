@@ -23,7 +23,18 @@ class Compensator(Protocol):
     """A disturbance compensator: u_c,k from g_k (see ``controllers.compensators``)."""
 
     def step(self, g: float) -> float:
-        """Return the compensational control for sliding variable g."""
+        """One step of the compensator.
+
+        Parameters
+        ----------
+        g : float
+            The sliding variable g_k.
+
+        Returns
+        -------
+        float
+            The compensational control u_c,k [control unit].
+        """
         ...
 
     def reset(self) -> None:
@@ -52,6 +63,12 @@ class DTSMParams:
     compensator winds up and diverges (a 100 rad/s step at sigma = 10 V, Fig. 9's set-up).
     ``"always"``: every step; ``"linear"``: only while (6.15a) is in its linear mode,
     |g_k| <= T sigma, and reset to zero otherwise, as (7.30c) does with its integral u_I.
+
+    Raises
+    ------
+    ValueError
+        If the law or ``compensate`` is unknown, the design has more than 2 states, sigma or u0
+        is not > 0, or the relay law has no finite sigma.
     """
 
     design: DTSMDesign  #: delta model and sliding vector, (6.9), (6.16)
@@ -80,6 +97,13 @@ class DTSM:
     """DTSM controller with an optional disturbance compensator (6.25).
 
     ``step(x1, x2)`` returns u_k and leaves g_k in ``self.g``.
+
+    Parameters
+    ----------
+    params : DTSMParams
+        The design and the law.
+    compensator : Compensator, optional
+        A disturbance compensator (6.30b) or (6.35), added to the law's output.
     """
 
     params: DTSMParams
@@ -109,7 +133,20 @@ class DTSM:
             self.compensator.reset()
 
     def step(self, x1: float, x2: float = 0.0) -> float:
-        """One control update from the state x_k = [x1, x2] (x2 ignored for n = 1)."""
+        """One control update from the state x_k = [x1, x2].
+
+        Parameters
+        ----------
+        x1 : float
+            First state.
+        x2 : float
+            Second state (ignored for n = 1).
+
+        Returns
+        -------
+        float
+            The control u_k [control unit], |u_k| <= u0.
+        """
         g = self._c1 * x1 + self._c2 * x2
         self.g = g
         u_eq = -(self._k1 * x1 + self._k2 * x2)

@@ -34,7 +34,13 @@ __all__ = ["IDTSM", "IDTSMParams"]
 
 @dataclass(frozen=True, slots=True)
 class IDTSMParams:
-    """Parameters of the integral DTSM of a first-order plant y' = a y + b u."""
+    """Parameters of the integral DTSM of a first-order plant y' = a y + b u.
+
+    Raises
+    ------
+    ValueError
+        If dt is not > 0, lam not < 0, b zero or not finite, or g_limit or u0 not > 0.
+    """
 
     a: float  #: continuous-time plant pole a [1/s] (a = -a_m for (3.5))
     b: float  #: continuous-time input gain b [unit of y / (s * unit of u)]
@@ -56,7 +62,13 @@ class IDTSMParams:
 
 @dataclass
 class IDTSM:
-    """Integral DTSM controller; ``step(e)`` returns u_k and leaves g_k in ``self.g``."""
+    """Integral DTSM controller; ``step(e)`` returns u_k and leaves g_k in ``self.g``.
+
+    Parameters
+    ----------
+    params : IDTSMParams
+        The plant, the period, the eigenvalue and the limits.
+    """
 
     params: IDTSMParams
     g: float = field(default=0.0, init=False)  #: integral sliding variable g_k (6.20)
@@ -83,7 +95,18 @@ class IDTSM:
         self._e_prev = math.nan
 
     def step(self, e: float) -> float:
-        """One control update from the tracking error e_k = r_k - y_k."""
+        """One control update.
+
+        Parameters
+        ----------
+        e : float
+            The tracking error e_k = r_k - y_k.
+
+        Returns
+        -------
+        float
+            The control u_k [unit of u], |u_k| <= U0.
+        """
         e_prev = self._e_prev
         linear = True
         if e_prev == e_prev:  # noqa: PLR0124 (not NaN: integrate (6.20))

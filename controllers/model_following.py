@@ -42,6 +42,11 @@ def solve_model_following(
     -------
     G : ndarray, shape (n, n_m)
     H : ndarray, shape (n_m,)
+
+    Raises
+    ------
+    ValueError
+        If the shapes do not match or (3) has no solution within ``tol``.
     """
     A_ = np.atleast_2d(np.asarray(A, dtype=float))
     B_ = np.asarray(B, dtype=float).reshape(-1, 1)

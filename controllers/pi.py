@@ -18,7 +18,13 @@ __all__ = ["PI", "PIParams"]
 
 @dataclass(frozen=True, slots=True)
 class PIParams:
-    """Gains and limits of the PI."""
+    """Gains and limits of the PI.
+
+    Raises
+    ------
+    ValueError
+        If dt is not > 0, a gain not finite (ki < 0), or u_min not below u_max.
+    """
 
     kp: float  #: proportional gain [unit of u / unit of e]
     ki: float  #: integral gain [unit of u / (unit of e * s)]
@@ -37,7 +43,13 @@ class PIParams:
 
 @dataclass
 class PI:
-    """PI controller; ``step(e)`` returns u_k."""
+    """PI controller; ``step(e)`` returns u_k.
+
+    Parameters
+    ----------
+    params : PIParams
+        Gains, period and limits.
+    """
 
     params: PIParams
     integral: float = field(default=0.0, init=False)  #: integrator state I_k [unit of u]
@@ -54,7 +66,18 @@ class PI:
         self.integral = 0.0
 
     def step(self, e: float) -> float:
-        """One update from the error e_k."""
+        """One update.
+
+        Parameters
+        ----------
+        e : float
+            The error e_k [unit of e].
+
+        Returns
+        -------
+        float
+            The control u_k [unit of u], within [u_min, u_max].
+        """
         p_term = self._kp * e
         u = p_term + self.integral
         hi, lo = self._hi, self._lo

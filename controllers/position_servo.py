@@ -27,7 +27,13 @@ __all__ = ["PositionServo", "PositionServoParams"]
 
 @dataclass(frozen=True, slots=True)
 class PositionServoParams:
-    """Parameters of (7.30); section VII.B uses sigma=10, q=0, rho=0.5, h=16."""
+    """Parameters of (7.30); section VII.B uses sigma=10, q=0, rho=0.5, h=16.
+
+    Raises
+    ------
+    ValueError
+        If the design has not 2 states or a parameter is out of its range.
+    """
 
     design: DTSMDesign  #: error-space design (7.28), (7.31)
     sigma: float = 10.0  #: reaching bound sigma > 0 [V]
@@ -53,7 +59,13 @@ class PositionServoParams:
 
 @dataclass
 class PositionServo:
-    """The (7.30) law; ``step(e1, e2)`` returns u_k [V] and keeps g_k, u_I,k."""
+    """The (7.30) law; ``step(e1, e2)`` returns u_k [V] and keeps g_k, u_I,k.
+
+    Parameters
+    ----------
+    params : PositionServoParams
+        The design and the law's parameters.
+    """
 
     params: PositionServoParams
     g: float = field(default=0.0, init=False)  #: sliding variable g_k
@@ -73,7 +85,20 @@ class PositionServo:
         self.linear = False
 
     def step(self, e1: float, e2: float) -> float:
-        """One update from the position error e1 [rad] and speed error e2 [rad/s]."""
+        """One update of (7.30a-c).
+
+        Parameters
+        ----------
+        e1 : float
+            Position error theta_r - theta_m [rad].
+        e2 : float
+            Speed error omega_r - omega_m [rad/s].
+
+        Returns
+        -------
+        float
+            The voltage u_k [V], |u_k| <= U0.
+        """
         p = self.params
         g = self._c1 * e1 + self._c2 * e2
         self.g = g

@@ -36,8 +36,26 @@ __all__ = ["SpeedObserver"]
 
 
 class SpeedObserver:
-    """See the module docstring. ``a_m`` [1/s], ``b_m`` [rad/s^2 per unit of u], ``dt`` [s],
-    ``bandwidth`` [rad/s] (> 0, the observer's poles), ``delay`` [periods] of the command."""
+    """The observer of the module docstring.
+
+    Parameters
+    ----------
+    a_m : float
+        Plant pole a_m of (3.5) [1/s].
+    b_m : float
+        Plant gain b_m of (3.5) [rad/s^2 per unit of u], non-zero.
+    dt : float
+        Sample period T [s].
+    bandwidth : float
+        The observer's poles, all at exp(-bandwidth T) [rad/s], > 0.
+    delay : int
+        Periods (0..10) after which the drive applies a command.
+
+    Raises
+    ------
+    ValueError
+        If the bandwidth, the delay or the model is out of range.
+    """
 
     def __init__(self, a_m: float, b_m: float, *, dt: float, bandwidth: float, delay: int = 0) -> None:
         if not (math.isfinite(bandwidth) and bandwidth > 0.0):
@@ -61,8 +79,20 @@ class SpeedObserver:
         self.theta = self.omega = self.disturbance = 0.0  #: the corrected estimate x^_k
 
     def update(self, theta: float) -> float:
-        """Correct with the measured position ``theta`` [rad] of this sample; the speed
-        estimate [rad/s]. The first sample starts the observer at rest there."""
+        """Correct the estimate with this sample's position.
+
+        The first sample starts the observer at rest there.
+
+        Parameters
+        ----------
+        theta : float
+            The measured position [rad].
+
+        Returns
+        -------
+        float
+            The speed estimate [rad/s].
+        """
         x = self._x if self._x is not None else [theta, 0.0, 0.0]
         r = theta - x[0]
         g = self.gain
@@ -70,8 +100,13 @@ class SpeedObserver:
         return self.omega
 
     def command(self, u: float) -> None:
-        """The command sent this period; predict the next sample with the one the drive applies
-        now (``delay`` periods old)."""
+        """Predict the next sample with the command the drive applies now.
+
+        Parameters
+        ----------
+        u : float
+            The command sent this period (applied ``delay`` periods later) [unit of u].
+        """
         if self.delay:
             applied = self._commands[0]
             self._commands.append(u)

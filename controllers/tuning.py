@@ -56,8 +56,27 @@ __all__ = [
 
 
 def pi_from_bandwidth(*, a: float, b: float, bandwidth: float) -> tuple[float, float]:
-    """(k_p, k_i) of the PI speed loop crossing over at ``bandwidth`` [rad/s] on
-    dw/dt = -a w + b u (a [1/s], b per unit of u): k_p = omega_c / b, k_i = a k_p."""
+    """The PI speed loop crossing over at a bandwidth on dw/dt = -a w + b u.
+
+    Parameters
+    ----------
+    a : float
+        Plant pole a [1/s].
+    b : float
+        Plant gain b [rad/s^2 per unit of u], > 0.
+    bandwidth : float
+        Crossover omega_c [rad/s], > 0.
+
+    Returns
+    -------
+    tuple of float
+        (k_p, k_i): k_p = omega_c / b, k_i = a k_p (0 for a <= 0).
+
+    Raises
+    ------
+    ValueError
+        If the bandwidth or b is not > 0, or a is not finite.
+    """
     if not (bandwidth > 0.0 and math.isfinite(bandwidth)):
         raise ValueError(f"bandwidth = {bandwidth!r} rad/s: expected > 0")
     if not (b > 0.0 and math.isfinite(b)) or not math.isfinite(a):
@@ -94,10 +113,33 @@ def cascade_from_bandwidths(
     u_max: float,
     speed_max: float,
 ) -> tuple[CascadeLoopParams, CascadeLoopParams]:
-    """(speed loop, position loop) of the VII.D cascade at ``dt`` [s] for dw/dt = -a w + b u,
-    with the speed and position bandwidths omega_s, omega_p [rad/s] (module doc); the speed
-    loop's output is limited to ``u_max`` [unit of u], the position loop's to ``speed_max``
-    [rad/s]."""
+    """The VII.D cascade's speed and position loops for dw/dt = -a w + b u (module docstring).
+
+    Parameters
+    ----------
+    a : float
+        Plant pole a [1/s].
+    b : float
+        Plant gain b [rad/s^2 per unit of u].
+    dt : float
+        Sample period T [s].
+    speed_bandwidth, position_bandwidth : float
+        The loops' bandwidths omega_s, omega_p [rad/s], > 0.
+    u_max : float
+        Limit of the speed loop's output [unit of u].
+    speed_max : float
+        Limit of the position loop's output, the speed reference [rad/s].
+
+    Returns
+    -------
+    tuple of CascadeLoopParams
+        (speed loop, position loop).
+
+    Raises
+    ------
+    ValueError
+        If a bandwidth is not > 0.
+    """
     ws, wp = speed_bandwidth, position_bandwidth
     for name, value in (("speed_bandwidth", ws), ("position_bandwidth", wp)):
         if not (value > 0.0 and math.isfinite(value)):
@@ -126,15 +168,48 @@ def _integral(z: np.ndarray) -> np.ndarray:
 
 
 def pi_response(kp: float, ki: float, dt: float, f: np.ndarray) -> np.ndarray:
-    """C_w of ``controllers.pi`` (u_k = k_p e_k + I_k, I_k = I_k-1 + k_i T e_k-1): k_p + k_i T/(z - 1)."""
+    """The frequency response of ``controllers.pi``'s law.
+
+    u_k = k_p e_k + I_k, I_k = I_k-1 + k_i T e_k-1.
+
+    Parameters
+    ----------
+    kp, ki : float
+        The PI's gains.
+    dt : float
+        Sample period T [s].
+    f : numpy.ndarray
+        Frequencies [Hz].
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        C_w = k_p + k_i T/(z - 1) at z = exp(j 2 pi f T).
+    """
     z = np.exp(2j * math.pi * np.asarray(f) * dt)
     out: np.ndarray = kp + ki * dt / (z - 1.0)
     return out
 
 
 def servo_response(design: DTSMDesign, h: float, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(C_theta, C_w) of (7.30) in its linear mode (|g|/T <= sigma + q|g|, |e_2| <= rho), the
-    reference 0 so e = -[theta, w]: u = -k e - g/T - u_I, u_I = u_I,k-1 + h g."""
+    """The frequency response of (7.30) in its linear mode (|g|/T <= sigma + q|g|, |e_2| <= rho).
+
+    The reference is 0, so e = -[theta, w]: u = -k e - g/T - u_I, u_I = u_I,k-1 + h g.
+
+    Parameters
+    ----------
+    design : DTSMDesign
+        The servo's error-space design.
+    h : float
+        Integral gain of (7.30c) [1/s].
+    f : numpy.ndarray
+        Frequencies [Hz].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        (C_theta, C_w): the command per rad of position and per rad/s of speed.
+    """
     z = np.exp(2j * math.pi * np.asarray(f) * design.dt)
     (c1, c2), (k1, k2) = design.c_delta, design.c_delta_A_delta
     gain = 1.0 / design.dt + h * _integral(z)
@@ -151,9 +226,25 @@ def _loop(p: CascadeLoopParams, z: np.ndarray) -> np.ndarray:
 def cascade_response(
     speed: CascadeLoopParams, position: CascadeLoopParams, k_t: float, f: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(C_theta, C_w) of the cascade (both loops every period, reference 0): the position loop
-    w* = -(k theta-part) + G_p g_p, g_p = -(c_1 theta + c_2 w); the speed loop
-    u = k_t (-k_s w + G_s c_s (w* - w))."""
+    """The frequency response of the cascade (both loops every period, reference 0).
+
+    The position loop is w* = -(k theta-part) + G_p g_p, g_p = -(c_1 theta + c_2 w); the speed
+    loop u = k_t (-k_s w + G_s c_s (w* - w)).
+
+    Parameters
+    ----------
+    speed, position : CascadeLoopParams
+        The two loops.
+    k_t : float
+        Torque constant from the speed loop's output to the command [unit of u per A].
+    f : numpy.ndarray
+        Frequencies [Hz].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        (C_theta, C_w): the command per rad of position and per rad/s of speed.
+    """
     z = np.exp(2j * math.pi * np.asarray(f) * speed.dt)
     gp, gs = _loop(position, z), _loop(speed, z)
     (c1, c2), (k1, k2) = position.c_s, position.k_s
@@ -176,6 +267,13 @@ class Margins:
     delay_margin: float | None  #: PM / omega_c [s]: the extra delay the loop tolerates
 
     def as_dict(self) -> dict[str, float | None]:
+        """The margins as plain data.
+
+        Returns
+        -------
+        dict
+            Each field by its name (None where L does not cross).
+        """
         return {
             "gain_margin_db": self.gain_margin_db,
             "phase_crossover_hz": self.phase_crossover_hz,
@@ -193,9 +291,23 @@ def _cross(x: np.ndarray, y: np.ndarray, i: int, level: float) -> float:
 
 
 def margins(f: np.ndarray, loop: np.ndarray) -> Margins:
-    """Margins of the loop gain ``loop`` sampled at increasing frequencies ``f`` [Hz] > 0: the
-    gain crossover is the highest where |L| falls through 1; the gain margin is the least
-    -20 log|L| where the phase falls through -180 deg (mod 360) with |L| < 1."""
+    """The stability margins of a sampled loop gain.
+
+    The gain crossover is the highest where |L| falls through 1; the gain margin is the least
+    -20 log|L| where the phase falls through -180 deg (mod 360) with |L| < 1.
+
+    Parameters
+    ----------
+    f : numpy.ndarray
+        Increasing frequencies [Hz], > 0.
+    loop : numpy.ndarray of complex
+        The loop gain L at ``f``.
+
+    Returns
+    -------
+    Margins
+        The margins, None where L does not cross.
+    """
     f = np.asarray(f, dtype=float)
     mag = 20.0 * np.log10(np.abs(loop))
     phase = np.degrees(np.unwrap(np.angle(loop)))

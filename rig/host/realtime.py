@@ -11,15 +11,15 @@ before the loop starts, refused ones reported once and the run goes on.
 - pinned to one CPU (``cpu``: -1 the last one the process may use, -2 not pinned), so the
   loop's caches and the handoffs between its threads stay on one core;
 - memory locked (``mlockall``, on fault: the pages the process uses stay in memory, and each
-  new one is locked as it is first touched; the libraries' untouched pages are not read in,
-  which would take a Python process with numpy from about 170 to 510 MB and 0.14 s here);
+  new one is locked as it is first touched; the libraries' untouched pages are not read in:
+  docs/time.md says what that saves);
 - a timer slack of 1 ns where the policy stays normal (real-time threads have none);
 - the CPU kept awake: a PM QoS CPU latency request (``cpu_latency`` [us], 0 by default) on
   ``/dev/cpu_dma_latency``, held open for the run and released with it, as cyclictest holds it.
   The kernel then keeps every CPU out of the idle states that take longer to leave: on a virtual
   machine whose idle vCPU halts (cpuidle's haltpoll with guest halt polling off), each wake-up
-  otherwise costs a VM exit, and a quiet machine missed 2-18 times the periods a loaded one did
-  (docs/benchmarks.md); the value in force after the request is recorded.
+  otherwise costs a VM exit (docs/time.md has the figure); the value in force after the request
+  is recorded.
 
 ``request(...)`` asks for them, returns a ``Grant`` (its ``record()`` goes into the summary), and
 ``Grant.release()`` gives back what was taken (the process may go on: a benchmark, a test).
