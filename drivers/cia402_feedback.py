@@ -16,8 +16,18 @@ FEEDBACK_NAMES = ("position", "velocity", "mode", "torque", "current")
 
 
 def feedback_problem(names: Iterable[str]) -> str:
-    """What is wrong with ``names`` as what the TPDOs carry, or "" (the check of an axis's
-    ``feedback``, at load and in the driver)."""
+    """Check what an axis's TPDOs are to carry (its ``feedback``, at load and in the driver).
+
+    Parameters
+    ----------
+    names : iterable of str
+        The feedback names, of ``FEEDBACK_NAMES``.
+
+    Returns
+    -------
+    str
+        What is wrong with them, or "".
+    """
     names = list(names)
     if "position" in names and all(n in FEEDBACK_NAMES for n in names):
         return ""

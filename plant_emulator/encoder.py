@@ -16,6 +16,11 @@ class Encoder:
         Resolution [counts/rev], > 0 (after quadrature decoding).
     dt : float
         Sampling period [s] of the speed estimate.
+
+    Raises
+    ------
+    ValueError
+        If counts_per_rev is not a positive integer or dt not > 0.
     """
 
     __slots__ = ("_last", "_rad_per_count", "counts", "counts_per_rev", "dt")
@@ -36,7 +41,18 @@ class Encoder:
         self._last = None
 
     def sample(self, theta: float) -> tuple[float, float]:
-        """Read the angle theta [rad]: returns (quantised angle [rad], speed [rad/s])."""
+        """Read the shaft's angle.
+
+        Parameters
+        ----------
+        theta : float
+            The shaft angle [rad].
+
+        Returns
+        -------
+        tuple of float
+            (quantised angle [rad], speed by Euler backward [rad/s]).
+        """
         counts = math.floor(theta / self._rad_per_count)
         last = counts if self._last is None else self._last
         self._last = self.counts = counts

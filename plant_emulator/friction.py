@@ -29,8 +29,22 @@ __all__ = ["held", "settle"]
 
 
 def held(w: float, drive: float, coulomb: float) -> tuple[float, bool]:
-    """(T_f [N m] to hold over the next step, stuck): ``w`` [rad/s] at the step's start,
-    ``drive`` [N m] the torque driving the shaft there, ``coulomb`` T_c [N m] >= 0."""
+    """The friction to hold over the next step.
+
+    Parameters
+    ----------
+    w : float
+        The speed at the step's start [rad/s].
+    drive : float
+        The torque driving the shaft there [N m].
+    coulomb : float
+        The Coulomb friction T_c [N m], >= 0.
+
+    Returns
+    -------
+    tuple
+        (T_f [N m], whether the shaft is stuck).
+    """
     if w > 0.0:
         return coulomb, False
     if w < 0.0:
@@ -43,6 +57,19 @@ def held(w: float, drive: float, coulomb: float) -> tuple[float, bool]:
 
 
 def settle(w: float, friction: float) -> float:
-    """The speed [rad/s] after a step that slipped with ``friction`` [N m] (not 0) held: 0 where
-    it ended on the other side of zero from the friction's direction (it stopped within the step)."""
+    """The speed after a step that slipped with a friction held.
+
+    Parameters
+    ----------
+    w : float
+        The speed the step ended with [rad/s].
+    friction : float
+        The friction held over it [N m], not 0.
+
+    Returns
+    -------
+    float
+        ``w``, or 0 where it ended on the other side of zero from the friction's direction
+        (it stopped within the step).
+    """
     return w if w * friction > 0.0 else 0.0

@@ -31,8 +31,9 @@ PACKAGES = ("controllers", "drivers", "plant_emulator", "rig")
 SIGNATURE = re.compile(r'<dt class="sig sig-object py" id="([\w.]+)">')
 #: a directive left as text: reStructuredText a MyST page did not read
 RAW = re.compile(r"<p>[^<]*\.\. (py:|auto)")
-#: a cross-reference to a Python object that Sphinx resolved
-XREF = re.compile(r'<a class="reference internal" href="[^"]*#[\w.]+"[^>]*><code class="xref py')
+#: a cross-reference to a Python object that Sphinx resolved (a type in a signature or a field list,
+#: a role in a docstring): a link to the object's anchor, titled with its full name
+XREF = re.compile(r'<a class="reference internal" href="[^"]*#([\w.]+)" title="\1"')
 
 
 @pytest.fixture(scope="module")

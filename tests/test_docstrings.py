@@ -27,10 +27,19 @@ COVERED = [
     "controllers.*",
     "drivers",
     "drivers.maps",
+    "drivers.cia402_feedback",
+    "drivers.maps.build_eds",
     "drivers.maps.cia406",
+    "drivers.maps.emcy",
+    "drivers.maps.mode_names",
+    "drivers.maps.sdo_aborts",
+    "drivers.maps.vendors",
     "plant_emulator",
     "plant_emulator.devices",
+    "plant_emulator.encoder",
+    "plant_emulator.friction",
     "plant_emulator.im_kernel",
+    "plant_emulator.zoh",
 ]
 
 SECTION = re.compile(r"^(\w[\w ]*)\n-+\n", re.MULTILINE)

@@ -171,7 +171,18 @@ FILES = {"cia402_drive": CIA402_DRIVE, "cia406_encoder": CIA406_ENCODER}
 
 
 def eds_of(name: str) -> str:
-    """The EDS text of the toolkit's device ``name`` (a key of ``FILES``)."""
+    """The EDS text of one of the toolkit's devices.
+
+    Parameters
+    ----------
+    name : str
+        The device, a key of ``FILES``.
+
+    Returns
+    -------
+    str
+        The EDS file's text.
+    """
     info = DeviceInfo(
         "drive-rig",
         VENDOR,

@@ -75,7 +75,20 @@ GENERIC: dict[int, str] = {
 
 
 def emcy_text(code: int, device: Mapping[int, str] | None = None) -> str:
-    """Words for EMCY code ``code`` (see the module docstring)."""
+    """An EMCY error code in words (see the module docstring).
+
+    Parameters
+    ----------
+    code : int
+        The EMCY error code (CiA 301, 16 bits).
+    device : Mapping[int, str], optional
+        The device's own texts by code, tried first.
+
+    Returns
+    -------
+    str
+        The device's text, else the most specific generic one.
+    """
     if device and code in device:
         return device[code]
     for mask in (0xFFFF, 0xFFF0, 0xFF00, 0xF000):

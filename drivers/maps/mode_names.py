@@ -21,7 +21,23 @@ MODE_NAMES = {
 
 
 def mode_code(mode: str | int) -> Mode:
-    """A mode by its configuration name or number; ValueError naming the known ones."""
+    """A mode by its configuration name or number.
+
+    Parameters
+    ----------
+    mode : str or int
+        A name of ``MODE_NAMES`` or a mode number (0x6060).
+
+    Returns
+    -------
+    Mode
+        The mode's number.
+
+    Raises
+    ------
+    ValueError
+        Naming the known modes when ``mode`` is none of them.
+    """
     if isinstance(mode, str):
         if mode in MODE_NAMES:
             return MODE_NAMES[mode]
@@ -51,8 +67,20 @@ _SHORT = {int(code): name for name, code in MODE_NAMES.items()}
 
 
 def mode_text(code: int, *, toolkit: bool = True) -> str:
-    """A mode number in words (``cyclic synchronous position (csp)``); a negative one is a
-    manufacturer mode, named only on the toolkit's own drive (``toolkit``)."""
+    """A mode number in words (``cyclic synchronous position (csp)``).
+
+    Parameters
+    ----------
+    code : int
+        The mode number (0x6060, 0x6061).
+    toolkit : bool
+        The device is the toolkit's own drive: its manufacturer modes (negative) are named.
+
+    Returns
+    -------
+    str
+        The mode in words.
+    """
     code = int(code)
     if code in _CIA_WORDS:
         short = _SHORT.get(code)

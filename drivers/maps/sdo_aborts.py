@@ -44,5 +44,16 @@ ABORT_TEXTS = {
 
 
 def abort_text(code: int) -> str:
-    """An SDO abort code in words (CiA 301); a code it does not list is said to be so."""
+    """An SDO abort code in words (CiA 301).
+
+    Parameters
+    ----------
+    code : int
+        The abort code (32 bits).
+
+    Returns
+    -------
+    str
+        Its meaning; a code CiA 301 does not list is said to be so.
+    """
     return ABORT_TEXTS.get(code, "an abort code CiA 301 does not list")

@@ -32,5 +32,16 @@ VENDORS: dict[int, str] = {
 
 
 def vendor_of(vendor_id: int | None) -> str:
-    """The holder's name of ``vendor_id`` ("" where not in ``VENDORS``)."""
+    """The name of a vendor ID's holder.
+
+    Parameters
+    ----------
+    vendor_id : int or None
+        The vendor ID (0x1018 sub 1).
+
+    Returns
+    -------
+    str
+        The holder's name, "" where the ID is not in ``VENDORS`` or None.
+    """
     return VENDORS.get(vendor_id, "") if vendor_id is not None else ""
