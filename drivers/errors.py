@@ -70,7 +70,19 @@ class NodeSilent(CommunicationTimeout):
 
 
 class SdoAbort(CommunicationError):
-    """An SDO transfer was aborted; ``code`` is the 32-bit CiA 301 abort code."""
+    """An SDO transfer was aborted.
+
+    Parameters
+    ----------
+    message : str
+        What was being done.
+    code : int
+        The 32-bit CiA 301 abort code.
+    node_id : int
+        The node that aborted (or was aborted).
+    index, subindex : int
+        The object of the transfer.
+    """
 
     def __init__(self, message: str, *, code: int, node_id: int, index: int, subindex: int):
         super().__init__(f"{message} (node {node_id}, 0x{index:04X}:{subindex:02X}, abort code 0x{code:08X})")
@@ -95,7 +107,19 @@ MODBUS_EXCEPTIONS = {
 
 
 class ModbusExceptionResponse(CommunicationError):
-    """A Modbus device answered with an exception; ``code`` is the exception code."""
+    """A Modbus device answered with an exception.
+
+    Parameters
+    ----------
+    message : str
+        What was being done.
+    code : int
+        The exception code (``MODBUS_EXCEPTIONS``).
+    unit : int
+        The device's unit id.
+    register : int
+        The first register of the request.
+    """
 
     def __init__(self, message: str, *, code: int, unit: int, register: int):
         name = MODBUS_EXCEPTIONS.get(code, "not a code of the specification")
@@ -106,7 +130,17 @@ class ModbusExceptionResponse(CommunicationError):
 
 
 class DeviceFault(RigError):
-    """The device reports a fault; ``device`` names it and ``code`` is its error code."""
+    """The device reports a fault.
+
+    Parameters
+    ----------
+    message : str
+        The fault in words.
+    device : str
+        The device, as the message names it (``node 3``, ``unit 1``).
+    code : int
+        Its error code (an EMCY code, 0x603F, an inverter's fault register), 0 if none.
+    """
 
     def __init__(self, message: str, *, device: str, code: int = 0):
         named = not code or f"0x{code:04X}" in message  # an EMCY's text names its code already
@@ -116,7 +150,13 @@ class DeviceFault(RigError):
 
 
 class SafetyStop(RigError):
-    """The host loop stopped the drive through the safe-stop path; ``reason`` says why."""
+    """The host loop stopped the drive through the safe-stop path.
+
+    Parameters
+    ----------
+    reason : str
+        Why, in words.
+    """
 
     def __init__(self, reason: str):
         super().__init__(reason)
@@ -128,5 +168,16 @@ class StorageError(RigError):
 
 
 def brief(exc: BaseException) -> str:
-    """An exception's words without the traceback text python-can puts in some of them."""
+    """An exception's words without the traceback text python-can puts in some of them.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The exception.
+
+    Returns
+    -------
+    str
+        Its message, up to any traceback text.
+    """
     return str(exc).split("Traceback (most recent call last)")[0].strip()

@@ -82,7 +82,15 @@ class DriveSafety:
 
     def on_abort_connection(self, what: str, code: int) -> None:
         """The host is gone (heartbeat or RPDO lost, NMT stop): the reaction of 0x6007 (CiA 402),
-        if the power stage is on."""
+        if the power stage is on.
+
+        Parameters
+        ----------
+        what : str
+            What was lost, for the log.
+        code : int
+            The fault code of the loss, raised where the option makes it a fault.
+        """
         if self.sm.state is not _ENABLED:
             return
         option = self._option(cia.ABORT_CONNECTION_OPTION, self.profile.reactions.abort_connection)
@@ -175,7 +183,13 @@ class DriveSafety:
         """A device fault: state machine transition 13, 0x603F, 0x1001 and EMCY. A drive whose
         function was disabled (not OPERATION ENABLED nor QUICK STOP ACTIVE: its power stage
         gives no torque) has nothing to brake with: its fault reaction ends at once (transition
-        14, FAULT), the motor coasting, where an enabled one brakes along 0x605E's ramp."""
+        14, FAULT), the motor coasting, where an enabled one brakes along 0x605E's ramp.
+
+        Parameters
+        ----------
+        code : int
+            The fault's error code (0x603F, the EMCY's).
+        """
         log.warning("node %d: fault 0x%04X %s", self.node_id, code, FAULT_CODES.get(code, ""))
         self.fault_code = code
         driven = self.sm.state is _ENABLED or self.sm.state is _QUICK_STOP_ACTIVE

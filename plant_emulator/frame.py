@@ -14,7 +14,15 @@ __all__ = ["Frame"]
 
 
 class Frame(can.Message):
-    """A classic data frame ``arbitration_id`` with ``data`` (see the module docstring)."""
+    """A classic data frame (see the module docstring).
+
+    Parameters
+    ----------
+    arbitration_id : int
+        The 11-bit CAN identifier.
+    data : bytes or bytearray
+        The payload, 0-8 bytes (kept as a bytearray).
+    """
 
     __slots__ = ()
 

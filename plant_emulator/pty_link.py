@@ -47,6 +47,7 @@ class PtyLink:
                     os.write(peer[fd], data)
 
     def close(self) -> None:
+        """Stop the relay and close both pseudo-terminal pairs."""
         self._stop.set()
         self._thread.join(timeout=1.0)
         for fd in self._masters + self._slaves:

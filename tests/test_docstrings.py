@@ -28,6 +28,7 @@ COVERED = [
     "drivers",
     "drivers.maps",
     "drivers.cia402_feedback",
+    "drivers.errors",
     "drivers.maps.build_eds",
     "drivers.maps.cia406",
     "drivers.maps.emcy",
@@ -36,9 +37,13 @@ COVERED = [
     "drivers.maps.vendors",
     "plant_emulator",
     "plant_emulator.devices",
+    "plant_emulator.devices.catalog",
+    "plant_emulator.drive_safety",
     "plant_emulator.encoder",
+    "plant_emulator.frame",
     "plant_emulator.friction",
     "plant_emulator.im_kernel",
+    "plant_emulator.pty_link",
     "plant_emulator.zoh",
 ]
 

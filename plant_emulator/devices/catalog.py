@@ -110,7 +110,18 @@ def _default(t: Units, value: Any) -> str:
 
 
 def catalog(t: Units) -> dict[int, Obj]:
-    """The CiA 402 objects of the tables above with ``t``'s defaults, and its unit codes."""
+    """The CiA 402 objects of the tables above.
+
+    Parameters
+    ----------
+    t : Units
+        The twin whose defaults and unit codes they take.
+
+    Returns
+    -------
+    dict
+        The objects by index.
+    """
     out = {
         i: var(i, Var(name, dtype, access, _default(t, d), pdo))
         for i, (name, dtype, access, pdo, d) in _VARIABLES.items()
