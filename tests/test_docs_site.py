@@ -135,5 +135,5 @@ def test_cited_pages_exist() -> None:
     for path in sources:
         text = path.read_text()
         assert "ARCHITECTURE.md" not in text or path.name == "test_docs_site.py", path
-        for page in re.findall(r"docs/([\w-]+\.md)", text):
+        for page in re.findall(r"docs/([a-z][a-z0-9_-]*\.md)", text):
             assert (ROOT / "docs" / page).is_file(), f"{path.relative_to(ROOT)} cites docs/{page}"
