@@ -609,33 +609,98 @@ def _servo_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -
     import pyarrow.parquet as pq
 
     rows = pq.read_table(folder / "sweeps" / "servo-b_m" / "results.parquet").to_pylist()
-    assert len(rows) == 45 and all(r["error"] is None and r["stop_confirmed"] for r in rows)
     at = {(r["emulator.params.b_m"], r["emulator.params.period"]): r for r in rows}
+    assert len(rows) == 45 and all(r["stop_confirmed"] for r in rows)
     m = said(
         r"tracks plants of 0\.25 to (N) times that b_m at its period with an rms error of (N)-(N) mrad, "
-        r"and of 4 times with (N) mrad; .*? (N) or (N) alternations beyond .*? from 0\.25 to 1 times, "
-        r"(N) at twice, (N) at 2\.83 times and (N) at 4 times .*? at 2 ms the rms error at the design's "
-        r"own b_m is (N) mrad and the command alternates (N) times there, (N) at 4 times; at 0\.1 ms the "
-        r"rms error stays below (N) mrad over the whole range, and the count goes from (N) at twice the "
-        r"b_m to (N) at 2\.83 times"
+        r"and of 4 times with (N) mrad; .*? (N) or (N) alternations from 0\.25 to 1 times, (N) at twice, "
+        r"(N) at 2\.83 times and (N) at 4 times, with a sign-law share of 0 up to twice and (N) % at 4 "
+        r"times\. The plots draw the linear edge at each period .*?: (N), (N), (N), (N) and (N) times the "
+        r"design's b_m at 0\.1, 0\.2, 0\.4, 1 and 2 ms\. At 0\.1 ms the count goes from (N) at twice the "
+        r"b_m to (N) at 2\.83 times, across the edge, and the rms error stays below (N) mrad over the "
+        r"whole range\. .*? at 2 ms the rms error at the design's own b_m is (N) mrad and the command "
+        r"alternates (N) times there, (N) at twice the b_m; at 1 ms (N) times at twice\. The points of "
+        r"2\.83 and 4 times at 1 and 2 ms stopped"
     )
-    times, low, high, rms4, few, many, c2, c283, c4, rms2ms, slow1, slow4, below, fast2, fast283 = m.groups()
+    times, low, high, rms4, few, many, c2, c283, c4, share4, *edges, fast2, fast283, below = m.groups()[:18]
+    rms2ms, slow1, slow2, mid2 = m.groups()[18:]
     quiet = {b: r for (b, t), r in at.items() if t == 4e-4}
     below4 = [r["rms_error"] for b, r in quiet.items() if b < 2720.0]
     assert agree(times, max(b for b in quiet if b < 2720.0) / 680.0)
     assert agree(low, 1e3 * min(below4)) and agree(high, 1e3 * max(below4))
-    assert agree(rms4, 1e3 * quiet[2720.0]["rms_error"])
+    assert agree(rms4, 1e3 * quiet[2720.0]["rms_error"]) and agree(
+        share4, 100 * quiet[2720.0]["sign_law_share"]
+    )
     assert {r["chattering_count"] for b, r in quiet.items() if b <= 680.0} <= {float(few), float(many)}
+    assert all(r["sign_law_share"] == 0.0 for b, r in quiet.items() if b <= 1360.0)
     for text, b in ((c2, 1360.0), (c283, 1923.3), (c4, 2720.0)):
         assert agree(text, _near_b(quiet, b)["chattering_count"]), (text, b)
-    slow = {b: r for (b, t), r in at.items() if t == 2e-3}
-    assert agree(rms2ms, 1e3 * slow[680.0]["rms_error"]) and agree(slow1, slow[680.0]["chattering_count"])
-    assert agree(slow4, slow[2720.0]["chattering_count"])
+    from rig.sweep.edges import b_m_edges
+    from rig.sweep.spec import load_spec
+
+    computed = b_m_edges(load_spec(ROOT / "examples/sweeps/servo_b_m.toml"), rows)
+    for text, period in zip(edges, (1e-4, 2e-4, 4e-4, 1e-3, 2e-3)):
+        assert agree(text, computed[(("emulator.params.period", period),)] / 680.0), (text, period)
     fast = {b: r for (b, t), r in at.items() if t == 1e-4}
     assert 1e3 * max(r["rms_error"] for r in fast.values()) < float(below)
     assert agree(fast2, fast[1360.0]["chattering_count"]) and agree(
         fast283, _near_b(fast, 1923.3)["chattering_count"]
     )
+    slow = {b: r for (b, t), r in at.items() if t == 2e-3}
+    assert agree(rms2ms, 1e3 * slow[680.0]["rms_error"]) and agree(slow1, slow[680.0]["chattering_count"])
+    assert agree(slow2, slow[1360.0]["chattering_count"])
+    assert agree(mid2, at[(1360.0, 1e-3)]["chattering_count"])
+    stopped = {(round(b / 680.0, 2), t) for (b, t), r in at.items() if r["status"] != "completed"}
+    assert stopped == {(2.83, 1e-3), (4.0, 1e-3), (2.83, 2e-3), (4.0, 2e-3)}, stopped
+    assert all("another producer" in at[k]["error"] for k in at if at[k]["status"] != "completed")
+
+
+def _edge_rows(folder: pathlib.Path, name: str) -> dict[float, dict[str, Any]]:
+    import pyarrow.parquet as pq
+
+    rows = pq.read_table(folder / "sweeps" / name / "results.parquet").to_pylist()
+    assert all(r["status"] == "completed" and r["stop_confirmed"] for r in rows)
+    return {round(r["emulator.params.b_m"] / 680.0, 2): r for r in rows}
+
+
+def _edge_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+    rows = _edge_rows(folder, "servo-edge")
+    edge, b_m, count, rms_low, rms_high = said(
+        r"put the edge at (N) times 680, b_m = (N), drawn on the plots\. .*? from 2\.1 times on it has "
+        r"(N) \(every increment .*? the rms error from (N) mrad at 1\.9 times to (N) mrad at 2\.1 times"
+    ).groups()
+    below, above = [r for k, r in rows.items() if k < 2.0], [r for k, r in rows.items() if k > 2.0]
+    assert min(rows) == 0.5 and all(r["chattering_count"] == 0 and r["sign_law_share"] == 0 for r in below)
+    assert all(r["chattering_count"] == int(count) and r["sign_law_share"] == 1.0 for r in above)
+    assert agree(rms_low, 1e3 * rows[1.9]["rms_error"]) and agree(rms_high, 1e3 * rows[2.1]["rms_error"])
+    from rig.sweep.edges import b_m_edges
+    from rig.sweep.spec import load_spec
+
+    (computed,) = b_m_edges(load_spec(ROOT / "examples/sweeps/servo_edge.toml"), list(rows.values())).values()
+    assert agree(edge, computed / 680.0) and agree(b_m, computed)
+    assert (folder / "figures" / "servo-edge-chattering_count.png").is_file()
+
+
+def _edge_lag_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
+    rows = _edge_rows(folder, "servo-edge-lag")
+    m = said(
+        r"move the edge to (N) times, b_m = (N)\. The count grows towards it, (N) alternations at twice the "
+        r"design's b_m, (N) at 3 times, (N) at 3\.6 times, and jumps to (N) at 3\.8 times, with the rms "
+        r"error from (N) to (N) mrad and the sign-law share from (N) % to (N) % \((N) % at 4 times\)"
+    )
+    edge, b_m, c2, c3, c36, c38, rms36, rms38, s36, s38, s4 = m.groups()
+    for text, k in ((c2, 2.0), (c3, 3.0), (c36, 3.6), (c38, 3.8)):
+        assert agree(text, rows[k]["chattering_count"]), (text, k)
+    assert agree(rms36, 1e3 * rows[3.6]["rms_error"]) and agree(rms38, 1e3 * rows[3.8]["rms_error"])
+    for text, k in ((s36, 3.6), (s38, 3.8), (s4, 4.0)):
+        assert agree(text, 100 * rows[k]["sign_law_share"]), (text, k)
+    from rig.sweep.edges import b_m_edges
+    from rig.sweep.spec import load_spec
+
+    (computed,) = b_m_edges(
+        load_spec(ROOT / "examples/sweeps/servo_edge_lag.toml"), list(rows.values())
+    ).values()
+    assert agree(edge, computed / 680.0) and agree(b_m, computed)
 
 
 def _near_b(rows: dict[float, dict[str, Any]], b_m: float) -> dict[str, Any]:
@@ -675,6 +740,8 @@ SLOW: dict[str, Check] = {
     "rig sweep examples/sweeps/dismc_anti_windup.toml --plot figures": _dismc_sweep,
     "rig sweep examples/sweeps/dq_L_error.toml --plot figures": _dq_sweep,
     "rig sweep examples/sweeps/servo_b_m.toml --plot figures": _servo_sweep,
+    "rig sweep examples/sweeps/servo_edge.toml --plot figures": _edge_sweep,
+    "rig sweep examples/sweeps/servo_edge_lag.toml --plot figures": _edge_lag_sweep,
     "rig bench sweep": _figures_named("| `rig bench sweep` figure"),
     "rig bench startup": _figures_named("| `rig bench startup` figure"),
     "rig bench memory": _figures_named("| `rig bench memory` figure"),

@@ -11,7 +11,9 @@ its performance figures: it is left out of the lines and the cells and drawn as 
 foot of a line plot, in its cell of a heatmap). A true/false metric
 (stop_confirmed) is 1/0. A parameter's axis is logarithmic where its scale is, or where its
 values (a list) span a decade or more; a metric's where its values span more than two decades.
-Axes carry units: a parameter's
+Where a study of the position servo varies the plant's b_m, the b_m at which (7.30) becomes
+unstable in its linear mode (``rig.sweep.edges``) is drawn: a dashed line, or a dashed curve over
+the heatmap's other parameter. Axes carry units: a parameter's
 ``unit`` in the spec, else ``UNITS`` by its last name; a rig
 run's error and command metrics are in the base's units (the summary's error_unit and
 command_unit, kept in sweep.json). Matplotlib's Figure, without pyplot.
@@ -28,6 +30,9 @@ from typing import Any
 from rig.sweep.spec import Parameter, SweepSpec
 
 __all__ = ["UNITS", "figure", "plot_results"]
+
+#: the stability edge b_m for each combination of the other varied parameters (``rig.sweep.edges``)
+Edges = dict[tuple[tuple[str, Any], ...], float]
 
 #: units of the parameters and metrics sweeps name most, by their last dotted part
 UNITS = {
@@ -114,19 +119,28 @@ def _units(spec: SweepSpec, rows: list[dict[str, Any]]) -> dict[str, str]:
 
 def plot_results(spec: SweepSpec, rows: list[dict[str, Any]], directory: str) -> list[Path]:
     """One PNG per metric in ``directory`` (made if missing); their paths."""
+    from rig.sweep.edges import b_m_edges
+
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
+    edges = b_m_edges(spec, rows)  # once for every metric's plot
     for metric in spec.metrics:
         path = out / f"{spec.name}-{metric.replace('.', '_')}.png"
-        figure(spec, rows, metric).savefig(path)
+        figure(spec, rows, metric, edges).savefig(path)
         paths.append(path)
     return paths
 
 
-def figure(spec: SweepSpec, rows: list[dict[str, Any]], metric: str) -> Any:
-    """The matplotlib Figure of ``metric`` over the varied parameters (see the module docstring)."""
+def figure(spec: SweepSpec, rows: list[dict[str, Any]], metric: str, edges: Edges | None = None) -> Any:
+    """The matplotlib Figure of ``metric`` over the varied parameters (see the module docstring);
+    ``edges``: ``rig.sweep.edges.b_m_edges`` of the rows (None: computed here)."""
     from matplotlib.figure import Figure
+
+    from rig.sweep.edges import b_m_edges
+
+    if edges is None:
+        edges = b_m_edges(spec, rows)
 
     units = _units(spec, rows)
     lists = [
@@ -136,11 +150,15 @@ def figure(spec: SweepSpec, rows: list[dict[str, Any]], metric: str) -> Any:
     fig = Figure(figsize=(7, 5))
     ax = fig.subplots()
     if len(numeric) >= 2 and not lists:
+        drawn = _stability_edge(ax, edges, numeric[0], numeric[1])  # first: the failed points' x last
         _heat(fig, ax, rows, numeric[0], numeric[1], metric, units, spec.method == "grid")
     else:
         x = numeric[0] if numeric else spec.parameters[0]
         group = lists[0] if lists and lists[0] is not x else None
+        drawn = _stability_edge(ax, edges, x, None)
         _lines(ax, rows, x, group, metric, units)
+    if drawn:
+        ax.legend(fontsize="small")
     ax.set_title(f"{spec.name}: {metric}")
     fig.tight_layout()
     return fig
@@ -217,6 +235,34 @@ def _heat(  # noqa: PLR0917 - one figure's parts
     ax.set_xlabel(_label(x.name, units))
     ax.set_ylabel(_label(y.name, units))
     fig.colorbar(mesh, ax=ax, label=_label(metric, units))
+
+
+#: what the drawn stability edge is
+EDGE = "(7.30) unstable from here in its linear mode (closed-loop eigenvalues)"
+
+
+def _stability_edge(ax: Any, edges: Edges, x: Parameter, y: Parameter | None) -> bool:
+    """The stability ``edges`` (``rig.sweep.edges``) where the study varies b_m on an axis: a
+    dashed vertical line on a line plot (one per value of the other parameters), a dashed curve
+    over the other axis of a heatmap; whether it drew one."""
+    from rig.sweep.edges import B_M
+
+    if not edges or B_M not in (x.name, None if y is None else y.name):
+        return False
+    if y is None:
+        for i, (key, edge) in enumerate(sorted(edges.items(), key=lambda kv: kv[1])):
+            said = ", ".join(f"{n} = {v}" for n, v in key)
+            label = f"{EDGE}: b_m = {edge:.4g}" + (f" ({said})" if said else "")
+            ax.axvline(edge, ls="--", color=f"C{i + 1}" if len(edges) > 1 else "black", label=label)
+        return True
+    other = y if x.name == B_M else x
+    if any(len(key) != 1 or key[0][0] != other.name for key in edges):
+        return False  # the edge also depends on a parameter the plot does not show
+    line = sorted((_number(key[0][1]), edge) for key, edge in edges.items())
+    at, values = [v for v, _ in line], [e for _, e in line]
+    xs, ys = (values, at) if x.name == B_M else (at, values)
+    ax.plot(xs, ys, "--o", color="white", mec="black", label=EDGE, zorder=3)
+    return True
 
 
 def _spans_decades(values: list[float], decades: float = 2.0, *, strict: bool = True) -> bool:

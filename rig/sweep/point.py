@@ -32,7 +32,7 @@ from drivers.errors import ConfigError
 from rig.sweep.points import Point
 from rig.sweep.spec import RUN_METRICS, SUMMARY_KEYS, SweepSpec
 
-__all__ = ["Job", "apply_values", "check_values", "default_metrics", "job_of", "run_point"]
+__all__ = ["Job", "apply_values", "check_values", "default_metrics", "job_of", "point_config", "run_point"]
 
 
 @dataclass(frozen=True)
@@ -112,6 +112,11 @@ def _config(job: Job, where: str) -> Any:
     cfg = rig_config(apply_values(job.base_doc, _config_values(job), where), job.base_source)
     require_limits(cfg)
     return cfg
+
+
+def point_config(spec: SweepSpec, base_doc: dict[str, Any] | None, point: Point) -> Any:
+    """``point``'s checked configuration, as a worker loads it (a configuration base only)."""
+    return _config(job_of(spec, base_doc, point), f"{spec.source}: point {point.index}:")
 
 
 def check_values(spec: SweepSpec) -> None:

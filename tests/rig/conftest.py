@@ -49,3 +49,17 @@ def identified(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
         with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(io.StringIO()):
             assert main(argv) == 0
         return pathlib.Path(json.loads(buf.getvalue())["run_dir"]).resolve()
+
+
+@pytest.fixture
+def client():  # type: ignore[no-untyped-def]
+    """A Dask LocalCluster in this process (threads: quick to start) and its client, for sweeps."""
+    from dask.distributed import Client, LocalCluster
+
+    with (
+        LocalCluster(
+            n_workers=1, threads_per_worker=2, processes=False, dashboard_address="127.0.0.1:0"
+        ) as cluster,
+        Client(cluster) as c,
+    ):
+        yield c

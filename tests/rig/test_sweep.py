@@ -190,19 +190,6 @@ def _toml(doc: dict[str, object], prefix: str = "") -> str:
     return out
 
 
-@pytest.fixture
-def client():  # type: ignore[no-untyped-def]
-    from dask.distributed import Client, LocalCluster
-
-    with (
-        LocalCluster(
-            n_workers=1, threads_per_worker=2, processes=False, dashboard_address="127.0.0.1:0"
-        ) as cluster,
-        Client(cluster) as c,
-    ):
-        yield c
-
-
 def test_every_point_streams_into_the_table_once_and_resume_skips_them(
     tmp_path: pathlib.Path, client: object
 ) -> None:
@@ -423,12 +410,13 @@ def test_the_plots_leave_failed_points_out_and_take_true_false_and_empty_metrics
         for i, (b, e) in enumerate(((170.0, 0.002), (680.0, 0.5), (2720.0, 0.07)))
     ]
     ax = figure(spec, rows, "rms_error").axes[0]
-    line, failed = ax.lines[0], ax.lines[-1]
+    (line,), failed = [x for x in ax.lines if x.get_label() == "mean"], ax.lines[-1]
     assert list(line.get_xdata()) == [170.0, 2720.0] and list(line.get_ydata()) == [0.002, 0.07]
     assert list(failed.get_xdata()) == [680.0] and failed.get_marker() == "x"
     assert ax.get_xscale() == "log"
     confirmed = figure(spec, rows, "stop_confirmed").axes[0]
-    assert list(confirmed.lines[0].get_ydata()) == [1.0, 1.0] and "1 = true" in confirmed.get_ylabel()
+    (mean,) = [x for x in confirmed.lines if x.get_label() == "mean"]
+    assert list(mean.get_ydata()) == [1.0, 1.0] and "1 = true" in confirmed.get_ylabel()
     sampled = SERVO_SPEC.replace("metrics = [", 'method = "random"\nsamples = 4\nseed = 2\nmetrics = [')
     sampled = sampled.replace("[1360.0, 340.0]", "{ from = 340.0, to = 1360.0, scale = 'log' }")
     sampled = sampled.replace('"faults.frame_loss" = [0.0, 0.02]', "")
