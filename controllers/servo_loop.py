@@ -44,7 +44,13 @@ __all__ = ["ServoPlant", "gain_edge", "servo_loop_eigenvalues", "servo_loop_matr
 
 @dataclass(frozen=True)
 class ServoPlant:
-    """The DC motor the servo runs (module docstring); SI."""
+    """The DC motor the servo runs (module docstring); SI.
+
+    Raises
+    ------
+    ValueError
+        If a_m, b_m, tau_e or delay is not a finite number >= 0.
+    """
 
     a_m: float  #: (3.5) [1/s]
     b_m: float  #: (3.5) [rad/(V s^2)]
@@ -58,7 +64,13 @@ class ServoPlant:
                 raise ValueError(f"{name} = {value!r}: expected a finite number >= 0")
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray]:
-        """(A, B) of the continuous plant, state [theta, omega] or [theta, omega, a]."""
+        """The continuous plant's matrices.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (A, B), the state [theta, omega] (tau_e = 0) or [theta, omega, a].
+        """
         if self.tau_e == 0.0:
             return np.array([[0.0, 1.0], [0.0, -self.a_m]]), np.array([0.0, self.b_m])
         t = self.tau_e
@@ -78,8 +90,27 @@ def _held(a: np.ndarray, b: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarra
 
 
 def servo_loop_matrix(design: DTSMDesign, h: float, plant: ServoPlant) -> np.ndarray:
-    """The transition matrix of (7.30)'s linear mode on ``plant`` (module docstring); ``design``
-    is (7.28)'s error-space design at its period T = design.dt, ``h`` (7.30c)'s gain [1/s]."""
+    """The transition matrix of (7.30)'s linear mode on ``plant`` (module docstring).
+
+    Parameters
+    ----------
+    design : DTSMDesign
+        (7.28)'s error-space design at its period T = design.dt.
+    h : float
+        (7.30c)'s integral gain [1/s].
+    plant : ServoPlant
+        The DC motor, its armature lag and the delay to the command.
+
+    Returns
+    -------
+    numpy.ndarray
+        The square matrix of x_k+1 = M x_k over the plant's state, u_I and the past commands.
+
+    Raises
+    ------
+    ValueError
+        If ``design`` is not the 2-state design.
+    """
     if design.order != 2:
         raise ValueError("the servo loop needs the 2-state (error-space) design of (7.28)")
     dt = design.dt
@@ -121,7 +152,22 @@ def servo_loop_matrix(design: DTSMDesign, h: float, plant: ServoPlant) -> np.nda
 
 
 def servo_loop_eigenvalues(design: DTSMDesign, h: float, plant: ServoPlant) -> np.ndarray:
-    """The eigenvalues of ``servo_loop_matrix`` (stable: all inside the unit circle)."""
+    """The eigenvalues of ``servo_loop_matrix`` (stable: all inside the unit circle).
+
+    Parameters
+    ----------
+    design : DTSMDesign
+        (7.28)'s error-space design.
+    h : float
+        (7.30c)'s integral gain [1/s].
+    plant : ServoPlant
+        The DC motor, its armature lag and the delay to the command.
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        The closed loop's eigenvalues.
+    """
     values: np.ndarray = np.linalg.eigvals(servo_loop_matrix(design, h, plant))
     return values
 
@@ -134,9 +180,27 @@ def gain_edge(
     design: DTSMDesign, h: float, plant: ServoPlant, *, k_max: float = 16.0, step: float = 0.05
 ) -> float:
     """The least k >= 1 for which (7.30)'s linear mode on ``plant`` with k times its b_m has an
-    eigenvalue on the unit circle (the plants of b_m from ``plant.b_m`` up to that are stable): a
-    scan in ``step`` from 1, then bisection to 1e-9. 1.0 where the loop is unstable already at
-    k = 1; ``math.inf`` where it stays stable up to ``k_max``."""
+    eigenvalue on the unit circle (the plants of b_m from ``plant.b_m`` up to that are stable).
+
+    Parameters
+    ----------
+    design : DTSMDesign
+        (7.28)'s error-space design.
+    h : float
+        (7.30c)'s integral gain [1/s].
+    plant : ServoPlant
+        The DC motor, its armature lag and the delay to the command.
+    k_max : float
+        The largest k looked at.
+    step : float
+        The scan's step in k from 1, before a bisection to 1e-9.
+
+    Returns
+    -------
+    float
+        The edge k; 1.0 where the loop is unstable already at k = 1, ``math.inf`` where it stays
+        stable up to ``k_max``.
+    """
     if _radius(design, h, plant, 1.0) >= 1.0:
         return 1.0
     low = 1.0
