@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-__all__ = ["AXIS_MODES", "AxisDriver", "AxisState", "Feedback", "feedback_fields"]
+__all__ = ["AXIS_MODES", "POSITION_COMMANDS", "AxisDriver", "AxisState", "Feedback", "feedback_fields"]
 
 log = logging.getLogger(__name__)
 
@@ -43,9 +43,11 @@ AXIS_MODES = {
     "csv": "speed [rad/s]",
     "pv": "speed [rad/s]",
     "csp": "position [rad]",
+    "ip": "position [rad], one set-point a SYNC, interpolated by the drive",
     "dq-voltage": "dq voltage u_d + j u_q [V] (complex)",
     "speed": "speed reference [rad/s]",
 }
+POSITION_COMMANDS = frozenset({"csp", "ip"})  #: the modes whose command is a position [rad]
 
 
 class AxisState(enum.Enum):
@@ -148,7 +150,7 @@ class AxisDriver(abc.ABC):
         """The command that asks for no effort, sent before the quick stop: 0 (V, N m, rad/s),
         0j in dq; None for a position (CSP): 0 rad is a place, not a stop; the last target
         stands and the drive's quick-stop ramp starts from it."""
-        if self.mode == "csp":
+        if self.mode in POSITION_COMMANDS:
             return None
         return 0j if self.mode == "dq-voltage" else 0.0
 

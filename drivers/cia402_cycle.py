@@ -30,6 +30,8 @@ __all__ = ["Cia402Cycle", "power_state"]
 
 _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
 _ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
+#: the controlword of each cycle in a mode: enable operation (in ip with bit 4, enable ip mode)
+_RUN_WORD = {Mode.INTERPOLATED_POSITION: _ENABLE_OPERATION | cia.CW_ENABLE_IP}
 
 
 def _object(index: int, subindex: int) -> str:
@@ -244,7 +246,7 @@ class Cia402Cycle(CanopenAxis):
             return
         if self.op_mode == Mode.DQ_VOLTAGE:
             frame = data.frame({DQ_RX[0]: 0, DQ_RX[1]: 0})
-        elif self.op_mode == Mode.CSP:
+        elif self.op_mode in (Mode.CSP, Mode.INTERPOLATED_POSITION):  # a place: the last target stands
             if self._target_raw is None:
                 return
             frame = self._pack(data, self._target_raw)
@@ -263,7 +265,7 @@ class Cia402Cycle(CanopenAxis):
         plan = self._plan
         if plan.data is not data or plan.measures is not self.measures:
             plan = self._plan = self._new_plan(data)
-        word = _ENABLE_OPERATION if self._stop_word is None else self._stop_word
+        word = _RUN_WORD.get(self.op_mode, _ENABLE_OPERATION) if self._stop_word is None else self._stop_word
         if plan.rpdo is not None:
             return plan.rpdo(word, raw)
         return data.frame({CW: word, cia.TARGET_OF_MODE[self.op_mode]: raw})

@@ -21,6 +21,7 @@ from drivers.errors import CommunicationTimeout, ConfigError, NodeSilent, SdoAbo
 from drivers.identity import TOOLKIT_DRIVE, Identity, read_standard
 from drivers.maps import cia
 from drivers.maps.cia import CIA_MODE_BITS, MODE_BITS, SUPPORTED_MODE_BITS, Mode
+from drivers.maps.cia402_needs import OF_MODE, missing
 from drivers.maps.logical import DEVICE_TYPE_OF_AXIS, MULTIPLE_DEVICES, axis_object
 from drivers.maps.mode_names import MODE_NAMES, mode_text
 
@@ -165,16 +166,22 @@ class Cia402Discovery:
 
     def choose(self) -> str:
         """What to do about a mode the drive does not take: the other modes with a cyclic target
-        that it offers (all, where it has no 0x6502), or rig drive where it offers none."""
-        offered = self.supported_modes
+        that it offers (all, where it has no 0x6502) and whose objects its dictionary has (an ip
+        that 0x6502 lists without 0x60C1 is not one), or rig drive where it offers none."""
+        offered, od = self.supported_modes, self.node.object_dictionary
         names = [
             name
             for name, m in MODE_NAMES.items()
-            if m in cia.TARGET_OF_MODE and m >= 0 and m != self.op_mode and (offered is None or m in offered)
+            if m in cia.TARGET_OF_MODE
+            and m >= 0
+            and m != self.op_mode
+            and (offered is None or m in offered)
+            and not missing(od, OF_MODE.get(m, ()))
         ]
         if not names:
             return (
-                "it offers no other mode rig run commands (pv, csp, csv, cst): commission it with rig drive"
+                "it offers no other mode rig run commands (pv, csp, ip, csv, cst): commission it with "
+                "rig drive"
             )
         return f"set the axis's mode to another it offers ({', '.join(names)})"
 

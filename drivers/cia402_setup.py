@@ -68,6 +68,21 @@ _STILL_TARGET: dict[int, int] = {
     Mode.CST: cia.TARGET_TORQUE,
 }
 
+#: before an enable in ip (CiA 402-2's objects, where the drive has them): (index, sub, value, why,
+#: required). The host sends one position a SYNC in 0x60C1:01 into a FIFO the drive takes one record
+#: an interpolation cycle from (0x60C2 = the SYNC period, written at set-up).
+_IP_SETTINGS = (
+    (cia.INTERPOLATION_SUBMODE, 0, 0, "linear interpolation", True),
+    (cia.INTERPOLATION_SYNC, 2, 1, "an interpolation cycle every SYNC", True),
+    (cia.INTERPOLATION_CONFIG, 3, 0, "the ip buffer a FIFO", True),
+    (cia.INTERPOLATION_CONFIG, 6, 0, "the ip buffer emptied before the enable (buffer clear)", False),
+    (cia.INTERPOLATION_CONFIG, 6, 1, "the ip buffer's access enabled", True),
+)
+_IP_THEN = (
+    "the host sends one position a SYNC (0x60C1:01) into a FIFO the drive takes one record an "
+    "interpolation cycle from: run this drive in csp"
+)
+
 
 class Cia402Setup(Cia402Discovery, Cia402Mapping):
     """See the module docstring."""
@@ -127,7 +142,7 @@ class Cia402Setup(Cia402Discovery, Cia402Mapping):
         if self.heartbeat_timeout > 0.0 and cia.PRODUCER_HEARTBEAT in od:
             beat = max(1, round(self.heartbeat_timeout / 3 * 1000))  # ms
             self._setting(cia.PRODUCER_HEARTBEAT, 0, beat, "the drive's heartbeat the host watches")
-        if self.period > 0.0 and self.op_mode in (Mode.CSP, Mode.CSV, Mode.CST):
+        if self.period > 0.0 and self.op_mode in (Mode.CSP, Mode.INTERPOLATED_POSITION, Mode.CSV, Mode.CST):
             if variable(od, (cia.INTERPOLATION_PERIOD, 1)) is not None:
                 self._interpolation_period()
             if cia.COMM_CYCLE_PERIOD in od:
@@ -232,9 +247,16 @@ class Cia402Setup(Cia402Discovery, Cia402Mapping):
         stands); profile and cyclic velocity act on 0x60FF, profile and cyclic torque on 0x6071 as
         they stand (set to 0); profile position and homing start only on a new set-point
         (controlword bit 4, CiA 402-2), so nothing is written for them, nor for a mode the
-        toolkit does not know."""
+        toolkit does not know. In ip, ``_IP_SETTINGS`` where the drive has them: no record left
+        from before is followed."""
         if mode == Mode.CSP:  # 0x607A is absolute: enabled, the drive goes for it
             self.sdo_write(cia.TARGET_POSITION, 0, int(self.sdo_read(cia.POSITION_ACTUAL)))
+            return
+        if mode == Mode.INTERPOLATED_POSITION:
+            od = self.node.object_dictionary
+            for index, sub, value, why, required in _IP_SETTINGS:
+                if variable(od, (index, sub)) is not None:
+                    self._setting(index, sub, value, why, required=required, then=_IP_THEN)
             return
         target = _STILL_TARGET.get(mode, 0)
         var = variable(self.node.object_dictionary, (target, 0)) if target else None

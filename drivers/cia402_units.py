@@ -78,6 +78,7 @@ NEEDS = {
     Mode.CSV: ("velocity", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
     Mode.PROFILE_VELOCITY: ("velocity", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
     Mode.CSP: ("position", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
+    Mode.INTERPOLATED_POSITION: ("position", cia.POSITION_ENCODER_RESOLUTION, "counts_per_rev"),
 }
 
 
@@ -181,7 +182,7 @@ def _code_source(read: Callable[[int, int], Any], code: int, si_object: int, dim
 
 
 #: modes whose command or feedback is a position: they need the position's factor
-POSITION_MODES = frozenset({Mode.CSP, Mode.PROFILE_POSITION, Mode.HOMING})
+POSITION_MODES = frozenset({Mode.CSP, Mode.INTERPOLATED_POSITION, Mode.PROFILE_POSITION, Mode.HOMING})
 
 
 def require(

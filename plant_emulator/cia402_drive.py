@@ -55,6 +55,7 @@ from plant_emulator.cia402_state import PowerStateMachine
 from plant_emulator.device_profile import DEVICES_DIR, DeviceProfile, load_profile
 from plant_emulator.drive_cycle import DriveCycle
 from plant_emulator.drive_safety import FAULT_CODES, DriveSafety
+from plant_emulator.interpolation import IP_OBJECTS
 from plant_emulator.process_image import UNIT_OBJECTS, ProcessImage, Ratings
 from plant_emulator.profile_modes import PROFILE_MODES, ProfileModes
 from plant_emulator.shaft import Shaft, Timed
@@ -150,7 +151,7 @@ class EmulatedDrive(DriveCycle, DriveSafety, EmulatedNode):
         """The profile's modes the physics can run (profile modes need the loops they use)."""
         capable = set(self.axis.modes)
         if Mode.CSP in capable:
-            capable |= {Mode.PROFILE_POSITION, Mode.HOMING}
+            capable |= {Mode.PROFILE_POSITION, Mode.HOMING, Mode.INTERPOLATED_POSITION}
         modes = tuple(int(m) for m in self.profile.check_against(od) if m in capable)
         if self._has(cia.SUPPORTED_MODES):
             self.write(cia.SUPPORTED_MODES, 0, sum(MODE_BITS[Mode(m)] for m in modes))
@@ -220,12 +221,16 @@ class EmulatedDrive(DriveCycle, DriveSafety, EmulatedNode):
             self._pending_cw = value
             if not self.in_rpdo:
                 self._apply_controlword(value)
+        elif index in IP_OBJECTS:  # interpolated position: its buffer (``plant_emulator.interpolation``)
+            self._follow(self.profiles.ip.write(index, subindex, data, rpdo=self.in_rpdo))
         elif index in _TARGETS and not self.in_rpdo:
             self._sdo_target = True
 
     def after_write(self, index: int) -> None:
         if index in UNIT_OBJECTS:
             self.image.refresh()
+        elif index == cia.INTERPOLATION_CONFIG:  # its buffer position shows the FIFO's fill
+            self.profiles.ip.show()
 
     def _select_mode(self, mode: int) -> None:
         """0x6060: a mode of 0x6502 (else SDO abort 0x06090030), shown in 0x6061 after the
@@ -244,6 +249,12 @@ class EmulatedDrive(DriveCycle, DriveSafety, EmulatedNode):
         self.write(cia.MODES_DISPLAY, 0, mode)
         if self.sm.state is _ENABLED:
             self._hold(mode)
+        self.profiles.ip.track(self.sm.state is _ENABLED and mode == Mode.INTERPOLATED_POSITION)
+
+    def _follow(self, demand: float | None) -> None:
+        """A position demand [rad] the drive's interpolator took at once (a record it waited for)."""
+        if demand is not None:
+            self.axis.set_command(_CSP, complex(demand))
 
     def _hold(self, mode: int) -> None:
         """Entering ``mode`` enabled: CSP goes for 0x607A (absolute, CiA 402; a host that left a

@@ -30,6 +30,7 @@ __all__ = ["DriveCycle"]
 # Module globals for the per-SYNC path: an enum member's lookup (or hash) takes ~0.2 us, a global's 0.03
 _CYCLIC = (int(Mode.CSP), int(Mode.CSV), int(Mode.CST))
 _ENABLED = PowerState.OPERATION_ENABLED
+_IP = int(Mode.INTERPOLATED_POSITION)
 _FOLLOWING_ERROR = int(EmcyCode.FOLLOWING_ERROR)
 
 
@@ -111,6 +112,7 @@ class DriveCycle:
 
     def _latch_status(self) -> None:
         word = self.sm.statusword() | SW_REMOTE
+        mode = 0
         if self.sm.state is _ENABLED:
             mode = self.od.read(cia.MODES_DISPLAY, 0)
             if mode in _CYCLIC:
@@ -119,6 +121,7 @@ class DriveCycle:
                 word |= self.profiles.status
         if self.fault_code == _FOLLOWING_ERROR:
             word |= SW_FOLLOWING_ERROR
+        self.profiles.ip.track(mode == _IP)  # leaving OPERATION ENABLED in ip empties its buffer
         self.od.write(cia.STATUSWORD, 0, word)
 
     def _latch(self, *, ahead: float = 0.0) -> None:

@@ -41,7 +41,12 @@ FAULT_CODES: dict[int, str] = {
     EmcyCode.FOLLOWING_ERROR: "following error",
 }
 S = PowerState
-_CSV, _CSP, _PP = int(Mode.CSV), int(Mode.CSP), int(Mode.PROFILE_POSITION)
+_CSV, _CSP, _PP, _IP = (
+    int(Mode.CSV),
+    int(Mode.CSP),
+    int(Mode.PROFILE_POSITION),
+    int(Mode.INTERPOLATED_POSITION),
+)
 _ENABLED, _QUICK_STOP_ACTIVE, _REACTION, _FAULT = (
     S.OPERATION_ENABLED,
     S.QUICK_STOP_ACTIVE,
@@ -161,6 +166,8 @@ class DriveSafety:
             return float(held) if held is not None else self._target(_CSP).real
         if mode == _PP:
             return self.profiles.move.position
+        if mode == _IP and self.profiles.ip.in_mode:
+            return self.profiles.ip.demand  # the interpolator's (plant_emulator.interpolation)
         return None
 
     def _following_error(self, st: PowerState) -> bool:

@@ -121,6 +121,7 @@ class ProcessImage:
         self._torque = has(cia.TORQUE_ACTUAL)
         self._current = has(cia.CURRENT_ACTUAL)
         self._following = has(cia.FOLLOWING_ERROR_ACTUAL)
+        self._demand = has(cia.POSITION_DEMAND)
         self._dq = dq and has(cia.DQ_CURRENT) and has(cia.FRAME_ANGLE) and has(cia.FRAME_SPEED)
         self.refresh()
 
@@ -207,6 +208,8 @@ class ProcessImage:
             value = round(axis.current / self.rated_current * 1000.0)
             value = _I16_MIN if value < _I16_MIN else _I16_MAX if value > _I16_MAX else value
             write(_CURRENT_ACTUAL, 0, value)
+        if self._demand and demand is not None:
+            write(cia.POSITION_DEMAND, 0, _clamp(round(demand * u.position) + self.home_shift, 32))
         if self._following and demand is not None:
             write(_FOLLOWING, 0, _clamp(round(demand * u.position) + self.home_shift - pos, 32))
         if self._inputs:

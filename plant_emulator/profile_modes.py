@@ -34,13 +34,23 @@ from drivers.maps import cia
 from drivers.maps.cia import Mode
 from plant_emulator.braking import deceleration
 from plant_emulator.device_profile import DeviceProfile
+from plant_emulator.interpolation import Interpolation
 from plant_emulator.motion import PositionProfile, SpeedRamp
 from plant_emulator.process_image import ProcessImage
 
 __all__ = ["PROFILE_MODES", "ProfileModes"]
 
-PROFILE_MODES = frozenset({int(Mode.PROFILE_POSITION), int(Mode.PROFILE_VELOCITY), int(Mode.HOMING)})
+#: the modes whose set-points the drive's own generators make (interpolated position: from the records)
+PROFILE_MODES = frozenset(
+    {
+        int(Mode.PROFILE_POSITION),
+        int(Mode.PROFILE_VELOCITY),
+        int(Mode.HOMING),
+        int(Mode.INTERPOLATED_POSITION),
+    }
+)
 _PP, _PV, _HM = int(Mode.PROFILE_POSITION), int(Mode.PROFILE_VELOCITY), int(Mode.HOMING)
+_IP = int(Mode.INTERPOLATED_POSITION)
 _CSP, _CSV = int(Mode.CSP), int(Mode.CSV)
 NEW_SETPOINT, CHANGE_IMMEDIATELY, RELATIVE, HALT = 1 << 4, 1 << 5, 1 << 6, 1 << 8
 TARGET_REACHED, LIMIT_ACTIVE, BIT12, BIT13 = 1 << 10, 1 << 11, 1 << 12, 1 << 13
@@ -60,6 +70,9 @@ class ProfileModes:
         self.status = 0  #: statusword bits 10-13 of the last cycle
         self.homing: str = "idle"  #: idle, search, back, done, error
         self.limited = False
+        self.ip = Interpolation(
+            od, has, self.to_si
+        )  #: interpolated position (``plant_emulator.interpolation``)
 
     # --- objects in SI ---------------------------------------------------------------------------
     def _read(self, index: int, sub: int = 0, default: float = 0.0) -> float:
@@ -92,12 +105,15 @@ class ProfileModes:
         self.move = PositionProfile(position, 0.0)
         self._buffered = None
         self.homing = "idle"
+        self.ip.start(position)
 
     def controlword(self, cw: int) -> None:
-        """A controlword written (SDO or RPDO): a rising bit 4 is kept for the next cycle."""
+        """A controlword written (SDO or RPDO): a rising bit 4 is kept for the next cycle (in ip,
+        enable ip mode: ``plant_emulator.interpolation``)."""
         if cw & NEW_SETPOINT and not self._last_cw & NEW_SETPOINT:
             self._rising = True
         self._last_cw = cw
+        self.ip.controlword(cw)
 
     def cycle(self, mode: int, h: float, position: float, velocity: float) -> tuple[int, float]:
         """One period: (the loop to command, its set-point SI); ``status`` holds the bits."""
@@ -108,6 +124,10 @@ class ProfileModes:
             return self._pv(h, halt, velocity)
         if mode == _PP:
             return self._pp(h, cw, rising, halt, position, velocity=velocity)
+        if mode == _IP:
+            demand = self.ip.cycle(h, position)
+            self.status = self.ip.status
+            return _CSP, demand
         return self._hm(h, rising, halt, position, velocity)
 
     def _halt_decel(self) -> float:

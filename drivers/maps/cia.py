@@ -191,6 +191,7 @@ HALT_OPTION = 0x605D
 FAULT_REACTION_OPTION = 0x605E
 MODES_OF_OPERATION = 0x6060
 MODES_DISPLAY = 0x6061
+POSITION_DEMAND = 0x6062  #: [position units] the position loop's demand
 POSITION_ACTUAL = 0x6064  #: [position units]
 FOLLOWING_ERROR_WINDOW = 0x6065  #: [position units]
 FOLLOWING_ERROR_TIMEOUT = 0x6066  #: [ms]
@@ -226,7 +227,10 @@ HOMING_SPEEDS = 0x6099  #: sub 1 search for switch, sub 2 search for zero [veloc
 HOMING_ACCELERATION = 0x609A
 SI_UNIT_POSITION = 0x60A8
 SI_UNIT_VELOCITY = 0x60A9
+#: interpolated position (ip): sub-mode select, data record (sub 1 a position), configuration (the buffer)
+INTERPOLATION_SUBMODE, INTERPOLATION_DATA, INTERPOLATION_CONFIG = 0x60C0, 0x60C1, 0x60C4
 INTERPOLATION_PERIOD = 0x60C2  #: sub 1 value, sub 2 index: the period is value x 10^index s
+INTERPOLATION_SYNC = 0x60C3  #: sub 1 synchronize on group (0: SYNC), sub 2 ip sync every n event
 FOLLOWING_ERROR_ACTUAL = 0x60F4
 DIGITAL_INPUTS = 0x60FD  #: bit 0 negative limit switch, 1 positive limit switch, 2 home switch
 TARGET_VELOCITY = 0x60FF  #: [velocity units]
@@ -245,7 +249,8 @@ SW_VOLTAGE_ENABLED = 0x0010
 SW_WARNING = 0x0080
 SW_REMOTE = 0x0200
 SW_TARGET_REACHED = 0x0400
-SW_FOLLOWS_COMMAND = 0x1000  #: bit 12 in the cyclic synchronous modes
+SW_FOLLOWS_COMMAND = 0x1000  #: bit 12 in the cyclic synchronous modes; ip mode active in ip
+CW_ENABLE_IP = 0x0010  #: controlword bit 4 in ip: enable ip mode
 SW_FOLLOWING_ERROR = 0x2000  #: bit 13
 
 
@@ -390,6 +395,7 @@ TARGET_OF_MODE = {
     Mode.VOLTAGE: (TARGET_VOLTAGE, 0),
     Mode.PROFILE_VELOCITY: (TARGET_VELOCITY, 0),
     Mode.CSP: (TARGET_POSITION, 0),
+    Mode.INTERPOLATED_POSITION: (INTERPOLATION_DATA, 1),
     Mode.CSV: (TARGET_VELOCITY, 0),
     Mode.CST: (TARGET_TORQUE, 0),
 }

@@ -46,6 +46,7 @@ OF_MODE: dict[Mode, tuple[int, ...]] = {
     Mode.PROFILE_TORQUE: (cia.TARGET_TORQUE,),
     Mode.HOMING: (cia.HOMING_METHOD,),
     Mode.CSP: (cia.TARGET_POSITION, cia.POSITION_ACTUAL),
+    Mode.INTERPOLATED_POSITION: (cia.INTERPOLATION_DATA, cia.POSITION_ACTUAL),
     Mode.CSV: (cia.TARGET_VELOCITY, cia.VELOCITY_ACTUAL),
     Mode.CST: (cia.TARGET_TORQUE,),
     Mode.VOLTAGE: (cia.TARGET_VOLTAGE,),
@@ -73,6 +74,7 @@ _NAMES = {
     cia.MODES_OF_OPERATION: "Modes of operation",
     cia.MODES_DISPLAY: "Modes of operation display",
     cia.TARGET_POSITION: "Target position",
+    cia.INTERPOLATION_DATA: "Interpolation data record",
     cia.POSITION_ACTUAL: "Position actual value",
     cia.TARGET_VELOCITY: "Target velocity",
     cia.VELOCITY_ACTUAL: "Velocity actual value",
@@ -81,6 +83,11 @@ _NAMES = {
     cia.TARGET_VOLTAGE: "drive-rig's target voltage",
     cia.DQ_VOLTAGE: "drive-rig's dq voltage",
 }
+
+
+#: the objects a task needs that are records: ip's data record 0x60C1 (sub 1 a position), the toolkit's
+#: dq voltage 0x2200 (sub 1 u_d, 2 u_q)
+_RECORDS = frozenset({cia.INTERPOLATION_DATA, cia.DQ_VOLTAGE})
 
 
 def needed(mode: Mode | int, *, manufacturer: bool = True) -> tuple[int, ...]:
@@ -109,8 +116,8 @@ def _kind(obj: Any) -> str:
 
 def require(od: Any, indices: Iterable[int], *, source: str, what: str) -> None:
     """ConfigError naming ``source`` (the file), the objects ``od`` lacks and ``what`` needs them;
-    or the first that is not an integer variable, as CiA 301/402 define each of them (the toolkit's
-    dq voltage 0x2200, a record, aside)."""
+    or the first that is not an integer variable, as CiA 301/402 define each of them (of a record
+    in ``_RECORDS``, its sub 1)."""
     wanted = list(indices)
     lacks = missing(od, wanted)
     if lacks:
@@ -120,7 +127,10 @@ def require(od: Any, indices: Iterable[int], *, source: str, what: str) -> None:
             "which declares them"
         )
     for i in dict.fromkeys(wanted):
-        kind = "" if i == cia.DQ_VOLTAGE else _kind(od[i])
+        obj = od[i]
+        if i in _RECORDS and hasattr(obj, "subindices") and 1 in obj.subindices:
+            obj = obj[1]  # the entry the task uses
+        kind = _kind(obj)
         if kind:
             raise ConfigError(
                 f"{source}: 0x{i:04X} ({_NAMES.get(i, 'CiA 402')}) is {kind}, not the integer variable "

@@ -13,6 +13,7 @@ MODE_NAMES = {
     "pv": Mode.PROFILE_VELOCITY,
     "tq": Mode.PROFILE_TORQUE,
     "csp": Mode.CSP,
+    "ip": Mode.INTERPOLATED_POSITION,
     "csv": Mode.CSV,
     "cst": Mode.CST,
     "voltage": Mode.VOLTAGE,

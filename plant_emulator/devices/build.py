@@ -51,7 +51,10 @@ POS, VEL, TQ = mapped(0x6064, 0, 32), mapped(0x606C, 0, 32), mapped(0x6077, 0, 1
 INPUTS = mapped(0x60FD, 0, 32)
 
 #: 0x6502 bits
-PP, PV, HM, CSP, CSV, CST = 1 << 0, 1 << 2, 1 << 5, 1 << 7, 1 << 8, 1 << 9
+PP, PV, HM, IP, CSP, CSV, CST = 1 << 0, 1 << 2, 1 << 5, 1 << 6, 1 << 7, 1 << 8, 1 << 9
+#: the objects of interpolated position (ip): sub-mode, data record, time period, sync definition,
+#: buffer; and the position demand 0x6062
+_IP_OBJECTS = frozenset({0x60C0, 0x60C1, 0x60C2, 0x60C3, 0x60C4, 0x6062})
 
 
 @dataclass(frozen=True)
@@ -299,7 +302,7 @@ ZOO: dict[str, Twin] = {
             "a dual-axis CiA 402 servo drive: two motors on one node (drive-rig zoo)",
         ),
         device_type=0x00020192,
-        modes=PP | PV | HM | CSP | CSV | CST,
+        modes=PP | PV | HM | IP | CSP | CSV | CST,
         rpdo=(
             (CW, TARGET_POS),
             (CW, TARGET_VEL),
@@ -309,7 +312,7 @@ ZOO: dict[str, Twin] = {
         tpdo=((SW, POS), (VEL, TQ), (mapped(0x6841, 0, 16), mapped(0x6864, 0, 32)), (mapped(0x686C, 0, 32),)),
         rpdo_types=(1, 1, 1, 1),
         tpdo_types=(1, 1, 1, 1),
-        objects=_SERVO,
+        objects=_SERVO | _IP_OBJECTS,
         increments=4096,
         axes=2,
     ),

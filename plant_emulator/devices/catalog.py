@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any, Protocol
 
-from drivers.maps.eds_writer import INT8, INT16, INT32, UINT16, UINT32, Obj, Var, record, var
+from drivers.maps.eds_writer import INT8, INT16, INT32, UINT8, UINT16, UINT32, Obj, Var, record, var
 
 __all__ = ["catalog"]
 
@@ -32,6 +32,7 @@ class Units(Protocol):
 #: default ("pos" | "vel", x) is x rad (or rad/s, rad/s^2) in the drive's own units
 _VARIABLES: dict[int, tuple[str, int, str, bool, Any]] = {
     0x6007: ("Abort connection option code", INT16, "rw", False, 1),
+    0x6062: ("Position demand value", INT32, "ro", True, 0),
     0x603F: ("Error code", UINT16, "ro", True, 0),
     0x605A: ("Quick stop option code", INT16, "rw", False, 2),
     0x605D: ("Halt option code", INT16, "rw", False, 1),
@@ -53,11 +54,13 @@ _VARIABLES: dict[int, tuple[str, int, str, bool, Any]] = {
     0x6085: ("Quick stop deceleration", UINT32, "rw", True, ("vel", 2000.0)),
     0x6098: ("Homing method", INT8, "rw", False, 35),
     0x609A: ("Homing acceleration", UINT32, "rw", False, ("vel", 500.0)),
+    0x60C0: ("Interpolation sub mode select", INT16, "rw", False, 0),  # 0: linear
     0x60F4: ("Following error actual value", INT32, "ro", True, 0),
     0x60FD: ("Digital inputs", UINT32, "ro", True, 0),
 }
-#: CiA 402 records and arrays: index -> (name, kind, [(sub, name, type, mappable, default)])
-_RECORDS: dict[int, tuple[str, int, list[tuple[int, str, int, bool, Any]]]] = {
+#: CiA 402 records and arrays: index -> (name, kind, [(sub, name, type, mappable, default[, access])]),
+#: each entry rw unless it says
+_RECORDS: dict[int, tuple[str, int, list[tuple[Any, ...]]]] = {
     0x607D: (
         "Software position limit",
         0x8,
@@ -87,6 +90,35 @@ _RECORDS: dict[int, tuple[str, int, list[tuple[int, str, int, bool, Any]]]] = {
         [
             (1, "Speed during search for switch", UINT32, False, ("vel", 20.0)),
             (2, "Speed during search for zero", UINT32, False, ("vel", 2.0)),
+        ],
+    ),
+    0x60C1: ("Interpolation data record", 0x8, [(1, "Interpolation data record 1", INT32, True, 0)]),
+    0x60C2: (  # 0.4 ms: the dc-servo preset's period
+        "Interpolation time period",
+        0x9,
+        [
+            (1, "Interpolation time period value", UINT8, False, 4),
+            (2, "Interpolation time index", INT8, False, -4),
+        ],
+    ),
+    0x60C3: (  # general SYNC (sub 1 = 0), an interpolation cycle every SYNC (sub 2 = 1)
+        "Interpolation sync definition",
+        0x8,
+        [
+            (1, "Synchronize on group", UINT8, False, 0, "ro"),
+            (2, "ip sync every n event", UINT8, False, 1),
+        ],
+    ),
+    0x60C4: (
+        "Interpolation data configuration",
+        0x9,
+        [
+            (1, "Maximum buffer size", UINT32, False, 16, "ro"),
+            (2, "Actual buffer size", UINT32, False, 16),
+            (3, "Buffer organisation", UINT8, False, 0),  # 0: FIFO
+            (4, "Buffer position", UINT16, False, 0),  # rw in CiA 402; a FIFO shows its fill
+            (5, "Size of data record", UINT8, False, 4, "wo"),
+            (6, "Buffer clear", UINT8, False, 1, "wo"),
         ],
     ),
     0x60FE: (
@@ -127,7 +159,10 @@ def catalog(t: Units) -> dict[int, Obj]:
         for i, (name, dtype, access, pdo, d) in _VARIABLES.items()
     }
     for i, (name, kind, subs) in _RECORDS.items():
-        entries = [(sub, Var(n, dtype, "rw", _default(t, d), pdo)) for sub, n, dtype, pdo, d in subs]
+        entries = [
+            (sub, Var(n, dtype, access[0] if access else "rw", _default(t, d), pdo))
+            for sub, n, dtype, pdo, d, *access in subs
+        ]
         out[i] = record(i, name, entries, kind=kind)
     out[0x60A8] = var(0x60A8, Var("SI unit position", UINT32, "rw", f"0x{t.position_unit:08X}"))
     out[0x60A9] = var(0x60A9, Var("SI unit velocity", UINT32, "rw", f"0x{t.velocity_unit:08X}"))

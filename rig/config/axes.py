@@ -27,7 +27,7 @@ ABORT_CONNECTION = {"none": 0, "fault": 1, "disable-voltage": 2, "quick-stop": 3
 
 #: axis kinds and the modes each takes ("" : feedback only)
 AXIS_KINDS = {
-    "cia402": ("voltage", "cst", "csv", "csp", "pv", "dq-voltage"),
+    "cia402": ("voltage", "cst", "csv", "csp", "ip", "pv", "dq-voltage"),
     "modbus": ("speed",),
     "cia406": ("",),
 }
@@ -118,7 +118,7 @@ class AxisConfig:
     mode: str = key(
         "",
         "",
-        "the mode it is commanded in: cia402 voltage, cst, csv, csp, pv, dq-voltage; modbus speed; "
+        "the mode it is commanded in: cia402 voltage, cst, csv, csp, ip, pv, dq-voltage; modbus speed; "
         'cia406 none ("": feedback only)',
     )
     profile: str = key(

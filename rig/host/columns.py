@@ -18,6 +18,7 @@ MODE_UNITS = {
     "pv": "rad/s",
     "speed": "rad/s",
     "csp": "rad",
+    "ip": "rad",
     "dq-voltage": "V",
 }
 #: (unit, meaning) of a law's internal columns, by name

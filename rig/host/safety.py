@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from drivers.base import AxisDriver, Feedback, feedback_fields
+from drivers.base import POSITION_COMMANDS, AxisDriver, Feedback, feedback_fields
 from drivers.errors import SafetyStop
 from drivers.producer_watch import OtherProducer
 from rig.config import AxisLimits
@@ -56,7 +56,7 @@ class AxisGuard:
         self._last_position: float | None = None
         self._last_sample: Feedback | None = None  #: the sample of ``_last_position``
         self._position_k = 0  #: the cycle index of ``_last_position``
-        self.position_command = getattr(axis, "mode", None) == "csp"
+        self.position_command = getattr(axis, "mode", None) in POSITION_COMMANDS
         self.origin: float | None = None  #: [rad] the first measured position
         self._last_command: float | None = None  #: [rad] the last position command
         self._command_k = 0  #: the cycle index of ``_last_command``

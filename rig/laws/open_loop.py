@@ -46,12 +46,13 @@ class PositionReferenceParams(LawParams):
 
 
 class PositionReferenceLaw(Law):
-    """Command = reference [rad], every cycle, to a drive in CSP (its position and speed loops
-    inside); measurement = the read axis's position."""
+    """Command = reference [rad], every cycle, to a drive in CSP or in ip (its position and speed
+    loops inside; in ip one record a SYNC, interpolated by the drive); measurement = the read
+    axis's position."""
 
     Params = PositionReferenceParams
     error_unit = "rad"
-    modes = (frozenset({"csp"}),)
+    modes = (frozenset({"csp", "ip"}),)
     position_reference = True
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:

@@ -17,6 +17,7 @@ __all__ = ["Channel", "channels_of"]
 #: the measured quantity shown for an axis in each mode (None: an encoder), best first
 _MEASURED = {
     "csp": ("position",),
+    "ip": ("position",),
     "csv": ("velocity",),
     "pv": ("velocity",),
     "speed": ("velocity",),

@@ -31,6 +31,18 @@ def _node(b: LockstepBench) -> canopen.RemoteNode:
     return node
 
 
+def map_rpdo(node: canopen.RemoteNode, number: int, cob_id: int, entries: list[tuple[int, int, int]]) -> None:
+    """RPDO ``number`` (its default transmission type) on ``cob_id`` mapping ``entries`` ((index, sub,
+    bits)), written by SDO as CiA 301 orders it: invalid, emptied, mapped, counted, valid."""
+    comm, mapping = 0x1400 + number - 1, 0x1600 + number - 1
+    node.sdo[comm][1].raw = 0x80000000 | cob_id
+    node.sdo[mapping][0].raw = 0
+    for sub, (index, subindex, bits) in enumerate(entries, 1):
+        node.sdo[mapping][sub].raw = map_entry(index, subindex, bits)
+    node.sdo[mapping][0].raw = len(entries)
+    node.sdo[comm][1].raw = cob_id
+
+
 def _state(node: canopen.RemoteNode, offset: int) -> PowerState | None:
     return decode_statusword(node.sdo[0x6041 + offset].raw)
 
@@ -82,12 +94,7 @@ def test_an_rpdo_of_axis_2_s_objects_commands_axis_2_only(bench: LockstepBench) 
     node = _node(bench)
     _enable(node, AXIS_2, Mode.CSV, bench)
     _enable(node, 0, Mode.CSV, bench)
-    node.sdo[0x1402][1].raw = 0x80000401
-    node.sdo[0x1602][0].raw = 0
-    node.sdo[0x1602][1].raw = map_entry(0x6840, 0, 16)
-    node.sdo[0x1602][2].raw = map_entry(0x68FF, 0, 32)
-    node.sdo[0x1602][0].raw = 2
-    node.sdo[0x1402][1].raw = 0x401
+    map_rpdo(node, 3, 0x401, [(0x6840, 0, 16), (0x68FF, 0, 32)])
     node.nmt.state = "OPERATIONAL"
     target = round(12.0 * 4096 / (2 * 3.141592653589793))
     for _ in range(1500):
