@@ -1,15 +1,17 @@
 """The shell blocks of the README and of the documentation's pages (``docs/*.md``) run as written
 (issues 19, 28): each ```sh block is either run here, in a fresh folder beside the examples, with
 the installed ``rig`` on PATH, or named below with the reason it is not (a new block must be given
-one or the other); what the page says a block does is checked where CLAIMS has a check for it, and
-a ```text block right after a block that runs is what it prints: each of its lines is a line of
-the block's output. A tutorial's blocks (``docs/tutorial-*.md``) run in order in one folder, as a
-reader follows the page. Two blocks in a row that begin ``# terminal 1`` and ``# terminal 2`` are
-run together, the first as a server (one ``rig`` command) until the second is done (on a tutorial,
-after the page's blocks before them): in the timing tier (a fixed port, processes of their own).
-A tutorial takes minutes to follow: the ``slow`` tier follows each, and the default run parses each
-``rig`` line of every block with rig's own parser. Every path in the repository a page names in
-backticks exists, and the README stays a front door of at most 150 lines."""
+one or the other); what the page says a block does is checked where CLAIMS has a check for it, and a
+```text block right after a block that runs is what it prints: each of its lines is a line of the
+block's output. A tutorial's blocks (``docs/tutorial-*.md``) run in order as a reader follows the
+page in one terminal (a ``cd`` holds for the blocks after it), its first one going into
+``tutorial/``, a folder git ignores, which holds everything the page writes. Two blocks in a row
+that begin ``# terminal 1`` and ``# terminal 2`` are run together, the first as a server (one
+``rig`` command) until the second is done (on a tutorial, after the page's blocks before them): in
+the timing tier (a fixed port, processes of their own). A tutorial takes minutes to follow: the
+``slow`` tier follows each, and the default run parses each ``rig`` line of every block with rig's
+own parser. Every path in the repository a page names in backticks exists, and the README stays a
+front door of at most 150 lines."""
 
 from __future__ import annotations
 
@@ -32,6 +34,7 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 TERMINALS = ("# terminal 1", "# terminal 2")  #: the first lines of a two-terminal pair
 #: what a block that is not run here holds, and why
 NOT_HERE = {
+    "python3 -m venv": "the virtual environment the commands run in: CI's own first step (.ci/run)",
     "python -m pytest": "the test command itself (CI runs it)",
     "sudo ": "root and a kernel with vcan (the vcan and interop tiers, in CI's VM)",
     "run-in-vcan-vm": "the VM (CI runs it)",
@@ -230,15 +233,39 @@ def test_the_block_runs_as_written(line: str, block: str, tmp_path: pathlib.Path
             check(proc, tmp_path)
 
 
-def _follow(page: list[tuple[str, str]], folder: pathlib.Path) -> None:
-    """Run a tutorial's blocks in order in ``folder``, each checked as a block alone is."""
+#: a tutorial's first block: everything the page writes goes into one folder that git ignores
+TUTORIAL_FOLDER = "tutorial"
+INTO_IT = f"mkdir -p {TUTORIAL_FOLDER} && cd {TUTORIAL_FOLDER}"
+
+
+def _follow(page: list[tuple[str, str]], folder: pathlib.Path) -> pathlib.Path:
+    """Run a tutorial's blocks in order from ``folder``, as in one terminal (each starts where the
+    one before it ended), each checked as a block alone is; the folder the last one ended in."""
+    here, ended = folder, folder.with_name(f"{folder.name}.pwd")
     for i, (line, block) in enumerate(page):
-        proc = run_here(block, folder, link=i == 0)
+        proc = run_here(f"trap 'pwd > {shlex.quote(str(ended))}' EXIT\n{block}", here, link=i == 0)
         assert proc.returncode == 0, f"{line}:\n{block}\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
+        here = pathlib.Path(ended.read_text().strip())
         check_output(line, proc)
         for key, check in CLAIMS.items():
             if key in block:
-                check(proc, folder)
+                check(proc, here)
+    return here
+
+
+def _ignored(name: str) -> bool:
+    """Whether the repository's .gitignore ignores the top folder ``name``."""
+    lines = (ROOT / ".gitignore").read_text().splitlines()
+    return any(line.strip() in (name, f"{name}/", f"/{name}", f"/{name}/") for line in lines)
+
+
+def test_each_tutorial_writes_into_one_ignored_folder() -> None:
+    """A tutorial's first block goes into ``tutorial/`` and .gitignore ignores it (the slow tier
+    follows each page and finds nothing else written beside the clone's own files); so do runs/
+    and sweeps/, where rig writes a run and a study by default."""
+    firsts = {page: blocks[0][1].strip() for page, blocks in tutorials().items()}
+    assert firsts and all(first == INTO_IT for first in firsts.values()), firsts
+    assert all(_ignored(name) for name in (TUTORIAL_FOLDER, "runs", "sweeps"))
 
 
 #: what ends a command on a block's line: a redirection, a pipe, the next command
@@ -279,8 +306,11 @@ def test_every_rig_line_of_a_block_parses(capsys: pytest.CaptureFixture[str]) ->
 @pytest.mark.timeout(600)  # a tutorial's steps, each a command of seconds (under load, tens)
 @pytest.mark.parametrize("page", sorted(tutorials()))
 def test_the_tutorial_runs_as_written(page: str, tmp_path: pathlib.Path) -> None:
-    """A tutorial's blocks, in order, in one folder: each step on what the steps before it made."""
+    """A tutorial's blocks, in order, as in one terminal: each step on what the steps before it
+    made, all of it in ``tutorial/`` (beside it only the clone's own files, linked here)."""
     _follow(tutorials()[page], tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["examples", "plant_emulator", TUTORIAL_FOLDER]
+    assert [p.name for p in (tmp_path / "plant_emulator").iterdir()] == ["devices"]
 
 
 @pytest.mark.timing  # the server on the page's fixed port (29536), in a process of its own
@@ -337,22 +367,27 @@ def test_the_paths_the_pages_name_exist() -> None:
     assert len(found) > 30 and not missing, "no such path in the repository:\n" + "\n".join(missing)
 
 
-#: the README's two commands, verbatim: the second is CI's own test command (.ci/run)
+#: the README's commands, verbatim: a virtual environment of the clone's own, then the two
+#: commands in it; CI makes the same environment and runs the last (.ci/run)
 COMMANDS = (
+    "python3 -m venv .venv && . .venv/bin/activate",
     "python -m pip install -e . && rig demo",
     "python -m pip install -e '.[test]' && python -m pytest",
 )
 
 
 def test_the_readme_is_a_front_door() -> None:
-    """The README is at most 150 lines: what the toolkit is, the two commands as written (the
-    second the one .ci/run runs), one picture that is in the repository, and links into the
-    documentation, each to a page that exists; the rest is on the pages."""
+    """The README is at most 150 lines: what the toolkit is, its commands as written (a virtual
+    environment first, made and entered as .ci/run does before it installs, then the two
+    commands in it, the second the one .ci/run runs), one picture that is in the repository, and
+    links into the documentation, each to a page that exists; the rest is on the pages."""
     text = (ROOT / "README.md").read_text()
     readme_blocks = [b.strip() for at, b in blocks() if at.startswith("README.md:")]
     assert len(text.splitlines()) <= 150, f"README.md has {len(text.splitlines())} lines: move some to docs/"
     assert readme_blocks == list(COMMANDS), readme_blocks
-    assert COMMANDS[1] in (ROOT / ".ci" / "run").read_text()
+    ci = (ROOT / ".ci" / "run").read_text()
+    made, entered = COMMANDS[0].split(" && ")
+    assert made in ci and entered in ci and ci.index(entered) < ci.index("pip install") and COMMANDS[2] in ci
     (picture,) = re.findall(r"!\[[^\]]*\]\(([^)\s]+)\)", text)
     assert (ROOT / picture).is_file(), picture
     links = re.findall(r"\]\((docs/[^)#\s]+)", text)

@@ -50,7 +50,6 @@ DEBTS: dict[str, int] = {
     "rig/identify/frequency.py::frequency_response": 73,
     "rig/identify/tune.py::tune": 70,
     "rig/papers/scenarios.py::cascade_run": 69,
-    "rig/sweep/spec.py::spec_from_doc": 74,
     "rig/view/app.py::make_app": 83,
 }
 

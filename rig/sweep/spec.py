@@ -244,37 +244,17 @@ def _sweep_table(source: str, table: Any) -> dict[str, Any]:
 
 def spec_from_doc(doc: dict[str, Any], source: str) -> SweepSpec:
     """A checked spec from a parsed TOML document (``source`` names it in errors); the values are
-    checked against the base by ``rig.sweep.point.check_values`` (``rig.sweep.load.load_spec`` does both)."""
+    checked against the base by ``rig.sweep.point.check_values`` (``rig.sweep.load.load_spec``
+    does both)."""
     unknown = sorted(set(doc) - {"sweep", "parameters", "fixed"})
     if unknown:
         raise ConfigError(f"{source}: unknown section(s) {unknown}; known: [sweep], [parameters], [fixed]")
     s = _sweep_table(source, doc.get("sweep"))
-    w = f"{source}: [sweep]"
-    name = s.get("name", "")
-    if not name or name in (".", "..") or "/" in name or "\\" in name:
-        raise ConfigError(f"{w} name = {name!r}: give a plain name (the sweep's folder under output)")
-    base, scenario = s.get("base", ""), s.get("scenario", "")
-    if bool(base) == bool(scenario):
-        raise ConfigError(f"{w}: give base (a rig run configuration) or scenario (a paper's simulation), one")
-    if base:  # absolute: a worker started in another folder finds it, and the files it names
-        base = str((Path(source).parent / base).resolve())
-    method = s.get("method", "grid")
-    if method not in METHODS:
-        raise ConfigError(f"{w} method = {method!r}: one of {', '.join(METHODS)}")
-    samples = s.get("samples", 0)
-    if method != "grid" and samples < 1:
-        raise ConfigError(f"{w} samples = {samples!r}: method {method} needs samples >= 1")
-    if method == "grid" and "samples" in s:
-        raise ConfigError(f"{w} samples: a grid takes every combination; give method = random or lhs")
-    for key in ("repeats",):
-        if s.get(key, 1) < 1:
-            raise ConfigError(f"{w} {key} = {s[key]!r}: must be >= 1")
-    for key in ("seed", "noise_seed"):
-        if s.get(key, 0) < 0:
-            raise ConfigError(f"{w} {key} = {s[key]!r}: must be >= 0")
+    name, base, scenario, method = _study(s, source)
+    samples = _counts(s, method, f"{source}: [sweep]")
     timeout = s.get("timeout", 300.0)
     if not (math.isfinite(timeout) and timeout > 0.0):
-        raise ConfigError(f"{w} timeout = {timeout!r}: must be a time > 0 s")
+        raise ConfigError(f"{source}: [sweep] timeout = {timeout!r}: must be a time > 0 s")
     params = _flatten(_table(source, "parameters", doc.get("parameters", {})))
     if not params:
         raise ConfigError(f"{source}: [parameters] is empty: name at least one parameter to vary")
@@ -285,20 +265,8 @@ def spec_from_doc(doc: dict[str, Any], source: str) -> SweepSpec:
         if p.is_range and method != "grid" and p.num:
             raise ConfigError(f"{source}: [parameters] {p.name!r}: num is a grid's; {method} draws samples")
     fixed = _flatten(_table(source, "fixed", doc.get("fixed", {})))
-    both = sorted(set(fixed) & set(params))
-    if both:
-        raise ConfigError(f"{source}: {both} both varied in [parameters] and set in [fixed]: give each once")
     metrics = s.get("metrics", [])
-    if not all(isinstance(m, str) and m for m in metrics):
-        raise ConfigError(f"{w} metrics = {metrics!r}: expected a list of names")
-    if set(params) & set(metrics):
-        raise ConfigError(f"{source}: {sorted(set(params) & set(metrics))} both a parameter and a metric")
-    for n in (*params, *metrics):
-        if n in RESERVED:
-            raise ConfigError(
-                f"{source}: {n!r} is a column of the results table; "
-                "the parameter or metric needs another name"
-            )
+    _names(source, params, fixed, metrics)
     return SweepSpec(
         source=source,
         name=name,
@@ -316,6 +284,55 @@ def spec_from_doc(doc: dict[str, Any], source: str) -> SweepSpec:
         parameters=parameters,
         fixed=fixed,
     )
+
+
+def _study(s: dict[str, Any], source: str) -> tuple[str, str, str, str]:
+    """[sweep]'s name, base (absolute) or scenario, and method, checked."""
+    w = f"{source}: [sweep]"
+    name = s.get("name", "")
+    if not name or name in (".", "..") or "/" in name or "\\" in name:
+        raise ConfigError(f"{w} name = {name!r}: give a plain name (the sweep's folder under output)")
+    base, scenario = s.get("base", ""), s.get("scenario", "")
+    if bool(base) == bool(scenario):
+        raise ConfigError(f"{w}: give base (a rig run configuration) or scenario (a paper's simulation), one")
+    if base:  # absolute: a worker started in another folder finds it, and the files it names
+        base = str((Path(source).parent / base).resolve())
+    method = s.get("method", "grid")
+    if method not in METHODS:
+        raise ConfigError(f"{w} method = {method!r}: one of {', '.join(METHODS)}")
+    return name, base, scenario, method
+
+
+def _counts(s: dict[str, Any], method: str, w: str) -> int:
+    """[sweep]'s samples (checked against the method), repeats and seeds checked: the samples."""
+    samples: int = s.get("samples", 0)
+    if method != "grid" and samples < 1:
+        raise ConfigError(f"{w} samples = {samples!r}: method {method} needs samples >= 1")
+    if method == "grid" and "samples" in s:
+        raise ConfigError(f"{w} samples: a grid takes every combination; give method = random or lhs")
+    if s.get("repeats", 1) < 1:
+        raise ConfigError(f"{w} repeats = {s['repeats']!r}: must be >= 1")
+    for key in ("seed", "noise_seed"):
+        if s.get(key, 0) < 0:
+            raise ConfigError(f"{w} {key} = {s[key]!r}: must be >= 0")
+    return samples
+
+
+def _names(source: str, params: dict[str, Any], fixed: dict[str, Any], metrics: Any) -> None:
+    """Each name once: varied or fixed, a parameter or a metric, none a column of the results."""
+    both = sorted(set(fixed) & set(params))
+    if both:
+        raise ConfigError(f"{source}: {both} both varied in [parameters] and set in [fixed]: give each once")
+    if not all(isinstance(m, str) and m for m in metrics):
+        raise ConfigError(f"{source}: [sweep] metrics = {metrics!r}: expected a list of names")
+    if set(params) & set(metrics):
+        raise ConfigError(f"{source}: {sorted(set(params) & set(metrics))} both a parameter and a metric")
+    for n in (*params, *metrics):
+        if n in RESERVED:
+            raise ConfigError(
+                f"{source}: {n!r} is a column of the results table; "
+                "the parameter or metric needs another name"
+            )
 
 
 def _table(source: str, name: str, value: Any) -> dict[str, Any]:
