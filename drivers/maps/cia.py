@@ -1,13 +1,11 @@
 """CANopen wire constants: CiA 301 (communication) and CiA 402 (drives); CiA 406 in ``cia406``.
 
-One definition for both sides of the wire: the host drivers (``drivers/``) and
-the emulated devices (``plant_emulator/``) import these names, so neither
-writes an object index, a statusword mask, a mode number or an NMT code as a
-literal. Object indices are module constants (the hot paths read them every
-cycle); states, modes and commands are enums.
+One definition for both sides of the wire: the host drivers (``drivers/``) and the emulated devices
+(``plant_emulator/``) import these names, so neither writes an object index, a statusword mask, a
+mode number or an NMT code as a literal. Object indices are module constants (the hot paths read
+them every cycle); states, modes and commands are enums.
 
-The manufacturer objects (0x2000-0x5FFF) here are the toolkit drive's own (``build_eds.py``).
-"""
+The manufacturer objects (0x2000-0x5FFF) here are the toolkit drive's own (``build_eds.py``)."""
 
 from __future__ import annotations
 
@@ -227,8 +225,7 @@ HOMING_SPEEDS = 0x6099  #: sub 1 search for switch, sub 2 search for zero [veloc
 HOMING_ACCELERATION = 0x609A
 SI_UNIT_POSITION = 0x60A8
 SI_UNIT_VELOCITY = 0x60A9
-#: interpolated position (ip): sub-mode select, data record (sub 1 a position), configuration (the buffer)
-INTERPOLATION_SUBMODE, INTERPOLATION_DATA, INTERPOLATION_CONFIG = 0x60C0, 0x60C1, 0x60C4
+INTERPOLATION_SUBMODE, INTERPOLATION_DATA, INTERPOLATION_CONFIG = 0x60C0, 0x60C1, 0x60C4  #: ip mode's
 INTERPOLATION_PERIOD = 0x60C2  #: sub 1 value, sub 2 index: the period is value x 10^index s
 INTERPOLATION_SYNC = 0x60C3  #: sub 1 synchronize on group (0: SYNC), sub 2 ip sync every n event
 FOLLOWING_ERROR_ACTUAL = 0x60F4
@@ -377,9 +374,8 @@ class Mode(enum.IntEnum):
     DQ_VOLTAGE = -2  #: dq voltage [mV] in DQ_VOLTAGE
 
 
-#: the bit of 0x6502 (SUPPORTED_MODES) for each mode number CiA 402-2 defines, on every drive:
-#: pp 1, vl 2, pv 3, tq 4, hm 6, ip 7, csp 8, csv 9, cst 10, cstca 11 (bit 4 and bits 11-15 are
-#: reserved; bits 16-31 are each vendor's own)
+#: the bit of 0x6502 (SUPPORTED_MODES) for each mode number CiA 402-2 defines, on every drive: pp 1,
+#: vl 2, pv 3, tq 4, hm 6, ip 7, csp 8, csv 9, cst 10, cstca 11 (bits 4, 11-15 reserved; 16-31 vendors')
 SUPPORTED_MODE_BITS = {1: 1 << 0, 2: 1 << 1, 3: 1 << 2, 4: 1 << 3, 6: 1 << 5, 7: 1 << 6}
 SUPPORTED_MODE_BITS |= {8: 1 << 7, 9: 1 << 8, 10: 1 << 9, 11: 1 << 10}
 
