@@ -20,9 +20,10 @@ import functools
 import pathlib
 from collections.abc import Iterator
 
+from tests.test_layers import modules
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TESTS = ROOT / "tests"
-PACKAGES = ("controllers", "drivers", "plant_emulator", "rig")
 
 #: calls that are checks themselves
 CHECKS = {"raises", "warns", "fail", "check_output", "check_call", "assert_allclose", "assert_array_equal"}
@@ -94,14 +95,8 @@ def test_every_test_reaches_a_check() -> None:
 
 @functools.cache
 def _project_modules() -> dict[str, ast.Module]:
-    found = {}
-    for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = list(path.relative_to(ROOT).with_suffix("").parts)
-            if parts[-1] == "__init__":
-                parts.pop()
-            found[".".join(parts)] = ast.parse(path.read_text(), str(path))
-    return found
+    """Every module of the four packages by dotted name (``tests.test_layers.modules``), parsed."""
+    return {name: ast.parse(path.read_text(), str(path)) for name, path in modules().items()}
 
 
 def bound_elsewhere(modules: dict[str, ast.Module]) -> dict[tuple[str, str], list[str]]:
