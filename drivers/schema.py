@@ -27,11 +27,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["MAX_PERIOD", "MIN_PERIOD", "Key", "Refused", "check_given", "key", "key_of", "keys"]
+__all__ = [
+    "MAX_PERIOD",
+    "MIN_PERIOD",
+    "Key",
+    "Refused",
+    "check_given",
+    "field_types",
+    "key",
+    "key_of",
+    "keys",
+]
 
 MIN_PERIOD = 1e-5  #: [s] the shortest cycle: a CAN frame alone takes 50 us at 1 Mbit/s
 MAX_PERIOD = 10.0  #: [s] the longest cycle a control loop (and an emulated motor) is run at
@@ -155,6 +166,12 @@ def keys(schema: Any) -> dict[str, dataclasses.Field[Any]]:
     fields = [f for f in dataclasses.fields(schema) if f.init]
     declared = [f for f in fields if key_of(f) is not None]
     return {f.name: f for f in (declared or fields)}
+
+
+def field_types(schema: type) -> dict[str, Any]:
+    """The fields of dataclass ``schema`` with their resolved types."""
+    hints = typing.get_type_hints(schema)
+    return {f.name: hints[f.name] for f in dataclasses.fields(schema)}
 
 
 def check_given(schema: Any, values: Mapping[str, Any], names: Iterable[str] | None = None) -> None:

@@ -12,16 +12,15 @@ A built dataclass is taken as it is. Rules between keys are the dataclasses' ``_
 
 from __future__ import annotations
 
-import dataclasses
 import types
 import typing
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
-from drivers.schema import Refused, check_given, key
-from plant_emulator.profiles import Profile, parse_profile
+from drivers.profiles import Profile, parse_profile
+from drivers.schema import Refused, check_given, field_types, key
 
-__all__ = ["NODE", "field_types", "load_torque", "node_key", "profile_text", "require_nodes", "with_params"]
+__all__ = ["NODE", "load_torque", "node_key", "profile_text", "require_nodes", "with_params"]
 
 T = TypeVar("T")
 PREFIX = "plant."  #: ``plant.a_m`` and ``a_m`` name the same parameter
@@ -29,12 +28,6 @@ PREFIX = "plant."  #: ``plant.a_m`` and ``a_m`` name the same parameter
 
 class _Mismatch(Exception):
     """The value is not of the field's type."""
-
-
-def field_types(schema: type) -> dict[str, Any]:
-    """The fields of dataclass ``schema`` with their resolved types."""
-    hints = typing.get_type_hints(schema)
-    return {f.name: hints[f.name] for f in dataclasses.fields(schema)}
 
 
 def _typed(kind: Any, value: object) -> object:
@@ -114,7 +107,7 @@ def require_nodes(obj: object, *names: str) -> None:
 
 
 def profile_text(text: str) -> None:
-    """``text`` is a load torque profile of ``plant_emulator.profiles`` (or ``none``); ValueError."""
+    """``text`` is a load torque profile of ``drivers.profiles`` (or ``none``); ValueError."""
     parse_profile(text)
 
 

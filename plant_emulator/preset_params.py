@@ -49,9 +49,7 @@ def _counts() -> Any:
 
 
 def _load() -> Any:
-    return key(
-        "none", "N m", "load torque of time, plant_emulator.profiles (e.g. sine:5:1)", check=profile_text
-    )
+    return key("none", "N m", "load torque of time, drivers.profiles (e.g. sine:5:1)", check=profile_text)
 
 
 @dataclass(frozen=True)
@@ -161,7 +159,7 @@ class DynoPreset:
     load: str = key(
         "none",
         "N m",
-        "emulator-internal load torque T_ext of time (plant_emulator.profiles)",
+        "emulator-internal load torque T_ext of time (drivers.profiles)",
         check=profile_text,
     )
     rated_current: float | None = _rating("A", "motor, 0x6075 (dc 10 A, im 4.6 A)", gt=0.0)

@@ -51,7 +51,7 @@ from collections.abc import Callable
 
 import can
 
-from plant_emulator.bus_time import DEFAULT_BITRATE, BusTime
+from drivers.bus_time import DEFAULT_BITRATE, BusTime
 from plant_emulator.lockstep import SyncHub
 from plant_emulator.socketcand_link import ClientLink, check_limits
 from plant_emulator.socketcand_protocol import (

@@ -3,8 +3,9 @@
 Every import counts, at module level or inside a function (a lazy import is still a dependency),
 read from the source with ``ast``. The levels, lowest first (``LEVELS``):
 
-- the libraries: ``drivers`` (the wire), then ``controllers`` (the papers' laws as pure
-  arithmetic) and ``plant_emulator`` (the other side of the wire);
+- the libraries: ``drivers`` (the wire, and what the host and the emulator share: time profiles,
+  CAN bit timing, typed keys; a run on a real bus loads no emulator module), then
+  ``controllers`` (the papers' laws as pure arithmetic) and ``plant_emulator`` (the other side of the wire);
 - ``rig.laws``: the control laws a run steps, each with its typed parameters, and the papers'
   constants they default to;
 - ``rig.config``: a run's configuration, read and checked once at load (a ``[controller]``

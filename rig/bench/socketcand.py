@@ -20,7 +20,7 @@ where a run is named, a real-time 1 kHz run of the section VII.B servo held at 0
   ``open_bus``, canopen) received them, first to last, and ``..._bus_per_s`` that of every
   frame on the bus meanwhile (the flood's, the reader's SDO requests and their answers,
   heartbeats: the flood's 0x7FF loses every arbitration to them), against
-  ``..._ceiling_per_s`` (the bit rate over the frame's 135 bits, ``plant_emulator.bus_time``);
+  ``..._ceiling_per_s`` (the bit rate over the frame's 135 bits, ``drivers.bus_time``);
   ``..._sdo_reads`` the SDO reads of 0x1000 the reader completed meanwhile, ``..._sdo_max_ms``
   the slowest, ``..._reader_dropped`` 1 if it lost its connection.
 
@@ -356,7 +356,7 @@ def _churn_figures(port: int) -> list[Figure]:
 
 def flood_ceiling(bitrate: float) -> float:
     """[frames/s] the flood's 8-byte frames a bus of ``bitrate`` [bit/s] carries at most."""
-    from plant_emulator.bus_time import frame_bits
+    from drivers.bus_time import frame_bits
 
     return bitrate / frame_bits(can.Message(arbitration_id=0x7FF, is_extended_id=False, dlc=8))
 

@@ -124,7 +124,7 @@ class AxisConfig:
     profile: str = key(
         "",
         "",
-        "commands the axis by this time profile instead of the law (plant_emulator.profiles)",
+        "commands the axis by this time profile instead of the law (drivers.profiles)",
         check=fmt.profile,
     )
     sync_rpdo: bool = key(

@@ -73,9 +73,9 @@ def register_map(name: str) -> None:
 
 
 def profile(text: str) -> None:
-    """A time profile of ``plant_emulator.profiles`` ("" : none)."""
+    """A time profile of ``drivers.profiles`` ("" : none)."""
     if text:
-        from plant_emulator.profiles import parse_profile
+        from drivers.profiles import parse_profile
 
         parse_profile(text)
 

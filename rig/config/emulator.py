@@ -63,6 +63,8 @@ def preset_params(
 
 def inverter_values(items: Mapping[str, Any], source: str, *, text: bool = False) -> dict[str, Any]:
     """The emulated Modbus inverter's parameters ``items`` typed and checked (its keys)."""
+    if not items:  # nothing to check: a run on a real bus loads no emulator
+        return {}
     from plant_emulator.inverter_model import InverterModel
 
     return typed_values(InverterModel, items, source, text=text)

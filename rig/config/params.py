@@ -29,8 +29,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from drivers.errors import ConfigError
-from drivers.schema import Refused, check_given, key_of, keys
-from plant_emulator.parameters import field_types
+from drivers.schema import Refused, check_given, field_types, key_of, keys
 
 __all__ = ["build", "field_types", "parse_items", "required", "typed_values"]
 

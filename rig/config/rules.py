@@ -98,9 +98,11 @@ def _emulated_period(cfg: Any) -> None:
 
 def _faults(cfg: Any) -> None:
     """Faults of the emulated CAN bus need an emulated CANopen device to act on."""
+    f, default = cfg.faults, type(cfg.faults)()
+    if f == default:  # none given: a run on a real bus loads no emulator
+        return
     from plant_emulator.faults import FAULT_NAMES
 
-    f, default = cfg.faults, type(cfg.faults)()
     given = [k for k in FAULT_NAMES if k != "seed" and getattr(f, k) != getattr(default, k)]
     if given and cfg.emulator.physics is None:
         raise ConfigError(

@@ -168,10 +168,10 @@ class EmulatorConfig:
         """The preset's parameters built (its dataclass; a twin's over its profile's), None without a
         preset; ``rig.config.emulator`` built and checked them at load (a copy made by
         ``dataclasses.replace`` builds its own)."""
-        from plant_emulator.presets import PRESETS
-
         if not (self.preset or self.device):
             return None
+        from plant_emulator.presets import PRESETS
+
         profile = self.profile
         name = profile.physics if profile else self.preset
         return PRESETS[name](**{**(profile.params if profile else {}), **self.params})
@@ -208,7 +208,7 @@ class ReferenceConfig:
     duration: float = key(1.0, "s", "smooth-move: the move's duration", gt=0.0)
     start: float = key(0.0, "s", "smooth-move and step: when it starts")
     value: float = key(0.0, "", "step and constant: the value")
-    profile: str = key("", "", "profile: a time profile (plant_emulator.profiles)", check=fmt.profile)
+    profile: str = key("", "", "profile: a time profile (drivers.profiles)", check=fmt.profile)
     origin: Literal["start", "zero"] = key(
         "start",
         "",

@@ -27,8 +27,8 @@ from typing import Any
 import can
 import canopen
 
+from drivers.bus_time import DEFAULT_BITRATE
 from drivers.errors import CommunicationError, ConfigError
-from plant_emulator.bus_time import DEFAULT_BITRATE
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.clock import WorldClock
 from plant_emulator.lockstep import SyncHub, attach_network

@@ -2,7 +2,7 @@
 
 Each period the bus carries a SYNC (0 bytes, whoever sends it) and every CANopen axis's frames
 of the cycle (``CanopenAxis.cycle_frames``: its TPDOs, and a drive's RPDO, from the mapping in
-force), each for ``plant_emulator.bus_time.data_frame_bits`` (worst-case bit stuffing, Davis et
+force), each for ``drivers.bus_time.data_frame_bits`` (worst-case bit stuffing, Davis et
 al. 2007) at the bit rate. ``bus_load`` is that over the period's bit times; above 1 the
 frames of a cycle cannot all be on the bus within it, so answers queue and cycles come late:
 the run goes on (the figure is a bound: real data stuff about 10 % fewer bits, and late cycles
@@ -16,8 +16,8 @@ import logging
 from collections.abc import Sequence
 from typing import Any
 
+from drivers.bus_time import DEFAULT_BITRATE, data_frame_bits
 from drivers.canopen_axis import CanopenAxis
-from plant_emulator.bus_time import DEFAULT_BITRATE, data_frame_bits
 
 __all__ = ["bus_load", "warn_bus_load"]
 

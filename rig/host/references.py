@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from plant_emulator.profiles import parse_profile
+from drivers.profiles import parse_profile
 from rig.config import ReferenceConfig
 from rig.laws.base import Reference
 

@@ -27,7 +27,7 @@ import math
 import shutil
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from drivers.base import AxisDriver
 from drivers.bus import ReceiveWatch, open_bus, scan_command
@@ -35,12 +35,11 @@ from drivers.canopen_axis import CanopenAxis
 from drivers.errors import ConfigError, NodeSilent, RigError
 from drivers.master_watch import MasterWatch, OtherMaster
 from drivers.producer_watch import ProducerWatch
-from plant_emulator.profiles import parse_profile
+from drivers.profiles import parse_profile
 from rig.config import RigConfig
 from rig.host.axes import open_axis
 from rig.host.bus_load import bus_load, warn_bus_load
 from rig.host.columns import describe_columns
-from rig.host.emulation import Emulation
 from rig.host.heartbeat import HostHeartbeat
 from rig.host.injected import with_injected_faults
 from rig.host.loop import HostLoop, Wiring
@@ -64,6 +63,9 @@ from rig.host.trace import TracedNetwork, attach_received, detach_received
 from rig.laws import Law, make_law
 from rig.live.channels import channels_of
 from rig.live.view import LiveView
+
+if TYPE_CHECKING:  # a run on a real bus loads no plant_emulator module
+    from rig.host.emulation import Emulation
 
 __all__ = ["Session", "build_law", "run_config"]
 
@@ -162,7 +164,9 @@ class Session:
     def _transports(self) -> None:
         cfg = self.cfg
         if self.emulate:
-            self.emulation = Emulation(cfg)
+            from rig.host import emulation  # the emulator only where it runs
+
+            self.emulation = emulation.Emulation(cfg)
             self.network: Any = self.emulation.network
             return
         self.network = TracedNetwork()

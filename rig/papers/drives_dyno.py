@@ -13,7 +13,7 @@ import numpy as np
 
 from controllers.idtsm import IDTSM, IDTSMParams
 from controllers.pi import PI, PIParams
-from plant_emulator.profiles import parse_profile
+from drivers.profiles import parse_profile
 from rig.config import rig_config
 from rig.laws import drives_paper as drives
 from rig.papers.drives_setup import EXACT, DrivesStudy, Signals, bus_run

@@ -5,7 +5,7 @@ from __future__ import annotations
 import can
 import pytest
 
-from plant_emulator.bus_time import BusTime, frame_bits
+from drivers.bus_time import BusTime, frame_bits
 
 
 @pytest.mark.parametrize(

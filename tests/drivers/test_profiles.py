@@ -1,4 +1,4 @@
-"""Time profiles written as text (``plant_emulator.profiles``)."""
+"""Time profiles written as text (``drivers.profiles``)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from drivers.profiles import parse_profile
 from plant_emulator.parameters import load_torque
-from plant_emulator.profiles import parse_profile
 
 T = np.linspace(-1.0, 12.0, 2601)
 
