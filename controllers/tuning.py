@@ -256,9 +256,19 @@ def cascade_response(
     return c_theta, c_w
 
 
+#: a margin this close to 0 (dB, deg) is at the stability boundary within what a frequency
+#: response on a grid, or a measured one, resolves: the loop is marginal
+GM_BOUNDARY = 0.1
+PM_BOUNDARY = 1.0
+
+
 @dataclass(frozen=True)
 class Margins:
-    """Stability margins of a loop gain L on a frequency grid; None where L does not cross."""
+    """Stability margins of a loop gain L on a frequency grid; None where L does not cross.
+
+    A gain margin of 0 dB or less is reported as it is (|L| >= 1 at -180 deg: the loop is at or
+    beyond the stability boundary), as python-control's ``stability_margins`` does.
+    """
 
     gain_margin_db: float | None  #: -20 log10 |L| at the phase crossover (-180 deg) [dB]
     phase_crossover_hz: float | None  #: [Hz]
@@ -266,13 +276,34 @@ class Margins:
     crossover_hz: float | None  #: gain crossover |L| = 1 [Hz]
     delay_margin: float | None  #: PM / omega_c [s]: the extra delay the loop tolerates
 
-    def as_dict(self) -> dict[str, float | None]:
+    @property
+    def verdict(self) -> str | None:
+        """The loop's stability read from the margins' signs.
+
+        As Nyquist's criterion reads them for a loop with one gain crossover and no unstable
+        pole but its integrators (the laws ``rig tune`` designs).
+
+        Returns
+        -------
+        str or None
+            "unstable" (a margin below 0 by more than ``GM_BOUNDARY`` dB or ``PM_BOUNDARY``
+            deg), "marginal" (one within that of 0), "stable" (both above), or None (not known:
+            no gain crossover, and no gain margin at or below 0 dB).
+        """
+        gm, pm = self.gain_margin_db, self.phase_margin_deg
+        if (pm is not None and pm < -PM_BOUNDARY) or (gm is not None and gm < -GM_BOUNDARY):
+            return "unstable"
+        if (pm is not None and abs(pm) <= PM_BOUNDARY) or (gm is not None and abs(gm) <= GM_BOUNDARY):
+            return "marginal"
+        return None if pm is None else "stable"
+
+    def as_dict(self) -> dict[str, float | str | None]:
         """The margins as plain data.
 
         Returns
         -------
         dict
-            Each field by its name (None where L does not cross).
+            Each field by its name (None where L does not cross), and ``verdict``.
         """
         return {
             "gain_margin_db": self.gain_margin_db,
@@ -280,6 +311,7 @@ class Margins:
             "phase_margin_deg": self.phase_margin_deg,
             "crossover_hz": self.crossover_hz,
             "delay_margin": self.delay_margin,
+            "verdict": self.verdict,
         }
 
 
@@ -290,11 +322,21 @@ def _cross(x: np.ndarray, y: np.ndarray, i: int, level: float) -> float:
     return float(np.exp(lx[0] + s * (lx[1] - lx[0])))
 
 
+def _at(f: np.ndarray, y: np.ndarray, i: int, fx: float) -> float:
+    """y at ``fx`` between samples i and i + 1 (linear in log f)."""
+    s = (math.log(fx) - math.log(f[i])) / (math.log(f[i + 1]) - math.log(f[i]))
+    return float(y[i] + s * (y[i + 1] - y[i]))
+
+
 def margins(f: np.ndarray, loop: np.ndarray) -> Margins:
     """The stability margins of a sampled loop gain.
 
-    The gain crossover is the highest where |L| falls through 1; the gain margin is the least
-    -20 log|L| where the phase falls through -180 deg (mod 360) with |L| < 1.
+    The gain crossover is the highest where |L| falls through 1; the gain margin is -20 log|L|
+    where the phase falls through -180 deg (mod 360), the least where it does so several times
+    (the first a growing gain takes to the boundary), negative where |L| > 1 there: the loop is
+    then beyond the boundary. A phase rising through -180 deg at |L| > 1 (the low frequencies
+    of a loop with more than two integrators, the cascade's) is a conditional stability's lower
+    margin, not counted.
 
     Parameters
     ----------
@@ -316,9 +358,7 @@ def margins(f: np.ndarray, loop: np.ndarray) -> Margins:
     if len(down):
         i = int(down[-1])
         crossover = _cross(f, mag, i, 0.0)
-        s = (math.log(crossover) - math.log(f[i])) / (math.log(f[i + 1]) - math.log(f[i]))
-        at = phase[i] + s * (phase[i + 1] - phase[i])
-        pm = float((at + 180.0 + 180.0) % 360.0 - 180.0)
+        pm = float((_at(f, phase, i, crossover) + 180.0 + 180.0) % 360.0 - 180.0)
         delay = math.radians(pm) / (2.0 * math.pi * crossover)
     gm = phase_x = None
     for i in range(len(f) - 1):
@@ -326,8 +366,7 @@ def margins(f: np.ndarray, loop: np.ndarray) -> Margins:
         level = -180.0 + 360.0 * k
         if phase[i + 1] < level <= phase[i]:
             fx = _cross(f, phase, i, level)
-            s = (math.log(fx) - math.log(f[i])) / (math.log(f[i + 1]) - math.log(f[i]))
-            m = mag[i] + s * (mag[i + 1] - mag[i])
-            if m < 0.0 and (gm is None or -m < gm):
-                gm, phase_x = float(-m), fx
+            m = -_at(f, mag, i, fx)
+            if gm is None or m < gm:
+                gm, phase_x = m, fx
     return Margins(gm, phase_x, pm, crossover, delay)

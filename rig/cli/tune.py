@@ -104,6 +104,7 @@ def _margins(m: dict[str, Any]) -> str:
 
     return (
         f"phase {num('phase_margin_deg', '.1f')} deg at {num('crossover_hz', '.3g')} Hz, "
-        f"gain {num('gain_margin_db', '.1f')} dB at {num('phase_crossover_hz', '.3g')} Hz, "
+        f"gain {num('gain_margin_db', '.2f')} dB at {num('phase_crossover_hz', '.4g')} Hz, "
         f"delay {'none' if m['delay_margin'] is None else format(1e3 * m['delay_margin'], '.3g')} ms"
+        f"{'' if m.get('verdict') is None else ': ' + m['verdict']}"
     )

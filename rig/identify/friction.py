@@ -29,7 +29,7 @@ determine it), or when |corr(c, d)| > 0.99.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -47,6 +47,7 @@ from rig.identify.estimate import (
 
 __all__ = [
     "FrictionResult",
+    "count_reversals",
     "estimate_friction",
     "friction_excitation",
     "identify_with_friction",
@@ -77,7 +78,7 @@ class FrictionResult:
     d_stderr: float
     delay_samples: int
     input: str
-    reversals: int  #: sign changes of the speed in the data
+    reversals: int  #: sign changes of the speed in the record (all of it, the held-out part too)
     #: the part of a period the input's change takes on top of ``delay_samples`` [-]
     delay_fraction: float = 0.0
 
@@ -220,8 +221,7 @@ def _fit(
     import scipy.optimize
 
     s = speed_signs(theta, quantum(theta))
-    moving = s[s != 0.0]
-    reversals = int(np.count_nonzero(np.diff(moving))) if len(moving) else 0
+    reversals = _sign_changes(s)
     k0, (w0, a, b, c, d) = _start(u, theta, s, dt, max_delay)
     if not a > 0.0:
         a = 1e-3 / (dt * len(u))  # no viscous term seen: start near zero, alpha < 1
@@ -282,11 +282,20 @@ def estimate_friction(
     return _result(p, se, cov, k, reversals=reversals, input=input)
 
 
+def _sign_changes(s: np.ndarray) -> int:
+    """How often the signs ``s`` change, their zeros (at rest) left out."""
+    moving = s[s != 0.0]
+    return int(np.count_nonzero(np.diff(moving))) if len(moving) else 0
+
+
+def count_reversals(theta: np.ndarray) -> int:
+    """How often the speed (from the position, ``speed_signs``) changes sign in the record."""
+    return _sign_changes(speed_signs(theta, quantum(theta)))
+
+
 def reverses(theta: np.ndarray) -> bool:
     """The speed (from the position, ``speed_signs``) changes sign in the record."""
-    s = speed_signs(theta, quantum(theta))
-    moving = s[s != 0.0]
-    return bool(len(moving) and np.any(np.diff(moving)))
+    return count_reversals(theta) > 0
 
 
 def one_sign_result(input: str) -> FrictionResult:
@@ -335,8 +344,9 @@ def identify_with_friction(
     u, theta = np.asarray(u, dtype=float), np.asarray(theta, dtype=float)
     _check(u, theta, input)
     n_fit = int(len(u) * (1.0 - holdout))
-    p, se, cov, k, reversals, _ = _fit(u[:n_fit], theta[:n_fit], dt, max_delay)
-    friction = _result(p, se, cov, k, reversals=reversals, input=input)
+    p, se, cov, k, fitted_reversals, _ = _fit(u[:n_fit], theta[:n_fit], dt, max_delay)
+    friction = _result(p, se, cov, k, reversals=fitted_reversals, input=input)
+    friction = replace(friction, reversals=count_reversals(theta))  # the record's, not the fitted part's
     fit_pct, residual, floor = held_out_fit(theta, np.gradient(_simulate(p, u, dt, k), dt), n_fit, dt)
     a_m, b_m = friction.a, friction.b
     result = IdentResult(

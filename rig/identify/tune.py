@@ -11,10 +11,12 @@ L = C_theta P_theta + C_w P_w is then formed twice:
   (coherence >= 0.9) is used;
 - on the MODEL, (3.5) with a ZOH and the identified delay, from 0.1 Hz to Nyquist.
 
-The margins of both are reported (``controllers.tuning.margins``); a warning says when the
-crossover leaves the coherent band (the measured margins are then not known), when there is
-no measured response, or when a margin is below what a drives engineer accepts (45 deg,
-6 dB). The design document is what ``[controller] design = "FILE"`` runs: ``law`` (the
+The margins of both are reported (``controllers.tuning.margins``, with a gain margin of 0 dB or
+less where the loop is at or beyond the stability boundary, and each loop's verdict: stable,
+marginal or unstable); a warning says when the crossover leaves the coherent band (the measured
+margins are then not known), when there is no measured response, when the design is marginal
+or unstable on either response, or when a margin is below what a drives engineer accepts
+(45 deg, 6 dB). The design document is what ``[controller] design = "FILE"`` runs: ``law`` (the
 ``[controller] kind``), ``params`` (its parameters), and a_m, b_m, dt, input.
 """
 
@@ -154,6 +156,41 @@ def _measured_loop(
     return f[keep], c_theta * p_theta[keep] + c_w * p_w[keep], speed, band
 
 
+def _margin_warnings(measured: Any, model: Any) -> list[str]:
+    """The warnings of each loop's margins: at or beyond the boundary, or below PM_MIN, GM_MIN."""
+    out: list[str] = []
+    for name, m in (("measured", measured), ("model", model)):
+        if m is None:
+            continue
+        if m.verdict in ("marginal", "unstable"):
+            out.append(_boundary(name, m))
+            continue
+        if m.phase_margin_deg is not None and m.phase_margin_deg < PM_MIN:
+            out.append(f"the {name} phase margin is {m.phase_margin_deg:.1f} deg (< {PM_MIN:g} deg)")
+        if m.gain_margin_db is not None and m.gain_margin_db < GM_MIN:
+            out.append(f"the {name} gain margin is {m.gain_margin_db:.1f} dB (< {GM_MIN:g} dB)")
+    return out
+
+
+def _boundary(name: str, m: Any) -> str:
+    """The warning of a loop at or beyond the stability boundary (``Margins.verdict``)."""
+    where = "at" if m.verdict == "marginal" else "beyond"
+    gm = (
+        "no phase crossover"
+        if m.gain_margin_db is None
+        else f"gain margin {m.gain_margin_db:.2f} dB at {m.phase_crossover_hz:.6g} Hz"
+    )
+    pm = (
+        "no gain crossover (|L| > 1 throughout)"
+        if m.phase_margin_deg is None
+        else f"phase margin {m.phase_margin_deg:.3g} deg at {m.crossover_hz:.6g} Hz"
+    )
+    return (
+        f"the design is {m.verdict} on the {name} response ({where} the stability boundary): {gm}, {pm}; "
+        "the closed loop oscillates near the phase crossover or diverges"
+    )
+
+
 def tune(source: str | Path, req: TuneRequest) -> dict[str, Any]:
     """The design document of ``req`` on the identification ``source`` (identification.json
     or its run directory): law, params, a_m, b_m, dt, input, margins (measured, model),
@@ -199,13 +236,7 @@ def tune(source: str | Path, req: TuneRequest) -> dict[str, Any]:
                 "its measured margins are not known; lower the bandwidth or measure further "
                 "(--f-max, a larger --amplitude, a longer --duration)"
             )
-    for name, m in (("measured", measured), ("model", model)):
-        if m is None:
-            continue
-        if m.phase_margin_deg is not None and m.phase_margin_deg < PM_MIN:
-            warnings.append(f"the {name} phase margin is {m.phase_margin_deg:.1f} deg (< {PM_MIN:g} deg)")
-        if m.gain_margin_db is not None and m.gain_margin_db < GM_MIN:
-            warnings.append(f"the {name} gain margin is {m.gain_margin_db:.1f} dB (< {GM_MIN:g} dB)")
+    warnings += _margin_warnings(measured, model)
     return {
         "law": req.law,
         "params": params,

@@ -27,8 +27,15 @@ def test_margins_of_an_integrator_with_a_delay() -> None:
     assert m.phase_crossover_hz == pytest.approx(1.0 / (4 * tau), rel=1e-4)
     assert m.gain_margin_db == pytest.approx(-20 * math.log10(2 * k * tau / math.pi), abs=0.01)
     assert m.delay_margin == pytest.approx(math.radians(m.phase_margin_deg) / k, rel=1e-4)
+    assert m.verdict == "stable"
+    # beyond the boundary: |L| > 1 at the first -180 deg, a negative gain margin (was None)
     unstable = tuning.margins(f, 2000.0 * np.exp(-s * tau) / s)
-    assert unstable.phase_margin_deg < 0.0  # |L| > 1 at the first -180 deg: no margin there
+    assert unstable.phase_margin_deg < 0.0 and unstable.verdict == "unstable"
+    assert unstable.gain_margin_db == pytest.approx(-20 * math.log10(2 * 2000.0 * tau / math.pi), abs=0.01)
+    assert unstable.phase_crossover_hz == pytest.approx(1.0 / (4 * tau), rel=1e-4)
+    # at the boundary, K = pi / (2 tau): 0 dB at the phase crossover
+    edge = tuning.margins(f, math.pi / (2 * tau) * np.exp(-s * tau) / s)
+    assert edge.gain_margin_db == pytest.approx(0.0, abs=0.01) and edge.verdict == "marginal"
 
 
 def test_pi_from_bandwidth_crosses_over_there_on_the_continuous_plant() -> None:

@@ -106,3 +106,42 @@ def test_estimates_over_seeds(seed: int) -> None:
         assert si["inertia"] == pytest.approx(j, rel=0.02)
         assert si["viscous"] == pytest.approx(viscous, rel=0.02)
         assert si["coulomb"] == pytest.approx(coulomb, rel=0.02)
+
+
+def _emulated_voltage_mode(
+    a_m: float, b_m: float, viscous: float, coulomb: float, seed: int
+) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """(u, theta, sign changes of the speed, T_c R / k_t [V]): the dc-servo preset's motor (its
+    0.1 ms armature lag) as the emulated drive runs it in voltage mode, one exact step a period
+    with the command of the period before, on friction_excitation of 2 V; a 4096-count encoder."""
+    from plant_emulator.preset_params import preset_params
+    from plant_emulator.presets import _dc_axis
+
+    p = preset_params("dc-servo", {"a_m": a_m, "b_m": b_m, "friction": viscous, "coulomb": coulomb})
+    axis, _ = _dc_axis(p, period=p.period)
+    u = friction_excitation(amplitude=2.0, clock=0.25, dt=p.period, duration=10.0, seed=seed)
+    theta, w = np.empty(len(u)), np.empty(len(u))
+    for n in range(len(u)):
+        theta[n], w[n] = axis.position, axis.velocity
+        axis.set_command(-1, u[n - 1] if n else 0.0)
+        axis.advance(p.period, n * p.period)
+    moving = np.sign(w[w != 0.0])
+    q = 2.0 * math.pi / 4096
+    return (
+        u,
+        np.floor(theta / q) * q,
+        int(np.count_nonzero(np.diff(moving))),
+        coulomb * p.r_r / axis.motor.k_t,
+    )
+
+
+def test_reversals_counts_every_sign_change_of_the_speed() -> None:
+    """``reversals`` counts the sign changes of the speed over the whole record: the emulated
+    drive's speed changes sign 13 times here, 7 of them in the first 70 % that the friction model
+    is fitted on (it said 7). The Coulomb friction, in volts, within 2 % of T_c R / k_t."""
+    from rig.identify.friction import identify_with_friction
+
+    u, theta, changes, volts = _emulated_voltage_mode(16.0, 680.0, 7e-5, 0.002, 0)
+    _, f = identify_with_friction(u, theta, 4e-4, input="voltage")
+    assert changes == 13 and f.reversals == changes
+    assert f.separable and f.si()["coulomb_voltage"] == pytest.approx(volts, rel=0.02)

@@ -103,13 +103,15 @@ def test_a_bandwidth_beyond_the_coherent_band_is_warned(
     identified: pathlib.Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """(7.30)'s linear mode reaches in one period (g/T): its crossover is near 420 Hz, above the
-    encoder's coherent band, and with the synchronous RPDO's period of delay it has no phase
-    margin left: both said."""
+    encoder's coherent band, and with the synchronous RPDO's period of delay it has no margin
+    left (0 dB of gain margin at 415 Hz, was none): both said."""
     doc, err = _tune(capsys, "position-servo", "--lam", "-15", "--from-identify", str(identified))
-    assert "leaves the coherent band 10 .. " in err and "the model phase margin is" in err, err
+    assert "leaves the coherent band 10 .. " in err and "the design is marginal on the model" in err, err
     assert doc["margins"]["measured"]["phase_margin_deg"] is None
+    model = doc["margins"]["model"]
+    assert model["crossover_hz"] > 300.0 and model["phase_margin_deg"] < 10
     assert (
-        doc["margins"]["model"]["crossover_hz"] > 300.0 and doc["margins"]["model"]["phase_margin_deg"] < 10
+        model["gain_margin_db"] == pytest.approx(0.0, abs=0.1) and 400.0 < model["phase_crossover_hz"] < 420
     )
     assert (
         main(["tune", "position-servo", "--lam", "-15", "--from-identify", str(identified), "--strict"]) == 5
@@ -235,3 +237,78 @@ def test_a_design_is_for_its_law(
     config.write_text(text)
     with pytest.raises(ConfigError, match=r"kp also given in \[controller\]"):
         load_config(config)
+
+
+def _servo_loop_by_python_control(a: float, b: float, dt: float, lam: float, h: float) -> tuple:
+    """(C_theta, C_w, P_theta, P_w) of (7.30)'s linear mode on (3.5) with a ZOH and a period's
+    delay, as python-control's discrete transfer functions (sample_system, not this package's
+    responses): the position b/(s (s + a)) and the speed b/(s + a) sampled at the same instants."""
+    import control
+
+    from controllers.design import design_dtsm
+
+    d = design_dtsm(A=[[0.0, 1.0], [0.0, -a]], b=[0.0, -b], dt=dt, lam=lam)
+    (c1, c2), (k1, k2) = d.c_delta, d.c_delta_A_delta
+    z = control.tf([1.0, 0.0], [1.0], dt)
+    gain = 1.0 / dt + h * z / (z - 1)
+    delay = control.tf([1.0], [1.0, 0.0], dt)
+    p_theta = control.sample_system(control.tf([b], [1.0, a, 0.0]), dt, "zoh") * delay
+    p_w = control.sample_system(control.tf([b], [1.0, a]), dt, "zoh") * delay
+    return -(k1 + gain * c1), -(k2 + gain * c2), p_theta, p_w
+
+
+def _measured(tmp_path: pathlib.Path, a: float, b: float, plant_b: float) -> pathlib.Path:
+    """identification.json of (a, b) at 0.4 ms with a period's delay, and a frequency response,
+    coherent up to Nyquist, of the plant (a, ``plant_b``) built by python-control."""
+    import control
+
+    dt = 4e-4
+    _, _, p_theta, p_w = _servo_loop_by_python_control(a, plant_b, dt, -15.0, 16.0)
+    f = np.geomspace(10.0, 0.499 / dt, 1500)
+    th, w = (control.frequency_response(p, 2 * np.pi * f) for p in (p_theta, p_w))
+    resp = {
+        "frequency": f.tolist(),
+        "coherence": [1.0] * len(f),
+        "velocity_coherence": [1.0] * len(f),
+        "coherence_min": 0.9,
+        "coherent_band": [float(f[0]), float(f[-1])],
+    }
+    for name, r in (("position", th), ("velocity", w)):
+        resp[f"{name}_magnitude_db"] = (20 * np.log10(r.magnitude)).tolist()
+        resp[f"{name}_phase_deg"] = np.degrees(np.unwrap(r.phase)).tolist()
+    doc = {"a_m": a, "b_m": b, "dt": dt, "delay_samples": 1, "frequency_response": resp}
+    (tmp_path / "identification.json").write_text(json.dumps(doc))
+    return tmp_path
+
+
+@pytest.mark.parametrize("plant_b,verdict", [(681.4, "marginal"), (2 * 681.4, "unstable")])
+def test_a_loop_at_or_beyond_the_boundary_has_its_gain_margin(
+    tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], plant_b: float, verdict: str
+) -> None:
+    """(7.30) at lambda = -15 on (3.5) with a period's delay reaches in one period: its loop is
+    at the stability boundary (phase margin -0.6 deg at 418 Hz). The gain margin is there, 0 dB
+    or below with its frequency (was None), the one python-control's stability_margins finds on
+    the loop it builds itself; the measured response of a plant of twice the b_m puts the design
+    beyond the boundary (-6 dB) while the model leaves it marginal: both said."""
+    import control
+
+    a, b, dt = 16.02, 681.4, 4e-4
+    doc, err = _tune(
+        capsys, "position-servo", "--lam", "-15", "--from-identify", str(_measured(tmp_path, a, b, plant_b))
+    )
+    for name, plant in (("model", b), ("measured", plant_b)):
+        c_theta, c_w, _, _ = _servo_loop_by_python_control(a, b, dt, -15.0, 16.0)  # designed on b
+        _, _, p_theta, p_w = _servo_loop_by_python_control(a, plant, dt, -15.0, 16.0)
+        gm, pm, _, wg, wc, _ = control.stability_margins(c_theta * p_theta + c_w * p_w)
+        m = doc["margins"][name]
+        assert m["gain_margin_db"] == pytest.approx(20 * np.log10(gm), abs=0.01), (name, m)
+        assert m["gain_margin_db"] <= 0.0 and m["verdict"] == ("marginal" if name == "model" else verdict)
+        assert m["phase_crossover_hz"] == pytest.approx(wg / (2 * np.pi), rel=1e-3)
+        if m["crossover_hz"] is not None:  # twice the b_m: |L| > 1 up to Nyquist, no gain crossover
+            assert m["phase_margin_deg"] == pytest.approx(pm, abs=0.05)
+            assert m["crossover_hz"] == pytest.approx(wc / (2 * np.pi), rel=1e-3)
+        assert f"the design is {m['verdict']} on the {name} response" in err, err
+    assert main(["tune", "position-servo", "--lam", "-15", "--from-identify", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "margins on the measured plant (coherent band 10 .. 1247.5 Hz): phase" in out
+    assert f"dB at {doc['margins']['measured']['phase_crossover_hz']:.4g} Hz" in out and verdict in out
