@@ -52,6 +52,7 @@ from drivers.maps.cia import (
 from drivers.maps.od import load_od
 from plant_emulator.device_hooks import DeviceHooks
 from plant_emulator.frame import Frame
+from plant_emulator.lss_slave import UNCONFIGURED, check_node_id, lss_slave
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.param_store import ParameterStore
 from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
@@ -81,9 +82,7 @@ class EmulatedNode(Supervision, DeviceHooks):
     """
 
     def __init__(self, node_id: int, eds: str, network: canopen.Network) -> None:
-        if node_id not in cia.NODE_IDS:
-            raise ValueError(f"node id must be 1..127, got {node_id!r}")
-        self.node_id = node_id
+        self.node_id = check_node_id(node_id)
         net: Any = network  # canopen's callback types say bytearray; frames are bytes
         local: Any = StoreNode(node_id, load_od(eds, node_id))
         local.sdo = SdoServer(local.sdo.rx_cobid, local.sdo.tx_cobid, local)  # CiA 301's end of a transfer
@@ -104,7 +103,8 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
         self.node.add_write_callback(self._on_write)
         cached = self.od.values  # what ObjectStore.forget drops, without its call per object stored
-        self.params = ParameterStore(local.object_dictionary, self.od.raw)  #: 0x1010/0x1011
+        self.params = ParameterStore(local.object_dictionary, self.od.raw, lambda: self._power_on)
+        self.lss = lss_slave(self)  #: CiA 305, where its EDS says so or it has no node-ID yet
 
         def stored(index: int, subindex: int) -> None:
             cached.pop((index, subindex), None)
@@ -149,24 +149,25 @@ class EmulatedNode(Supervision, DeviceHooks):
         return self.node.nmt._state  # type: ignore[no-any-return]
 
     def boot(self) -> None:
-        """Power on: INITIALISING, boot-up message, PRE-OPERATIONAL.
-
-        The object dictionary as it is now (defaults plus the preset's device-side
-        writes) is what the NMT resets restore until parameters are stored (0x1010,
-        ``plant_emulator.param_store``).
-        """
+        """Power on: INITIALISING, boot-up, PRE-OPERATIONAL (``_start``); the dictionary as it is now
+        is what the NMT resets restore until parameters are stored (``plant_emulator.param_store``)."""
         if self._power_on is None:
-            self._power_on = {i: dict(subs) for i, subs in self.node.data_store.items()}
-            self.params.power_on(self._power_on)
+            self._power_on = self.params.power_on(self.node.data_store)
         self.node.nmt._state = INITIALISING
         self.on_reset(application=True)
-        self._send(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
-        self.node.nmt._state = PRE_OPERATIONAL
-        self._dirty = True
-        self._configure()
+        self._start()
         self._last_heartbeat = self.clock
 
+    def _start(self) -> None:  # boot-up, PRE-OPERATIONAL; without a node-ID INITIALISING (LSS only)
+        self._dirty = True
+        if self.node_id != UNCONFIGURED:
+            self._send(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
+            self.node.nmt._state = PRE_OPERATIONAL
+        self._configure()
+
     def _on_nmt(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self.node_id == UNCONFIGURED:  # no NMT slave until it has a node-ID (CiA 305)
+            return
         if len(data) != 2:
             log.warning("node %d: NMT frame of %d bytes ignored", self.node_id, len(data))
             return
@@ -186,7 +187,9 @@ class EmulatedNode(Supervision, DeviceHooks):
         self._configure()
 
     def reset(self, *, comm_only: bool = False) -> None:
-        """NMT reset node (or communication): restore the power-on values, boot-up, PRE-OPERATIONAL."""
+        """NMT reset node (or communication): the node-ID pending (LSS), power-on values, boot-up."""
+        if self.lss is not None:
+            self.lss.on_reset(application=not comm_only)
         stored = self._power_on or {}
         for index in list(self.node.data_store):
             if not comm_only or index in COMMUNICATION_AREA:
@@ -199,10 +202,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.node.nmt._state = INITIALISING
         if not comm_only:
             self.on_reset(application=True)
-        self._send(COB_HEARTBEAT + self.node_id, bytes([BOOT_UP]))
-        self.node.nmt._state = PRE_OPERATIONAL
-        self._dirty = True
-        self._configure()
+        self._start()
 
     def tick(self, now: float) -> None:
         """Advance the device clock to ``now`` [s]: heartbeat and event timers."""
@@ -211,7 +211,7 @@ class EmulatedNode(Supervision, DeviceHooks):
             self._answer_sdo(now)
         nmt = self.node.nmt
         period = self.od.read(cia.PRODUCER_HEARTBEAT, 0) / 1000.0  # ms -> s
-        if period > 0.0 and now - self._last_heartbeat >= period - 1e-9:
+        if period > 0.0 and now - self._last_heartbeat >= period - 1e-9 and nmt._state != INITIALISING:
             self._last_heartbeat = now
             self._send(COB_HEARTBEAT + self.node_id, bytes([nmt._state]))
         if nmt._state == OPERATIONAL:
@@ -250,8 +250,8 @@ class EmulatedNode(Supervision, DeviceHooks):
             self._dirty = True
         if index == cia.COB_ID_SYNC:
             self._dirty = True
-        if self.params.handles(index) and self._power_on is not None:
-            self.params.on_write(index, subindex, bytes(data), self._power_on)
+        if self.params.handles(index):  # 0x1010/0x1011: into (from) the image a reset restores
+            self.params.on_write(index, subindex, bytes(data))
         self.on_write(index, subindex, data)
 
     # --- object dictionary access ----------------------------------------
@@ -393,7 +393,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.tick(now)
 
     def emcy(self, code: int, register: int, data: bytes = b"") -> None:
-        """Send an EMCY (not in STOPPED) and set 0x1001."""
+        """Send an EMCY (in PRE-OPERATIONAL and OPERATIONAL) and set 0x1001."""
         self.write(cia.ERROR_REGISTER, 0, register)
-        if self.nmt_state != STOPPED:
+        if self.nmt_state in _SDO_SYNC_STATES:
             self.node.emcy.send(code, register, data)

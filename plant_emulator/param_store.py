@@ -46,19 +46,24 @@ Image = dict[int, dict[int, bytes]]  #: index -> subindex -> bytes
 class ParameterStore:
     """0x1010/0x1011 of ``od`` (canopen's object dictionary) over the node's reset image."""
 
-    def __init__(self, od: Any, raw: Callable[[int, int], bytes]) -> None:
+    def __init__(self, od: Any, raw: Callable[[int, int], bytes], image: Callable[[], Image | None]) -> None:
         self.od = od
         self.raw = raw  #: an entry's bytes as they are now (stored, or its default)
+        self.image = image  #: the node's reset image (None before its first power-on)
         self.factory: Image | None = None  #: the image at the first power-on
 
-    def power_on(self, image: Image) -> None:
-        """The first power-on's image: the defaults a restore puts back."""
-        if self.factory is None:
-            self.factory = {i: dict(subs) for i, subs in image.items()}
+    def power_on(self, data: Image) -> Image:
+        """The reset image of the first power-on (a copy of the node's ``data``), kept as the
+        defaults a restore puts back."""
+        self.factory = {i: dict(subs) for i, subs in data.items()}
+        return {i: dict(subs) for i, subs in data.items()}
 
-    def on_write(self, index: int, subindex: int, data: bytes, image: Image) -> None:
+    def on_write(self, index: int, subindex: int, data: bytes) -> None:
         """An SDO write to 0x1010/0x1011 (before it lands): store into, or restore the defaults of,
-        ``image``; a wrong signature is refused (SdoAbortedError 0x08000020)."""
+        the reset image; a wrong signature is refused (SdoAbortedError 0x08000020)."""
+        image = self.image()
+        if image is None:
+            return
         signature = int.from_bytes(data[:4], "little") if len(data) >= 4 else None
         area = _AREAS.get(subindex, cia.MANUFACTURER_AREA)
         if index == STORE and signature == cia.SAVE_SIGNATURE and subindex:

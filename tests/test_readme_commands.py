@@ -79,6 +79,7 @@ PLACEHOLDERS = {
     "VALUE": "1",
     "W": "100",
     "ADDRESS": "tcp://127.0.0.1:8786",
+    "LSS_ACTION": "inquire",
 }
 PLACEHOLDER = re.compile(r"^[A-Z][A-Z_]*$")
 
@@ -107,6 +108,11 @@ ELIDED = {
     ],
     "rig run --config ...": ["rig run --config my_rig.toml"],
     "rig view FOLDER ...": ["rig view runs sweeps"],
+    "rig lss ... --select ADDRESS node-id 5 --store": [
+        "rig lss --interface socketcan --channel can0 --select 0xFB:0x65520000:0x10000:1 node-id 5 --store"
+    ],
+    "rig lss ... bitrate 500 --store": ["rig lss --interface socketcan --channel can0 bitrate 500 --store"],
+    "rig lss --emulate epos4 ...": ["rig lss --emulate epos4 inquire", "rig lss --emulate epos4 bitrate 500"],
 }
 
 
@@ -762,6 +768,9 @@ NOT_RUN = {
     "rig emulate --preset dc-servo --time lockstep --param load=pulse:0.0346:1.5:3": "a server beside "
     "`rig run` in another terminal: the timing tier runs the two as written "
     "(test_a_run_against_the_emulator_in_another_process)",
+    "rig lss --interface socketcan --channel can0 scan": "a real CAN bus (can0)",
+    "rig emulate --device epos4 --node-id 255": "a server until Ctrl-C, for a client in another terminal "
+    "(tests/rig/test_lss_processes.py serves it so, with rig lss beside it)",
     "rig emulate --device epos4": "a server until Ctrl-C, for a client in another terminal "
     "(tests/rig/test_zoo_runs.py and the timing tier's cross-process fault scenarios serve it so)",
     "rig emulate --modbus-map abb-drives-profile": "a server until Ctrl-C, for a client in another "
@@ -794,6 +803,7 @@ MENTIONS = {
     "rig scan",
     "rig identify",
     "rig drive",
+    "rig lss",
     "rig doctor",
     "rig emulate",
     "rig run --config",

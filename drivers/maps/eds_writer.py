@@ -69,6 +69,7 @@ class DeviceInfo:
     product_number: int
     description: str
     baud_rates: tuple[int, ...] = (125, 250, 500, 1000)  #: [kbit/s]
+    lss: bool = False  #: it is an LSS slave (CiA 305: its node-ID and bit rate set over the bus)
 
 
 def var(index: int, v: Var) -> Obj:
@@ -249,7 +250,7 @@ def eds_text(objs: Sequence[Obj], file_name: str, info: DeviceInfo) -> str:
         "Granularity=8",
         f"NrOfRXPDO={rpdos}",
         f"NrOfTXPDO={tpdos}",
-        "LSS_Supported=0",
+        f"LSS_Supported={int(info.lss)}",
         "",
     ]
     mandatory = (0x1000, 0x1001, 0x1018)

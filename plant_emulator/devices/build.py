@@ -192,6 +192,7 @@ ZOO: dict[str, Twin] = {
             0x65520000,
             "twin of a maxon EPOS4 (drive-rig zoo)",
             baud_rates=(20, 50, 125, 250, 500, 800, 1000),
+            lss=True,  # its node-ID and bit rate set by LSS (maxon's EPOS4 Communication Guide, 3.5)
         ),
         device_type=0x00020192,
         modes=PP | PV | HM | CSP | CSV | CST,

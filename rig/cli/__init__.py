@@ -32,6 +32,7 @@ from rig.cli import (
     export,
     faults,
     identify,
+    lss,
     reproduce,
     run,
     scan,
@@ -53,6 +54,7 @@ SUBCOMMANDS = (
     identify,
     scan,
     drive,
+    lss,
     emulate,
     faults,
     sweep,
@@ -132,6 +134,7 @@ EXAMPLES = {
     "tune": "rig tune pi-speed --from-identify runs/identify-voltage-DATE-TIME --bandwidth 20 --json",
     "scan": "rig scan --emulate dc-servo   (a real bus: rig scan --interface socketcan --channel can0)",
     "drive": "rig drive --emulate epos4 status   (then enable, jog 10 --for 1, disable, ...)",
+    "lss": "rig lss --emulate epos4 scan   (a real bus: rig lss --interface socketcan --channel can0 scan)",
     "emulate": "rig emulate --preset dc-servo   (then, in another terminal, rig scan --interface "
     "socketcand --channel can0)",
     "faults": "rig faults --scenario tpdo-stall --scenario host-sigkill",

@@ -46,7 +46,7 @@ def add_parser(sub: Any) -> None:
         help="address the TCP servers (socketcand, Modbus TCP) bind: 127.0.0.1 unless you name another",
     )
     emulate.add_argument(
-        "--node-id", type=int, help="node id of the drive (the other nodes of the preset take the next ones)"
+        "--node-id", type=int, help="the drive's node id (the preset's others: the next); 255: none, LSS only"
     )
     emulate.add_argument(
         "--interface", help="python-can interface, e.g. socketcan (default: serve socketcand)"
@@ -147,15 +147,17 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     import canopen
 
     from drivers.errors import ConfigError
+    from drivers.maps.lss import UNCONFIGURED
     from drivers.maps.od import load_od
     from plant_emulator.device_profile import default_profile, device_profile, load_profile
+    from plant_emulator.lss_slave import speaks_lss
     from plant_emulator.presets import build_twin
     from rig.config.emulator import physics
 
     if args.device and (args.profile or args.eds):
         raise UsageError("rig emulate: --device takes a zoo profile; for your own drive give --profile/--eds")
-    if args.node_id is not None and not 1 <= args.node_id <= 127:
-        raise UsageError(f"rig emulate: --node-id {args.node_id}: must be 1..127")
+    if args.node_id is not None and not (1 <= args.node_id <= 127 or args.node_id == UNCONFIGURED):
+        raise UsageError(f"rig emulate: --node-id {args.node_id}: must be 1..127 (or 255: none, LSS only)")
     if args.device:
         try:
             profile = device_profile(args.device)
@@ -169,14 +171,22 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
         profile = default_profile(pathlib.Path(args.eds))
     where = f"rig emulate: --device {profile.name} --param"
     _, params = physics(profile.physics, items, where, text=True, base=profile.params)
-    load_od(profile.eds, args.node_id or profile.node_id)  # a bad EDS is refused before serving
+    od = load_od(profile.eds, args.node_id or profile.node_id)  # a bad EDS is refused before serving
+    if args.node_id == UNCONFIGURED and not speaks_lss(od, profile.node_id):
+        raise UsageError(
+            f"rig emulate: --node-id 255 (no node-ID: LSS only): {profile.eds} says LSS_Supported=0, so that "
+            "drive could never be given one; give it a node id 1..127"
+        )
     # and so is a profile that disagrees with its EDS: built once on a network of its own
     build_twin(profile, canopen.Network(), params, node_id=args.node_id)
 
     def world(network: Any) -> Any:
         return build_twin(profile, network, params, node_id=args.node_id)
 
-    return world, f"{profile.name} (node {args.node_id or profile.node_id})"
+    node = (
+        "no node-ID, LSS only" if args.node_id == UNCONFIGURED else f"node {args.node_id or profile.node_id}"
+    )
+    return world, f"{profile.name} ({node})"
 
 
 def run(args: argparse.Namespace) -> int:
