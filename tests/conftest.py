@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import pathlib
+import sys
+
 import pytest
 
 
@@ -12,28 +15,73 @@ def _clean_environ(monkeypatch: pytest.MonkeyPatch, tmp_path: pytest.TempPathFac
         monkeypatch.delenv(name, raising=False)
 
 
+#: the hardware options, spelt as rig's own (``rig drive --interface ... --node ... --eds ...``):
+#: (names, the old spelling kept for one release or None, argparse keywords)
+HARDWARE_OPTIONS: tuple[tuple[str, str | None, dict[str, object]], ...] = (
+    (
+        "--interface",
+        "--can-interface",
+        {"help": "python-can interface of a real bus (enables 'hardware' tests)"},
+    ),
+    ("--channel", "--can-channel", {"help": "python-can channel of the real bus, e.g. can0"}),
+    (
+        "--node",
+        "--drive-node",
+        {"type": int, "default": 1, "help": "node id of the CiA 402 drive on the bus"},
+    ),
+    (
+        "--bitrate",
+        None,
+        {"type": int, "default": 0, "help": "bit rate of the real bus [bit/s] (0: the interface's)"},
+    ),
+    (
+        "--eds",
+        None,
+        {"help": "the drive's EDS/DCF, relative to where pytest is run (default: the toolkit's)"},
+    ),
+    ("--host", "--can-host", {"default": "127.0.0.1", "help": "socketcand host"}),
+    ("--port", "--can-port", {"type": int, "default": 29536, "help": "socketcand port"}),
+    (
+        "--units",
+        "--axis-units",
+        {"action": "append", "metavar": "NAME=VALUE", "help": "a factor the drive lacks ([axis.units])"},
+    ),
+)
+
+
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("drive-rig hardware")
-    group.addoption("--can-interface", help="python-can interface of a real bus (enables 'hardware' tests)")
-    group.addoption("--can-channel", help="python-can channel of the real bus, e.g. can0")
-    group.addoption("--drive-node", type=int, default=1, help="node id of the CiA 402 drive on the real bus")
-    group.addoption(
-        "--bitrate", type=int, default=0, help="bit rate of the real bus [bit/s] (0: the interface's)"
-    )
-    group.addoption("--eds", help="the drive's EDS/DCF (default: the toolkit's)")
-    group.addoption("--can-host", default="127.0.0.1", help="socketcand host")
-    group.addoption("--can-port", type=int, default=29536, help="socketcand port")
-    group.addoption(
-        "--axis-units", action="append", metavar="NAME=VALUE", help="a factor the drive lacks ([axis.units])"
-    )
+    for name, old, kw in HARDWARE_OPTIONS:
+        dest = name.lstrip("-")
+        group.addoption(name, *([old] if old else []), dest=dest, **kw)  # type: ignore[arg-type]
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """The hardware options as given where pytest was run: an old spelling says its new one (once,
+    not again on each xdist worker); a relative --eds is taken from the folder pytest was started in
+    (each test runs in a tmp folder of its own, ``_clean_environ``); and with a bus given, the
+    session runs in this one process whatever ``-n`` says: a drive answers one SDO client at a
+    time, and xdist workers would be two (pytest-xdist's ``xdist_group`` cannot keep them to one
+    worker under pytest 9.2: pytest-xdist issue 1386). xdist's own ``pytest_configure`` runs last
+    and starts no workers then."""
+    if config.getoption("interface"):
+        config.option.dist, config.option.tx = "no", []
+    if not hasattr(config, "workerinput"):
+        args = [str(a).split("=")[0] for a in config.invocation_params.args]
+        for name, old, _ in HARDWARE_OPTIONS:
+            if old in args:
+                print(f"pytest: {old} is deprecated: use {name} (as rig drive spells it)", file=sys.stderr)
+    eds = config.getoption("eds")
+    if eds and not pathlib.Path(eds).is_absolute():
+        config.option.eds = str(config.invocation_params.dir / eds)
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which reads the groups
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     _one_worker_per_module_fixture(items)
-    hardware = bool(config.getoption("--can-interface"))
+    hardware = bool(config.getoption("interface"))
     vcan = "vcan" in (config.getoption("markexpr") or "")
-    skip_hw = pytest.mark.skip(reason="needs --can-interface/--can-channel (a real bus)")
+    skip_hw = pytest.mark.skip(reason="needs --interface/--channel (a real bus)")
     skip_vcan = pytest.mark.skip(
         reason="the vcan tier runs only with -m vcan (see docs/testing.md, Testing with virtual CAN)"
     )

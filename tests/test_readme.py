@@ -201,12 +201,13 @@ def check_output(line: str, proc: subprocess.CompletedProcess[str]) -> None:
 def run_here(
     script: str, folder: pathlib.Path, timeout: float = 300, *, link: bool = True
 ) -> subprocess.CompletedProcess[str]:
-    """``script`` run by bash -e in ``folder`` beside the examples and the zoo's device files, as in
-    a clone's top folder (linked there unless ``link`` is false: done before), with the installed
-    ``rig`` on PATH. ``plant_emulator/`` holds only ``devices/``: not a package that would shadow
-    the installed one for ``python -c``."""
+    """``script`` run by bash -e in ``folder`` beside the examples, the zoo's device files and the
+    tests (with pyproject.toml, their settings), as in a clone's top folder (linked there unless
+    ``link`` is false: done before), with the installed ``rig`` on PATH. ``plant_emulator/`` holds
+    only ``devices/``: not a package that would shadow the installed one for ``python -c``."""
     if link:
-        (folder / "examples").symlink_to(ROOT / "examples")
+        for name in ("examples", "tests", "pyproject.toml"):
+            (folder / name).symlink_to(ROOT / name)
         (folder / "plant_emulator").mkdir()
         (folder / "plant_emulator" / "devices").symlink_to(ROOT / "plant_emulator" / "devices")
     env = {**os.environ, "PATH": f"{pathlib.Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}

@@ -1,11 +1,13 @@
 """The CiA 402 driver's contract, against every drive of the emulator's zoo always, and against a
-real drive (or ``rig emulate --device NAME`` in another process) with::
+real drive (or ``rig emulate --device NAME`` in another process) with the options rig drive takes::
 
-    pytest -m hardware tests/drivers/test_drive_contract.py --can-interface socketcan \\
-        --can-channel can0 --bitrate 500000 --drive-node 1 --eds mydrive.eds \\
-        [--axis-units counts_per_rev=51200] [--can-port 29536 for socketcand]
+    python -m pytest -m hardware tests/drivers/test_drive_contract.py --interface socketcan \\
+        --channel can0 --bitrate 500000 --node 1 --eds mydrive.eds \\
+        [--units counts_per_rev=51200] [--port 29536 for socketcand]
 
-On hardware the tests move nothing: they enable the drive with a zero command and disable it.
+On hardware the tests move nothing: they enable the drive with a zero command and disable it; they
+run one after the other on one xdist worker whatever ``-n`` is (tests/conftest.py), and a relative
+``--eds`` is taken from where pytest is run (docs/tutorial-commissioning.md runs it so).
 """
 
 from __future__ import annotations
@@ -42,19 +44,15 @@ def _hardware_target(
     config: pytest.Config,
 ) -> Iterator[tuple[canopen.Network, Callable[[], None], int, str, dict[str, float]]]:
     opt = config.getoption
-    extra = (
-        {"host": opt("--can-host"), "port": opt("--can-port")}
-        if opt("--can-interface") == "socketcand"
-        else {}
-    )
-    bus = open_bus(opt("--can-interface"), opt("--can-channel"), bitrate=opt("--bitrate") or None, **extra)
+    extra = {"host": opt("host"), "port": opt("port")} if opt("interface") == "socketcand" else {}
+    bus = open_bus(opt("interface"), opt("channel"), bitrate=opt("bitrate") or None, **extra)
     network = canopen.Network(bus)
     network.connect()
     units = {}
-    for item in opt("--axis-units") or []:
+    for item in opt("units") or []:
         name, _, value = item.partition("=")
         units[name.strip()] = float(value)
-    yield network, network.sync.transmit, opt("--drive-node"), opt("--eds") or CIA402_EDS, units
+    yield network, network.sync.transmit, opt("node"), opt("eds") or CIA402_EDS, units
     network.disconnect()
 
 
