@@ -212,9 +212,14 @@ class DriveTool:
         if self.watch is not None:
             self.watch.check(max(2.0 * self.period, 0.1), who="rig drive: ", share=False)
 
+    def identified(self) -> None:
+        """Before any write: ConfigError where the device is not its EDS's (``Cia402Axis.discover``)."""
+        self.axis.discover(check_mode=False)
+
     def enable(self, *, timeout: float = 2.0) -> str:
         """OPERATION ENABLED in the mode the drive is in (0x6061; unreadable: held as in CSP), its
         target held where it stands (``Cia402Axis.enable``)."""
+        self.identified()
         self._alone()
         shown = self.axis._optional(cia.MODES_DISPLAY)
         self.axis.nmt("OPERATIONAL")
@@ -222,10 +227,12 @@ class DriveTool:
         return self.axis.read_power_state().value
 
     def disable(self) -> str:
+        self.identified()
         self.axis.disable()
         return self.axis.read_power_state().value
 
     def reset(self, *, timeout: float = 2.0) -> str:
+        self.identified()
         was = self.axis.fault_text()
         self.axis.fault_reset(timeout=timeout)
         return f"{self.axis.read_power_state().value} (was: {was})"

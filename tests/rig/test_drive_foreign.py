@@ -222,3 +222,25 @@ def test_a_run_refused_at_discovery_sends_the_drive_nothing(
     assert main(["run", "--config", str(cfg)]) == 2
     assert "is a manufacturer mode of drive-rig's own drive" in capsys.readouterr().err
     assert drive.fake.downloads == [] and drive.fake.nmt_log == [] and drive.fake.rpdos == []
+
+
+@pytest.mark.parametrize("drive", ["nanotec-c5e"], indirect=True)
+@pytest.mark.parametrize(
+    "action", [["enable"], ["disable"], ["reset"], ["sdo", "write", "0x6081", "100"]], ids=lambda a: a[0]
+)
+def test_a_write_with_another_devices_eds_is_refused_before_it_is_sent(
+    drive: ForeignDrive, tmp_path: pathlib.Path, capsys: pytest.CaptureFixture[str], action: list[str]
+) -> None:
+    """Identity before any write beyond reading: enable, disable, reset and sdo write with the EDS of
+    another device (the EPOS4's against a Nanotec C5-E) are refused in one line naming both
+    identities, and the drive gets no NMT command and no write (found from outside: rig drive --eds
+    of another product's EDS enabled the drive, exit 0)."""
+    from tests.drivers.fake_device import Dictionary
+
+    other = str(Dictionary.load("maxon-epos4").write_eds(tmp_path))
+    bus = ["drive", "--interface", "virtual", "--channel", drive.channel, "--eds", other]
+    assert main([*bus, *action]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "give the device's own EDS/DCF" in err, err
+    assert "is vendor 0x0000026C" in err and "describes vendor 0x000000FB" in err
+    assert drive.fake.downloads == [] and drive.fake.nmt_log == [] and drive.fake.rpdos == []
