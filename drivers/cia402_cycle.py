@@ -79,6 +79,7 @@ class Cia402Cycle(CanopenAxis):
     measures: frozenset[str]
     maps: frozenset[str]
     period: float
+    max_acceleration: float  #: [rad/s^2] what the drive declares (inf: nothing)
     _turns: int
     _angle: float | None
     _moved: tuple[float | None, float, float]
@@ -139,33 +140,35 @@ class Cia402Cycle(CanopenAxis):
         carried the odd value (the position's, or the speed's where the position agrees with the
         speed before). The elapsed time is the period where the stamps are on its grid (lock-step),
         else anything from 0 (a burst after a stall) to the stamps' difference or the period,
-        whichever longer, and two periods more. Not checked without 0x606C mapped, nor in dq."""
+        whichever longer, and two periods more. Not checked without 0x606C mapped, nor in dq, nor
+        on a drive that declares no acceleration limit (``max_acceleration``)."""
         data = self.data
         if data is None or self.op_mode == Mode.DQ_VOLTAGE or "velocity" not in self.maps:
             return None
         s1, s2 = before.stamp, after.stamp
         if s1 is None or s2 is None or s2 == s1:
             return None
-        resolution = self.quanta()
+        resolution, accel = self.quanta(), self.max_acceleration
         period = self.period
         dt_lo = dt_hi = period
         if abs(s2 - s1 - period) > 1e-6 * period:  # receive times, not the SYNC grid
             dt_lo, dt_hi = 0.0, max(period, s2 - s1) + 2.0 * period
         v1, v2 = before.velocity, after.velocity
         travel = after.position - before.position
-        lo, hi = travel_band(v1, v2, dt_lo, dt_hi, resolution=resolution)
-        if lo <= travel <= hi:
+        band = travel_band(v1, v2, dt_lo, dt_hi, resolution=resolution, accel=accel)
+        if band is None or band[0] <= travel <= band[1]:
             return None
+        lo, hi = band
         position, speed = data.slot_of(POSITION), data.slot_of(VELOCITY)
         odd = position
         if speed is not None and speed is not position:
-            lo1, hi1 = travel_band(v1, v1, dt_lo, dt_hi, resolution=resolution)
+            lo1, hi1 = travel_band(v1, v1, dt_lo, dt_hi, resolution=resolution, accel=accel) or band
             odd = speed if lo1 <= travel <= hi1 else position  # the position agrees with the speed before
         where = f"COB-ID 0x{odd.cob_id:03X} (a TPDO of node {self.node_id})" if odd is not None else "a TPDO"
         return (
             f"node {self.node_id}: another producer on {where}: the position moved {travel:.4g} rad in one "
-            f"period where the drive's own speed (0x606C: {v1:.4g}, then {v2:.4g} rad/s) allows "
-            f"{lo:.4g} to {hi:.4g} rad"
+            f"period where the drive's own speed (0x606C: {v1:.4g}, then {v2:.4g} rad/s) and acceleration "
+            f"(at most {accel:.4g} rad/s^2) allow {lo:.4g} to {hi:.4g} rad"
         )
 
     def cycle_frames(self) -> list[tuple[str, int]]:

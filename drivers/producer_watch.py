@@ -28,12 +28,14 @@ a stop reads the node's state by SDO), and the axis's supervision raises ``Other
 the COB-ID and the node.
 
 ``travel_band`` is the second rule's measure (the axis's ``foreign_sample``): the travel between
-two consecutive samples that the drive's own speeds at both (0x606C) allow, with the resolution.
+two consecutive samples that the drive's own speeds at both (0x606C) allow, with the resolution
+and the acceleration the drive declares (0x60C5/0x60C6: without it, no such rule).
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -74,19 +76,49 @@ class Finding:
 
 
 def travel_band(
-    v1: float, v2: float, dt_lo: float, dt_hi: float, *, resolution: tuple[float, float]
-) -> tuple[float, float]:
+    v1: float, v2: float, dt_lo: float, dt_hi: float, *, resolution: tuple[float, float], accel: float
+) -> tuple[float, float] | None:
     """[rad] the least and the most travel from one sample to the next that a drive reporting the
     speeds ``v1`` then ``v2`` [rad/s] (0x606C, latched with the positions) can have made in an
-    elapsed time between ``dt_lo`` and ``dt_hi`` [s]: the speed between two samples lies between
-    the two (less or more by half their difference where it did not change monotonically), and the
-    travel is its integral; widened by one position count (``resolution[0]`` [rad]) for each of
-    the two positions and one speed unit (``resolution[1]`` [rad/s]) over the time (each speed is
-    rounded by half a unit)."""
+    elapsed time between ``dt_lo`` and ``dt_hi`` [s], its shaft accelerating by at most ``accel``
+    [rad/s^2] (what the drive declares, 0x60C5/0x60C6); None where ``accel`` is not known (not
+    finite, not > 0): then only the speed limit bounds the travel (the host's position-step check).
+
+    The speed between the samples is not bounded by the two: it may reverse or peak inside the
+    period (a chattering or stick-slip shaft at zero speed at both samples). With the elapsed time
+    known (``dt_lo == dt_hi``: lock-step) the speed lies under min(v1 + a t, v2 + a (dt - t)) and
+    over its mirror, and the travel between their integrals; else (receive times) only the start's
+    and the end's envelopes hold, from either sample, over 0 to ``dt_hi``. Widened by one position
+    count (``resolution[0]`` [rad]) for each of the two positions and one speed unit
+    (``resolution[1]`` [rad/s]) on each speed (each is rounded, by half a unit)."""
+    if not (math.isfinite(accel) and accel > 0.0):
+        return None
     q_position, q_speed = resolution
-    low, high = min(v1, v2), max(v1, v2)
-    slack = 2.0 * q_position + (q_speed + 0.5 * abs(v2 - v1)) * dt_hi
-    return min(low * dt_lo, low * dt_hi) - slack, max(high * dt_lo, high * dt_hi) + slack
+    slack = 2.0 * q_position
+    if dt_lo == dt_hi:
+        most = _under(v1 + q_speed, v2 + q_speed, dt_hi, accel)
+        least = -_under(-v1 + q_speed, -v2 + q_speed, dt_hi, accel)
+    else:
+        most = min(_ahead(v1 + q_speed, dt_hi, accel), _ahead(v2 + q_speed, dt_hi, accel))
+        least = -min(_ahead(-v1 + q_speed, dt_hi, accel), _ahead(-v2 + q_speed, dt_hi, accel))
+    return least - slack, most + slack
+
+
+def _under(v1: float, v2: float, dt: float, a: float) -> float:
+    """[rad] the integral over ``dt`` of min(v1 + a t, v2 + a (dt - t)): the most a shaft leaving
+    at ``v1`` and arriving at ``v2`` [rad/s] travels in ``dt`` [s] at |dv/dt| <= ``a``."""
+    a = max(a, abs(v2 - v1) / dt) if dt > 0.0 else a  # the samples' own change is possible
+    t = min(max((v2 - v1 + a * dt) / (2.0 * a), 0.0), dt)  # where the two lines meet
+    return v1 * t + 0.5 * a * t * t + v2 * (dt - t) + 0.5 * a * (dt - t) ** 2
+
+
+def _ahead(v: float, dt: float, a: float) -> float:
+    """[rad] the integral over ``dt`` of max(0, v + a t): the most a shaft at ``v`` [rad/s] at one
+    end travels forward within any time up to ``dt`` [s] at |dv/dt| <= ``a``."""
+    if v >= 0.0:
+        return v * dt + 0.5 * a * dt * dt
+    rest = dt + v / a  # the time left once it has come to rest
+    return 0.5 * a * rest * rest if rest > 0.0 else 0.0
 
 
 class ProducerWatch:

@@ -20,7 +20,7 @@ import math
 import re
 from collections.abc import Callable
 
-__all__ = ["Profile", "parse_profile"]
+__all__ = ["Profile", "parse_profile", "profile_peak"]
 
 Profile = Callable[[float], float]
 
@@ -88,3 +88,10 @@ def parse_profile(text: str) -> Profile:
     if len(live) == 1:
         return live[0]
     return lambda t: sum(f(t) for f in live)
+
+
+def profile_peak(text: str) -> float:
+    """The most |value| the profile written in ``text`` can take: the sum of its terms' |A|
+    (0 for none); a ValueError as ``parse_profile``'s where it is not a profile."""
+    parse_profile(text)
+    return sum(abs(float(part.split(":")[1])) for part in _PLUS.split(text) if ":" in part)

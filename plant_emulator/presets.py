@@ -69,6 +69,7 @@ from plant_emulator.preset_params import (
     preset_params,
     preset_period,
 )
+from plant_emulator.profiles import profile_peak
 from plant_emulator.rl_dq import RLParams
 
 __all__ = [
@@ -160,8 +161,24 @@ def _dc_axis(p: DcServoPreset, *, period: float, j_load: float = 0.0) -> tuple[D
     max_torque = motor.k_t * p.rated_current * p.max_current_permille / 1000.0
     loops = ServoLoops(motor.j * w_c, motor.j * w_c * w_c / 5.0, w_c / 5.0, max_torque, p.u_max)
     axis = DcServoAxis(motor, loops, inner_dt=period / 4, load=load_torque(p.load), coulomb=p.coulomb)
-    ratings = Ratings(p.rated_current, motor.k_t * p.rated_current, p.max_current_permille, p.max_speed_rpm)
+    ratings = Ratings(
+        p.rated_current,
+        motor.k_t * p.rated_current,
+        p.max_current_permille,
+        p.max_speed_rpm,
+        _dc_peak_acceleration(motor, p, max_torque),
+    )
     return axis, ratings
+
+
+def _dc_peak_acceleration(motor: DCMotorParams, p: DcServoPreset, max_torque: float) -> float:
+    """[rad/s^2] the most the DC motor (3.4) of ``p`` can speed up or slow down, up to twice its
+    0x6080 speed (the drive trips above it): the larger of its loops' torque limit and the current
+    the power stage drives through it ((u_max + k_e w)/R_r, voltage mode), with the friction's and
+    the load's most, over J."""
+    w = 2.0 * p.max_speed_rpm * 2.0 * math.pi / 60.0
+    drive = max(max_torque, motor.k_t * (p.u_max + motor.k_e * w) / motor.r_r)
+    return (drive + p.coulomb + motor.b * w + profile_peak(p.load)) / motor.j
 
 
 def _im_axis(p: ImDrivePreset, *, j_load: float = 0.0) -> tuple[ImAxis, Ratings]:

@@ -58,6 +58,8 @@ class Ratings:
     rated_torque: float  #: 0x6076 [N m]
     max_current_permille: int  #: 0x6073 [per mille of the rated current]
     max_speed_rpm: int  #: 0x6080 [rpm]
+    #: [rad/s^2] the most the motor can speed up or slow down (0x60C5/0x60C6; inf: not said)
+    max_acceleration: float = math.inf
 
     def as_stored(self) -> Ratings:
         """These ratings as the object dictionary holds them (whole mA and mN m)."""
@@ -134,6 +136,10 @@ class ProcessImage:
         permille = self._object(cia.MAX_CURRENT, float(self.ratings.max_current_permille))
         self.max_current = permille / 1000.0 * self.rated_current
         self.max_speed = self._object(cia.MAX_MOTOR_SPEED, float(self.ratings.max_speed_rpm)) * _TWO_PI / 60.0
+        accel = self.ratings.max_acceleration * self.units.velocity  # in velocity units per s
+        for index in (cia.MAX_ACCELERATION, cia.MAX_DECELERATION):  # read-only: the motor's
+            if self.has(index):
+                self.od.write(index, 0, min(math.ceil(accel), 0xFFFF_FFFE) if math.isfinite(accel) else 0)
 
     # --- ratings: the objects where the drive has them, else the physics' values ---------------
     def _object(self, index: int, default: float, scale: float = 1.0) -> float:

@@ -15,6 +15,10 @@ Object indices follow CiA 301 (communication), CiA 402 (drives) and CiA 406
 - 0x2200 dq voltage reference [mV] (sub 1 d, sub 2 q), 0x2210 dq current [mA]
   (sub 1 d, sub 2 q), 0x2220 frame angle [urad], 0x2221 frame speed [mrad/s]:
   the grid-converter preset, mode -2 (dq voltage mode).
+
+0x60C5/0x60C6 (max acceleration/deceleration) are read-only here: the emulated drive writes the
+most its motor can do there (``plant_emulator.process_image.Ratings``; 0: not said), a limit it
+never needs to enforce.
 """
 
 from __future__ import annotations
@@ -142,6 +146,8 @@ CIA402_DRIVE: list[Obj] = [
             (2, Var("Motor revolutions", UINT32, "rw", "1")),
         ],
     ),
+    var(0x60C5, Var("Max acceleration", UINT32, "ro", "0")),
+    var(0x60C6, Var("Max deceleration", UINT32, "ro", "0")),
     var(0x60F4, Var("Following error actual value", INT32, "ro", "0", pdo=True)),
     var(0x60FF, Var("Target velocity", INT32, "rw", "0", pdo=True)),
     var(0x6502, Var("Supported drive modes", UINT32, "ro", "0x00030384")),

@@ -4,6 +4,7 @@ its receive thread would (``Network.notify``): deterministic."""
 
 from __future__ import annotations
 
+import math
 import struct
 import uuid
 from collections.abc import Iterator
@@ -153,15 +154,22 @@ def test_a_stop_on_a_sample_is_named_for_a_producer_found_by_the_next_answers(
 
 
 def test_travel_band() -> None:
-    q = (0.001, 0.01)
-    # at a steady 10 rad/s over 1 ms: 10 mrad, give or take two counts and a speed unit's travel
-    steady = travel_band(10.0, 10.0, 1e-3, 1e-3, resolution=q)
-    assert steady == pytest.approx((0.01 - 0.00201, 0.01 + 0.00201))
-    # from 10 to 20 rad/s: between the two speeds' travel, widened by half the change
-    lo, hi = travel_band(10.0, 20.0, 1e-3, 1e-3, resolution=q)
-    assert lo == pytest.approx(0.01 - 0.00701) and hi == pytest.approx(0.02 + 0.00701)
-    # an elapsed time from 0 to 3 ms (real time): from standing still to 30 mrad
-    lo, hi = travel_band(10.0, 10.0, 0.0, 3e-3, resolution=q)
-    assert lo == pytest.approx(-0.00203) and hi == pytest.approx(0.03 + 0.00203)
-    lo, hi = travel_band(-10.0, 5.0, 0.0, 3e-3, resolution=q)  # through zero
+    q, a = (0.001, 0.01), 1.0e4  # a count, a speed unit; at most 10^4 rad/s^2
+    # at a steady 10 rad/s over 1 ms: 10 mrad, give or take what a dt^2/4 (speeding up and back)
+    # adds, a speed unit's travel and two counts
+    steady = travel_band(10.0, 10.0, 1e-3, 1e-3, resolution=q, accel=a)
+    assert steady == pytest.approx((0.01 - 0.0025 - 1e-5 - 0.002, 0.01 + 0.0025 + 1e-5 + 0.002))
+    # from 10 to 20 rad/s in 1 ms takes all of 10^4 rad/s^2: the ramp's 15 mrad only
+    lo, hi = travel_band(10.0, 20.0, 1e-3, 1e-3, resolution=q, accel=a)
+    assert lo == pytest.approx(0.015 - 1e-5 - 0.002) and hi == pytest.approx(0.015 + 1e-5 + 0.002)
+    # at rest at both: up and back within the period, either way
+    rest = travel_band(0.0, 0.0, 1e-3, 1e-3, resolution=(0.0, 0.0), accel=a)
+    assert rest == pytest.approx((-0.0025, 0.0025))
+    # an elapsed time from 0 to 3 ms (real time): from braking to rest at once to speeding up all along
+    lo, hi = travel_band(10.0, 10.0, 0.0, 3e-3, resolution=q, accel=a)
+    assert hi == pytest.approx(10.01 * 3e-3 + 0.5 * a * 9e-6 + 0.002)
+    assert lo == pytest.approx(-0.5 * a * (3e-3 - 9.99 / a) ** 2 - 0.002)
+    lo, hi = travel_band(-10.0, 5.0, 0.0, 3e-3, resolution=q, accel=a)  # through zero
     assert lo < -0.03 and hi > 0.015
+    # no acceleration said: no band (only the speed limit bounds the travel)
+    assert travel_band(10.0, 10.0, 1e-3, 1e-3, resolution=q, accel=math.inf) is None

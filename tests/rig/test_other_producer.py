@@ -13,6 +13,7 @@ drive's position TPDO with +0.3 rad, or flooding it."""
 from __future__ import annotations
 
 import json
+import math
 import pathlib
 import re
 import threading
@@ -24,9 +25,10 @@ import can
 import pytest
 
 from drivers.cia402_setup import POSITION
-from rig.config import load_config
+from drivers.producer_watch import travel_band
+from rig.config import load_config, rig_config
 from rig.host.session import Session
-from rig.papers.demo import demo_config
+from rig.papers.demo import demo_config, demo_doc
 from tests.drivers.foreign import ForeignDrive
 from tests.rig.test_other_master import _config, running_host
 
@@ -117,10 +119,48 @@ def test_a_position_the_drive_s_speed_contradicts_is_another_producer(tmp_path: 
     assert re.fullmatch(
         rf"node 1: another producer on COB-ID 0x{slot.cob_id:03X} \(a TPDO of node 1\): the position moved "
         r"0\.(19|20)\d* rad in one period where the drive's own speed "
-        r"\(0x606C: [-\d.e+]+, then [-\d.e+]+ rad/s\) allows [-\d.e+]+ to [-\d.e+]+ rad",
+        r"\(0x606C: [-\d.e+]+, then [-\d.e+]+ rad/s\) and acceleration \(at most [\d.e+]+ rad/s\^2\) "
+        r"allow [-\d.e+]+ to [-\d.e+]+ rad",
         reason,
     ), reason
     assert summary["stop_confirmed"] is True, summary
+
+
+@pytest.mark.parametrize(("k", "period", "old_stop"), [(2.83, 2e-3, 38), (4.0, 2e-3, 23), (4.0, 1e-3, 119)])
+def test_a_chattering_shaft_in_lock_step_is_no_other_producer(
+    tmp_path: pathlib.Path, k: float, period: float, old_stop: int
+) -> None:
+    """The servo of examples/sweeps/servo_b_m.toml on plants of 2.83 and 4 times the design's b_m
+    at 1 and 2 ms, in lock-step (no third node at all): its chattering shaft moves 3 counts in a
+    period between two samples at zero speed (a speed that reverses or sticks and slips inside the
+    period). The dc-servo drive declares its motor's most (0x60C5/0x60C6), which bounds that travel:
+    no other producer. The bound of the two speeds alone stopped these runs after ``old_stop``
+    cycles ('... 0x606C: 0, then 0 rad/s) allows -0.003069 to 0.003069 rad')."""
+    doc = demo_doc(str(tmp_path))
+    doc["emulator"]["params"].update(b_m=k * 680.0, period=period)
+    cycles = old_stop + 30
+    with Session(rig_config(doc, "test"), emulate=True, duration=cycles * period) as session:
+        session.start()
+        summary = session.run()
+        accel = session.axes[0].max_acceleration  # type: ignore[attr-defined]
+    assert summary["safe_stop_reason"] is None and summary["cycles"] == cycles, summary["safe_stop_reason"]
+    assert 4.0e4 * k < accel < 1.0e5 * k  # b_m (u_max + k_e w) and the load over J: finite, said
+
+
+def test_the_travel_band_of_a_shaft_that_reverses_inside_the_period() -> None:
+    """Zero speed at both samples, |dv/dt| <= a: the shaft can go a dt^2/4 and come back to rest
+    (a triangle of speed); known speeds at both ends bound it less; no acceleration said, no band."""
+    a, dt, q = 1.0e5, 1e-3, (0.0, 0.0)
+    assert travel_band(0.0, 0.0, dt, dt, resolution=q, accel=a) == pytest.approx(
+        (-a * dt * dt / 4, a * dt * dt / 4)
+    )
+    lo, hi = travel_band(10.0, 10.0, dt, dt, resolution=q, accel=a)
+    assert hi == pytest.approx(10.0 * dt + a * dt * dt / 4) and lo == pytest.approx(
+        10.0 * dt - a * dt * dt / 4
+    )
+    lo, hi = travel_band(0.0, 100.0, dt, dt, resolution=q, accel=a)  # the change itself needs a dt
+    assert lo == pytest.approx(0.5 * 100.0 * dt) and hi == pytest.approx(0.5 * 100.0 * dt)
+    assert travel_band(0.0, 0.0, dt, dt, resolution=q, accel=math.inf) is None
 
 
 @pytest.mark.parametrize("when", ["running", "stopping"])
