@@ -35,7 +35,7 @@ from drivers.maps.emcy import emcy_text
 from drivers.maps.logical import axis_object
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
-from rig.commission.motion_watch import MotionWatch
+from rig.commission.motion_watch import MotionWatch, move_acceleration
 from rig.commission.picture import picture
 from rig.commission.quantities import quantity
 from rig.commission.status import UNITS_HINT, device_units
@@ -319,15 +319,18 @@ class DriveTool:
         return a.sdo_read(cia.POSITION_ACTUAL) / a.units.position, velocity
 
     def motion_watch(self, **kw: Any) -> MotionWatch:
-        """A watch of the move about to start (``MotionWatch``), with the drive's quanta and units."""
+        """A watch of the move about to start (``MotionWatch``), with the drive's quanta, units and
+        ramps, and its first look (a look after the move began would miss its start)."""
         a = self.axis
         position_quantum, speed_quantum = a.quanta()
         source = a.units.source
         units = ", ".join(f"{k} {source[k]}" for k in ("position", "velocity") if source.get(k))
         where = f"{a.where}: {kw.pop('what')}"
-        return MotionWatch(
-            where, speed_quantum=speed_quantum, position_quantum=position_quantum, units=units, **kw
-        )
+        watch = MotionWatch(where, speed_quantum=speed_quantum, position_quantum=position_quantum, **kw)
+        watch.units, watch.accel = units, move_acceleration(a)
+        position, speed = self.actual()  # the first look, before the move starts: where it starts from
+        watch.see(self.elapsed(), speed, position)
+        return watch
 
     def profile_speed(self, index: int, subindex: int = 0) -> float:
         """A speed the drive declares (0x6081, 0x6099) in rad/s; inf where it has none."""

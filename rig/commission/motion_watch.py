@@ -12,10 +12,15 @@ drive's own stop (``rig.commission.drive``):
 - a move going the wrong way, or past its target by more than its tolerance (10 % of the travel,
   at least five position units), as a move by a multiple of the request does;
 - position and speed that disagree: once the shaft has travelled a clear distance (0.2 rad and
-  50 position units), the travel of 0x6064 and the integral of 0x606C over the looks must agree
-  within a factor of two. A factor the host took wrong for one of them (a drive in tenths of a
-  degree and rpm read as increments) shows as a ratio of 10-60; a lag between the two SDO reads
-  of a look is a few percent.
+  50 position units), the travel of 0x6064 must lie within a factor of two of what the speeds
+  0x606C seen at the looks allow. Between two looks the shaft can have sped up and slowed down:
+  it travels anything between the integrals of the envelopes an acceleration ``accel`` (the
+  drive's profile and quick stop ramps, 0x6083-0x6085, its 0x60C5/0x60C6) leaves around the two
+  speeds (``drivers.producer_watch.travel_band``); without an acceleration known the check is
+  not made (looks far apart can miss a whole move: a 2 rad move at 20 rad/s between two looks
+  at rest). A factor the host took wrong for one of them (a drive in tenths of a degree and rpm
+  read as increments) shows as a ratio of 10-60; a lag between the two SDO reads of a look is a
+  few percent.
 
 Tolerances of one device unit are added everywhere, so a drive's coarse units cannot stop a move
 that is right. Each check needs only the looks, never the wall clock: the same in lock-step.
@@ -25,10 +30,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 from drivers.errors import SafetyStop
+from drivers.maps import cia
+from drivers.producer_watch import travel_band
 
-__all__ = ["MotionWatch"]
+__all__ = ["MotionWatch", "move_acceleration"]
 
 #: looks in a row a condition must hold before the stop: speed over the limit, the rest
 _OVER_LIMIT_LOOKS, _WRONG_LOOKS = 2, 3
@@ -42,7 +50,8 @@ class MotionWatch:
     """See the module docstring. ``where`` names the drive and the move; ``speed_limit`` [rad/s]
     (inf: none); ``asked_speed`` [rad/s] of a jog; ``start``/``target`` [rad] of a move (``start``
     None: the drive has no position); the quanta: one device unit of speed [rad/s] and of
-    position [rad]; ``units``: where the drive's factors came from, for the message."""
+    position [rad]; ``units``: where the drive's factors came from, for the message; ``accel``
+    [rad/s^2] the most the shaft speeds up or slows down (inf: not known)."""
 
     where: str
     speed_limit: float = math.inf
@@ -52,18 +61,24 @@ class MotionWatch:
     speed_quantum: float = 0.0
     position_quantum: float = 0.0
     units: str = ""
+    accel: float = math.inf
     _over: int = 0
     _wrong: int = 0
     _fast: int = 0
     _t: float | None = None
     _v: float = 0.0
     _integral: float = 0.0  #: [rad] the speed integrated over the looks
+    _band: tuple[float, float] | None = (0.0, 0.0)  #: [rad] the least and most travel they allow
     speeds: list[tuple[float, float]] = field(default_factory=list)  #: (t [s], speed [rad/s])
 
     def see(self, t: float, speed: float, position: float | None) -> None:
         """One look at ``t`` [s]: ``speed`` [rad/s], ``position`` [rad] (None: none)."""
         if self._t is not None and t > self._t:
-            self._integral += 0.5 * (speed + self._v) * (t - self._t)
+            dt = t - self._t
+            self._integral += 0.5 * (speed + self._v) * dt
+            step = travel_band(self._v, speed, dt, dt, resolution=(0.0, self.speed_quantum), accel=self.accel)
+            band = self._band
+            self._band = None if band is None or step is None else (band[0] + step[0], band[1] + step[1])
         self._t, self._v = t, speed
         self.speeds.append((t, speed))
         self._limit(speed)
@@ -115,15 +130,19 @@ class MotionWatch:
             )
 
     def _agree(self, travelled: float) -> None:
-        integral = self._integral
+        integral, band = self._integral, self._band
         clear = max(_CLEAR_TRAVEL, _CLEAR_UNITS * self.position_quantum)
-        if max(abs(travelled), abs(integral)) < clear:
+        if band is None or max(abs(travelled), abs(integral)) < clear:
             return
-        ratio = travelled / integral if integral else math.inf
-        if not 1.0 / _AGREE <= ratio <= _AGREE:
+        least, most = band
+        slack = 2.0 * self.position_quantum
+        over = most * (_AGREE if most > 0.0 else 1.0 / _AGREE) + slack
+        under = least * (_AGREE if least < 0.0 else 1.0 / _AGREE) - slack
+        if not under <= travelled <= over:
             raise self._stop(
                 f"the position 0x6064 moved {travelled:.4g} rad while the speed 0x606C integrates to "
-                f"{integral:.4g} rad: the drive's units are not those drive-rig took{self._units_said}"
+                f"{integral:.4g} rad ({least:.4g} to {most:.4g} rad at most {self.accel:.4g} rad/s^2 between "
+                f"the looks): the drive's units are not those drive-rig took{self._units_said}"
             )
 
     @property
@@ -140,3 +159,13 @@ class MotionWatch:
             return math.nan
         half = self.speeds[len(self.speeds) // 2 :]
         return sum(v for _t, v in half) / len(half)
+
+
+def move_acceleration(axis: Any) -> float:
+    """[rad/s^2] the most the shaft of a move by ``axis`` (a ``Cia402Axis``) speeds up or slows
+    down: the largest of the drive's profile and quick stop ramps (0x6083-0x6085) and its limits
+    0x60C5/0x60C6; inf where it declares none (0, or 0xFFFFFFFF: no limit)."""
+    indices = (*cia.PROFILE_RAMPS, cia.MAX_ACCELERATION, cia.MAX_DECELERATION)
+    raw = [v for v in map(axis._optional, indices) if isinstance(v, int) and 0 < v < 0xFFFF_FFFF]
+    per = axis.units.velocity
+    return max(raw) / per if raw and math.isfinite(per) and per > 0.0 else math.inf

@@ -71,7 +71,7 @@ def test_within_the_tolerances_or_not_for_long_enough_a_jog_goes_on(
 def test_position_and_speed_that_disagree_stop() -> None:
     """The Nanotec without its units: positions in 0.1 degree read as increments of 4000 a turn
     and speeds in rpm read the same way: the position runs 60 times the integrated speed."""
-    w = MotionWatch("node 1: the jog", asked_speed=5.0, start=0.0, units="position 0x608F")
+    w = MotionWatch("node 1: the jog", asked_speed=5.0, start=0.0, units="position 0x608F", accel=1000.0)
     speeds = [5.0] * 50
     positions: list[float | None] = [60.0 * 5.0 * k * T for k in range(50)]
     with pytest.raises(
@@ -81,9 +81,22 @@ def test_position_and_speed_that_disagree_stop() -> None:
 
 
 def test_position_and_speed_that_agree_within_a_lag_pass() -> None:
-    w = MotionWatch("node 1: the jog", asked_speed=5.0, start=0.0)
+    w = MotionWatch("node 1: the jog", asked_speed=5.0, start=0.0, accel=1000.0)
     positions: list[float | None] = [5.0 * (k * T - 0.003) for k in range(200)]  # 3 ms behind the speed
     _looks(w, [5.0] * 200, positions)
+
+
+@pytest.mark.parametrize("accel", [1000.0, math.inf])
+def test_a_move_between_two_looks_at_rest_goes_on(accel: float) -> None:
+    """rig drive --eds nanotec-c5e.eds move 2 --relative on the C5-E twin over socketcand: at 20
+    rad/s and 1000 rad/s^2 (0x6083-0x6085) the 2 rad took about 0.12 s, between two looks 0.3 s
+    apart that both saw the shaft at rest. The speed between looks is not their mean: at most
+    1000 rad/s^2 it can reach 150 rad/s and come back, so 2 rad agrees; with no acceleration
+    known nothing bounds it. It stopped as 'the drive's units are not those drive-rig took'."""
+    w = MotionWatch("node 1: the move", start=10.52, target=12.52, position_quantum=1.7e-3, accel=accel)
+    w.see(0.0, 0.0, 10.52)
+    w.see(0.3, 0.0, 12.521)
+    w.see(0.31, 0.0, 12.521)
 
 
 @pytest.mark.parametrize(
