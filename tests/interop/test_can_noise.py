@@ -24,6 +24,7 @@ EMCY (a fault during the stop), an SDO frame of a node (the stop's SDO transfers
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import pathlib
 import re
@@ -81,18 +82,21 @@ def sent_by_cangen(text: str) -> list[Frame]:
 
 def noise_on_the_bus(bus: list[Frame], sent: list[Frame]) -> set[int]:
     """The indices in ``bus`` (candump's, in the bus's order) of cangen's frames ``sent``, matched in
-    order; a printed frame not on the bus within 1 s of the last one found was never sent."""
+    order: each to the first frame of its id and data after the last one matched; a printed frame
+    found nowhere after it was never sent (-i) or never logged, and the next is looked for from the
+    same place (no time window: a stall of the slow VM's cangen of more than a second lost every
+    frame after it)."""
+    where: dict[tuple[int, bytes], list[int]] = {}
+    for i, f in enumerate(bus):
+        where.setdefault((f.can_id, f.data), []).append(i)
     found: set[int] = set()
-    at, last = 0, None
+    at = 0
     for frame in sent:
-        for i in range(at, len(bus)):
-            f = bus[i]
-            if last is not None and f.stamp > last + 1.0:
-                break
-            if (f.can_id, f.data) == (frame.can_id, frame.data):
-                found.add(i)
-                at, last = i + 1, f.stamp
-                break
+        places = where.get((frame.can_id, frame.data), [])
+        k = bisect.bisect_left(places, at)
+        if k < len(places):
+            found.add(places[k])
+            at = places[k] + 1
     return found
 
 
@@ -193,7 +197,8 @@ def test_cangen_noise_at_the_running_chain(
     assert len(answers) == 20 and set(answers) == {0x00010196}, failures
 
     bus = candump.snapshot()[start + 1 : end]
-    mine = noise_on_the_bus(bus, sent_by_cangen(printed.read_text()))
+    sent = sent_by_cangen(printed.read_text())
+    mine = noise_on_the_bus(bus, sent)
     stops = [i for i, f in enumerate(bus) if (f.can_id, f.data) == (QUICK_STOP.can_id, QUICK_STOP.data)]
     assert stops, "no quick stop of the host's on the bus"
     first_stop = stops[0]
@@ -203,20 +208,27 @@ def test_cangen_noise_at_the_running_chain(
     noise = [bus[i] for i in sorted(mine)]
     does = {i: what_noise_does(bus[i], rig, stopping=i > last_sync) for i in mine}
     reason: Any = summary["safe_stop_reason"]
+    # cangen's frames not in candump's log: never sent (-i: a full queue) or not logged; where on
+    # the bus they went (if at all) is not known: each may have done what it does, run or stop
+    logged = {(bus[i].can_id, bus[i].data) for i in mine}
+    lost = [f for f in sent if (f.can_id, f.data) not in logged]
     said = [f"{bus[i]} {'stop' if i > last_sync else 'run'}: {does[i]}" for i in sorted(mine) if does[i]]
     print(
         f"\nunder cangen noise: {summary['cycles']} cycles, stop: {reason}, "
         f"confirmed: {summary['stop_confirmed']}; "
         f"{len(noise)} noise frames on the bus, acted on: {said}; {len(answers)} SDO answers, "
-        f"{len(failures)} transfers hit"
+        f"{len(failures)} transfers hit; {len(sent)} printed by cangen, not in candump's log: "
+        f"{[str(f) for f in lost if what_noise_does(f, rig, stopping=False)]} of {len(lost)}"
     )
     if any(does[i] == "stop" for i in mine):
         assert reason is not None, "noise the host's rules stop at reached the run, and it went on"
     if reason is None:
         assert summary["cycles"] == 250
     else:
-        assert explained(reason, noise), f"a stop no noise frame explains: {reason}"
-    if not any(does[i] == "spoil" for i in mine):
+        assert explained(reason, noise + lost), f"a stop no noise frame explains: {reason}"
+    if not any(does[i] == "spoil" for i in mine) and not any(
+        what_noise_does(f, rig, stopping=True) == "spoil" for f in lost
+    ):
         assert summary["stop_confirmed"] is True, summary
     # the drive ends disabled: asked after the noise, by drive-rig's driver
     network = canopen.Network(open_bus("socketcan", "vcan0"))
