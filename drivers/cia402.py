@@ -55,6 +55,7 @@ from drivers.maps.cia import Controlword, PowerState
 from drivers.maps.cia402_needs import needed, require
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_code
+from drivers.producer_watch import declared_acceleration
 
 __all__ = ["DISABLED_STATES", "Cia402Axis", "DriveUnits", "power_state"]
 
@@ -157,7 +158,6 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         self.emcy_texts = dict(emcy_texts or {})
         self._consumer_sub: int | None = None
         self.units = DriveUnits(math.nan, math.nan, math.nan, math.nan, {})
-        self.max_acceleration = math.inf  #: [rad/s^2] 0x60C5/0x60C6, read at set-up
         self.measures = frozenset()
         self.identity: dict[str, int] = {}
         self.supported_modes: frozenset[int] | None = None
@@ -201,7 +201,8 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         A dictionary that lacks what the mode needs (``drivers.maps.cia402_needs``) is refused
         once the drive is identified, before anything is written."""
         self.discover()
-        self.max_acceleration = self.declared_acceleration()
+        limits = [self._optional(index) for index in (cia.MAX_ACCELERATION, cia.MAX_DECELERATION)]
+        self.max_acceleration = declared_acceleration(limits, self.units.velocity)
         what = f"axis {self.name!r} ({self.where}) in mode {self.mode}"
         require(self.node.object_dictionary, needed(self.op_mode), source=self.eds, what=what)
         self.refuse_foreign_rpdo()
@@ -210,17 +211,6 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         self.map_process_data()
         self.configure_supervision()
         self.nmt("OPERATIONAL")
-
-    def declared_acceleration(self) -> float:
-        """[rad/s^2] the larger of the drive's acceleration and deceleration limits (0x60C5,
-        0x60C6, in velocity units per s), where it has them: the most its shaft speeds up or slows
-        down; inf where it has neither, or one says 'no limit' (0, or 0xFFFFFFFF as EPOS4's)."""
-        limits = [self._optional(index) for index in (cia.MAX_ACCELERATION, cia.MAX_DECELERATION)]
-        raw = [v for v in limits if isinstance(v, int) and 0 < v < 0xFFFF_FFFF]
-        per = self.units.velocity
-        if len(raw) < sum(v is not None for v in limits) or not raw or not (math.isfinite(per) and per > 0):
-            return math.inf
-        return max(raw) / per
 
     # --- state machine ---------------------------------------------------------------------------
     def read_power_state(self) -> PowerState:

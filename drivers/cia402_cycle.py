@@ -79,7 +79,7 @@ class Cia402Cycle(CanopenAxis):
     measures: frozenset[str]
     maps: frozenset[str]
     period: float
-    max_acceleration: float  #: [rad/s^2] what the drive declares (inf: nothing)
+    max_acceleration: float = math.inf  #: [rad/s^2] 0x60C5/0x60C6, read at set-up (inf: none said)
     _turns: int
     _angle: float | None
     _moved: tuple[float | None, float, float]

@@ -44,7 +44,7 @@ from typing import Any, Protocol
 from drivers.errors import SafetyStop
 from drivers.maps.cia import COB_SYNC, PDO_SYNC_MAX
 
-__all__ = ["Finding", "OtherProducer", "ProducerWatch", "travel_band"]
+__all__ = ["Finding", "OtherProducer", "ProducerWatch", "declared_acceleration", "travel_band"]
 
 log = logging.getLogger(__name__)
 
@@ -102,6 +102,16 @@ def travel_band(
         most = min(_ahead(v1 + q_speed, dt_hi, accel), _ahead(v2 + q_speed, dt_hi, accel))
         least = -min(_ahead(-v1 + q_speed, dt_hi, accel), _ahead(-v2 + q_speed, dt_hi, accel))
     return least - slack, most + slack
+
+
+def declared_acceleration(values: list[Any], per: float) -> float:
+    """[rad/s^2] the largest of the acceleration objects ``values`` read from a drive (None: it has
+    not got that one) in velocity units per s, ``per`` of them per rad/s^2; inf where none is
+    there, or one says 'no limit' (0, or 0xFFFFFFFF: EPOS4's 0x60C5)."""
+    given = [v for v in values if v is not None]
+    if not given or not all(isinstance(v, int) and 0 < v < 0xFFFF_FFFF for v in given):
+        return math.inf
+    return max(given) / per if math.isfinite(per) and per > 0.0 else math.inf
 
 
 def _under(v1: float, v2: float, dt: float, a: float) -> float:

@@ -35,7 +35,7 @@ DEBTS: dict[str, int] = {
     "rig/cli/identify.py::_experiment": 66,
     "rig/cli/identify.py::add_parser": 75,
     "rig/cli/sweep.py::execute": 81,
-    "rig/commission/drive.py::DriveTool": 313,
+    "rig/commission/drive.py::DriveTool": 305,
     "rig/commission/moves.py::move": 64,
     "rig/doctor/verdict.py::advice": 92,
     "rig/emulator/serve.py::run_emulator": 88,

@@ -240,7 +240,7 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
             raise UsageError(
                 f"rig drive sdo write: {where} ({var.name}) is {var.access_type} in the EDS: nothing was sent"
             )
-        tool.identified()  # the device the EDS describes, before the write
+        a.discover(check_mode=False)  # the device the EDS describes, before the write
         try:  # what the operator names is the task: a manufacturer object too (not Cia402Axis's guard)
             CanopenAxis.sdo_write(a, index, sub, _value(args.value))
         except (OverflowError, ValueError, TypeError, AttributeError) as exc:  # canopen's encoding

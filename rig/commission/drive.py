@@ -35,7 +35,7 @@ from drivers.maps.emcy import emcy_text
 from drivers.maps.logical import axis_object
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
-from rig.commission.motion_watch import MotionWatch, move_acceleration
+from rig.commission.motion_watch import MotionWatch
 from rig.commission.picture import picture
 from rig.commission.quantities import quantity
 from rig.commission.status import UNITS_HINT, device_units
@@ -212,14 +212,10 @@ class DriveTool:
         if self.watch is not None:
             self.watch.check(max(2.0 * self.period, 0.1), who="rig drive: ", share=False)
 
-    def identified(self) -> None:
-        """Before any write: ConfigError where the device is not its EDS's (``Cia402Axis.discover``)."""
-        self.axis.discover(check_mode=False)
-
     def enable(self, *, timeout: float = 2.0) -> str:
         """OPERATION ENABLED in the mode the drive is in (0x6061; unreadable: held as in CSP), its
         target held where it stands (``Cia402Axis.enable``)."""
-        self.identified()
+        self.axis.discover(check_mode=False)  # the device is its EDS's, before any write
         self._alone()
         shown = self.axis._optional(cia.MODES_DISPLAY)
         self.axis.nmt("OPERATIONAL")
@@ -227,12 +223,12 @@ class DriveTool:
         return self.axis.read_power_state().value
 
     def disable(self) -> str:
-        self.identified()
+        self.axis.discover(check_mode=False)  # the device is its EDS's, before any write
         self.axis.disable()
         return self.axis.read_power_state().value
 
     def reset(self, *, timeout: float = 2.0) -> str:
-        self.identified()
+        self.axis.discover(check_mode=False)  # the device is its EDS's, before any write
         was = self.axis.fault_text()
         self.axis.fault_reset(timeout=timeout)
         return f"{self.axis.read_power_state().value} (was: {was})"
@@ -317,20 +313,6 @@ class DriveTool:
         if not a.has_position:
             return None, velocity
         return a.sdo_read(cia.POSITION_ACTUAL) / a.units.position, velocity
-
-    def motion_watch(self, **kw: Any) -> MotionWatch:
-        """A watch of the move about to start (``MotionWatch``), with the drive's quanta, units and
-        ramps, and its first look (a look after the move began would miss its start)."""
-        a = self.axis
-        position_quantum, speed_quantum = a.quanta()
-        source = a.units.source
-        units = ", ".join(f"{k} {source[k]}" for k in ("position", "velocity") if source.get(k))
-        where = f"{a.where}: {kw.pop('what')}"
-        watch = MotionWatch(where, speed_quantum=speed_quantum, position_quantum=position_quantum, **kw)
-        watch.units, watch.accel = units, move_acceleration(a)
-        position, speed = self.actual()  # the first look, before the move starts: where it starts from
-        watch.see(self.elapsed(), speed, position)
-        return watch
 
     def profile_speed(self, index: int, subindex: int = 0) -> float:
         """A speed the drive declares (0x6081, 0x6099) in rad/s; inf where it has none."""

@@ -34,9 +34,9 @@ from typing import Any
 
 from drivers.errors import SafetyStop
 from drivers.maps import cia
-from drivers.producer_watch import travel_band
+from drivers.producer_watch import declared_acceleration, travel_band
 
-__all__ = ["MotionWatch", "move_acceleration"]
+__all__ = ["MotionWatch", "watch_move"]
 
 #: looks in a row a condition must hold before the stop: speed over the limit, the rest
 _OVER_LIMIT_LOOKS, _WRONG_LOOKS = 2, 3
@@ -161,11 +161,20 @@ class MotionWatch:
         return sum(v for _t, v in half) / len(half)
 
 
-def move_acceleration(axis: Any) -> float:
-    """[rad/s^2] the most the shaft of a move by ``axis`` (a ``Cia402Axis``) speeds up or slows
-    down: the largest of the drive's profile and quick stop ramps (0x6083-0x6085) and its limits
-    0x60C5/0x60C6; inf where it declares none (0, or 0xFFFFFFFF: no limit)."""
-    indices = (*cia.PROFILE_RAMPS, cia.MAX_ACCELERATION, cia.MAX_DECELERATION)
-    raw = [v for v in map(axis._optional, indices) if isinstance(v, int) and 0 < v < 0xFFFF_FFFF]
-    per = axis.units.velocity
-    return max(raw) / per if raw and math.isfinite(per) and per > 0.0 else math.inf
+def watch_move(tool: Any, **kw: Any) -> MotionWatch:
+    """A watch of the move about to start by ``tool`` (a ``DriveTool``; ``what``: the move in
+    words, the rest ``MotionWatch``'s), with the drive's quanta, units and ramps (0x6083-0x6085:
+    the most a profile move's shaft speeds up or slows down), and its first look (a look after the
+    move began would miss its start)."""
+    a = tool.axis
+    position_quantum, speed_quantum = a.quanta()
+    source = a.units.source
+    units = ", ".join(f"{k} {source[k]}" for k in ("position", "velocity") if source.get(k))
+    ramps = [a._optional(index) for index in (cia.PROFILE_ACCELERATION, cia.PROFILE_DECELERATION)]
+    accel = declared_acceleration([*ramps, a._optional(cia.QUICK_STOP_DECELERATION)], a.units.velocity)
+    where = f"{a.where}: {kw.pop('what')}"
+    watch = MotionWatch(where, speed_quantum=speed_quantum, position_quantum=position_quantum, **kw)
+    watch.units, watch.accel = units, accel
+    position, speed = tool.actual()
+    watch.see(tool.elapsed(), speed, position)
+    return watch

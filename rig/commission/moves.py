@@ -22,7 +22,7 @@ from drivers.errors import ConfigError, DeviceFault
 from drivers.identity import read_standard
 from drivers.maps import cia
 from drivers.maps.cia import Controlword, Mode
-from rig.commission.motion_watch import MotionWatch
+from rig.commission.motion_watch import MotionWatch, watch_move
 from rig.commission.status import UNITS_HINT
 
 if TYPE_CHECKING:
@@ -92,7 +92,7 @@ def jog(
         asked.update(_profile(tool, None, accel, max_speed))
         tool.watch_actual(speed, cia.VELOCITY_ACTUAL, a.units.velocity)  # the units: once discovered
         here, _ = tool.actual()
-        tool.motion = tool.motion_watch(what="the jog", speed_limit=max_speed, asked_speed=speed, start=here)
+        tool.motion = watch_move(tool, what="the jog", speed_limit=max_speed, asked_speed=speed, start=here)
         watch.append(tool.motion)
         a.sdo_write(cia.TARGET_VELOCITY, 0, round(speed * a.units.velocity))
         late[0] = tool.deadline(seconds)  # the jog's time runs from its target, not the set-up
@@ -138,7 +138,7 @@ def move(
     def start() -> None:
         asked.update(_profile(tool, speed, accel, max_speed))
         tool.watch_actual(target, cia.POSITION_ACTUAL, a.units.position)
-        tool.motion = tool.motion_watch(what="the move", speed_limit=max_speed, start=here, target=target)
+        tool.motion = watch_move(tool, what="the move", speed_limit=max_speed, start=here, target=target)
         a.sdo_write(cia.TARGET_POSITION, 0, round(target * a.units.position))
         a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
         tool.until(lambda: bool(a.sdo_read(cia.STATUSWORD) & _BIT12), 1.0, "the set-point acknowledge")
@@ -206,7 +206,7 @@ def home(
 
     def start() -> None:
         tool.watch_actual(0.0, cia.POSITION_ACTUAL, a.units.position)
-        tool.motion = tool.motion_watch(what="homing", speed_limit=max_speed)  # the position is set anew
+        tool.motion = watch_move(tool, what="homing", speed_limit=max_speed)  # the position is set anew
         if method is not None:
             a.sdo_write(cia.HOMING_METHOD, 0, method)
         a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
