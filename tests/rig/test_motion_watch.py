@@ -13,6 +13,7 @@ import pytest
 from drivers.errors import SafetyStop
 from rig.cli import main
 from rig.commission.motion_watch import MotionWatch
+from tests.patching import stand_in
 
 T = 0.01  #: [s] between looks
 
@@ -144,7 +145,6 @@ def test_the_nanotec_jog_with_its_units_taken_wrong_is_stopped(
     unread, its 0x608F (4000) taken for both units: 5 rad/s became 3183 rpm. The watch stops it
     within a few looks of the start."""
     import drivers.identity
-    import rig.commission.motion_watch
 
     read = drivers.identity.read_standard
 
@@ -159,7 +159,7 @@ def test_the_nanotec_jog_with_its_units_taken_wrong_is_stopped(
             super().see(t, speed, position)
 
     monkeypatch.setattr("drivers.cia402_discovery.read_standard", blind)
-    monkeypatch.setattr(rig.commission.motion_watch, "MotionWatch", Counted)
+    stand_in(monkeypatch, "rig.commission.motion_watch.MotionWatch", Counted)
     r = _json(capsys, 3, "jog", "5", "--for", "1")
     assert r["result"].startswith("stopped: node 1: the jog: ")
     assert "units" in r["result"] or "faster than the limit 20 rad/s" in r["result"]
