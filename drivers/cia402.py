@@ -55,7 +55,7 @@ from drivers.maps.cia import Controlword, PowerState
 from drivers.maps.cia402_needs import needed, require
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_code
-from drivers.producer_watch import declared_acceleration
+from drivers.producer_watch import ACCELERATION_LIMITS, declared_acceleration
 
 __all__ = ["DISABLED_STATES", "Cia402Axis", "DriveUnits", "power_state"]
 
@@ -201,7 +201,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         A dictionary that lacks what the mode needs (``drivers.maps.cia402_needs``) is refused
         once the drive is identified, before anything is written."""
         self.discover()
-        limits = [self._optional(index) for index in (cia.MAX_ACCELERATION, cia.MAX_DECELERATION)]
+        limits = [self._optional(index) for index in ACCELERATION_LIMITS]
         self.max_acceleration = declared_acceleration(limits, self.units.velocity)
         what = f"axis {self.name!r} ({self.where}) in mode {self.mode}"
         require(self.node.object_dictionary, needed(self.op_mode), source=self.eds, what=what)

@@ -44,9 +44,19 @@ from typing import Any, Protocol
 from drivers.errors import SafetyStop
 from drivers.maps.cia import COB_SYNC, PDO_SYNC_MAX
 
-__all__ = ["Finding", "OtherProducer", "ProducerWatch", "declared_acceleration", "travel_band"]
+__all__ = [
+    "ACCELERATION_LIMITS",
+    "Finding",
+    "OtherProducer",
+    "ProducerWatch",
+    "declared_acceleration",
+    "travel_band",
+]
 
 log = logging.getLogger(__name__)
+
+#: the drive's max acceleration and deceleration (CiA 402) [velocity units/s]
+ACCELERATION_LIMITS = (0x60C5, 0x60C6)
 
 
 class TpdoSlot(Protocol):

@@ -49,6 +49,7 @@ import canopen
 
 from drivers.maps import cia, cia406
 from drivers.maps.cia import Mode, map_entry
+from drivers.profiles import profile_peak
 from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
@@ -69,7 +70,6 @@ from plant_emulator.preset_params import (
     preset_params,
     preset_period,
 )
-from plant_emulator.profiles import profile_peak
 from plant_emulator.rl_dq import RLParams
 
 __all__ = [

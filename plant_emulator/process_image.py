@@ -19,6 +19,7 @@ from typing import Any
 from drivers.maps import cia
 from drivers.maps.cia import Mode
 from drivers.maps.units import position_per_revolution, velocity_per_revolution
+from drivers.producer_watch import ACCELERATION_LIMITS
 from plant_emulator.axes import Axis
 from plant_emulator.device_profile import Units
 from plant_emulator.od_store import ObjectStore
@@ -137,7 +138,7 @@ class ProcessImage:
         self.max_current = permille / 1000.0 * self.rated_current
         self.max_speed = self._object(cia.MAX_MOTOR_SPEED, float(self.ratings.max_speed_rpm)) * _TWO_PI / 60.0
         accel = self.ratings.max_acceleration * self.units.velocity  # in velocity units per s
-        for index in (cia.MAX_ACCELERATION, cia.MAX_DECELERATION):  # read-only: the motor's
+        for index in ACCELERATION_LIMITS:  # read-only: the motor's
             if self.has(index):
                 self.od.write(index, 0, min(math.ceil(accel), 0xFFFF_FFFE) if math.isfinite(accel) else 0)
 

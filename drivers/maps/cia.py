@@ -228,7 +228,6 @@ SI_UNIT_VELOCITY = 0x60A9
 INTERPOLATION_SUBMODE, INTERPOLATION_DATA, INTERPOLATION_CONFIG = 0x60C0, 0x60C1, 0x60C4  #: ip mode's
 INTERPOLATION_PERIOD = 0x60C2  #: sub 1 value, sub 2 index: the period is value x 10^index s
 INTERPOLATION_SYNC = 0x60C3  #: sub 1 synchronize on group (0: SYNC), sub 2 ip sync every n event
-MAX_ACCELERATION, MAX_DECELERATION = 0x60C5, 0x60C6  #: [velocity units/s] the drive's limits
 FOLLOWING_ERROR_ACTUAL = 0x60F4
 DIGITAL_INPUTS = 0x60FD  #: bit 0 negative limit switch, 1 positive limit switch, 2 home switch
 TARGET_VELOCITY = 0x60FF  #: [velocity units]
