@@ -5,7 +5,8 @@ speed; none for a position, ``AxisDriver.neutral_command``), quick stop on every
 axis, then SYNC cycles (the drives need them for their feedback, and in lock-step to let
 time pass) until every axis reports its own stop ended (``AxisDriver.at_rest``: a CiA 402
 drive in SWITCH ON DISABLED or FAULT after its ramp, or at rest in QUICK STOP ACTIVE), or
-``timeout`` [s] passes (in cycles of the loop's period, and in wall time); then disable
+``timeout`` [s] passes (in cycles of the loop's period, and in wall time: in lock-step at least
+``LOCKSTEP_HOLD_WALL``, its cycles being emulated time a loaded machine must not cut short); then disable
 every axis. Disabling during the ramp would cut it (CiA 402 transition 12: the motor
 coasts), so disable comes only after. Each cycle of the stop, before its SYNC, every
 stopping axis keeps its device's watch of the host fed (``AxisDriver.keep_stopping``: a CiA
@@ -124,13 +125,9 @@ def bring_to_rest(
     stopping = [a for a in axes if a.commandable]
     for a in stopping:
         ok &= _retry(a, a.quick_stop, "quick stop")
-    beat = [heartbeat]
-    # wall time too: a dead bus makes each check slow; in lock-step the ramp's cycles are emulated
-    # time, and a loaded machine's wall clock must not cut them short (a dyno run's ramp "did not end
-    # within 3 s" at load 20, its shaft still turning at 26-49 rad/s in emulated time)
-    soft = time.monotonic() + timeout
-    deadline = soft if realtime else soft + max(0.0, LOCKSTEP_HOLD_WALL - timeout)
-    pending = list(stopping)
+    beat, pending = [heartbeat], list(stopping)
+    soft = time.monotonic() + timeout  # wall time too (a dead bus makes each check slow); not in
+    deadline = soft if realtime else soft + max(0.0, LOCKSTEP_HOLD_WALL - timeout)  # lock-step's ramp
 
     def rested(a: AxisDriver) -> bool:
         return bool(_asked(a, lambda: a.at_rest(a.feedback()), "state"))
