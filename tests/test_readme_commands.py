@@ -644,7 +644,7 @@ def _servo_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -
     for text, b in ((c2, 1360.0), (c283, 1923.3), (c4, 2720.0)):
         assert agree(text, _near_b(quiet, b)["chattering_count"]), (text, b)
     from rig.sweep.edges import b_m_edges
-    from rig.sweep.spec import load_spec
+    from rig.sweep.load import load_spec
 
     computed = b_m_edges(load_spec(ROOT / "examples/sweeps/servo_b_m.toml"), rows)
     for text, period in zip(edges, (1e-4, 2e-4, 4e-4, 1e-3, 2e-3)):
@@ -683,7 +683,7 @@ def _edge_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) ->
     assert all(r["chattering_count"] == int(count) and r["sign_law_share"] == 1.0 for r in above)
     assert agree(rms_low, 1e3 * rows[1.9]["rms_error"]) and agree(rms_high, 1e3 * rows[2.1]["rms_error"])
     from rig.sweep.edges import b_m_edges
-    from rig.sweep.spec import load_spec
+    from rig.sweep.load import load_spec
 
     (computed,) = b_m_edges(load_spec(ROOT / "examples/sweeps/servo_edge.toml"), list(rows.values())).values()
     assert agree(edge, computed / 680.0) and agree(b_m, computed)
@@ -704,7 +704,7 @@ def _edge_lag_sweep(proc: subprocess.CompletedProcess[str], folder: pathlib.Path
     for text, k in ((s36, 3.6), (s38, 3.8), (s4, 4.0)):
         assert agree(text, 100 * rows[k]["sign_law_share"]), (text, k)
     from rig.sweep.edges import b_m_edges
-    from rig.sweep.spec import load_spec
+    from rig.sweep.load import load_spec
 
     (computed,) = b_m_edges(
         load_spec(ROOT / "examples/sweeps/servo_edge_lag.toml"), list(rows.values())
