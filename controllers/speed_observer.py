@@ -76,6 +76,7 @@ class SpeedObserver:
         self._commands: deque[float] = deque([0.0] * delay, maxlen=delay) if delay else deque()
         self.delay = delay
         self._x: list[float] | None = None  #: the prediction x-_k (None: no sample yet)
+        self._u = 0.0  #: the latest command [unit of u]: what the drive holds without a new one
         self.theta = self.omega = self.disturbance = 0.0  #: the corrected estimate x^_k
 
     def update(self, theta: float) -> float:
@@ -107,6 +108,7 @@ class SpeedObserver:
         u : float
             The command sent this period (applied ``delay`` periods later) [unit of u].
         """
+        self._u = u
         if self.delay:
             applied = self._commands[0]
             self._commands.append(u)
@@ -119,3 +121,20 @@ class SpeedObserver:
             p[1][0] * xh[0] + p[1][1] * xh[1] + p[1][2] * xh[2] + gm[1] * applied,
             p[2][0] * xh[0] + p[2][1] * xh[1] + p[2][2] * xh[2] + gm[2] * applied,
         ]
+
+    def coast(self, periods: int) -> None:
+        """Predict over ``periods`` periods that brought no sample, the drive holding the latest
+        command (a cycle the host skipped or whose sample came late): each an uncorrected
+        prediction, x^_k = x-_k, then x-_(k+1) = Phi x^_k + Gamma u, so the next sample corrects
+        an estimate that has moved with the shaft.
+
+        Parameters
+        ----------
+        periods : int
+            Periods without a sample (0: nothing).
+        """
+        if self._x is None:
+            return
+        for _ in range(periods):
+            self.theta, self.omega, self.disturbance = self._x
+            self.command(self._u)

@@ -83,6 +83,7 @@ class PositionServoLaw(Law):
             inv_dt = 1.0 / period
             s1, s2 = k1 + (inv_dt + p.h) * c1, k2 + (inv_dt + p.h) * c2
         observer = self.observer
+        self._t_last: float | None = None  #: [s] the time of the latest step
         # with the observer the law reads no speed: a count of position moves its estimate by gain[1]
         self._sensitivity = (abs(s1), abs(s2)) if observer is None else (abs(s1 + s2 * observer.gain[1]), 0.0)
 
@@ -98,7 +99,13 @@ class PositionServoLaw(Law):
         theta_r, omega_r = self.reference(t)
         fb = feedback[0]
         servo, observer = self.servo, self.observer
-        omega = fb.velocity if observer is None else observer.update(fb.position)
+        if observer is None:
+            omega = fb.velocity
+        else:
+            last, self._t_last = self._t_last, t
+            if last is not None:  # periods that passed without a step (skipped, or late)
+                observer.coast(max(0, round((t - last) / self.period) - 1))
+            omega = observer.update(fb.position)
         u = servo.step(theta_r - fb.position, omega_r - omega)
         if observer is not None:
             observer.command(u)

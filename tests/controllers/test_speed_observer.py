@@ -66,3 +66,36 @@ def test_the_servo_on_a_4096_count_encoder() -> None:
 def test_bad_settings_are_named(kw: dict[str, float], words: str) -> None:
     with pytest.raises(ValueError, match=words):
         SpeedObserver(A_M, B_M, dt=T, **kw)  # type: ignore[arg-type]
+
+
+def _exact_run(skip: set[int], *, coast: bool) -> list[float]:
+    """The observer on the exact model (no quantum), u a sine, the samples in ``skip`` never
+    arriving (the drive holding the latest command over them); its speed errors [rad/s]."""
+    phi, gamma = zoh([[0.0, 1.0], [0.0, -A_M]], [[0.0], [B_M]], dt=T)
+    obs = SpeedObserver(A_M, B_M, dt=T, bandwidth=500.0)
+    x, u, errors, missed = np.zeros(2), 0.0, [], 0
+    for k in range(3000):
+        if k in skip:
+            missed += 1
+        else:
+            if coast:
+                obs.coast(missed)
+            missed = 0
+            w = obs.update(float(x[0]))
+            u = 3.0 + 2.0 * math.sin(2.0 * math.pi * 5.0 * k * T)
+            obs.command(u)
+            errors.append(w - x[1])
+        x = phi @ x + (gamma * u).reshape(2)
+    return errors
+
+
+def test_periods_without_a_sample_are_predicted_through() -> None:
+    """A skipped or late sample: ``coast`` predicts over the periods that passed with the held
+    command, so the next sample finds the estimate where the shaft is (on the exact model, to
+    rounding); without it the next correction takes the two periods' travel as one (a speed
+    error of tens of rad/s)."""
+    skip = {1500, 2000, 2001, 2002}
+    coasted, stepped = _exact_run(skip, coast=True), _exact_run(skip, coast=False)
+    assert max(abs(e) for e in coasted[100:]) < 1e-6, max(abs(e) for e in coasted[100:])
+    assert max(abs(e) for e in stepped[100:]) > 1.0
+    assert _exact_run(set(), coast=True) == _exact_run(set(), coast=False)  # nothing to coast: as before
