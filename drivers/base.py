@@ -73,7 +73,18 @@ class Feedback:
 
 
 def feedback_fields(names: Iterable[str]) -> Callable[[Feedback], tuple[Any, ...]]:
-    """A function giving a sample's fields ``names`` (in that order) as a tuple, in one call."""
+    """A function giving a sample's fields ``names`` (in that order) as a tuple, in one call.
+
+    Parameters
+    ----------
+    names : Iterable[str]
+        ``Feedback`` field names.
+
+    Returns
+    -------
+    Callable[[Feedback], tuple[Any, ...]]
+        A sample -> those fields, as a tuple.
+    """
     names = tuple(names)
     if len(names) > 1:
         return operator.attrgetter(*names)
@@ -90,6 +101,18 @@ class AxisDriver(abc.ABC):
     abstract hooks. ``close`` calls ``disable`` once, logs (never raises) a
     failure, and then ``_release``; it is safe to call twice. An axis that is
     never closed warns (ResourceWarning) when collected.
+
+    Parameters
+    ----------
+    name : str
+        The axis's name, in messages.
+    mode : str | None
+        One of ``AXIS_MODES`` (None: an axis that takes no commands).
+
+    Raises
+    ------
+    ValueError
+        If ``mode`` is not one of ``AXIS_MODES``.
     """
 
     #: Feedback fields this kind of axis fills
@@ -127,7 +150,13 @@ class AxisDriver(abc.ABC):
 
     @abc.abstractmethod
     def enable(self, *, timeout: float = 1.0) -> None:
-        """Bring the device to follow commands within ``timeout`` [s]; a zero command is held."""
+        """Bring the device to follow commands within ``timeout`` [s]; a zero command is held.
+
+        Parameters
+        ----------
+        timeout : float, optional
+            [s] for the device to follow commands.
+        """
 
     @abc.abstractmethod
     def disable(self) -> None:
@@ -144,34 +173,82 @@ class AxisDriver(abc.ABC):
 
     @abc.abstractmethod
     def feedback(self) -> Feedback:
-        """The latest sample in SI (from the last process data, or read now)."""
+        """The latest sample in SI (from the last process data, or read now).
+
+        Returns
+        -------
+        Feedback
+            The latest sample, SI units.
+        """
 
     def neutral_command(self) -> float | complex | None:
         """The command that asks for no effort, sent before the quick stop: 0 (V, N m, rad/s),
         0j in dq; None for a position (CSP): 0 rad is a place, not a stop; the last target
-        stands and the drive's quick-stop ramp starts from it."""
+        stands and the drive's quick-stop ramp starts from it.
+
+        Returns
+        -------
+        float | complex | None
+            0 (V, N m, rad/s) or 0j (dq); None in a position mode.
+        """
         if self.mode in POSITION_COMMANDS:
             return None
         return 0j if self.mode == "dq-voltage" else 0.0
 
     def quanta(self) -> tuple[float, float]:
         """The resolution of the measurement: (one position count [rad], one speed unit [rad/s]);
-        0 where the axis does not say or does not measure (after ``setup``)."""
+        0 where the axis does not say or does not measure (after ``setup``).
+
+        Returns
+        -------
+        tuple[float, float]
+            (one position count [rad], one speed unit [rad/s]); 0 where unknown.
+        """
         return (0.0, 0.0)
 
     def foreign_sample(self, before: Feedback, after: Feedback) -> str | None:
         """Where the sample ``after``, taken one SYNC after ``before``, cannot be the device's
         (its position contradicts its own measured speed: another producer's frame), in words
-        naming the COB-ID or register and the device; None where it can (the default: no check)."""
+        naming the COB-ID or register and the device; None where it can (the default: no check).
+
+        Parameters
+        ----------
+        before : Feedback
+            A sample.
+        after : Feedback
+            The sample one SYNC later.
+
+        Returns
+        -------
+        str | None
+            Why ``after`` cannot be the device's, naming the COB-ID or register; None where it can.
+        """
         return None
 
     def has_sample(self) -> bool:
         """Every value ``feedback`` gives has come from the device at least once (not the
-        placeholder zeros of a TPDO still to arrive). The default: feedback reads the device."""
+        placeholder zeros of a TPDO still to arrive). The default: feedback reads the device.
+
+        Returns
+        -------
+        bool
+            Every value of ``feedback`` has come from the device at least once.
+        """
         return True
 
     def command(self, value: float | complex) -> None:
-        """Send ``value`` in the SI unit of the mode (``AXIS_MODES``)."""
+        """Send ``value`` in the SI unit of the mode (``AXIS_MODES``).
+
+        Parameters
+        ----------
+        value : float | complex
+            In the mode's SI unit (``AXIS_MODES``).
+
+        Raises
+        ------
+        NotImplementedError
+            If the axis takes no commands (the default).
+        """
         raise NotImplementedError(f"{self!r} takes no commands")
 
     def supervise(self, now: float) -> None:  # noqa: B027 - a hook with a default
@@ -179,6 +256,11 @@ class AxisDriver(abc.ABC):
 
         Called once per cycle after ``feedback``; ``now`` is the bus clock [s]
         (the clock of the frames' timestamps). The default checks nothing.
+
+        Parameters
+        ----------
+        now : float
+            [s] the bus clock.
         """
 
     #: below this speed [rad/s] a stopping axis counts as at rest (``rest_speed``'s default)
@@ -192,7 +274,18 @@ class AxisDriver(abc.ABC):
 
     def at_rest(self, fb: Feedback) -> bool:
         """After ``quick_stop``: True once the device's own stop has ended (``fb``: its latest
-        sample). The default: the speed it measures is below ``rest_speed`` (or it measures none)."""
+        sample). The default: the speed it measures is below ``rest_speed`` (or it measures none).
+
+        Parameters
+        ----------
+        fb : Feedback
+            The latest sample.
+
+        Returns
+        -------
+        bool
+            The device's own stop has ended.
+        """
         return "velocity" not in self.measures or abs(fb.velocity) < self.rest_speed
 
     @property
@@ -203,7 +296,13 @@ class AxisDriver(abc.ABC):
 
     def shaft_speed(self) -> float | None:
         """The shaft's speed [rad/s] in a sample newer than the last call's; None: none new yet.
-        The default: ``feedback``'s, new when its stamp changed (or it has none)."""
+        The default: ``feedback``'s, new when its stamp changed (or it has none).
+
+        Returns
+        -------
+        float | None
+            [rad/s] a speed newer than the last call's; None: none new yet.
+        """
         fb = self.feedback()
         if fb.stamp is not None and fb.stamp == self._speed_stamp:
             return None
@@ -212,7 +311,13 @@ class AxisDriver(abc.ABC):
 
     @abc.abstractmethod
     def read_state(self) -> AxisState:
-        """Ask the device for its state (I/O)."""
+        """Ask the device for its state (I/O).
+
+        Returns
+        -------
+        AxisState
+            The device's state.
+        """
 
     @property
     def fault(self) -> Exception | None:

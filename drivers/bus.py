@@ -29,16 +29,35 @@ log = logging.getLogger(__name__)
 
 class ReceiveWatch(can.Listener):
     """A notifier listener that handles receive errors: logged once, then the receive thread
-    retries every ``pause`` [s] (not a busy loop) until it is stopped."""
+    retries every ``pause`` [s] (not a busy loop) until it is stopped.
+
+    Parameters
+    ----------
+    pause : float, optional
+        [s] between two retries of the receive thread after an error.
+    """
 
     def __init__(self, pause: float = 0.05) -> None:
         self.pause = pause
         self.error: Exception | None = None
 
     def on_message_received(self, msg: can.Message) -> None:
-        """Frames are for the other listeners."""
+        """Frames are for the other listeners.
+
+        Parameters
+        ----------
+        msg : can.Message
+            A frame received (ignored).
+        """
 
     def on_error(self, exc: Exception) -> None:
+        """Keep the first receive error, log it once, and pause before the thread retries.
+
+        Parameters
+        ----------
+        exc : Exception
+            The error python-can's receive thread met.
+        """
         if self.error is None:
             self.error = exc
             log.error("the bus is lost: %s", brief(exc))
@@ -50,7 +69,20 @@ HANDSHAKE = 3.0  #: [s] a socketcand connection's connect, greeting, open and ra
 
 
 def check_interface(interface: str, where: str) -> None:
-    """ConfigError naming ``where`` (an option or a file's key) unless python-can knows ``interface``."""
+    """ConfigError naming ``where`` (an option or a file's key) unless python-can knows ``interface``.
+
+    Parameters
+    ----------
+    interface : str
+        The python-can interface name (``socketcan``, ``socketcand``, ``pcan`` ...).
+    where : str
+        What gave it (an option or a file's key), named in the error.
+
+    Raises
+    ------
+    ConfigError
+        If python-can does not know ``interface`` (the known ones named).
+    """
     if interface not in can.interfaces.VALID_INTERFACES:
         known = ", ".join(sorted(can.interfaces.VALID_INTERFACES))
         raise ConfigError(f"{where} {interface!r}: not a python-can interface; known: {known}")
@@ -59,7 +91,29 @@ def check_interface(interface: str, where: str) -> None:
 def open_bus(
     interface: str, channel: str | int | None, *, bitrate: int | None = None, **options: Any
 ) -> can.BusABC:
-    """A python-can bus on ``interface``/``channel`` (e.g. socketcan/vcan0, socketcand/can0)."""
+    """A python-can bus on ``interface``/``channel`` (e.g. socketcan/vcan0, socketcand/can0).
+
+    Parameters
+    ----------
+    interface : str
+        The python-can interface name.
+    channel : str | int | None
+        The channel on it (``vcan0``, ``can0``; socketcand: the remote bus).
+    bitrate : int | None, optional
+        [bit/s], where the interface sets it; None leaves it.
+    **options : Any
+        Further arguments of the interface (socketcand: ``host``, ``port``).
+
+    Returns
+    -------
+    can.BusABC
+        The open bus.
+
+    Raises
+    ------
+    CommunicationError
+        If python-can cannot open it (interface and channel named).
+    """
     check_interface(interface, "interface")
     kwargs = dict(options)
     if bitrate is not None:
@@ -79,7 +133,22 @@ def scan_command(
     interface: str, channel: str, bitrate: int | None = None, host: str = "", port: int = 0
 ) -> str:
     """The ``rig scan`` line for the bus ``open_bus`` would open with these arguments (what to run
-    when a node id is wrong)."""
+    when a node id is wrong).
+
+    Parameters
+    ----------
+    interface, channel : str
+        The bus's interface and channel.
+    bitrate : int | None, optional
+        [bit/s], if given.
+    host, port, optional
+        The socketcand server's address (socketcand only).
+
+    Returns
+    -------
+    str
+        The ``rig scan ...`` command line.
+    """
     words = ["rig scan", f"--interface {interface}"]
     if channel:
         words.append(f"--channel {channel}")

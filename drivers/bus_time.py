@@ -36,20 +36,57 @@ _UNSTUFFED_TAIL = 13  #: CRC delimiter 1, ACK 2, EOF 7, interframe space 3
 
 def data_frame_bits(size: int, *, extended: bool = False) -> int:
     """Bits a classic data frame of ``size`` data bytes holds the bus for, stuffing at its worst
-    (module docstring); ``extended``: a 29-bit identifier."""
+    (module docstring); ``extended``: a 29-bit identifier.
+
+    Parameters
+    ----------
+    size : int
+        Data bytes, 0-8.
+    extended : bool, optional
+        A 29-bit identifier (else 11-bit).
+
+    Returns
+    -------
+    int
+        Bits on the bus, worst-case stuffing and the interframe space included.
+    """
     g = _STUFFED_HEAD[extended]
     data = 8 * min(size, 8)
     return g + data + _UNSTUFFED_TAIL + (g + data - 1) // 4
 
 
 def frame_bits(msg: can.Message) -> int:
-    """Bits ``msg`` holds the bus for (``data_frame_bits``); a remote frame carries no data bytes."""
+    """Bits ``msg`` holds the bus for (``data_frame_bits``); a remote frame carries no data bytes.
+
+    Parameters
+    ----------
+    msg : can.Message
+        The frame.
+
+    Returns
+    -------
+    int
+        Bits on the bus (``data_frame_bits``).
+    """
     return data_frame_bits(0 if msg.is_remote_frame else msg.dlc, extended=bool(msg.is_extended_id))
 
 
 class BusTime:
     """A CAN bus of ``bitrate`` [bit/s] that books frames back to back; ``burst`` [s] of them
-    may be booked ahead of now. Times are ``time.monotonic()`` seconds."""
+    may be booked ahead of now. Times are ``time.monotonic()`` seconds.
+
+    Parameters
+    ----------
+    bitrate : float, optional
+        [bit/s], > 0.
+    burst : float, optional
+        [s] of frames that may be booked ahead of now, >= 0.
+
+    Raises
+    ------
+    ValueError
+        If ``bitrate`` <= 0 or ``burst`` < 0.
+    """
 
     def __init__(self, bitrate: float = DEFAULT_BITRATE, *, burst: float = 0.002) -> None:
         if not bitrate > 0.0:
@@ -63,12 +100,31 @@ class BusTime:
         self.busy = 0.0  #: [s] of bus time they took
 
     def carry(self, msg: can.Message, now: float) -> None:
-        """Book ``msg`` on the bus at ``now`` [s] (after what is booked already)."""
+        """Book ``msg`` on the bus at ``now`` [s] (after what is booked already).
+
+        Parameters
+        ----------
+        msg : can.Message
+            The frame sent.
+        now : float
+            [s] ``time.monotonic()`` when it was handed to the bus.
+        """
         took = frame_bits(msg) / self.bitrate
         self.free_at = max(self.free_at, now) + took
         self.frames += 1
         self.busy += took
 
     def wait(self, now: float) -> float:
-        """[s] a sender must hold its next frame at ``now`` (0: send it)."""
+        """[s] a sender must hold its next frame at ``now`` (0: send it).
+
+        Parameters
+        ----------
+        now : float
+            [s] ``time.monotonic()``.
+
+        Returns
+        -------
+        float
+            [s] to hold the next frame (0: send it now).
+        """
         return max(0.0, self.free_at - now - self.burst)

@@ -25,7 +25,30 @@ __all__ = ["Cia406Axis"]
 
 
 class Cia406Axis(CanopenAxis):
-    """A CiA 406 encoder at ``node_id``; ``period`` [s] is the SYNC period (for the speed by difference)."""
+    """A CiA 406 encoder at ``node_id``; ``period`` [s] is the SYNC period (for the speed by difference).
+
+    Parameters
+    ----------
+    name : str
+        The axis's name.
+    network : canopen.Network
+        The canopen network.
+    node_id : int
+        The encoder's node.
+    period : float
+        [s] the SYNC period, > 0.
+    eds : str | None, optional
+        Its EDS/DCF (None: the toolkit's generic one).
+    speed_from_position : bool, optional
+        The speed by difference of positions, not the device's 0x6030.
+    heartbeat_timeout : float, optional
+        [s] 0: no heartbeat supervised.
+
+    Raises
+    ------
+    ConfigError
+        If ``period`` <= 0.
+    """
 
     measures = frozenset({"position", "velocity"})
 
@@ -62,7 +85,13 @@ class Cia406Axis(CanopenAxis):
 
     def setup(self) -> None:
         """Check the device type and identity (``check_identity``), read the resolution and the
-        TPDO carrying the position on SYNC."""
+        TPDO carrying the position on SYNC.
+
+        Raises
+        ------
+        ConfigError
+            If it is no CiA 406 encoder, its resolution is 0, or no synchronous TPDO maps the position.
+        """
         device_type = self.sdo_read(cia.DEVICE_TYPE)
         if device_type & 0xFFFF != cia.PROFILE_ENCODER:
             raise ConfigError(f"node {self.node_id} is not a CiA 406 encoder (0x1000 = 0x{device_type:08X})")
@@ -96,14 +125,26 @@ class Cia406Axis(CanopenAxis):
         return sample_interval(last, stamp, self.period)
 
     def quanta(self) -> tuple[float, float]:
-        """One count [rad] (0x6001) and the speed one count makes over a period [rad/s]."""
+        """One count [rad] (0x6001) and the speed one count makes over a period [rad/s].
+
+        Returns
+        -------
+        tuple[float, float]
+            (one count [rad], one count per period [rad/s]).
+        """
         if not (math.isfinite(self.counts_per_rad) and self.counts_per_rad > 0.0):
             return (0.0, 0.0)
         q = 1.0 / self.counts_per_rad
         return (q, q / self.period)
 
     def enable(self, *, timeout: float = 1.0) -> None:
-        """An encoder has nothing to enable."""
+        """An encoder has nothing to enable.
+
+        Parameters
+        ----------
+        timeout : float, optional
+            Unused.
+        """
 
     def disable(self) -> None:
         """An encoder has nothing to disable."""
@@ -112,10 +153,23 @@ class Cia406Axis(CanopenAxis):
         """An encoder has nothing to stop."""
 
     def read_state(self) -> AxisState:
+        """ENABLED where the node is OPERATIONAL, else DISABLED.
+
+        Returns
+        -------
+        AxisState
+            The axis's state.
+        """
         return AxisState.ENABLED if self.nmt_state == "OPERATIONAL" else AxisState.DISABLED
 
     def feedback(self) -> Feedback:
-        """(angle [rad], speed [rad/s]) from the last TPDO, the angle unwrapped."""
+        """(angle [rad], speed [rad/s]) from the last TPDO, the angle unwrapped.
+
+        Returns
+        -------
+        Feedback
+            (angle [rad], speed [rad/s]).
+        """
         slot = self._slot
         if slot.timestamp == self._last_stamp and self._last is not None:
             return self._last  # no new sample: the same one (the watchdog counts it)

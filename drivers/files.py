@@ -90,7 +90,27 @@ def _read(p: Path, limit: int, what: str) -> bytes:
 
 
 def read_bytes(path: str | Path, *, limit: int, what: str = "file") -> bytes:
-    """The bytes of the regular file ``path``, at most ``limit``; ConfigError naming it otherwise."""
+    """The bytes of the regular file ``path``, at most ``limit``; ConfigError naming it otherwise.
+
+    Parameters
+    ----------
+    path : str | Path
+        The file.
+    limit : int
+        [bytes] the most read.
+    what : str, optional
+        What the file is, named in errors.
+
+    Returns
+    -------
+    bytes
+        Its content.
+
+    Raises
+    ------
+    ConfigError
+        If it is missing, not a regular file, unreadable or larger than ``limit``.
+    """
     p = Path(path)
     try:
         return _read(p, limit, what)
@@ -105,7 +125,30 @@ def read_bytes(path: str | Path, *, limit: int, what: str = "file") -> bytes:
 
 def read_text(path: str | Path, *, limit: int, what: str = "file", fallback: str = "") -> str:
     """The UTF-8 text of ``path`` (``read_bytes``), else (``fallback``) in that 8-bit encoding;
-    ConfigError naming the line of a bad byte."""
+    ConfigError naming the line of a bad byte.
+
+    Parameters
+    ----------
+    path : str | Path
+        The file.
+    limit : int
+        [bytes] the most read.
+    what : str, optional
+        What the file is, named in errors.
+    fallback : str, optional
+        An 8-bit encoding tried where the text is not UTF-8 ("": none).
+
+    Returns
+    -------
+    str
+        Its text.
+
+    Raises
+    ------
+    ConfigError
+        As ``read_bytes``, or for UTF-16/32 text, a NUL byte or a byte neither encoding takes (its line
+        named).
+    """
     p = Path(path)
     data = read_bytes(p, limit=limit, what=what)
     if data.startswith((codecs.BOM_UTF32_LE, codecs.BOM_UTF32_BE)):
@@ -156,7 +199,22 @@ def _check_text_depth(text: str, source: str, limit: int) -> None:
 
 
 def check_depth(doc: Any, source: str, limit: int = MAX_DEPTH) -> None:
-    """Refuse a parsed document with tables or arrays nested deeper than ``limit``, naming the key."""
+    """Refuse a parsed document with tables or arrays nested deeper than ``limit``, naming the key.
+
+    Parameters
+    ----------
+    doc : Any
+        A parsed TOML or JSON document.
+    source : str
+        The file it came from, named in the error.
+    limit : int, optional
+        The deepest nesting allowed.
+
+    Raises
+    ------
+    ConfigError
+        If tables or arrays nest deeper than ``limit`` (the key named).
+    """
     stack: list[tuple[Any, str, int]] = [(doc, "", 0)]
     while stack:
         value, key, depth = stack.pop()
@@ -169,7 +227,27 @@ def check_depth(doc: Any, source: str, limit: int = MAX_DEPTH) -> None:
 
 
 def read_toml(path: str | Path, *, limit: int = CONFIG_LIMIT, what: str = "TOML file") -> dict[str, Any]:
-    """The TOML document in ``path`` (``read_text``, depth checked); ConfigError naming the file."""
+    """The TOML document in ``path`` (``read_text``, depth checked); ConfigError naming the file.
+
+    Parameters
+    ----------
+    path : str | Path
+        The file.
+    limit : int, optional
+        [bytes] the most read.
+    what : str, optional
+        What the file is, named in errors.
+
+    Returns
+    -------
+    dict[str, Any]
+        The document.
+
+    Raises
+    ------
+    ConfigError
+        If it cannot be read (``read_text``), is not valid TOML or nests too deep.
+    """
     text = read_text(path, limit=limit, what=what)
     _check_text_depth(text, str(path), MAX_DEPTH)
     try:
@@ -183,7 +261,27 @@ def read_toml(path: str | Path, *, limit: int = CONFIG_LIMIT, what: str = "TOML 
 
 
 def read_json(path: str | Path, *, limit: int = CONFIG_LIMIT, what: str = "JSON file") -> Any:
-    """The JSON document in ``path`` (``read_text``, depth checked); ConfigError naming the file."""
+    """The JSON document in ``path`` (``read_text``, depth checked); ConfigError naming the file.
+
+    Parameters
+    ----------
+    path : str | Path
+        The file.
+    limit : int, optional
+        [bytes] the most read.
+    what : str, optional
+        What the file is, named in errors.
+
+    Returns
+    -------
+    Any
+        The document.
+
+    Raises
+    ------
+    ConfigError
+        If it cannot be read (``read_text``), is not valid JSON or nests too deep.
+    """
     text = read_text(path, limit=limit, what=what)
     _check_text_depth(text, str(path), MAX_DEPTH)
     try:

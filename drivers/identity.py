@@ -94,7 +94,20 @@ def read_standard(upload: Callable[[int, int], bytes], index: int, subindex: int
     """Object (``index``, ``subindex``) of ``STANDARD`` as the device answers ``upload`` (an SDO
     upload, raw bytes), by its standard's type; None where the device lacks it or refuses it (an
     abort). An answer of another size than the type's is decoded as sent (CiA 301 lets an
-    expedited transfer say its size; a drive may keep an INTEGER32 object in two bytes)."""
+    expedited transfer say its size; a drive may keep an INTEGER32 object in two bytes).
+
+    Parameters
+    ----------
+    upload : Callable[[int, int], bytes]
+        An SDO upload: (index, subindex) -> the raw bytes answered.
+    index, subindex : int
+        The object, one of ``STANDARD``.
+
+    Returns
+    -------
+    int | None
+        Its value, or None where the device lacks or refuses it.
+    """
     signed, _size = STANDARD[(index, subindex)]
     try:
         data = upload(index, subindex)
@@ -109,11 +122,11 @@ def read_standard(upload: Callable[[int, int], bytes], index: int, subindex: int
 class Identity:
     """0x1018 of a device (None: not readable or not given) and its vendor's name."""
 
-    vendor: int | None = None
-    product: int | None = None
-    revision: int | None = None
-    serial: int | None = None
-    vendor_name: str = ""
+    vendor: int | None = None  #: 0x1018 sub 1, the vendor-ID
+    product: int | None = None  #: 0x1018 sub 2, the product code
+    revision: int | None = None  #: 0x1018 sub 3, the revision number
+    serial: int | None = None  #: 0x1018 sub 4, the serial number
+    vendor_name: str = ""  #: the vendor's name ("": unknown)
 
     @property
     def toolkit(self) -> bool:
@@ -121,12 +134,24 @@ class Identity:
         return (self.vendor, self.product) == TOOLKIT_DRIVE
 
     def as_dict(self) -> dict[str, int]:
-        """The numbers known (``vendor``, ``product``, ``revision``, ``serial``)."""
+        """The numbers known (``vendor``, ``product``, ``revision``, ``serial``).
+
+        Returns
+        -------
+        dict[str, int]
+            ``vendor``, ``product``, ``revision``, ``serial`` -> the numbers known.
+        """
         fields = (("vendor", self.vendor), ("product", self.product), ("revision", self.revision))
         return {k: v for k, v in (*fields, ("serial", self.serial)) if v is not None}
 
     def text(self) -> str:
-        """``vendor 0x000000FB (maxon motor ag) / product 0x65520000 / revision ... / serial ...``."""
+        """``vendor 0x000000FB (maxon motor ag) / product 0x65520000 / revision ... / serial ...``.
+
+        Returns
+        -------
+        str
+            The identity in words, the numbers in hex.
+        """
         parts = []
         for key, value in self.as_dict().items():
             name = f" ({self.vendor_name})" if key == "vendor" and self.vendor_name else ""
@@ -135,13 +160,35 @@ class Identity:
 
 
 def read_identity(upload: Callable[[int, int], bytes]) -> Identity:
-    """0x1018 sub 1-4 as the device answers (``read_standard``)."""
+    """0x1018 sub 1-4 as the device answers (``read_standard``).
+
+    Parameters
+    ----------
+    upload : Callable[[int, int], bytes]
+        An SDO upload: (index, subindex) -> the raw bytes answered.
+
+    Returns
+    -------
+    Identity
+        0x1018 sub 1-4 as answered (None where not).
+    """
     vendor, product, revision, serial = (read_standard(upload, cia.IDENTITY, sub) for sub in (1, 2, 3, 4))
     return Identity(vendor, product, revision, serial, vendor_name=vendor_of(vendor))
 
 
 def vendor_name(od: Any) -> str:
-    """The vendor's name an EDS gives ([DeviceInfo] VendorName), or ""."""
+    """The vendor's name an EDS gives ([DeviceInfo] VendorName), or "".
+
+    Parameters
+    ----------
+    od : Any
+        A canopen object dictionary read from an EDS/DCF.
+
+    Returns
+    -------
+    str
+        [DeviceInfo] VendorName, or "".
+    """
     info: Any = getattr(od, "device_information", None)
     return str(getattr(info, "vendor_name", "") or "").strip()
 
@@ -160,7 +207,18 @@ def _default(od: Any, index: int, subindex: int) -> int | None:
 def declared_identity(od: Any) -> Identity:
     """The identity an EDS/DCF declares: 0x1018 sub 1-3 default values, else [DeviceInfo]'s
     numbers (vendor, product code, revision; a serial number belongs to one device, not to its
-    EDS)."""
+    EDS).
+
+    Parameters
+    ----------
+    od : Any
+        A canopen object dictionary read from an EDS/DCF.
+
+    Returns
+    -------
+    Identity
+        Vendor, product and revision it declares (no serial).
+    """
     info: Any = getattr(od, "device_information", None)
     numbers = [_default(od, cia.IDENTITY, sub) if cia.IDENTITY in od else None for sub in (1, 2, 3)]
     for i, key in enumerate(("vendor_number", "product_number", "revision_number")):
@@ -176,7 +234,33 @@ def check_identity(device: Identity, od: Any, *, eds: str, given: bool, where: s
     toolkit's generic one): the identity to use, with the vendor's name where the dictionary is
     the device's own. ConfigError where a given dictionary describes another device (vendor or
     product code); a warning where only the revision differs. ``give``: how the user gives the
-    device's own dictionary (``--eds FILE``, the axis's ``eds`` key)."""
+    device's own dictionary (``--eds FILE``, the axis's ``eds`` key).
+
+    Parameters
+    ----------
+    device : Identity
+        The identity the device answers.
+    od : Any
+        The dictionary in use.
+    eds : str
+        Its file, named in messages.
+    given : bool
+        The user gave it (else the toolkit's generic one).
+    where : str
+        The device, named in messages (``node 3``).
+    give : str
+        How the user gives the device's own dictionary (``--eds FILE``).
+
+    Returns
+    -------
+    Identity
+        The identity to use, with the dictionary's vendor name.
+
+    Raises
+    ------
+    ConfigError
+        If a given dictionary's vendor or product code differs from the device's.
+    """
     declared = declared_identity(od)
     if not given and not device.toolkit:
         log.info(

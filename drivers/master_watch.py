@@ -55,7 +55,19 @@ class OtherMaster(SafetyStop):
 
 
 class MasterWatch:
-    """See the module docstring; ``sync``: the host produces SYNC (a SYNC heard is another's)."""
+    """See the module docstring; ``sync``: the host produces SYNC (a SYNC heard is another's).
+
+    Parameters
+    ----------
+    network : Any
+        The host's canopen ``Network``.
+    node_ids : Iterable[int]
+        The host's nodes.
+    sync : bool, optional
+        The host produces SYNC (a SYNC heard is another's).
+    clock : Callable[[], float], optional
+        [s] the time source (``time.monotonic``).
+    """
 
     def __init__(
         self,
@@ -111,7 +123,15 @@ class MasterWatch:
         return True
 
     def add_rpdo(self, cob_id: int, node_id: int) -> None:
-        """Also watch RPDO ``cob_id`` of ``node_id`` (a mapping on a COB-ID of its own)."""
+        """Also watch RPDO ``cob_id`` of ``node_id`` (a mapping on a COB-ID of its own).
+
+        Parameters
+        ----------
+        cob_id : int
+            The RPDO's COB-ID.
+        node_id : int
+            Its node.
+        """
         if cob_id not in self._rpdo_node:
             self._rpdo_node[cob_id] = node_id
             self._listen(cob_id)
@@ -160,6 +180,13 @@ class MasterWatch:
         return f"{text} ({count} frame{'s' * (count > 1)})"
 
     def text(self) -> str:
+        """What was heard, COB-ID by COB-ID, in words.
+
+        Returns
+        -------
+        str
+            "" where nothing was.
+        """
         with self._lock:
             heard = sorted(self.heard.items())
         return ", ".join(self._said(cob, seen) for cob, seen in heard)
@@ -176,7 +203,24 @@ class MasterWatch:
         """Before anything is enabled: listen until ``window`` [s] have passed since the watch
         began, then ``OtherMaster`` if another master was heard (``who`` names the command;
         ``share``: say that ``[bus] sync = "external"`` shares a SYNC producer). Once passed, a
-        SYNC is no longer listened to (the run's own may come from the kernel, or a device)."""
+        SYNC is no longer listened to (the run's own may come from the kernel, or a device).
+
+        Parameters
+        ----------
+        window : float
+            [s] since the watch began to listen before the verdict.
+        sleep : Callable[[float], None], optional
+            Waits [s] (``time.sleep``).
+        who : str, optional
+            The command, named in the refusal.
+        share : bool, optional
+            Say how to share a SYNC producer (``[bus] sync = "external"``).
+
+        Raises
+        ------
+        OtherMaster
+            If another master was heard (what, and when, named).
+        """
         left = self.began + window - self._clock()
         if left > 0.0:
             sleep(left)
@@ -198,7 +242,18 @@ class MasterWatch:
 
     def intruder(self, node_id: int) -> str | None:
         """While running: an RPDO to ``node_id``, an NMT command to it, or (``watch_sync``) a SYNC
-        that the host did not send."""
+        that the host did not send.
+
+        Parameters
+        ----------
+        node_id : int
+            The node.
+
+        Returns
+        -------
+        str | None
+            What another master sent it, in words; None: nothing.
+        """
         heard = self.heard
         if not heard:
             return None
@@ -222,6 +277,7 @@ class MasterWatch:
                 self.network.unsubscribe(cob, self._on_frame)
 
     def close(self) -> None:
+        """Stop listening and give the network back its own ``send_message``."""
         for cob in list(self._cobs):
             self._drop(cob)
         if vars(self.network).get("send_message") == self._sending:

@@ -46,7 +46,29 @@ _READ, _WRITE = 3, 6  #: the function codes used: read holding registers, write 
 
 
 class ModbusInverterAxis(AxisDriver):
-    """An inverter of register map ``family`` at ``unit``, over TCP (``host``) or RTU (``serial``)."""
+    """An inverter of register map ``family`` at ``unit``, over TCP (``host``) or RTU (``serial``).
+
+    Parameters
+    ----------
+    name : str
+        The axis's name.
+    family : str
+        The register map (``drivers.maps.modbus_maps``).
+    unit : int, optional
+        The Modbus unit id.
+    host, port, optional
+        The TCP server (Modbus TCP).
+    serial, baudrate, optional
+        The serial port and its [bit/s] (Modbus RTU).
+    timeout : float, optional
+        [s] an answer may take.
+
+    Raises
+    ------
+    ConfigError
+        If the map is unknown or lacks roles, neither ``host`` nor ``serial`` is given, or ``unit`` is out of
+        range.
+    """
 
     measures = frozenset({"velocity", "current"})
     sample_name = "answer"
@@ -179,7 +201,18 @@ class ModbusInverterAxis(AxisDriver):
         return {reg.role: reg.to_si(v) for reg, v in zip(group, raw)}
 
     def read(self, role: str) -> float:
-        """The SI value of the register with ``role``."""
+        """The SI value of the register with ``role``.
+
+        Parameters
+        ----------
+        role : str
+            The register's role in the map (``speed_actual``).
+
+        Returns
+        -------
+        float
+            Its value in SI units.
+        """
         return self._read_group([self._register(role)])[role]
 
     def _register(self, role: str) -> Register:
@@ -189,7 +222,24 @@ class ModbusInverterAxis(AxisDriver):
             raise ConfigError(f"{self.where}: {exc.args[0]}") from None
 
     def write(self, role: str, value: float) -> None:
-        """Write the SI ``value`` to the register with ``role``."""
+        """Write the SI ``value`` to the register with ``role``.
+
+        Parameters
+        ----------
+        role : str
+            The register's role in the map.
+        value : float
+            In SI units.
+
+        Raises
+        ------
+        ConfigError
+            If the value does not fit the register.
+        CommunicationTimeout
+            If the unit does not answer.
+        CommunicationError
+            If it answers with an exception or a frame that cannot be decoded.
+        """
         reg = self._register(role)
         try:
             raw = reg.to_raw(value)
@@ -212,7 +262,13 @@ class ModbusInverterAxis(AxisDriver):
     # --- the axis contract ------------------------------------------------------------------------
     def setup(self) -> None:
         """Connect and read the status word (the unit answers). A unit never reached is not
-        disabled on close (one line says it could not connect, not a second that disabling failed)."""
+        disabled on close (one line says it could not connect, not a second that disabling failed).
+
+        Raises
+        ------
+        CommunicationError
+            If the unit cannot be reached.
+        """
         try:
             connected = self.client.connect()
         except (ModbusException, OSError) as exc:
@@ -234,6 +290,13 @@ class ModbusInverterAxis(AxisDriver):
         return AxisState.ENABLED if status >> int(st["running_bit"]) & 1 else AxisState.DISABLED
 
     def read_state(self) -> AxisState:
+        """The state the status word (and the fault code, where the map has one) says.
+
+        Returns
+        -------
+        AxisState
+            The axis's state.
+        """
         state = self._state(int(self.read("status_word")))
         if state is not AxisState.FAULT and "fault_code" in self.map.registers and self.read("fault_code"):
             return AxisState.FAULT
@@ -244,7 +307,20 @@ class ModbusInverterAxis(AxisDriver):
         return DeviceFault(f"{self.map.name} reports a fault", device=self.where, code=code)
 
     def enable(self, *, timeout: float = 1.0) -> None:
-        """Speed reference 0, then the family's run command; waits until the status word says running."""
+        """Speed reference 0, then the family's run command; waits until the status word says running.
+
+        Parameters
+        ----------
+        timeout : float, optional
+            [s] to wait for the status word to say running.
+
+        Raises
+        ------
+        DeviceFault
+            If the status word reports a fault.
+        CommunicationTimeout
+            If it is not running after ``timeout``.
+        """
         if self.read_state() is AxisState.FAULT:
             raise self._fault()
         self.write("speed_reference", 0.0)
@@ -257,7 +333,13 @@ class ModbusInverterAxis(AxisDriver):
                 raise CommunicationTimeout(f"{self.where}: not running {timeout:g} s after the run command")
 
     def command(self, value: float | complex) -> None:
-        """The speed reference [rad/s]."""
+        """The speed reference [rad/s].
+
+        Parameters
+        ----------
+        value : float | complex
+            The speed reference [rad/s].
+        """
         self.write("speed_reference", float(value.real if isinstance(value, complex) else value))
 
     def disable(self) -> None:
@@ -270,6 +352,7 @@ class ModbusInverterAxis(AxisDriver):
         self.write("control_word", self.map.control.get("quick_stop", self.map.control["stop"]))
 
     def reset_fault(self) -> None:
+        """The family's fault reset (its reset register, else stop then reset on the control word)."""
         ctl = self.map.control
         if "reset_register_role" in ctl:
             self.write(ctl["reset_register_role"], ctl["reset"])
@@ -278,7 +361,13 @@ class ModbusInverterAxis(AxisDriver):
             self.write("control_word", ctl["reset"])
 
     def feedback(self) -> Feedback:
-        """Actual speed [rad/s] and current [A], read now; the status word is kept for ``supervise``."""
+        """Actual speed [rad/s] and current [A], read now; the status word is kept for ``supervise``.
+
+        Returns
+        -------
+        Feedback
+            Speed [rad/s] and current [A].
+        """
         values: dict[str, float] = {}
         for group in self._groups:
             values.update(self._read_group(group))
@@ -287,7 +376,20 @@ class ModbusInverterAxis(AxisDriver):
         return Feedback(velocity=values["actual_speed"], current=values["current"], stamp=float(self._count))
 
     def supervise(self, now: float) -> None:
-        """A status word that reports a fault, or that the drive stopped running, stops the loop."""
+        """A status word that reports a fault, or that the drive stopped running, stops the loop.
+
+        Parameters
+        ----------
+        now : float
+            [s] ``time.monotonic()`` (unused: the status word read by ``feedback`` decides).
+
+        Raises
+        ------
+        DeviceFault
+            If the status word reports a fault.
+        SafetyStop
+            If the inverter stopped running.
+        """
         if self._status is None:
             return
         state = self._state(self._status)

@@ -79,10 +79,10 @@ class OtherProducer(SafetyStop):
 class Finding:
     """Another producer on ``cob_id`` of node ``node_id``, in words; ``syncs``: the SYNC count then."""
 
-    cob_id: int
-    node_id: int
-    text: str
-    syncs: int
+    cob_id: int  #: the COB-ID with two producers
+    node_id: int  #: the node whose TPDO it is
+    text: str  #: what was found, in words
+    syncs: int  #: the SYNC count when it was found
 
 
 def travel_band(
@@ -100,7 +100,24 @@ def travel_band(
     over its mirror, and the travel between their integrals; else (receive times) only the start's
     and the end's envelopes hold, from either sample, over 0 to ``dt_hi``. Widened by one position
     count (``resolution[0]`` [rad]) for each of the two positions and one speed unit
-    (``resolution[1]`` [rad/s]) on each speed (each is rounded, by half a unit)."""
+    (``resolution[1]`` [rad/s]) on each speed (each is rounded, by half a unit).
+
+    Parameters
+    ----------
+    v1, v2 : float
+        [rad/s] the drive's speeds at the two samples.
+    dt_lo, dt_hi : float
+        [s] the least and the most time between them.
+    resolution : tuple[float, float]
+        (one position count [rad], one speed unit [rad/s]).
+    accel : float
+        [rad/s^2] the most the shaft accelerates (inf: no bound).
+
+    Returns
+    -------
+    tuple[float, float] | None
+        (least, most) travel [rad]; None where ``accel`` is not a finite value > 0 (no rule).
+    """
     if not (math.isfinite(accel) and accel > 0.0):
         return None
     q_position, q_speed = resolution
@@ -117,7 +134,20 @@ def travel_band(
 def declared_acceleration(values: list[Any], per: float) -> float:
     """[rad/s^2] the largest of the acceleration objects ``values`` read from a drive (None: it has
     not got that one) in velocity units per s, ``per`` of them per rad/s^2; inf where none is
-    there, or one says 'no limit' (0, or 0xFFFFFFFF: EPOS4's 0x60C5)."""
+    there, or one says 'no limit' (0, or 0xFFFFFFFF: EPOS4's 0x60C5).
+
+    Parameters
+    ----------
+    values : list[Any]
+        The acceleration objects read (None: the drive has not got that one).
+    per : float
+        Velocity units per s per rad/s^2.
+
+    Returns
+    -------
+    float
+        [rad/s^2] the largest; inf where none, or one says "no limit" (0, 0xFFFFFFFF).
+    """
     given = [v for v in values if v is not None]
     if not given or not all(isinstance(v, int) and 0 < v < 0xFFFF_FFFF for v in given):
         return math.inf
@@ -142,7 +172,15 @@ def _ahead(v: float, dt: float, a: float) -> float:
 
 
 class ProducerWatch:
-    """See the module docstring; ``echoes()``: the bus gives the host its own frames back."""
+    """See the module docstring; ``echoes()``: the bus gives the host its own frames back.
+
+    Parameters
+    ----------
+    network : Any
+        The host's canopen ``Network``.
+    echoes : Callable[[], bool], optional
+        Whether the bus gives the host its own frames back.
+    """
 
     def __init__(self, network: Any, *, echoes: Callable[[], bool] = lambda: False) -> None:
         self.network = network
@@ -173,14 +211,33 @@ class ProducerWatch:
         self.syncs += 1
 
     def watch(self, slot: TpdoSlot) -> None:
-        """Count ``slot``'s frames from now on against the SYNCs from now on."""
+        """Count ``slot``'s frames from now on against the SYNCs from now on.
+
+        Parameters
+        ----------
+        slot : TpdoSlot
+            A TPDO's receive slot.
+        """
         slot.producers = self
         slot.frames = 0
         slot.since = self.syncs
 
     def take(self, slot: TpdoSlot, data: bytes | bytearray) -> bool:
         """A frame on ``slot``'s COB-ID (its receive path): False where it is not its node's (found,
-        or its COB-ID found before)."""
+        or its COB-ID found before).
+
+        Parameters
+        ----------
+        slot : TpdoSlot
+            The TPDO's receive slot.
+        data : bytes | bytearray
+            The frame's data.
+
+        Returns
+        -------
+        bool
+            True where the frame may be its node's.
+        """
         if slot.cob_id in self.found:
             return False
         size = slot.codec.size
@@ -214,7 +271,18 @@ class ProducerWatch:
                 self.alarm = True
 
     def intruder(self, node_id: int) -> str | None:
-        """The first finding on a COB-ID of ``node_id``, in words (None: none)."""
+        """The first finding on a COB-ID of ``node_id``, in words (None: none).
+
+        Parameters
+        ----------
+        node_id : int
+            The node.
+
+        Returns
+        -------
+        str | None
+            The finding in words; None: none.
+        """
         with self._lock:
             mine = [f for f in self.found.values() if f.node_id == node_id]
         return min(mine, key=lambda f: f.syncs).text if mine else None
@@ -223,7 +291,20 @@ class ProducerWatch:
         """The cause of a stop that a check of a sample made (``reason``) at the SYNC count
         ``mark``: where another producer was found by the answers to the next SYNC (the node's
         own answer came after a frame the cycle took for it), the stop's sample may have been
-        that frame, and the stop is named for the other producer; else ``reason``."""
+        that frame, and the stop is named for the other producer; else ``reason``.
+
+        Parameters
+        ----------
+        reason : str
+            The stop's reason, from a check of a sample.
+        mark : int
+            The SYNC count of that sample.
+
+        Returns
+        -------
+        str
+            ``reason``, with the other producer named where one was found then.
+        """
         with self._lock:
             found = [f for f in self.found.values() if f.syncs <= mark + 1]
         if not found:
@@ -233,6 +314,7 @@ class ProducerWatch:
         return f"{first.text}; the run had stopped on a sample it may have sent: {reason}"
 
     def close(self) -> None:
+        """Stop counting SYNCs and give the network back its ``send_message``."""
         if COB_SYNC in self.network.subscribers and self._on_sync in self.network.subscribers[COB_SYNC]:
             self.network.unsubscribe(COB_SYNC, self._on_sync)
         if vars(self.network).get("send_message") == self._sending:

@@ -72,6 +72,21 @@ def parse_profile(text: str) -> Profile:
     """The profile written in ``text`` (see the module docstring) as a function of t [s].
 
     A ValueError names the faulty term and the whole text.
+
+    Parameters
+    ----------
+    text : str
+        The profile, e.g. ``step:0.5:0.1+sine:0.2:5``.
+
+    Returns
+    -------
+    Profile
+        t [s] -> its value.
+
+    Raises
+    ------
+    ValueError
+        If a term is malformed (the term and the whole text named).
     """
     terms = []
     for raw in _PLUS.split(text):
@@ -92,6 +107,17 @@ def parse_profile(text: str) -> Profile:
 
 def profile_peak(text: str) -> float:
     """The most |value| the profile written in ``text`` can take: the sum of its terms' |A|
-    (0 for none); a ValueError as ``parse_profile``'s where it is not a profile."""
+    (0 for none); a ValueError as ``parse_profile``'s where it is not a profile.
+
+    Parameters
+    ----------
+    text : str
+        The profile.
+
+    Returns
+    -------
+    float
+        The sum of its terms' amplitudes |A|.
+    """
     parse_profile(text)
     return sum(abs(float(part.split(":")[1])) for part in _PLUS.split(text) if ":" in part)

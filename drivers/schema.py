@@ -49,7 +49,17 @@ MAX_PERIOD = 10.0  #: [s] the longest cycle a control loop (and an emulated moto
 
 
 class Refused(ValueError):
-    """``key = value`` is not allowed: ``rule`` says what is (the loader adds the file and table)."""
+    """``key = value`` is not allowed: ``rule`` says what is (the loader adds the file and table).
+
+    Parameters
+    ----------
+    key : str
+        The key.
+    value : Any
+        The value given.
+    rule : str
+        What is allowed, in words.
+    """
 
     def __init__(self, key: str, value: Any, rule: str) -> None:
         super().__init__(f"{key} = {value!r}: {rule}")
@@ -64,21 +74,27 @@ def _g(x: float) -> str:
 class Key:
     """What a key is and what it allows (see the module docstring)."""
 
-    unit: str = ""
-    doc: str = ""
-    ge: float | None = None
-    gt: float | None = None
-    le: float | None = None
-    lt: float | None = None
-    finite: bool = True
-    nonzero: bool = False
-    also: tuple[tuple[Any, str], ...] = ()
-    check: Callable[[Any], Any] | None = None
+    unit: str = ""  #: the key's unit ("": none)
+    doc: str = ""  #: what the key means
+    ge: float | None = None  #: the least value allowed (None: no bound)
+    gt: float | None = None  #: values must be above it (None: no bound)
+    le: float | None = None  #: the most value allowed (None: no bound)
+    lt: float | None = None  #: values must be below it (None: no bound)
+    finite: bool = True  #: inf and nan refused
+    nonzero: bool = False  #: 0 refused
+    also: tuple[tuple[Any, str], ...] = ()  #: (value, meaning) pairs allowed outside the bounds
+    check: Callable[[Any], Any] | None = None  #: raises ValueError with the rule where the value is refused
     rule: str = ""  #: the rule in words, where the bounds say it badly
-    kinds: tuple[str, ...] = ()
+    kinds: tuple[str, ...] = ()  #: the ``[[axis]] kind`` values the key belongs to (): all
 
     def text(self) -> str:
-        """The values allowed, in words: what follows "must be" (and the docs' column)."""
+        """The values allowed, in words: what follows "must be" (and the docs' column).
+
+        Returns
+        -------
+        str
+            The values allowed, in words (what follows "must be").
+        """
         if self.rule:
             return self.rule
         unit = f" [{self.unit}]" if self.unit[:1].isdigit() else f" {self.unit}" if self.unit else ""
@@ -100,7 +116,20 @@ class Key:
         return f"{words} ({notes})" if notes and words else notes or words
 
     def refusal(self, value: Any, default: Any = None) -> str | None:
-        """Why ``value`` is not allowed ("must be ..."), or None; a list's items each."""
+        """Why ``value`` is not allowed ("must be ..."), or None; a list's items each.
+
+        Parameters
+        ----------
+        value : Any
+            The value given.
+        default : Any, optional
+            The key's default (allowed whatever the rules say).
+
+        Returns
+        -------
+        str | None
+            Why it is refused ("must be ..."); None: allowed.
+        """
         if isinstance(value, (list, tuple)):
             for item in value:
                 why = self.refusal(item)
@@ -147,7 +176,28 @@ def key(
     **allowed: Any,
 ) -> Any:
     """A field of a schema dataclass that is a key: ``default`` (or ``factory``), its ``unit``,
-    what it means (``doc``) and what it allows (``Key``'s fields)."""
+    what it means (``doc``) and what it allows (``Key``'s fields).
+
+    Parameters
+    ----------
+    default : Any, optional
+        The key's default.
+    unit : str, optional
+        Its unit.
+    doc : str, optional
+        What it means.
+    factory : Callable[[], Any] | None, optional
+        Makes the default (a mutable one).
+    also : Mapping[Any, str] | None, optional
+        Values allowed outside the bounds -> what they mean.
+    **allowed : Any
+        ``Key``'s other fields (``ge``, ``gt``, ``le``, ``lt``, ``check`` ...).
+
+    Returns
+    -------
+    Any
+        The dataclass field.
+    """
     meta = {"key": Key(unit, doc, also=tuple((also or {}).items()), **allowed)}
     if factory is not None:
         return dataclasses.field(default_factory=factory, metadata=meta)
@@ -155,28 +205,76 @@ def key(
 
 
 def key_of(f: dataclasses.Field[Any]) -> Key | None:
-    """The ``Key`` of field ``f`` (None: not declared with ``key``)."""
+    """The ``Key`` of field ``f`` (None: not declared with ``key``).
+
+    Parameters
+    ----------
+    f : dataclasses.Field[Any]
+        A dataclass field.
+
+    Returns
+    -------
+    Key | None
+        Its ``Key``; None: not declared with ``key``.
+    """
     found: Key | None = f.metadata.get("key")
     return found
 
 
 def keys(schema: Any) -> dict[str, dataclasses.Field[Any]]:
     """The settable keys of dataclass ``schema`` (a class or an instance): its fields declared
-    with ``key``, or, where it declares none, every field of its ``__init__``."""
+    with ``key``, or, where it declares none, every field of its ``__init__``.
+
+    Parameters
+    ----------
+    schema : Any
+        A dataclass, class or instance.
+
+    Returns
+    -------
+    dict[str, dataclasses.Field[Any]]
+        Key name -> field.
+    """
     fields = [f for f in dataclasses.fields(schema) if f.init]
     declared = [f for f in fields if key_of(f) is not None]
     return {f.name: f for f in (declared or fields)}
 
 
 def field_types(schema: type) -> dict[str, Any]:
-    """The fields of dataclass ``schema`` with their resolved types."""
+    """The fields of dataclass ``schema`` with their resolved types.
+
+    Parameters
+    ----------
+    schema : type
+        A dataclass.
+
+    Returns
+    -------
+    dict[str, Any]
+        Field name -> its resolved type.
+    """
     hints = typing.get_type_hints(schema)
     return {f.name: hints[f.name] for f in dataclasses.fields(schema)}
 
 
 def check_given(schema: Any, values: Mapping[str, Any], names: Iterable[str] | None = None) -> None:
     """Each of ``values`` (of ``names``, or all) against its key's rule; ``Refused`` at the first
-    that is not allowed. Values are already of the field's type (``rig.params`` parses them)."""
+    that is not allowed. Values are already of the field's type (``rig.params`` parses them).
+
+    Parameters
+    ----------
+    schema : Any
+        The table's dataclass.
+    values : Mapping[str, Any]
+        Key -> value, already of the field's type.
+    names : Iterable[str] | None, optional
+        The keys to check (None: all of ``values``).
+
+    Raises
+    ------
+    Refused
+        At the first value not allowed.
+    """
     fields = keys(schema)
     for name in values if names is None else names:
         f = fields.get(name)

@@ -40,7 +40,31 @@ def _bytes(n: int) -> str:
 
 def sized(var: Any, data: bytes, indicated: int | None, *, node_id: int, source: str) -> bytes:
     """``data``, answered to an upload of canopen ``var`` (``indicated``: the size the device gave,
-    None where it gave none), cut to ``var``'s type; DictionaryMismatch where it does not fit it."""
+    None where it gave none), cut to ``var``'s type; DictionaryMismatch where it does not fit it.
+
+    Parameters
+    ----------
+    var : Any
+        The canopen variable uploaded.
+    data : bytes
+        The bytes answered.
+    indicated : int | None
+        The size the device gave (None: none).
+    node_id : int
+        The node, named in the error.
+    source : str
+        The dictionary's file, named in the error.
+
+    Returns
+    -------
+    bytes
+        ``data`` cut to the variable's size.
+
+    Raises
+    ------
+    DictionaryMismatch
+        If the answer is shorter than the type.
+    """
     if not var.fixed_size:
         return data
     size = len(var) // 8

@@ -78,7 +78,18 @@ def install_bounded_connect() -> None:
 
 
 def format_send(msg: can.Message) -> bytes:
-    """``msg`` as socketcand's ``< send ID DLC B0 ... >`` line."""
+    """``msg`` as socketcand's ``< send ID DLC B0 ... >`` line.
+
+    Parameters
+    ----------
+    msg : can.Message
+        The frame.
+
+    Returns
+    -------
+    bytes
+        The line, ASCII.
+    """
     can_id = msg.arbitration_id
     ident = f"{can_id & 0x1FFFFFFF:08X}" if msg.is_extended_id else f"{can_id & 0x7FF:03X}"
     return f"< send {ident} {msg.dlc:X} {msg.data[: msg.dlc].hex(' ')} >".encode("ascii")
@@ -90,7 +101,22 @@ def parse_frames(text: str, channel: Any, out: collections.deque[can.Message]) -
     segment). A frame starts at the last ``< frame`` before its ``>``: a broken line costs only
     itself. A frame is a classic CAN frame: an id of 3 hex digits up to 7FF or 8 up to 1FFFFFFF,
     at most 8 data bytes, a finite time. Other lines (``< ok >``, ``< echo >``, a server's
-    ``< error ... >``) and malformed ones are no frames: logged at debug."""
+    ``< error ... >``) and malformed ones are no frames: logged at debug.
+
+    Parameters
+    ----------
+    text : str
+        What the socket gave, after the rest of the last segment.
+    channel : Any
+        The channel the frames are stamped with.
+    out : collections.deque[can.Message]
+        Where the frames go.
+
+    Returns
+    -------
+    str
+        The unfinished rest of ``text``.
+    """
     end = text.find(">")
     while end >= 0:
         line = text[:end]
@@ -131,7 +157,24 @@ def parse_frames(text: str, channel: Any, out: collections.deque[can.Message]) -
 
 
 class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
-    """See the module docstring. ``timeout`` [s] bounds the connect and the handshake together."""
+    """See the module docstring. ``timeout`` [s] bounds the connect and the handshake together.
+
+    Parameters
+    ----------
+    channel : str
+        The socketcand bus (``can0``).
+    host, port
+        The socketcand server.
+    timeout : float
+        [s] the connect and the handshake together.
+    **kwargs : Any
+        python-can's ``SocketCanDaemonBus`` arguments.
+
+    Raises
+    ------
+    CommunicationError
+        If it cannot connect or the handshake fails in time.
+    """
 
     def __init__(self, channel: str, host: str, port: int, *, timeout: float, **kwargs: Any) -> None:
         self._deadline = time.monotonic() + timeout
@@ -185,12 +228,26 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
         self._rest = parse_frames(got[len(msg) :], self.channel, self._frames)
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
-        """``msg`` as one line, one ``sendall`` (``timeout``: ignored, as python-can's)."""
+        """``msg`` as one line, one ``sendall`` (``timeout``: ignored, as python-can's).
+
+        Parameters
+        ----------
+        msg : can.Message
+            The frame.
+        timeout : float | None, optional
+            Ignored.
+        """
         self._socket.sendall(format_send(msg))
 
     def claim(self, *, others: bool = True) -> None:
         """From now on only the calling thread reads (until ``release``); with ``others`` (a
-        notifier thread reads too), wait (at most 1 s) until it has parked."""
+        notifier thread reads too), wait (at most 1 s) until it has parked.
+
+        Parameters
+        ----------
+        others : bool, optional
+            Another thread reads too: wait (at most 1 s) until it has parked.
+        """
         self._parked.clear()
         self._resume.clear()
         self._owner = threading.get_ident()
@@ -261,7 +318,18 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
         """The frames that have come, ready for ``recv`` without a wait: those read and not yet
         taken, and those one read of the socket brings now (where it holds any). For the
         claiming thread: a drain of what has come takes this many, so a sender that never
-        pauses cannot hold it for ever (``rig.host.pacing.OwnedReceive``)."""
+        pauses cannot hold it for ever (``rig.host.pacing.OwnedReceive``).
+
+        Returns
+        -------
+        int
+            Frames ready for ``recv`` without a wait.
+
+        Raises
+        ------
+        CanError
+            If the socket fails.
+        """
         if not self._closed:
             try:
                 ready, _, _ = select.select([self._socket], [], [], 0.0)

@@ -64,17 +64,54 @@ class Axis:
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         """Take a command; ``computed_one_sync_ago`` marks a synchronous RPDO applied one SYNC
-        after the host computed it from the previous sample."""
+        after the host computed it from the previous sample.
+
+        Parameters
+        ----------
+        mode : int
+            The mode of operation (``Mode``), one of ``modes``.
+        value : complex | float
+            The command in the mode's SI unit (a complex dq voltage [V] in ``Mode.DQ_VOLTAGE``).
+        computed_one_sync_ago : bool, optional
+            A synchronous RPDO, applied one SYNC after the host computed it.
+
+        Raises
+        ------
+        ValueError
+            If the axis has no mode ``mode``.
+        NotImplementedError
+            In this interface: each axis implements it.
+        """
         raise NotImplementedError
 
     def latch(self) -> None:
         """A SYNC: the feedback of this instant is being sampled."""
 
     def advance(self, h: float, t: float) -> None:
+        """Integrate the physics over ``h`` [s] from time ``t`` [s] with the command held.
+
+        Parameters
+        ----------
+        h : float
+            [s] the step, >= 0.
+        t : float
+            [s] the time at its start (for a load profile).
+
+        Raises
+        ------
+        NotImplementedError
+            In this interface: each axis implements it.
+        """
         raise NotImplementedError
 
     def coast(self) -> None:
-        """Power stage off: no voltage, no torque."""
+        """Power stage off: no voltage, no torque.
+
+        Raises
+        ------
+        NotImplementedError
+            In this interface: each axis implements it.
+        """
         raise NotImplementedError
 
     def release(self) -> None:
@@ -83,7 +120,13 @@ class Axis:
         self.coast()
 
     def reset(self) -> None:
-        """Back to rest (state zero)."""
+        """Back to rest (state zero).
+
+        Raises
+        ------
+        NotImplementedError
+            In this interface: each axis implements it.
+        """
         raise NotImplementedError
 
 
@@ -91,15 +134,29 @@ class Axis:
 class ServoLoops:
     """The drive's inner loops: speed PI (kp [N m s/rad], ki [N m/rad]), position P (kp [1/s])."""
 
-    speed_kp: float
-    speed_ki: float
-    position_kp: float
+    speed_kp: float  #: [N m s/rad] the speed PI's proportional gain
+    speed_ki: float  #: [N m/rad] its integral gain
+    position_kp: float  #: [1/s] the position P gain
     max_torque: float  #: [N m]
     max_voltage: float  #: [V], the power stage limit
 
 
 class DcServoAxis(Axis):
-    """DC motor (3.4) behind a servo drive; state [theta, omega, i_r]."""
+    """DC motor (3.4) behind a servo drive; state [theta, omega, i_r].
+
+    Parameters
+    ----------
+    motor : DCMotorParams
+        The motor's parameters (3.4).
+    loops : ServoLoops
+        The drive's inner loops.
+    inner_dt : float
+        [s] the inner loops' period.
+    load : LoadProfile | None, optional
+        Load torque [N m] of time [s]; None: no load.
+    coulomb : float, optional
+        [N m] the Coulomb friction T_c (``plant_emulator.friction``).
+    """
 
     modes = (Mode.VOLTAGE, Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY, Mode.CSP)
 
@@ -276,7 +333,21 @@ class DcServoAxis(Axis):
 
 
 class GridAxis(Axis):
-    """RL load with a rotating source (Table IV) behind the converter; mode -2 (dq voltage)."""
+    """RL load with a rotating source (Table IV) behind the converter; mode -2 (dq voltage).
+
+    Parameters
+    ----------
+    rl : RLParams
+        The RL load and its converter (Table IV).
+    omega_k : float
+        [rad/s] the source's (grid's) frequency.
+    source : complex, optional
+        [V] the source's dq voltage.
+    u_max : float, optional
+        [V] the converter's voltage limit.
+    hold_angle : str, optional
+        "middle": a reference is turned with the angle half a period on (else its sample's).
+    """
 
     modes = (Mode.DQ_VOLTAGE,)
 
@@ -302,7 +373,22 @@ class GridAxis(Axis):
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         """dq voltage reference [V]: turned to alpha-beta with the angle of the sample it was
-        computed from (plus half a period with ``hold_angle="middle"``), as the modulator would."""
+        computed from (plus half a period with ``hold_angle="middle"``), as the modulator would.
+
+        Parameters
+        ----------
+        mode : int
+            ``Mode.DQ_VOLTAGE`` only.
+        value : complex | float
+            [V] the dq voltage reference.
+        computed_one_sync_ago : bool, optional
+            Computed from the sample one SYNC before the last.
+
+        Raises
+        ------
+        ValueError
+            If ``mode`` is not ``Mode.DQ_VOLTAGE``.
+        """
         if mode != Mode.DQ_VOLTAGE:
             raise ValueError(f"grid axis has only mode {Mode.DQ_VOLTAGE}, got {mode}")
         theta = self._theta_samples[0 if computed_one_sync_ago else 1]

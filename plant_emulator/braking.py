@@ -30,7 +30,22 @@ STOPPED_SPEED = 1e-2
 def deceleration(option: int, *, profile: float, quick_stop: float) -> float | None:
     """The deceleration [rad/s^2] of stop option ``option`` (see the module docstring): None to
     coast, ``math.inf`` to brake at the limit; ``profile`` and ``quick_stop`` [rad/s^2] are the
-    drive's 0x6084 and 0x6085 in SI."""
+    drive's 0x6084 and 0x6085 in SI.
+
+    Parameters
+    ----------
+    option : int
+        A quick-stop or fault-reaction option code (0x605A/0x605E).
+    profile : float
+        [rad/s^2] the drive's 0x6084.
+    quick_stop : float
+        [rad/s^2] its 0x6085.
+
+    Returns
+    -------
+    float | None
+        [rad/s^2]; None: coast; ``math.inf``: brake at the limit.
+    """
     if option <= 0:
         return None
     if option in (1, 5):
@@ -55,13 +70,44 @@ class Braking:
         return self.reference is not None
 
     def start(self, velocity: float, rate: float, *, cause: object = None) -> None:
-        """Brake from ``velocity`` [rad/s] at ``rate`` [rad/s^2] (> 0; inf: at the limit), for ``cause``."""
+        """Brake from ``velocity`` [rad/s] at ``rate`` [rad/s^2] (> 0; inf: at the limit), for ``cause``.
+
+        Parameters
+        ----------
+        velocity : float
+            [rad/s] the set-point braking starts from.
+        rate : float
+            [rad/s^2] > 0 (inf: at the limit).
+        cause : object, optional
+            What stops the drive (kept for the caller).
+
+        Raises
+        ------
+        ValueError
+            If ``rate`` <= 0.
+        """
         if not rate > 0.0:
             raise ValueError(f"a braking deceleration must be > 0 rad/s^2, got {rate!r}")
         self.reference, self.rate, self.cause = velocity, rate, cause
 
     def step(self, h: float) -> float:
-        """The set-point after ``h`` [s] more of braking."""
+        """The set-point after ``h`` [s] more of braking.
+
+        Parameters
+        ----------
+        h : float
+            [s] of braking.
+
+        Returns
+        -------
+        float
+            [rad/s] the set-point.
+
+        Raises
+        ------
+        RuntimeError
+            If called before ``start``.
+        """
         ref = self.reference
         if ref is None:
             raise RuntimeError("Braking.step() before start()")
@@ -71,4 +117,5 @@ class Braking:
         return ref
 
     def release(self) -> None:
+        """Braking over: no set-point, no cause."""
         self.reference = self.cause = None

@@ -79,6 +79,15 @@ class EmulatedNode(Supervision, DeviceHooks):
 
     Devices override its hooks (``plant_emulator.device_hooks``): ``on_sync_latch`` updates the
     process data before the synchronous TPDOs go out, ``on_rpdo``, ``on_reset``, ...
+
+    Parameters
+    ----------
+    node_id : int
+        Its node-ID (255: none yet, LSS only).
+    eds : str
+        Its EDS.
+    network : canopen.Network
+        The canopen network it answers on.
     """
 
     def __init__(self, node_id: int, eds: str, network: canopen.Network) -> None:
@@ -187,7 +196,13 @@ class EmulatedNode(Supervision, DeviceHooks):
         self._configure()
 
     def reset(self, *, comm_only: bool = False) -> None:
-        """NMT reset node (or communication): the node-ID pending (LSS), power-on values, boot-up."""
+        """NMT reset node (or communication): the node-ID pending (LSS), power-on values, boot-up.
+
+        Parameters
+        ----------
+        comm_only : bool, optional
+            Reset communication (else reset node).
+        """
         if self.lss is not None:
             self.lss.on_reset(application=not comm_only)
         stored = self._power_on or {}
@@ -205,7 +220,13 @@ class EmulatedNode(Supervision, DeviceHooks):
         self._start()
 
     def tick(self, now: float) -> None:
-        """Advance the device clock to ``now`` [s]: heartbeat and event timers."""
+        """Advance the device clock to ``now`` [s]: heartbeat and event timers.
+
+        Parameters
+        ----------
+        now : float
+            [s] the device clock.
+        """
         self.clock = now
         if self._deferred:
             self._answer_sdo(now)
@@ -219,7 +240,13 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.supervise(now)
 
     def event_tpdos(self, now: float) -> None:
-        """TPDOs of type 254/255: sent when their data change or their event timer (sub 5) expires."""
+        """TPDOs of type 254/255: sent when their data change or their event timer (sub 5) expires.
+
+        Parameters
+        ----------
+        now : float
+            [s] the device clock.
+        """
         for pdo in self._event_tpdos:
             self._event_tpdo(pdo, now)
 
@@ -260,12 +287,31 @@ class EmulatedNode(Supervision, DeviceHooks):
         return self.od.read(index, subindex)  # type: ignore[no-any-return]
 
     def read(self, index: int, subindex: int = 0) -> Any:
-        """Decoded value of an object."""
+        """Decoded value of an object.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+
+        Returns
+        -------
+        Any
+            Its value.
+        """
         return self.od.read(index, subindex)
 
     def write(self, index: int, subindex: int, value: Any) -> None:
         """Set an object's value from the device side (no access check, no write callbacks; the
-        device takes note, as of any stored write: ``after_write``)."""
+        device takes note, as of any stored write: ``after_write``).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+        value : Any
+            Its value.
+        """
         self.od.write(index, subindex, value)
         self.after_write(index)
 
@@ -393,7 +439,17 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.tick(now)
 
     def emcy(self, code: int, register: int, data: bytes = b"") -> None:
-        """Send an EMCY (in PRE-OPERATIONAL and OPERATIONAL) and set 0x1001."""
+        """Send an EMCY (in PRE-OPERATIONAL and OPERATIONAL) and set 0x1001.
+
+        Parameters
+        ----------
+        code : int
+            The emergency error code.
+        register : int
+            0x1001, the error register.
+        data : bytes, optional
+            Manufacturer-specific bytes (up to 5).
+        """
         self.write(cia.ERROR_REGISTER, 0, register)
         if self.nmt_state in _SDO_SYNC_STATES:
             self.node.emcy.send(code, register, data)

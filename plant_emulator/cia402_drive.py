@@ -91,6 +91,21 @@ class EmulatedDrive(DriveCycle, DriveSafety, EmulatedNode):
     ``profile``: the drive's device profile (default: the toolkit's own). ``shaft``: the plant
     the axis is part of (``plant_emulator.shaft``), shared with the other nodes on it; None
     gives the drive a shaft of its own.
+
+    Parameters
+    ----------
+    node_id : int
+        Its node.
+    network : canopen.Network
+        The canopen network it answers on.
+    axis : Axis
+        The physics behind it.
+    period : float
+        [s] the SYNC period.
+    profile : DeviceProfile | None, optional
+        The drive's device profile (None: the toolkit's own).
+    shaft : Shaft | None, optional
+        The shaft it is part of (None: one of its own).
     """
 
     def __init__(
@@ -189,7 +204,15 @@ class EmulatedDrive(DriveCycle, DriveSafety, EmulatedNode):
         self.shaft.lockstep = value
 
     def rate(self, ratings: Ratings, *, counts_per_rev: int | None) -> None:
-        """Take the ratings and the position resolution [increments/rev; None: the drive's own]."""
+        """Take the ratings and the position resolution [increments/rev; None: the drive's own].
+
+        Parameters
+        ----------
+        ratings : Ratings
+            The motor's ratings.
+        counts_per_rev : int | None
+            [increments/rev] the position resolution (None: the drive's own).
+        """
         self.image.rate(ratings, counts_per_rev)
 
     @property
@@ -328,7 +351,13 @@ class EmulatedDrive(DriveCycle, DriveSafety, EmulatedNode):
         return value
 
     def on_reset(self, *, application: bool) -> None:
-        """Power-on or NMT reset node: the drive lets go of its axis; the shaft keeps turning."""
+        """Power-on or NMT reset node: the drive lets go of its axis; the shaft keeps turning.
+
+        Parameters
+        ----------
+        application : bool
+            Reset node (else power-on).
+        """
         self.axis.release()
         self.sm = PowerStateMachine()
         self.sm.power_on()

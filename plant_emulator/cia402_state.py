@@ -59,14 +59,26 @@ class PowerStateMachine:
         self._word = 0
 
     def power_on(self) -> PowerState:
-        """Transitions 0 and 1: self-test done, to SWITCH ON DISABLED."""
+        """Transitions 0 and 1: self-test done, to SWITCH ON DISABLED.
+
+        Returns
+        -------
+        PowerState
+            SWITCH ON DISABLED.
+        """
         self.state = S.SWITCH_ON_DISABLED
         self._last_cw = 0
         self._settled = None
         return self.state
 
     def statusword(self) -> int:
-        """Bits 0-6 for the present state, plus bit 4 voltage enabled where the power stage is on."""
+        """Bits 0-6 for the present state, plus bit 4 voltage enabled where the power stage is on.
+
+        Returns
+        -------
+        int
+            The statusword's state bits.
+        """
         st = self.state
         if st is not self._word_state:  # decoded once per state change
             self._word_state = st
@@ -79,27 +91,51 @@ class PowerStateMachine:
         return self.state in _POWER_ON
 
     def fault(self) -> PowerState:
-        """Transition 13: a fault from any state (reaction runs before FAULT)."""
+        """Transition 13: a fault from any state (reaction runs before FAULT).
+
+        Returns
+        -------
+        PowerState
+            FAULT REACTION ACTIVE (or FAULT where it is one already).
+        """
         if self.state not in (S.FAULT, S.FAULT_REACTION_ACTIVE):
             self.state = S.FAULT_REACTION_ACTIVE
         return self.state
 
     def quick_stop(self) -> PowerState:
-        """The drive's own quick stop (transition 11, from OPERATION ENABLED only)."""
+        """The drive's own quick stop (transition 11, from OPERATION ENABLED only).
+
+        Returns
+        -------
+        PowerState
+            The new state.
+        """
         if self.state is S.OPERATION_ENABLED:
             self.state = S.QUICK_STOP_ACTIVE
             self._settled = None
         return self.state
 
     def disable_voltage(self) -> PowerState:
-        """The drive's own disable voltage (transitions 7, 9, 10, 12): the power stage off."""
+        """The drive's own disable voltage (transitions 7, 9, 10, 12): the power stage off.
+
+        Returns
+        -------
+        PowerState
+            The new state.
+        """
         if self.state in _VOLTAGE_ON:
             self.state = S.SWITCH_ON_DISABLED
             self._settled = None
         return self.state
 
     def reaction_done(self) -> PowerState:
-        """The stop ramp ended: transition 14 (to FAULT) or 12 (to SWITCH ON DISABLED, options 0-4)."""
+        """The stop ramp ended: transition 14 (to FAULT) or 12 (to SWITCH ON DISABLED, options 0-4).
+
+        Returns
+        -------
+        PowerState
+            The new state.
+        """
         if self.state is S.FAULT_REACTION_ACTIVE:
             self.state = S.FAULT
         elif self.state is S.QUICK_STOP_ACTIVE and self.quick_stop_option < _STAY:
@@ -111,6 +147,16 @@ class PowerStateMachine:
 
         A controlword sent again (every cycle, in a PDO) to a state it left as it was
         changes nothing again: that case returns at once.
+
+        Parameters
+        ----------
+        cw : int
+            The controlword.
+
+        Returns
+        -------
+        PowerState
+            The new state.
         """
         st = self.state
         key = (cw, st, self.quick_stop_option)

@@ -30,7 +30,21 @@ _TURNS = 1 << 16  #: the multi-turn range [revolutions]
 
 
 class EmulatedEncoder(EmulatedNode):
-    """CiA 406 encoder node on ``shaft``; ``period`` [s] is the SYNC period of its speed."""
+    """CiA 406 encoder node on ``shaft``; ``period`` [s] is the SYNC period of its speed.
+
+    Parameters
+    ----------
+    node_id : int
+        Its node.
+    network : canopen.Network
+        The canopen network it answers on.
+    shaft : Shaft
+        The shaft it measures.
+    period : float
+        [s] the SYNC period (its speed's).
+    eds : str, optional
+        Its EDS.
+    """
 
     def __init__(
         self,
@@ -52,14 +66,31 @@ class EmulatedEncoder(EmulatedNode):
         self._last = None
 
     def counts(self, ahead: float = 0.0) -> int:
-        """The multi-turn count of the shaft angle ``ahead`` [s] after the shaft's time."""
+        """The multi-turn count of the shaft angle ``ahead`` [s] after the shaft's time.
+
+        Parameters
+        ----------
+        ahead : float, optional
+            [s] after the shaft's time.
+
+        Returns
+        -------
+        int
+            The multi-turn count.
+        """
         per_rev: int = self.od.read(ENCODER_RESOLUTION, 0)
         shaft = self.shaft
         angle = shaft.position + shaft.velocity * ahead if ahead else shaft.position
         return math.floor(angle / (2.0 * math.pi) * per_rev)
 
     def tick(self, now: float) -> None:
-        """Real time: the position object follows the shaft between SYNCs too."""
+        """Real time: the position object follows the shaft between SYNCs too.
+
+        Parameters
+        ----------
+        now : float
+            [s] the emulator's clock.
+        """
         if self.clock_source is not None:
             self.latch()
         super().tick(now)
@@ -74,7 +105,13 @@ class EmulatedEncoder(EmulatedNode):
     def latch(self, *, ahead: float = 0.0) -> None:
         """Position and speed ``ahead`` [s] after the shaft's time (a SYNC); the speed over the
         time since the last latch (a SYNC period in lock-step; the shaft's clock in real time,
-        where SYNCs may come late)."""
+        where SYNCs may come late).
+
+        Parameters
+        ----------
+        ahead : float, optional
+            [s] after the shaft's time.
+        """
         counts = self.counts(ahead)
         t = self.shaft.t + ahead
         elapsed = self.period if self.shaft.clock is None else t - self._last_t
@@ -88,7 +125,13 @@ class EmulatedEncoder(EmulatedNode):
         od.write(ENCODER_SPEED, 1, -32768 if speed < -32768 else 32767 if speed > 32767 else speed)
 
     def event_tpdos(self, now: float) -> None:
-        """TPDOs of type 254/255 go out on the cyclic timer 0x6200 [ms] (0: never)."""
+        """TPDOs of type 254/255 go out on the cyclic timer 0x6200 [ms] (0: never).
+
+        Parameters
+        ----------
+        now : float
+            [s] the emulator's clock.
+        """
         timer = self.od.read(ENCODER_CYCLIC_TIMER, 0)
         if timer and now - self._last_cyclic >= timer / 1000.0 - 1e-9:
             self._last_cyclic = now

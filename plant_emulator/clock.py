@@ -47,7 +47,17 @@ log = logging.getLogger(__name__)
 class WorldClock:
     """See the module docstring; ``source`` [s] replaces time.monotonic (tests inject one).
     Every reading of ``now`` is under the devices' lock (the emulator's loop, its receive
-    path)."""
+    path).
+
+    Parameters
+    ----------
+    devices : Sequence[EmulatedNode]
+        The emulated nodes.
+    source : Callable[[], float] | None, optional
+        [s] the clock read (None: ``time.monotonic``).
+    max_lag : float, optional
+        [s] a lag beyond which the world stalls (module docstring).
+    """
 
     def __init__(
         self,
@@ -80,7 +90,13 @@ class WorldClock:
             d.clock = t
 
     def now(self) -> float:
-        """The world's time [s]: the source's, less the stalls (module docstring)."""
+        """The world's time [s]: the source's, less the stalls (module docstring).
+
+        Returns
+        -------
+        float
+            [s] the world's time.
+        """
         read = self._source()
         gap = read - self._read
         self._read = read
@@ -94,29 +110,64 @@ class WorldClock:
         return sum(shaft.skipped for shaft in self.shafts)
 
     def source(self) -> float:
-        """The source's time [s] as it reads (the world's is less the stalls: ``now``)."""
+        """The source's time [s] as it reads (the world's is less the stalls: ``now``).
+
+        Returns
+        -------
+        float
+            [s] the source's time.
+        """
         return self._source()
 
     def lead(self) -> float:
         """[s] how long before a period's end its state is prepared (``prepare``): half the
-        shortest period, at most ``LEAD``."""
+        shortest period, at most ``LEAD``.
+
+        Returns
+        -------
+        float
+            [s] the lead.
+        """
         return min([LEAD, *(0.5 * shaft.period for shaft in self.shafts)])
 
     def next_boundary(self) -> float:
         """The source's time [s] of the next period end of any shaft (the next SYNC expected:
-        the periods are locked to the SYNCs), inf without a shaft."""
+        the periods are locked to the SYNCs), inf without a shaft.
+
+        Returns
+        -------
+        float
+            [s] the source's time of the next period end; inf without a shaft.
+        """
         ends = [shaft.t + shaft.period for shaft in self.shafts]
         return min(ends) + self.stalled if ends else math.inf
 
     def prepare(self) -> float:
         """``advance`` with the state at each shaft's next period end computed now where that
         end is within ``lead``: a SYNC then only latches and sends what was prepared, as a
-        drive's firmware answers from the process image it computed ahead; now [s]."""
+        drive's firmware answers from the process image it computed ahead; now [s].
+
+        Returns
+        -------
+        float
+            [s] now.
+        """
         return self.advance(ahead=self.lead())
 
     def advance(self, *, ahead: float = 0.0) -> float:
         """Bring every shaft and node to now (and each shaft ``ahead`` [s] more, ``prepare``);
-        now [s]."""
+        now [s].
+
+        Parameters
+        ----------
+        ahead : float, optional
+            [s] each shaft is brought beyond now.
+
+        Returns
+        -------
+        float
+            [s] now.
+        """
         now = self.now()
         for shaft in self.shafts:
             shaft.advance_to(now, ahead=ahead)

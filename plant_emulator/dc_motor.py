@@ -24,7 +24,13 @@ __all__ = ["DCMotor", "DCMotorParams", "ReducedDCMotor"]
 
 @dataclass(frozen=True, slots=True)
 class DCMotorParams:
-    """Parameters of (3.4); SI units."""
+    """Parameters of (3.4); SI units.
+
+    Raises
+    ------
+    ValueError
+        If a parameter is not > 0 (B: >= 0).
+    """
 
     r_r: float  #: armature resistance R_r [Ohm]
     l_r: float  #: armature inductance L_r [H]
@@ -74,6 +80,29 @@ class DCMotorParams:
         a_m = k b_m + B/J = k b_m + B R_r b_m/k, so k is the larger root of
         b_m k^2 - a_m k + B R_r b_m = 0 (the motor whose damping is mostly electrical; B = 0:
         k = a_m/b_m). L_r = tau_e R_r with the electrical time constant tau_e [s].
+
+        Parameters
+        ----------
+        a_m : float
+            [1/s] of (3.5).
+        b_m : float
+            [rad/(V s^2)] of (3.5).
+        r_r : float, optional
+            [Ohm] the armature resistance.
+        tau_e : float, optional
+            [s] the electrical time constant L_r/R_r.
+        b : float, optional
+            [N m s/rad] the viscous friction, part of ``a_m``.
+
+        Returns
+        -------
+        DCMotorParams
+            The motor.
+
+        Raises
+        ------
+        ValueError
+            If ``a_m`` or ``b_m`` is not > 0, ``b`` < 0, or ``b`` leaves no room in ``a_m``.
         """
         if not (a_m > 0.0 and b_m > 0.0):
             raise ValueError(f"a_m and b_m must be > 0, got a_m={a_m!r}, b_m={b_m!r}")
@@ -107,7 +136,15 @@ class _ShaftModel:
 
 
 class DCMotor(_ShaftModel):
-    """Full DC motor (3.4) with position (3.6): state [theta, omega, i_r]."""
+    """Full DC motor (3.4) with position (3.6): state [theta, omega, i_r].
+
+    Parameters
+    ----------
+    params : DCMotorParams
+        The motor's parameters.
+    dt : float
+        [s] the step.
+    """
 
     __slots__ = ("params",)
 
@@ -128,16 +165,51 @@ class DCMotor(_ShaftModel):
         return self._zoh.x[2]
 
     def set_state(self, theta: float = 0.0, omega: float = 0.0, current: float = 0.0) -> None:
-        """Set the state [rad, rad/s, A]."""
+        """Set the state [rad, rad/s, A].
+
+        Parameters
+        ----------
+        theta : float, optional
+            [rad].
+        omega : float, optional
+            [rad/s].
+        current : float, optional
+            [A].
+        """
         self._zoh.x[:] = [theta, omega, current]
 
     def step(self, u: float, t_load: float = 0.0) -> None:
-        """Advance dt with armature voltage u [V] and load torque t_load [N m] held."""
+        """Advance dt with armature voltage u [V] and load torque t_load [N m] held.
+
+        Parameters
+        ----------
+        u : float
+            [V] the armature voltage.
+        t_load : float, optional
+            [N m] the load torque.
+        """
         self._zoh.step((u, t_load))
 
 
 class ReducedDCMotor(_ShaftModel):
-    """Reduced DC motor (3.5) with position, i.e. (3.7): state [theta, omega]."""
+    """Reduced DC motor (3.5) with position, i.e. (3.7): state [theta, omega].
+
+    Parameters
+    ----------
+    a_m : float
+        [1/s] of (3.5).
+    b_m : float
+        [rad/(V s^2)] of (3.5).
+    dt : float
+        [s] the step.
+    j : float, optional
+        [kg m^2] the inertia (scales the load torque).
+
+    Raises
+    ------
+    ValueError
+        If ``a_m`` or ``b_m`` is not finite, ``b_m`` is 0, or ``j`` <= 0.
+    """
 
     __slots__ = ("a_m", "b_m", "j")
 
@@ -150,9 +222,27 @@ class ReducedDCMotor(_ShaftModel):
         self._zoh = LinearZOH(A, B, dt)
 
     def set_state(self, theta: float = 0.0, omega: float = 0.0) -> None:
-        """Set the state [rad, rad/s]."""
+        """Set the state [rad, rad/s].
+
+        Parameters
+        ----------
+        theta : float, optional
+            [rad].
+        omega : float, optional
+            [rad/s].
+        """
         self._zoh.x[:] = [theta, omega]
 
     def step(self, u: float, t_load: float = 0.0, f: float = 0.0) -> None:
-        """Advance dt with u [V], load torque [N m] and matched disturbance f [V] held."""
+        """Advance dt with u [V], load torque [N m] and matched disturbance f [V] held.
+
+        Parameters
+        ----------
+        u : float
+            [V].
+        t_load : float, optional
+            [N m] the load torque.
+        f : float, optional
+            [V] the matched disturbance.
+        """
         self._zoh.step((u, t_load, f))

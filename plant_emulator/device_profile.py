@@ -101,37 +101,48 @@ class Homing:
 class ManufacturerObject:
     """An object in 0x2000-0x5FFF with the meaning the drive gives it."""
 
-    index: int
-    name: str
-    role: str = ""
-    harmful: bool = False
+    index: int  #: 0x2000-0x5FFF
+    name: str  #: its name
+    role: str = ""  #: what the toolkit uses it for ("command-latency" or "")
+    harmful: bool = False  #: a write may harm the drive: refused by ``rig drive``
 
 
 @dataclass(frozen=True)
 class DeviceProfile:
     """One drive's profile; see the module docstring."""
 
-    name: str
-    description: str
-    eds: Path
+    name: str  #: ``[device] name``
+    description: str  #: ``[device] description``
+    eds: Path  #: the EDS, beside the profile
     source: Path  #: the TOML file
-    modelled_on: str = ""
-    physics: str = "dc-servo"
-    params: Mapping[str, Any] = field(default_factory=dict)
-    node_id: int = 1
+    modelled_on: str = ""  #: the product it is a twin of
+    physics: str = "dc-servo"  #: the preset whose motor is behind the drive
+    params: Mapping[str, Any] = field(default_factory=dict)  #: ``[physics.params]``, the preset's parameters
+    node_id: int = 1  #: its default node-ID
     axes: int = 1  #: logical devices of the drive, each with a motor of ``physics``
-    modes: tuple[Mode, ...] = ()
+    modes: tuple[Mode, ...] = ()  #: ``[modes] supported`` (where the EDS has no 0x6502)
     csp_enable: str = "target"  #: enabled in CSP: go for 0x607A ("target") or hold ("hold")
-    mapping: str = "remappable"
-    units: Units = Units()
-    timing: Timing = Timing()
-    reactions: Reactions = Reactions()
-    homing: Homing = Homing()
-    manufacturer: tuple[ManufacturerObject, ...] = ()
-    emcy: Mapping[int, str] = field(default_factory=dict)
+    mapping: str = "remappable"  #: ``[pdo] mapping``: "remappable" or "fixed"
+    units: Units = Units()  #: ``[units]``
+    timing: Timing = Timing()  #: ``[timing]``
+    reactions: Reactions = Reactions()  #: ``[reactions]``
+    homing: Homing = Homing()  #: ``[homing]``
+    manufacturer: tuple[ManufacturerObject, ...] = ()  #: ``[manufacturer.0xIIII]`` objects
+    emcy: Mapping[int, str] = field(default_factory=dict)  #: ``[emcy]`` code -> text
 
     def role_object(self, role: str) -> int | None:
-        """The manufacturer object that plays ``role``, or None."""
+        """The manufacturer object that plays ``role``, or None.
+
+        Parameters
+        ----------
+        role : str
+            A role (``ROLES``).
+
+        Returns
+        -------
+        int | None
+            Its object's index, or None.
+        """
         return next((m.index for m in self.manufacturer if m.role == role), None)
 
     @functools.cached_property
@@ -142,7 +153,23 @@ class DeviceProfile:
     def check_against(self, od: Any) -> tuple[Mode, ...]:
         """Check this profile against its object dictionary ``od`` (on a drive of several axes, one
         axis's view: ``drivers.maps.logical``), which must have what an emulated drive and each of
-        its modes need (``drivers.maps.cia402_needs``); the drive's modes."""
+        its modes need (``drivers.maps.cia402_needs``); the drive's modes.
+
+        Parameters
+        ----------
+        od : Any
+            Its object dictionary (one axis's view).
+
+        Returns
+        -------
+        tuple[Mode, ...]
+            The drive's modes.
+
+        Raises
+        ------
+        ConfigError
+            If the axes, modes, increments or mapping disagree with ``od``, or ``od`` lacks what they need.
+        """
         where = f"{self.source}"
         axes = axes_of(od)
         if axes != self.axes:
@@ -279,7 +306,23 @@ def _modes(t: Table) -> tuple[tuple[Mode, ...], str]:
 
 
 def load_profile(path: str | Path) -> DeviceProfile:
-    """The profile in the TOML file ``path``; ConfigError naming the file and the key on any defect."""
+    """The profile in the TOML file ``path``; ConfigError naming the file and the key on any defect.
+
+    Parameters
+    ----------
+    path : str | Path
+        The profile's TOML file.
+
+    Returns
+    -------
+    DeviceProfile
+        The profile.
+
+    Raises
+    ------
+    ConfigError
+        If it cannot be read, or a key is unknown, of a wrong type or out of range.
+    """
     p = Path(path)
     top = Table(read_toml(p, what="device profile"), p)
     device = top.sub("device")
@@ -358,7 +401,23 @@ def _emcy(t: Table) -> dict[int, str]:
 
 
 def default_profile(eds: Path) -> DeviceProfile:
-    """A profile for an EDS alone: the defaults of every key (the EDS must have 0x6502 and 0x608F)."""
+    """A profile for an EDS alone: the defaults of every key (the EDS must have 0x6502 and 0x608F).
+
+    Parameters
+    ----------
+    eds : Path
+        The EDS.
+
+    Returns
+    -------
+    DeviceProfile
+        Its profile.
+
+    Raises
+    ------
+    ConfigError
+        If the EDS lacks 0x6502 or 0x608F.
+    """
     if not eds.exists():
         raise ConfigError(f"{eds}: no such EDS/DCF file")
     return DeviceProfile(
@@ -370,12 +429,34 @@ def default_profile(eds: Path) -> DeviceProfile:
 
 
 def zoo() -> dict[str, Path]:
-    """The shipped profiles: name -> TOML file."""
+    """The shipped profiles: name -> TOML file.
+
+    Returns
+    -------
+    dict[str, Path]
+        Name -> TOML file.
+    """
     return {p.stem: p for p in sorted(DEVICES_DIR.glob("*.toml"))}
 
 
 def device_profile(name_or_path: str | Path) -> DeviceProfile:
-    """A shipped profile by name, or a profile file by path; ConfigError naming the known ones."""
+    """A shipped profile by name, or a profile file by path; ConfigError naming the known ones.
+
+    Parameters
+    ----------
+    name_or_path : str | Path
+        A shipped profile's name, or a profile's file.
+
+    Returns
+    -------
+    DeviceProfile
+        The profile.
+
+    Raises
+    ------
+    ConfigError
+        If no such profile exists (the known ones named), or it is wrong (``load_profile``).
+    """
     profiles = zoo()
     if str(name_or_path) in profiles:
         return load_profile(profiles[str(name_or_path)])

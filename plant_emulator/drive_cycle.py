@@ -63,7 +63,18 @@ class DriveCycle:
     def take_timeline(self, t_start: float) -> list[Timed]:
         """The commands of the period from ``t_start`` [s], for the shaft, at their offsets into it
         (real time: those due by then, at its start); none (and the axis coasts) when the power
-        stage is off."""
+        stage is off.
+
+        Parameters
+        ----------
+        t_start : float
+            [s] the period's start.
+
+        Returns
+        -------
+        list[Timed]
+            The commands, at their offsets [s] into the period.
+        """
         if not self.sm.power_stage_on:
             self._pending = []
             self.axis.coast()
@@ -76,6 +87,13 @@ class DriveCycle:
         return [(0.0, *rest) for _, *rest in due]  # type: ignore[misc]
 
     def on_sync_latch(self, timestamp: float) -> None:
+        """A SYNC at ``timestamp`` [s]: the shaft advances to it and the drive latches its process data.
+
+        Parameters
+        ----------
+        timestamp : float
+            [s] the SYNC's stamp.
+        """
         self.shaft.sync(self, timestamp)  # the shaft at this SYNC, advanced once for all its nodes
         self._t_sync = timestamp
         if self.shaft.clock is None:  # lock-step: the drive's cycle comes with the SYNC

@@ -54,7 +54,20 @@ _CST = Mode.CST  # looked up once, compared on every command
 
 
 def motor_ratings(p: DynoPreset, motor: Ratings) -> Ratings:
-    """The motor under test's ratings: those ``p`` gives, else the motor's own ``motor``."""
+    """The motor under test's ratings: those ``p`` gives, else the motor's own ``motor``.
+
+    Parameters
+    ----------
+    p : DynoPreset
+        The dyno preset.
+    motor : Ratings
+        The motor's own ratings.
+
+    Returns
+    -------
+    Ratings
+        The motor under test's ratings.
+    """
     return Ratings(
         rated_current=_given(p.rated_current, motor.rated_current),
         rated_torque=_given(p.rated_torque, motor.rated_torque),
@@ -64,7 +77,20 @@ def motor_ratings(p: DynoPreset, motor: Ratings) -> Ratings:
 
 
 def load_ratings(p: DynoPreset, motor: Ratings) -> Ratings:
-    """The load machine's ratings in ``p``, the motor under test's ``motor`` where not given."""
+    """The load machine's ratings in ``p``, the motor under test's ``motor`` where not given.
+
+    Parameters
+    ----------
+    p : DynoPreset
+        The dyno preset.
+    motor : Ratings
+        The motor under test's ratings.
+
+    Returns
+    -------
+    Ratings
+        The load machine's ratings.
+    """
     return Ratings(
         rated_current=_given(p.load_rated_current, motor.rated_current),
         rated_torque=_given(p.load_rated_torque, motor.rated_torque),
@@ -83,6 +109,22 @@ class LoadMachineAxis(Axis):
     ``k_t`` [N m/A], ``i_max`` [A] the current limit, ``tau`` [s] the current loop's
     first-order lag (0: i_q follows its reference at once). Over each piece of a period
     the shaft sees ``held``, the mean torque of that piece (exact for the lag).
+
+    Parameters
+    ----------
+    motion : Axis
+        The axis whose shaft it loads.
+    k_t : float
+        [N m/A] the torque constant.
+    i_max : float
+        [A] the current limit.
+    tau : float, optional
+        [s] the current loop's time constant (0: immediate).
+
+    Raises
+    ------
+    ValueError
+        If ``k_t`` or ``i_max`` is not > 0, or ``tau`` < 0.
     """
 
     modes = (Mode.CST,)
@@ -100,7 +142,22 @@ class LoadMachineAxis(Axis):
         self.held = 0.0  #: torque on the shaft over the present piece of the period [N m]
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
-        """Torque command [N m] (CST), limited to k_t i_max."""
+        """Torque command [N m] (CST), limited to k_t i_max.
+
+        Parameters
+        ----------
+        mode : int
+            ``Mode.CST`` only.
+        value : complex | float
+            [N m] the torque command.
+        computed_one_sync_ago : bool, optional
+            Unused.
+
+        Raises
+        ------
+        ValueError
+            If ``mode`` is not ``Mode.CST``.
+        """
         if mode != _CST:
             raise ValueError(f"the load machine has only mode {Mode.CST}, got {mode}")
         torque = value.real if isinstance(value, complex) else value
@@ -116,7 +173,15 @@ class LoadMachineAxis(Axis):
         self.coast()
 
     def advance(self, h: float, t: float) -> None:
-        """Over h [s]: ``held`` = mean of k_t i_q, i_ref + (i_q - i_ref) exp(-s/tau) for 0 <= s < h."""
+        """Over h [s]: ``held`` = mean of k_t i_q, i_ref + (i_q - i_ref) exp(-s/tau) for 0 <= s < h.
+
+        Parameters
+        ----------
+        h : float
+            [s] the step.
+        t : float
+            [s] the time at its start.
+        """
         if h <= 0.0:
             return
         if self.tau == 0.0:
@@ -156,6 +221,22 @@ def build_dyno(p: DynoPreset, network: canopen.Network, motor: Axis, ratings: Ra
 
     ``motor`` is the motor under test's axis, built with the total inertia and with
     ``load`` free (this sets it to the shaft's T_L); ``ratings`` are its drive's.
+
+    Parameters
+    ----------
+    p : DynoPreset
+        The dyno preset.
+    network : canopen.Network
+        The canopen network.
+    motor : Axis
+        The motor under test's axis.
+    ratings : Ratings
+        Its ratings.
+
+    Returns
+    -------
+    list[EmulatedNode]
+        [motor drive, encoder, load machine drive].
     """
     rated = load_ratings(p, ratings).as_stored()  # its torque = k_t i_q agrees with 0x6076, 0x6075
     machine = LoadMachineAxis(

@@ -25,7 +25,13 @@ __all__ = ["FAULT_NAMES", "FaultInjector", "FaultPlan", "parse_faults"]
 
 @dataclass(frozen=True)
 class FaultPlan:
-    """What to inject; times in seconds of emulated time (inf: never)."""
+    """What to inject; times in seconds of emulated time (inf: never).
+
+    Raises
+    ------
+    ValueError
+        If ``frame_loss`` is not in [0, 1) or a time is < 0.
+    """
 
     frame_loss: float = 0.0  #: fraction of frames lost on the wire from the first SYNC on, in [0, 1)
     seed: int = 0  #: of the frame-loss generator
@@ -34,7 +40,7 @@ class FaultPlan:
     node_reset_at: float = math.inf  #: the drive resets itself (power glitch): boot-up, PRE-OPERATIONAL
     overcurrent_at: float = math.inf  #: the drive trips over-current (EMCY 0x2310)
     encoder_glitch_at: float = math.inf  #: the position jumps by ``encoder_glitch_counts``
-    encoder_glitch_counts: int = 2048
+    encoder_glitch_counts: int = 2048  #: the jump [counts]
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.frame_loss < 1.0:
@@ -53,7 +59,25 @@ FAULT_NAMES = tuple(f.name for f in fields(FaultPlan))
 
 
 def parse_faults(items: dict[str, str] | list[str], source: str = "--fault") -> FaultPlan:
-    """A plan from ``NAME=VALUE`` pairs; a ValueError names the bad item and where it came from."""
+    """A plan from ``NAME=VALUE`` pairs; a ValueError names the bad item and where it came from.
+
+    Parameters
+    ----------
+    items : dict[str, str] | list[str]
+        ``NAME=VALUE`` pairs, or a mapping.
+    source : str, optional
+        Where they came from, named in the error.
+
+    Returns
+    -------
+    FaultPlan
+        The plan.
+
+    Raises
+    ------
+    ValueError
+        If a name is unknown or a value is not a number or not allowed.
+    """
     pairs = items.items() if isinstance(items, dict) else (item.partition("=")[::2] for item in items)
     kinds = {f.name: f.type for f in fields(FaultPlan)}
     values: dict[str, Any] = {}
@@ -72,7 +96,17 @@ def parse_faults(items: dict[str, str] | list[str], source: str = "--fault") -> 
 
 
 class FaultInjector:
-    """Apply ``plan`` to ``hub``, whose drive device is ``drive`` (an ``EmulatedDrive``)."""
+    """Apply ``plan`` to ``hub``, whose drive device is ``drive`` (an ``EmulatedDrive``).
+
+    Parameters
+    ----------
+    plan : FaultPlan
+        What to inject.
+    hub : SyncHub
+        The SYNC hub of the emulated world.
+    drive : Any
+        The drive device (an ``EmulatedDrive``).
+    """
 
     def __init__(self, plan: FaultPlan, hub: SyncHub, drive: Any) -> None:
         self.plan = plan

@@ -41,11 +41,11 @@ _CST, _CSV, _PV = Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY  # looked up once, c
 class ImParams:
     """Table II (IM1) and Table III; SI units."""
 
-    r_s: float = 5.45
-    r_r: float = 3.1852
-    l_s: float = 0.4531
-    l_r: float = 0.4531
-    l_m: float = 0.4413
+    r_s: float = 5.45  #: [Ohm] stator resistance
+    r_r: float = 3.1852  #: [Ohm] rotor resistance
+    l_s: float = 0.4531  #: [H] stator inductance
+    l_r: float = 0.4531  #: [H] rotor inductance
+    l_m: float = 0.4413  #: [H] mutual inductance
     j: float = 0.0035  #: total inertia, IM1 with IM2 coupled [kg m^2]
     b: float = 0.0022  #: viscous friction B [N m s/rad] (Table II)
     #: Coulomb friction T_c [N m] (``plant_emulator.friction``), which Table II does not give:
@@ -74,7 +74,15 @@ class ImParams:
 
 
 class ImAxis(Axis):
-    """The IM and its FOC drive; see the module docstring."""
+    """The IM and its FOC drive; see the module docstring.
+
+    Parameters
+    ----------
+    p : ImParams
+        The motor and its FOC drive.
+    load : LoadProfile | None, optional
+        Load torque [N m] of time [s]; None: no load.
+    """
 
     modes = (Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY, Mode.CSP)
 

@@ -79,7 +79,17 @@ ACTIVE, TARGET_REACHED, WARNING = 1 << 12, 1 << 10, 1 << 7  #: statusword bits
 
 class Interpolation:
     """One drive's ip mode (see the module docstring) over its objects ``od`` (``has``: the
-    drive has the object); ``to_si`` turns a record [position units] into rad."""
+    drive has the object); ``to_si`` turns a record [position units] into rad.
+
+    Parameters
+    ----------
+    od : Any
+        The drive's object store.
+    has : Callable[[int], bool]
+        Whether the drive has an object (index).
+    to_si : Callable[[float], float]
+        A record [position units] -> [rad].
+    """
 
     def __init__(self, od: Any, has: Callable[[int], bool], to_si: Callable[[float], float]) -> None:
         self.od, self.has, self.to_si = od, has, to_si
@@ -110,7 +120,27 @@ class Interpolation:
     # --- writes (SDO or RPDO) ------------------------------------------------------------------
     def write(self, index: int, subindex: int, data: bytes, *, rpdo: bool) -> float | None:
         """A write to one of ``IP_OBJECTS`` about to be stored (SdoAbortedError refuses it); the
-        new demand [rad] where a record was taken at once (the interpolator waited), else None."""
+        new demand [rad] where a record was taken at once (the interpolator waited), else None.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object written (one of ``IP_OBJECTS``).
+        data : bytes
+            The bytes to store.
+        rpdo : bool
+            Written by an RPDO (else by SDO).
+
+        Returns
+        -------
+        float | None
+            [rad] the new demand where a record was taken at once; else None.
+
+        Raises
+        ------
+        SdoAbortedError
+            If the write is refused (the abort code says why).
+        """
         if index == SUBMODE:
             if int.from_bytes(data, "little", signed=True) != 0:
                 raise SdoAbortedError(SdoAbortCode.VALUE_RANGE_EXCEEDED)  # linear interpolation only
@@ -165,7 +195,13 @@ class Interpolation:
 
     def controlword(self, cw: int) -> None:
         """Bit 4 of a controlword written (SDO or RPDO); its rise in ip mode starts the
-        interpolation (``_activate``)."""
+        interpolation (``_activate``).
+
+        Parameters
+        ----------
+        cw : int
+            The controlword written.
+        """
         was, self.bit4 = self.active, bool(cw & ENABLE_IP)
         if self.active and not was:
             self._activate()
@@ -180,7 +216,13 @@ class Interpolation:
     # --- the drive's state and cycle -----------------------------------------------------------
     def track(self, in_mode: bool) -> None:
         """The drive is (or is no longer) OPERATION ENABLED in mode 7: leaving empties the FIFO
-        and holds the interpolator; entering with bit 4 set activates it (its FIFO is empty)."""
+        and holds the interpolator; entering with bit 4 set activates it (its FIFO is empty).
+
+        Parameters
+        ----------
+        in_mode : bool
+            OPERATION ENABLED in mode 7.
+        """
         was = self.active
         if self.in_mode and not in_mode:
             self.clear()
@@ -196,14 +238,33 @@ class Interpolation:
         self.show()
 
     def start(self, position: float) -> None:
-        """Entering ip mode enabled: the demand starts where the motor is [rad]."""
+        """Entering ip mode enabled: the demand starts where the motor is [rad].
+
+        Parameters
+        ----------
+        position : float
+            [rad] where the motor is.
+        """
         self.demand = position
         self._step = self._steps = 0
         self.waiting = self.starved = False
 
     def cycle(self, h: float, position: float) -> float:
         """One period (``h`` [s]) of the drive in ip mode, enabled, the motor at ``position``
-        [rad]: the position demand [rad]; ``status`` its statusword bits."""
+        [rad]: the position demand [rad]; ``status`` its statusword bits.
+
+        Parameters
+        ----------
+        h : float
+            [s] the period.
+        position : float
+            [rad] where the motor is.
+
+        Returns
+        -------
+        float
+            [rad] the position demand.
+        """
         self.period = h
         if math.isnan(self.demand):
             self.start(position)

@@ -29,12 +29,28 @@ from typing import Literal
 from drivers.maps import ModbusMap
 from drivers.schema import key
 
-__all__ = ["COMM_LOSS", "COMM_LOSS_ACTIONS", "OVERSPEED", "InverterModel"]
+__all__ = ["COMM_LOSS", "COMM_LOSS_ACTIONS", "OVERSPEED", "InverterModel", "no_load"]
 
 log = logging.getLogger(__name__)
 OVERSPEED = 0x7310  # fault code used by the emulator for over-speed (ABB 7310 'overspeed')
 COMM_LOSS = 0x6681  # communication loss of the embedded fieldbus (ABB 6681 'EFB comm loss')
 COMM_LOSS_ACTIONS = ("ramp", "coast")
+
+
+def no_load(t: float) -> float:
+    """No load torque: the model's default ``load``.
+
+    Parameters
+    ----------
+    t : float
+        [s] the model's time.
+
+    Returns
+    -------
+    float
+        0 [N m].
+    """
+    return 0.0
 
 
 @dataclass
@@ -43,7 +59,7 @@ class InverterModel:
     (``drivers.schema.key``, ``[emulator.inverter]``, checked by whoever reads them), the rest its
     state."""
 
-    regmap: ModbusMap
+    regmap: ModbusMap  #: the register map it answers with
     accel: float = key(100.0, "rad/s^2", "the speed ramp", gt=0.0)
     slip: float = key(5.0, "rad/s", "the speed drop at rated torque", ge=0.0)
     tau: float = key(0.05, "s", "the mechanical lag", gt=0.0)
@@ -51,14 +67,14 @@ class InverterModel:
     rated_current: float = key(8.0, "A", "the rated current", gt=0.0)
     no_load_current: float = key(2.5, "A", "the current without load", ge=0.0)
     max_speed: float = key(200.0, "rad/s", "the over-speed trip", gt=0.0)
-    load: Callable[[float], float] = lambda t: 0.0
-    running: bool = False
-    fault: int = 0
-    reference: float = 0.0
-    ramp: float = 0.0
-    speed: float = 0.0
-    current: float = 0.0
-    t: float = 0.0
+    load: Callable[[float], float] = no_load  #: load torque [N m] of time [s]
+    running: bool = False  #: the run command is in force
+    fault: int = 0  #: the fault code (0: none)
+    reference: float = 0.0  #: [rad/s] the speed reference
+    ramp: float = 0.0  #: [rad/s] the ramp's set-point
+    speed: float = 0.0  #: [rad/s] the shaft's speed
+    current: float = 0.0  #: [A] the motor current
+    t: float = 0.0  #: [s] the model's time
     comm_loss_timeout: float = key(
         0.5,
         "s",
@@ -86,7 +102,13 @@ class InverterModel:
             self.coasting = self.comm_loss_action == "coast"
 
     def step(self, dt: float) -> None:
-        """Advance dt [s]."""
+        """Advance dt [s].
+
+        Parameters
+        ----------
+        dt : float
+            [s] the step.
+        """
         self.t += dt
         self._supervise()
         if self.running:

@@ -49,16 +49,49 @@ class SyncHub:
         self.tx_channel: str | None = None
 
     def bus(self, *, queue: bool = True, channel: str = "sync0") -> SyncBus:
-        """A new bus on this hub."""
+        """A new bus on this hub.
+
+        Parameters
+        ----------
+        queue : bool, optional
+            Keep received frames for ``recv`` (else only the taps and notifiers see them).
+        channel : str, optional
+            The channel name it reports.
+
+        Returns
+        -------
+        SyncBus
+            The bus.
+        """
         return SyncBus(self, queue=queue, channel=channel)
 
     def deliver(self, sender: SyncBus, msg: can.Message) -> None:
-        """``msg`` as sent on ``sender`` (``SyncBus.send``)."""
+        """``msg`` as sent on ``sender`` (``SyncBus.send``).
+
+        Parameters
+        ----------
+        sender : SyncBus
+            The bus it was sent on.
+        msg : can.Message
+            The frame.
+        """
         sender.send(msg)
 
 
 class SyncBus(can.BusABC):
-    """One node's connection to a ``SyncHub`` (see the module docstring)."""
+    """One node's connection to a ``SyncHub`` (see the module docstring).
+
+    Parameters
+    ----------
+    hub : SyncHub
+        The hub it joins.
+    queue : bool, optional
+        Keep received frames for ``recv``.
+    channel : str, optional
+        The channel name it reports.
+    **kwargs : Any
+        python-can's ``BusABC`` arguments.
+    """
 
     def __init__(self, hub: SyncHub, *, queue: bool = True, channel: str = "sync0", **kwargs: Any) -> None:
         self.hub = hub
@@ -69,7 +102,15 @@ class SyncBus(can.BusABC):
         hub.buses = [*hub.buses, self]
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
-        """Deliver ``msg`` to every other bus on the hub, synchronously (the hub's taps first)."""
+        """Deliver ``msg`` to every other bus on the hub, synchronously (the hub's taps first).
+
+        Parameters
+        ----------
+        msg : can.Message
+            The frame.
+        timeout : float | None, optional
+            Ignored (the delivery is synchronous).
+        """
         hub = self.hub
         frame = msg  # the sender's frame, stamped; receivers must not change it
         frame.timestamp = hub.clock
@@ -106,6 +147,13 @@ def attach_network(network: Any, bus: SyncBus) -> None:
     A frame its handler cannot parse (wrong length, bad command) is logged and
     dropped, as canopen's own listener does on a real bus: a malformed frame
     must not take down the node that received it.
+
+    Parameters
+    ----------
+    network : Any
+        A canopen ``Network``.
+    bus : SyncBus
+        The bus it joins.
     """
     network.bus = bus
     own_notify = type(network).notify is not canopen.Network.notify
@@ -139,6 +187,22 @@ class SyncNetwork(canopen.Network):
     thread where there is none (a frame is delivered, and answered, within the send)."""
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        """Send a frame as canopen's ``Network.send_message`` does (see the class).
+
+        Parameters
+        ----------
+        can_id : int
+            The identifier.
+        data : bytes
+            The data bytes.
+        remote : bool, optional
+            A remote frame.
+
+        Raises
+        ------
+        RuntimeError
+            If the network has no bus.
+        """
         if remote or can_id > 0x7FF or self.notifier is not None:
             super().send_message(can_id, data, remote)
             return
@@ -155,6 +219,15 @@ class LockstepBench:
     ``sync()`` advances emulated time by one period and sends SYNC from the host:
     when it returns, the devices have stepped their physics and their TPDOs are
     in the host's PDO maps.
+
+    Parameters
+    ----------
+    preset : str
+        The preset's name (``build_preset``).
+    params : Mapping[str, object] | Any, optional
+        Its parameters by name, or its dataclass built already.
+    device : DeviceProfile | None, optional
+        A drive's twin to emulate instead of the toolkit's drive.
     """
 
     def __init__(
@@ -184,11 +257,13 @@ class LockstepBench:
             d.boot()
 
     def sync(self) -> None:
+        """One period of emulated time, then a SYNC from the host."""
         self.syncs += 1
         self.hub.clock = self.syncs * self.period  # from a count: no drift by rounding
         self.host.send_message(COB_SYNC, b"")
 
     def close(self) -> None:
+        """Shut both networks' buses down."""
         for net in (self.host, self.device_network):
             if net.bus is not None:
                 net.bus.shutdown()

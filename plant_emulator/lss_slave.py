@@ -42,25 +42,71 @@ _MASK = 0xFFFFFFFF
 
 
 def speaks_lss(od: Any, node_id: int) -> bool:
-    """Whether a node answers LSS: its EDS says so, or it has no node-ID yet."""
+    """Whether a node answers LSS: its EDS says so, or it has no node-ID yet.
+
+    Parameters
+    ----------
+    od : Any
+        The node's object dictionary.
+    node_id : int
+        Its node-ID (255: none yet).
+
+    Returns
+    -------
+    bool
+        Whether it answers LSS.
+    """
     info = getattr(od, "device_information", None)
     return bool(getattr(info, "LSS_supported", False)) or node_id == UNCONFIGURED
 
 
 def check_node_id(node_id: int) -> int:
-    """``node_id`` where an emulated node may have it: 1..127, or 255 (none yet: LSS only)."""
+    """``node_id`` where an emulated node may have it: 1..127, or 255 (none yet: LSS only).
+
+    Parameters
+    ----------
+    node_id : int
+        The node-ID.
+
+    Returns
+    -------
+    int
+        ``node_id``.
+
+    Raises
+    ------
+    ValueError
+        If it is not 1..127 or 255.
+    """
     if node_id not in cia.NODE_IDS and node_id != UNCONFIGURED:
         raise ValueError(f"node id must be 1..127 (or 255: none yet, LSS only), got {node_id!r}")
     return node_id
 
 
 def lss_slave(node: Any) -> LssSlave | None:
-    """The LSS slave of ``node`` (an ``EmulatedNode``), where it speaks LSS (``speaks_lss``)."""
+    """The LSS slave of ``node`` (an ``EmulatedNode``), where it speaks LSS (``speaks_lss``).
+
+    Parameters
+    ----------
+    node : Any
+        An ``EmulatedNode``.
+
+    Returns
+    -------
+    LssSlave | None
+        Its LSS slave; None where it does not speak LSS.
+    """
     return LssSlave(node) if speaks_lss(node.node.object_dictionary, node.node_id) else None
 
 
 class LssSlave:
-    """The LSS slave of an emulated node (``plant_emulator.canopen_node.EmulatedNode``)."""
+    """The LSS slave of an emulated node (``plant_emulator.canopen_node.EmulatedNode``).
+
+    Parameters
+    ----------
+    node : Any
+        An ``EmulatedNode``.
+    """
 
     def __init__(self, node: Any) -> None:
         self.node = node
@@ -77,7 +123,13 @@ class LssSlave:
         node.network.subscribe(COB_MASTER, self.on_frame)
 
     def address(self) -> tuple[int, int, int, int]:
-        """The LSS address: 0x1018 sub 1-4."""
+        """The LSS address: 0x1018 sub 1-4.
+
+        Returns
+        -------
+        tuple[int, int, int, int]
+            (vendor, product, revision, serial).
+        """
         read = self.node.read
         return tuple(int(read(cia.IDENTITY, sub)) for sub in (1, 2, 3, 4))  # type: ignore[return-value]
 
@@ -85,6 +137,17 @@ class LssSlave:
         self.node._send(COB_SLAVE, bytes([cs, *data]).ljust(8, b"\0"))
 
     def on_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+        """An LSS master request (COB-ID 0x7E5): answered as CiA 305 says.
+
+        Parameters
+        ----------
+        can_id : int
+            The frame's identifier.
+        data : bytes
+            Its 8 bytes (others ignored).
+        timestamp : float
+            [s] when it came.
+        """
         if len(data) != 8:
             return
         cs, value = data[0], _U32.unpack_from(data, 1)[0]
@@ -179,7 +242,13 @@ class LssSlave:
 
     def on_reset(self, *, application: bool) -> None:
         """An NMT reset (``application``: reset node, which takes the stored configuration) or
-        reset communication: back to waiting, and the pending node-ID becomes the node's."""
+        reset communication: back to waiting, and the pending node-ID becomes the node's.
+
+        Parameters
+        ----------
+        application : bool
+            Reset node (else reset communication).
+        """
         if application:
             self.pending, self.bitrate, self.pending_bitrate = self.stored, self.stored_bitrate, None
         self.state, self._selected, self._identify, self._fastscan = LssState.WAITING, {}, {}, 0
@@ -191,7 +260,15 @@ def renumber(node: Any, new: int) -> None:
     """``node`` (an ``EmulatedNode``) takes node-ID ``new``: its SDO, EMCY and NMT identifiers, and
     the defaults CiA 306 writes relative to the node-ID (``$NODEID+0x180``...). An entry of the
     reset image (or of the stored parameters' defaults) that held the old node-ID's default goes,
-    so the new default is in force after the reset that follows."""
+    so the new default is in force after the reset that follows.
+
+    Parameters
+    ----------
+    node : Any
+        An ``EmulatedNode``.
+    new : int
+        Its new node-ID, 1..127.
+    """
     old, local, net = node.node_id, node.node, node.network
     od = local.object_dictionary
     net.unsubscribe(local.sdo.rx_cobid, node._on_sdo)

@@ -77,7 +77,18 @@ Frame = tuple[int, int, bytes]
 def split_tcp(data: bytes) -> tuple[list[Frame], bytes, tuple[bytes, str] | None]:
     """The Modbus ADUs complete in ``data``, the bytes left over (the start of the next), and the
     first ADU that is no Modbus request with why (then nothing after it is taken): a protocol id
-    not 0, a length with no function code in it, or more than an ADU may hold (not waited for)."""
+    not 0, a length with no function code in it, or more than an ADU may hold (not waited for).
+
+    Parameters
+    ----------
+    data : bytes
+        The bytes received.
+
+    Returns
+    -------
+    tuple[list[Frame], bytes, tuple[bytes, str] | None]
+        (the complete ADUs, the bytes left over, the first bad ADU and why or None).
+    """
     frames: list[Frame] = []
     pos = 0
     while len(data) - pos >= 6:
@@ -126,7 +137,20 @@ def _find_rtu_frame(data: bytes, decoder: DecodePDU) -> tuple[int, int] | None:
 
 def split_rtu(data: bytes, decoder: DecodePDU) -> tuple[list[Frame], bytes]:
     """The complete RTU frames in ``data`` whose CRC checks, and the bytes kept for the next call:
-    noise before a frame is dropped, and so is anything too far back to begin one."""
+    noise before a frame is dropped, and so is anything too far back to begin one.
+
+    Parameters
+    ----------
+    data : bytes
+        The bytes received.
+    decoder : DecodePDU
+        pymodbus' PDU decoder.
+
+    Returns
+    -------
+    tuple[list[Frame], bytes]
+        (the frames whose CRC checks, the bytes kept).
+    """
     frames: list[Frame] = []
     while (found := _find_rtu_frame(data, decoder)) is not None:
         start, end = found
@@ -140,7 +164,18 @@ def split_rtu(data: bytes, decoder: DecodePDU) -> tuple[list[Frame], bytes]:
 def request_problem(pdu: bytes) -> str:
     """What makes ``pdu``, a request of a function code the server knows, malformed (exception
     03), or "": a size other than its function's (application protocol V1.1b3, section 6), a
-    byte count that disagrees with its quantity or with the bytes that follow it."""
+    byte count that disagrees with its quantity or with the bytes that follow it.
+
+    Parameters
+    ----------
+    pdu : bytes
+        A request's PDU.
+
+    Returns
+    -------
+    str
+        What makes it malformed; "" where nothing does.
+    """
     fc, n = pdu[0], len(pdu)
     if n > MAX_PDU:
         return f"a PDU of {n} bytes (at most {MAX_PDU})"
@@ -309,6 +344,13 @@ class SpecTcpServer(ModbusTcpServer):
     """pymodbus' TCP server with this module's framing."""
 
     def callback_new_connection(self) -> _Handler:
+        """A handler with this module's framing for a new connection.
+
+        Returns
+        -------
+        _Handler
+            The handler.
+        """
         return _Handler(self)
 
 
@@ -316,4 +358,11 @@ class SpecSerialServer(ModbusSerialServer):
     """pymodbus' serial server with this module's RTU framing."""
 
     def callback_new_connection(self) -> _Handler:
+        """A handler with this module's RTU framing for the serial line.
+
+        Returns
+        -------
+        _Handler
+            The handler.
+        """
         return _Handler(self)

@@ -55,7 +55,13 @@ MAX_READ = 125  #: registers in one read request (application protocol 6.3, 6.4)
 
 
 class InverterContext(ModbusBaseDeviceContext):
-    """Holding registers of ``model.regmap`` with the family's control semantics."""
+    """Holding registers of ``model.regmap`` with the family's control semantics.
+
+    Parameters
+    ----------
+    model : InverterModel
+        The inverter.
+    """
 
     def __init__(self, model: InverterModel) -> None:
         self.model = model
@@ -69,6 +75,7 @@ class InverterContext(ModbusBaseDeviceContext):
         self.released = threading.Event()
 
     def reset(self) -> None:
+        """The control word back to the family's stop."""
         self.control_word = int(self.map.control["stop"])
 
     def _read(self, role: str) -> int:
@@ -123,6 +130,22 @@ class InverterContext(ModbusBaseDeviceContext):
         return None
 
     def getValues(self, func_code: int, address: int, count: int = 1) -> list[int] | ExcCodes:
+        """pymodbus' read of ``count`` registers from ``address`` (function ``func_code``).
+
+        Parameters
+        ----------
+        func_code : int
+            The Modbus function code.
+        address : int
+            The first register.
+        count : int, optional
+            How many.
+
+        Returns
+        -------
+        list[int] | ExcCodes
+            The registers' values, or the exception code to answer.
+        """
         injected = self._fault_injected()
         if injected is not None:
             return injected
@@ -139,6 +162,22 @@ class InverterContext(ModbusBaseDeviceContext):
         return out
 
     def setValues(self, func_code: int, address: int, values: list[int] | list[bool]) -> ExcCodes | None:
+        """pymodbus' write of ``values`` from ``address`` (function ``func_code``).
+
+        Parameters
+        ----------
+        func_code : int
+            The Modbus function code.
+        address : int
+            The first register.
+        values : list[int] | list[bool]
+            The values written.
+
+        Returns
+        -------
+        ExcCodes | None
+            The exception code to answer; None: written.
+        """
         injected = self._fault_injected()
         if injected is not None:
             return injected
@@ -250,7 +289,21 @@ async def serve_tcp(
     dt: float | None = 0.01,
     context: InverterContext | None = None,
 ) -> None:
-    """Serve the inverter on Modbus TCP (127.0.0.1 unless ``host`` names another address) until cancelled."""
+    """Serve the inverter on Modbus TCP (127.0.0.1 unless ``host`` names another address) until cancelled.
+
+    Parameters
+    ----------
+    model : InverterModel
+        The inverter.
+    host, port, optional
+        The address served.
+    unit : int, optional
+        The Modbus unit id.
+    dt : float | None, optional
+        [s] the model's step (None: stepped by the caller).
+    context : InverterContext | None, optional
+        The registers (None: made of ``model``).
+    """
     log.info("Modbus TCP inverter (%s) on %s:%d unit %d", model.regmap.name, host, port, unit)
     await _serve(_server(model, unit, context, address=(host, port)), model, dt)
 
@@ -265,7 +318,25 @@ async def serve_rtu(
     context: InverterContext | None = None,
     **serial: Any,
 ) -> None:
-    """Serve the inverter on Modbus RTU over the serial device ``port`` until cancelled."""
+    """Serve the inverter on Modbus RTU over the serial device ``port`` until cancelled.
+
+    Parameters
+    ----------
+    model : InverterModel
+        The inverter.
+    port : str
+        The serial device.
+    baudrate : int, optional
+        [bit/s].
+    unit : int, optional
+        The Modbus unit id.
+    dt : float | None, optional
+        [s] the model's step (None: stepped by the caller).
+    context : InverterContext | None, optional
+        The registers (None: made of ``model``).
+    **serial : Any
+        pyserial's further settings.
+    """
     log.info("Modbus RTU inverter (%s) on %s unit %d", model.regmap.name, port, unit)
     await _serve(_server(model, unit, context, port=port, baudrate=baudrate, **serial), model, dt)
 
@@ -280,6 +351,25 @@ class InverterServer:
     ``start()`` returns when the server listens (OSError if it cannot, TimeoutError
     after ``timeout`` [s]); ``stop()`` is idempotent; a context manager starts and stops it.
     ValueError for a ``unit`` the server cannot be (RTU 1..247, TCP 0..255).
+
+    Parameters
+    ----------
+    model : InverterModel
+        The inverter.
+    host, port, optional
+        Modbus TCP's address (port 0: a free one).
+    serial : str | None, optional
+        A serial device for Modbus RTU instead (None: TCP).
+    baudrate : int, optional
+        [bit/s] on ``serial``.
+    unit : int, optional
+        The Modbus unit id.
+    dt : float | None, optional
+        [s] the model's step (None: stepped by the caller).
+    context : InverterContext | None, optional
+        The registers (None: made of ``model``).
+    timeout : float, optional
+        [s] ``start`` waits for it to listen.
     """
 
     def __init__(
@@ -314,7 +404,22 @@ class InverterServer:
         return self._port
 
     def start(self) -> InverterServer:
-        """Serve from a new thread; returns once listening."""
+        """Serve from a new thread; returns once listening.
+
+        Returns
+        -------
+        InverterServer
+            The server, listening.
+
+        Raises
+        ------
+        RuntimeError
+            If it was started already.
+        TimeoutError
+            If it is not listening within ``timeout``.
+        OSError
+            If it could not listen (the address taken, the device missing).
+        """
         if self._thread is not None:
             raise RuntimeError("InverterServer.start: already started")
         self._thread = threading.Thread(target=self._run, name="modbus-inverter", daemon=True)
@@ -373,5 +478,18 @@ class InverterServer:
 
 
 def default_model(name: str, **overrides: Any) -> InverterModel:
-    """An inverter of map ``name`` with parameters overridden by keyword."""
+    """An inverter of map ``name`` with parameters overridden by keyword.
+
+    Parameters
+    ----------
+    name : str
+        A register map (``drivers.maps.modbus_maps``).
+    **overrides : Any
+        ``InverterModel``'s fields.
+
+    Returns
+    -------
+    InverterModel
+        The model.
+    """
     return InverterModel(modbus_map(name), **overrides)

@@ -18,7 +18,13 @@ __all__ = ["PositionProfile", "SpeedRamp"]
 
 
 class SpeedRamp:
-    """See the module docstring; ``value`` is the present set-point [rad/s]."""
+    """See the module docstring; ``value`` is the present set-point [rad/s].
+
+    Parameters
+    ----------
+    value : float, optional
+        [rad/s] the present set-point.
+    """
 
     __slots__ = ("value",)
 
@@ -26,6 +32,22 @@ class SpeedRamp:
         self.value = value
 
     def step(self, target: float, accel: float, decel: float, h: float) -> float:
+        """Advance ``h`` [s] toward ``target``, accelerating by ``accel`` and decelerating by ``decel``.
+
+        Parameters
+        ----------
+        target : float
+            [rad/s].
+        accel, decel : float
+            [rad/s^2] > 0.
+        h : float
+            [s].
+
+        Returns
+        -------
+        float
+            [rad/s] the new set-point.
+        """
         v = self.value
         if v == target:
             return v
@@ -37,7 +59,15 @@ class SpeedRamp:
 
 
 class PositionProfile:
-    """See the module docstring; ``position`` [rad] and ``velocity`` [rad/s] are the set-point."""
+    """See the module docstring; ``position`` [rad] and ``velocity`` [rad/s] are the set-point.
+
+    Parameters
+    ----------
+    position : float, optional
+        [rad] the set-point.
+    velocity : float, optional
+        [rad/s] its speed.
+    """
 
     __slots__ = ("position", "target", "velocity")
 
@@ -51,7 +81,22 @@ class PositionProfile:
         return self.position == self.target and self.velocity == 0.0
 
     def step(self, v_max: float, accel: float, decel: float, h: float) -> float:
-        """Advance ``h`` [s]; the new position set-point."""
+        """Advance ``h`` [s]; the new position set-point.
+
+        Parameters
+        ----------
+        v_max : float
+            [rad/s] the profile velocity.
+        accel, decel : float
+            [rad/s^2].
+        h : float
+            [s].
+
+        Returns
+        -------
+        float
+            [rad] the new position set-point.
+        """
         e = self.target - self.position
         if e == 0.0 and self.velocity == 0.0:
             return self.position

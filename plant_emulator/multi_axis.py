@@ -33,28 +33,93 @@ __all__ = ["AxisStore", "LogicalDrive", "MultiAxisDrive"]
 
 class AxisStore:
     """``store`` as axis ``axis`` sees it: its profile objects at axis 1's indices, the node's
-    objects as they are (``ObjectStore``'s device-side access)."""
+    objects as they are (``ObjectStore``'s device-side access).
+
+    Parameters
+    ----------
+    store : ObjectStore
+        The node's object store.
+    axis : int
+        The axis, 1..8.
+    """
 
     def __init__(self, store: ObjectStore, axis: int) -> None:
         self.store, self.axis = store, axis
 
     def read(self, index: int, subindex: int = 0) -> Any:
+        """The value of (index, subindex) as the axis names it (``ObjectStore.read``).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object, as axis 1's.
+
+        Returns
+        -------
+        Any
+            Its value.
+        """
         return self.store.read(axis_object(index, self.axis), subindex)
 
     def write(self, index: int, subindex: int, value: Any) -> None:
+        """Set (index, subindex) as the axis names it (``ObjectStore.write``).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object, as axis 1's.
+        value : Any
+            Its value.
+        """
         self.store.write(axis_object(index, self.axis), subindex, value)
 
     def has(self, index: int, subindex: int = 0) -> bool:
+        """Whether the node has (index, subindex) as the axis names it.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object, as axis 1's.
+
+        Returns
+        -------
+        bool
+            It has.
+        """
         return self.store.has(axis_object(index, self.axis), subindex)
 
     def obj(self, index: int, subindex: int) -> Any:
+        """The OD entry of (index, subindex) as the axis names it (``ObjectStore.obj``).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object, as axis 1's.
+
+        Returns
+        -------
+        Any
+            canopen's ``ODVariable``.
+        """
         return self.store.obj(axis_object(index, self.axis), subindex)
 
 
 class LogicalDrive(EmulatedDrive):
     """Axis ``number`` (2..8) of ``node``'s drive, with ``axis`` behind it on ``shaft``; see the
     module docstring. Its node's work (SYNC, PDOs, supervision) is the node's: it is given the
-    events that are its own."""
+    events that are its own.
+
+    Parameters
+    ----------
+    node : MultiAxisDrive
+        The node whose axis it is.
+    number : int
+        The axis, 2..8.
+    axis : Axis
+        Its physics.
+    shaft : Shaft | None
+        The shaft it is part of (None: one of its own).
+    """
 
     def __init__(self, node: MultiAxisDrive, number: int, axis: Axis, shaft: Shaft | None) -> None:
         self._own(axis, node.period, node.profile, shaft)
@@ -83,12 +148,34 @@ class LogicalDrive(EmulatedDrive):
 
     def supervise(self, now: float) -> None:
         """The node's watch of the host is its node's (``MultiAxisDrive``'s): a loss reaches this
-        axis as ``on_abort_connection``."""
+        axis as ``on_abort_connection``.
+
+        Parameters
+        ----------
+        now : float
+            [s] the emulator's clock.
+        """
 
 
 class MultiAxisDrive(EmulatedDrive):
     """The node of a drive of ``len(axes)`` axes, and its axis 1; ``shafts``: the plant each
-    axis is part of (None: each a shaft of its own). See the module docstring."""
+    axis is part of (None: each a shaft of its own). See the module docstring.
+
+    Parameters
+    ----------
+    node_id : int
+        Its node.
+    network : canopen.Network
+        The canopen network.
+    axes : Sequence[Axis]
+        Each axis's physics, axis 1 first.
+    period : float
+        [s] the SYNC period.
+    profile : DeviceProfile
+        The device's profile (its twin).
+    shafts : Sequence[Shaft | None] | None, optional
+        The shaft of each axis (None: each its own).
+    """
 
     def __init__(
         self,
@@ -158,7 +245,15 @@ class MultiAxisDrive(EmulatedDrive):
             drive.after_write(own)
 
     def on_rpdo(self, number: int, *, synchronous: bool) -> None:
-        """RPDO ``number`` to the axes whose objects it maps (the node's objects: axis 1)."""
+        """RPDO ``number`` to the axes whose objects it maps (the node's objects: axis 1).
+
+        Parameters
+        ----------
+        number : int
+            The RPDO, 0-based.
+        synchronous : bool
+            Applied at the next SYNC.
+        """
         pdo = next((p for p in self._rpdos if p.number == number), None)
         axes = {object_axis(index)[0] for index, *_ in pdo.slices} if pdo is not None else {1}
         if axes & {0, 1}:
@@ -178,7 +273,15 @@ class MultiAxisDrive(EmulatedDrive):
             d.on_reset(application=application)
 
     def on_abort_connection(self, what: str, code: int) -> None:
-        """The host is lost: each axis reacts by its own 0x6007."""
+        """The host is lost: each axis reacts by its own 0x6007.
+
+        Parameters
+        ----------
+        what : str
+            What was lost, in words.
+        code : int
+            The EMCY code to send.
+        """
         super().on_abort_connection(what, code)
         for d in self.others:
             d.on_abort_connection(what, code)

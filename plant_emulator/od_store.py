@@ -27,21 +27,52 @@ from typing import Any
 import canopen
 from canopen.objectdictionary import INTEGER_TYPES
 
-__all__ = ["ObjectStore", "StoreNode"]
+__all__ = ["ObjectStore", "StoreNode", "nothing_stored"]
+
+
+def nothing_stored(index: int, subindex: int) -> None:
+    """A ``StoreNode``'s ``on_stored`` until one is set: nothing to tell.
+
+    Parameters
+    ----------
+    index, subindex : int
+        The object written.
+    """
 
 
 class StoreNode(canopen.LocalNode):
     """canopen's ``LocalNode``, telling ``on_stored(index, subindex)`` when an SDO or RPDO write landed."""
 
-    on_stored: Callable[[int, int], None] = staticmethod(lambda index, subindex: None)
+    on_stored: Callable[[int, int], None] = staticmethod(nothing_stored)
 
     def set_data(self, index: int, subindex: int, data: bytes, check_writable: bool = False) -> None:
+        """canopen's ``set_data``, then ``on_stored``.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+        data : bytes
+            The bytes.
+        check_writable : bool, optional
+            Refuse an object not writable (an SDO download).
+        """
         super().set_data(index, subindex, data, check_writable)
         self.on_stored(index, subindex)
 
     def store(self, index: int, subindex: int, obj: Any, data: bytes) -> None:
         """``set_data`` for an object already looked up (``obj``) and data of its size (an RPDO's,
-        whose mapping was checked): the same write callbacks, then the bytes are stored."""
+        whose mapping was checked): the same write callbacks, then the bytes are stored.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+        obj : Any
+            Its OD entry.
+        data : bytes
+            Bytes of its size.
+        """
         for callback in self._write_callbacks:
             callback(index=index, subindex=subindex, od=obj, data=data)
         try:
@@ -70,7 +101,13 @@ class _Codec:
 
 
 class ObjectStore:
-    """Typed, cached access to ``node``'s object dictionary (see the module docstring)."""
+    """Typed, cached access to ``node``'s object dictionary (see the module docstring).
+
+    Parameters
+    ----------
+    node : StoreNode
+        The node whose dictionary it is.
+    """
 
     def __init__(self, node: StoreNode) -> None:
         self.node: Any = node
@@ -82,7 +119,13 @@ class ObjectStore:
         node.on_stored = self.forget
 
     def forget(self, index: int, subindex: int) -> None:
-        """The bytes of (index, subindex) changed behind the cache."""
+        """The bytes of (index, subindex) changed behind the cache.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+        """
         self.values.pop((index, subindex), None)
 
     def clear(self) -> None:
@@ -90,7 +133,18 @@ class ObjectStore:
         self.values.clear()
 
     def obj(self, index: int, subindex: int) -> Any:
-        """The OD entry (canopen ``ODVariable``); SdoAbortedError when there is none."""
+        """The OD entry (canopen ``ODVariable``); SdoAbortedError when there is none.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+
+        Returns
+        -------
+        Any
+            canopen's ``ODVariable``.
+        """
         key = (index, subindex)
         obj = self._objs.get(key)
         if obj is None:
@@ -98,7 +152,18 @@ class ObjectStore:
         return obj
 
     def has(self, index: int, subindex: int = 0) -> bool:
-        """The object dictionary has (index, subindex)."""
+        """The object dictionary has (index, subindex).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+
+        Returns
+        -------
+        bool
+            It has.
+        """
         od = self.node.object_dictionary
         if index not in od:
             return False
@@ -112,14 +177,36 @@ class ObjectStore:
         return codec
 
     def raw(self, index: int, subindex: int) -> bytes:
-        """Stored bytes of an object (its default before any write)."""
+        """Stored bytes of an object (its default before any write).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+
+        Returns
+        -------
+        bytes
+            Its bytes.
+        """
         try:
             return self.data[index][subindex]
         except KeyError:
             return bytes(self.node.get_data(index, subindex))
 
     def read(self, index: int, subindex: int = 0) -> Any:
-        """Decoded value of an object."""
+        """Decoded value of an object.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+
+        Returns
+        -------
+        Any
+            Its value.
+        """
         key = (index, subindex)
         try:
             return self.values[key]
@@ -132,6 +219,18 @@ class ObjectStore:
         """Set an object's value from the device side (no access check, no callbacks).
 
         The value it already has costs a lookup only (its bytes are those of the cached value).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+        value : Any
+            Its value.
+
+        Raises
+        ------
+        ValueError
+            If the value does not fit the object's type.
         """
         key = (index, subindex)
         values = self.values

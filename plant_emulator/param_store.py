@@ -44,7 +44,17 @@ Image = dict[int, dict[int, bytes]]  #: index -> subindex -> bytes
 
 
 class ParameterStore:
-    """0x1010/0x1011 of ``od`` (canopen's object dictionary) over the node's reset image."""
+    """0x1010/0x1011 of ``od`` (canopen's object dictionary) over the node's reset image.
+
+    Parameters
+    ----------
+    od : Any
+        canopen's object dictionary of the node.
+    raw : Callable[[int, int], bytes]
+        (index, subindex) -> the stored bytes.
+    image : Callable[[], Image | None]
+        The node's reset image (None: not yet taken).
+    """
 
     def __init__(self, od: Any, raw: Callable[[int, int], bytes], image: Callable[[], Image | None]) -> None:
         self.od = od
@@ -54,13 +64,37 @@ class ParameterStore:
 
     def power_on(self, data: Image) -> Image:
         """The reset image of the first power-on (a copy of the node's ``data``), kept as the
-        defaults a restore puts back."""
+        defaults a restore puts back.
+
+        Parameters
+        ----------
+        data : Image
+            The node's reset image.
+
+        Returns
+        -------
+        Image
+            Its copy, kept as the defaults.
+        """
         self.factory = {i: dict(subs) for i, subs in data.items()}
         return {i: dict(subs) for i, subs in data.items()}
 
     def on_write(self, index: int, subindex: int, data: bytes) -> None:
         """An SDO write to 0x1010/0x1011 (before it lands): store into, or restore the defaults of,
-        the reset image; a wrong signature is refused (SdoAbortedError 0x08000020)."""
+        the reset image; a wrong signature is refused (SdoAbortedError 0x08000020).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object written.
+        data : bytes
+            The bytes written.
+
+        Raises
+        ------
+        SdoAbortedError
+            If the signature is wrong (0x08000020).
+        """
         image = self.image()
         if image is None:
             return
@@ -101,5 +135,16 @@ class ParameterStore:
     @staticmethod
     def handles(index: int) -> bool:
         """0x1010 or 0x1011: a write the store acts on, whose bytes are not kept (a read answers
-        the EDS's default, 1: bit 0, the device stores or restores on command)."""
+        the EDS's default, 1: bit 0, the device stores or restores on command).
+
+        Parameters
+        ----------
+        index : int
+            An object's index.
+
+        Returns
+        -------
+        bool
+            It is 0x1010 or 0x1011.
+        """
         return index in (STORE, RESTORE)

@@ -68,7 +68,25 @@ def _name(kind: Any) -> str:
 
 def with_params(schema: type[T], params: Mapping[str, object] | T | None) -> T:
     """``schema`` with the fields named in ``params`` set (or ``params`` itself, a built ``schema``);
-    ValueError naming a bad name or value."""
+    ValueError naming a bad name or value.
+
+    Parameters
+    ----------
+    schema : type[T]
+        A parameter dataclass.
+    params : Mapping[str, object] | T | None
+        Values by name, or a ``schema`` built already (None: the defaults).
+
+    Returns
+    -------
+    T
+        The parameters.
+
+    Raises
+    ------
+    ValueError
+        If a name is unknown or a value is refused (it named).
+    """
     if isinstance(params, schema):
         return params
     kinds = field_types(schema)
@@ -92,12 +110,38 @@ NODE = (1, 127)  #: CANopen node ids
 
 
 def node_key(default: int, doc: str) -> Any:
-    """A node-id key (1..127)."""
+    """A node-id key (1..127).
+
+    Parameters
+    ----------
+    default : int
+        The node-ID.
+    doc : str
+        What the node is.
+
+    Returns
+    -------
+    Any
+        The dataclass field (``drivers.schema.key``).
+    """
     return key(default, "", doc, ge=NODE[0], le=NODE[1])
 
 
 def require_nodes(obj: object, *names: str) -> None:
-    """The named node-id fields are distinct; ``Refused`` naming the field and value."""
+    """The named node-id fields are distinct; ``Refused`` naming the field and value.
+
+    Parameters
+    ----------
+    obj : object
+        The parameters.
+    *names : str
+        Fields holding node-IDs.
+
+    Raises
+    ------
+    Refused
+        If two of them are equal (the field and value named).
+    """
     seen: dict[int, str] = {}
     for name in names:
         value = getattr(obj, name)
@@ -107,11 +151,28 @@ def require_nodes(obj: object, *names: str) -> None:
 
 
 def profile_text(text: str) -> None:
-    """``text`` is a load torque profile of ``drivers.profiles`` (or ``none``); ValueError."""
+    """``text`` is a load torque profile of ``drivers.profiles`` (or ``none``); ValueError.
+
+    Parameters
+    ----------
+    text : str
+        A profile (``drivers.profiles``) or ``none``.
+    """
     parse_profile(text)
 
 
 def load_torque(text: str) -> Profile | None:
-    """The load torque [N m] of time [s] written in ``text`` (``parse_profile``); None for ``none``."""
+    """The load torque [N m] of time [s] written in ``text`` (``parse_profile``); None for ``none``.
+
+    Parameters
+    ----------
+    text : str
+        A profile (``drivers.profiles``) or ``none``.
+
+    Returns
+    -------
+    Profile | None
+        [N m] of time [s]; None for ``none``.
+    """
     profile = parse_profile(text)
     return None if text.strip() == "none" else profile

@@ -41,10 +41,10 @@ class PdoConfig:
     """One PDO as configured in the object dictionary."""
 
     number: int  #: 0-based
-    cob_id: int
-    valid: bool
+    cob_id: int  #: its COB-ID
+    valid: bool  #: bit 31 of the COB-ID clear
     ttype: int  #: transmission type
-    event_timer_ms: int
+    event_timer_ms: int  #: [ms] sub 5 (0: none)
     mapping: tuple[tuple[int, int, int], ...]  #: (index, subindex, bits)
     slices: tuple[tuple[int, int, int, int], ...] = field(init=False)  #: (index, subindex, start, end)
     size: int = field(init=False)  #: mapped data [bytes]
@@ -59,7 +59,24 @@ class PdoConfig:
 
 
 def read_pdo(od: ObjectStore, comm: int, mapping: int, number: int) -> PdoConfig:
-    """PDO ``number`` (0-based) from its communication and mapping parameters."""
+    """PDO ``number`` (0-based) from its communication and mapping parameters.
+
+    Parameters
+    ----------
+    od : ObjectStore
+        The node's object store.
+    comm : int
+        The first communication record (0x1400 or 0x1800).
+    mapping : int
+        The first mapping record (0x1600 or 0x1A00).
+    number : int
+        The PDO, 0-based.
+
+    Returns
+    -------
+    PdoConfig
+        The PDO.
+    """
     cob = od.read(comm, cia.PDO_COMM_COB_ID)
     count = od.read(mapping, 0)
     timer = od.read(comm, cia.PDO_COMM_EVENT_TIMER) if od.has(comm, cia.PDO_COMM_EVENT_TIMER) else 0
@@ -75,7 +92,22 @@ def read_pdo(od: ObjectStore, comm: int, mapping: int, number: int) -> PdoConfig
 
 def check_mapping_write(od: ObjectStore, index: int, subindex: int, data: bytes) -> None:
     """An SDO write of ``data`` to PDO parameter (index, subindex): SdoAbortedError if the
-    mapping protocol forbids it (see the module docstring)."""
+    mapping protocol forbids it (see the module docstring).
+
+    Parameters
+    ----------
+    od : ObjectStore
+        The node's object store.
+    index, subindex : int
+        The PDO parameter written.
+    data : bytes
+        The bytes written.
+
+    Raises
+    ------
+    SdoAbortedError
+        If the mapping protocol forbids the write.
+    """
     if not any(index in r for r in MAPPINGS):
         return
     if not od.read(index - PDO_BLOCK, cia.PDO_COMM_COB_ID) & PDO_INVALID:
@@ -103,7 +135,20 @@ def check_mapping_write(od: ObjectStore, index: int, subindex: int, data: bytes)
 
 
 def mappable(od: ObjectStore, pdo: PdoConfig) -> bool:
-    """Every mapped object exists and has the mapped size (an EDS's default mapping may not)."""
+    """Every mapped object exists and has the mapped size (an EDS's default mapping may not).
+
+    Parameters
+    ----------
+    od : ObjectStore
+        The node's object store.
+    pdo : PdoConfig
+        The PDO.
+
+    Returns
+    -------
+    bool
+        Every mapped object exists with the mapped size.
+    """
     for index, sub, bits in pdo.mapping:
         try:
             size = len(od.obj(index, sub))
@@ -118,7 +163,20 @@ def mappable(od: ObjectStore, pdo: PdoConfig) -> bool:
 
 
 def pack(od: ObjectStore, pdo: PdoConfig) -> bytes:
-    """The data of TPDO ``pdo``: its objects' stored bytes."""
+    """The data of TPDO ``pdo``: its objects' stored bytes.
+
+    Parameters
+    ----------
+    od : ObjectStore
+        The node's object store.
+    pdo : PdoConfig
+        The TPDO.
+
+    Returns
+    -------
+    bytes
+        Its data.
+    """
     data = od.data
     try:
         return b"".join([data[i][s][: b - a] for i, s, a, b in pdo.slices])

@@ -54,7 +54,13 @@ def _load() -> Any:
 
 @dataclass(frozen=True)
 class DcServoPreset:
-    """Parameters of ``dc-servo`` (SI; see the module docstring)."""
+    """Parameters of ``dc-servo`` (SI; see the module docstring).
+
+    Raises
+    ------
+    Refused
+        If the friction leaves no room in ``a_m``.
+    """
 
     a_m: float = key(16.0, "1/s", "(3.5)", gt=0.0)
     b_m: float = key(680.0, "rad/(V s^2)", "(3.5)", gt=0.0)
@@ -83,7 +89,13 @@ class DcServoPreset:
 
 @dataclass(frozen=True)
 class GridConverterPreset:
-    """Parameters of ``grid-converter`` (SI; see the module docstring)."""
+    """Parameters of ``grid-converter`` (SI; see the module docstring).
+
+    Raises
+    ------
+    Refused
+        If ``ratio``/``f_line`` is no period the toolkit runs.
+    """
 
     L1: float = key(6e-3, "H", "the line inductance", gt=0.0)
     R1: float = key(0.36, "Ohm", "its resistance", gt=0.0)
@@ -201,6 +213,23 @@ def preset_params(name: str, params: Mapping[str, object] | Any = None) -> Any:
 
     ValueError naming an unknown preset, an unknown parameter (with the known ones), a value
     of the wrong type (with the expected one) or out of range.
+
+    Parameters
+    ----------
+    name : str
+        A preset (``PRESETS``).
+    params : Mapping[str, object] | Any, optional
+        Typed values by name, or the preset's dataclass built already (None: the defaults).
+
+    Returns
+    -------
+    Any
+        The preset's dataclass.
+
+    Raises
+    ------
+    ValueError
+        If the preset is unknown, or a parameter is refused (``with_params``).
     """
     if name not in PRESETS:
         raise ValueError(f"unknown preset {name!r}; known: {', '.join(PRESETS)}")
@@ -208,5 +237,18 @@ def preset_params(name: str, params: Mapping[str, object] | Any = None) -> Any:
 
 
 def preset_period(name: str, params: Mapping[str, object] | Any = None) -> float:
-    """The SYNC period [s] preset ``name`` runs at, with ``params`` applied."""
+    """The SYNC period [s] preset ``name`` runs at, with ``params`` applied.
+
+    Parameters
+    ----------
+    name : str
+        A preset (``PRESETS``).
+    params : Mapping[str, object] | Any, optional
+        Typed values by name, or the preset's dataclass built already.
+
+    Returns
+    -------
+    float
+        [s] the SYNC period.
+    """
     return float(preset_params(name, params).period)

@@ -96,6 +96,20 @@ def build_preset(
 
     ``params`` sets parameters by name (``a_m`` or ``plant.a_m``) to typed values, or is the
     preset's dataclass built already, see ``preset_params``.
+
+    Parameters
+    ----------
+    name : str
+        A preset (``PRESETS``).
+    network : canopen.Network
+        The canopen network the devices answer on.
+    params : Mapping[str, object] | Any, optional
+        Typed values by name (``a_m`` or ``plant.a_m``), or the preset's dataclass built already.
+
+    Returns
+    -------
+    tuple[list[EmulatedNode], float]
+        (the devices, the SYNC period [s]).
     """
     p = preset_params(name, params)
     if isinstance(p, DcServoPreset):
@@ -125,6 +139,27 @@ def build_twin(
     ``params`` applied (or ``params``, the preset's dataclass built over the profile's already);
     the drive keeps its own EDS's resolution (0x608F), and takes the motor's ratings into the
     objects it has.
+
+    Parameters
+    ----------
+    profile : DeviceProfile
+        The drive's device profile.
+    network : canopen.Network
+        The canopen network it answers on.
+    params : Mapping[str, object] | Any, optional
+        The physics preset's values by name, or its dataclass built already.
+    node_id : int | None, optional
+        Its node-ID (None: the profile's).
+
+    Returns
+    -------
+    tuple[list[EmulatedNode], float]
+        ([the drive], the SYNC period [s]).
+
+    Raises
+    ------
+    ValueError
+        If the profile's physics is none a twin runs.
     """
     if profile.physics not in TWIN_PHYSICS:
         raise ValueError(

@@ -63,7 +63,13 @@ class Ratings:
     max_acceleration: float = math.inf
 
     def as_stored(self) -> Ratings:
-        """These ratings as the object dictionary holds them (whole mA and mN m)."""
+        """These ratings as the object dictionary holds them (whole mA and mN m).
+
+        Returns
+        -------
+        Ratings
+            The ratings rounded to whole mA and mN m.
+        """
         return replace(
             self,
             rated_current=round(self.rated_current * 1000) / 1000,
@@ -76,10 +82,10 @@ class DriveUnits:
     """Device units per SI unit: ``position`` per rad, ``velocity`` per rad/s, ``acceleration``
     per rad/s^2 (velocity units per second); ``increments`` per rad of the encoder."""
 
-    increments: float
-    position: float
-    velocity: float
-    acceleration: float
+    increments: float  #: encoder increments per rad
+    position: float  #: position units per rad
+    velocity: float  #: velocity units per rad/s
+    acceleration: float  #: acceleration units per rad/s^2
 
 
 def _ratio(read: Callable[[int, int], Any], index: int) -> float:
@@ -109,7 +115,21 @@ def _clamp(value: int, bits: int) -> int:
 
 
 class ProcessImage:
-    """A drive's set-point and feedback objects; see the module docstring."""
+    """A drive's set-point and feedback objects; see the module docstring.
+
+    Parameters
+    ----------
+    od : ObjectStore
+        The drive's object store.
+    has : Callable[[int], bool]
+        Whether the drive has an object (index).
+    given : Units
+        The profile's ``[units]`` (where the EDS lacks them).
+    ratings : Ratings
+        The motor's ratings.
+    dq : bool, optional
+        A dq-voltage drive (its targets complex).
+    """
 
     def __init__(
         self, od: ObjectStore, has: Callable[[int], bool], given: Units, ratings: Ratings, *, dq: bool = False
@@ -155,7 +175,15 @@ class ProcessImage:
 
     def rate(self, ratings: Ratings, counts_per_rev: int | None) -> None:
         """Take ``ratings`` and write them, and the resolution (None: the drive's own), into the
-        objects the drive has."""
+        objects the drive has.
+
+        Parameters
+        ----------
+        ratings : Ratings
+            The motor's ratings.
+        counts_per_rev : int | None
+            [increments/rev] (None: the drive's own).
+        """
         self.ratings = ratings
         write = self.od.write
         for index, value in (
@@ -173,7 +201,18 @@ class ProcessImage:
 
     # --- set-points -----------------------------------------------------------------------------
     def target(self, mode: int) -> complex:
-        """The present target of ``mode`` in SI (V, N m, rad/s, rad)."""
+        """The present target of ``mode`` in SI (V, N m, rad/s, rad).
+
+        Parameters
+        ----------
+        mode : int
+            The mode of operation.
+
+        Returns
+        -------
+        complex
+            Its target in SI (V, N m, rad/s, rad; a dq voltage complex).
+        """
         read, u = self.od.read, self.units
         if mode == _VOLTAGE:
             return complex(read(cia.TARGET_VOLTAGE, 0) / 1000.0)  # mV -> V
@@ -188,7 +227,20 @@ class ProcessImage:
         return 0j
 
     def acceleration(self, index: int, default: float) -> float:
-        """An acceleration object (0x6083-0x6085) in rad/s^2, or ``default`` where the drive lacks it."""
+        """An acceleration object (0x6083-0x6085) in rad/s^2, or ``default`` where the drive lacks it.
+
+        Parameters
+        ----------
+        index : int
+            0x6083, 0x6084 or 0x6085.
+        default : float
+            [rad/s^2] where the drive lacks it.
+
+        Returns
+        -------
+        float
+            [rad/s^2].
+        """
         return float(self.od.read(index, 0)) / self.units.acceleration if self.has(index) else default
 
     # --- feedback -------------------------------------------------------------------------------
@@ -199,7 +251,26 @@ class ProcessImage:
         (``offset`` added: fault injection). ``demand``: the position set-point [rad] of a
         position mode (for 0x60F4), else None; ``inputs``: 0x60FD; ``ahead`` [s]: the sample's
         time after the axis's (real time: a SYNC between period boundaries; the angle moves on
-        at the axis's speed)."""
+        at the axis's speed).
+
+        Parameters
+        ----------
+        axis : Axis
+            The physics behind the drive.
+        demand : float | None
+            [rad] the position set-point of a position mode (0x60F4), else None.
+        inputs : int, optional
+            0x60FD, the digital inputs.
+        offset : int, optional
+            [position units] added to the position (fault injection).
+        ahead : float, optional
+            [s] the sample's time after the axis's.
+
+        Returns
+        -------
+        int
+            [position units] the latched position.
+        """
         write, u = self.od.write, self.units
         angle = axis.position + axis.velocity * ahead if ahead else axis.position
         pos = math.floor(angle * u.position) + self.home_shift + offset

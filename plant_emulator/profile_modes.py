@@ -58,7 +58,19 @@ HOME_SWITCH = 1 << 2  #: 0x60FD bit
 
 
 class ProfileModes:
-    """See the module docstring; ``cycle`` once per period of ``h`` [s] in a profile mode."""
+    """See the module docstring; ``cycle`` once per period of ``h`` [s] in a profile mode.
+
+    Parameters
+    ----------
+    od : Any
+        The drive's object store.
+    has : Any
+        Whether the drive has an object (index).
+    image : ProcessImage
+        Its process image.
+    profile : DeviceProfile
+        Its device profile.
+    """
 
     def __init__(self, od: Any, has: Any, image: ProcessImage, profile: DeviceProfile) -> None:
         self.od, self.has, self.image, self.profile = od, has, image, profile
@@ -85,11 +97,28 @@ class ProfileModes:
         return self.image.acceleration(index, default)
 
     def to_si(self, position: float) -> float:
-        """A position in the drive's units (after homing) in rad."""
+        """A position in the drive's units (after homing) in rad.
+
+        Parameters
+        ----------
+        position : float
+            In the drive's units.
+
+        Returns
+        -------
+        float
+            [rad].
+        """
         return (position - self.image.home_shift) / self.image.units.position
 
     def limits(self) -> tuple[float, float]:
-        """0x607D in rad (none: infinite)."""
+        """0x607D in rad (none: infinite).
+
+        Returns
+        -------
+        tuple[float, float]
+            (min, max) [rad].
+        """
         if not self.has(cia.SOFTWARE_POSITION_LIMIT):
             return -math.inf, math.inf
         low, high = self.od.read(cia.SOFTWARE_POSITION_LIMIT, 1), self.od.read(cia.SOFTWARE_POSITION_LIMIT, 2)
@@ -100,7 +129,15 @@ class ProfileModes:
 
     # --- the cycle -----------------------------------------------------------------------------
     def start(self, position: float, velocity: float) -> None:
-        """Enabled (or a mode entered): the generators start where the motor is [rad, rad/s]."""
+        """Enabled (or a mode entered): the generators start where the motor is [rad, rad/s].
+
+        Parameters
+        ----------
+        position : float
+            [rad].
+        velocity : float
+            [rad/s].
+        """
         self.ramp.value = velocity
         self.move = PositionProfile(position, 0.0)
         self._buffered = None
@@ -109,14 +146,37 @@ class ProfileModes:
 
     def controlword(self, cw: int) -> None:
         """A controlword written (SDO or RPDO): a rising bit 4 is kept for the next cycle (in ip,
-        enable ip mode: ``plant_emulator.interpolation``)."""
+        enable ip mode: ``plant_emulator.interpolation``).
+
+        Parameters
+        ----------
+        cw : int
+            The controlword.
+        """
         if cw & NEW_SETPOINT and not self._last_cw & NEW_SETPOINT:
             self._rising = True
         self._last_cw = cw
         self.ip.controlword(cw)
 
     def cycle(self, mode: int, h: float, position: float, velocity: float) -> tuple[int, float]:
-        """One period: (the loop to command, its set-point SI); ``status`` holds the bits."""
+        """One period: (the loop to command, its set-point SI); ``status`` holds the bits.
+
+        Parameters
+        ----------
+        mode : int
+            The mode of operation (pp, pv, hm, ip).
+        h : float
+            [s] the period.
+        position : float
+            [rad] where the motor is.
+        velocity : float
+            [rad/s] its speed.
+
+        Returns
+        -------
+        tuple[int, float]
+            (the loop to command, its set-point in SI).
+        """
         cw = self._last_cw
         rising, self._rising = self._rising, False
         halt = bool(cw & HALT)
@@ -231,7 +291,18 @@ class ProfileModes:
         return _CSV, ref
 
     def switch(self, position: float) -> bool:
-        """The home switch at shaft angle ``position`` [rad]."""
+        """The home switch at shaft angle ``position`` [rad].
+
+        Parameters
+        ----------
+        position : float
+            [rad] the shaft's angle.
+
+        Returns
+        -------
+        bool
+            The switch is made.
+        """
         return position >= self.profile.homing.switch_position
 
     def _set_home(self, position: float) -> None:

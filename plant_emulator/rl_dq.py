@@ -25,12 +25,18 @@ __all__ = ["ExactDqPlant", "RLParams", "StationaryRLConverter"]
 
 @dataclass(frozen=True, slots=True)
 class RLParams:
-    """R_1 [Ohm] >= 0, L_1 [H] > 0, T_s [s] > 0 and m of (21) in [0, 1]."""
+    """R_1 [Ohm] >= 0, L_1 [H] > 0, T_s [s] > 0 and m of (21) in [0, 1].
 
-    r1: float
-    l1: float
-    ts: float
-    m: float = 0.0
+    Raises
+    ------
+    ValueError
+        If one is out of its range.
+    """
+
+    r1: float  #: R_1 [Ohm] >= 0
+    l1: float  #: L_1 [H] > 0
+    ts: float  #: T_s [s] > 0
+    m: float = 0.0  #: the dead-time fraction m of (21), in [0, 1]
 
     def __post_init__(self) -> None:
         for name in ("l1", "ts"):
@@ -71,7 +77,7 @@ class ExactDqPlant:
     present omega_k. Coefficients are recomputed only when omega_k changes.
     """
 
-    params: RLParams
+    params: RLParams  #: the RL load and its sampling
     i: complex = 0j  #: dq current at the present sample [A]
     _u_prev: complex = field(default=0j, init=False, repr=False)
     _omega: float = field(default=math.nan, init=False, repr=False)
@@ -92,7 +98,20 @@ class ExactDqPlant:
         )
 
     def transfer(self, z: complex, omega_k: float) -> complex:
-        """G_plant(z, m) of (29) at constant omega_k, as printed (R_1 + j omega_k L_1 != 0)."""
+        """G_plant(z, m) of (29) at constant omega_k, as printed (R_1 + j omega_k L_1 != 0).
+
+        Parameters
+        ----------
+        z : complex
+            The z-domain point.
+        omega_k : float
+            [rad/s] the frame's speed.
+
+        Returns
+        -------
+        complex
+            G_plant(z, m).
+        """
         p = self.params
         alpha0 = math.exp(-p.ts * p.r1 / p.l1)
         alpha1 = alpha0 * cmath.exp(-1j * omega_k * p.ts)
@@ -101,7 +120,22 @@ class ExactDqPlant:
         return bracket * cmath.exp(-1j * omega_k * (1.0 - p.m) * p.ts) / complex(p.r1, omega_k * p.l1)
 
     def step(self, u_ref: complex, omega_k: float, u_i: complex = 0j) -> complex:
-        """Apply u_ref [V] computed at this sample; return the current at the next sample [A]."""
+        """Apply u_ref [V] computed at this sample; return the current at the next sample [A].
+
+        Parameters
+        ----------
+        u_ref : complex
+            [V] the dq reference.
+        omega_k : float
+            [rad/s] the frame's speed.
+        u_i : complex, optional
+            [V] the source's dq voltage.
+
+        Returns
+        -------
+        complex
+            [A] the dq current at the next sample.
+        """
         if omega_k != self._omega:
             self._c = self._coefficients(omega_k)
             self._omega = omega_k
@@ -135,12 +169,17 @@ class StationaryRLConverter:
     of its interval; with ``"sample"`` it is turned with theta_k, and the mean
     applied vector lags by omega_k T_s/2 (6.7 deg at omega_k/omega_s = 1/27),
     which shows up as d-axis coupling.
+
+    Raises
+    ------
+    ValueError
+        If ``n_sub`` < 1, ``hold_angle`` is neither, or ``u_max`` <= 0.
     """
 
-    params: RLParams
-    u_max: float = math.inf
-    n_sub: int = 4
-    hold_angle: str = "middle"
+    params: RLParams  #: the RL load and its sampling
+    u_max: float = math.inf  #: [V] the converter's voltage limit (inf: none)
+    n_sub: int = 4  #: RK4 sub-steps per period, >= 1
+    hold_angle: str = "middle"  #: "middle" or "sample": the angle a reference is turned with
     i_ab: complex = 0j  #: alpha-beta current [A]
     theta: float = 0.0  #: frame angle at the present sample [rad]
     peak: float = 0.0  #: largest |i_ab| seen, between samples included [A]
@@ -161,7 +200,19 @@ class StationaryRLConverter:
 
     def advance(self, u_ab: complex, omega: float, h: float, u_i: complex = 0j) -> None:
         """Integrate h [s] with the alpha-beta voltage u_ab [V] held (limited to u_max), the
-        source u_i (dq) [V] rotating at omega [rad/s]; the frame angle advances by omega h."""
+        source u_i (dq) [V] rotating at omega [rad/s]; the frame angle advances by omega h.
+
+        Parameters
+        ----------
+        u_ab : complex
+            [V] the alpha-beta voltage held.
+        omega : float
+            [rad/s] the source's and frame's speed.
+        h : float
+            [s].
+        u_i : complex, optional
+            [V] the source's dq voltage.
+        """
         p = self.params
         mag = abs(u_ab)
         if mag > self.u_max:
@@ -187,12 +238,40 @@ class StationaryRLConverter:
         self.theta = math.remainder(self.theta + omega * h, math.tau)
 
     def modulate(self, u_ref: complex, omega_k: float) -> complex:
-        """The alpha-beta voltage the modulator holds for dq reference u_ref computed now (``hold_angle``)."""
+        """The alpha-beta voltage the modulator holds for dq reference u_ref computed now (``hold_angle``).
+
+        Parameters
+        ----------
+        u_ref : complex
+            [V] the dq reference.
+        omega_k : float
+            [rad/s] the frame's speed.
+
+        Returns
+        -------
+        complex
+            [V] the alpha-beta voltage.
+        """
         turn = self.theta + (0.5 * omega_k * self.params.ts if self.hold_angle == "middle" else 0.0)
         return u_ref * cmath.exp(1j * turn)
 
     def step(self, u_ref: complex, omega_k: float, u_i: complex = 0j) -> complex:
-        """Apply u_ref [V] (dq, computed at this sample); return the dq current at the next sample [A]."""
+        """Apply u_ref [V] (dq, computed at this sample); return the dq current at the next sample [A].
+
+        Parameters
+        ----------
+        u_ref : complex
+            [V] the dq reference.
+        omega_k : float
+            [rad/s] the frame's speed.
+        u_i : complex, optional
+            [V] the source's dq voltage.
+
+        Returns
+        -------
+        complex
+            [A] the dq current at the next sample.
+        """
         p = self.params
         u_new = self.modulate(u_ref, omega_k)
         t_d = (1.0 - p.m) * p.ts

@@ -44,7 +44,15 @@ _CS = 0xE0  #: command specifier bits of byte 0
 
 
 class SdoServer(CanopenSdoServer):
-    """See the module docstring; ``transfer`` is the segmented transfer in progress, if any."""
+    """See the module docstring; ``transfer`` is the segmented transfer in progress, if any.
+
+    Parameters
+    ----------
+    rx_cobid, tx_cobid : int
+        The SDO's COB-IDs (client to server, server to client).
+    node : Any
+        The canopen ``LocalNode`` it serves.
+    """
 
     def __init__(self, rx_cobid: int, tx_cobid: int, node: Any) -> None:
         super().__init__(rx_cobid, tx_cobid, node)  # type: ignore[no-untyped-call]
@@ -52,6 +60,17 @@ class SdoServer(CanopenSdoServer):
         self._request = b""
 
     def on_request(self, can_id: int, data: bytes, timestamp: float) -> None:
+        """An SDO request: answered as canopen's server does, out-of-order segments aborted.
+
+        Parameters
+        ----------
+        can_id : int
+            The frame's identifier.
+        data : bytes
+            Its 8 bytes.
+        timestamp : float
+            [s] when it came.
+        """
         ccs = data[0] & _CS if data else None
         if ccs == REQUEST_ABORTED:
             self.transfer = None  # no answer to an abort (CiA 301)
@@ -63,6 +82,13 @@ class SdoServer(CanopenSdoServer):
         super().on_request(can_id, data, timestamp)  # type: ignore[no-untyped-call]
 
     def send_response(self, response: bytes | bytearray) -> None:
+        """Send an answer, and note the transfer it begins or ends.
+
+        Parameters
+        ----------
+        response : bytes | bytearray
+            The 8 bytes.
+        """
         scs = response[0] & _CS
         request = self._request
         if scs == RESPONSE_ABORTED:
@@ -78,7 +104,13 @@ class SdoServer(CanopenSdoServer):
         super().send_response(response)  # type: ignore[no-untyped-call]
 
     def abort(self, abort_code: int = ABORT_GENERAL_ERROR) -> None:
-        """Abort the transfer with ``abort_code``: also before any transfer (index and sub-index 0)."""
+        """Abort the transfer with ``abort_code``: also before any transfer (index and sub-index 0).
+
+        Parameters
+        ----------
+        abort_code : int, optional
+            The SDO abort code (CiA 301).
+        """
         if self._index is None:
             self.send_response(struct.pack("<BHBL", RESPONSE_ABORTED, 0, 0, abort_code))
             return

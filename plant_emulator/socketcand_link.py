@@ -35,7 +35,20 @@ def _peer(sock: socket.socket) -> str:
 
 
 def check_limits(depth: int, send_timeout: float) -> None:
-    """ValueError naming the value unless ``depth`` >= 2 lines and ``send_timeout`` > 0 s."""
+    """ValueError naming the value unless ``depth`` >= 2 lines and ``send_timeout`` > 0 s.
+
+    Parameters
+    ----------
+    depth : int
+        Lines a client may have waiting, >= 2.
+    send_timeout : float
+        [s] > 0.
+
+    Raises
+    ------
+    ValueError
+        If either is out of range (it named).
+    """
     if depth < 2:
         raise ValueError(f"socketcand: queue depth {depth}: must be at least 2 lines")
     if not send_timeout > 0.0:
@@ -44,7 +57,17 @@ def check_limits(depth: int, send_timeout: float) -> None:
 
 class ClientLink:
     """See the module docstring; ``depth`` lines may wait, ``send_timeout`` [s] for the kernel
-    to take any of them."""
+    to take any of them.
+
+    Parameters
+    ----------
+    sock : socket.socket
+        The client's socket.
+    depth : int
+        Lines that may wait.
+    send_timeout : float
+        [s] for the kernel to take any of them.
+    """
 
     def __init__(self, sock: socket.socket, *, depth: int, send_timeout: float) -> None:
         check_limits(depth, send_timeout)
@@ -70,7 +93,18 @@ class ClientLink:
 
     def put(self, line: str) -> bool:
         """Queue ``line`` (ASCII); never blocks. False when the client was not waiting for it
-        before (the caller tells the I/O thread); a full queue dooms the client."""
+        before (the caller tells the I/O thread); a full queue dooms the client.
+
+        Parameters
+        ----------
+        line : str
+            The line, ASCII.
+
+        Returns
+        -------
+        bool
+            The client was waiting for it before (else the caller tells the I/O thread).
+        """
         if self.doomed is not None or self.closed:
             return True
         if len(self.lines) >= self.depth:
@@ -90,7 +124,18 @@ class ClientLink:
 
     def send(self, now: float) -> bool:
         """Hand the kernel what is queued, as much as it takes now; True when all is taken.
-        A client that took nothing for ``send_timeout`` [s], or whose socket failed, is doomed."""
+        A client that took nothing for ``send_timeout`` [s], or whose socket failed, is doomed.
+
+        Parameters
+        ----------
+        now : float
+            [s] ``time.monotonic()``.
+
+        Returns
+        -------
+        bool
+            All is taken.
+        """
         while True:
             if not self.unsent:  # what the kernel refused last time goes first, and alone
                 taken = []
@@ -120,7 +165,15 @@ class ClientLink:
         return False
 
     def close(self, reason: str | None, level: int = logging.WARNING) -> None:
-        """Shut and close the socket (what is queued is not sent); ``reason`` logged."""
+        """Shut and close the socket (what is queued is not sent); ``reason`` logged.
+
+        Parameters
+        ----------
+        reason : str | None
+            Why, logged (None: nothing logged).
+        level : int, optional
+            Its logging level.
+        """
         if self.closed:
             return
         self.closed = True

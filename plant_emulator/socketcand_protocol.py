@@ -53,7 +53,20 @@ class CommandTooLong(ProtocolError):
 
 
 def shown(text: str, limit: int = 24) -> str:
-    """``text`` quoted for an error line: ASCII, no ``<``/``>``, at most ``limit`` characters."""
+    """``text`` quoted for an error line: ASCII, no ``<``/``>``, at most ``limit`` characters.
+
+    Parameters
+    ----------
+    text : str
+        What a client sent.
+    limit : int, optional
+        The most characters shown.
+
+    Returns
+    -------
+    str
+        ``text``, quoted.
+    """
     cut = text[:limit]
     quoted = ascii(cut).replace("<", "\\x3c").replace(">", "\\x3e")
     return quoted + ("..." if len(text) > limit else "")
@@ -64,6 +77,11 @@ class CommandSplitter:
 
     Each chunk is scanned once, together with at most ``limit`` bytes held from before,
     so the work is linear in the input however it is chunked.
+
+    Parameters
+    ----------
+    limit : int, optional
+        [bytes] held between chunks at most.
     """
 
     def __init__(self, limit: int = MAX_COMMAND) -> None:
@@ -75,6 +93,21 @@ class CommandSplitter:
 
         Raises ``CommandTooLong`` (after yielding the commands before it) when a command
         exceeds ``limit`` bytes, ``>`` included, or the text held without ``>`` does.
+
+        Parameters
+        ----------
+        chunk : bytes
+            Bytes received.
+
+        Yields
+        ------
+        Iterator[str]
+            Each command completed, stripped, without its ``>``.
+
+        Raises
+        ------
+        CommandTooLong
+            If a command grows beyond ``limit`` (after those before it).
         """
         *complete, rest = (self._held + chunk).split(b">")
         self._held = b""
@@ -88,7 +121,23 @@ class CommandSplitter:
 
 
 def command_words(text: str) -> list[str]:
-    """The words of one command (``< ... >``, the ``>`` may be cut off already); ProtocolError if none."""
+    """The words of one command (``< ... >``, the ``>`` may be cut off already); ProtocolError if none.
+
+    Parameters
+    ----------
+    text : str
+        One command.
+
+    Returns
+    -------
+    list[str]
+        Its words.
+
+    Raises
+    ------
+    ProtocolError
+        If it has none.
+    """
     text = text.strip()
     if not text.startswith("<"):
         raise ProtocolError(f"a command starts with '<', not {shown(text)}")
@@ -113,7 +162,18 @@ def _parse_id(word: str) -> tuple[int, bool]:
 
 
 def parse_send(text: str) -> can.Message:
-    """``< send ID DLC B0 ... >`` -> Message; ProtocolError naming the field that is wrong."""
+    """``< send ID DLC B0 ... >`` -> Message; ProtocolError naming the field that is wrong.
+
+    Parameters
+    ----------
+    text : str
+        A ``send`` command.
+
+    Returns
+    -------
+    can.Message
+        The frame.
+    """
     match = _VALID_SEND.fullmatch(text)
     if match is not None:
         ident, dlc_text, data_text = match.groups()
@@ -126,7 +186,23 @@ def parse_send(text: str) -> can.Message:
 
 
 def checked_send(text: str) -> can.Message:
-    """``parse_send`` field by field: the path of a command that is not a plain valid ``send``."""
+    """``parse_send`` field by field: the path of a command that is not a plain valid ``send``.
+
+    Parameters
+    ----------
+    text : str
+        A ``send`` command.
+
+    Returns
+    -------
+    can.Message
+        The frame.
+
+    Raises
+    ------
+    ProtocolError
+        Naming the field that is wrong.
+    """
     words = command_words(text)
     if words[0] != "send":
         raise ProtocolError(f"not a send command: {shown(text)}")
@@ -146,6 +222,19 @@ def checked_send(text: str) -> can.Message:
 
 
 def format_frame(msg: can.Message, stamp: float) -> str:
-    """``msg`` as ``< frame ID SEC.USEC HEXDATA >``, stamped ``stamp`` [s, wall clock]."""
+    """``msg`` as ``< frame ID SEC.USEC HEXDATA >``, stamped ``stamp`` [s, wall clock].
+
+    Parameters
+    ----------
+    msg : can.Message
+        The frame.
+    stamp : float
+        [s] wall clock.
+
+    Returns
+    -------
+    str
+        The line.
+    """
     can_id = f"{msg.arbitration_id:08X}" if msg.is_extended_id else f"{msg.arbitration_id:03X}"
     return f"< frame {can_id} {stamp:.6f} {bytes(msg.data).hex().upper()} >"

@@ -84,11 +84,24 @@ def _arbitration(msg: can.Message) -> int:
 
 
 class SocketcandServer:
-    """Serve ``hub`` on TCP ``host``:``port`` (0: any free port; see ``port``) until ``stop``.
+    """Serve ``hub`` on TCP ``host``:``port`` until ``stop``.
 
-    ``lock`` is the devices' lock. Each client may have ``queue_depth`` lines waiting and
-    ``send_timeout`` [s] for the kernel to take any; ``send_buffer`` [bytes] sets the kernel's
-    send buffer of each client socket (None: the system's). ``bitrate`` [bit/s]: the bus's.
+    Parameters
+    ----------
+    hub : SyncHub
+        The emulated bus.
+    lock : threading.RLock
+        The devices' lock.
+    host, port : str and int, optional
+        The address served (port 0: any free port; see ``port``).
+    queue_depth : int, optional
+        Lines each client may have waiting.
+    send_timeout : float, optional
+        [s] for the kernel to take any of them.
+    send_buffer : int | None, optional
+        [bytes] the kernel's send buffer of each client socket (None: the system's).
+    bitrate : float, optional
+        [bit/s] the bus's.
     """
 
     def __init__(
@@ -142,6 +155,7 @@ class SocketcandServer:
         return len(self._clients)
 
     def start(self) -> None:
+        """Serve from the server's thread."""
         self.thread.start()
         log.info("socketcand rawmode server on %s:%d", *self._listener.getsockname()[:2])
 

@@ -47,13 +47,39 @@ PRE_OPERATIONAL, OPERATIONAL, STOPPED = (
 
 
 def split_consumer_entry(entry: int) -> tuple[int, float]:
-    """(node id, time [s]) of a 0x1016 entry; time 0 or node 0 (or > 127): the entry is unused."""
+    """(node id, time [s]) of a 0x1016 entry; time 0 or node 0 (or > 127): the entry is unused.
+
+    Parameters
+    ----------
+    entry : int
+        A 0x1016 entry.
+
+    Returns
+    -------
+    tuple[int, float]
+        (node id, time [s]).
+    """
     return (entry >> 16) & 0xFF, (entry & 0xFFFF) / 1000.0  # ms -> s
 
 
 def check_consumer_entry(entries: dict[int, int], subindex: int, value: int) -> None:
     """SdoAbortedError 0x06040043 if writing ``value`` to 0x1016 sub ``subindex`` would make a
-    second active entry for one node (``entries``: the present values by sub-index)."""
+    second active entry for one node (``entries``: the present values by sub-index).
+
+    Parameters
+    ----------
+    entries : dict[int, int]
+        The present entries by sub-index.
+    subindex : int
+        The entry written.
+    value : int
+        Its new value.
+
+    Raises
+    ------
+    SdoAbortedError
+        0x06040043, if it makes a second active entry for a node.
+    """
     node, time = split_consumer_entry(value)
     if not node or not time:
         return
@@ -73,19 +99,45 @@ class Deadlines:
         self.due = -math.inf
 
     def configure(self, times: dict[int, float]) -> None:
-        """Monitor these keys from now on (times [s] > 0); a key kept keeps its last time."""
+        """Monitor these keys from now on (times [s] > 0); a key kept keeps its last time.
+
+        Parameters
+        ----------
+        times : dict[int, float]
+            Key -> [s] > 0.
+        """
         self.times = {k: t for k, t in times.items() if t > 0.0}
         self._last = {k: t for k, t in self._last.items() if k in self.times}
         self.due = -math.inf
 
     def heard(self, key: int, now: float) -> None:
+        """Key ``key`` was heard of at ``now`` [s].
+
+        Parameters
+        ----------
+        key : int
+            The key (a node id, an RPDO).
+        now : float
+            [s] the device time.
+        """
         if key in self.times:
             if key not in self._last:
                 self.due = min(self.due, now + self.times[key])
             self._last[key] = now
 
     def expired(self, now: float) -> list[int]:
-        """The monitored keys not heard of within their time; each reported once."""
+        """The monitored keys not heard of within their time; each reported once.
+
+        Parameters
+        ----------
+        now : float
+            [s] the device time.
+
+        Returns
+        -------
+        list[int]
+            The keys expired.
+        """
         if now <= self.due:  # every SYNC asks: most of the time nothing can have expired yet
             return []
         times = self.times
@@ -100,6 +152,13 @@ class HeartbeatConsumer(Deadlines):
     """0x1016 (see the module docstring): ``configure_entries`` from the object's sub-indices."""
 
     def configure_entries(self, entries: list[int]) -> None:
+        """Monitor the heartbeats that 0x1016's ``entries`` name (unused entries skipped).
+
+        Parameters
+        ----------
+        entries : list[int]
+            The 0x1016 entries.
+        """
         times: dict[int, float] = {}
         for entry in entries:
             node, time = split_consumer_entry(entry)
@@ -132,7 +191,13 @@ class Supervision:
 
     def supervise(self, now: float) -> None:
         """Report the heartbeats and RPDOs lost by ``now`` [s] (asked every SYNC: most of the time
-        nothing can have expired yet, which costs a comparison each)."""
+        nothing can have expired yet, which costs a comparison each).
+
+        Parameters
+        ----------
+        now : float
+            [s] the device time.
+        """
         if now > self.heartbeats.due:
             for node in self.heartbeats.expired(now):
                 self.communication_error(f"heartbeat of node {node} lost", EmcyCode.HEARTBEAT)
@@ -143,11 +208,25 @@ class Supervision:
     def heard_now(self) -> float:
         """The device time [s] a frame heard now is stamped with: the instant it came on the
         emulator's clock in real time (not the latest tick's, which may be a loaded loop's several
-        ms earlier and would trip a deadline early), the latest SYNC's in lock-step."""
+        ms earlier and would trip a deadline early), the latest SYNC's in lock-step.
+
+        Returns
+        -------
+        float
+            [s] the device time.
+        """
         return self.clock if self.clock_source is None else self.clock_source()
 
     def communication_error(self, what: str, code: int) -> None:
-        """A lost heartbeat or RPDO: EMCY ``code``, the drive's reaction, then the NMT state of 0x1029."""
+        """A lost heartbeat or RPDO: EMCY ``code``, the drive's reaction, then the NMT state of 0x1029.
+
+        Parameters
+        ----------
+        what : str
+            What was lost, in words.
+        code : int
+            The EMCY code.
+        """
         log.warning("node %d: %s", self.node_id, what)
         self.emcy(code, ErrorRegister.GENERIC | ErrorRegister.COMMUNICATION)
         self.on_abort_connection(what, code)

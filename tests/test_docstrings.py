@@ -3,10 +3,13 @@ checks its own: from the code, so a parameter added without its entry fails.
 
 For each public function, method and class of a module in COVERED: a docstring; a ``Parameters``
 section naming every parameter of the signature (a class's: its constructor's, where a dataclass
-field's ``#:`` comment counts as its entry); a ``Returns`` (or ``Yields``) section where the return
-annotation is not None; a ``Raises`` section naming every exception the body raises by name (a
-class's: its ``__init__``'s and ``__post_init__``'s). COVERED only grows: a module in it stays
-covered; docs/api.md says how far it reaches.
+field's ``#:`` comment, or the ``doc`` of its ``drivers.schema.key``, counts as its entry); a
+``Returns`` (or ``Yields``) section where the return annotation is not None; a ``Raises`` section
+naming every exception the body raises by name (a class's: its ``__init__``'s and
+``__post_init__``'s; ``raise self._make(...)``: the exception ``_make`` is annotated to return;
+not those its own ``except`` catches). A method overriding one without a docstring of its own is
+held to the docstring it inherits, as autodoc shows it. COVERED only grows and NOT_YET only
+shrinks: a module covered stays covered; docs/api.md says how far it reaches.
 """
 
 from __future__ import annotations
@@ -22,30 +25,29 @@ from typing import Any
 
 import pytest
 
-#: the modules held to it (``package.*``: the package and every module below it)
+#: the modules held to it (``package.*``: the package and every module below it, but NOT_YET)
 COVERED = [
     "controllers.*",
-    "drivers",
-    "drivers.maps",
-    "drivers.cia402_feedback",
-    "drivers.errors",
-    "drivers.maps.build_eds",
-    "drivers.maps.cia406",
-    "drivers.maps.emcy",
-    "drivers.maps.mode_names",
-    "drivers.maps.sdo_aborts",
-    "drivers.maps.vendors",
-    "plant_emulator",
-    "plant_emulator.devices",
-    "plant_emulator.devices.catalog",
-    "plant_emulator.drive_safety",
-    "plant_emulator.encoder",
-    "plant_emulator.frame",
-    "plant_emulator.friction",
-    "plant_emulator.im_kernel",
-    "plant_emulator.pty_link",
-    "plant_emulator.zoh",
+    "drivers.*",
+    "plant_emulator.*",
 ]
+
+#: modules below COVERED's packages still to document (this list only shrinks): the CiA 402
+#: driver being recomposed (issue 37 item 3) and the emulator's shaft, being changed meanwhile
+NOT_YET = [
+    "drivers.canopen_axis",
+    "drivers.cia402",
+    "drivers.cia402_access",
+    "drivers.cia402_cycle",
+    "drivers.cia402_discovery",
+    "drivers.cia402_mapping",
+    "drivers.cia402_pdo",
+    "drivers.cia402_process",
+    "drivers.cia402_setup",
+    "drivers.cia402_units",
+    "plant_emulator.shaft",
+]
+
 
 SECTION = re.compile(r"^(\w[\w ]*)\n-+\n", re.MULTILINE)
 
@@ -71,25 +73,54 @@ def entries(body: str) -> set[str]:
     return names
 
 
+def made_by(func: Callable[..., Any], method: str) -> str:
+    """The exception a factory method of ``func``'s class returns (``raise self._fault()``): the
+    name its return annotation gives, else ``method``'s own."""
+    owner = func.__globals__.get(func.__qualname__.split(".")[0])
+    factory = getattr(owner, method, None)
+    made = getattr(factory, "__annotations__", {}).get("return")
+    return str(made).split(".")[-1] if made else method
+
+
 def raised(func: Callable[..., Any]) -> set[str]:
-    """The exception names ``func``'s own body raises (``raise Name(...)``, not nested functions')."""
+    """The exception names ``func``'s own body raises (``raise Name(...)``, not nested functions';
+    ``raise self.make(...)``: the exception ``make`` is annotated to return)."""
     try:
         tree = ast.parse(textwrap.dedent(inspect.getsource(func)))
     except (OSError, TypeError):
         return set()
     names = set()
 
-    def walk(node: ast.AST, top: bool) -> None:
+    def caught(handler: ast.ExceptHandler) -> set[str]:
+        kinds = handler.type.elts if isinstance(handler.type, ast.Tuple) else [handler.type]
+        return {
+            k.id if isinstance(k, ast.Name) else k.attr
+            for k in kinds
+            if isinstance(k, ast.Name | ast.Attribute)
+        }
+
+    def walk(node: ast.AST, top: bool, kept: frozenset[str] = frozenset()) -> None:
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda) and not top:
             return
         if isinstance(node, ast.Raise) and node.exc is not None:
             exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
             if isinstance(exc, ast.Name) and exc.id[:1].isupper():
-                names.add(exc.id)
-            elif isinstance(exc, ast.Attribute):
-                names.add(exc.attr)
+                name = exc.id
+            elif isinstance(exc, ast.Attribute) and isinstance(node.exc, ast.Call) and exc.attr[:1] == "_":
+                name = made_by(func, exc.attr)
+            else:
+                name = exc.attr if isinstance(exc, ast.Attribute) and exc.attr[:1].isupper() else ""
+            if name and name not in kept:
+                names.add(name)
+        if isinstance(node, ast.Try):  # what its handlers catch, raised in its body, stays inside
+            inner = kept.union(*(caught(h) for h in node.handlers))
+            for child in node.body:
+                walk(child, False, inner)
+            for child in [*node.handlers, *node.orelse, *node.finalbody]:
+                walk(child, False, kept)
+            return
         for child in ast.iter_child_nodes(node):
-            walk(child, False)
+            walk(child, False, kept)
 
     walk(tree.body[0], True)
     return names
@@ -109,6 +140,13 @@ def commented_fields(cls: type) -> set[str]:
     return names
 
 
+def keyed_fields(cls: type) -> set[str]:
+    """The class's fields declared with ``drivers.schema.key`` and a ``doc`` (what the key means,
+    which the configuration reference prints)."""
+    fields = dataclasses.fields(cls)  # type: ignore[arg-type]
+    return {f.name for f in fields if getattr(f.metadata.get("key"), "doc", "")}
+
+
 def problems_of(
     name: str, func: Callable[..., Any], doc: str | None, owner: type | None = None
 ) -> Iterator[str]:
@@ -124,7 +162,7 @@ def problems_of(
     params = [p for p in signature.parameters if p not in ("self", "cls")]
     documented = entries(parts.get("Parameters", "")) | entries(parts.get("Attributes", ""))
     if owner is not None and dataclasses.is_dataclass(owner):
-        documented |= commented_fields(owner)
+        documented |= commented_fields(owner) | keyed_fields(owner)
     missing = [p for p in params if p not in documented]
     if missing:
         yield f"{name}: Parameters lacks {missing}"
@@ -139,6 +177,17 @@ def problems_of(
     unlisted = exceptions - entries(parts.get("Raises", ""))
     if unlisted:
         yield f"{name}: Raises lacks {sorted(unlisted)}"
+
+
+def method_doc(cls: type, member: str) -> str | None:
+    """The docstring of ``cls``'s method ``member``: its own, else (an override without one) that of
+    the nearest class of its MRO that has one, as autodoc shows it."""
+    for klass in cls.__mro__:
+        value = klass.__dict__.get(member)
+        func = value.__func__ if isinstance(value, staticmethod | classmethod) else value
+        if inspect.isfunction(func) and func.__doc__:
+            return str(func.__doc__)
+    return None
 
 
 def public(module: Any) -> Iterator[tuple[str, Any]]:
@@ -168,12 +217,13 @@ def problems(module_name: str) -> list[str]:
                 continue
             func = value.__func__ if isinstance(value, staticmethod | classmethod) else value
             if inspect.isfunction(func):
-                found += problems_of(f"{name}.{member}", func, func.__doc__)
+                found += problems_of(f"{name}.{member}", func, method_doc(obj, member))
     return found
 
 
 def covered() -> list[str]:
-    """The modules of COVERED, ``package.*`` standing for the package and every module below it."""
+    """The modules of COVERED, ``package.*`` standing for the package and every module below it
+    (a ``__main__`` module aside: importing it runs it), but NOT_YET's."""
     import pkgutil
 
     names = []
@@ -183,7 +233,7 @@ def covered() -> list[str]:
         if entry.endswith(".*"):
             module = importlib.import_module(name)
             names += [m.name for m in pkgutil.walk_packages(module.__path__, prefix=f"{name}.")]
-    return sorted(set(names))
+    return sorted(set(names) - set(NOT_YET) - {n for n in names if n.endswith(".__main__")})
 
 
 @pytest.mark.parametrize("module_name", covered())
@@ -226,3 +276,62 @@ def test_checker_sees_what_is_missing() -> None:
 
     assert len(list(problems_of("bare", bare, bare.__doc__))) == 3
     assert not list(problems_of("full", full, full.__doc__))
+
+
+class _Device:
+    """A class whose method raises what a factory method makes."""
+
+    def _fault(self) -> KeyError:
+        return KeyError("fault")
+
+    def check(self, x: float) -> None:
+        """Raise the device's fault where x < 0, and a ValueError caught inside.
+
+        Parameters
+        ----------
+        x : float
+            The value.
+        """
+        try:
+            raise ValueError(x)
+        except ValueError:
+            pass
+        if x < 0:
+            raise self._fault()
+
+
+def test_checker_names_what_a_factory_makes() -> None:
+    """``raise self._fault()`` asks for the exception ``_fault`` returns (KeyError) in Raises; a
+    ValueError its own handler catches is not asked for."""
+    found = list(problems_of("check", _Device.check, _Device.check.__doc__))
+    assert found == ["check: Raises lacks ['KeyError']"]
+
+
+def test_checker_takes_inherited_docstrings_and_key_docs() -> None:
+    """An override without a docstring is held to the one it inherits; a dataclass field declared
+    with ``key(..., doc=...)`` needs no other entry."""
+    from drivers.schema import key
+
+    class Base:
+        def f(self, x: float) -> None:
+            """Take x.
+
+            Parameters
+            ----------
+            x : float
+                The value.
+            """
+
+    class Child(Base):
+        def f(self, x: float) -> None:
+            pass
+
+    @dataclasses.dataclass
+    class Table:
+        """A table."""
+
+        gain: float = key(1.0, "1", "the gain")
+
+    assert not list(problems_of("f", Child.f, method_doc(Child, "f")))
+    assert list(problems_of("f", Child.f, Child.f.__doc__)) == ["f: no docstring"]
+    assert not list(problems_of("Table", Table.__init__, Table.__doc__, owner=Table))

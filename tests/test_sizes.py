@@ -3,6 +3,11 @@ or method over ``FUNCTION`` (its ``def`` line to its last, decorators aside), no
 ``CLASS``, measured from the source with ``ast``. ``DEBTS`` lists today's exceptions with their
 sizes: one may shrink (write its new size, or take it out once under the limit), none may grow,
 and nothing new may join it.
+
+The numpydoc sections a docstring must have (``Parameters``, ``Returns``, ``Raises`` ...: item 5,
+tests/test_docstrings.py) are not counted, from the blank line before the first to the docstring's
+end: the summary and prose above them count as code does, so a docstring made numpydoc measures
+as it did before.
 """
 
 from __future__ import annotations
@@ -22,11 +27,11 @@ DEBTS: dict[str, int] = {
     "drivers/canopen_axis.py::CanopenAxis": 310,
     "drivers/cia402.py::Cia402Axis.__init__": 77,
     "drivers/cia402_units.py::discover_units": 65,
-    "plant_emulator/canopen_node.py::EmulatedNode": 323,
+    "plant_emulator/canopen_node.py::EmulatedNode": 322,
     "plant_emulator/canopen_node.py::EmulatedNode.__init__": 61,
     "plant_emulator/im_kernel.py::_foc_periods": 68,
-    "plant_emulator/socketcand_server.py": 426,
-    "plant_emulator/socketcand_server.py::SocketcandServer": 341,
+    "plant_emulator/socketcand_server.py": 422,
+    "plant_emulator/socketcand_server.py::SocketcandServer": 337,
     "rig/bench/socketcand.py": 434,
     "rig/bench/stops.py::_figures": 74,
     "rig/cli/drive.py::add_parser": 90,
@@ -54,23 +59,52 @@ DEBTS: dict[str, int] = {
 }
 
 
+#: the numpydoc section titles whose lines are not counted
+SECTIONS = ("Parameters", "Attributes", "Returns", "Yields", "Raises", "Warns", "See Also")
+
+
+def section_lines(tree: ast.AST, lines: list[str]) -> set[int]:
+    """The line numbers (1-based) of the docstrings' numpydoc sections: from the blank line before
+    the first section's title to the docstring's last line."""
+    found: set[int] = set()
+    for node in ast.walk(tree):
+        if not isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        first = node.body[0] if node.body else None
+        if not (isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant)):
+            continue
+        if not isinstance(first.value.value, str) or first.end_lineno is None:
+            continue
+        for number in range(first.lineno, first.end_lineno):
+            title, rule = lines[number - 1].strip(), lines[number].strip()
+            if title in SECTIONS and rule == "-" * len(title):
+                start = number - 1 if not lines[number - 2].strip() else number
+                found.update(range(start, first.end_lineno + 1))
+                break
+    return found
+
+
 def sizes(path: pathlib.Path, name: str) -> Iterator[tuple[str, int, int]]:
     """(name, lines, limit) of the module at ``path`` (called ``name``), then of each function and
-    class in it, nested ones by their dotted names."""
+    class in it, nested ones by their dotted names; docstrings' numpydoc sections not counted."""
     text = path.read_text()
-    yield name, len(text.splitlines()), MODULE
+    tree = ast.parse(text)
+    lines = text.splitlines()
+    skipped = section_lines(tree, lines)
+    yield name, len(lines) - len(skipped), MODULE
 
     def inside(node: ast.AST, prefix: str) -> Iterator[tuple[str, int, int]]:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
                 limit = CLASS if isinstance(child, ast.ClassDef) else FUNCTION
                 assert child.end_lineno is not None
-                yield f"{prefix}{child.name}", child.end_lineno - child.lineno + 1, limit
+                span = range(child.lineno, child.end_lineno + 1)
+                yield f"{prefix}{child.name}", len(span) - len(skipped.intersection(span)), limit
                 yield from inside(child, f"{prefix}{child.name}.")
             else:
                 yield from inside(child, prefix)
 
-    yield from ((f"{name}::{n}", size, limit) for n, size, limit in inside(ast.parse(text), ""))
+    yield from ((f"{name}::{n}", size, limit) for n, size, limit in inside(tree, ""))
 
 
 @functools.cache
@@ -120,3 +154,16 @@ def test_sizes_are_measured_from_def_to_last_line(tmp_path: pathlib.Path) -> Non
         ("m.py::A.f", 4, FUNCTION),
         ("m.py::A.f.g", 2, FUNCTION),
     ]
+
+
+def test_numpydoc_sections_are_not_counted(tmp_path: pathlib.Path) -> None:
+    """A one-line docstring made numpydoc measures as before: its summary counts, its sections not."""
+    plain = tmp_path / "plain.py"
+    plain.write_text('def f(x):\n    """Double x."""\n    return 2 * x\n')
+    sectioned = tmp_path / "sectioned.py"
+    sectioned.write_text(
+        'def f(x):\n    """Double x.\n\n    Parameters\n    ----------\n    x : float\n        The value.\n'
+        '\n    Returns\n    -------\n    float\n        2 x.\n    """\n    return 2 * x\n'
+    )
+    assert [size for _, size, _ in sizes(plain, "m")] == [3, 3]
+    assert [size for _, size, _ in sizes(sectioned, "m")] == [3, 3]

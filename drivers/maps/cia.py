@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import enum
 
+from drivers.maps.pdo_entry import map_entry, split_map_entry
+from drivers.maps.sdo_aborts import SdoAbortCode
+
 __all__ = [
     "BOOT_UP",
     "CIA_MODE_BITS",
@@ -77,34 +80,6 @@ NODE_IDS = range(1, 128)  #: node ids a device may have
 COMMUNICATION_AREA = range(0x1000, 0x2000)
 #: the manufacturer-specific area (CiA 301): each vendor's own meanings
 MANUFACTURER_AREA = range(0x2000, 0x6000)
-
-
-def map_entry(index: int, subindex: int, bits: int) -> int:
-    """A PDO mapping entry (sub 1-8 of 0x1600/0x1A00 + n): index << 16 | subindex << 8 | bits."""
-    return index << 16 | subindex << 8 | bits
-
-
-def split_map_entry(entry: int) -> tuple[int, int, int]:
-    """(index, subindex, bits) of a PDO mapping entry."""
-    return entry >> 16, (entry >> 8) & 0xFF, entry & 0xFF
-
-
-class SdoAbortCode(enum.IntEnum):
-    """SDO abort codes (CiA 301, 7.2.4.3.17) that the devices answer with."""
-
-    COMMAND_SPECIFIER = 0x05040001  #: client/server command specifier not valid or unknown
-    WRITE_ONLY = 0x06010001
-    READ_ONLY = 0x06010002
-    NO_OBJECT = 0x06020000
-    NOT_MAPPABLE = 0x06040041  #: object cannot be mapped to the PDO
-    PDO_LENGTH_EXCEEDED = 0x06040042  #: number and length of mapped objects exceed the PDO
-    LENGTH_MISMATCH = 0x06070010
-    NO_SUBINDEX = 0x06090011
-    VALUE_RANGE_EXCEEDED = 0x06090030  #: value range of parameter exceeded (write access)
-    VALUE_TOO_HIGH = 0x06090031
-    PARAMETER_INCOMPATIBLE = 0x06040043  #: general parameter incompatibility
-    STORE_FAILED = 0x08000020  #: data cannot be transferred or stored to the application
-    DEVICE_STATE = 0x08000022  #: data cannot be stored because of the present device state
 
 
 class EmcyCode(enum.IntEnum):
@@ -299,7 +274,18 @@ _BY_STATUS = {(mask, value): state for state, (mask, value) in _STATUS.items()}
 
 
 def decode_statusword(statusword: int) -> PowerState | None:
-    """The state a statusword reports, or None when its bits 0-6 encode none."""
+    """The state a statusword reports, or None when its bits 0-6 encode none.
+
+    Parameters
+    ----------
+    statusword : int
+        0x6041.
+
+    Returns
+    -------
+    PowerState | None
+        The state; None where bits 0-6 encode none.
+    """
     for (mask, value), state in _BY_STATUS.items():
         if statusword & mask == value:
             return state

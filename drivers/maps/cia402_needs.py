@@ -94,14 +94,40 @@ def needed(mode: Mode | int, *, manufacturer: bool = True) -> tuple[int, ...]:
     """What running the drive in ``mode`` needs: its state machine, the mode's selection, and the
     mode's own objects (``OF_MODE``; none for a mode the toolkit does not run, nor for a
     manufacturer mode unless ``manufacturer``: its objects are those of the toolkit's own drive,
-    known only once the drive is identified)."""
+    known only once the drive is identified).
+
+    Parameters
+    ----------
+    mode : Mode | int
+        A CiA 402 mode of operation (0x6060 value).
+    manufacturer : bool, optional
+        Count a manufacturer mode's objects (the toolkit's own drive's).
+
+    Returns
+    -------
+    tuple[int, ...]
+        The object indices needed.
+    """
     code = int(mode)
     own = OF_MODE.get(Mode(code), ()) if code in Mode._value2member_map_ else ()
     return (*CONTROL, *MODE_SELECT, *(own if code >= 0 or manufacturer else ()))
 
 
 def missing(od: Any, indices: Iterable[int]) -> list[int]:
-    """The objects of ``indices`` that canopen object dictionary ``od`` lacks, each once, in order."""
+    """The objects of ``indices`` that canopen object dictionary ``od`` lacks, each once, in order.
+
+    Parameters
+    ----------
+    od : Any
+        A canopen object dictionary.
+    indices : Iterable[int]
+        Object indices.
+
+    Returns
+    -------
+    list[int]
+        Those ``od`` lacks, each once, in order.
+    """
     return [i for i in dict.fromkeys(indices) if i not in od]
 
 
@@ -117,7 +143,24 @@ def _kind(obj: Any) -> str:
 def require(od: Any, indices: Iterable[int], *, source: str, what: str) -> None:
     """ConfigError naming ``source`` (the file), the objects ``od`` lacks and ``what`` needs them;
     or the first that is not an integer variable, as CiA 301/402 define each of them (of a record
-    in ``_RECORDS``, its sub 1)."""
+    in ``_RECORDS``, its sub 1).
+
+    Parameters
+    ----------
+    od : Any
+        A canopen object dictionary.
+    indices : Iterable[int]
+        Object indices.
+    source : str
+        Its file, named in the error.
+    what : str
+        What needs them, named in the error.
+
+    Raises
+    ------
+    ConfigError
+        If ``od`` lacks one, or one is not an integer variable.
+    """
     wanted = list(indices)
     lacks = missing(od, wanted)
     if lacks:

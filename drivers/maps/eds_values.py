@@ -62,7 +62,18 @@ _NUMERIC = frozenset((BOOLEAN, *INTEGER_TYPES, *FLOAT_TYPES))
 
 
 def variables(od: Any) -> Iterator[Any]:
-    """Every variable of canopen object dictionary ``od`` (records' and arrays' entries too)."""
+    """Every variable of canopen object dictionary ``od`` (records' and arrays' entries too).
+
+    Parameters
+    ----------
+    od : Any
+        A canopen object dictionary.
+
+    Yields
+    ------
+    Iterator[Any]
+        Its variables, records' and arrays' entries included.
+    """
     for obj in od.values():
         if hasattr(obj, "subindices"):
             yield from obj.values()
@@ -97,7 +108,27 @@ def _sum(text: str, node_id: int) -> tuple[int, bool]:
 
 def parse_value(text: str, data_type: int, node_id: int) -> int | float:
     """The value ``text`` of an object of CiA 301 ``data_type`` (see the module docstring);
-    ValueError saying why it is not one."""
+    ValueError saying why it is not one.
+
+    Parameters
+    ----------
+    text : str
+        A DefaultValue or ParameterValue as written.
+    data_type : int
+        Its CiA 301 data type.
+    node_id : int
+        The node, for ``$NODEID``.
+
+    Returns
+    -------
+    int | float
+        The value.
+
+    Raises
+    ------
+    ValueError
+        If ``text`` is not a value of that type (why said).
+    """
     t = "".join(text.split())
     if _NODEID.lower() in t.lower() and _NODEID not in t:
         t = re.sub(re.escape(_NODEID), _NODEID, t, flags=re.IGNORECASE)
@@ -134,7 +165,22 @@ def _bits(data_type: int) -> int:
 
 def check_values(od: Any, source: str, node_id: int) -> None:
     """Read every numeric DefaultValue and ParameterValue of ``od`` (parsed by canopen from
-    ``source``, for ``node_id``) again; ConfigError naming file, object, key and value."""
+    ``source``, for ``node_id``) again; ConfigError naming file, object, key and value.
+
+    Parameters
+    ----------
+    od : Any
+        The dictionary canopen parsed.
+    source : str
+        Its file, named in the error.
+    node_id : int
+        The node it was parsed for.
+
+    Raises
+    ------
+    ConfigError
+        At a numeric value that does not read (file, object, key and value named).
+    """
     for var in variables(od):
         if var.data_type not in _NUMERIC:
             continue
@@ -155,7 +201,20 @@ def check_values(od: Any, source: str, node_id: int) -> None:
 def check_types(od: Any, source: str) -> None:
     """ConfigError naming the file, the object and its type where ``od`` declares an object of
     ``INTEGER_OBJECTS`` with another type (a string, a REAL, a domain): the host reads it as an
-    integer and an emulated device writes one to it."""
+    integer and an emulated device writes one to it.
+
+    Parameters
+    ----------
+    od : Any
+        The dictionary canopen parsed.
+    source : str
+        Its file, named in the error.
+
+    Raises
+    ------
+    ConfigError
+        If an object of ``INTEGER_OBJECTS`` has another type.
+    """
     for var in variables(od):
         if var.data_type not in INTEGER_TYPES and any(var.index in r for r in INTEGER_OBJECTS):
             kind = TYPE_NAMES.get(var.data_type, f"data type 0x{var.data_type:04X}")

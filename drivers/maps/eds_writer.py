@@ -42,20 +42,21 @@ BOOLEAN, INT8, INT16, INT32, UINT8, UINT16, UINT32, VSTRING = 0x1, 0x2, 0x3, 0x4
 class Var:
     """One variable: name, type, access, default, PDO mappable."""
 
-    name: str
-    data_type: int
-    access: str = "rw"
-    default: str = "0"
-    pdo: bool = False
+    name: str  #: the ParameterName
+    data_type: int  #: its CiA 301 data type
+    access: str = "rw"  #: ro, wo, rw or const
+    default: str = "0"  #: the DefaultValue as written
+    pdo: bool = False  #: PDO mappable
 
 
 @dataclass(frozen=True)
 class Obj:
     """One object: a VAR (one entry in ``subs`` at subindex 0) or a RECORD/ARRAY."""
 
-    index: int
-    name: str
-    subs: tuple[tuple[int, Var], ...]
+    index: int  #: the object's index
+    name: str  #: its ParameterName
+    subs: tuple[tuple[int, Var], ...]  #: (subindex, variable) pairs
+    #: 0x7 VAR, 0x8 ARRAY, 0x9 RECORD
     kind: int = 0x9  # 0x7 VAR, 0x8 ARRAY, 0x9 RECORD
 
 
@@ -63,20 +64,52 @@ class Obj:
 class DeviceInfo:
     """The [DeviceInfo] of an EDS."""
 
-    vendor_name: str
-    vendor_number: int
-    product_name: str
-    product_number: int
-    description: str
+    vendor_name: str  #: VendorName
+    vendor_number: int  #: VendorNumber (0x1018 sub 1)
+    product_name: str  #: ProductName
+    product_number: int  #: ProductNumber (0x1018 sub 2)
+    description: str  #: the file's Description
     baud_rates: tuple[int, ...] = (125, 250, 500, 1000)  #: [kbit/s]
     lss: bool = False  #: it is an LSS slave (CiA 305: its node-ID and bit rate set over the bus)
 
 
 def var(index: int, v: Var) -> Obj:
+    """A VAR object.
+
+    Parameters
+    ----------
+    index : int
+        Its index.
+    v : Var
+        Its variable.
+
+    Returns
+    -------
+    Obj
+        The object.
+    """
     return Obj(index, v.name, ((0, v),), 0x7)
 
 
 def record(index: int, name: str, entries: Sequence[tuple[int, Var]], *, kind: int = 0x9) -> Obj:
+    """A RECORD (or ARRAY) object, its sub 0 the highest subindex.
+
+    Parameters
+    ----------
+    index : int
+        Its index.
+    name : str
+        Its name.
+    entries : Sequence[tuple[int, Var]]
+        (subindex, variable) pairs.
+    kind : int, optional
+        0x9 RECORD or 0x8 ARRAY.
+
+    Returns
+    -------
+    Obj
+        The object.
+    """
     highest = max(s for s, _ in entries)
     return Obj(
         index, name, ((0, Var("Highest sub-index supported", UINT8, "ro", str(highest))), *entries), kind
@@ -84,7 +117,20 @@ def record(index: int, name: str, entries: Sequence[tuple[int, Var]], *, kind: i
 
 
 def mapped(index: int, sub: int, bits: int) -> int:
-    """A PDO mapping entry: index << 16 | subindex << 8 | bits."""
+    """A PDO mapping entry: index << 16 | subindex << 8 | bits.
+
+    Parameters
+    ----------
+    index, sub : int
+        The object mapped.
+    bits : int
+        Its size [bit].
+
+    Returns
+    -------
+    int
+        The mapping entry.
+    """
     return (index << 16) | (sub << 8) | bits
 
 
@@ -93,7 +139,28 @@ def pdo_comm(
 ) -> Obj:
     """A PDO communication record (``kind`` "R" or "T") with sub-indices ``subs`` (1 COB-ID,
     2 transmission type, 3 inhibit time, 5 event timer, 6 SYNC start value); ``cob_id`` is
-    added to $NODEID, with bit 31 set when not ``enabled``."""
+    added to $NODEID, with bit 31 set when not ``enabled``.
+
+    Parameters
+    ----------
+    index : int
+        The record's index (0x1400 + n, 0x1800 + n).
+    kind : str
+        "R" or "T".
+    cob_id : int
+        Added to $NODEID.
+    enabled : bool
+        Else bit 31 is set.
+    ttype : int
+        The transmission type.
+    subs : Sequence[int], optional
+        The sub-indices it has.
+
+    Returns
+    -------
+    Obj
+        The record.
+    """
     n = index - (0x1400 if kind == "R" else 0x1800) + 1
     cob = f"$NODEID+0x{cob_id if enabled else 0x80000000 + cob_id:X}"
     known = {
@@ -108,7 +175,26 @@ def pdo_comm(
 
 def pdo_map(index: int, kind: str, entries: Sequence[int], *, access: str = "rw", slots: int = 8) -> Obj:
     """A PDO mapping record with ``entries`` in the first of ``slots`` sub-indices; ``access`` "ro"
-    or "const" makes a fixed mapping."""
+    or "const" makes a fixed mapping.
+
+    Parameters
+    ----------
+    index : int
+        The record's index (0x1600 + n, 0x1A00 + n).
+    kind : str
+        "R" or "T".
+    entries : Sequence[int]
+        Mapping entries (``mapped``).
+    access : str, optional
+        "rw"; "ro" or "const": a fixed mapping.
+    slots : int, optional
+        Sub-indices for entries.
+
+    Returns
+    -------
+    Obj
+        The record.
+    """
     n = index - (0x1600 if kind == "R" else 0x1A00) + 1
     subs = [(0, Var("Number of mapped objects", UINT8, access, str(len(entries))))]
     subs += [
@@ -134,7 +220,30 @@ def cia301_objects(
 ) -> list[Obj]:
     """The CiA 301 objects of a device: type, error register, SYNC and EMCY COB-IDs, name
     (and software version), ``consumers`` heartbeat consumer entries, producer heartbeat,
-    identity, error behaviour; with ``store``, 0x1010/0x1011 sub 1 (``store_objects``)."""
+    identity, error behaviour; with ``store``, 0x1010/0x1011 sub 1 (``store_objects``).
+
+    Parameters
+    ----------
+    device_type : int
+        0x1000.
+    name : str
+        0x1008, the device's name.
+    vendor, product : int
+        0x1018 sub 1 and 2.
+    heartbeat_ms : int
+        [ms] 0x1017, the producer heartbeat.
+    consumers : int
+        Entries of 0x1016, the heartbeat consumer.
+    software : str, optional
+        0x100A ("": none).
+    store : bool, optional
+        Add 0x1010/0x1011 (``store_objects``).
+
+    Returns
+    -------
+    list[Obj]
+        The objects.
+    """
     objs = [
         var(0x1000, Var("Device type", UINT32, "ro", f"0x{device_type:08X}")),
         var(0x1001, Var("Error register", UINT8, "ro", "0", pdo=True)),
@@ -170,7 +279,13 @@ def cia301_objects(
 def store_objects() -> list[Obj]:
     """0x1010 and 0x1011 with sub 1 (all parameters), as CiA 301 has them: read, 1 says the device
     saves (restores) on command; written with the signature "save" (0x65766173) it stores them,
-    with "load" (0x64616F6C) it takes back the defaults at its next reset."""
+    with "load" (0x64616F6C) it takes back the defaults at its next reset.
+
+    Returns
+    -------
+    list[Obj]
+        0x1010 and 0x1011.
+    """
     return [
         record(
             0x1010,
@@ -198,7 +313,26 @@ def pdo_objects(
     rpdo_subs: Sequence[int] = (1, 2, 3, 5),
     access: str = "rw",
 ) -> list[Obj]:
-    """The communication and mapping records of the RPDOs and TPDOs (predefined COB-IDs)."""
+    """The communication and mapping records of the RPDOs and TPDOs (predefined COB-IDs).
+
+    Parameters
+    ----------
+    rpdo, tpdo : Sequence[Sequence[int]]
+        Each PDO's mapping entries.
+    rpdo_types, tpdo_types : Sequence[int]
+        Each PDO's transmission type.
+    rpdo_enabled, tpdo_enabled : Sequence[bool]
+        Whether each is valid.
+    rpdo_subs : Sequence[int], optional
+        The RPDOs' communication sub-indices.
+    access : str, optional
+        The mappings' access (``pdo_map``).
+
+    Returns
+    -------
+    list[Obj]
+        The records.
+    """
     objs = []
     for n, entries in enumerate(rpdo):
         objs.append(
@@ -228,7 +362,22 @@ def pdo_objects(
 
 
 def eds_text(objs: Sequence[Obj], file_name: str, info: DeviceInfo) -> str:
-    """The EDS (CiA 306) text of ``objs``."""
+    """The EDS (CiA 306) text of ``objs``.
+
+    Parameters
+    ----------
+    objs : Sequence[Obj]
+        The objects.
+    file_name : str
+        The FileInfo's FileName.
+    info : DeviceInfo
+        Its [DeviceInfo].
+
+    Returns
+    -------
+    str
+        The EDS text.
+    """
     rpdos = sum(1 for o in objs if 0x1400 <= o.index < 0x1600)
     tpdos = sum(1 for o in objs if 0x1800 <= o.index < 0x1A00)
     out = [

@@ -52,7 +52,20 @@ _STATUSWORD = 0x6041
 
 def axis_object(index: int, axis: int) -> int:
     """Axis ``axis``'s (1..8) index of profile object ``index`` as CiA 402 numbers it for axis 1
-    (0x6000-0x67FF); any other index is the node's, the same for every axis."""
+    (0x6000-0x67FF); any other index is the node's, the same for every axis.
+
+    Parameters
+    ----------
+    index : int
+        The object as axis 1's.
+    axis : int
+        1-8.
+
+    Returns
+    -------
+    int
+        Its index for ``axis``.
+    """
     if _FIRST <= index < _FIRST + AXIS_OFFSET:
         return index + AXIS_OFFSET * (axis - 1)
     return index
@@ -60,7 +73,18 @@ def axis_object(index: int, axis: int) -> int:
 
 def object_axis(index: int) -> tuple[int, int]:
     """(the axis 1..8 whose object ``index`` is, its index as axis 1's); (0, ``index``) for an
-    object of the node's (outside the profile area)."""
+    object of the node's (outside the profile area).
+
+    Parameters
+    ----------
+    index : int
+        An object's index.
+
+    Returns
+    -------
+    tuple[int, int]
+        (axis 1-8, its index as axis 1's); (0, ``index``) for the node's.
+    """
     if _FIRST <= index < _END:
         n, offset = divmod(index - _FIRST, AXIS_OFFSET)
         return n + 1, _FIRST + offset
@@ -68,7 +92,18 @@ def object_axis(index: int) -> tuple[int, int]:
 
 
 def axes_of(od: Any) -> int:
-    """How many axes (logical devices with a statusword) the dictionary ``od`` describes: at least 1."""
+    """How many axes (logical devices with a statusword) the dictionary ``od`` describes: at least 1.
+
+    Parameters
+    ----------
+    od : Any
+        A canopen object dictionary.
+
+    Returns
+    -------
+    int
+        Its axes, >= 1.
+    """
     return max(
         [1] + [n for n in range(1, MAX_AXES + 1) if axis_object(_STATUSWORD, n) in od.indices],
     )
@@ -77,7 +112,29 @@ def axes_of(od: Any) -> int:
 def axis_dictionary(od: Any, axis: int, *, source: str, generic: bool = False) -> Any:
     """``od`` (a canopen ObjectDictionary, not used again by the caller) as axis ``axis`` sees it
     (see the module docstring): its attributes ``axis`` and ``axes`` say which and of how many.
-    ConfigError naming ``source`` where ``od`` has no such axis (but ``generic``)."""
+    ConfigError naming ``source`` where ``od`` has no such axis (but ``generic``).
+
+    Parameters
+    ----------
+    od : Any
+        A canopen object dictionary (taken over: changed).
+    axis : int
+        1-8.
+    source : str
+        Its file, named in the error.
+    generic : bool, optional
+        The toolkit's generic dictionary (any axis taken).
+
+    Returns
+    -------
+    Any
+        ``od`` as ``axis`` sees it.
+
+    Raises
+    ------
+    ConfigError
+        If ``od`` has no such axis (unless ``generic``).
+    """
     if not 1 <= axis <= MAX_AXES:
         raise ConfigError(f"{source}: axis {axis}: a CiA 402 device has axes 1..{MAX_AXES}")
     axes = axes_of(od)

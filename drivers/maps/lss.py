@@ -71,7 +71,22 @@ _ERRORS: dict[int, dict[int, str]] = {
 
 
 def error_text(cs: int, code: int, specific: int = 0) -> str:
-    """An LSS answer's error code ``code`` to service ``cs`` in words."""
+    """An LSS answer's error code ``code`` to service ``cs`` in words.
+
+    Parameters
+    ----------
+    cs : int
+        The LSS service's command specifier.
+    code : int
+        The error code answered.
+    specific : int, optional
+        The manufacturer's code (``code`` 255).
+
+    Returns
+    -------
+    str
+        The error in words.
+    """
     if code == 255:
         return f"manufacturer-specific error {specific} (its manual says what it means)"
     return _ERRORS.get(cs, {}).get(code, f"error {code}, which CiA 305 does not list")

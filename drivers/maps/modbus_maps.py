@@ -27,22 +27,49 @@ MODBUS_MAPS = {"abb-drives-profile": "abb_drives_profile.json", "delta-vfd-b": "
 class Register:
     """One holding register: role, 0-based address, access, signedness, raw -> SI factor."""
 
-    role: str
-    address: int
-    access: str
-    signed: bool
-    factor: float
-    unit: str
-    note: str
+    role: str  #: what it holds (``speed_reference``)
+    address: int  #: 0-based holding-register address
+    access: str  #: "ro" or "rw"
+    signed: bool  #: a 16-bit two's complement value
+    factor: float  #: SI per raw count
+    unit: str  #: the SI unit
+    note: str  #: the manual's words on it
 
     def to_si(self, raw: int) -> float:
-        """Raw 16-bit register value -> SI."""
+        """Raw 16-bit register value -> SI.
+
+        Parameters
+        ----------
+        raw : int
+            The 16-bit register value.
+
+        Returns
+        -------
+        float
+            In SI.
+        """
         if self.signed and raw >= 0x8000:
             raw -= 0x10000
         return raw * self.factor
 
     def to_raw(self, value: float) -> int:
-        """SI -> raw 16-bit register value; ValueError naming the register when out of range."""
+        """SI -> raw 16-bit register value; ValueError naming the register when out of range.
+
+        Parameters
+        ----------
+        value : float
+            In SI.
+
+        Returns
+        -------
+        int
+            The 16-bit register value.
+
+        Raises
+        ------
+        ValueError
+            If out of the register's range (it named).
+        """
         raw = round(value / self.factor)
         lo, hi = (-0x8000, 0x7FFF) if self.signed else (0, 0xFFFF)
         if not lo <= raw <= hi:
@@ -54,12 +81,12 @@ class Register:
 class ModbusMap:
     """A family's register map and its control/status word semantics."""
 
-    name: str
-    title: str
-    source: str
-    registers: dict[str, Register]
-    control: dict[str, Any]
-    status: dict[str, Any]
+    name: str  #: the family's name
+    title: str  #: in words
+    source: str  #: the manual it follows
+    registers: dict[str, Register]  #: role -> register
+    control: dict[str, Any]  #: the control word's commands
+    status: dict[str, Any]  #: the status word's bits
 
     def __getitem__(self, role: str) -> Register:
         try:
@@ -68,11 +95,34 @@ class ModbusMap:
             raise KeyError(f"map {self.name!r} has no register with role {role!r}") from None
 
     def by_address(self) -> dict[int, Register]:
+        """Address -> register.
+
+        Returns
+        -------
+        dict[int, Register]
+            The registers.
+        """
         return {r.address: r for r in self.registers.values()}
 
 
 def modbus_map(name: str) -> ModbusMap:
-    """Load the map ``name`` (one of ``MODBUS_MAPS``); ValueError naming it when unknown."""
+    """Load the map ``name`` (one of ``MODBUS_MAPS``); ValueError naming it when unknown.
+
+    Parameters
+    ----------
+    name : str
+        One of ``MODBUS_MAPS``.
+
+    Returns
+    -------
+    ModbusMap
+        The map.
+
+    Raises
+    ------
+    ValueError
+        If it is unknown.
+    """
     if name not in MODBUS_MAPS:
         raise ValueError(f"unknown Modbus map {name!r}; known: {', '.join(MODBUS_MAPS)}")
     path = HERE / MODBUS_MAPS[name]

@@ -31,7 +31,18 @@ __all__ = ["eds_text", "load_od"]
 
 def eds_text(path: str | Path) -> str:
     """The text of an EDS/DCF (a regular file of at most ``EDS_LIMIT``, ``drivers.files``):
-    UTF-8, else Windows-1252 (see the module docstring)."""
+    UTF-8, else Windows-1252 (see the module docstring).
+
+    Parameters
+    ----------
+    path : str | Path
+        The EDS/DCF.
+
+    Returns
+    -------
+    str
+        Its text.
+    """
     return read_text(path, limit=EDS_LIMIT, what="EDS/DCF file", fallback="cp1252")
 
 
@@ -39,8 +50,25 @@ def load_od(path: str | Path, node_id: int) -> Any:
     """The object dictionary in ``path`` for ``node_id``; ConfigError naming the file on any defect.
 
     Parsed once per file (its path, size and modification time) and node id in a process: each
-    caller gets its own copy (unpickled, about 10 times faster than canopen's parser), so a run
-    whose host and emulated drive read the same EDS, and a sweep's many runs, parse it once."""
+    caller gets its own unpickled copy (docs/real-drives.md).
+
+    Parameters
+    ----------
+    path : str | Path
+        The EDS/DCF.
+    node_id : int
+        The node it describes.
+
+    Returns
+    -------
+    Any
+        canopen's ``ObjectDictionary``, a copy of its own.
+
+    Raises
+    ------
+    ConfigError
+        If it is no .eds/.dcf, cannot be read or parsed, or a value or type is wrong.
+    """
     p = Path(path)
     if p.suffix.lower() not in (".eds", ".dcf"):
         raise ConfigError(f"{p}: an object dictionary must be an .eds or .dcf file")

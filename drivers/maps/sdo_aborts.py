@@ -1,11 +1,32 @@
 """SDO abort codes in words, as CiA 301 lists them (7.2.4.3.17, "Protocol SDO abort transfer":
 the table of abort codes, the block-transfer ones included). The codes the toolkit's own devices
-answer with are ``drivers.maps.cia.SdoAbortCode``; this is what the host says of any code a
+answer with are ``SdoAbortCode``; ``abort_text`` is what the host says of any code a
 drive sends."""
 
 from __future__ import annotations
 
-__all__ = ["ABORT_TEXTS", "abort_text"]
+import enum
+
+__all__ = ["ABORT_TEXTS", "SdoAbortCode", "abort_text"]
+
+
+class SdoAbortCode(enum.IntEnum):
+    """SDO abort codes (CiA 301, 7.2.4.3.17) that the devices answer with."""
+
+    COMMAND_SPECIFIER = 0x05040001  #: client/server command specifier not valid or unknown
+    WRITE_ONLY = 0x06010001
+    READ_ONLY = 0x06010002
+    NO_OBJECT = 0x06020000
+    NOT_MAPPABLE = 0x06040041  #: object cannot be mapped to the PDO
+    PDO_LENGTH_EXCEEDED = 0x06040042  #: number and length of mapped objects exceed the PDO
+    LENGTH_MISMATCH = 0x06070010
+    NO_SUBINDEX = 0x06090011
+    VALUE_RANGE_EXCEEDED = 0x06090030  #: value range of parameter exceeded (write access)
+    VALUE_TOO_HIGH = 0x06090031
+    PARAMETER_INCOMPATIBLE = 0x06040043  #: general parameter incompatibility
+    STORE_FAILED = 0x08000020  #: data cannot be transferred or stored to the application
+    DEVICE_STATE = 0x08000022  #: data cannot be stored because of the present device state
+
 
 #: every abort code of CiA 301's table, in its words
 ABORT_TEXTS = {

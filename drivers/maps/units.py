@@ -78,13 +78,29 @@ _TIME_NAMES = {0x03: "s", 0x47: "min", 0x48: "h", 0x49: "d"}
 class SiUnit:
     """One SI unit object value: ``prefix`` (power of ten), ``unit`` and ``per`` (time unit, 0: none)."""
 
-    prefix: int
-    unit: int
-    per: int = 0
+    prefix: int  #: the power of ten
+    unit: int  #: the SI unit's code (CiA 402, 0x60A8)
+    per: int = 0  #: the time unit's code (0: none)
 
     @classmethod
     def decode(cls, code: int) -> SiUnit:
-        """The parts of an 0x60A8/0x60A9 value; ValueError naming a unit this toolkit cannot convert."""
+        """The parts of an 0x60A8/0x60A9 value; ValueError naming a unit this toolkit cannot convert.
+
+        Parameters
+        ----------
+        code : int
+            An 0x60A8/0x60A9 value.
+
+        Returns
+        -------
+        SiUnit
+            Its parts.
+
+        Raises
+        ------
+        ValueError
+            If this toolkit cannot convert the unit.
+        """
         prefix = (code >> 24) & 0xFF
         if prefix >= 0x80:
             prefix -= 0x100
@@ -96,16 +112,44 @@ class SiUnit:
         return unit
 
     def encode(self) -> int:
-        """The UNSIGNED32 value of this unit."""
+        """The UNSIGNED32 value of this unit.
+
+        Returns
+        -------
+        int
+            The UNSIGNED32 value.
+        """
         return (self.prefix & 0xFF) << 24 | self.unit << 16 | self.per << 8
 
     def per_revolution(self, increments_per_rev: float) -> float:
-        """How many of this (position) unit make one revolution."""
+        """How many of this (position) unit make one revolution.
+
+        Parameters
+        ----------
+        increments_per_rev : float
+            The encoder's increments per revolution (for an increment unit).
+
+        Returns
+        -------
+        float
+            Units per revolution.
+        """
         base = increments_per_rev if self.unit == INCREMENTS else ROTARY_UNITS[self.unit]
         return base * 10.0 ** (-self.prefix)
 
     def per_revolution_per_second(self, increments_per_rev: float) -> float:
-        """How many of this (velocity) unit make one revolution per second."""
+        """How many of this (velocity) unit make one revolution per second.
+
+        Parameters
+        ----------
+        increments_per_rev : float
+            The encoder's increments per revolution (for an increment unit).
+
+        Returns
+        -------
+        float
+            Units per revolution per second.
+        """
         seconds = TIME_UNITS.get(self.per, 1.0)
         return self.per_revolution(increments_per_rev) * seconds
 
@@ -122,7 +166,27 @@ VELOCITY_DIMENSIONS: dict[int, tuple[int, int]] = {0xA4: (0xB4, 0x47)}  # revolu
 def dimension_unit(notation: int | None, dimension: int | None, *, velocity: bool) -> int:
     """The 0x60A8/0x60A9 code equivalent to a notation index (a power of ten; None: 0) and a
     dimension index (0x608A/0x608C; None or 0: not given, 0 returned); ValueError naming a
-    dimension this toolkit cannot convert (a linear unit, an unknown code)."""
+    dimension this toolkit cannot convert (a linear unit, an unknown code).
+
+    Parameters
+    ----------
+    notation : int | None
+        The notation index, a power of ten (None: 0).
+    dimension : int | None
+        The dimension index, 0x608A/0x608C (None or 0: not given).
+    velocity : bool
+        A velocity (else a position).
+
+    Returns
+    -------
+    int
+        The 0x60A8/0x60A9 code; 0 where no dimension is given.
+
+    Raises
+    ------
+    ValueError
+        If this toolkit cannot convert the dimension.
+    """
     if not dimension:
         return 0
     prefix = notation or 0
@@ -146,7 +210,24 @@ def position_per_revolution(
     """Position units per motor revolution: from the SI unit code ``unit`` (0x60A8) if given, else
     from the feed constant ``feed`` (0x6092, units per driving shaft revolution) if the drive has
     one, else increments. ``increments``: per motor revolution (0x608F); ``gear``: motor
-    revolutions per driving shaft revolution (0x6091)."""
+    revolutions per driving shaft revolution (0x6091).
+
+    Parameters
+    ----------
+    increments : float
+        Per motor revolution (0x608F).
+    gear : float, optional
+        Motor revolutions per driving-shaft revolution (0x6091).
+    feed : float | None, optional
+        Units per driving-shaft revolution (0x6092; None: none).
+    unit : int, optional
+        The SI unit code (0x60A8; 0: not given).
+
+    Returns
+    -------
+    float
+        Position units per motor revolution.
+    """
     if unit:
         return SiUnit.decode(unit).per_revolution(increments) / gear
     if feed is not None:
@@ -159,7 +240,26 @@ def velocity_per_revolution(
 ) -> float:
     """Velocity units per motor revolution per second: from the SI unit code ``unit`` (0x60A9) if
     given, else position units (``position_unit``: 0x60A8, see ``position_per_revolution``) per
-    second."""
+    second.
+
+    Parameters
+    ----------
+    increments : float
+        Per motor revolution (0x608F).
+    gear : float, optional
+        Motor revolutions per driving-shaft revolution (0x6091).
+    feed : float | None, optional
+        Units per driving-shaft revolution (0x6092; None: none).
+    unit : int, optional
+        The SI unit code (0x60A9; 0: not given).
+    position_unit : int, optional
+        0x60A8, where ``unit`` is not given.
+
+    Returns
+    -------
+    float
+        Velocity units per motor revolution per second.
+    """
     if unit:
         return SiUnit.decode(unit).per_revolution_per_second(increments) / gear
     return position_per_revolution(increments, gear=gear, feed=feed, unit=position_unit)

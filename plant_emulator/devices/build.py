@@ -61,21 +61,21 @@ _IP_OBJECTS = frozenset({0x60C0, 0x60C1, 0x60C2, 0x60C3, 0x60C4, 0x6062})
 class Twin:
     """One zoo drive: identity, PDOs, which optional objects it has and its units."""
 
-    info: DeviceInfo
-    device_type: int
+    info: DeviceInfo  #: its [DeviceInfo]
+    device_type: int  #: 0x1000
     modes: int  #: 0x6502 (0: the drive has no 0x6502)
     rpdo: tuple[tuple[int, ...], ...]  #: default mappings
-    tpdo: tuple[tuple[int, ...], ...]
-    rpdo_types: tuple[int, ...]
-    tpdo_types: tuple[int, ...]
+    tpdo: tuple[tuple[int, ...], ...]  #: default mappings
+    rpdo_types: tuple[int, ...]  #: the RPDOs' transmission types
+    tpdo_types: tuple[int, ...]  #: the TPDOs' transmission types
     objects: frozenset[int]  #: the optional CiA 402 objects it has (see ``plant_emulator.devices.catalog``)
     increments: int  #: per motor revolution (0x608F where it has one)
     position_unit: int = 0  #: 0x60A8 default (0: no 0x60A8)
     velocity_unit: int = 0  #: 0x60A9 default (0: no 0x60A9)
     feed: int = 0  #: 0x6092 sub 1 (0: no 0x6092)
-    fixed_mapping: bool = False
+    fixed_mapping: bool = False  #: its PDO mappings cannot be written
     rpdo_subs: tuple[int, ...] = (1, 2, 3, 5)  #: sub-indices of an RPDO communication record
-    manufacturer: tuple[Obj, ...] = ()
+    manufacturer: tuple[Obj, ...] = ()  #: its objects in 0x2000-0x5FFF
     access: tuple[tuple[int, str], ...] = ()  #: (index, AccessType) overriding CiA 402's
     names: tuple[tuple[int, str], ...] = ()  #: (index, ParameterName) overriding CiA 402's
     heartbeat_ms: int = 0  #: 0x1017 default
@@ -83,7 +83,18 @@ class Twin:
     store: bool = True  #: 0x1010/0x1011: it stores its parameters on command
 
     def per_rad(self, velocity: bool) -> float:
-        """Device units per rad (or per rad/s), as ``drivers.maps.units`` reads them."""
+        """Device units per rad (or per rad/s), as ``drivers.maps.units`` reads them.
+
+        Parameters
+        ----------
+        velocity : bool
+            Per rad/s (else per rad).
+
+        Returns
+        -------
+        float
+            Device units.
+        """
         from drivers.maps.units import position_per_revolution, velocity_per_revolution
 
         feed = float(self.feed) if self.feed else None
@@ -340,7 +351,18 @@ ZOO: dict[str, Twin] = {
 
 
 def eds_of(name: str) -> str:
-    """The EDS text of zoo drive ``name``."""
+    """The EDS text of zoo drive ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A zoo drive.
+
+    Returns
+    -------
+    str
+        Its EDS text.
+    """
     twin = ZOO[name]
     return eds_text(_objects(twin, twin.info.product_name), f"{name}.eds", twin.info)
 
