@@ -60,7 +60,18 @@ def _spread(name: str, values: list[float], unit: str) -> list[Figure]:
 
 def bench_startup(*, repeats: int = 7) -> list[Figure]:
     """Wall and CPU seconds of ``rig --version`` and of a 0.1 s emulated ``rig run`` (fresh
-    processes): the wall time waits for a core on a loaded machine, the CPU time does not."""
+    processes): the wall time waits for a core on a loaded machine, the CPU time does not.
+
+    Parameters
+    ----------
+    repeats : int, optional
+        Fresh processes of each.
+
+    Returns
+    -------
+    list[Figure]
+        The figures (median and range of each).
+    """
     figures = [_load()]
     run = _rig("run", "--config", str(EXAMPLE), "--emulate", "--duration", "0.1")
     with tempfile.TemporaryDirectory() as cwd:
@@ -74,7 +85,20 @@ def bench_startup(*, repeats: int = 7) -> list[Figure]:
 def bench_memory(
     *, cycles: tuple[int, ...] = (25_000, 250_000), progress: Callable[[int, int], None] | None = None
 ) -> list[Figure]:
-    """Peak resident memory of an emulated ``rig run`` of ``cycles`` cycles (a fresh process)."""
+    """Peak resident memory of an emulated ``rig run`` of ``cycles`` cycles (a fresh process).
+
+    Parameters
+    ----------
+    cycles : tuple[int, ...], optional
+        The runs' lengths [cycles].
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(done, total)`` after each run.
+
+    Returns
+    -------
+    list[Figure]
+        The figures, one a run.
+    """
     figures = [_load()]
     with tempfile.TemporaryDirectory() as cwd:
         for i, n in enumerate(cycles):

@@ -26,7 +26,27 @@ __all__ = ["sleep_floor"]
 def sleep_floor(period: float, seconds: float, ask: RealtimeRequest | None = None) -> dict[str, Any]:
     """Sleep to deadlines ``period`` [s] apart for ``seconds`` [s] under ``ask`` (the host loop's
     default request); ``periods``, ``missed`` (periods), ``lateness_us`` (median, p99, max of the
-    wake-ups' lateness), ``cpu_stolen_s`` (None where unknown) and ``granted`` (one line)."""
+    wake-ups' lateness), ``cpu_stolen_s`` (None where unknown) and ``granted`` (one line).
+
+    Parameters
+    ----------
+    period : float
+        [s] between deadlines, > 0.
+    seconds : float
+        [s] of sleeping, >= ``period``.
+    ask : RealtimeRequest | None, optional
+        The real-time request (None: the host loop's default).
+
+    Returns
+    -------
+    dict[str, Any]
+        ``periods``, ``missed``, ``lateness_us``, ``cpu_stolen_s``, ``granted``.
+
+    Raises
+    ------
+    ValueError
+        If not 0 < ``period`` <= ``seconds``.
+    """
     if not period > 0.0 or not seconds >= period:
         raise ValueError(f"period {period} s, seconds {seconds} s: need 0 < period <= seconds")
     n = int(seconds / period)

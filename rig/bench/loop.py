@@ -49,6 +49,23 @@ def lockstep_rate(cfg: RigConfig, seconds: float) -> float:
 
     A RuntimeError where the run did not end clean: a safe stop, a stop not confirmed, or a
     drive that reported a fault (EMCY) during the run or its stop.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The rig (emulated).
+    seconds : float
+        [s] of run time.
+
+    Returns
+    -------
+    float
+        Cycles/s.
+
+    Raises
+    ------
+    RuntimeError
+        If the run did not end clean (its reason said).
     """
     with Session(cfg, emulate=True, duration=seconds) as session:
         session.start()
@@ -69,6 +86,18 @@ def canopen_baseline(cycles: int = 20_000, repeats: int = 3) -> float:
     device packs TPDO2 (position, velocity) from its object dictionary and sends it; the host
     decodes both values (``PdoVariable.raw``), encodes RPDO1 (controlword, target) and sends
     it; the device writes both values into its object dictionary.
+
+    Parameters
+    ----------
+    cycles : int, optional
+        Cycles a run.
+    repeats : int, optional
+        Runs.
+
+    Returns
+    -------
+    float
+        Cycles/s, the best run's.
     """
     hub = SyncHub()
     host, device = canopen.Network(), canopen.Network()
@@ -118,6 +147,23 @@ def lockstep_runs(out: str, seconds: float) -> list[tuple[RigConfig, float]]:
     0.69 s later at 1000 rad/s^2): fault 0x8400, the drive's right reaction
     (docs/emulator.md). The dyno's load is the host's own command to its load machine, which
     the stop sets to 0 N m and quick-stops, so ``seconds`` of it end at rest.
+
+    Parameters
+    ----------
+    out : str
+        The runs' folder.
+    seconds : float
+        [s] of the dyno's run.
+
+    Returns
+    -------
+    list[tuple[RigConfig, float]]
+        (configuration, run time [s]) of the servo and the dyno.
+
+    Raises
+    ------
+    ConfigError
+        If the dyno's example is not there (not a source checkout).
     """
     servo = demo_config(out)
     if not DYNO_EXAMPLE.exists():
@@ -230,6 +276,20 @@ def bench_loop(*, lockstep_s: float = 2.0, realtime_s: float = 3.0, repeats: int
 
     ``lockstep_s`` [s]: the dyno's run (the servo runs its own 3 s, ``lockstep_runs``); each
     lock-step run must end clean (``lockstep_rate``), or the bench stops with a RuntimeError.
+
+    Parameters
+    ----------
+    lockstep_s : float, optional
+        [s] of each lock-step run.
+    realtime_s : float, optional
+        [s] of the real-time run.
+    repeats : int, optional
+        Runs of each.
+
+    Returns
+    -------
+    list[Figure]
+        The figures.
     """
     with tempfile.TemporaryDirectory() as out:
         figures = _lockstep(out, lockstep_s, repeats)

@@ -112,18 +112,59 @@ def _run(table: dict[str, Callable[[float], object]], n: int, repeats: int) -> l
 
 
 def bench_controllers(*, n: int = 100_000, repeats: int = 5) -> list[Figure]:
-    """Microseconds per ``step`` of each controller (target <= 5 us)."""
+    """Microseconds per ``step`` of each controller (target <= 5 us).
+
+    Parameters
+    ----------
+    n : int, optional
+        Steps a run.
+    repeats : int, optional
+        Runs (the best taken).
+
+    Returns
+    -------
+    list[Figure]
+        us/step of each controller.
+    """
     return _run(_controllers(), n, repeats)
 
 
 def bench_plant(*, n: int = 100_000, repeats: int = 5) -> list[Figure]:
-    """Microseconds per exact ZOH step of the plant models."""
+    """Microseconds per exact ZOH step of the plant models.
+
+    Parameters
+    ----------
+    n : int, optional
+        Steps a run.
+    repeats : int, optional
+        Runs (the best taken).
+
+    Returns
+    -------
+    list[Figure]
+        us/step of each plant.
+    """
     return _run(_plants(), n, repeats)
 
 
 def rate(fn: Callable[[], object], n: int, repeats: int) -> float:
     """Best calls per second of ``fn()`` over ``repeats`` runs of ``n`` calls, after one call
-    outside the timing (a JIT compile, such as the induction motor's numba kernel, is not a step)."""
+    outside the timing (a JIT compile, such as the induction motor's numba kernel, is not a step).
+
+    Parameters
+    ----------
+    fn : Callable[[], object]
+        What is timed.
+    n : int
+        Calls a run.
+    repeats : int
+        Runs.
+
+    Returns
+    -------
+    float
+        Calls/s, the best run's.
+    """
     fn()
     best = float("inf")
     for _ in range(repeats):
@@ -136,7 +177,22 @@ def rate(fn: Callable[[], object], n: int, repeats: int) -> float:
 
 def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) -> list[Figure]:
     """Physics steps per second of each preset's axis (one SYNC period each), and lock-step
-    emulator cycles per second (SYNC -> drive physics, limits, latch, TPDOs over the in-process bus)."""
+    emulator cycles per second (SYNC -> drive physics, limits, latch, TPDOs over the in-process bus).
+
+    Parameters
+    ----------
+    n : int, optional
+        Physics steps a run.
+    cycles : int, optional
+        Lock-step cycles a run.
+    repeats : int, optional
+        Runs.
+
+    Returns
+    -------
+    list[Figure]
+        Steps/s and cycles/s of each preset.
+    """
     import canopen
 
     from drivers.maps import CIA402_EDS, cia
@@ -172,7 +228,20 @@ def bench_physics(*, n: int = 200_000, cycles: int = 5_000, repeats: int = 3) ->
 def bench_identify(*, seeds: int = 30, duration: float = 5.0) -> list[Figure]:
     """Accuracy of ``rig identify`` over ``seeds`` experiments on the dc-servo physics (3.4):
     4096 counts/rev, Coulomb friction 2 mN m, a one-sample command delay and Gaussian
-    position noise of 0.3 counts before quantisation; PRBS 3 +- 2 V, 20 ms clock."""
+    position noise of 0.3 counts before quantisation; PRBS 3 +- 2 V, 20 ms clock.
+
+    Parameters
+    ----------
+    seeds : int, optional
+        Experiments.
+    duration : float, optional
+        [s] of each.
+
+    Returns
+    -------
+    list[Figure]
+        The identified parameters' errors.
+    """
     import math
 
     import canopen

@@ -31,7 +31,22 @@ def bench_soak(
 ) -> list[Figure]:
     """The lock-step soak: the section VII.B servo over the emulated bus for ``cycles`` cycles with
     ``frame_loss`` of the frames lost (about 2-3 minutes). Memory is the RSS at 10 % of the run and
-    at its last cycle; the watchdog tolerates 10 lost TPDOs in a row, so a stop would be a real one."""
+    at its last cycle; the watchdog tolerates 10 lost TPDOs in a row, so a stop would be a real one.
+
+    Parameters
+    ----------
+    cycles : int, optional
+        Cycles of the run.
+    frame_loss : float, optional
+        Fraction of frames lost.
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(done, total)`` during the run.
+
+    Returns
+    -------
+    list[Figure]
+        The figures (cycles, stops, memory).
+    """
     rss: dict[str, int] = {}
 
     def measure(k: int) -> None:

@@ -96,8 +96,24 @@ def _handshake(port: int) -> None:
 
 
 def churn(port: int, seconds: float, rate: float = 0.0, count: int = 0) -> dict[str, Any]:
-    """Connections one after another for ``seconds`` [s], ``rate`` [1/s] of them (0: as fast as
-    they go), ``count`` at most (0: no limit): how many, how many failed, the slowest handshake [ms]."""
+    """Connections one after another: how many, how many failed, the slowest handshake [ms].
+
+    Parameters
+    ----------
+    port : int
+        The server's port on 127.0.0.1.
+    seconds : float
+        [s].
+    rate : float, optional
+        [1/s] connections (0: as fast as they go).
+    count : int, optional
+        The most connections (0: no limit).
+
+    Returns
+    -------
+    dict[str, Any]
+        ``connections``, ``failed``, ``slowest_ms``.
+    """
     done = failed = 0
     slowest = 0.0
     start = time.monotonic()
@@ -119,7 +135,20 @@ def churn(port: int, seconds: float, rate: float = 0.0, count: int = 0) -> dict[
 
 def burst(port: int, count: int) -> dict[str, Any]:
     """``count`` connections at once, each a thread of its own: how long until all were done
-    [s], how many failed, the slowest [ms]."""
+    [s], how many failed, the slowest [ms].
+
+    Parameters
+    ----------
+    port : int
+        The server's port on 127.0.0.1.
+    count : int
+        Connections at once.
+
+    Returns
+    -------
+    dict[str, Any]
+        ``seconds``, ``failed``, ``slowest_ms``.
+    """
     failed: list[str] = []
     slowest = [0.0]
 
@@ -148,7 +177,22 @@ def burst(port: int, count: int) -> dict[str, Any]:
 
 def hold(port: int, seconds: float, count: int) -> dict[str, Any]:
     """``count`` clients in rawmode at once for ``seconds`` [s], each reading every frame it is
-    sent (a bus with that many listeners): how many were held to the end, and frames read."""
+    sent (a bus with that many listeners): how many were held to the end, and frames read.
+
+    Parameters
+    ----------
+    port : int
+        The server's port on 127.0.0.1.
+    seconds : float
+        [s].
+    count : int
+        Clients.
+
+    Returns
+    -------
+    dict[str, Any]
+        ``held`` and ``frames``.
+    """
     links = [socket.create_connection(("127.0.0.1", port), timeout=10.0) for _ in range(count)]
     with selectors.DefaultSelector() as selector:
         for link in links:
@@ -175,7 +219,25 @@ def hold(port: int, seconds: float, count: int) -> dict[str, Any]:
 
 def flood(port: int, seconds: float) -> dict[str, Any]:
     """``< send 7FF 8 ... >`` as fast as the socket takes them for ``seconds`` [s] (what comes
-    back is read and thrown away): how many were written, per second."""
+    back is read and thrown away): how many were written, per second.
+
+    Parameters
+    ----------
+    port : int
+        The server's port on 127.0.0.1.
+    seconds : float
+        [s].
+
+    Returns
+    -------
+    dict[str, Any]
+        ``written`` and per second.
+
+    Raises
+    ------
+    ConnectionError
+        If the server closes during the handshake.
+    """
     link = socket.create_connection(("127.0.0.1", port), timeout=10.0)
     got = b""
     while got.count(b"< ok >") < 2:
@@ -209,7 +271,24 @@ def flood(port: int, seconds: float) -> dict[str, Any]:
 def client_process(kind: str, port: int, seconds: float, rate: float = 0.0) -> subprocess.Popen[str]:
     """``churn`` (``rate``), ``connects`` (``rate`` of them), ``burst`` (``rate`` connections at
     once, after ``seconds``), ``hold`` (``rate`` clients) or ``flood`` in a process of its own;
-    its JSON result is its stdout."""
+    its JSON result is its stdout.
+
+    Parameters
+    ----------
+    kind : str
+        churn, connects, burst, hold or flood.
+    port : int
+        The server's port on 127.0.0.1.
+    seconds : float
+        [s].
+    rate : float, optional
+        As ``kind`` takes it.
+
+    Returns
+    -------
+    subprocess.Popen[str]
+        The process.
+    """
     return subprocess.Popen(
         [sys.executable, "-m", "rig.bench.socketcand", kind, str(port), str(seconds), str(rate)],
         stdout=subprocess.PIPE,
@@ -218,6 +297,23 @@ def client_process(kind: str, port: int, seconds: float, rate: float = 0.0) -> s
 
 
 def client_result(proc: subprocess.Popen[str]) -> dict[str, Any]:
+    """The JSON result of a ``client_process``.
+
+    Parameters
+    ----------
+    proc : subprocess.Popen[str]
+        The process.
+
+    Returns
+    -------
+    dict[str, Any]
+        Its result.
+
+    Raises
+    ------
+    RuntimeError
+        If it exited with an error.
+    """
     out, _ = proc.communicate(timeout=120)
     if proc.returncode != 0:
         raise RuntimeError(f"the benchmark's client exited {proc.returncode}")
@@ -233,7 +329,26 @@ def realtime_run(
     started: Callable[[list[AxisDriver]], None] | None = None,
 ) -> dict[str, Any]:
     """A real-time 1 kHz run of the servo held at 0 rad against the emulator on ``port`` (``live``
-    and ``started`` as ``rig.host.session.run_config`` takes them)."""
+    and ``started`` as ``rig.host.session.run_config`` takes them).
+
+    Parameters
+    ----------
+    out : str
+        The run's folder.
+    port : int
+        The emulator's socketcand port.
+    seconds : float
+        [s] of the run.
+    live : LiveView | None, optional
+        A live view (``run_config``'s).
+    started : Callable[[list[AxisDriver]], None] | None, optional
+        Called with the axes once set up (``run_config``'s).
+
+    Returns
+    -------
+    dict[str, Any]
+        The run's summary.
+    """
     from rig.config import BusConfig, replace_axis
     from rig.host.session import run_config
     from rig.papers.demo import demo_config
@@ -355,7 +470,18 @@ def _churn_figures(port: int) -> list[Figure]:
 
 
 def flood_ceiling(bitrate: float) -> float:
-    """[frames/s] the flood's 8-byte frames a bus of ``bitrate`` [bit/s] carries at most."""
+    """[frames/s] the flood's 8-byte frames a bus of ``bitrate`` [bit/s] carries at most.
+
+    Parameters
+    ----------
+    bitrate : float
+        [bit/s].
+
+    Returns
+    -------
+    float
+        [frames/s].
+    """
     from drivers.bus_time import frame_bits
 
     return bitrate / frame_bits(can.Message(arbitration_id=0x7FF, is_extended_id=False, dlc=8))
@@ -366,7 +492,20 @@ def flood_beside_reader(port: int, bitrate: int) -> tuple[dict[str, Any], dict[s
     (the flood's result, the reader's). The reader asks for at most half of what a bus of
     ``bitrate`` [bit/s] carries (a request and its answer: two frames): its requests win every
     arbitration, so a reader as fast as its machine lets it (about 460 reads/s fill 125 kbit/s)
-    would leave the flood no frame at all, which is the bus's rule and not what is measured."""
+    would leave the flood no frame at all, which is the bus's rule and not what is measured.
+
+    Parameters
+    ----------
+    port : int
+        The server's port on 127.0.0.1.
+    bitrate : int
+        [bit/s] the server's bus.
+
+    Returns
+    -------
+    tuple[dict[str, Any], dict[str, Any]]
+        (the flood's result, the reader's).
+    """
     every = 2.0 / (0.5 * flood_ceiling(bitrate))
     got: dict[str, Any] = {}
     reader = threading.Thread(target=lambda: got.update(_reader(port, FLOOD_SECONDS + 2.0, every)))
@@ -395,7 +534,18 @@ def _flood_figures(bitrate: int) -> Callable[[int], list[Figure]]:
 
 
 def bench_socketcand(progress: Callable[[int, int], None] | None = None) -> list[Figure]:
-    """See the module docstring; ``progress(step, steps)`` after the churn and after each flood."""
+    """See the module docstring; ``progress(step, steps)`` after the churn and after each flood.
+
+    Parameters
+    ----------
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(step, steps)``.
+
+    Returns
+    -------
+    list[Figure]
+        The figures.
+    """
     figures: list[Figure] = [{"name": "load_1min", "value": round(os.getloadavg()[0], 2), "unit": ""}]
     figures += _with_emulator(_churn_figures)
     if progress is not None:

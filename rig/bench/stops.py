@@ -126,7 +126,26 @@ def bench_stops(
     progress: Callable[[int, int], None] | None = None,
 ) -> list[Figure]:
     """See the module docstring; ``progress(run, runs)`` after each run. Several ``loads``: the
-    figures of each, named ``load{N}_...``, measured alternately a run of each at a time."""
+    figures of each, named ``load{N}_...``, measured alternately a run of each at a time.
+
+    Parameters
+    ----------
+    runs : int, optional
+        Runs (of each load).
+    seconds : float, optional
+        [s] of each run.
+    period : float, optional
+        [s] the SYNC period.
+    loads : Sequence[int], optional
+        Busy processes beside the run, one figure set each.
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(run, runs)``.
+
+    Returns
+    -------
+    list[Figure]
+        The figures.
+    """
     if len(loads) == 1:
         return _bench_load(runs=runs, seconds=seconds, period=period, load=loads[0], progress=progress)
     blocks: dict[int, list[list[Figure]]] = {load: [] for load in loads}

@@ -64,7 +64,20 @@ def _sweep(workers: int, points: int) -> tuple[float, float, list[dict[str, Any]
 
 
 def bench_sweep(*, points: int = 24, progress: Callable[[int, int], None] | None = None) -> list[Figure]:
-    """Points/s of a sweep of 0.2 s emulated runs at 1 and 2 workers; overhead; 100 workers."""
+    """Points/s of a sweep of 0.2 s emulated runs at 1 and 2 workers; overhead; 100 workers.
+
+    Parameters
+    ----------
+    points : int, optional
+        Points of the sweep.
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(done, total)``.
+
+    Returns
+    -------
+    list[Figure]
+        The figures.
+    """
     load = {"name": "load_average_1min", "value": round(os.getloadavg()[0], 2), "unit": "(uptime)"}
     one, cpu, rows = _sweep(1, points)
     if progress is not None:

@@ -1,4 +1,4 @@
-"""``rig bench view``: what the view costs a 1 kHz real-time run (issue 38 item 2).
+"""``rig bench view``: what the view costs a 1 kHz real-time run.
 
 ``runs`` rounds of three runs, alternated in the same minutes: a real-time 1 kHz run of the
 section VII.B servo held at 0 rad (``rig.bench.socketcand.realtime_run``, against ``rig emulate
@@ -47,7 +47,22 @@ def _has_chromium() -> bool:
 
 def browser_process(url: str, seconds: float, kind: str = "") -> subprocess.Popen[str]:
     """A browser on ``url`` for ``seconds`` in a process of its own; its JSON result on stdout.
-    ``kind``: "chromium", "websocket", or "" for Chromium where there is one."""
+    ``kind``: "chromium", "websocket", or "" for Chromium where there is one.
+
+    Parameters
+    ----------
+    url : str
+        The view's address.
+    seconds : float
+        [s].
+    kind : str, optional
+        "chromium", "websocket", or "" (Chromium where there is one).
+
+    Returns
+    -------
+    subprocess.Popen[str]
+        The process.
+    """
     kind = kind or ("chromium" if _has_chromium() else "websocket")
     return subprocess.Popen(
         [sys.executable, "-m", "rig.bench.view", kind, url, str(seconds)],
@@ -145,7 +160,22 @@ def _with_view(out: str, port: int, seconds: float, kind: str = "") -> tuple[dic
 def bench_view(
     *, runs: int = 5, seconds: float = 10.0, progress: Callable[[int, int], None] | None = None
 ) -> list[Figure]:
-    """See the module docstring; ``progress(run, 2 * runs)`` after each run."""
+    """See the module docstring; ``progress(run, 2 * runs)`` after each run.
+
+    Parameters
+    ----------
+    runs : int, optional
+        Runs with and without the view.
+    seconds : float, optional
+        [s] of each.
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(run, 2 * runs)``.
+
+    Returns
+    -------
+    list[Figure]
+        The figures.
+    """
     from rig.bench.socketcand import realtime_run
     from rig.emulator.spawn import spawn_emulator, stop_rig
 
@@ -219,7 +249,18 @@ def _range(values: list[float], digits: int) -> str:
 
 
 def main(argv: list[str]) -> int:
-    """``chromium|websocket URL SECONDS``: one browser's JSON result on stdout."""
+    """``chromium|websocket URL SECONDS``: one browser's JSON result on stdout.
+
+    Parameters
+    ----------
+    argv : list[str]
+        ``chromium|websocket URL SECONDS``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     kind, url, seconds = argv[0], argv[1], float(argv[2])
     result = _chromium(url, seconds) if kind == "chromium" else _websocket(url, seconds)
     print(json.dumps(result))

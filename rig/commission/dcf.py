@@ -99,7 +99,32 @@ def dcf_text(
     serial: int | None,
 ) -> str:
     """The DCF of ``eds`` (the EDS/DCF text in use, from ``eds_path``) with the values of
-    ``entries``, for the node ``node_id`` on a bus of ``bitrate`` [bit/s] (None: not known)."""
+    ``entries``, for the node ``node_id`` on a bus of ``bitrate`` [bit/s] (None: not known).
+
+    Parameters
+    ----------
+    eds : str
+        The EDS/DCF text in use.
+    entries : Iterable[rig.commission.dictionary.Entry]
+        The values read.
+    eds_path : str
+        Its file.
+    dcf_path : str
+        The DCF's file.
+    node_id : int
+        The node.
+    node_name : str
+        Its name.
+    bitrate : int | None
+        [bit/s] the bus's (None: not known).
+    serial : int | None
+        Its serial number (None: not read).
+
+    Returns
+    -------
+    str
+        The DCF text.
+    """
     values: dict[tuple[int, int | None], str] = {}
     for e in entries:
         if e.refused is None and e.value is not None:

@@ -42,13 +42,13 @@ _SILENT = 3
 class Entry:
     """One variable of the dictionary and what the drive answered (see the module docstring)."""
 
-    index: int
-    subindex: int
-    name: str
-    type: str
-    access: str
+    index: int  #: the object's index
+    subindex: int  #: its subindex
+    name: str  #: its name in the EDS
+    type: str  #: its data type, in words
+    access: str  #: its access type in the EDS
     value: Any = None  #: decoded by the type (int, float, str, bytes); None where not read
-    hex: str = ""
+    hex: str = ""  #: the bytes answered, in hex
     #: the quantity it holds (``Quantity.as_dict``: value in SI, None where no factor is known)
     quantity: dict[str, Any] | None = None
     refused: str | None = None  #: why it was not read (None: it was)
@@ -59,7 +59,13 @@ class Entry:
         return f"0x{self.index:04X}:{self.subindex:02X}"
 
     def as_dict(self) -> dict[str, Any]:
-        """For ``--json``: the object as ``index:sub``, bytes as hex."""
+        """For ``--json``: the object as ``index:sub``, bytes as hex.
+
+        Returns
+        -------
+        dict[str, Any]
+            The entry.
+        """
         out = {"object": self.key, **asdict(self)}
         for gone in ("index", "subindex", "whole"):
             out.pop(gone)
@@ -100,7 +106,25 @@ def _upload(axis: Cia402Axis, var: Any) -> bytes:
 def read_dictionary(axis: Cia402Axis, *, standard_only: bool) -> list[Entry]:
     """Every variable of ``axis``'s dictionary, read from the drive (see the module docstring);
     ``standard_only``: not 0x2000-0x5FFF. ``axis.units`` (``discover``) give the quantities.
-    CommunicationTimeout where the drive stops answering (``_SILENT`` objects in a row)."""
+    CommunicationTimeout where the drive stops answering (``_SILENT`` objects in a row).
+
+    Parameters
+    ----------
+    axis : Cia402Axis
+        The drive, discovered.
+    standard_only : bool
+        Skip 0x2000-0x5FFF.
+
+    Returns
+    -------
+    list[Entry]
+        One entry a variable.
+
+    Raises
+    ------
+    CommunicationTimeout
+        If the drive stops answering.
+    """
     od = axis.node.object_dictionary
     od = getattr(od, "device", od)  # the node's whole dictionary, each object at its own index
     units = getattr(axis, "units", None)
@@ -169,7 +193,20 @@ def _si(held: dict[str, Any] | None) -> str:
 
 def dump_lines(rows: list[dict[str, Any]], heading: str) -> list[str]:
     """The dump for a person (rows of ``Entry.as_dict``): ``heading``, then one row per object
-    (object, access, type, value, the quantity in SI), the name on the row's right."""
+    (object, access, type, value, the quantity in SI), the name on the row's right.
+
+    Parameters
+    ----------
+    rows : list[dict[str, Any]]
+        ``Entry.as_dict``'s.
+    heading : str
+        The first line.
+
+    Returns
+    -------
+    list[str]
+        The lines.
+    """
     read = sum(r["refused"] is None for r in rows)
     lines = [heading, f"{len(rows)} objects, {read} read, {len(rows) - read} not read", ""]
     lines.append(f"{'object':9s}  {'access':6s} {'type':14s} {'value':26s} {'SI':18s} name")

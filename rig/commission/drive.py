@@ -60,7 +60,25 @@ _VERB = {Mode.PROFILE_VELOCITY: "jog", Mode.PROFILE_POSITION: "move", Mode.HOMIN
 
 def parse_object(text: str, od: Any) -> tuple[int, int]:
     """``0x6060``, ``0x1018:1``, ``6060sub0`` or an EDS name (``Modes of operation``,
-    ``Identity object.Vendor-ID``) -> (index, subindex); ConfigError naming ``text``."""
+    ``Identity object.Vendor-ID``) -> (index, subindex); ConfigError naming ``text``.
+
+    Parameters
+    ----------
+    text : str
+        The object as given.
+    od : Any
+        The drive's EDS.
+
+    Returns
+    -------
+    tuple[int, int]
+        (index, subindex).
+
+    Raises
+    ------
+    ConfigError
+        If ``text`` names no object (it named).
+    """
     t = text.strip()
     index_text, _, sub_text = t.replace("sub", ":").partition(":")
     try:
@@ -82,7 +100,19 @@ def parse_object(text: str, od: Any) -> tuple[int, int]:
 
 
 class DriveTool:
-    """See the module docstring; ``axis`` is a driver that has not been set up."""
+    """See the module docstring; ``axis`` is a driver that has not been set up.
+
+    Parameters
+    ----------
+    axis : Cia402Axis
+        A driver not set up.
+    idle : Callable[[], None] | None, optional
+        Called while waiting (lock-step: advances emulated time; None: sleep).
+    period : float, optional
+        [s] between looks.
+    watch : MasterWatch | None, optional
+        A watch for another master (None: none).
+    """
 
     def __init__(
         self,
@@ -111,8 +141,19 @@ class DriveTool:
         self._t0 = time.monotonic()
 
     def deadline(self, seconds: float) -> Callable[[], bool]:
-        """A predicate, true once ``seconds`` [s] have passed: on the wall clock on a real bus;
-        in lock-step never (the callers count their idles)."""
+        """A predicate, true once ``seconds`` [s] have passed.
+
+        Parameters
+        ----------
+        seconds : float
+            [s].
+
+        Returns
+        -------
+        Callable[[], bool]
+            The predicate: on the wall clock on a real bus; in lock-step never true (the callers
+            count their idles).
+        """
         if self.emulated:
             return lambda: False
         end = time.monotonic() + seconds
@@ -123,7 +164,13 @@ class DriveTool:
         """The drive's whole picture: identity, state with every statusword bit named, mode,
         actual values, limits, profile and ramps, windows, errors, inputs (``picture``), units
         and the PDO mapping in force. Moves nothing and needs no factor: where the drive gives
-        none, its own units stand."""
+        none, its own units stand.
+
+        Returns
+        -------
+        dict[str, Any]
+            The picture.
+        """
         a = self.axis
         units = a.discover(check_mode=False)
         word = int(a.sdo_read(cia.STATUSWORD))
@@ -164,9 +211,20 @@ class DriveTool:
         }
 
     def read_object(self, index: int, subindex: int) -> dict[str, Any]:
-        """One object read by SDO, for a person: its name, type and access in the EDS, its value
-        in decimal and hex, and where it holds a quantity (``rig.commission.quantities``), that
-        in SI and in the drive's units (the units read from the drive; nothing written)."""
+        """One object read by SDO, for a person (nothing written).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+
+        Returns
+        -------
+        dict[str, Any]
+            Its name, type and access in the EDS, its value in decimal and hex, and where it holds
+            a quantity (``rig.commission.quantities``), that in SI and in the drive's units (the
+            units read from the drive).
+        """
         a = self.axis
         value = a.sdo_read(index, subindex)
         var = variable(a.node.object_dictionary, (index, subindex))
@@ -188,7 +246,18 @@ class DriveTool:
         return out
 
     def object_name(self, index: int, subindex: int) -> str:
-        """An object's name in the drive's EDS, by its index on the wire ("" where it has none)."""
+        """An object's name in the drive's EDS, by its index on the wire ("" where it has none).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+
+        Returns
+        -------
+        str
+            Its name.
+        """
         od = self.axis.node.object_dictionary
         var = variable(getattr(od, "device", od), (index, subindex))
         return str(var.name) if var is not None else ""
@@ -214,7 +283,18 @@ class DriveTool:
 
     def enable(self, *, timeout: float = 2.0) -> str:
         """OPERATION ENABLED in the mode the drive is in (0x6061; unreadable: held as in CSP), its
-        target held where it stands (``Cia402Axis.enable``)."""
+        target held where it stands (``Cia402Axis.enable``).
+
+        Parameters
+        ----------
+        timeout : float, optional
+            [s] for the drive to enable.
+
+        Returns
+        -------
+        str
+            The state reached.
+        """
         self.axis.discover(check_mode=False)  # the device is its EDS's, before any write
         self._alone()
         shown = self.axis._optional(cia.MODES_DISPLAY)
@@ -223,11 +303,30 @@ class DriveTool:
         return self.axis.read_power_state().value
 
     def disable(self) -> str:
+        """Disable (the identity checked first); the state reached.
+
+        Returns
+        -------
+        str
+            The state.
+        """
         self.axis.discover(check_mode=False)  # the device is its EDS's, before any write
         self.axis.disable()
         return self.axis.read_power_state().value
 
     def reset(self, *, timeout: float = 2.0) -> str:
+        """Fault reset (the identity checked first); the state reached and the fault it had.
+
+        Parameters
+        ----------
+        timeout : float, optional
+            [s].
+
+        Returns
+        -------
+        str
+            The state and the fault.
+        """
         self.axis.discover(check_mode=False)  # the device is its EDS's, before any write
         was = self.axis.fault_text()
         self.axis.fault_reset(timeout=timeout)
@@ -236,7 +335,20 @@ class DriveTool:
     # --- moves ----------------------------------------------------------------------------------
     def offers(self, mode: Mode, verb: str) -> None:
         """ConfigError, before anything is sent, where the drive's 0x6502 does not list ``mode``, or
-        its dictionary lacks what the mode needs (``drivers.maps.cia402_needs``)."""
+        its dictionary lacks what the mode needs (``drivers.maps.cia402_needs``).
+
+        Parameters
+        ----------
+        mode : Mode
+            The mode.
+        verb : str
+            The command, named in the error.
+
+        Raises
+        ------
+        ConfigError
+            If the drive lacks the mode or what it needs.
+        """
         a = self.axis
         if a.supported_modes is not None and int(mode) not in a.supported_modes:
             raise ConfigError(
@@ -248,6 +360,22 @@ class DriveTool:
         require_objects(a.node.object_dictionary, needs, source=a.eds, what=f"rig drive {verb}")
 
     def until(self, done: Callable[[], bool], seconds: float, what: str) -> None:
+        """Look and idle until ``done()``; a SafetyStop naming ``what`` after ``seconds``.
+
+        Parameters
+        ----------
+        done : Callable[[], bool]
+            What is waited for.
+        seconds : float
+            [s].
+        what : str
+            Named in the stop.
+
+        Raises
+        ------
+        SafetyStop
+            If it is not done in time.
+        """
         late = self.deadline(seconds)
         for _ in range(max(1, math.ceil(seconds / self.period))):
             if done():
@@ -263,7 +391,26 @@ class DriveTool:
         self, mode: Mode, start: Callable[[], None], done: Callable[[], bool], seconds: float, what: str
     ) -> dict[str, Any]:
         """Enable in ``mode``, ``start``, wait for ``done`` (``seconds``), then the stop; the stop
-        also on any error or Ctrl-C. A mode the drive lacks, a factor it needs: refused first."""
+        also on any error or Ctrl-C. A mode the drive lacks, a factor it needs: refused first.
+
+        Parameters
+        ----------
+        mode : Mode
+            The profile mode.
+        start : Callable[[], None]
+            Starts the move.
+        done : Callable[[], bool]
+            The move's end.
+        seconds : float
+            [s] it may take.
+        what : str
+            Named in a stop.
+
+        Returns
+        -------
+        dict[str, Any]
+            The report.
+        """
         a = self.axis
         a.discover(check_mode=False)
         self.offers(mode, _VERB[mode])
@@ -307,7 +454,13 @@ class DriveTool:
         }
 
     def actual(self) -> tuple[float | None, float]:
-        """(position [rad], None on a drive without 0x6064; speed [rad/s]) read by SDO."""
+        """(position [rad], None on a drive without 0x6064; speed [rad/s]) read by SDO.
+
+        Returns
+        -------
+        tuple[float | None, float]
+            (position [rad] or None, speed [rad/s]).
+        """
         a = self.axis
         velocity = a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity
         if not a.has_position:
@@ -315,7 +468,18 @@ class DriveTool:
         return a.sdo_read(cia.POSITION_ACTUAL) / a.units.position, velocity
 
     def profile_speed(self, index: int, subindex: int = 0) -> float:
-        """A speed the drive declares (0x6081, 0x6099) in rad/s; inf where it has none."""
+        """A speed the drive declares (0x6081, 0x6099) in rad/s; inf where it has none.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object (0x6081, 0x6099).
+
+        Returns
+        -------
+        float
+            [rad/s] (inf: none).
+        """
         raw = self.axis._optional(index, subindex)
         if raw is None or not raw or not math.isfinite(self.axis.units.velocity):
             return math.inf
@@ -323,12 +487,28 @@ class DriveTool:
 
     def watch_actual(self, target: float, actual: int, factor: float) -> None:
         """From now on, with ``live``, each look reads ``actual`` (an object, / ``factor``: SI)
-        against ``target`` [SI]; the move's time starts (``elapsed``)."""
+        against ``target`` [SI]; the move's time starts (``elapsed``).
+
+        Parameters
+        ----------
+        target : float
+            [SI].
+        actual : int
+            The object read.
+        factor : float
+            Device units per SI unit.
+        """
         self._watched = (target, actual, factor)
         self._looks, self._t0 = 0, time.monotonic()
 
     def elapsed(self) -> float:
-        """[s] since ``watch_actual``: looks x period in lock-step, the wall clock's on a bus."""
+        """[s] since ``watch_actual``: looks x period in lock-step, the wall clock's on a bus.
+
+        Returns
+        -------
+        float
+            [s].
+        """
         return self._looks * self.period if self.emulated else time.monotonic() - self._t0
 
     def _look(self) -> None:
@@ -358,7 +538,18 @@ class DriveTool:
         and 0x606C by SDO), disable (confirmed by the statusword, ``Cia402Axis.disable``: not
         confirmed, the stop is not), then the shaft at rest for the axis's hold
         (``rig.host.stopping.RestWatch``): (confirmed, {axis: its speed [rad/s]} where the shaft
-        was still turning)."""
+        was still turning).
+
+        Parameters
+        ----------
+        seconds : float, optional
+            [s] for the drive's ramp.
+
+        Returns
+        -------
+        tuple[bool, dict[str, float | None]]
+            (confirmed, the actual values at rest).
+        """
         a = self.axis
         self.motion = None
         a.quick_stop()

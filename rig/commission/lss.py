@@ -46,14 +46,30 @@ _SELECT_HINT = (
 class Address:
     """An LSS address: 0x1018 sub 1-4."""
 
-    vendor: int
-    product: int
-    revision: int
-    serial: int
+    vendor: int  #: 0x1018 sub 1
+    product: int  #: 0x1018 sub 2
+    revision: int  #: 0x1018 sub 3
+    serial: int  #: 0x1018 sub 4
 
     @classmethod
     def parse(cls, text: str) -> Address:
-        """``VENDOR:PRODUCT:REVISION:SERIAL``, each decimal or 0x hex; ValueError naming ``text``."""
+        """``VENDOR:PRODUCT:REVISION:SERIAL``, each decimal or 0x hex; ValueError naming ``text``.
+
+        Parameters
+        ----------
+        text : str
+            ``VENDOR:PRODUCT:REVISION:SERIAL``.
+
+        Returns
+        -------
+        Address
+            The address.
+
+        Raises
+        ------
+        ValueError
+            If ``text`` is not one (it named).
+        """
         parts = text.split(":")
         try:
             numbers = [int(p, 0) for p in parts]
@@ -66,10 +82,23 @@ class Address:
         return cls(*numbers)
 
     def text(self) -> str:
-        """``0x000000FB:0x65520000:0x00010000:0x00000001``: what ``--select`` takes."""
+        """``0x000000FB:0x65520000:0x00010000:0x00000001``: what ``--select`` takes.
+
+        Returns
+        -------
+        str
+            The address as ``--select`` takes it.
+        """
         return ":".join(f"0x{n:08X}" for n in (self.vendor, self.product, self.revision, self.serial))
 
     def as_dict(self) -> dict[str, str]:
+        """JSON-ready: each number in hex.
+
+        Returns
+        -------
+        dict[str, str]
+            The address.
+        """
         keys = ("vendor", "product", "revision", "serial")
         return {
             k: f"0x{n:08X}" for k, n in zip(keys, (self.vendor, self.product, self.revision, self.serial))
@@ -77,7 +106,23 @@ class Address:
 
 
 def bit_timing(kbit: int) -> int:
-    """CiA 305's table index of ``kbit`` [kbit/s]; ValueError naming the rates it has."""
+    """CiA 305's table index of ``kbit`` [kbit/s]; ValueError naming the rates it has.
+
+    Parameters
+    ----------
+    kbit : int
+        [kbit/s].
+
+    Returns
+    -------
+    int
+        The table index.
+
+    Raises
+    ------
+    ValueError
+        If the rate is not in the table.
+    """
     for index, rate in BIT_TIMINGS.items():
         if rate == kbit * 1000:
             return index
@@ -87,7 +132,15 @@ def bit_timing(kbit: int) -> int:
 
 class LssTool:
     """One LSS master's services on ``network`` (a connected canopen ``Network``); each answer is
-    awaited ``timeout`` [s]."""
+    awaited ``timeout`` [s].
+
+    Parameters
+    ----------
+    network : Any
+        A connected canopen ``Network``.
+    timeout : float, optional
+        [s] for each answer.
+    """
 
     def __init__(self, network: Any, *, timeout: float = 0.5) -> None:
         self.network = network
@@ -117,7 +170,18 @@ class LssTool:
 
     # --- into and out of the configuration state --------------------------------------------
     def select(self, address: Address) -> None:
-        """Switch state selective: the slave of ``address`` only (CommunicationTimeout: none has it)."""
+        """Switch state selective: the slave of ``address`` only (CommunicationTimeout: none has it).
+
+        Parameters
+        ----------
+        address : Address
+            The slave's.
+
+        Raises
+        ------
+        CommunicationTimeout
+            If no slave has it.
+        """
         try:
             with self._said("switch state selective", Cs.SELECT_SERIAL):
                 self.lss.send_switch_state_selective(
@@ -132,7 +196,18 @@ class LssTool:
 
     def fastscan(self) -> Address:
         """The unconfigured slave of lowest address, found by fastscan, put in the configuration
-        state (CommunicationTimeout: no unconfigured slave answered)."""
+        state (CommunicationTimeout: no unconfigured slave answered).
+
+        Returns
+        -------
+        Address
+            Its address.
+
+        Raises
+        ------
+        CommunicationTimeout
+            If no unconfigured slave answered.
+        """
         with self._said("fastscan", Cs.FASTSCAN):
             found, numbers = self.lss.fast_scan()
         if not found or numbers is None:
@@ -155,7 +230,13 @@ class LssTool:
     # --- services of the configuration state ------------------------------------------------
     def inquire(self) -> dict[str, Any]:
         """The slave's identity (0x1018 sub 1-4) and its node-ID (255: none), each in hex.
-        ConfigError where a second slave answered (switch state global with two on the bus)."""
+        ConfigError where a second slave answered (switch state global with two on the bus).
+
+        Returns
+        -------
+        dict[str, Any]
+            ``vendor``, ``product``, ``revision``, ``serial`` and ``node_id``.
+        """
         found: dict[str, Any] = {}
         for key, cs in (
             ("vendor", Cs.INQUIRE_VENDOR),
@@ -179,18 +260,36 @@ class LssTool:
         raise ConfigError(f"LSS {what}: more than one LSS slave answered; {_SELECT_HINT}")
 
     def node_id(self, node: int) -> None:
-        """Configure node-ID ``node`` (1..127, or 255: none)."""
+        """Configure node-ID ``node`` (1..127, or 255: none).
+
+        Parameters
+        ----------
+        node : int
+            1..127, or 255.
+        """
         with self._said(f"configure node-ID {node}", Cs.CONFIGURE_NODE_ID):
             self.lss.configure_node_id(node)
 
     def bitrate(self, kbit: int) -> None:
-        """Configure the bit rate ``kbit`` [kbit/s] (CiA 305's table)."""
+        """Configure the bit rate ``kbit`` [kbit/s] (CiA 305's table).
+
+        Parameters
+        ----------
+        kbit : int
+            [kbit/s].
+        """
         with self._said(f"configure bit timing {kbit} kbit/s", Cs.CONFIGURE_BIT_TIMING):
             self.lss.configure_bit_timing(bit_timing(kbit))
 
     def activate(self, delay_ms: int) -> None:
         """Activate bit timing: the slaves switch after ``delay_ms`` [ms], and send nothing for as
-        long again (no answer)."""
+        long again (no answer).
+
+        Parameters
+        ----------
+        delay_ms : int
+            [ms].
+        """
         self.lss.activate_bit_timing(delay_ms)
 
     def store(self) -> None:
@@ -201,7 +300,13 @@ class LssTool:
     # --- the waiting state ---------------------------------------------------------------------
     def unconfigured(self) -> int:
         """How many slaves without a node-ID answer identify non-configured remote slave (each
-        answer awaited ``timeout``)."""
+        answer awaited ``timeout``).
+
+        Returns
+        -------
+        int
+            Slaves answering.
+        """
         self.lss.send_identify_non_configured_remote_slave()
         count = 0
         while True:
@@ -212,7 +317,18 @@ class LssTool:
             count += answer[:1] == bytes([Cs.NON_CONFIGURED_SLAVE])
 
     def boot_watch(self, node: int) -> threading.Event:
-        """An event set by the boot-up of node ``node`` (heartbeat COB-ID, state 0), from now on."""
+        """An event set by the boot-up of node ``node`` (heartbeat COB-ID, state 0), from now on.
+
+        Parameters
+        ----------
+        node : int
+            The node.
+
+        Returns
+        -------
+        threading.Event
+            The event.
+        """
         booted = threading.Event()
 
         def heard(can_id: int, data: bytes, timestamp: float) -> None:
@@ -223,7 +339,13 @@ class LssTool:
         return booted
 
     def reset_communication(self, node: int) -> None:
-        """NMT reset communication of node ``node``: it takes the node-ID pending."""
+        """NMT reset communication of node ``node``: it takes the node-ID pending.
+
+        Parameters
+        ----------
+        node : int
+            The node.
+        """
         self.network.send_message(COB_NMT, bytes([NmtCommand.RESET_COMMUNICATION, node]))
 
     def stop_all(self) -> None:

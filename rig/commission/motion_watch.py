@@ -47,32 +47,38 @@ _CLEAR_TRAVEL, _CLEAR_UNITS = 0.2, 50.0  #: [rad], [position units]: a travel th
 
 @dataclass
 class MotionWatch:
-    """See the module docstring. ``where`` names the drive and the move; ``speed_limit`` [rad/s]
-    (inf: none); ``asked_speed`` [rad/s] of a jog; ``start``/``target`` [rad] of a move (``start``
-    None: the drive has no position); the quanta: one device unit of speed [rad/s] and of
-    position [rad]; ``units``: where the drive's factors came from, for the message; ``accel``
-    [rad/s^2] the most the shaft speeds up or slows down (inf: not known)."""
+    """The looks at a move or a jog, each checked (see the module docstring)."""
 
-    where: str
-    speed_limit: float = math.inf
-    asked_speed: float | None = None
-    start: float | None = None
-    target: float | None = None
-    speed_quantum: float = 0.0
-    position_quantum: float = 0.0
-    units: str = ""
-    accel: float = math.inf
-    _over: int = 0
-    _wrong: int = 0
-    _fast: int = 0
-    _t: float | None = None
-    _v: float = 0.0
+    where: str  #: the drive and the move, for the message
+    speed_limit: float = math.inf  #: [rad/s] (inf: none)
+    asked_speed: float | None = None  #: [rad/s] of a jog
+    start: float | None = None  #: [rad] of a move (None: the drive has no position)
+    target: float | None = None  #: [rad] of a move
+    speed_quantum: float = 0.0  #: [rad/s] one device unit of speed
+    position_quantum: float = 0.0  #: [rad] one device unit of position
+    units: str = ""  #: where the drive's factors came from, for the message
+    accel: float = math.inf  #: [rad/s^2] the most the shaft speeds up or slows down (inf: not known)
+    _over: int = 0  #: looks in a row over the speed limit
+    _wrong: int = 0  #: looks in a row the wrong way
+    _fast: int = 0  #: looks in a row far faster than asked
+    _t: float | None = None  #: [s] the last look's time (None: none yet)
+    _v: float = 0.0  #: [rad/s] its speed
     _integral: float = 0.0  #: [rad] the speed integrated over the looks
     _band: tuple[float, float] | None = (0.0, 0.0)  #: [rad] the least and most travel they allow
     speeds: list[tuple[float, float]] = field(default_factory=list)  #: (t [s], speed [rad/s])
 
     def see(self, t: float, speed: float, position: float | None) -> None:
-        """One look at ``t`` [s]: ``speed`` [rad/s], ``position`` [rad] (None: none)."""
+        """One look at ``t`` [s]: ``speed`` [rad/s], ``position`` [rad] (None: none).
+
+        Parameters
+        ----------
+        t : float
+            [s].
+        speed : float
+            [rad/s].
+        position : float | None
+            [rad] (None: none).
+        """
         if self._t is not None and t > self._t:
             dt = t - self._t
             self._integral += 0.5 * (speed + self._v) * dt
@@ -154,7 +160,13 @@ class MotionWatch:
         )
 
     def reached(self) -> float:
-        """[rad/s] the mean measured speed over the second half of the looks (NaN: none)."""
+        """[rad/s] the mean measured speed over the second half of the looks (NaN: none).
+
+        Returns
+        -------
+        float
+            [rad/s].
+        """
         if not self.speeds:
             return math.nan
         half = self.speeds[len(self.speeds) // 2 :]
@@ -165,7 +177,20 @@ def watch_move(tool: Any, **kw: Any) -> MotionWatch:
     """A watch of the move about to start by ``tool`` (a ``DriveTool``; ``what``: the move in
     words, the rest ``MotionWatch``'s), with the drive's quanta, units and ramps (0x6083-0x6085:
     the most a profile move's shaft speeds up or slows down), and its first look (a look after the
-    move began would miss its start)."""
+    move began would miss its start).
+
+    Parameters
+    ----------
+    tool : Any
+        A ``DriveTool``.
+    **kw : Any
+        ``what`` (the move in words) and ``MotionWatch``'s fields.
+
+    Returns
+    -------
+    MotionWatch
+        The watch, its first look taken.
+    """
     a = tool.axis
     position_quantum, speed_quantum = a.quanta()
     source = a.units.source

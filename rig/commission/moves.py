@@ -75,7 +75,31 @@ def jog(
     tool: DriveTool, speed: float, seconds: float, *, max_speed: float = 20.0, accel: float | None = None
 ) -> dict[str, Any]:
     """Profile velocity at ``speed`` [rad/s] for ``seconds``; |speed| <= ``max_speed``, and the
-    shaft watched against both (``MotionWatch``); the report says the speed it reached."""
+    shaft watched against both (``MotionWatch``); the report says the speed it reached.
+
+    Parameters
+    ----------
+    tool : DriveTool
+        The drive.
+    speed : float
+        [rad/s].
+    seconds : float
+        [s].
+    max_speed : float, optional
+        [rad/s] the most allowed.
+    accel : float | None, optional
+        [rad/s^2] (None: the drive's).
+
+    Returns
+    -------
+    dict[str, Any]
+        The report.
+
+    Raises
+    ------
+    ConfigError
+        If ``speed`` exceeds ``max_speed``, or ``accel`` is not > 0.
+    """
     if not abs(speed) <= max_speed:
         raise ConfigError(f"jog speed {speed:g} rad/s exceeds --max-speed {max_speed:g} rad/s")
     a = tool.axis
@@ -118,7 +142,39 @@ def move(
     ``speed`` [rad/s] (default: the drive's 0x6081, at most ``max_speed``) and ``accel``
     [rad/s^2]; the travel at most ``max_travel`` [rad]. ``hold`` [s]: stay enabled at the target
     that long (inf: until Ctrl-C) before the stop. The report says where it ended, the error
-    (within the drive's position window 0x6067, or why not) and the time."""
+    (within the drive's position window 0x6067, or why not) and the time.
+
+    Parameters
+    ----------
+    tool : DriveTool
+        The drive.
+    position : float
+        [rad].
+    relative : bool, optional
+        From where the shaft stands.
+    speed : float | None, optional
+        [rad/s] (None: the drive's 0x6081, at most ``max_speed``).
+    accel : float | None, optional
+        [rad/s^2] (None: the drive's).
+    max_speed : float, optional
+        [rad/s].
+    max_travel : float, optional
+        [rad].
+    hold : float | None, optional
+        [s] to stay enabled at the target (None: none).
+    seconds : float, optional
+        [s] it may take.
+
+    Returns
+    -------
+    dict[str, Any]
+        The report.
+
+    Raises
+    ------
+    ConfigError
+        If the speed, acceleration or travel is out of bounds.
+    """
     a = tool.axis
     a.discover(check_mode=False)
     tool.offers(Mode.PROFILE_POSITION, "move")
@@ -201,7 +257,24 @@ def home(
     tool: DriveTool, method: int | None, *, max_speed: float = 20.0, seconds: float = 30.0
 ) -> dict[str, Any]:
     """Homing with ``method`` (0x6098; None: the drive's); attained or an error; the shaft no
-    faster than ``max_speed`` [rad/s]."""
+    faster than ``max_speed`` [rad/s].
+
+    Parameters
+    ----------
+    tool : DriveTool
+        The drive.
+    method : int | None
+        0x6098 (None: the drive's).
+    max_speed : float, optional
+        [rad/s].
+    seconds : float, optional
+        [s] it may take.
+
+    Returns
+    -------
+    dict[str, Any]
+        The report.
+    """
     a = tool.axis
 
     def start() -> None:
@@ -231,7 +304,24 @@ def _si(value: float | None, unit: str, factor: float) -> str:
 
 def report_lines(action: str, r: dict[str, Any], position_factor: float, velocity_factor: float) -> list[str]:
     """A move's report for a person: asked, reached, error, time, the stop in words (``action``:
-    jog, move, home); the factors: the drive's units per rad and per rad/s."""
+    jog, move, home); the factors: the drive's units per rad and per rad/s.
+
+    Parameters
+    ----------
+    action : str
+        jog, move or home.
+    r : dict[str, Any]
+        The report.
+    position_factor : float
+        Device units per rad.
+    velocity_factor : float
+        Per rad/s.
+
+    Returns
+    -------
+    list[str]
+        The lines.
+    """
     rows: list[tuple[str, str]] = []
     if action == "jog":
         rows.append(("asked", f"{r['asked_rad_s']:g} rad/s" + _also(r)))

@@ -99,7 +99,18 @@ SECTIONS: tuple[tuple[str, tuple[tuple[str, int, int], ...]], ...] = (
 
 
 def bit_names(mode: int | None) -> tuple[str, ...]:
-    """The statusword's 16 bits in words, bits 12 and 13 in ``mode``'s (0x6061)."""
+    """The statusword's 16 bits in words, bits 12 and 13 in ``mode``'s (0x6061).
+
+    Parameters
+    ----------
+    mode : int | None
+        0x6061 (None: not known).
+
+    Returns
+    -------
+    tuple[str, ...]
+        16 names.
+    """
     twelve, thirteen = MODE_BITS.get(mode if mode is not None else 0, (STATUS_BITS[12], STATUS_BITS[13]))
     return (*STATUS_BITS[:12], twelve, thirteen, *STATUS_BITS[14:])
 
@@ -114,7 +125,24 @@ def _string(upload: Callable[[int, int], bytes], index: int) -> str | None:
 
 def picture(axis: Any, units: Any, statusword: int, mode: int | None) -> dict[str, Any]:
     """The sections of ``axis``'s picture beside its state: identity strings, bits, quantities,
-    errors and inputs (``units``: its ``DriveUnits``; ``statusword`` and ``mode`` as read)."""
+    errors and inputs (``units``: its ``DriveUnits``; ``statusword`` and ``mode`` as read).
+
+    Parameters
+    ----------
+    axis : Any
+        The drive.
+    units : Any
+        Its ``DriveUnits``.
+    statusword : int
+        As read.
+    mode : int | None
+        0x6061 as read.
+
+    Returns
+    -------
+    dict[str, Any]
+        The sections.
+    """
     upload = axis.sdo_upload
 
     def read(index: int, sub: int = 0) -> int | None:

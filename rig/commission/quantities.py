@@ -59,12 +59,19 @@ class Quantity:
     """A value in SI (``si``, NaN where no factor is known; ``unit``) and as the drive holds it
     (``raw``, ``raw_unit`` in words)."""
 
-    si: float
-    unit: str
-    raw: int | float
-    raw_unit: str
+    si: float  #: the value in SI (NaN: no factor known)
+    unit: str  #: its SI unit
+    raw: int | float  #: as the drive holds it
+    raw_unit: str  #: the drive's unit, in words
 
     def as_dict(self) -> dict[str, Any]:
+        """JSON-ready (NaN as None).
+
+        Returns
+        -------
+        dict[str, Any]
+            The quantity.
+        """
         return {
             "value": None if math.isnan(self.si) else self.si,
             "unit": self.unit,
@@ -81,7 +88,22 @@ def _scaled(raw: float, factor: float, unit: str, own: str) -> Quantity:
 
 
 def quantity(units: DriveUnits, index: int, raw: int | float) -> Quantity | None:
-    """The quantity object ``index`` holds as ``raw``, or None where it holds none."""
+    """The quantity object ``index`` holds as ``raw``, or None where it holds none.
+
+    Parameters
+    ----------
+    units : drivers.cia402_units.DriveUnits
+        The drive's units.
+    index : int
+        The object.
+    raw : int | float
+        Its value.
+
+    Returns
+    -------
+    Quantity | None
+        The quantity, or None.
+    """
     kind = QUANTITIES.get(index)
     if kind == "position":
         return _scaled(raw, units.position, "rad", "position units")

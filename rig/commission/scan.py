@@ -45,7 +45,18 @@ OBJECTS = (
 
 def profile_of(device_type: int) -> str:
     """The device profile of a 0x1000 value (CiA 301 7.5.2.1: the low 16 bits are the profile
-    number, 0 for none, the high 16 bits additional information of the profile)."""
+    number, 0 for none, the high 16 bits additional information of the profile).
+
+    Parameters
+    ----------
+    device_type : int
+        0x1000.
+
+    Returns
+    -------
+    str
+        The profile, in words.
+    """
     number = device_type & 0xFFFF
     if number == 0:
         return "none given"
@@ -99,7 +110,22 @@ def scan(
 ) -> list[dict[str, Any]]:
     """Scan ``network``; ``listen()`` lets heartbeats arrive (waits, or advances emulated time).
     A row per node: ``node_id``, ``nmt_state``, ``device_type``, ``profile``, ``vendor_id``, ``vendor_name``,
-    ``product_name`` (None where not read) and ``errors`` (what could not be read, and why)."""
+    ``product_name`` (None where not read) and ``errors`` (what could not be read, and why).
+
+    Parameters
+    ----------
+    network : canopen.Network
+        The canopen network.
+    listen : Callable[[], None]
+        Lets heartbeats arrive.
+    sdo_timeout : float, optional
+        [s] each SDO answer.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        One row a node.
+    """
     states: dict[int, int] = {}
 
     def on_frame(can_id: int, data: bytearray, timestamp: float) -> None:

@@ -23,7 +23,18 @@ UNITS_HINT = "--units {key}=VALUE"  #: how ``rig drive`` is given a unit the dri
 
 def device_units(units: DriveUnits) -> dict[str, str]:
     """Each quantity's unit in words: the factor to SI and where it came from, or the drive's own
-    unit and the ``--units`` key that would give SI."""
+    unit and the ``--units`` key that would give SI.
+
+    Parameters
+    ----------
+    units : drivers.cia402_units.DriveUnits
+        The drive's units.
+
+    Returns
+    -------
+    dict[str, str]
+        Quantity -> its unit in words.
+    """
     src = units.source
 
     def factor(value: float, per: str, where: str) -> str:
@@ -61,7 +72,20 @@ def device_units(units: DriveUnits) -> dict[str, str]:
 
 
 def status_lines(status: dict[str, Any], name_of: Callable[[int, int], str]) -> list[str]:
-    """The status report (``DriveTool.status``); ``name_of(index, sub)`` an object's EDS name."""
+    """The status report (``DriveTool.status``); ``name_of(index, sub)`` an object's EDS name.
+
+    Parameters
+    ----------
+    status : dict[str, Any]
+        ``DriveTool.status``'s.
+    name_of : Callable[[int, int], str]
+        ``name_of(index, sub)``.
+
+    Returns
+    -------
+    list[str]
+        The lines.
+    """
     ids = {k: int(v, 16) for k, v in status["identity"].items()}
     identity = Identity(**ids, vendor_name=status.get("vendor_name") or "").text()
     bits = ", ".join(status["statusword_bits"]) or "none"
@@ -100,7 +124,18 @@ def _number(value: float | None) -> str:
 
 def picture_lines(status: dict[str, Any]) -> list[str]:
     """The rest of the picture (``rig.commission.picture``): who it is, every statusword bit, the
-    quantities in a table (SI value, its unit, the drive's number and unit), errors, inputs."""
+    quantities in a table (SI value, its unit, the drive's number and unit), errors, inputs.
+
+    Parameters
+    ----------
+    status : dict[str, Any]
+        ``DriveTool.status``'s.
+
+    Returns
+    -------
+    list[str]
+        The lines.
+    """
     lines = []
     strings = [f"{k} {status[k]}" for k in ("device_name", "hardware", "firmware") if status.get(k)]
     if strings:
@@ -135,7 +170,18 @@ def picture_lines(status: dict[str, Any]) -> list[str]:
 
 def object_lines(read: dict[str, Any]) -> list[str]:
     """``sdo read``'s report: the object, its name, type and access, its value in decimal and hex,
-    and the quantity it holds in SI and the drive's units (``DriveTool.read_object``)."""
+    and the quantity it holds in SI and the drive's units (``DriveTool.read_object``).
+
+    Parameters
+    ----------
+    read : dict[str, Any]
+        ``DriveTool.read_object``'s.
+
+    Returns
+    -------
+    list[str]
+        The lines.
+    """
     what = ", ".join(x for x in (read.get("type"), read.get("access")) if x)
     lines = [
         f"{'object':15s} {read['object']}  {read.get('name') or '(not in the EDS)'}"

@@ -36,7 +36,20 @@ _OF = {
 
 
 def question(axis: Any, restore: bool) -> str:
-    """What the person at the terminal is asked before the write."""
+    """What the person at the terminal is asked before the write.
+
+    Parameters
+    ----------
+    axis : Any
+        The drive.
+    restore : bool
+        Restore the defaults (else store).
+
+    Returns
+    -------
+    str
+        The question.
+    """
     index, _, text, _ = _OF[restore]
     who = f"Node {axis.node_id} ({axis.device_id.text()})"
     if restore:
@@ -83,7 +96,29 @@ def _check(axis: Any, restore: bool) -> None:
 
 def store(tool: Any, *, restore: bool, confirm: Callable[[str], bool], reset: bool = False) -> dict[str, Any]:
     """Store the drive's parameters (restore its defaults, with ``reset`` a reset node after);
-    see the module docstring. RigError where the person does not confirm."""
+    see the module docstring. RigError where the person does not confirm.
+
+    Parameters
+    ----------
+    tool : Any
+        The drive.
+    restore : bool
+        Restore the defaults (else store).
+    confirm : Callable[[str], bool]
+        Asks the person.
+    reset : bool, optional
+        A reset node after.
+
+    Returns
+    -------
+    dict[str, Any]
+        The report.
+
+    Raises
+    ------
+    RigError
+        If the person does not confirm.
+    """
     a = tool.axis
     index, signature, text, verb = _OF[restore]
     a.discover(check_mode=False)  # the device against its dictionary, before anything is written

@@ -56,7 +56,13 @@ def _limit(unit: str, doc: str) -> Any:
 
 @dataclass(frozen=True)
 class AxisLimits:
-    """What the host holds the axis to (a limit left out: none); and how a stop is confirmed."""
+    """What the host holds the axis to (a limit left out: none); and how a stop is confirmed.
+
+    Raises
+    ------
+    Refused
+        If position_min is not below position_max.
+    """
 
     command: float = _limit("", "|command| in the unit of the mode (csp: the travel from the start [rad])")
     speed: float = _limit("rad/s", "|speed|")
@@ -205,8 +211,8 @@ class AxisConfig:
     port: int = key(502, "", "Modbus TCP: the port", ge=1, le=65535, kinds=("modbus",))
     serial: str = key("", "", "Modbus RTU: the serial device", kinds=("modbus",))
     baudrate: int = key(19200, "bit/s", "Modbus RTU: the baud rate", gt=0, kinds=("modbus",))
-    units: AxisUnits = field(default_factory=AxisUnits)
-    limits: AxisLimits = field(default_factory=AxisLimits)
+    units: AxisUnits = field(default_factory=AxisUnits)  #: ``[axis.units]``
+    limits: AxisLimits = field(default_factory=AxisLimits)  #: ``[axis.limits]``
 
 
 def _table(path: str, where: str, value: Any) -> dict[str, Any]:
@@ -216,7 +222,27 @@ def _table(path: str, where: str, value: Any) -> dict[str, Any]:
 
 
 def axis_config(path: str, n: int, table: Any) -> AxisConfig:
-    """The checked ``[[axis]]`` table number ``n`` of file ``path``."""
+    """The checked ``[[axis]]`` table number ``n`` of file ``path``.
+
+    Parameters
+    ----------
+    path : str
+        The file, named in errors.
+    n : int
+        The table's number, from 1.
+    table : Any
+        The ``[[axis]]`` table.
+
+    Returns
+    -------
+    AxisConfig
+        The axis.
+
+    Raises
+    ------
+    ConfigError
+        If a key is unknown, of a wrong type or refused (file, axis and key named).
+    """
     where = f"[[axis]] #{n + 1}"
     table = dict(_table(path, where, table))
     name = table.get("name")

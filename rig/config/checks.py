@@ -36,7 +36,18 @@ PERIOD_RULE = f"a period of {MIN_PERIOD:g} .. {MAX_PERIOD:g} s"
 
 
 def run_name(name: str) -> None:
-    """A run name is a plain file name: its directory ``<output>/<name>-<time>`` stays in output."""
+    """A run name is a plain file name: its directory ``<output>/<name>-<time>`` stays in output.
+
+    Parameters
+    ----------
+    name : str
+        ``[run] name``.
+
+    Raises
+    ------
+    ValueError
+        If it is not a plain file name.
+    """
     plain = (
         bool(name)
         and name not in (".", "..")
@@ -50,13 +61,35 @@ def run_name(name: str) -> None:
 
 
 def output_path(output: str) -> None:
-    """A folder's path: not empty, no NUL."""
+    """A folder's path: not empty, no NUL.
+
+    Parameters
+    ----------
+    output : str
+        ``[run] output``.
+
+    Raises
+    ------
+    ValueError
+        If it is empty or holds a NUL.
+    """
     if not output or "\0" in output:
         raise ValueError("must be a folder's path")
 
 
 def interface(name: str) -> None:
-    """A python-can interface (python-can is imported only to check it)."""
+    """A python-can interface (python-can is imported only to check it).
+
+    Parameters
+    ----------
+    name : str
+        ``[bus] interface``.
+
+    Raises
+    ------
+    ValueError
+        If python-can does not know it.
+    """
     from drivers.bus import check_interface
 
     try:
@@ -66,14 +99,26 @@ def interface(name: str) -> None:
 
 
 def register_map(name: str) -> None:
-    """A Modbus register map of ``drivers.maps`` (abb-drives-profile, delta-vfd-b)."""
+    """A Modbus register map of ``drivers.maps`` (abb-drives-profile, delta-vfd-b).
+
+    Parameters
+    ----------
+    name : str
+        ``[[axis]] map``.
+    """
     from drivers.maps import modbus_map
 
     modbus_map(name)
 
 
 def profile(text: str) -> None:
-    """A time profile of ``drivers.profiles`` ("" : none)."""
+    """A time profile of ``drivers.profiles`` ("" : none).
+
+    Parameters
+    ----------
+    text : str
+        A profile ("": none).
+    """
     if text:
         from drivers.profiles import parse_profile
 
@@ -81,7 +126,18 @@ def profile(text: str) -> None:
 
 
 def require_limits(cfg: Any) -> None:
-    """Refuse a commanded axis (by the law or a profile) without any limit (``rig run --no-limits``)."""
+    """Refuse a commanded axis (by the law or a profile) without any limit (``rig run --no-limits``).
+
+    Parameters
+    ----------
+    cfg : Any
+        The ``RigConfig``.
+
+    Raises
+    ------
+    ConfigError
+        If a commanded axis has no limit (the axis named).
+    """
     commanded = {*cfg.controller.commands, *(a.name for a in cfg.axes if a.profile)}
     bare = [
         a.name

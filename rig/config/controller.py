@@ -24,7 +24,29 @@ __all__ = ["controller_config"]
 
 
 def controller_config(path: str, table: dict[str, Any], axes: tuple[AxisConfig, ...], period: float) -> Any:
-    """The checked ``ControllerConfig`` of ``table`` in file ``path`` (see the module docstring)."""
+    """The checked ``ControllerConfig`` of ``table`` in file ``path`` (see the module docstring).
+
+    Parameters
+    ----------
+    path : str
+        The file, named in errors.
+    table : dict[str, Any]
+        ``[controller]``.
+    axes : tuple[AxisConfig, ...]
+        The rig's axes.
+    period : float
+        [s] ``[run] period``.
+
+    Returns
+    -------
+    Any
+        The ``ControllerConfig``.
+
+    Raises
+    ------
+    ConfigError
+        If a key is unknown, of a wrong type or refused.
+    """
     from rig.config.schema import ControllerConfig
     from rig.laws import law_class
 

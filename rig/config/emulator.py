@@ -33,7 +33,31 @@ def physics(
     base: Mapping[str, Any] | None = None,
 ) -> tuple[dict[str, Any], Any]:
     """(``items`` typed and checked, the preset ``name`` built with them over ``base``, a twin's own
-    values); ``text``: command-line text. ConfigError naming ``source``, the key and the value."""
+    values); ``text``: command-line text. ConfigError naming ``source``, the key and the value.
+
+    Parameters
+    ----------
+    name : str
+        The preset.
+    items : Mapping[str, Any]
+        Its values by key.
+    source : str
+        Named in errors (a file's table, an option).
+    text : bool, optional
+        The values are command-line text.
+    base : Mapping[str, Any] | None, optional
+        A twin's own values, under ``items``.
+
+    Returns
+    -------
+    tuple[dict[str, Any], Any]
+        (``items`` typed and checked, the preset's dataclass built).
+
+    Raises
+    ------
+    ConfigError
+        If a key is unknown or a value refused (``source``, key and value named).
+    """
     from plant_emulator.presets import PRESETS
 
     if name not in PRESETS:
@@ -57,12 +81,46 @@ def preset_params(
     text: bool = False,
     base: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """``params`` of preset ``name`` typed and checked (see ``physics``)."""
+    """``params`` of preset ``name`` typed and checked (see ``physics``).
+
+    Parameters
+    ----------
+    name : str
+        The preset.
+    params : Mapping[str, Any]
+        Its values by key.
+    source : str
+        Named in errors.
+    text : bool, optional
+        The values are command-line text.
+    base : Mapping[str, Any] | None, optional
+        A twin's own values, under ``params``.
+
+    Returns
+    -------
+    dict[str, Any]
+        ``params`` typed and checked.
+    """
     return physics(name, params, source, text=text, base=base)[0]
 
 
 def inverter_values(items: Mapping[str, Any], source: str, *, text: bool = False) -> dict[str, Any]:
-    """The emulated Modbus inverter's parameters ``items`` typed and checked (its keys)."""
+    """The emulated Modbus inverter's parameters ``items`` typed and checked (its keys).
+
+    Parameters
+    ----------
+    items : Mapping[str, Any]
+        ``[emulator.inverter]`` values by key.
+    source : str
+        Named in errors.
+    text : bool, optional
+        The values are command-line text.
+
+    Returns
+    -------
+    dict[str, Any]
+        The values, typed and checked.
+    """
     if not items:  # nothing to check: a run on a real bus loads no emulator
         return {}
     from plant_emulator.inverter_model import InverterModel
@@ -77,7 +135,25 @@ def _table(path: str, where: str, value: Any) -> dict[str, Any]:
 
 
 def emulator_config(path: str, table: dict[str, Any]) -> Any:
-    """The checked ``EmulatorConfig`` of ``table`` in file ``path`` (see the module docstring)."""
+    """The checked ``EmulatorConfig`` of ``table`` in file ``path`` (see the module docstring).
+
+    Parameters
+    ----------
+    path : str
+        The file, named in errors.
+    table : dict[str, Any]
+        ``[emulator]``.
+
+    Returns
+    -------
+    Any
+        The ``EmulatorConfig``.
+
+    Raises
+    ------
+    ConfigError
+        If a key is unknown, of a wrong type or refused.
+    """
     from rig.config.schema import EmulatorConfig
 
     unknown = set(table) - set(_KNOWN)

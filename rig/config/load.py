@@ -40,7 +40,27 @@ def _section(doc: dict[str, Any], name: str, source: str, overrides: Iterable[Ov
 
 def rig_config(doc: dict[str, Any], source: str, overrides: Iterable[Override] = ()) -> RigConfig:
     """The checked configuration of a parsed TOML document (``source`` names it in errors), with
-    ``overrides`` applied (``rig.config.schema``'s docstring)."""
+    ``overrides`` applied (``rig.config.schema``'s docstring).
+
+    Parameters
+    ----------
+    doc : dict[str, Any]
+        The parsed TOML document.
+    source : str
+        Named in errors (the file).
+    overrides : Iterable[Override], optional
+        Values given beside the file.
+
+    Returns
+    -------
+    RigConfig
+        The configuration.
+
+    Raises
+    ------
+    ConfigError
+        At the first defect (file, table, key and value named).
+    """
     overrides = tuple(overrides)
     for old in ("drive", "limits"):
         if old in doc:
@@ -66,6 +86,19 @@ def rig_config(doc: dict[str, Any], source: str, overrides: Iterable[Override] =
 
 def load_config(path: str | Path, overrides: Iterable[Override] = ()) -> RigConfig:
     """Load and check a rig configuration file (``drivers.files.read_toml``: a regular file of at
-    most ``CONFIG_LIMIT``, UTF-8, not nested deeper than ``MAX_DEPTH``), with ``overrides``."""
+    most ``CONFIG_LIMIT``, UTF-8, not nested deeper than ``MAX_DEPTH``), with ``overrides``.
+
+    Parameters
+    ----------
+    path : str | Path
+        The TOML file.
+    overrides : Iterable[Override], optional
+        Values given beside the file.
+
+    Returns
+    -------
+    RigConfig
+        The configuration.
+    """
     p = Path(path)
     return rig_config(read_toml(p, what="rig configuration"), str(p), overrides)

@@ -24,12 +24,12 @@ class Model:
     """(3.5) as read from a file: a_m [1/s], b_m, the input u is ("voltage" | "torque"), dt [s]
     of the data or the design, lam [1/s] of a design (None: an identification)."""
 
-    a_m: float
-    b_m: float
-    input: str
-    dt: float
-    lam: float | None
-    source: str
+    a_m: float  #: [1/s] of (3.5)
+    b_m: float  #: of (3.5), per unit of the input
+    input: str  #: "voltage" or "torque"
+    dt: float  #: [s] the data's or the design's period
+    lam: float | None  #: [1/s] a design's lambda (None: an identification)
+    source: str  #: the file it came from
     law: str | None = None  #: a ``rig tune`` design: the ``[controller] kind`` it is for
     params: dict[str, Any] | None = None  #: a ``rig tune`` design: the law's parameters
 
@@ -44,7 +44,25 @@ def _number(doc: dict[str, Any], key: str, where: str) -> float:
 def read_model(path: str | Path, *, where: str = "") -> Model:
     """The model in ``path``: identification.json, a ``rig design dtsm --json`` file, or a run
     directory with identification.json. ConfigError naming ``where`` (what named the file: a
-    key, an option), the file and the key."""
+    key, an option), the file and the key.
+
+    Parameters
+    ----------
+    path : str | Path
+        identification.json, a ``rig design dtsm --json`` file, or a run directory.
+    where : str, optional
+        What named the file (a key, an option), in errors.
+
+    Returns
+    -------
+    Model
+        The model.
+
+    Raises
+    ------
+    ConfigError
+        If the file cannot be read or lacks a key (``where``, file and key named).
+    """
     p = Path(path)
     if p.is_dir():
         p = p / FILE

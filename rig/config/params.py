@@ -37,7 +37,25 @@ _TRUE, _FALSE = ("true", "yes", "on", "1"), ("false", "no", "off", "0")
 
 
 def parse_items(items: Iterable[str], source: str) -> dict[str, str]:
-    """``["NAME=VALUE", ...]`` -> {NAME: VALUE}; ConfigError naming a malformed item."""
+    """``["NAME=VALUE", ...]`` -> {NAME: VALUE}; ConfigError naming a malformed item.
+
+    Parameters
+    ----------
+    items : Iterable[str]
+        ``NAME=VALUE`` strings.
+    source : str
+        Named in errors (the option).
+
+    Returns
+    -------
+    dict[str, str]
+        NAME -> VALUE.
+
+    Raises
+    ------
+    ConfigError
+        If an item has no ``=`` or no name.
+    """
     out: dict[str, str] = {}
     for item in items:
         name, sep, value = item.partition("=")
@@ -122,6 +140,31 @@ def typed_values(
 
     ``aliases`` maps other spellings to field names; ``fixed`` names fields the caller
     sets itself (giving one is an error too); ``text``: the values are command-line text.
+
+    Parameters
+    ----------
+    schema : type
+        A dataclass.
+    items : Mapping[str, Any]
+        Key -> value (text, or TOML's).
+    source : str
+        Named in errors.
+    aliases : Mapping[str, str] | None, optional
+        Other spellings -> field names.
+    fixed : Iterable[str], optional
+        Fields the caller sets, refused here.
+    text : bool, optional
+        The values are command-line text.
+
+    Returns
+    -------
+    dict[str, Any]
+        Field -> typed value.
+
+    Raises
+    ------
+    ConfigError
+        If a key is unknown or fixed, or a value not of its type.
     """
     hints = field_types(schema)
     kinds = {k: hints[k] for k in keys(schema)}
@@ -144,7 +187,24 @@ def typed_values(
 
 
 def required(schema: type, values: Mapping[str, Any], source: str, fixed: Iterable[str] = ()) -> None:
-    """ConfigError naming the first key of ``schema`` without a default that ``values`` lacks."""
+    """ConfigError naming the first key of ``schema`` without a default that ``values`` lacks.
+
+    Parameters
+    ----------
+    schema : type
+        A dataclass.
+    values : Mapping[str, Any]
+        Field -> value.
+    source : str
+        Named in errors.
+    fixed : Iterable[str], optional
+        Fields the caller sets.
+
+    Raises
+    ------
+    ConfigError
+        Naming the first key without a default that ``values`` lacks.
+    """
     for name, f in keys(schema).items():
         no_default = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
         if no_default and name not in values and name not in set(fixed):
@@ -155,7 +215,29 @@ def required(schema: type, values: Mapping[str, Any], source: str, fixed: Iterab
 
 def build(schema: type, items: Mapping[str, Any], source: str, **fixed: Any) -> Any:
     """``schema(**typed_values(...), **fixed)``, every key without a default given; a rule between
-    keys the dataclass refuses (``Refused``, ValueError) becomes a ConfigError naming ``source``."""
+    keys the dataclass refuses (``Refused``, ValueError) becomes a ConfigError naming ``source``.
+
+    Parameters
+    ----------
+    schema : type
+        A dataclass.
+    items : Mapping[str, Any]
+        Key -> value.
+    source : str
+        Named in errors.
+    **fixed : Any
+        Fields the caller sets.
+
+    Returns
+    -------
+    Any
+        The dataclass built.
+
+    Raises
+    ------
+    ConfigError
+        If a value or a rule between keys is refused.
+    """
     values = typed_values(schema, items, source, fixed=fixed)
     required(schema, values, source, fixed)
     try:

@@ -22,7 +22,18 @@ __all__ = ["check_rig"]
 
 
 def check_rig(cfg: Any) -> None:
-    """Every rule between the tables of ``cfg`` (a ``RigConfig``); ConfigError at the first broken."""
+    """Every rule between the tables of ``cfg`` (a ``RigConfig``); ConfigError at the first broken.
+
+    Parameters
+    ----------
+    cfg : Any
+        The ``RigConfig``.
+
+    Raises
+    ------
+    ConfigError
+        At the first broken rule.
+    """
     src, b = cfg.source, cfg.bus
     if b.sync == "external" and cfg.run.time != "realtime":
         raise ConfigError(

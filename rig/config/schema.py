@@ -244,16 +244,35 @@ class FaultsConfig:
 
 @dataclass(frozen=True)
 class RigConfig:
-    source: str
-    run: RunConfig
-    bus: BusConfig
-    emulator: EmulatorConfig
-    axes: tuple[AxisConfig, ...]
-    controller: ControllerConfig
-    reference: ReferenceConfig
-    faults: FaultsConfig = field(default_factory=FaultsConfig)
+    """A whole rig configuration, checked: each table's dataclass."""
+
+    source: str  #: the file it came from
+    run: RunConfig  #: ``[run]``
+    bus: BusConfig  #: ``[bus]``
+    emulator: EmulatorConfig  #: ``[emulator]``
+    axes: tuple[AxisConfig, ...]  #: ``[[axis]]``, in order
+    controller: ControllerConfig  #: ``[controller]``
+    reference: ReferenceConfig  #: ``[reference]``
+    faults: FaultsConfig = field(default_factory=FaultsConfig)  #: ``[faults]``
 
     def axis(self, name: str) -> AxisConfig:
+        """The axis called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            The axis's name.
+
+        Returns
+        -------
+        AxisConfig
+            Its configuration.
+
+        Raises
+        ------
+        ConfigError
+            If there is no such axis.
+        """
         for a in self.axes:
             if a.name == name:
                 return a
@@ -276,7 +295,13 @@ class RigConfig:
         return replace(physics, period=self.run.period)
 
     def as_dict(self) -> dict[str, Any]:
-        """The resolved configuration, JSON-ready (inf as null)."""
+        """The resolved configuration, JSON-ready (inf as null).
+
+        Returns
+        -------
+        dict[str, Any]
+            The configuration as nested dicts.
+        """
 
         def clean(v: Any) -> Any:
             if isinstance(v, float) and not math.isfinite(v):
@@ -297,10 +322,10 @@ class Override:
     """Values given beside the file (``rig run --fault``): ``items`` of ``table``, named in errors by
     ``source`` (the option); ``text``: command-line text, parsed by the key's type."""
 
-    table: str
-    items: Mapping[str, Any]
-    source: str
-    text: bool = True
+    table: str  #: the table the values are of
+    items: Mapping[str, Any]  #: key -> value
+    source: str  #: the option that gave them, in errors
+    text: bool = True  #: the values are command-line text
 
 
 def resolved_period(run: RunConfig, emulator: EmulatorConfig) -> float:
@@ -328,7 +353,26 @@ def replace_axis(
     units: dict[str, Any] | None = None,
     **changes: Any,
 ) -> RigConfig:
-    """``cfg`` with the axis ``name`` changed (and its limits and units, by key)."""
+    """``cfg`` with the axis ``name`` changed (and its limits and units, by key).
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The configuration.
+    name : str
+        The axis.
+    limits : dict[str, Any] | None, optional
+        ``[axis.limits]`` keys changed.
+    units : dict[str, Any] | None, optional
+        ``[axis.units]`` keys changed.
+    **changes : Any
+        ``[[axis]]`` keys changed.
+
+    Returns
+    -------
+    RigConfig
+        The new configuration.
+    """
     a = cfg.axis(name)
     if limits:
         changes["limits"] = replace(a.limits, **limits)

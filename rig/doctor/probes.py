@@ -77,7 +77,13 @@ def _cmdline() -> dict[str, str]:
 
 
 def kernel() -> dict[str, Any]:
-    """The kernel's release, its preemption model and the command line's real-time settings."""
+    """The kernel's release, its preemption model and the command line's real-time settings.
+
+    Returns
+    -------
+    dict[str, Any]
+        ``release``, ``preemption`` and the command line's settings.
+    """
     version = os.uname().version
     model = "PREEMPT_RT" if "PREEMPT_RT" in version or _read("/sys/kernel/realtime") == "1" else None
     if model is None:
@@ -100,7 +106,13 @@ def kernel() -> dict[str, Any]:
 
 
 def cpuidle() -> dict[str, Any]:
-    """The idle driver and governor, cpu0's states, and haltpoll's guest halt polling."""
+    """The idle driver and governor, cpu0's states, and haltpoll's guest halt polling.
+
+    Returns
+    -------
+    dict[str, Any]
+        The driver, governor, states and halt polling.
+    """
     states = []
     for state in sorted((SYS_CPU / "cpu0" / "cpuidle").glob("state*")):
         states.append(
@@ -142,7 +154,13 @@ def _why(refused: list[str], what: str) -> str:
 
 
 def granted() -> dict[str, Any]:
-    """Each real-time measure asked for and given back: SCHED_FIFO, mlockall, PM QoS."""
+    """Each real-time measure asked for and given back: SCHED_FIFO, mlockall, PM QoS.
+
+    Returns
+    -------
+    dict[str, Any]
+        Each measure and what was given.
+    """
     fifo = _try_fifo() if hasattr(os, "sched_setscheduler") else "not available on this system"
     grant = request(RealtimeRequest(priority=0, cpu=-2, lock_memory=True, cpu_latency=0))
     try:
@@ -173,7 +191,13 @@ def granted() -> dict[str, Any]:
 
 
 def throttling() -> dict[str, Any]:
-    """The kernel's real-time throttling: runtime of period [us] (-1: none)."""
+    """The kernel's real-time throttling: runtime of period [us] (-1: none).
+
+    Returns
+    -------
+    dict[str, Any]
+        ``runtime_us`` and ``period_us``.
+    """
     runtime = _read("/proc/sys/kernel/sched_rt_runtime_us")
     period = _read("/proc/sys/kernel/sched_rt_period_us")
     return {
@@ -183,7 +207,13 @@ def throttling() -> dict[str, Any]:
 
 
 def cpufreq() -> dict[str, Any]:
-    """Each CPU's frequency governor (an empty mapping where the kernel has no cpufreq here)."""
+    """Each CPU's frequency governor (an empty mapping where the kernel has no cpufreq here).
+
+    Returns
+    -------
+    dict[str, Any]
+        CPU -> governor.
+    """
     out = {}
     for cpu in sorted(SYS_CPU.glob("cpu[0-9]*")):
         governor = _read(cpu / "cpufreq" / "scaling_governor")
@@ -193,7 +223,13 @@ def cpufreq() -> dict[str, Any]:
 
 
 def isolation() -> dict[str, Any]:
-    """Isolated CPUs (isolcpus), nohz_full and rcu_nocbs: the kernel's files and command line."""
+    """Isolated CPUs (isolcpus), nohz_full and rcu_nocbs: the kernel's files and command line.
+
+    Returns
+    -------
+    dict[str, Any]
+        The kernel's files and command line.
+    """
     cmd = _cmdline()
     return {
         "cpus": os.cpu_count(),
@@ -204,7 +240,13 @@ def isolation() -> dict[str, Any]:
 
 
 def hypervisor() -> dict[str, Any]:
-    """Whether the CPU reports a hypervisor, and the steal time since boot [s]."""
+    """Whether the CPU reports a hypervisor, and the steal time since boot [s].
+
+    Returns
+    -------
+    dict[str, Any]
+        ``hypervisor`` and ``steal_s``.
+    """
     flags = ""
     for line in (_read("/proc/cpuinfo") or "").splitlines():
         if line.startswith("flags"):
@@ -218,7 +260,13 @@ def hypervisor() -> dict[str, Any]:
 
 
 def can() -> dict[str, Any]:
-    """SocketCAN in the kernel (a CAN_RAW socket opens), the CAN interfaces and the vcan ones."""
+    """SocketCAN in the kernel (a CAN_RAW socket opens), the CAN interfaces and the vcan ones.
+
+    Returns
+    -------
+    dict[str, Any]
+        Whether CAN_RAW opens, the interfaces, the vcan ones.
+    """
     try:
         with socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW):
             socketcan, why = True, None
@@ -240,7 +288,13 @@ def can() -> dict[str, Any]:
 
 
 def probe_all() -> dict[str, Any]:
-    """Every probe, by name."""
+    """Every probe, by name.
+
+    Returns
+    -------
+    dict[str, Any]
+        Probe name -> its facts.
+    """
     return {
         "kernel": kernel(),
         "cpuidle": cpuidle(),

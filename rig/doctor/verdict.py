@@ -25,7 +25,20 @@ MARGINAL = (0.01, 0.5)  #: ... marginal
 
 
 def floors(periods: Sequence[float], seconds: float) -> list[dict[str, Any]]:
-    """The floor at each period for ``seconds`` [s]: with the PM QoS request and without it."""
+    """The floor at each period for ``seconds`` [s]: with the PM QoS request and without it.
+
+    Parameters
+    ----------
+    periods : Sequence[float]
+        [s] the periods.
+    seconds : float
+        [s] at each.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        Each period's floor, with and without the request.
+    """
     out = []
     for period in periods:
         awake = sleep_floor(period, seconds)
@@ -57,7 +70,18 @@ def _why(awake: dict[str, Any], asleep: dict[str, Any]) -> str:
 
 
 def verdicts(measured: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """A verdict per period, from its floor with the request (what a run gets) and without."""
+    """A verdict per period, from its floor with the request (what a run gets) and without.
+
+    Parameters
+    ----------
+    measured : Sequence[dict[str, Any]]
+        ``floors``'s result.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        A verdict per period.
+    """
     out = []
     for m in measured:
         period = m["period_s"]
@@ -74,7 +98,20 @@ def verdicts(measured: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def advice(facts: dict[str, Any], measured: Sequence[dict[str, Any]]) -> list[dict[str, str]]:
-    """What to change, each naming the setting, from the probes and the floors."""
+    """What to change, each naming the setting, from the probes and the floors.
+
+    Parameters
+    ----------
+    facts : dict[str, Any]
+        ``probe_all``'s result.
+    measured : Sequence[dict[str, Any]]
+        ``floors``'s result.
+
+    Returns
+    -------
+    list[dict[str, str]]
+        What to change: ``setting`` and why.
+    """
     out: list[dict[str, str]] = []
 
     def say(setting: str, now: str, change: str) -> None:

@@ -111,7 +111,34 @@ def run_emulator(
     """Run until Ctrl-C (or ``stop`` is set); ``ready(port)`` is called once serving; ``bitrate``
     [bit/s]: the socketcand server's bus. In real time, ``realtime`` is asked for this thread (the
     clock) before the server starts, so the threads that carry the frames, which it starts,
-    inherit its policy and CPU (``rig.host.realtime``)."""
+    inherit its policy and CPU (``rig.host.realtime``).
+
+    Parameters
+    ----------
+    world : World
+        The emulated devices.
+    label : str
+        What is served, in its first line.
+    interface, channel : str | None, optional
+        A python-can bus to serve on (None: socketcand).
+    host, port, optional
+        The socketcand server's address.
+    stop : threading.Event | None, optional
+        Set to end it (None: Ctrl-C only).
+    ready : Any, optional
+        ``ready(port)`` once serving.
+    lockstep : bool, optional
+        The devices' time is the SYNC count (else the clock).
+    realtime : RealtimeRequest | None, optional
+        Asked for the clock's thread before the server starts.
+    bitrate : float, optional
+        [bit/s] the socketcand server's bus.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     stop = stop or threading.Event()
     lock = threading.RLock()
     network = canopen.Network()
@@ -187,7 +214,18 @@ def run_emulator(
 def rest_plants(devices: list[EmulatedNode]) -> bool:
     """Every shaft of ``devices`` back to rest at angle zero (``Shaft.rest``), unless a drive on
     one is enabled (a turning motor is not zeroed under its drive): then nothing, and a warning
-    naming the nodes. True when done."""
+    naming the nodes. True when done.
+
+    Parameters
+    ----------
+    devices : list[EmulatedNode]
+        The emulated nodes.
+
+    Returns
+    -------
+    bool
+        Done (no drive enabled).
+    """
     enabled = [d.node_id for d in devices if getattr(d, "enabled", False)]
     if enabled:
         log.warning("plant reset refused: node(s) %s enabled; disable them first", enabled)
@@ -209,6 +247,27 @@ def run_modbus_emulator(
     """Serve an emulated Modbus inverter (TCP on ``host``:``port``, or RTU on ``serial``) until Ctrl-C.
 
     ``params`` set ``InverterModel`` fields by name (accel, slip, max_speed, comm_loss_timeout, ...).
+
+    Parameters
+    ----------
+    family : str
+        The register map.
+    params : dict[str, str]
+        ``InverterModel`` fields by name.
+    host, port, optional
+        Modbus TCP's address.
+    serial : str | None, optional
+        A serial device for RTU (None: TCP).
+
+    Returns
+    -------
+    int
+        The exit status.
+
+    Raises
+    ------
+    ConfigError
+        If the map is unknown, the serial device missing, or it cannot serve.
     """
     import asyncio
 

@@ -14,7 +14,22 @@ __all__ = ["spawn_emulator", "spawn_emulator_line", "spawn_rig", "stop_rig"]
 def spawn_rig(*args: str, quiet: bool = False, stderr: bool = False) -> tuple[subprocess.Popen[str], str]:
     """Start ``python -m rig.cli ARGS`` unbuffered; returns the process and its first stdout line
     ("" when ``quiet``: stdout is discarded and nothing is waited for). stderr is kept for
-    ``stop_rig`` only with ``stderr=True`` (an unread pipe would block a chatty process)."""
+    ``stop_rig`` only with ``stderr=True`` (an unread pipe would block a chatty process).
+
+    Parameters
+    ----------
+    *args : str
+        ``rig``'s arguments.
+    quiet : bool, optional
+        stdout discarded, nothing waited for.
+    stderr : bool, optional
+        Keep stderr for ``stop_rig``.
+
+    Returns
+    -------
+    tuple[subprocess.Popen[str], str]
+        (the process, its first stdout line).
+    """
     proc = subprocess.Popen(
         [sys.executable, "-m", "rig.cli", *args],
         stdout=subprocess.DEVNULL if quiet else subprocess.PIPE,
@@ -31,7 +46,20 @@ def spawn_rig(*args: str, quiet: bool = False, stderr: bool = False) -> tuple[su
 
 
 def stop_rig(proc: subprocess.Popen[str], *, timeout: float = 60.0) -> tuple[str, str]:
-    """Ctrl-C (SIGINT) and wait; returns the rest of (stdout, stderr)."""
+    """Ctrl-C (SIGINT) and wait; returns the rest of (stdout, stderr).
+
+    Parameters
+    ----------
+    proc : subprocess.Popen[str]
+        The process.
+    timeout : float, optional
+        [s] to wait.
+
+    Returns
+    -------
+    tuple[str, str]
+        The rest of (stdout, stderr).
+    """
     proc.send_signal(signal.SIGINT)
     try:
         out, err = proc.communicate(timeout=timeout)
@@ -43,14 +71,41 @@ def stop_rig(proc: subprocess.Popen[str], *, timeout: float = 60.0) -> tuple[str
 
 
 def spawn_emulator(*args: str) -> tuple[subprocess.Popen[str], int]:
-    """``rig emulate ARGS`` on a free socketcand port of 127.0.0.1: the process and the port."""
+    """``rig emulate ARGS`` on a free socketcand port of 127.0.0.1: the process and the port.
+
+    Parameters
+    ----------
+    *args : str
+        ``rig emulate``'s arguments.
+
+    Returns
+    -------
+    tuple[subprocess.Popen[str], int]
+        (the process, its port).
+    """
     proc, port, _ = spawn_emulator_line(*args)
     return proc, port
 
 
 def spawn_emulator_line(*args: str) -> tuple[subprocess.Popen[str], int, str]:
     """``spawn_emulator``, and the line the emulator printed when it began to serve (what it
-    serves, where, and the real-time scheduling it was granted)."""
+    serves, where, and the real-time scheduling it was granted).
+
+    Parameters
+    ----------
+    *args : str
+        ``rig emulate``'s arguments.
+
+    Returns
+    -------
+    tuple[subprocess.Popen[str], int, str]
+        (the process, its port, its first line).
+
+    Raises
+    ------
+    RuntimeError
+        If it did not start (its line and stderr said).
+    """
     proc, line = spawn_rig("emulate", *args, "--socketcand-port", "0", stderr=True)
     match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
     if match is None:

@@ -169,7 +169,20 @@ SCENARIOS.update(WIRE_SCENARIOS)
 def run_faults(
     names: list[str] | None = None, *, progress: Callable[[int, int], None] | None = None
 ) -> list[dict[str, Any]]:
-    """Run the scenarios (all by default); one row each; ``progress(done, total)`` after each."""
+    """Run the scenarios (all by default); one row each; ``progress(done, total)`` after each.
+
+    Parameters
+    ----------
+    names : list[str] | None, optional
+        The scenarios (None: all).
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(done, total)``.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        One row each.
+    """
     rows = []
     names = names or list(SCENARIOS)
     with tempfile.TemporaryDirectory() as out:

@@ -253,7 +253,13 @@ _WRITE_OVERRIDES = (1, 2, 3)  #: CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH, CAP_FOWN
 def without_write_override() -> None:
     """Before an exec: root's right to write past permission bits dropped from what the exec'd
     program gets, so a ``chmod 555`` stops it as it stops any user (nothing to drop for another
-    user)."""
+    user).
+
+    Raises
+    ------
+    OSError
+        If the capability cannot be dropped.
+    """
     if os.geteuid() != 0:
         return
     libc = ctypes.CDLL(None, use_errno=True)
@@ -272,7 +278,18 @@ os.execv(sys.argv[1], sys.argv[1:])
 
 
 def rows_on_disk(run_dir: Path) -> int:
-    """The rows of ``run_dir``'s samples.csv (0 where it cannot be read)."""
+    """The rows of ``run_dir``'s samples.csv (0 where it cannot be read).
+
+    Parameters
+    ----------
+    run_dir : Path
+        A run's folder.
+
+    Returns
+    -------
+    int
+        Rows.
+    """
     with contextlib.suppress(OSError), (run_dir / "samples.csv").open() as f:
         return sum(1 for _ in f) - 1
     return 0

@@ -27,7 +27,22 @@ __all__ = ["LinkRelay", "Watcher", "wait_for"]
 
 
 def wait_for(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    """Poll ``predicate`` every 10 ms; TimeoutError naming ``what`` after ``timeout`` [s]."""
+    """Poll ``predicate`` every 10 ms; TimeoutError naming ``what`` after ``timeout`` [s].
+
+    Parameters
+    ----------
+    predicate : Callable[[], bool]
+        What is waited for.
+    timeout : float
+        [s].
+    what : str
+        Named in the error.
+
+    Raises
+    ------
+    TimeoutError
+        If it is not true within ``timeout``.
+    """
     deadline = time.monotonic() + timeout
     while not predicate():
         if time.monotonic() > deadline:
@@ -37,7 +52,17 @@ def wait_for(predicate: Callable[[], bool], timeout: float, what: str) -> None:
 
 class Watcher:
     """A socketcand client of the emulator that counts the drive's frames and, once the host has
-    let go of the node, reads it by SDO."""
+    let go of the node, reads it by SDO.
+
+    Parameters
+    ----------
+    port : int
+        The emulator's socketcand port.
+    eds : Path
+        The drive's EDS.
+    node_id : int, optional
+        The drive's node.
+    """
 
     def __init__(self, port: int, eds: Path, node_id: int = 1) -> None:
         bus = open_bus("socketcand", "can0", host="127.0.0.1", port=port)
@@ -82,11 +107,24 @@ class Watcher:
             return None
 
     def state(self) -> PowerState | None:
+        """The drive's state by SDO (None: no answer).
+
+        Returns
+        -------
+        PowerState | None
+            Its state.
+        """
         word = self._read(cia.STATUSWORD)
         return None if word is None else decode_statusword(word)
 
     def speed(self) -> float | None:
-        """The drive's 0x606C [rad/s] (None: no answer)."""
+        """The drive's 0x606C [rad/s] (None: no answer).
+
+        Returns
+        -------
+        float | None
+            [rad/s].
+        """
         raw = self._read(cia.VELOCITY_ACTUAL)
         if raw is None:
             return None
@@ -94,6 +132,7 @@ class Watcher:
         return float(raw) / units.velocity
 
     def close(self) -> None:
+        """Disconnect."""
         with contextlib.suppress(Exception):
             self.network.disconnect()
 
@@ -104,7 +143,13 @@ class LinkRelay:
     ``TCP_NODELAY``, as the host's and the emulator's: with Nagle's algorithm, a small write
     waited for the ACK of the one before, which the peer delays (40 ms on Linux), and the relay
     held the host's SYNCs and the drive's TPDOs about 40 ms every few dozen periods, a link no
-    switch makes (the cycles after each hold acted on samples up to 20 periods old)."""
+    switch makes (the cycles after each hold acted on samples up to 20 periods old).
+
+    Parameters
+    ----------
+    port : int
+        The emulator's socketcand port.
+    """
 
     def __init__(self, port: int) -> None:
         self._target = port
@@ -133,6 +178,7 @@ class LinkRelay:
                 b.sendall(data)
 
     def drop(self) -> None:
+        """Cut the link on both sides."""
         self._server.close()
         for s in self._sockets:
             with contextlib.suppress(OSError):

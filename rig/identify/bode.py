@@ -12,7 +12,20 @@ __all__ = ["plot_bode"]
 
 def plot_bode(doc: dict[str, Any], path: str) -> Any:
     """Magnitude [dB], phase [deg] and coherence against frequency [Hz] to ``path``; the figure.
-    ImportError without matplotlib."""
+    ImportError without matplotlib.
+
+    Parameters
+    ----------
+    doc : dict[str, Any]
+        The ``frequency_response`` document.
+    path : str
+        The file.
+
+    Returns
+    -------
+    Any
+        The figure.
+    """
     from rig.report.plots import require_pyplot
 
     plt = require_pyplot()

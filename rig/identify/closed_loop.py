@@ -40,7 +40,25 @@ SPEED_MARGIN = 2.0
 
 def speed_loop(b: float, crossover_hz: float) -> tuple[float, float]:
     """(k_p [unit of u per rad/s], k_i [unit of u per rad]) crossing over at ``crossover_hz``
-    on b / s (b [rad/s^2 per unit of u])."""
+    on b / s (b [rad/s^2 per unit of u]).
+
+    Parameters
+    ----------
+    b : float
+        [rad/s^2 per unit of u] of b / s, > 0.
+    crossover_hz : float
+        [Hz] the crossover, > 0.
+
+    Returns
+    -------
+    tuple[float, float]
+        (k_p [unit of u per rad/s], k_i [unit of u per rad]).
+
+    Raises
+    ------
+    ValueError
+        If ``b`` or ``crossover_hz`` is not > 0.
+    """
     if not (b > 0.0 and math.isfinite(b)):
         raise ValueError(f"b_m = {b!r}: expected > 0")
     if not (crossover_hz > 0.0 and math.isfinite(crossover_hz)):
@@ -52,7 +70,24 @@ def speed_loop(b: float, crossover_hz: float) -> tuple[float, float]:
 
 def speed_swing(r: np.ndarray, dt: float, *, a: float, b: float, kp: float, ki: float) -> float:
     """[rad/s] the peak of the speed's periodic response to ``r`` (one period, [unit of u]) in
-    the loop on (3.5) = (a, b) with a period's delay (module doc)."""
+    the loop on (3.5) = (a, b) with a period's delay (module doc).
+
+    Parameters
+    ----------
+    r : np.ndarray
+        One period of the excitation [unit of u].
+    dt : float
+        [s] the period T.
+    a, b : float
+        (3.5)'s a_m [1/s] and b_m.
+    kp, ki : float
+        The loop's gains (``speed_loop``).
+
+    Returns
+    -------
+    float
+        [rad/s] the peak.
+    """
     from rig.identify.frequency import model_speed_response
 
     n = len(r)
@@ -67,7 +102,20 @@ def speed_swing(r: np.ndarray, dt: float, *, a: float, b: float, kp: float, ki: 
 
 def settle_time(kp: float, ki: float, settle: float) -> float:
     """[s] ``settle`` time constants of the loop's double pole at -omega_c / 2, omega_c = 4 k_i / k_p
-    (``speed_loop``)."""
+    (``speed_loop``).
+
+    Parameters
+    ----------
+    kp, ki : float
+        The loop's gains.
+    settle : float
+        Time constants.
+
+    Returns
+    -------
+    float
+        [s].
+    """
     return settle * kp / (2.0 * ki) if ki > 0.0 else math.inf
 
 
@@ -87,7 +135,33 @@ def fit_model(
     (magnitude in nepers and phase in radians alike); standard errors from s^2 (J^T J)^-1.
     Then, the model held, the offset d and the initial state are fitted by linear least squares
     on the positions after the dropped transient, and the held-out fit is computed on the last
-    ``holdout`` of them (``rig.identify.estimate.held_out_fit``)."""
+    ``holdout`` of them (``rig.identify.estimate.held_out_fit``).
+
+    Parameters
+    ----------
+    fr : FrequencyResponse
+        The frequency response.
+    u : np.ndarray
+        The command [unit of u].
+    theta : np.ndarray
+        The position [rad].
+    input : str
+        "voltage" or "torque".
+    max_delay : int, optional
+        The most delay tried [samples].
+    holdout : float, optional
+        The share of the record kept for the fit figure.
+
+    Returns
+    -------
+    IdentResult
+        The model.
+
+    Raises
+    ------
+    IdentificationError
+        If too few bins are coherent to fit it.
+    """
     import scipy.optimize
 
     from rig.identify.frequency import model_speed_response

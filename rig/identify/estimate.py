@@ -10,7 +10,7 @@ delay of k samples (model dw/dt = -a w + b u(t - k T) + d, d the offset):
 1. Least squares in the position domain, the model integrated twice:
    theta_n - theta_0 = w_0 t_n - a int(theta - theta_0) + b int int u + d t_n^2/2,
    for each delay k = 0..max_delay; the k with the least residual wins.
-   (Differencing quantised positions at 1 kHz is biased by about 14 %: not used.)
+   (Differencing quantised positions is biased, docs/identification.md: not used.)
 2. Instrumental variables: the same regression with the measured position in
    the regressor replaced by the position simulated from step 1.
 3. Output error: scipy.optimize.least_squares fits (a, b, d, theta_0, w_0) so the
@@ -63,17 +63,17 @@ class IdentificationError(ValueError):
 class IdentResult:
     """Identified (3.5) with its uncertainty; SI units."""
 
-    a_m: float
-    b_m: float
-    a_m_stderr: float
-    b_m_stderr: float
-    a_m_ci95: tuple[float, float]
-    b_m_ci95: tuple[float, float]
-    delay_samples: int
+    a_m: float  #: [1/s] of (3.5)
+    b_m: float  #: of (3.5), per unit of the input
+    a_m_stderr: float  #: its standard error
+    b_m_stderr: float  #: its standard error
+    a_m_ci95: tuple[float, float]  #: its 95 % confidence interval
+    b_m_ci95: tuple[float, float]  #: its 95 % confidence interval
+    delay_samples: int  #: the input's delay [samples]
     offset: float  #: d [rad/s^2] (Coulomb friction and load as an acceleration)
-    fit_percent: float
-    dt: float
-    samples: int
+    fit_percent: float  #: [%] the held-out fit
+    dt: float  #: [s] the period
+    samples: int  #: of the record
     input: str = "voltage"  #: what u was: "voltage" [V] (mode -1) or "torque" [N m] (CST)
     #: of ``samples``, those of cycles a real-time run skipped, filled in (``rundir.on_period_grid``)
     filled_samples: int = 0
@@ -95,6 +95,13 @@ class IdentResult:
         return INPUTS[self.input][1]
 
     def as_dict(self) -> dict[str, object]:
+        """JSON-ready (identification.json).
+
+        Returns
+        -------
+        dict[str, object]
+            The fields by name.
+        """
         return {**asdict(self), "input_unit": self.input_unit, "b_m_unit": self.b_m_unit}
 
 
@@ -102,7 +109,35 @@ def excitation(
     kind: str, *, u0: float, amplitude: float, clock: float, dt: float, duration: float, seed: int = 0
 ) -> np.ndarray:
     """The input sequence u_k [V]: ``prbs`` (a maximum-length-like random binary signal held
-    for ``clock`` seconds per bit) or ``steps`` (alternating +-amplitude every 4 clocks)."""
+    for ``clock`` seconds per bit) or ``steps`` (alternating +-amplitude every 4 clocks).
+
+    Parameters
+    ----------
+    kind : str
+        "prbs" or "steps".
+    u0 : float
+        [V] the mean.
+    amplitude : float
+        [V] about it.
+    clock : float
+        [s] a bit's hold.
+    dt : float
+        [s] the period.
+    duration : float
+        [s].
+    seed : int, optional
+        Of the random bits.
+
+    Returns
+    -------
+    np.ndarray
+        u_k [V].
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is neither.
+    """
     n = round(duration / dt)
     per_bit = max(1, round(clock / dt))
     bits = math.ceil(n / per_bit)
@@ -123,7 +158,24 @@ def _shift(u: np.ndarray, k: int) -> np.ndarray:
 
 
 def simulate_positions(p: np.ndarray, u: np.ndarray, dt: float, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Exact ZOH response of (3.5) with offset: p = (a, b, d, theta_0, w_0); returns (theta, w) per sample."""
+    """Exact ZOH response of (3.5) with offset: p = (a, b, d, theta_0, w_0); returns (theta, w) per sample.
+
+    Parameters
+    ----------
+    p : np.ndarray
+        (a, b, d, theta_0, w_0).
+    u : np.ndarray
+        The input per sample.
+    dt : float
+        [s] the period.
+    k : int
+        The delay [samples].
+
+    Returns
+    -------
+    tuple[np.ndarray, np.ndarray]
+        (theta [rad], w [rad/s]).
+    """
     import scipy.signal
 
     a, b, d, theta0, w0 = p
@@ -238,7 +290,33 @@ def estimate(
     input: str = "voltage",
 ) -> IdentResult:
     """Identify (3.5) from the command u [V, or N m with ``input="torque"``] and the measured
-    position theta [rad] per sample."""
+    position theta [rad] per sample.
+
+    Parameters
+    ----------
+    u : np.ndarray
+        The command [V, or N m].
+    theta : np.ndarray
+        The position [rad].
+    dt : float
+        [s] the period.
+    max_delay : int, optional
+        The most delay tried [samples].
+    holdout : float, optional
+        The share of the record kept for the fit figure.
+    input : str, optional
+        "voltage" or "torque".
+
+    Returns
+    -------
+    IdentResult
+        The model.
+
+    Raises
+    ------
+    IdentificationError
+        If the record is too short, the motor did not move, or the fit fails.
+    """
     if input not in INPUTS:
         raise IdentificationError(f"input {input!r}: voltage or torque")
     u = np.asarray(u, dtype=float)
@@ -274,7 +352,18 @@ def estimate(
 def quantum(theta: np.ndarray) -> float:
     """The encoder's count [rad]: the greatest q of which every step of the position is a whole
     multiple (a fast shaft may never move by one count in a period: steps of 2 and 3 counts give
-    one), the smallest step where they have no such common measure up to an eighth of it."""
+    one), the smallest step where they have no such common measure up to an eighth of it.
+
+    Parameters
+    ----------
+    theta : np.ndarray
+        The position [rad].
+
+    Returns
+    -------
+    float
+        [rad] one count.
+    """
     steps = np.abs(np.diff(theta))
     steps = steps[steps > 1e-12]
     if not len(steps):
@@ -290,7 +379,24 @@ def quantum(theta: np.ndarray) -> float:
 def held_out_fit(theta: np.ndarray, w_model: np.ndarray, n_fit: int, dt: float) -> tuple[float, float, float]:
     """(fit [%], residual RMS [rad/s], quantisation noise RMS [rad/s]) of the model's speed
     ``w_model`` against the central differences of the measured positions ``theta`` [rad]
-    from sample ``n_fit`` on (module doc)."""
+    from sample ``n_fit`` on (module doc).
+
+    Parameters
+    ----------
+    theta : np.ndarray
+        The measured position [rad].
+    w_model : np.ndarray
+        [rad/s] the model's speed.
+    n_fit : int
+        The first held-out sample.
+    dt : float
+        [s] the period.
+
+    Returns
+    -------
+    tuple[float, float, float]
+        (fit [%], residual RMS [rad/s], quantisation RMS [rad/s]).
+    """
     w_meas = np.gradient(theta, dt)
     yv, yh = w_meas[n_fit + 1 : -1], w_model[n_fit + 1 : -1]
     denom = float(np.linalg.norm(yv - yv.mean()))
@@ -318,7 +424,38 @@ def virtual_experiment(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The bench's experiment without a bus: the exact (3.7) response with Coulomb friction
     (an acceleration ``coulomb`` b_m against the motion, i.e. ``coulomb`` volts), a delay of
-    ``delay`` samples, Gaussian position noise of ``noise_counts`` counts, then quantisation."""
+    ``delay`` samples, Gaussian position noise of ``noise_counts`` counts, then quantisation.
+
+    Parameters
+    ----------
+    a_m, b_m : float
+        The motor (3.7).
+    dt : float, optional
+        [s] the period.
+    duration : float, optional
+        [s].
+    seed : int, optional
+        Of the excitation and the noise.
+    counts_per_rev : int, optional
+        The encoder's.
+    coulomb : float, optional
+        [V] the Coulomb friction.
+    delay : int, optional
+        [samples].
+    noise_counts : float, optional
+        Gaussian noise [counts].
+    u0, amplitude : float, optional
+        [V] the excitation's mean and amplitude.
+    clock : float, optional
+        [s] a bit's hold.
+    kind : str, optional
+        "prbs" or "steps".
+
+    Returns
+    -------
+    tuple[np.ndarray, np.ndarray]
+        (u [V], theta [rad]).
+    """
     rng = np.random.default_rng(seed + 10_000)
     u = excitation(kind, u0=u0, amplitude=amplitude, clock=clock, dt=dt, duration=duration, seed=seed)
     theta, _ = simulate_positions(np.array([a_m, b_m, -coulomb * b_m, 0.0, 0.0]), u, dt, delay)

@@ -60,7 +60,36 @@ def experiment_config(
     period [samples], and the law holds one period (config.json stays small); ``dither`` > 0:
     the law adds white noise of that standard deviation, seeded by ``seed``. ``loop``
     ({"speed", "kp", "ki"}): the closed-loop experiment instead, the law ``excited-speed``
-    (``rig.identify.closed_loop``) with ``u`` the excitation added to its command."""
+    (``rig.identify.closed_loop``) with ``u`` the excitation added to its command.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The rig.
+    u : np.ndarray
+        The input per period [V, or N m].
+    preset : str | None, optional
+        The emulator's preset (None: the file's).
+    params : dict[str, Any] | None, optional
+        Its parameters.
+    input : str, optional
+        "voltage" or "torque".
+    one_sign : bool, optional
+        The experiment keeps the speed of one sign (no friction identified).
+    repeat : int, optional
+        Periods of ``u`` repeated (0: ``u`` once).
+    dither : float, optional
+        White dither's standard deviation [unit of u].
+    seed : int, optional
+        Of the dither.
+    loop : dict[str, float] | None, optional
+        A closed speed loop's gains (``excited-speed``; None: open loop).
+
+    Returns
+    -------
+    RigConfig
+        The experiment's configuration.
+    """
     target = cfg.controller.commands[0]
     axes = tuple(
         dataclasses.replace(
@@ -103,7 +132,22 @@ def run_experiment(
     cfg: RigConfig, *, emulate: bool, progress: Callable[[int, int], None] | None = None
 ) -> dict[str, Any]:
     """Run the experiment configuration ``cfg`` (``experiment_config``); returns the run summary.
-    ``progress(k, cycles)`` every 1 % of it."""
+    ``progress(k, cycles)`` every 1 % of it.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        ``experiment_config``'s.
+    emulate : bool
+        On the emulator.
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(k, cycles)``.
+
+    Returns
+    -------
+    dict[str, Any]
+        The run's summary.
+    """
     n = cfg.controller.params.get("cycles") or len(cfg.controller.params["u"])
     with Session(cfg, emulate=emulate, cycles=n) as session:
         session.start()
@@ -123,7 +167,22 @@ def identify_from_log(
     beside it (closed-loop data) or says that these data cannot separate it (one sign). A
     closed-loop experiment's (law ``excited-speed``) model is fitted to its frequency response
     (``rig.identify.closed_loop.fit_model``) between ``f_min`` (default: its excitation's
-    period's) and ``f_max`` (default fs/5) [Hz]."""
+    period's) and ``f_max`` (default fs/5) [Hz].
+
+    Parameters
+    ----------
+    run_dir : str | Path
+        The run.
+    max_delay : int, optional
+        The most delay tried [samples].
+    f_min, f_max : float | None, optional
+        [Hz] a closed loop's band (None: the defaults).
+
+    Returns
+    -------
+    IdentResult
+        The model.
+    """
     from rig.identify.friction import estimate_friction, identify_with_friction, one_sign_result, reverses
 
     run = read_run(run_dir)
@@ -158,7 +217,27 @@ def measure_response(
     transient dropped (SETTLE / ``a_m`` [1/s], or the closed loop's slowest pole); with the
     response to the speed the read axis reported, where it was recorded on the period's grid
     (no skipped cycle). A closed-loop experiment's (law ``excited-speed``) is estimated from
-    its recorded excitation r."""
+    its recorded excitation r.
+
+    Parameters
+    ----------
+    run_dir : str | Path
+        The run.
+    a_m : float
+        [1/s] for the transient dropped.
+    f_min, f_max
+        [Hz] the band (None: fs/5).
+
+    Returns
+    -------
+    FrequencyResponse
+        The response.
+
+    Raises
+    ------
+    IdentificationError
+        If the run has no periodic excitation to measure.
+    """
     from rig.identify.closed_loop import settle_time
     from rig.identify.frequency import SETTLE, frequency_response
 
@@ -190,7 +269,24 @@ def frequency_from_log(
     run_dir: str | Path, result: IdentResult, excitation: str, *, f_min: float, f_max: float | None
 ) -> dict[str, Any]:
     """The ``frequency_response`` document of a recorded run (``measure_response``), the fitted
-    model ``result``'s response drawn beside it."""
+    model ``result``'s response drawn beside it.
+
+    Parameters
+    ----------
+    run_dir : str | Path
+        The run.
+    result : IdentResult
+        The fitted model.
+    excitation : str
+        Its name.
+    f_min, f_max
+        [Hz] the band.
+
+    Returns
+    -------
+    dict[str, Any]
+        The document.
+    """
     from rig.identify.frequency import response_document
 
     fr = measure_response(run_dir, a_m=result.a_m, f_min=f_min, f_max=f_max)
@@ -247,7 +343,18 @@ def run_input(run_dir: str | Path) -> str:
 
 
 def run_controller(run_dir: str | Path) -> str | None:
-    """The kind of the run's law ("replay": the open-loop experiment); None where unknown."""
+    """The kind of the run's law ("replay": the open-loop experiment); None where unknown.
+
+    Parameters
+    ----------
+    run_dir : str | Path
+        The run.
+
+    Returns
+    -------
+    str | None
+        The law's kind, or None.
+    """
     try:
         cfg: Any = _run_config(run_dir)
         kind = cfg["controller"]["kind"]

@@ -79,7 +79,25 @@ F_MAX_FRACTION = 0.2
 
 
 def period_samples(f_min: float, dt: float) -> int:
-    """N = round(1 / (f_min T)): the excitation's period and the Welch segment [samples]."""
+    """N = round(1 / (f_min T)): the excitation's period and the Welch segment [samples].
+
+    Parameters
+    ----------
+    f_min : float
+        [Hz] > 0.
+    dt : float
+        [s] the period T.
+
+    Returns
+    -------
+    int
+        N.
+
+    Raises
+    ------
+    IdentificationError
+        If ``f_min`` is not > 0 or gives too few samples.
+    """
     if not (math.isfinite(f_min) and f_min > 0.0):
         raise IdentificationError(f"f_min = {f_min!r} Hz: expected a frequency > 0")
     return max(8, round(1.0 / (f_min * dt)))
@@ -106,7 +124,35 @@ def periodic_excitation(
     f_max: float | None = None,
 ) -> np.ndarray:
     """u_k = u0 + amplitude x_k [unit of u], x a ``multisine`` or ``chirp`` of period
-    1/f_min (rounded to samples) between f_min and f_max [Hz] (default fs/5), peak 1."""
+    1/f_min (rounded to samples) between f_min and f_max [Hz] (default fs/5), peak 1.
+
+    Parameters
+    ----------
+    kind : str
+        "multisine" or "chirp".
+    u0 : float
+        The mean [unit of u].
+    amplitude : float
+        About it [unit of u].
+    dt : float
+        [s] the period T.
+    duration : float
+        [s].
+    f_min, f_max, optional
+        [Hz] the band (None: fs/5).
+
+    Returns
+    -------
+    np.ndarray
+        u_k.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is neither.
+    IdentificationError
+        If the band holds no frequency line.
+    """
     import scipy.signal
 
     n_period = period_samples(f_min, dt)
@@ -134,7 +180,24 @@ def periodic_excitation(
 
 def model_speed_response(a: float, b: float, dt: float, delay: int, f: np.ndarray) -> np.ndarray:
     """The exact discrete response of (3.5) (a [1/s], b) from u to the speed by backward
-    difference, with a delay of ``delay`` samples, at the frequencies ``f`` [Hz] (module doc)."""
+    difference, with a delay of ``delay`` samples, at the frequencies ``f`` [Hz] (module doc).
+
+    Parameters
+    ----------
+    a, b : float
+        (3.5)'s a_m [1/s] and b_m.
+    dt : float
+        [s] the period.
+    delay : int
+        [samples].
+    f : np.ndarray
+        [Hz].
+
+    Returns
+    -------
+    np.ndarray
+        The complex response.
+    """
     import scipy.signal
 
     alpha = math.exp(-a * dt)
@@ -148,7 +211,24 @@ def model_speed_response(a: float, b: float, dt: float, delay: int, f: np.ndarra
 
 def model_velocity_response(a: float, b: float, dt: float, delay: int, f: np.ndarray) -> np.ndarray:
     """(3.5)'s response from u to the speed sampled at the instants of the position (a drive's
-    reported speed): b g z^-(k+1) / (1 - alpha z^-1) at ``f`` [Hz]."""
+    reported speed): b g z^-(k+1) / (1 - alpha z^-1) at ``f`` [Hz].
+
+    Parameters
+    ----------
+    a, b : float
+        (3.5)'s a_m [1/s] and b_m.
+    dt : float
+        [s] the period.
+    delay : int
+        [samples].
+    f : np.ndarray
+        [Hz].
+
+    Returns
+    -------
+    np.ndarray
+        The complex response.
+    """
     import scipy.signal
 
     alpha = math.exp(-a * dt)
@@ -160,7 +240,20 @@ def model_velocity_response(a: float, b: float, dt: float, delay: int, f: np.nda
 
 
 def speed_to_position(f: np.ndarray, dt: float) -> np.ndarray:
-    """T / (1 - z^-1) at ``f`` [Hz]: the position from the backward-difference speed."""
+    """T / (1 - z^-1) at ``f`` [Hz]: the position from the backward-difference speed.
+
+    Parameters
+    ----------
+    f : np.ndarray
+        [Hz].
+    dt : float
+        [s] the period T.
+
+    Returns
+    -------
+    np.ndarray
+        T / (1 - z^-1).
+    """
     z_inv = np.exp(-2j * math.pi * np.asarray(f) * dt)
     out: np.ndarray = dt / (1.0 - z_inv)
     return out
@@ -177,11 +270,11 @@ class FrequencyResponse:
     averages: int  #: Welch segments
     dropped: float  #: [s] of the start's transient, not used
     window: str  #: "boxcar" (periodic excitation, one period a segment) or "hann"
-    f_min: float
-    f_max: float
+    f_min: float  #: [Hz] the band's lower end
+    f_max: float  #: [Hz] its upper end
     #: from u to the speed the drive reported, and its coherence (None: not recorded)
     velocity: np.ndarray | None = None
-    velocity_coherence: np.ndarray | None = None
+    velocity_coherence: np.ndarray | None = None  #: the reported speed's coherence (None: none)
     #: "H1" (open loop) or "indirect" (closed loop: G_ry / G_ru, r the excitation)
     method: str = "H1"
     #: the indirect estimate's coherence from r to u (``coherence`` is the lesser of it and r to y)
@@ -200,12 +293,29 @@ class FrequencyResponse:
         return out
 
     def coherent_band(self) -> tuple[float, float] | None:
-        """[Hz] the longest run of contiguous coherent bins; None when no bin is coherent."""
+        """[Hz] the longest run of contiguous coherent bins; None when no bin is coherent.
+
+        Returns
+        -------
+        tuple[float, float] | None
+            (first, last) [Hz], or None.
+        """
         return longest_run(self.f, self.coherent)
 
     def deviation(self, model: np.ndarray) -> tuple[float, float]:
         """(worst |dB|, worst |degrees|) of the measured speed response against ``model`` (the
-        same bins) over the coherent bins; nan where none is coherent."""
+        same bins) over the coherent bins; nan where none is coherent.
+
+        Parameters
+        ----------
+        model : np.ndarray
+            The model's response at the same bins.
+
+        Returns
+        -------
+        tuple[float, float]
+            (worst |dB|, worst |degrees|).
+        """
         mask = self.coherent
         if not mask.any():
             return math.nan, math.nan
@@ -216,7 +326,20 @@ class FrequencyResponse:
 
 
 def longest_run(f: np.ndarray, ok: np.ndarray) -> tuple[float, float] | None:
-    """(first, last) of ``f`` over the longest run of contiguous True in ``ok``; None if none."""
+    """(first, last) of ``f`` over the longest run of contiguous True in ``ok``; None if none.
+
+    Parameters
+    ----------
+    f : np.ndarray
+        [Hz] the bins.
+    ok : np.ndarray
+        Each bin's flag.
+
+    Returns
+    -------
+    tuple[float, float] | None
+        (first, last), or None.
+    """
     best: tuple[int, int] | None = None
     start = None
     for i, v in enumerate([*ok, False]):
@@ -253,7 +376,35 @@ def frequency_response(
     The first whole periods covering ``settle`` [s] (at least one) are the start's transient and
     are dropped, keeping at least two periods. ``velocity``: the speed the drive reported
     [rad/s] per sample, whose response is estimated too. ``r``: the excitation of a closed-loop
-    experiment, the instrument of the indirect estimate G_ry / G_ru (module doc); without it, H1."""
+    experiment, the instrument of the indirect estimate G_ry / G_ru (module doc); without it, H1.
+
+    Parameters
+    ----------
+    u : np.ndarray
+        The command.
+    theta : np.ndarray
+        The position [rad].
+    dt : float
+        [s] the period.
+    f_min, f_max, optional
+        [Hz] the band (None: fs/5).
+    settle : float, optional
+        [s] the start's transient dropped.
+    velocity : np.ndarray | None, optional
+        The drive's reported speed [rad/s] (None: none).
+    r : np.ndarray | None, optional
+        The excitation, where the loop was closed (None: open loop).
+
+    Returns
+    -------
+    FrequencyResponse
+        The response.
+
+    Raises
+    ------
+    IdentificationError
+        If the record is shorter than a period, or the input has no power in the band.
+    """
     import scipy.signal
 
     u = np.asarray(u, dtype=float)

@@ -66,25 +66,31 @@ CORRELATION_MAX = 0.99
 class FrictionResult:
     """dw/dt = -a w + b u - c sign(w) + d identified; SI; ``separable`` false: c and d are not."""
 
-    separable: bool
+    separable: bool  #: c and d could be told apart
     reason: str  #: why not separable ("" when it is)
     a: float  #: [1/s]
     b: float  #: per unit of the input
     c: float | None  #: Coulomb friction as an acceleration [rad/s^2]
     d: float  #: a constant load as an acceleration [rad/s^2] (with c, where not separable)
-    a_stderr: float
-    b_stderr: float
-    c_stderr: float | None
-    d_stderr: float
-    delay_samples: int
-    input: str
+    a_stderr: float  #: its standard error
+    b_stderr: float  #: its standard error
+    c_stderr: float | None  #: its standard error
+    d_stderr: float  #: its standard error
+    delay_samples: int  #: the input's delay [samples]
+    input: str  #: "voltage" or "torque"
     reversals: int  #: sign changes of the speed in the record (all of it, the held-out part too)
     #: the part of a period the input's change takes on top of ``delay_samples`` [-]
     delay_fraction: float = 0.0
 
     def si(self) -> dict[str, float | None]:
         """In a torque's terms: J [kg m^2], B [N m s/rad], T_c [N m], T_d [N m] and their standard
-        errors (first order); with a voltage, the Coulomb friction in volts, c/b."""
+        errors (first order); with a voltage, the Coulomb friction in volts, c/b.
+
+        Returns
+        -------
+        dict[str, float | None]
+            The figures by name.
+        """
         if self.input != "torque":
             return {"coulomb_voltage": None if self.c is None else self.c / self.b}
         j = 1.0 / self.b
@@ -102,6 +108,13 @@ class FrictionResult:
         }
 
     def as_dict(self) -> dict[str, object]:
+        """JSON-ready.
+
+        Returns
+        -------
+        dict[str, object]
+            The fields and ``si``'s figures.
+        """
         return {**asdict(self), **self.si()}
 
 
@@ -110,7 +123,26 @@ def friction_excitation(
 ) -> np.ndarray:
     """Steps and slow ramps in both directions [unit of u]: a random binary signal of
     +-``amplitude`` held ``clock`` s per bit, on a triangle of +-``amplitude``/2 over the whole
-    record (the slow ramps: the speed crosses zero at all speeds and accelerations)."""
+    record (the slow ramps: the speed crosses zero at all speeds and accelerations).
+
+    Parameters
+    ----------
+    amplitude : float
+        [unit of u].
+    clock : float
+        [s] a bit's hold.
+    dt : float
+        [s] the period.
+    duration : float
+        [s].
+    seed : int, optional
+        Of the random bits.
+
+    Returns
+    -------
+    np.ndarray
+        u_k.
+    """
     n = round(duration / dt)
     per_bit = max(1, round(clock / dt))
     rng = np.random.default_rng(seed)
@@ -124,7 +156,20 @@ def friction_excitation(
 
 def speed_signs(theta: np.ndarray, counts: float) -> np.ndarray:
     """s_k: the sign of theta_k+1 - theta_k-1, 0 where that is under ``counts`` [rad] (one
-    encoder count) or at the ends."""
+    encoder count) or at the ends.
+
+    Parameters
+    ----------
+    theta : np.ndarray
+        The position [rad].
+    counts : float
+        [rad] one encoder count.
+
+    Returns
+    -------
+    np.ndarray
+        s_k.
+    """
     s = np.zeros(len(theta))
     diff = theta[2:] - theta[:-2]
     s[1:-1] = np.where(np.abs(diff) < counts, 0.0, np.sign(diff))
@@ -273,7 +318,26 @@ def estimate_friction(
     u: np.ndarray, theta: np.ndarray, dt: float, *, max_delay: int = 5, input: str = "torque"
 ) -> FrictionResult:
     """Identify dw/dt = -a w + b u - c sign(w) + d from the command u [N m or V] and the
-    measured position theta [rad] per sample (module doc)."""
+    measured position theta [rad] per sample (module doc).
+
+    Parameters
+    ----------
+    u : np.ndarray
+        The command [N m or V].
+    theta : np.ndarray
+        The position [rad].
+    dt : float
+        [s] the period.
+    max_delay : int, optional
+        The most delay tried [samples].
+    input : str, optional
+        "voltage" or "torque".
+
+    Returns
+    -------
+    FrictionResult
+        The friction model.
+    """
     u, theta = np.asarray(u, dtype=float), np.asarray(theta, dtype=float)
     _check(u, theta, input)
     if not reverses(theta):
@@ -289,17 +353,50 @@ def _sign_changes(s: np.ndarray) -> int:
 
 
 def count_reversals(theta: np.ndarray) -> int:
-    """How often the speed (from the position, ``speed_signs``) changes sign in the record."""
+    """How often the speed (from the position, ``speed_signs``) changes sign in the record.
+
+    Parameters
+    ----------
+    theta : np.ndarray
+        The position [rad].
+
+    Returns
+    -------
+    int
+        Sign changes.
+    """
     return _sign_changes(speed_signs(theta, quantum(theta)))
 
 
 def reverses(theta: np.ndarray) -> bool:
-    """The speed (from the position, ``speed_signs``) changes sign in the record."""
+    """The speed (from the position, ``speed_signs``) changes sign in the record.
+
+    Parameters
+    ----------
+    theta : np.ndarray
+        The position [rad].
+
+    Returns
+    -------
+    bool
+        The speed changes sign.
+    """
     return count_reversals(theta) > 0
 
 
 def one_sign_result(input: str) -> FrictionResult:
-    """Not separable: the speed kept one sign."""
+    """Not separable: the speed kept one sign.
+
+    Parameters
+    ----------
+    input : str
+        "voltage" or "torque".
+
+    Returns
+    -------
+    FrictionResult
+        A result saying so.
+    """
     reason = _judge(0.0, np.zeros(4), np.zeros((4, 4)), 0)
     nan = math.nan
     return FrictionResult(False, reason, nan, nan, None, nan, nan, nan, None, nan, 0, input, 0)
@@ -340,7 +437,28 @@ def identify_with_friction(
 ) -> tuple[IdentResult, FrictionResult]:
     """(3.5) and the friction from data whose speed changes sign: the friction model fitted on
     the first 1 - ``holdout`` of the record, its a and b as a_m and b_m, d as the offset, the
-    fit (as ``estimate``'s) on the rest."""
+    fit (as ``estimate``'s) on the rest.
+
+    Parameters
+    ----------
+    u : np.ndarray
+        The command.
+    theta : np.ndarray
+        The position [rad].
+    dt : float
+        [s] the period.
+    max_delay : int, optional
+        The most delay tried [samples].
+    holdout : float, optional
+        The share kept for the fit figure.
+    input : str, optional
+        "voltage" or "torque".
+
+    Returns
+    -------
+    tuple[IdentResult, FrictionResult]
+        (the model, the friction).
+    """
     u, theta = np.asarray(u, dtype=float), np.asarray(theta, dtype=float)
     _check(u, theta, input)
     n_fit = int(len(u) * (1.0 - holdout))

@@ -42,7 +42,20 @@ def checks(result: IdentResult, controller: str | None) -> tuple[bool | None, li
     FLOOR_RATIO times the encoder's quantisation noise (``rig.identify.estimate``): below, the
     speed barely moves against one count per period (a small chirp or multisine), and what the
     model leaves is the encoder's noise, not a missing dynamic; the frequency response's worst
-    deviation is then the measure."""
+    deviation is then the measure.
+
+    Parameters
+    ----------
+    result : IdentResult
+        The identification.
+    controller : str | None
+        The run's law (None: unknown).
+
+    Returns
+    -------
+    tuple[bool | None, list[str]]
+        (closed_loop, warnings).
+    """
     warnings = []
     closed = None if controller is None else controller != "replay"
     if closed and controller != "excited-speed":
@@ -69,7 +82,26 @@ def write_identification(
     extra: dict[str, Any] | None = None,
 ) -> Path:
     """``run_dir``/identification.json (atomically), with ``extra``'s keys (excitation,
-    frequency_response, bode_plot, friction); its path."""
+    frequency_response, bode_plot, friction); its path.
+
+    Parameters
+    ----------
+    run_dir : Path
+        The run.
+    result : IdentResult
+        The identification.
+    closed_loop : bool | None
+        From a closed loop (None: unknown).
+    warnings : list[str]
+        What to say with it.
+    extra : dict[str, Any] | None, optional
+        Further keys.
+
+    Returns
+    -------
+    Path
+        The file's path.
+    """
     from rig.host.recorder import write_atomic
 
     doc: dict[str, Any] = {

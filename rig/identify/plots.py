@@ -11,7 +11,22 @@ __all__ = ["plot_identify"]
 
 
 def plot_identify(run_dir: str, result: object, path: str) -> Any:
-    """Write the measured speed (central differences) and the identified model's speed to ``path``."""
+    """Write the measured speed (central differences) and the identified model's speed to ``path``.
+
+    Parameters
+    ----------
+    run_dir : str
+        The run.
+    result : object
+        The identification.
+    path : str
+        The file.
+
+    Returns
+    -------
+    Any
+        The figure.
+    """
     import numpy as np
 
     from rig.host.rundir import read_run

@@ -48,7 +48,7 @@ CASCADE_RATIO = 4.0
 class TuneRequest:
     """What to design: ``law`` and its numbers (SI; bandwidths in Hz)."""
 
-    law: str
+    law: str  #: the law to design (``rig tune``'s)
     lam: float | None = None  #: position-servo: (7.30)'s sliding eigenvalue [1/s]
     h: float = 16.0  #: position-servo: (7.30)'s integral gain [1/s]
     bandwidth: float | None = None  #: pi-speed: crossover [Hz]
@@ -194,7 +194,20 @@ def _boundary(name: str, m: Any) -> str:
 def tune(source: str | Path, req: TuneRequest) -> dict[str, Any]:
     """The design document of ``req`` on the identification ``source`` (identification.json
     or its run directory): law, params, a_m, b_m, dt, input, margins (measured, model),
-    coherent_band, speed_feedback, warnings. ValueError for a request that cannot be designed."""
+    coherent_band, speed_feedback, warnings. ValueError for a request that cannot be designed.
+
+    Parameters
+    ----------
+    source : str | Path
+        identification.json or its run directory.
+    req : TuneRequest
+        What to design.
+
+    Returns
+    -------
+    dict[str, Any]
+        The design document.
+    """
     from controllers.tuning import margins
 
     doc, path = _identification(source)

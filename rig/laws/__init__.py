@@ -30,7 +30,25 @@ LAWS: dict[str, tuple[str, str]] = {
 
 
 def law_class(kind: str, source: str = "") -> type[Law]:
-    """The law class of ``kind``; ConfigError naming the known kinds."""
+    """The law class of ``kind``; ConfigError naming the known kinds.
+
+    Parameters
+    ----------
+    kind : str
+        ``[controller] kind``.
+    source : str, optional
+        Named in the error.
+
+    Returns
+    -------
+    type[Law]
+        The law's class.
+
+    Raises
+    ------
+    ConfigError
+        If ``kind`` is unknown (the known ones named).
+    """
     try:
         module, name = LAWS[kind]
     except KeyError:
@@ -49,7 +67,26 @@ def make_law(
 ) -> Law:
     """The law ``kind`` with ``params`` (its ``Params``' keys, checked when the configuration was
     loaded: ``rig.config.controller``) at ``period`` [s]; a position reference's ``origin``
-    ("start" or "zero", ``Law.begin``)."""
+    ("start" or "zero", ``Law.begin``).
+
+    Parameters
+    ----------
+    kind : str
+        ``[controller] kind``.
+    params : Mapping[str, Any]
+        Its parameters, checked already.
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The reference.
+    origin : str, optional
+        "start" or "zero" (a position reference's).
+
+    Returns
+    -------
+    Law
+        The law.
+    """
     cls = law_class(kind)
     law = cls(cls.Params(**params), period=period, reference=reference)
     law.origin = origin

@@ -49,11 +49,27 @@ class LawParams:
 
     def rules(self, period: float) -> None:
         """The rules between the keys, and with the run's ``period`` [s]: ``drivers.schema.Refused``
-        (or ValueError) when one is broken; called once, when the configuration is loaded."""
+        (or ValueError) when one is broken; called once, when the configuration is loaded.
+
+        Parameters
+        ----------
+        period : float
+            [s] the run's.
+        """
 
 
 class Law(abc.ABC):
-    """Base of the laws of ``rig.laws.LAWS``."""
+    """Base of the laws of ``rig.laws.LAWS``.
+
+    Parameters
+    ----------
+    params : Any
+        The law's parameters (its ``Params``).
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The reference.
+    """
 
     #: the typed parameter dataclass (a ``LawParams``); the loop period is ``period``, not a key
     Params: ClassVar[type[LawParams]]
@@ -78,7 +94,13 @@ class Law(abc.ABC):
         self.reference = reference
 
     def begin(self, feedback: Sequence[Feedback]) -> None:
-        """Called once with the first samples, before the first ``step``."""
+        """Called once with the first samples, before the first ``step``.
+
+        Parameters
+        ----------
+        feedback : Sequence[Feedback]
+            The first sample of each axis.
+        """
         if self.position_reference and self.origin == "start":
             offset = self.offset = feedback[0].position
             if offset != 0.0:
@@ -91,12 +113,36 @@ class Law(abc.ABC):
         law's continuous part in linear operation (a relay's switching is not part of it: it is
         the chattering to be counted). With the axis's quanta it gives the chattering threshold
         (``rig.report.metrics.count_threshold``). The default (0, 0): not stated, every alternation above
-        rounding counts."""
+        rounding counts.
+
+        Returns
+        -------
+        tuple[float, float]
+            (|du/dtheta|, |du/domega|).
+        """
         return (0.0, 0.0)
 
     @abc.abstractmethod
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
-        """One cycle at time ``t`` [s]; must not do I/O."""
+        """One cycle at time ``t`` [s]; must not do I/O.
+
+        Parameters
+        ----------
+        t : float
+            [s] the cycle's time.
+        feedback : Sequence[Feedback]
+            Each axis's sample.
+
+        Returns
+        -------
+        LawStep
+            The commands and what to record.
+
+        Raises
+        ------
+        SafetyStop
+            Where the law stops the run (a replay or excitation gone wrong).
+        """
 
 
 def _shifted(value: tuple[float, float], offset: float) -> tuple[float, float]:

@@ -68,7 +68,18 @@ class CascadeParams(LawParams):
     position_alpha: float | None = _loop_key("position", "alpha")
 
     def rules(self, period: float) -> None:
-        """A designed loop's c_s and k_s have 1 or 2 entries each, as many, and c_s[0] is not 0."""
+        """A designed loop's c_s and k_s have 1 or 2 entries each, as many, and c_s[0] is not 0.
+
+        Parameters
+        ----------
+        period : float
+            [s] the run's.
+
+        Raises
+        ------
+        Refused
+            If a rule is broken.
+        """
         for loop in ("speed", "position"):
             c_s, k_s = getattr(self, f"{loop}_c_s"), getattr(self, f"{loop}_k_s")
             if c_s is None and k_s is None:
@@ -80,7 +91,22 @@ class CascadeParams(LawParams):
 
     def loop(self, name: str, table: CascadeLoopParams, dt: float) -> CascadeLoopParams:
         """The loop ``name`` ("speed" or "position"): ``table`` without designed fields, else
-        ``table`` with them at ``dt`` [s]."""
+        ``table`` with them at ``dt`` [s].
+
+        Parameters
+        ----------
+        name : str
+            "speed" or "position".
+        table : CascadeLoopParams
+            Its table.
+        dt : float
+            [s] its period.
+
+        Returns
+        -------
+        CascadeLoopParams
+            The loop's parameters.
+        """
         given = {
             k: getattr(self, f"{name}_{k}") for k in LOOP_FIELDS if getattr(self, f"{name}_{k}") is not None
         }
@@ -93,6 +119,18 @@ class CascadeParams(LawParams):
 
 
 class CascadePositionLaw(Law):
+    """The reconstructed cascade (6.36) of section VII.D: position, speed and current loops.
+
+    Parameters
+    ----------
+    params : CascadeParams
+        Its parameters.
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The position reference.
+    """
+
     Params = CascadeParams
     error_unit = "rad"
     modes = (frozenset({"cst", "voltage"}),)
@@ -115,7 +153,13 @@ class CascadePositionLaw(Law):
         loop's output moves per unit of its j-th measurement by
         |k_j| + k_r1 |c_j| / T + k_int T |c_j| / (|c_1| beta) (equivalent control, linear
         reaching, one step of the integral of sat(g / (c_1 beta))); the speed loop's (times
-        k_t) per rad/s, and through the position loop's speed reference per rad."""
+        k_t) per rad/s, and through the position loop's speed reference per rad.
+
+        Returns
+        -------
+        tuple[float, float]
+            (|du/dtheta|, |du/domega|).
+        """
         pos, spd = self.position.params, self.speed.params
 
         def gain(p: CascadeLoopParams, j: int) -> float:

@@ -34,6 +34,18 @@ class DqLawParams(LawParams):
 
 
 class DqCurrentLaw(Law):
+    """The complex-vector current controller (32)-(34)/(37), or the dq PI, on a grid converter.
+
+    Parameters
+    ----------
+    params : DqLawParams
+        Its parameters.
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The current reference.
+    """
+
     Params = DqLawParams
     error_unit = "A"
     modes = (frozenset({"dq-voltage"}),)

@@ -43,5 +43,16 @@ T_SPEED = 0.5e-3  #: [s] the speed loop's period, sections VII.C/VII.D
 
 def vii_d_load(torque: float) -> str:
     """The load of section VII.D, T_L = T [h(t-2) - h(t-4) + h(t-8) sin(4 pi t)], as a profile
-    (``drivers.profiles``) of ``torque`` T [N m] (the paper's T = 5 N m)."""
+    (``drivers.profiles``) of ``torque`` T [N m] (the paper's T = 5 N m).
+
+    Parameters
+    ----------
+    torque : float
+        T [N m].
+
+    Returns
+    -------
+    str
+        The profile.
+    """
     return f"pulse:{torque:g}:2:4 + sine:{torque:g}:2:8"

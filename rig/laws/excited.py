@@ -41,7 +41,18 @@ class ExcitedSpeedParams(LawParams):
     ki: float = key(0.0, "unit of u per rad", "the loop's integral gain", ge=0.0)
 
     def rules(self, period: float) -> None:
-        """An excitation is given."""
+        """An excitation is given.
+
+        Parameters
+        ----------
+        period : float
+            [s] the run's.
+
+        Raises
+        ------
+        Refused
+            If no excitation is given.
+        """
         if not self.u:
             raise Refused("u", self.u, "the closed-loop experiment needs an excitation u")
 
@@ -49,7 +60,17 @@ class ExcitedSpeedParams(LawParams):
 class ExcitedSpeedLaw(Law):
     """u = k_p e + k_i T sum(e) + r, e = speed - w (the read axis's reported speed); reference =
     command, measurement = the read axis's position (as ``replay``); a speed of the other sign
-    than ``speed`` after the first tenth of the run is a safe stop."""
+    than ``speed`` after the first tenth of the run is a safe stop.
+
+    Parameters
+    ----------
+    params : ExcitedSpeedParams
+        Its parameters.
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The reference.
+    """
 
     Params = ExcitedSpeedParams
     modes = (frozenset({"voltage", "cst"}),)
@@ -63,7 +84,13 @@ class ExcitedSpeedLaw(Law):
         self.pi = PI(PIParams(kp=params.kp, ki=params.ki, dt=period))
 
     def sensitivity(self) -> tuple[float, float]:
-        """(0, k_p + k_i T): the command per rad/s of speed in one period."""
+        """(0, k_p + k_i T): the command per rad/s of speed in one period.
+
+        Returns
+        -------
+        tuple[float, float]
+            (0, k_p + k_i T).
+        """
         return (0.0, self.params.kp + self.params.ki * self.period)
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:

@@ -83,7 +83,18 @@ class ReplayParams(LawParams):
     seed: int = key(0, "", "the dither's seed", ge=0)
 
     def rules(self, period: float) -> None:
-        """An input sequence is given."""
+        """An input sequence is given.
+
+        Parameters
+        ----------
+        period : float
+            [s] the run's.
+
+        Raises
+        ------
+        Refused
+            If no input sequence is given.
+        """
         if not self.u:
             raise Refused("u", self.u, "replay needs an input sequence u")
 
@@ -92,7 +103,19 @@ class Excitation:
     """The sequence a replay sends: ``u`` (one value per cycle, its last held), or ``u`` as one
     period repeated over ``cycles``; plus a seeded white dither of standard deviation ``dither``
     over the run. ``next()`` gives the next value. Its values were checked when the configuration
-    was loaded (``ReplayParams``, ``ExcitedSpeedParams``: u not empty, cycles and dither >= 0)."""
+    was loaded (``ReplayParams``, ``ExcitedSpeedParams``: u not empty, cycles and dither >= 0).
+
+    Parameters
+    ----------
+    u : tuple[float, ...]
+        The sequence [unit of u].
+    cycles : int
+        Cycles it runs (0: ``u`` once, its last held).
+    dither : float
+        Its standard deviation [unit of u].
+    seed : int
+        Of the dither.
+    """
 
     def __init__(self, u: tuple[float, ...], cycles: int, dither: float, seed: int) -> None:
         self._u, self._periodic, self._k = u, cycles > 0, 0
@@ -107,6 +130,13 @@ class Excitation:
         return self._k
 
     def next(self) -> float:
+        """The next value.
+
+        Returns
+        -------
+        float
+            [unit of u].
+        """
         n = len(self._u)
         k = self._k % n if self._periodic else min(self._k, n - 1)
         self._k += 1
@@ -117,7 +147,17 @@ class Excitation:
 
 
 class ReplayLaw(Law):
-    """Replays ``u``; reference = command, measurement = the read axis's position."""
+    """Replays ``u``; reference = command, measurement = the read axis's position.
+
+    Parameters
+    ----------
+    params : ReplayParams
+        Its parameters.
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The reference.
+    """
 
     Params = ReplayParams
     modes = (frozenset({"voltage", "cst"}),)

@@ -46,13 +46,34 @@ class ServoParams(LawParams):
     law: Literal["7.30", "sign"] = key("7.30", "", "(7.30), or the sign law (6.8) with gain sigma")
 
     def rules(self, period: float) -> None:
-        """(7.30d): 0 <= h < 1/T."""
+        """(7.30d): 0 <= h < 1/T.
+
+        Parameters
+        ----------
+        period : float
+            [s] the run's.
+
+        Raises
+        ------
+        Refused
+            If h is not in [0, 1/T).
+        """
         if not self.h < 1.0 / period:
             raise Refused("h", self.h, f"must be below 1/T = {1.0 / period:g} 1/s (7.30d)")
 
 
 class PositionServoLaw(Law):
-    """theta_r - theta and omega_r - omega of the read axis -> u (7.30) of the commanded axis."""
+    """theta_r - theta and omega_r - omega of the read axis -> u (7.30) of the commanded axis.
+
+    Parameters
+    ----------
+    params : ServoParams
+        Its parameters.
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The position reference.
+    """
 
     Params = ServoParams
     error_unit = "rad"
@@ -92,7 +113,13 @@ class PositionServoLaw(Law):
         -(c_delta A_delta + (1/T + h) c_delta) (the integral's step h g included); of the
         sign law, its continuous part -c_delta A_delta. With ``speed = "observer"`` the law reads
         the position only: (|du/de_1 + du/de_2 l_w|, 0), l_w the observer's speed gain per rad
-        of a new sample (``SpeedObserver.gain``)."""
+        of a new sample (``SpeedObserver.gain``).
+
+        Returns
+        -------
+        tuple[float, float]
+            (|du/de_1|, |du/de_2|).
+        """
         return self._sensitivity
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:

@@ -32,7 +32,18 @@ class PiSpeedParams(LawParams):
     u_min: float = key(-math.inf, "unit of u", "the lower output limit, below u_max")
 
     def rules(self, period: float) -> None:
-        """u_min < u_max."""
+        """u_min < u_max.
+
+        Parameters
+        ----------
+        period : float
+            [s] the run's.
+
+        Raises
+        ------
+        Refused
+            If u_min >= u_max.
+        """
         if not self.u_min < self.u_max:
             raise Refused("u_min", self.u_min, f"must be below u_max = {self.u_max!r}")
 
@@ -50,7 +61,17 @@ class IdtsmSpeedParams(LawParams):
 
 
 class PiSpeedLaw(Law):
-    """PI on the speed error (``PiSpeedParams``) at the loop period."""
+    """PI on the speed error (``PiSpeedParams``) at the loop period.
+
+    Parameters
+    ----------
+    params : PiSpeedParams
+        Its parameters.
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The speed reference.
+    """
 
     Params = PiSpeedParams
     modes = _EFFORT
@@ -62,7 +83,13 @@ class PiSpeedLaw(Law):
         self.pi = PI(PIParams(p.kp, p.ki, period, p.u_max, p.u_min))
 
     def sensitivity(self) -> tuple[float, float]:
-        """(0, |k_p| + k_i T): the PI's output per rad/s of speed in one period [unit of u/(rad/s)]."""
+        """(0, |k_p| + k_i T): the PI's output per rad/s of speed in one period [unit of u/(rad/s)].
+
+        Returns
+        -------
+        tuple[float, float]
+            (0, |k_p| + k_i T).
+        """
         p = self.params
         return (0.0, abs(p.kp) + p.ki * self.period)
 
@@ -78,6 +105,15 @@ class IdtsmSpeedLaw(Law):
 
     For a torque command a = -B/J, b = 1/J (Table II: a = -0.6286 1/s, b = 285.71 1/(kg m^2));
     for a voltage command a = -a_m, b = b_m of (3.5).
+
+    Parameters
+    ----------
+    params : IdtsmSpeedParams
+        Its parameters.
+    period : float
+        [s] the loop's.
+    reference : Reference
+        The speed reference.
     """
 
     Params = IdtsmSpeedParams
@@ -90,7 +126,13 @@ class IdtsmSpeedLaw(Law):
         self.idtsm = IDTSM(IDTSMParams(p.a, p.b, period, p.lam, p.g_limit, p.u0))
 
     def sensitivity(self) -> tuple[float, float]:
-        """(0, |1/(b_delta T) + K_eq|): (6.20)-(6.21) move u by that per rad/s of speed in one period."""
+        """(0, |1/(b_delta T) + K_eq|): (6.20)-(6.21) move u by that per rad/s of speed in one period.
+
+        Returns
+        -------
+        tuple[float, float]
+            (0, |1/(b_delta T) + K_eq|).
+        """
         c = self.idtsm
         return (0.0, abs(1.0 / (c.b_delta * self.period) + c.k_eq))
 

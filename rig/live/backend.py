@@ -20,8 +20,27 @@ class LiveUnavailable(Exception):
 class Backend(Protocol):
     """What draws the rows: ``open`` once, ``draw`` a few times a second, ``close`` once."""
 
-    def open(self, channels: Sequence[Channel], title: str) -> None: ...
+    def open(self, channels: Sequence[Channel], title: str) -> None:
+        """Show the view of ``channels`` under ``title``.
 
-    def draw(self, rows: Sequence[Sequence[float]], final: bool = False) -> None: ...
+        Parameters
+        ----------
+        channels : Sequence[Channel]
+            The axes shown.
+        title : str
+            The run's name.
+        """
 
-    def close(self) -> None: ...
+    def draw(self, rows: Sequence[Sequence[float]], final: bool = False) -> None:
+        """Show the latest ``rows`` (oldest first).
+
+        Parameters
+        ----------
+        rows : Sequence[Sequence[float]]
+            The rows, ``row[0]`` the time [s].
+        final : bool, optional
+            The run has ended.
+        """
+
+    def close(self) -> None:
+        """Close the view."""

@@ -32,10 +32,10 @@ _ANY = ("velocity", "position", "torque", "current")
 class Channel:
     """One axis of the live view: column indices into a row (None: the axis has none) and units."""
 
-    axis: str
-    reference: int | None
-    measurement: int | None
-    command: int | None
+    axis: str  #: the axis's name
+    reference: int | None  #: the reference's column (None: none)
+    measurement: int | None  #: the measurement's column
+    command: int | None  #: the command's column
     measured: str  #: what the measurement is: "law" (the law's measurement) or a feedback field
     units: tuple[str, str, str]  #: of the reference, the measurement, the command
 
@@ -51,7 +51,24 @@ def channels_of(
     modes: Mapping[str, str | None],
 ) -> list[Channel]:
     """The channels of a run whose rows have ``columns`` (units in ``docs``), whose law reads
-    the axes ``reads``, with the axes ``modes`` (name -> mode, None for an encoder) in order."""
+    the axes ``reads``, with the axes ``modes`` (name -> mode, None for an encoder) in order.
+
+    Parameters
+    ----------
+    columns : Sequence[str]
+        The rows' columns.
+    docs : Mapping[str, Mapping[str, str]]
+        Column -> its ``unit`` and ``doc``.
+    reads : Sequence[str]
+        The axes the law reads.
+    modes : Mapping[str, str | None]
+        Axis -> its mode (None: an encoder), in order.
+
+    Returns
+    -------
+    list[Channel]
+        The channels.
+    """
     index = {c: i for i, c in enumerate(columns)}
 
     def unit(i: int | None) -> str:

@@ -23,7 +23,22 @@ SAMPLED = 256  #: rows the sparkline looks at, at most (every k-th of the latest
 
 def sparkline(values: Sequence[float], width: int = 16, blocks: str = BLOCKS) -> str:
     """``values`` (>= 0) in ``width`` bins (each its largest value), as ``blocks`` scaled to the
-    largest of all; "" for no values, the lowest block where all are 0 or not finite."""
+    largest of all; "" for no values, the lowest block where all are 0 or not finite.
+
+    Parameters
+    ----------
+    values : Sequence[float]
+        Values >= 0.
+    width : int, optional
+        Bins.
+    blocks : str, optional
+        The characters, lowest first.
+
+    Returns
+    -------
+    str
+        The sparkline.
+    """
     if not values:
         return ""
     n = min(width, len(values))
@@ -48,7 +63,24 @@ def strip_lines(
     """The strip for the latest ``rows`` (oldest first; ``row[0]``: time [s]): a header, then per
     channel ``ref``, ``meas``, ``cmd`` of the last row with their units and, where the axis has a
     reference, ``|e|``: a sparkline of |reference - measurement| over ``rows`` (every k-th, at most
-    ``SAMPLED``) and the largest of them."""
+    ``SAMPLED``) and the largest of them.
+
+    Parameters
+    ----------
+    channels : Sequence[Channel]
+        The axes shown.
+    rows : Sequence[Sequence[float]]
+        The latest rows, oldest first.
+    spark : int, optional
+        The sparkline's width.
+    blocks : str, optional
+        Its characters.
+
+    Returns
+    -------
+    list[str]
+        The strip's lines.
+    """
     last = rows[-1] if rows else None
     header = f"live  t = {last[0]:.3f} s" if last is not None else "live  waiting for the first cycle"
     name_w = max((len(c.axis) for c in channels), default=0)
@@ -68,7 +100,15 @@ def strip_lines(
 
 
 class TerminalStrip:
-    """The strip as a live-view backend (``rig.live.view``) on ``stream`` (default stderr)."""
+    """The strip as a live-view backend (``rig.live.view``) on ``stream`` (default stderr).
+
+    Parameters
+    ----------
+    stream : TextIO | None, optional
+        Where it writes (None: stderr).
+    plain_every : float, optional
+        [s] between plain writes where ``stream`` is no terminal.
+    """
 
     def __init__(self, stream: TextIO | None = None, *, plain_every: float = 1.0) -> None:
         self.stream = stream if stream is not None else sys.stderr
@@ -85,11 +125,28 @@ class TerminalStrip:
             self.blocks = ASCII
 
     def open(self, channels: Sequence[Channel], title: str) -> None:
+        """Begin the strip of ``channels`` under ``title``.
+
+        Parameters
+        ----------
+        channels : Sequence[Channel]
+            The axes shown.
+        title : str
+            The run's name.
+        """
         self.channels = list(channels)
         self.title = title
 
     def draw(self, rows: Sequence[Sequence[float]], final: bool = False) -> None:
-        """Redraw the block in place (a terminal), or write it plain when due or ``final``."""
+        """Redraw the block in place (a terminal), or write it plain when due or ``final``.
+
+        Parameters
+        ----------
+        rows : Sequence[Sequence[float]]
+            The latest rows, oldest first.
+        final : bool, optional
+            The run has ended.
+        """
         lines = strip_lines(self.channels, rows, blocks=self.blocks)
         if self.tty:
             up = f"\x1b[{self._shown}F" if self._shown else ""
@@ -104,4 +161,5 @@ class TerminalStrip:
         self.stream.flush()
 
     def close(self) -> None:
+        """End the strip (its last block stays on the terminal)."""
         self._shown = 0

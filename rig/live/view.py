@@ -33,7 +33,19 @@ MODES = ("auto", "terminal", "window")
 
 
 class LiveView:
-    """``backend`` fed from ``rows`` (the recorder appends) by a thread at ``rate`` [Hz]."""
+    """``backend`` fed from ``rows`` (the recorder appends) by a thread at ``rate`` [Hz].
+
+    Parameters
+    ----------
+    backend : Backend
+        What draws.
+    rate : float, optional
+        [Hz] of drawing.
+    keep : int, optional
+        Rows kept.
+    join_timeout : float, optional
+        [s] to wait for the drawing thread at the end.
+    """
 
     def __init__(self, backend: Backend, *, rate: float = 4.0, keep: int = 4096, join_timeout: float = 2.0):
         self.backend = backend
@@ -46,14 +58,28 @@ class LiveView:
         self._closed = False
 
     def start(self, channels: Sequence[Channel], title: str) -> None:
-        """Start drawing ``channels`` of the rows to come under ``title`` (the run's name)."""
+        """Start drawing ``channels`` of the rows to come under ``title`` (the run's name).
+
+        Parameters
+        ----------
+        channels : Sequence[Channel]
+            The axes shown.
+        title : str
+            The run's name.
+        """
         self._thread = threading.Thread(
             target=self._run, args=(list(channels), title), name="rig-live", daemon=True
         )
         self._thread.start()
 
     def snapshot(self) -> list[Sequence[float]]:
-        """The latest rows, oldest first (a copy the loop may append past)."""
+        """The latest rows, oldest first (a copy the loop may append past).
+
+        Returns
+        -------
+        list[Sequence[float]]
+            The latest rows, oldest first.
+        """
         for _ in range(3):
             try:
                 return list(self.rows)
@@ -101,7 +127,13 @@ class LiveView:
 
 
 def window_problem() -> str | None:
-    """Why a matplotlib window cannot open here (None: it may): no matplotlib, or no display."""
+    """Why a matplotlib window cannot open here (None: it may): no matplotlib, or no display.
+
+    Returns
+    -------
+    str | None
+        Why not, or None.
+    """
     if importlib.util.find_spec("matplotlib") is None:
         return "matplotlib is not installed (pip install matplotlib)"
     if sys.platform.startswith(("linux", "freebsd", "openbsd", "netbsd")) and not (
@@ -113,7 +145,23 @@ def window_problem() -> str | None:
 
 def open_live(mode: str) -> LiveView:
     """The live view of ``mode`` (``MODES``), its backend ready; LiveUnavailable (saying why) when
-    ``"window"`` cannot open. ``"auto"`` falls back to the terminal strip."""
+    ``"window"`` cannot open. ``"auto"`` falls back to the terminal strip.
+
+    Parameters
+    ----------
+    mode : str
+        One of ``MODES``.
+
+    Returns
+    -------
+    LiveView
+        The live view.
+
+    Raises
+    ------
+    LiveUnavailable
+        If ``"window"`` cannot open (why said).
+    """
     if mode not in MODES:
         raise LiveUnavailable(f"unknown mode {mode!r} (one of {', '.join(MODES)})")
     if mode != "terminal":

@@ -37,7 +37,24 @@ def window_points(
 ) -> np.ndarray:
     """The ``rows`` (oldest first) later than ``after`` [s], every k-th so at most ``most``, as an
     array: per point its time [s], then per channel its reference, measurement and command (NaN
-    where the axis has none)."""
+    where the axis has none).
+
+    Parameters
+    ----------
+    channels : Sequence[Channel]
+        The axes shown.
+    rows : Sequence[Sequence[float]]
+        The rows, oldest first.
+    after : float
+        [s] the last time already drawn.
+    most : int, optional
+        Points at most.
+
+    Returns
+    -------
+    np.ndarray
+        Time, then reference, measurement and command per channel.
+    """
     start = bisect.bisect_right(rows, after, key=lambda r: r[0])
     new = rows[start:]
     step = max(1, math.ceil(len(new) / most))
@@ -51,7 +68,22 @@ def window_points(
 def build_figure(fig: Any, channels: Sequence[Channel], title: str) -> list[dict[str, Any]]:
     """Per channel a row of two plots on ``fig`` (a matplotlib Figure): reference and
     measurement, and command, with units, legends and ``title``; returns per channel its lines
-    by name ("reference", "measurement", "command")."""
+    by name ("reference", "measurement", "command").
+
+    Parameters
+    ----------
+    fig : Any
+        A matplotlib Figure.
+    channels : Sequence[Channel]
+        The axes shown.
+    title : str
+        The run's name.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        Per channel, its lines by name.
+    """
     axes = fig.subplots(max(1, len(channels)), 2, sharex=True, squeeze=False)
     lines: list[dict[str, Any]] = []
     for (left, right), c in zip(axes, channels):
@@ -81,7 +113,15 @@ def build_figure(fig: Any, channels: Sequence[Channel], title: str) -> list[dict
 
 
 def update_figure(lines: Sequence[dict[str, Any]], history: np.ndarray) -> None:
-    """Set the lines of ``build_figure`` to ``history`` (``window_points``' columns), rescaled."""
+    """Set the lines of ``build_figure`` to ``history`` (``window_points``' columns), rescaled.
+
+    Parameters
+    ----------
+    lines : Sequence[dict[str, Any]]
+        ``build_figure``'s result.
+    history : np.ndarray
+        ``window_points``' columns.
+    """
     t = history[:, 0]
     for k, found in enumerate(lines):
         for j, name in enumerate(_NAMES):
@@ -101,7 +141,13 @@ def _keep(history: np.ndarray | None, points: np.ndarray) -> np.ndarray:
 def serve(conn: Any) -> None:
     """The window's process: "ready" (or "unavailable" and why) on ``conn``, then ("open",
     channels, title), ("rows", points) and ("end",) from the host until the end or the window
-    is closed."""
+    is closed.
+
+    Parameters
+    ----------
+    conn : Any
+        The pipe to the host.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the run's to handle
     try:
         import matplotlib
@@ -147,7 +193,18 @@ def _show(conn: Any, plt: Any, fig: Any) -> None:
 
 class WindowBackend:
     """The host's side: starts the window's process (LiveUnavailable when it cannot open a
-    window, within ``timeout`` [s]) and sends it the new rows at each draw."""
+    window, within ``timeout`` [s]) and sends it the new rows at each draw.
+
+    Parameters
+    ----------
+    timeout : float, optional
+        [s] for the window's process to say it is ready.
+
+    Raises
+    ------
+    LiveUnavailable
+        If the window cannot open.
+    """
 
     def __init__(self, *, timeout: float = 60.0) -> None:
         ctx = multiprocessing.get_context("spawn")
@@ -178,10 +235,28 @@ class WindowBackend:
             raise LiveUnavailable("the live window was closed") from None
 
     def open(self, channels: Sequence[Channel], title: str) -> None:
+        """Open the window on ``channels`` under ``title``.
+
+        Parameters
+        ----------
+        channels : Sequence[Channel]
+            The axes shown.
+        title : str
+            The run's name.
+        """
         self.channels = list(channels)
         self._send(("open", self.channels, title))
 
     def draw(self, rows: Sequence[Sequence[float]], final: bool = False) -> None:
+        """Send the window the rows since the last draw.
+
+        Parameters
+        ----------
+        rows : Sequence[Sequence[float]]
+            The latest rows, oldest first.
+        final : bool, optional
+            The run has ended.
+        """
         points = window_points(self.channels, rows, self._after)
         if len(points):
             self._after = float(points[-1, 0])

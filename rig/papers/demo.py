@@ -60,7 +60,13 @@ class DemoSummary:
 
 
 def demo_summary() -> DemoSummary:
-    """Run the demo scenarios and return the design and one metrics row per controller."""
+    """Run the demo scenarios and return the design and one metrics row per controller.
+
+    Returns
+    -------
+    DemoSummary
+        The design and one metrics row per controller.
+    """
     design = design_dtsm(
         A=[[0.0, 1.0], [0.0, -drives.A_M]], b=[0.0, -drives.B_M], dt=drives.T_SERVO, lam=drives.LAMBDA_SERVO
     )
@@ -85,12 +91,42 @@ def demo_summary() -> DemoSummary:
 
 def demo_config(output: str = "runs", *, a_m: float = drives.A_M, b_m: float = drives.B_M) -> RigConfig:
     """The section VII.B servo over the emulated bus: dc-servo preset, voltage mode, (7.30)
-    designed for the model a_m, b_m (the identified one in ``rig demo``)."""
+    designed for the model a_m, b_m (the identified one in ``rig demo``).
+
+    Parameters
+    ----------
+    output : str, optional
+        The runs' folder.
+    a_m : float, optional
+        [1/s] the model's a_m.
+    b_m : float, optional
+        The model's b_m [rad/(V s^2)].
+
+    Returns
+    -------
+    RigConfig
+        The configuration.
+    """
     return rig_config(demo_doc(output, a_m=a_m, b_m=b_m), "rig demo")
 
 
 def demo_doc(output: str = "runs", *, a_m: float = drives.A_M, b_m: float = drives.B_M) -> dict[str, Any]:
-    """``demo_config``'s configuration as the document a TOML file would give."""
+    """``demo_config``'s configuration as the document a TOML file would give.
+
+    Parameters
+    ----------
+    output : str, optional
+        The runs' folder.
+    a_m : float, optional
+        [1/s] the model's a_m.
+    b_m : float, optional
+        The model's b_m [rad/(V s^2)].
+
+    Returns
+    -------
+    dict[str, Any]
+        The TOML document.
+    """
     plant = DcServoPreset()  # T_L = J f with the J of the preset's motor (its B within a_m)
     load = DEMO_LOAD * DCMotorParams.from_am_bm(a_m=plant.a_m, b_m=plant.b_m, b=plant.friction).j
     doc: dict[str, Any] = {
@@ -122,7 +158,22 @@ def demo_doc(output: str = "runs", *, a_m: float = drives.A_M, b_m: float = driv
 def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int], None] | None = None) -> int:
     """Print the demo to ``out``; ``progress(parts done, 3)`` after the simulations, the
     identification and the run over the bus; returns the exit code: 1 a simulation not finite,
-    else the run's (0 done, 3 a safe stop, 4 its stop not confirmed)."""
+    else the run's (0 done, 3 a safe stop, 4 its stop not confirmed).
+
+    Parameters
+    ----------
+    out : TextIO
+        Where it prints.
+    output : str, optional
+        The runs' folder.
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(parts done, 3)``.
+
+    Returns
+    -------
+    int
+        0 done, 1 a simulation not finite, 3 a safe stop, 4 its stop not confirmed.
+    """
     step = progress or (lambda k, n: None)
     s = demo_summary()
     step(1, 3)

@@ -28,7 +28,13 @@ K_LMI = (-153.6018, -97.1424)  #: K of (55), from the LMI (28)-(29)
 
 @dataclass(frozen=True)
 class DismcExample:
-    """Section 4's example; field names are the paper's symbols (``--param``)."""
+    """Section 4's example; field names are the paper's symbols (``--param``).
+
+    Raises
+    ------
+    ValueError
+        If a field is out of its range.
+    """
 
     A: tuple[tuple[float, ...], ...] = ((0.9802, 0.04), (0.0, 1.0202))  #: (47)
     B: tuple[float, ...] = (0.0004, 0.0202)  #: (47)
@@ -72,11 +78,11 @@ class DismcExample:
 class DismcRun:
     """One controller's run: signals and Table 1 metrics."""
 
-    controller: str
-    u: np.ndarray
-    e: np.ndarray
-    sigma: np.ndarray
-    metrics: dict[str, float] = field(default_factory=dict)
+    controller: str  #: Table 1's name
+    u: np.ndarray  #: the command
+    e: np.ndarray  #: the tracking error
+    sigma: np.ndarray  #: the sliding function
+    metrics: dict[str, float] = field(default_factory=dict)  #: Table 1's metrics
 
 
 #: parameters of the example that ``--param`` may set (the others are the plant of (47)-(48))
@@ -86,7 +92,18 @@ ALIASES = {"disturbance_amplitude": "amplitude"}
 
 
 def dismc_laws(example: DismcExample | None = None) -> dict[str, DISMCParams]:
-    """The four controllers of Table 1 for ``example``, by Table 1's names."""
+    """The four controllers of Table 1 for ``example``, by Table 1's names.
+
+    Parameters
+    ----------
+    example : DismcExample | None, optional
+        Section 4's example (None: the paper's).
+
+    Returns
+    -------
+    dict[str, DISMCParams]
+        Table 1's name -> the law's parameters.
+    """
     ex = example or DismcExample()
     G, H_solved = solve_model_following(A=ex.A, B=ex.B, C=ex.C, A_m=ex.A_m, C_m=ex.C_m)
     H = PRINTED_H if ex.H == "printed" else tuple(H_solved)
@@ -120,7 +137,20 @@ def dismc_laws(example: DismcExample | None = None) -> dict[str, DISMCParams]:
 def run_dismc(example: DismcExample | None = None, controllers: tuple[str, ...] = ()) -> list[DismcRun]:
     """Simulate DSMC, DISMC-LMI, DISMC-LQR and DISMC-AW-LQR (or those of ``controllers``, by
     Table 1's names) on (47)-(53); u is the controllers' command, the plant takes it within
-    +-``u_bound``."""
+    +-``u_bound``.
+
+    Parameters
+    ----------
+    example : DismcExample | None, optional
+        Section 4's example (None: the paper's).
+    controllers : tuple[str, ...], optional
+        Table 1's names (): all four.
+
+    Returns
+    -------
+    list[DismcRun]
+        One run each.
+    """
     ex = example or DismcExample()
     laws = dismc_laws(ex)
     A, B, C, Am, Cm = (np.array(v) for v in (ex.A, ex.B, ex.C, ex.A_m, ex.C_m))

@@ -89,16 +89,22 @@ CONTROLLERS = ("proposed", "pi", "pi-decoupled")
 
 @dataclass(frozen=True)
 class DqStudy:
-    """The study's settings; None means the paper's set (all strategies, its gammas, its ratios)."""
+    """The study's settings; None means the paper's set (all strategies, its gammas, its ratios).
+
+    Raises
+    ------
+    ValueError
+        If a setting is out of its range.
+    """
 
     L1: float = 6e-3  #: line-filter inductance [H], Table IV
     R1: float = 0.36  #: line-filter resistance [Ohm], Table IV
     f_line: float = 50.0  #: omega_k / 2 pi [Hz], Table IV
-    strategy: str | None = None
-    gamma: float | None = None
+    strategy: str | None = None  #: one PWM strategy (None: all)
+    gamma: float | None = None  #: one gamma (None: the paper's)
     ratio: float | None = None  #: omega_k / omega_s
     plant: Literal["exact", "fine"] = "exact"  #: (29), or the fine model (StationaryRLConverter)
-    steps: int = 80
+    steps: int = 80  #: samples of each step response
 
     def __post_init__(self) -> None:
         if self.strategy is not None:
@@ -116,12 +122,43 @@ class DqStudy:
             raise ValueError(f"ratio omega_k/omega_s must be in (0, 1/2) (Nyquist), got {self.ratio!r}")
 
     def strategies(self) -> tuple[str, ...]:
+        """The strategies studied.
+
+        Returns
+        -------
+        tuple[str, ...]
+            Their names.
+        """
         return (self.strategy,) if self.strategy else tuple(PWM_STRATEGIES)
 
     def gammas(self, strategy: str) -> tuple[float, ...]:
+        """The gammas studied with ``strategy``.
+
+        Parameters
+        ----------
+        strategy : str
+            A PWM strategy.
+
+        Returns
+        -------
+        tuple[float, ...]
+            The gammas.
+        """
         return (self.gamma,) if self.gamma is not None else TABLE_GAMMAS[strategy]
 
     def ratios(self, strategy: str) -> tuple[float, ...]:
+        """The ratios of sampling to line frequency studied with ``strategy``.
+
+        Parameters
+        ----------
+        strategy : str
+            A PWM strategy.
+
+        Returns
+        -------
+        tuple[float, ...]
+            The ratios.
+        """
         return (self.ratio,) if self.ratio is not None else PAPER_RATIOS[strategy]
 
 
@@ -134,11 +171,11 @@ DQ_FIXED = ("f_line", "steps")
 class StepRun:
     """A unit q-reference step: i[k] is the dq current k samples after the step (i[0] = 0)."""
 
-    strategy: str
-    ratio: float
-    controller: str
-    gamma: float
-    i: np.ndarray = field(repr=False)
+    strategy: str  #: the PWM strategy
+    ratio: float  #: of sampling to line frequency
+    controller: str  #: which controller
+    gamma: float  #: its gamma
+    i: np.ndarray = field(repr=False)  #: [A] the dq current after the step
 
     @property
     def peak_id(self) -> float:
@@ -156,7 +193,28 @@ def step_response(
     study: DqStudy, strategy: str, ratio: float, gamma: float, controller: str, *, l1_model: float = 0.0
 ) -> StepRun:
     """Simulate a unit q-reference step, lock-step controller + plant; the controller is designed
-    with the inductance ``l1_model`` [H] (0: the plant's L1; ``rig sweep``'s error in L)."""
+    with the inductance ``l1_model`` [H] (0: the plant's L1; ``rig sweep``'s error in L).
+
+    Parameters
+    ----------
+    study : DqStudy
+        The settings.
+    strategy : str
+        The PWM strategy.
+    ratio : float
+        Of sampling to line frequency.
+    gamma : float
+        The design's gamma.
+    controller : str
+        Which controller.
+    l1_model : float, optional
+        [H] the inductance designed with (0: the plant's).
+
+    Returns
+    -------
+    StepRun
+        The run.
+    """
     ts, omega_k = _timing(study, strategy, ratio)
     rl = RLParams(r1=study.R1, l1=study.L1, ts=ts, m=dead_time_fraction(strategy))
     plant = ExactDqPlant(rl) if study.plant == "exact" else StationaryRLConverter(rl)
@@ -205,7 +263,18 @@ def _loop(ctl: ComplexVectorCurrentController, plant: ExactDqPlant, omega_k: flo
 
 
 def table_rows(study: DqStudy) -> list[dict[str, Any]]:
-    """Tables II and III: one row per strategy, gamma and (for s-PWM-middle) variant."""
+    """Tables II and III: one row per strategy, gamma and (for s-PWM-middle) variant.
+
+    Parameters
+    ----------
+    study : DqStudy
+        The settings.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        One row per strategy, gamma and variant.
+    """
     rows = []
     for strategy in study.strategies():
         ratio = study.ratios(strategy)[0]
@@ -247,7 +316,18 @@ def table_rows(study: DqStudy) -> list[dict[str, Any]]:
 
 
 def cross_coupling(study: DqStudy) -> list[StepRun]:
-    """q-step runs of the three controllers at each strategy's ratios."""
+    """q-step runs of the three controllers at each strategy's ratios.
+
+    Parameters
+    ----------
+    study : DqStudy
+        The settings.
+
+    Returns
+    -------
+    list[StepRun]
+        The runs.
+    """
     runs = []
     for strategy in study.strategies():
         gamma = study.gamma if study.gamma is not None else CROSS_GAMMA[strategy]
@@ -261,7 +341,20 @@ def dq_study(
     study: DqStudy, *, progress: Callable[[int, int], None] | None = None
 ) -> tuple[list[dict[str, Any]], list[StepRun]]:
     """Both parts of the reproduction: (table rows, cross-coupling runs); ``progress(done, 2)``
-    after each."""
+    after each.
+
+    Parameters
+    ----------
+    study : DqStudy
+        The settings.
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(done, 2)``.
+
+    Returns
+    -------
+    tuple[list[dict[str, Any]], list[StepRun]]
+        (table rows, cross-coupling runs).
+    """
     rows = table_rows(study)
     if progress is not None:
         progress(1, 2)

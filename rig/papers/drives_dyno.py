@@ -74,7 +74,24 @@ def im_speed_run(law: str, *, t_end: float, load: Any, dt: float = drives.T_SPEE
     """IDTSM (6.20)-(6.21) (Table IV: lambda = -50 1/s; Int 1 limited to +-0.01) or the PI of
     Table III (``law`` "idtsm" or "pi") controlling IM1 under ideal FOC, the mechanics of (4.2)
     with Table II's J and B, J dw/dt = T - B w - T_L, the torque command held over each
-    period (exact ZOH), a 100 rad/s step at 0.3 s; ``load(t)`` [N m] taken mid-period."""
+    period (exact ZOH), a 100 rad/s step at 0.3 s; ``load(t)`` [N m] taken mid-period.
+
+    Parameters
+    ----------
+    law : str
+        "idtsm" or "pi".
+    t_end : float
+        [s].
+    load : Any
+        T_L [N m] of time [s].
+    dt : float, optional
+        [s] the period.
+
+    Returns
+    -------
+    Signals
+        The run's signals.
+    """
     a = -drives.B_IM / drives.J_IM
     b = 1.0 / drives.J_IM
     ctl: IDTSM | PI
@@ -134,6 +151,22 @@ def _dyno_doc(study: DrivesStudy, output: str, name: str, controller: dict[str, 
 
 
 def im_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
+    """The IM speed part: IDTSM and PI on IM1 (Tables II-IV), their rows; the signals into ``plots``.
+
+    Parameters
+    ----------
+    study : DrivesStudy
+        The settings.
+    output : str
+        The runs' folder.
+    plots : dict[str, list[Signals]]
+        Experiment -> signals, added to.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        The rows.
+    """
     rows = []
     load = _load_of(study)
     laws = (
@@ -194,6 +227,22 @@ def im_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) ->
 
 
 def cascade_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
+    """The cascade part (section VII.D, Table V), its rows; the signals into ``plots``.
+
+    Parameters
+    ----------
+    study : DrivesStudy
+        The settings.
+    output : str
+        The runs' folder.
+    plots : dict[str, list[Signals]]
+        Experiment -> signals, added to.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        The rows.
+    """
     load = _load_of(study)
     tr = cascade_run(t_end=study.im_t_end, load=load, move_start=0.3)
     name = "cascade (6.36*), Table V"

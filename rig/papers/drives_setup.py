@@ -22,7 +22,14 @@ EXACT: dict[str, Any] = {"chattering_threshold": 0.0, "safe_stop_reason": None}
 @dataclass(frozen=True)
 class DrivesStudy:
     """What ``--param`` may change: horizons [s] (shorter ones for quick runs), the sub-steps of
-    the speed loop's disturbance, the load T [N m] of section VII.D, and whether to run over the bus."""
+    the speed loop's disturbance, the load T [N m] of section VII.D, and whether to run over the bus.
+
+    Raises
+    ------
+    ValueError
+        If a horizon is not in (0, 60] s, the sub-steps not 1..1000, the load beyond +-10 N m or
+        servo_settle not in [0, servo_t_end).
+    """
 
     speed_t_end: float = 5.0  #: Figs. 9-10 horizon; the amplitude is taken over 2.5 s .. this
     substeps: int = 20  #: exact plant sub-steps per sample for f(t) in the speed loop
@@ -53,13 +60,24 @@ DRIVES_FIXED: dict[str, str] = {}
 class Signals:
     """One run's signals for the plots: time [s] and named arrays (SI)."""
 
-    name: str
-    t: np.ndarray
-    series: dict[str, np.ndarray] = field(default_factory=dict)
+    name: str  #: the run's
+    t: np.ndarray  #: [s] the time
+    series: dict[str, np.ndarray] = field(default_factory=dict)  #: name -> array (SI)
 
 
 def bus_run(cfg: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """``cfg`` run lock-step on the emulated bus: its summary and its recorded columns by name."""
+    """``cfg`` run lock-step on the emulated bus: its summary and its recorded columns by name.
+
+    Parameters
+    ----------
+    cfg : Any
+        The configuration.
+
+    Returns
+    -------
+    tuple[dict[str, Any], dict[str, np.ndarray]]
+        (summary, column -> array).
+    """
     summary = run_config(cfg, emulate=True)
     _, columns = read_samples(summary["run_dir"])
     return summary, columns

@@ -107,6 +107,31 @@ def speed_error_theory(
     read in ``controllers.compensators``) g_{k+1} = T (d_k - 2 d_k-1 + d_k-2), H = T (z-1)^2 z^-3.
     The speed error is e = -x = -b_delta g (c_delta = 1/b_delta), so its amplitude is
     b_delta |H(e^{j omega T})| |d|.
+
+    Parameters
+    ----------
+    compensator : str
+        "none", "first" (6.30b) or "second" (6.35).
+    alpha : float | None
+        The first's gain (None otherwise).
+    a_m, b_m : float, optional
+        Of (3.5).
+    dt : float, optional
+        [s] the period T.
+    amplitude : float, optional
+        [V] of f.
+    omega : float, optional
+        [rad/s] of f.
+
+    Returns
+    -------
+    float
+        [rad/s] the amplitude.
+
+    Raises
+    ------
+    ValueError
+        If the compensator is unknown, or "first" lacks ``alpha``.
     """
     design = design_dtsm(A=[[-a_m]], b=[b_m], dt=dt, lam=-1.0)
     b_delta = float(design.b_delta[0])
@@ -283,7 +308,22 @@ def drives_study(
     ``progress(parts done, 6)`` after each part.
 
     The over-the-bus runs write their run directories under ``output`` (a temporary
-    directory, removed at the end, when None)."""
+    directory, removed at the end, when None).
+
+    Parameters
+    ----------
+    study : DrivesStudy
+        The settings.
+    output : str | None, optional
+        The runs' folder (None: none kept).
+    progress : Callable[[int, int], None] | None, optional
+        ``progress(parts done, 6)``.
+
+    Returns
+    -------
+    tuple[dict[str, Any], dict[str, list[Signals]]]
+        (results, experiment -> signals).
+    """
     plots: dict[str, list[Signals]] = {}
     with tempfile.TemporaryDirectory(prefix="rig-drives-") as tmp:
         out = output or tmp

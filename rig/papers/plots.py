@@ -21,7 +21,22 @@ __all__ = ["DRIVES_PLOTS", "plot_dismc", "plot_dq_steps", "plot_drives"]
 def plot_dismc(runs: Sequence[DismcRun], path: str, *, dt: float) -> Any:
     """Write Fig. 3-like plots (sliding functions, tracking errors, control inputs) to ``path``.
 
-    The example of section 4 has no physical units: the signals are dimensionless (-)."""
+    The example of section 4 has no physical units: the signals are dimensionless (-).
+
+    Parameters
+    ----------
+    runs : Sequence[DismcRun]
+        The runs.
+    path : str
+        The file.
+    dt : float
+        [s] the period.
+
+    Returns
+    -------
+    Any
+        The figure.
+    """
     plt = require_pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     for run in runs:
@@ -41,7 +56,20 @@ def plot_dismc(runs: Sequence[DismcRun], path: str, *, dt: float) -> Any:
 
 
 def plot_dq_steps(runs: Sequence[StepRun], path: str) -> Any:
-    """Write Fig. 9(b)-like plots: i_q and i_d after a unit q step, one panel per strategy and ratio."""
+    """Write Fig. 9(b)-like plots: i_q and i_d after a unit q step, one panel per strategy and ratio.
+
+    Parameters
+    ----------
+    runs : Sequence[StepRun]
+        The runs.
+    path : str
+        The file.
+
+    Returns
+    -------
+    Any
+        The figure.
+    """
     plt = require_pyplot()
     panels = sorted({(r.strategy, r.ratio) for r in runs}, key=lambda p: (p[0], -p[1]))
     fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.6 * len(panels)), squeeze=False)
@@ -148,7 +176,20 @@ DRIVES_SPECS: dict[str, tuple[str, Sequence[Panel]]] = {
 
 def plot_drives(plots: dict[str, list[Signals]], directory: str) -> dict[str, Any]:
     """Write one figure per experiment of ``rig reproduce drives`` into ``directory``
-    (``DRIVES_PLOTS``), with the quantities of the paper's figures; returns them by experiment."""
+    (``DRIVES_PLOTS``), with the quantities of the paper's figures; returns them by experiment.
+
+    Parameters
+    ----------
+    plots : dict[str, list[Signals]]
+        Experiment -> signals.
+    directory : str
+        The folder.
+
+    Returns
+    -------
+    dict[str, Any]
+        Experiment -> figure.
+    """
     from pathlib import Path
 
     plt = require_pyplot()

@@ -58,7 +58,20 @@ class Trajectory:
         return err
 
     def window(self, t0: float, t1: float = math.inf) -> np.ndarray:
-        """Boolean mask of the samples with t0 <= t < t1."""
+        """Boolean mask of the samples with t0 <= t < t1.
+
+        Parameters
+        ----------
+        t0 : float
+            [s].
+        t1 : float, optional
+            [s].
+
+        Returns
+        -------
+        np.ndarray
+            The mask.
+        """
         mask: np.ndarray = (self.t >= t0) & (self.t < t1)
         return mask
 
@@ -109,6 +122,44 @@ def position_servo_run(
     through an encoder (Euler-backward speed, or with ``observer_bandwidth`` [rad/s] the
     ``SpeedObserver`` on the encoder's position); ``full_motor`` uses (3.4) with
     an electrical time constant of 0.1 ms instead of (3.7).
+
+    Parameters
+    ----------
+    a_m, b_m : float, optional
+        The plant (3.7).
+    dt : float, optional
+        [s] the period.
+    lam : float, optional
+        [1/s] lambda of (7.31).
+    sigma : float, optional
+        [V] the sign law's gain.
+    q, rho, h : float, optional
+        The design's parameters (7.31).
+    u0 : float, optional
+        [V] the bound (inf: none).
+    distance : float, optional
+        [rad] the move.
+    move_time : float, optional
+        [s] its duration.
+    t_end : float, optional
+        [s].
+    load : float, optional
+        [rad/s^2] f = T_L/J.
+    load_time : float, optional
+        [s] when it steps on.
+    law : str, optional
+        "7.30" or "relay".
+    counts_per_rev : int | None, optional
+        An encoder's (None: exact).
+    full_motor : bool, optional
+        (3.4) instead of (3.7).
+    observer_bandwidth : float | None, optional
+        [rad/s] the speed observer's (None: Euler backward).
+
+    Returns
+    -------
+    Trajectory
+        The run.
     """
     design = design_dtsm(A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, -b_m], dt=dt, lam=lam)
     ctl = _servo_law(law, design, sigma=sigma, q=q, rho=rho, h=h, u0=u0)
@@ -169,6 +220,41 @@ def speed_loop_run(
     with ``substeps`` exact sub-steps per sample, or holds f(kT) over each
     sample when ``held_disturbance`` (then d_k = f(kT) exactly in (6.22)).
     Returns y = omega, and in ``extra["d"]`` the disturbance d_k the step saw.
+
+    Parameters
+    ----------
+    compensator : str, optional
+        "none", "first" or "second".
+    alpha : float, optional
+        The first's gain.
+    a_m, b_m : float, optional
+        The plant (3.5).
+    dt : float, optional
+        [s] the period.
+    t_end : float, optional
+        [s].
+    disturbance : Callable[[float], float] | None, optional
+        f(t) [V] (None: 5 h(t-2) sin(5t)).
+    substeps : int, optional
+        Exact sub-steps per sample.
+    held_disturbance : bool, optional
+        f(kT) held over each sample.
+    law : Literal['deadbeat', 'bounded'], optional
+        "deadbeat" (6.14) or "bounded" (6.15a).
+    sigma : float, optional
+        [V] the reaching bound.
+    speed_step : float, optional
+        [rad/s] the reference.
+
+    Returns
+    -------
+    Trajectory
+        The run.
+
+    Raises
+    ------
+    ValueError
+        If the compensator or the law is unknown.
     """
     f = disturbance or (lambda t: 5.0 * math.sin(5.0 * t) if t >= 2.0 else 0.0)
     design = design_dtsm(A=[[-a_m]], b=[b_m], dt=dt, lam=-1.0)
@@ -226,6 +312,32 @@ def cascade_run(
     ``load(t)`` [N m] defaults to zero; the move starts at ``move_start`` [s]. Sampled every
     0.1 ms (current loop); speed every 0.5 ms, position every 1 ms. ``counts_per_rev``: an
     encoder, speed by Euler backward.
+
+    Parameters
+    ----------
+    position, speed, current : CascadeLoopParams, optional
+        The loops' parameters (Table V).
+    a_i, b_i, a_w, b_w : float, optional
+        Of (4.9), Table V.
+    j : float, optional
+        [kg m^2] J of Table II.
+    distance : float, optional
+        [rad] the move.
+    move_time : float, optional
+        [s] its duration.
+    t_end : float, optional
+        [s].
+    load : Callable[[float], float] | None, optional
+        T_L [N m] of time [s] (None: 0).
+    counts_per_rev : int | None, optional
+        An encoder's (None: exact).
+    move_start : float, optional
+        [s].
+
+    Returns
+    -------
+    Trajectory
+        The run.
     """
     dt = current.dt
     motor = DCMotor(

@@ -43,13 +43,35 @@ QUANTUM_TOLERANCE = 1e-6
 
 
 def rms(x: Samples) -> float:
-    """Root mean square, sqrt(mean(x^2)); NaN for no samples."""
+    """Root mean square, sqrt(mean(x^2)); NaN for no samples.
+
+    Parameters
+    ----------
+    x : Samples
+        The samples.
+
+    Returns
+    -------
+    float
+        sqrt(mean(x^2)).
+    """
     a = np.asarray(x, dtype=float)
     return float(np.sqrt(np.mean(a * a))) if a.size else math.nan
 
 
 def max_abs(x: Samples) -> float:
-    """Largest absolute value, max |x|; NaN for no samples."""
+    """Largest absolute value, max |x|; NaN for no samples.
+
+    Parameters
+    ----------
+    x : Samples
+        The samples.
+
+    Returns
+    -------
+    float
+        max |x|.
+    """
     a = np.asarray(x, dtype=float)
     return float(np.max(np.abs(a))) if a.size else math.nan
 
@@ -57,7 +79,18 @@ def max_abs(x: Samples) -> float:
 def beyond(threshold: float) -> float:
     """The increment [unit of u] an alternation must exceed: ``threshold`` widened by its rounding
     (``QUANTUM_TOLERANCE``: a one-count limit cycle's increments equal the threshold, and one of
-    them a rounding above it is still one count), and ``ROUNDING`` at least."""
+    them a rounding above it is still one count), and ``ROUNDING`` at least.
+
+    Parameters
+    ----------
+    threshold : float
+        [unit of u].
+
+    Returns
+    -------
+    float
+        [unit of u].
+    """
     return max(threshold * (1.0 + QUANTUM_TOLERANCE), ROUNDING)
 
 
@@ -73,6 +106,18 @@ def chattering_count(u: Samples, *, threshold: float = 0.0) -> int:
     switching is; for exact measurements (a pure simulation) it is 0 and ``ROUNDING`` (1e-9) is
     used so rounding is not counted. A smooth or monotone control gives 0; a relay limit cycle
     about one per sample.
+
+    Parameters
+    ----------
+    u : Samples
+        The command.
+    threshold : float, optional
+        [unit of u] the increment one count explains.
+
+    Returns
+    -------
+    int
+        The alternations.
     """
     tol = beyond(threshold)
     du = np.diff(np.asarray(u, dtype=float))
@@ -82,7 +127,18 @@ def chattering_count(u: Samples, *, threshold: float = 0.0) -> int:
 
 def chattering_amplitude(u: Samples) -> float:
     """RMS of the command increment du_k = u_k - u_k-1 [unit of u] over the samples given
-    (the steady state); NaN for fewer than two samples."""
+    (the steady state); NaN for fewer than two samples.
+
+    Parameters
+    ----------
+    u : Samples
+        The command.
+
+    Returns
+    -------
+    float
+        [unit of u].
+    """
     a = np.asarray(u, dtype=float)
     return rms(np.diff(a)) if a.size > 1 else math.nan
 
@@ -91,7 +147,18 @@ def common_quantum(a: float, b: float) -> float:
     """The largest q of which both steps ``a``, ``b`` > 0 are whole multiples: Euclid's algorithm on
     floats, a remainder within ``QUANTUM_TOLERANCE`` of the larger step (of 0 or of the divisor)
     being none, and q then taken as the larger step over its whole multiple of q (rounding does not
-    accumulate); 0 where q would be within that tolerance (no quantum: continuous values)."""
+    accumulate); 0 where q would be within that tolerance (no quantum: continuous values).
+
+    Parameters
+    ----------
+    a, b : float
+        The steps, > 0.
+
+    Returns
+    -------
+    float
+        q (0: none).
+    """
     top = max(a, b)
     a, b = top, min(a, b)
     tol = QUANTUM_TOLERANCE * top
@@ -108,7 +175,18 @@ def feedback_resolution(x: Samples) -> float:
     step |x_k - x_k-1| between consecutive samples is a whole multiple (``common_quantum``); 0 when
     it never changed or has no quantum (NaN samples are skipped). A drive's 0x606C in increments/s
     steps by whole increments/s however fast the speed changes, a speed differenced from the
-    encoder over T by whole counts over T."""
+    encoder over T by whole counts over T.
+
+    Parameters
+    ----------
+    x : Samples
+        The samples.
+
+    Returns
+    -------
+    float
+        [unit of x] (0: none).
+    """
     d = np.abs(np.diff(np.asarray(x, dtype=float)))
     d = d[d > 0.0]
     q = float(d[0]) if d.size else 0.0
@@ -122,7 +200,20 @@ def feedback_resolution(x: Samples) -> float:
 def measured_quantum(declared: float, measured: float) -> float:
     """The quantum of a measurement: the one its samples show (``feedback_resolution``) where they
     have one (> 0), never below what the device or encoder ``declared``; else the declared one
-    (0: not known)."""
+    (0: not known).
+
+    Parameters
+    ----------
+    declared : float
+        What the device declares (0: not known).
+    measured : float
+        What the samples show (0: none).
+
+    Returns
+    -------
+    float
+        The quantum.
+    """
     return max(declared, measured) if measured > 0.0 else declared
 
 
@@ -138,6 +229,20 @@ def count_threshold(
     (``measured_quantum``). Both 0 for exact measurements.
 
         threshold = |du/dtheta| q_theta + |du/domega| q_omega
+
+    Parameters
+    ----------
+    sensitivity : tuple[float, float]
+        The law's command per unit of (position, velocity).
+    position_quantum : float
+        [rad].
+    velocity_quantum : float
+        [rad/s].
+
+    Returns
+    -------
+    float
+        [unit of u].
     """
     return sensitivity[0] * position_quantum + sensitivity[1] * velocity_quantum
 
@@ -145,7 +250,20 @@ def count_threshold(
 def not_measurable(threshold: float, command_range: float) -> str | None:
     """Why a chattering count cannot be measured (None: it can): where the ``threshold`` is at
     least the command's whole ``command_range`` [both unit of u] no increment can exceed it, and a
-    count of 0 would say nothing."""
+    count of 0 would say nothing.
+
+    Parameters
+    ----------
+    threshold : float
+        [unit of u].
+    command_range : float
+        [unit of u].
+
+    Returns
+    -------
+    str | None
+        Why, or None.
+    """
     if threshold >= command_range:
         return (
             f"not measurable: one step of the feedback's resolution moves the command by {threshold:.3g}, "
@@ -157,7 +275,18 @@ def not_measurable(threshold: float, command_range: float) -> str | None:
 def sign_law_share(sign_law: Samples) -> float:
     """The share of cycles a sliding-mode law spent outside its linear region: the mean of its
     per-cycle ``sign_law`` flags (1: the sign term of (6.8) or (7.30b)'s sigma branch, or a bound,
-    made the command); NaN for no samples. It needs no threshold."""
+    made the command); NaN for no samples. It needs no threshold.
+
+    Parameters
+    ----------
+    sign_law : Samples
+        The per-cycle flags.
+
+    Returns
+    -------
+    float
+        The share, 0-1.
+    """
     a = np.asarray(sign_law, dtype=float)
     return float(np.mean(a != 0.0)) if a.size else math.nan
 
@@ -168,7 +297,24 @@ def steady_chattering(
     """The chattering figures of a steady-state window, as a run's summary has them:
     ``chattering_count`` (NaN where ``not_measurable``, ``chattering_note`` saying why),
     ``chattering_amplitude`` and ``sign_law_share`` (NaN without ``sign_law`` flags: not a
-    sliding-mode law)."""
+    sliding-mode law).
+
+    Parameters
+    ----------
+    u : Samples
+        The command in the window.
+    sign_law : Samples | None
+        The law's flags (None: none).
+    threshold : float
+        [unit of u].
+    command_range : float, optional
+        [unit of u].
+
+    Returns
+    -------
+    dict[str, Any]
+        The figures.
+    """
     note = not_measurable(threshold, command_range)
     return {
         "chattering_count": math.nan if note else chattering_count(u, threshold=threshold),
@@ -184,6 +330,20 @@ def rise_time(e: Samples, *, dt: float, low: float = 0.05, high: float = 0.95) -
     The progress is p_k = 1 - e_k / e_0; the rise time is (k_high - k_low) dt with
     k_low, k_high the first samples where p reaches ``low`` and ``high``
     (5 % -> 95 % by default). NaN when e_0 = 0 or the transition never completes.
+
+    Parameters
+    ----------
+    e : Samples
+        The error.
+    dt : float
+        [s] the period.
+    low, high : float, optional
+        The progress's bounds.
+
+    Returns
+    -------
+    float
+        [s].
     """
     a = np.asarray(e, dtype=float)
     if a.size == 0 or a[0] == 0.0:
@@ -200,6 +360,20 @@ def settling_time(e: Samples, *, dt: float, band: float = 0.01) -> float:
 
     It is (k + 1) dt for the last sample k outside the band; 0 when none is.
     NaN when the last sample is still outside (not settled within the record).
+
+    Parameters
+    ----------
+    e : Samples
+        The error.
+    dt : float
+        [s] the period.
+    band : float, optional
+        Of |e_0|.
+
+    Returns
+    -------
+    float
+        [s].
     """
     a = np.abs(np.asarray(e, dtype=float))
     if a.size == 0:
@@ -214,7 +388,22 @@ def settling_time(e: Samples, *, dt: float, band: float = 0.01) -> float:
 
 def overshoot(y: Samples, *, final: float, initial: float = 0.0) -> float:
     """Overshoot [%] of a step response from ``initial`` to ``final``: the largest
-    excursion beyond ``final`` relative to the step size; 0 when none."""
+    excursion beyond ``final`` relative to the step size; 0 when none.
+
+    Parameters
+    ----------
+    y : Samples
+        The response.
+    final : float
+        Its final value.
+    initial : float, optional
+        Its initial value.
+
+    Returns
+    -------
+    float
+        [%].
+    """
     a = np.asarray(y, dtype=float)
     step = final - initial
     if step == 0.0 or a.size == 0:
@@ -247,6 +436,18 @@ def loop_margins(loop: Callable[[complex], complex], *, points: int = 20001) -> 
     worse side is reported. The phase is unwrapped from Omega -> 0, so a
     crossing of -180 deg (of +180 deg on the negative side) is a phase crossover.
     The bandwidth is the first |Omega| where |L/(1+L)| = 1/sqrt(2), divided by 2 pi.
+
+    Parameters
+    ----------
+    loop : Callable[[complex], complex]
+        L(z).
+    points : int, optional
+        Omega's grid.
+
+    Returns
+    -------
+    LoopMargins
+        The margins and the bandwidth.
     """
     omega = np.linspace(1e-6, math.pi, points)
     gm, pm, bw = math.inf, math.inf, math.inf

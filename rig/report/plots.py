@@ -16,7 +16,18 @@ __all__ = ["require_pyplot", "save"]
 
 
 def require_pyplot() -> Any:
-    """matplotlib's pyplot on the Agg backend; ConfigError naming the extra when it is missing."""
+    """matplotlib's pyplot on the Agg backend; ConfigError naming the extra when it is missing.
+
+    Returns
+    -------
+    Any
+        matplotlib.pyplot.
+
+    Raises
+    ------
+    ConfigError
+        If matplotlib is missing (the extra named).
+    """
     try:
         import matplotlib
 
@@ -28,7 +39,22 @@ def require_pyplot() -> Any:
 
 
 def save(plt: Any, fig: Any, path: Any) -> Any:
-    """Lay ``fig`` out, write it to ``path``, close it; returns it."""
+    """Lay ``fig`` out, write it to ``path``, close it; returns it.
+
+    Parameters
+    ----------
+    plt : Any
+        pyplot.
+    fig : Any
+        The figure.
+    path : Any
+        The file.
+
+    Returns
+    -------
+    Any
+        ``fig``.
+    """
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

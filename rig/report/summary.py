@@ -15,7 +15,20 @@ PERFORMANCE = ("rms_error", "max_error", "chattering_count", "chattering_amplitu
 def failed_figures(figures: dict[str, Any], why: str) -> dict[str, Any]:
     """``figures`` of a run that did not complete: each ``PERFORMANCE`` figure NaN (a filter on
     small errors or on no chattering keeps none of them), the chattering note saying ``why``, and
-    what they were when it ended under ``cut_short`` (for the post-mortem, not for a verdict)."""
+    what they were when it ended under ``cut_short`` (for the post-mortem, not for a verdict).
+
+    Parameters
+    ----------
+    figures : dict[str, Any]
+        The run's figures.
+    why : str
+        Why it did not complete.
+
+    Returns
+    -------
+    dict[str, Any]
+        The figures for the summary.
+    """
     out = {k: (math.nan if k in PERFORMANCE else v) for k, v in figures.items()}
     out["chattering_note"] = f"not measured: {why}"
     out["cut_short"] = {k: figures[k] for k in PERFORMANCE if k in figures}
@@ -28,7 +41,18 @@ _PEAK_UNITS = {"max_abs_velocity": "rad/s", "max_abs_current": "A", "max_abs_pos
 
 def summary_lines(summary: dict[str, Any]) -> list[str]:
     """The summary for a person, with units: the law's figures, the stop in words, each axis's
-    peaks as ``max |velocity| 120.4 rad/s`` (``--json`` has the same figures as ``max_abs_*``)."""
+    peaks as ``max |velocity| 120.4 rad/s`` (``--json`` has the same figures as ``max_abs_*``).
+
+    Parameters
+    ----------
+    summary : dict[str, Any]
+        The run's summary.
+
+    Returns
+    -------
+    list[str]
+        The lines.
+    """
     unit = summary.get("error_unit", "")
     command_unit = summary.get("command_unit") or "command's unit"
     command_units = summary.get("command_units", {})

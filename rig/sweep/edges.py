@@ -26,7 +26,18 @@ B_M = "emulator.params.b_m"
 def servo_edge(cfg: Any) -> float | None:
     """The plant b_m [rad/(V s^2)] at which ``cfg``'s (7.30) becomes unstable in its linear mode
     (the least above the plant's own that is: ``gain_edge``); None where ``cfg`` is no such run
-    (module docstring), inf where it stays stable up to 16 times the plant's."""
+    (module docstring), inf where it stays stable up to 16 times the plant's.
+
+    Parameters
+    ----------
+    cfg : Any
+        A point's configuration.
+
+    Returns
+    -------
+    float | None
+        [rad/(V s^2)] the edge b_m; None: no such run; inf: stable up to 16 times.
+    """
     from controllers.servo_loop import ServoPlant, gain_edge
     from plant_emulator.preset_params import DcServoPreset
     from rig.laws import make_law
@@ -49,7 +60,20 @@ def servo_edge(cfg: Any) -> float | None:
 def b_m_edges(spec: SweepSpec, rows: list[dict[str, Any]]) -> dict[tuple[tuple[str, Any], ...], float]:
     """For each combination of the other varied parameters' values among ``rows``, the edge b_m
     (``servo_edge``) of the base with those values; {} where the study does not vary b_m, is a
-    scenario's, or its base is no such run."""
+    scenario's, or its base is no such run.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+    rows : list[dict[str, Any]]
+        Its rows.
+
+    Returns
+    -------
+    dict[tuple[tuple[str, Any], ...], float]
+        The other parameters' values -> the edge b_m.
+    """
     from rig.sweep.point import point_config, read_base
 
     if spec.scenario or B_M not in {p.name for p in spec.parameters}:

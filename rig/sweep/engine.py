@@ -40,7 +40,13 @@ log = logging.getLogger(__name__)
 
 
 def cores() -> int:
-    """The cores this process may run on."""
+    """The cores this process may run on.
+
+    Returns
+    -------
+    int
+        Cores.
+    """
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not Linux
@@ -125,7 +131,22 @@ def open_client(
 ) -> tuple[Any, dict[str, Any]]:
     """(a dask.distributed Client, the engine's description for sweep.json): a local cluster of
     ``workers`` processes (default: one per core), or the cluster at ``scheduler``. ``quiet``:
-    distributed's own loggers (set to INFO when it is imported) say only warnings."""
+    distributed's own loggers (set to INFO when it is imported) say only warnings.
+
+    Parameters
+    ----------
+    workers : int | None, optional
+        Local worker processes (None: one per core).
+    scheduler : str | None, optional
+        A cluster's scheduler address (None: a local cluster).
+    quiet : bool, optional
+        distributed's loggers say only warnings.
+
+    Returns
+    -------
+    tuple[Any, dict[str, Any]]
+        (the client, the engine's description).
+    """
     from dask.distributed import Client, LocalCluster
 
     if quiet:
@@ -163,7 +184,15 @@ def close_client(client: Any, *, quick: bool = False) -> None:
     """Close ``client`` and the local cluster it started (if any); a worker slow to exit is killed
     by its nanny, which need not be said (at WARNING) after the sweep's rows are in. ``quick``
     (a sweep a signal stopped): the local workers are given ``QUICK_CLOSE`` to end, then ended
-    (their points are emulated runs, cancelled)."""
+    (their points are emulated runs, cancelled).
+
+    Parameters
+    ----------
+    client : Any
+        The client.
+    quick : bool, optional
+        A signal stopped the sweep: the workers are given ``QUICK_CLOSE`` to end.
+    """
     cluster = client.cluster
     client.close()
     if cluster is not None:
@@ -190,12 +219,12 @@ class SweepRun:
     """What ``run_sweep`` did: the table, the counts, the seconds from the first task's submit
     to the last row, and the record written to sweep.json."""
 
-    results: Results
-    total: int
-    resumed: int
-    seconds: float
-    record: dict[str, Any]
-    interrupted: bool = False
+    results: Results  #: the table
+    total: int  #: points in the study
+    resumed: int  #: rows kept from before
+    seconds: float  #: [s] from the first submit to the last row
+    record: dict[str, Any]  #: what sweep.json holds
+    interrupted: bool = False  #: Ctrl-C ended it
 
 
 def _pending(spec: SweepSpec, points: list[Point], rows: list[dict[str, Any]]) -> list[Point]:
@@ -215,7 +244,25 @@ def _pending(spec: SweepSpec, points: list[Point], rows: list[dict[str, Any]]) -
 
 def resumable(spec: SweepSpec, resume: bool) -> list[dict[str, Any]]:
     """The rows to keep: none for a new sweep (ConfigError if the folder has a table and not
-    ``resume``); the table's with ``resume`` (ConfigError if the spec changed)."""
+    ``resume``); the table's with ``resume`` (ConfigError if the spec changed).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+    resume : bool
+        ``--resume``.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        The rows to keep.
+
+    Raises
+    ------
+    ConfigError
+        If the folder has a table and not ``resume``, or the spec changed.
+    """
     record = read_sweep_json(spec.directory)
     rows = read_rows(spec.directory)
     if not resume:
@@ -263,7 +310,28 @@ def run_sweep(
     every: float = 1.0,
 ) -> SweepRun:
     """Run every point of ``spec`` not yet in its table on ``client``; ``on_row(results, total)``
-    after each row. Returns when all are in, or on Ctrl-C (``interrupted``, the rows kept)."""
+    after each row. Returns when all are in, or on Ctrl-C (``interrupted``, the rows kept).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+    client : Any
+        The dask client.
+    engine : dict[str, Any]
+        Its description.
+    resume : bool, optional
+        Keep the rows already in.
+    on_row : Callable[[Results, int], None] | None, optional
+        ``on_row(results, total)`` after each row.
+    every : float, optional
+        [s] between writes of the table.
+
+    Returns
+    -------
+    SweepRun
+        What it did.
+    """
     from dask.distributed import as_completed
 
     base_doc = read_base(spec)

@@ -16,7 +16,18 @@ __all__ = ["load_spec"]
 
 def load_spec(path: str | Path) -> SweepSpec:
     """Load ``path`` and check it, every value against the base included (ConfigError naming the
-    file, the key and the value); the metrics default to the base's."""
+    file, the key and the value); the metrics default to the base's.
+
+    Parameters
+    ----------
+    path : str | Path
+        The study's TOML file.
+
+    Returns
+    -------
+    SweepSpec
+        The checked study.
+    """
     p = Path(path)
     spec = spec_from_doc(read_toml(p, what="sweep specification"), str(p))
     spec = replace(spec, metrics=spec.metrics or default_metrics(spec))

@@ -118,7 +118,22 @@ def _units(spec: SweepSpec, rows: list[dict[str, Any]]) -> dict[str, str]:
 
 
 def plot_results(spec: SweepSpec, rows: list[dict[str, Any]], directory: str) -> list[Path]:
-    """One PNG per metric in ``directory`` (made if missing); their paths."""
+    """One PNG per metric in ``directory`` (made if missing); their paths.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+    rows : list[dict[str, Any]]
+        Its rows.
+    directory : str
+        Where the PNGs go.
+
+    Returns
+    -------
+    list[Path]
+        Their paths.
+    """
     from rig.sweep.edges import b_m_edges
 
     out = Path(directory)
@@ -134,7 +149,24 @@ def plot_results(spec: SweepSpec, rows: list[dict[str, Any]], directory: str) ->
 
 def figure(spec: SweepSpec, rows: list[dict[str, Any]], metric: str, edges: Edges | None = None) -> Any:
     """The matplotlib Figure of ``metric`` over the varied parameters (see the module docstring);
-    ``edges``: ``rig.sweep.edges.b_m_edges`` of the rows (None: computed here)."""
+    ``edges``: ``rig.sweep.edges.b_m_edges`` of the rows (None: computed here).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+    rows : list[dict[str, Any]]
+        Its rows.
+    metric : str
+        The metric drawn.
+    edges : Edges | None, optional
+        ``b_m_edges`` of the rows (None: computed here).
+
+    Returns
+    -------
+    Any
+        The Figure.
+    """
     from matplotlib.figure import Figure
 
     from rig.sweep.edges import b_m_edges

@@ -40,24 +40,60 @@ class Job:
     """What a worker needs for one point (pickled to it): the base configuration's TOML document
     and its path (or the scenario's name), the fixed and the point's values, the metrics."""
 
-    point: Point
-    base_doc: dict[str, Any] | None
-    base_source: str
-    scenario: str
-    fixed: dict[str, Any]
-    metrics: tuple[str, ...]
-    timeout: float
+    point: Point  #: the point
+    base_doc: dict[str, Any] | None  #: the base configuration's document (None: a scenario)
+    base_source: str  #: its path
+    scenario: str  #: the scenario's name ("": a configuration base)
+    fixed: dict[str, Any]  #: the study's [fixed] values
+    metrics: tuple[str, ...]  #: the metrics to give
+    timeout: float  #: [s] a point may run
     runs_dir: str  #: "" : a temporary folder, removed after the point
 
 
 def job_of(spec: SweepSpec, base_doc: dict[str, Any] | None, point: Point) -> Job:
+    """What a worker needs for ``point`` of ``spec``.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+    base_doc : dict[str, Any] | None
+        The base's document (None: a scenario).
+    point : Point
+        The point.
+
+    Returns
+    -------
+    Job
+        The job.
+    """
     runs = str(spec.directory.resolve() / "runs") if spec.keep_runs else ""
     return Job(point, base_doc, spec.base, spec.scenario, spec.fixed, spec.metrics, spec.timeout, runs)
 
 
 def apply_values(doc: dict[str, Any], values: dict[str, Any], where: str) -> dict[str, Any]:
     """A copy of the TOML document ``doc`` with each dotted name set (``axis.NAME.KEY``: the
-    [[axis]] table named NAME); tables on the way are made. ConfigError naming ``where``."""
+    [[axis]] table named NAME); tables on the way are made. ConfigError naming ``where``.
+
+    Parameters
+    ----------
+    doc : dict[str, Any]
+        A TOML document.
+    values : dict[str, Any]
+        Dotted name -> value.
+    where : str
+        Named in errors.
+
+    Returns
+    -------
+    dict[str, Any]
+        The new document.
+
+    Raises
+    ------
+    ConfigError
+        If a name is not of the base (``where`` named).
+    """
     out = copy.deepcopy(doc)
     for name, value in values.items():
         keys = name.split(".")
@@ -115,13 +151,39 @@ def _config(job: Job, where: str) -> Any:
 
 
 def point_config(spec: SweepSpec, base_doc: dict[str, Any] | None, point: Point) -> Any:
-    """``point``'s checked configuration, as a worker loads it (a configuration base only)."""
+    """``point``'s checked configuration, as a worker loads it (a configuration base only).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+    base_doc : dict[str, Any] | None
+        The base's document.
+    point : Point
+        The point.
+
+    Returns
+    -------
+    Any
+        The configuration.
+    """
     return _config(job_of(spec, base_doc, point), f"{spec.source}: point {point.index}:")
 
 
 def check_values(spec: SweepSpec) -> None:
     """Every list value and both ends of every range, each alone with [fixed] on the base:
-    ConfigError naming the spec, the parameter and the value before anything runs."""
+    ConfigError naming the spec, the parameter and the value before anything runs.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+
+    Raises
+    ------
+    ConfigError
+        At the first value the base refuses (spec, parameter and value named).
+    """
     from rig.sweep.scenarios import SCENARIOS
 
     if spec.scenario:
@@ -170,6 +232,18 @@ def read_base(spec: SweepSpec) -> dict[str, Any] | None:
 
 
 def default_metrics(spec: SweepSpec) -> tuple[str, ...]:
+    """The metrics of a study that names none: the scenario's, or a run's performance figures.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+
+    Returns
+    -------
+    tuple[str, ...]
+        The metrics.
+    """
     from rig.sweep.scenarios import SCENARIOS
 
     if spec.scenario:
@@ -243,7 +317,18 @@ def run_point(job: Job) -> dict[str, Any]:
     """The row of ``job``'s point: its values and seed, its ``status`` ("completed"; "stopped": a
     safe stop, the time-out's too; "error": an exception), each metric (a performance figure NaN
     unless completed), the stop reason and the error (None when it ran to its end), its seconds
-    in the worker (``elapsed_s``; ``run_s``: the loop's or the simulation's own) and the worker."""
+    in the worker (``elapsed_s``; ``run_s``: the loop's or the simulation's own) and the worker.
+
+    Parameters
+    ----------
+    job : Job
+        The job.
+
+    Returns
+    -------
+    dict[str, Any]
+        The row.
+    """
     start = time.perf_counter()
     p = job.point
     row: dict[str, Any] = {"point": p.index, **p.values, "seed": p.seed, "repeat": p.repeat}

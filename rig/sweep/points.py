@@ -27,10 +27,10 @@ class Point:
     """One run of the study: its number, the varied values by name, its noise seed (None: the
     base's own) and which repeat it is."""
 
-    index: int
-    values: dict[str, Any]
-    seed: int | None = None
-    repeat: int = 0
+    index: int  #: its number
+    values: dict[str, Any]  #: the varied values by name
+    seed: int | None = None  #: its noise seed (None: the base's)
+    repeat: int = 0  #: which repeat it is
 
 
 def _samples(spec: SweepSpec) -> list[tuple[Any, ...]]:
@@ -65,7 +65,18 @@ def _plain(value: Any) -> Any:
 
 
 def make_points(spec: SweepSpec) -> list[Point]:
-    """Every point of ``spec``, numbered (see the module docstring)."""
+    """Every point of ``spec``, numbered (see the module docstring).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The study.
+
+    Returns
+    -------
+    list[Point]
+        The points.
+    """
     names = [p.name for p in spec.parameters]
     seeds: list[int | None] = (
         [None]

@@ -108,11 +108,11 @@ class Scenario:
     """A pure simulation: ``schema`` (its parameters), ``run(point) -> metrics``, the ``metrics``
     it gives and their ``units``, and whether it takes a ``seed`` (noise)."""
 
-    schema: type
-    run: Callable[[Any], dict[str, Any]]
-    metrics: tuple[str, ...]
-    units: dict[str, str]
-    seeded: bool = False
+    schema: type  #: its parameters' dataclass
+    run: Callable[[Any], dict[str, Any]]  #: point -> metrics
+    metrics: tuple[str, ...]  #: the metrics it gives
+    units: dict[str, str]  #: metric -> unit
+    seeded: bool = False  #: it takes a noise seed
 
 
 SCENARIOS: dict[str, Scenario] = {

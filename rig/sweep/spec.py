@@ -103,13 +103,13 @@ class Parameter:
     """A varied parameter: ``values`` (a list), or a range ``low``..``high`` (``num`` points on a
     grid; ``scale`` linear or log; ``integer``: rounded)."""
 
-    name: str
-    values: tuple[Any, ...] = ()
-    low: float = math.nan
-    high: float = math.nan
-    num: int = 0
-    scale: str = "linear"
-    integer: bool = False
+    name: str  #: its dotted name
+    values: tuple[Any, ...] = ()  #: a list of values
+    low: float = math.nan  #: a range's lower end
+    high: float = math.nan  #: its upper end
+    num: int = 0  #: a range's points
+    scale: str = "linear"  #: "linear" or "log"
+    integer: bool = False  #: values rounded
     unit: str = ""  #: for the plots' axes ("" : ``rig.sweep.plot``'s table of known names)
 
     @property
@@ -117,14 +117,31 @@ class Parameter:
         return not self.values
 
     def grid(self) -> tuple[Any, ...]:
-        """The values of a grid: the list, or ``num`` points of the range (ends included)."""
+        """The values of a grid: the list, or ``num`` points of the range (ends included).
+
+        Returns
+        -------
+        tuple[Any, ...]
+            The values.
+        """
         if self.values:
             return self.values
         return tuple(self.at(i / (self.num - 1) if self.num > 1 else 0.0) for i in range(self.num))
 
     def at(self, q: float) -> Any:
         """The range's value at the fraction ``q`` in [0, 1] of its scale, to 12 significant
-        digits (a log grid of 170..2720 has 680, not 680.0000000000003)."""
+        digits (a log grid of 170..2720 has 680, not 680.0000000000003).
+
+        Parameters
+        ----------
+        q : float
+            In [0, 1].
+
+        Returns
+        -------
+        Any
+            The value.
+        """
         if self.scale == "log":
             x = math.exp(math.log(self.low) + q * (math.log(self.high) - math.log(self.low)))
         else:
@@ -132,7 +149,13 @@ class Parameter:
         return round(x) if self.integer else float(f"{x:.12g}")
 
     def ends(self) -> tuple[Any, ...]:
-        """What to check against the base: every value of a list, both ends of a range."""
+        """What to check against the base: every value of a list, both ends of a range.
+
+        Returns
+        -------
+        tuple[Any, ...]
+            The values to check.
+        """
         return self.values or (self.at(0.0), self.at(1.0))
 
 
@@ -140,28 +163,34 @@ class Parameter:
 class SweepSpec:
     """A checked study (see the module docstring)."""
 
-    source: str
-    name: str
+    source: str  #: the study's file
+    name: str  #: the study's
     base: str = ""  #: the configuration's path ("" : a scenario)
-    scenario: str = ""
-    method: str = "grid"
-    samples: int = 0
-    seed: int = 0
-    repeats: int = 1
-    noise_seed: int | None = None
-    metrics: tuple[str, ...] = ()
-    timeout: float = 300.0
-    keep_runs: bool = False
-    output: str = "sweeps"
-    parameters: tuple[Parameter, ...] = ()
-    fixed: dict[str, Any] = field(default_factory=dict)
+    scenario: str = ""  #: a scenario's name ("": a configuration base)
+    method: str = "grid"  #: "grid", "random" or "lhs"
+    samples: int = 0  #: points drawn (random, lhs)
+    seed: int = 0  #: of the draw
+    repeats: int = 1  #: runs per point
+    noise_seed: int | None = None  #: the runs' noise seed (None: the base's)
+    metrics: tuple[str, ...] = ()  #: the metrics kept
+    timeout: float = 300.0  #: [s] a point may run
+    keep_runs: bool = False  #: keep each point's run directory
+    output: str = "sweeps"  #: the studies' folder
+    parameters: tuple[Parameter, ...] = ()  #: the varied parameters
+    fixed: dict[str, Any] = field(default_factory=dict)  #: [fixed] values
 
     @property
     def directory(self) -> Path:
         return Path(self.output) / self.name
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready (sweep.json's ``spec``; ``--resume`` compares it)."""
+        """JSON-ready (sweep.json's ``spec``; ``--resume`` compares it).
+
+        Returns
+        -------
+        dict[str, Any]
+            The spec.
+        """
         doc = asdict(self)
         doc["parameters"] = [
             {k: v for k, v in asdict(p).items() if not (isinstance(v, float) and math.isnan(v))}
@@ -245,7 +274,25 @@ def _sweep_table(source: str, table: Any) -> dict[str, Any]:
 def spec_from_doc(doc: dict[str, Any], source: str) -> SweepSpec:
     """A checked spec from a parsed TOML document (``source`` names it in errors); the values are
     checked against the base by ``rig.sweep.point.check_values`` (``rig.sweep.load.load_spec``
-    does both)."""
+    does both).
+
+    Parameters
+    ----------
+    doc : dict[str, Any]
+        The parsed TOML document.
+    source : str
+        Named in errors.
+
+    Returns
+    -------
+    SweepSpec
+        The spec.
+
+    Raises
+    ------
+    ConfigError
+        If a key is unknown, of a wrong type or refused.
+    """
     unknown = sorted(set(doc) - {"sweep", "parameters", "fixed"})
     if unknown:
         raise ConfigError(f"{source}: unknown section(s) {unknown}; known: [sweep], [parameters], [fixed]")

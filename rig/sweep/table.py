@@ -32,7 +32,23 @@ SWEEP = "sweep.json"
 
 def read_rows(directory: Path) -> list[dict[str, Any]]:
     """The rows of ``directory``/results.parquet ([] when there is none); ConfigError when it
-    cannot be read."""
+    cannot be read.
+
+    Parameters
+    ----------
+    directory : Path
+        The study's folder.
+
+    Returns
+    -------
+    list[dict[str, Any]]
+        The rows.
+
+    Raises
+    ------
+    ConfigError
+        If the table cannot be read.
+    """
     import pyarrow.parquet as pq
 
     path = directory / RESULTS
@@ -47,7 +63,17 @@ def read_rows(directory: Path) -> list[dict[str, Any]]:
 
 class Results:
     """The table of ``directory``: ``add(row)``; ``write()`` forces a write; ``done`` and
-    ``failed`` count the rows."""
+    ``failed`` count the rows.
+
+    Parameters
+    ----------
+    directory : Path
+        The study's folder.
+    rows : list[dict[str, Any]] | None, optional
+        Rows kept from before.
+    every : float, optional
+        [s] between writes.
+    """
 
     def __init__(self, directory: Path, rows: list[dict[str, Any]] | None = None, every: float = 1.0) -> None:
         self.directory = directory
@@ -65,6 +91,13 @@ class Results:
         return sum(1 for r in self.rows.values() if r.get("error") is not None)
 
     def add(self, row: dict[str, Any]) -> None:
+        """Add ``row`` (by its point), writing the table when ``every`` has passed.
+
+        Parameters
+        ----------
+        row : dict[str, Any]
+            The row.
+        """
         self.rows[int(row["point"])] = row
         self._dirty = True
         if time.monotonic() - self._written >= self.every:
@@ -94,7 +127,18 @@ def _cells(row: dict[str, Any]) -> dict[str, Any]:
 
 
 def clean(v: Any) -> Any:
-    """``v`` for JSON: NaN as null, infinities as "inf" and "-inf"."""
+    """``v`` for JSON: NaN as null, infinities as "inf" and "-inf".
+
+    Parameters
+    ----------
+    v : Any
+        A value.
+
+    Returns
+    -------
+    Any
+        It for JSON.
+    """
     if isinstance(v, float) and not math.isfinite(v):
         return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
     if isinstance(v, dict):
@@ -105,11 +149,31 @@ def clean(v: Any) -> Any:
 
 
 def write_sweep_json(directory: Path, doc: dict[str, Any]) -> None:
-    """sweep.json: the resolved spec, the engine and the counts (atomically)."""
+    """sweep.json: the resolved spec, the engine and the counts (atomically).
+
+    Parameters
+    ----------
+    directory : Path
+        The study's folder.
+    doc : dict[str, Any]
+        The document.
+    """
     write_atomic(directory / SWEEP, lambda f: f.write(json.dumps(clean(doc), indent=2) + "\n"))
 
 
 def read_sweep_json(directory: Path) -> dict[str, Any] | None:
+    """sweep.json of ``directory``; None where there is none.
+
+    Parameters
+    ----------
+    directory : Path
+        The study's folder.
+
+    Returns
+    -------
+    dict[str, Any] | None
+        Its document, or None.
+    """
     from drivers.files import read_json
 
     path = directory / SWEEP

@@ -61,7 +61,15 @@ def _hostname(host: str) -> str:
 
 
 class Guard:
-    """See the module docstring; ``token`` None: loopback only (the Host check)."""
+    """See the module docstring; ``token`` None: loopback only (the Host check).
+
+    Parameters
+    ----------
+    app : ASGIApp
+        The application guarded.
+    token : str | None
+        The access token (None: loopback only).
+    """
 
     def __init__(self, app: ASGIApp, token: str | None) -> None:
         self.app = app
@@ -115,7 +123,24 @@ class Guard:
 def make_app(
     store: Store, scope: Scope | None, *, token: str | None = None, info: dict[str, Any] | None = None
 ) -> ASGIApp:
-    """The application over ``store``, with the live ``scope`` (None: no live run)."""
+    """The application over ``store``, with the live ``scope`` (None: no live run).
+
+    Parameters
+    ----------
+    store : Store
+        The runs and studies.
+    scope : Scope | None
+        The live run's (None: none).
+    token : str | None, optional
+        The access token (None: loopback only).
+    info : dict[str, Any] | None, optional
+        What the page says of the server.
+
+    Returns
+    -------
+    ASGIApp
+        The application.
+    """
     reads = asyncio.Semaphore(MAX_READS)
     live_clients = [0]
 

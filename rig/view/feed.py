@@ -39,17 +39,42 @@ TAIL_BYTES = 4 << 20  #: of a run in progress's samples.csv read at the start (i
 class Sink(Protocol):
     """Where the updates go: a ``Scope`` (in this process) or ``rig.view.process.PipeSink``."""
 
-    def open(self, meta: dict[str, Any]) -> None: ...
+    def open(self, meta: dict[str, Any]) -> None:
+        """A run begins: its description.
 
-    def push(self, rows: np.ndarray, states: Mapping[str, Mapping[str, Any]] | None = None) -> None: ...
+        Parameters
+        ----------
+        meta : dict[str, Any]
+            The run's description.
+        """
 
-    def stop(self) -> None: ...
+    def push(self, rows: np.ndarray, states: Mapping[str, Mapping[str, Any]] | None = None) -> None:
+        """New rows and the axes' states.
+
+        Parameters
+        ----------
+        rows : np.ndarray
+            The rows, decimated.
+        states : Mapping[str, Mapping[str, Any]] | None, optional
+            Axis -> its state (None: unchanged).
+        """
+
+    def stop(self) -> None:
+        """The run has ended."""
 
 
 class RingFeed:
     """A LiveView backend feeding ``scope`` (a ``Sink``); the run's directory is ``output``/title
     (the recorder's), its description read from the files the recorder wrote at its start;
-    ``states()`` gives the axes' states (``rig.view.states.state_probe``), once known."""
+    ``states()`` gives the axes' states (``rig.view.states.state_probe``), once known.
+
+    Parameters
+    ----------
+    scope : Sink
+        What it feeds.
+    output : str | Path
+        The runs' folder.
+    """
 
     def __init__(self, scope: Sink, output: str | Path) -> None:
         self.scope = scope
@@ -58,6 +83,15 @@ class RingFeed:
         self._after = -np.inf  #: [s] the time of the last row sent
 
     def open(self, channels: Sequence[Channel], title: str) -> None:
+        """The run begins: its description to the scope.
+
+        Parameters
+        ----------
+        channels : Sequence[Channel]
+            The axes shown.
+        title : str
+            The run's name.
+        """
         run_dir = self.output / title
         docs = _json(run_dir / "columns.json")
         columns = list(docs)
@@ -66,6 +100,15 @@ class RingFeed:
         self.scope.open(meta_of(columns, docs, _json(run_dir / "config.json"), title))
 
     def draw(self, rows: Sequence[Sequence[float]], final: bool = False) -> None:
+        """The new rows to the scope.
+
+        Parameters
+        ----------
+        rows : Sequence[Sequence[float]]
+            The latest rows.
+        final : bool, optional
+            The run has ended.
+        """
         start = bisect.bisect_right(rows, self._after, key=lambda r: r[0])
         new = np.array(rows[start:], dtype=float)
         if len(new):
@@ -76,11 +119,25 @@ class RingFeed:
             self.scope.stop()
 
     def close(self) -> None:
+        """Tell the scope the run has ended."""
         self.scope.stop()
 
 
 def parse_lines(lines: Sequence[bytes], width: int) -> np.ndarray:
-    """Rows of ``width`` floats from CSV ``lines`` (a line that is not such a row is left out)."""
+    """Rows of ``width`` floats from CSV ``lines`` (a line that is not such a row is left out).
+
+    Parameters
+    ----------
+    lines : Sequence[bytes]
+        CSV lines.
+    width : int
+        Floats a row.
+
+    Returns
+    -------
+    np.ndarray
+        The rows.
+    """
     rows = []
     for line in lines:
         parts = line.split(b",")
@@ -95,7 +152,17 @@ def parse_lines(lines: Sequence[bytes], width: int) -> np.ndarray:
 
 class TailFeed:
     """A thread following ``run_dir``/samples.csv into ``scope`` ``RATE`` times a second until
-    ``summary.json`` is there (or ``stop()``)."""
+    ``summary.json`` is there (or ``stop()``).
+
+    Parameters
+    ----------
+    scope : Scope
+        What it feeds.
+    run_dir : Path
+        The run.
+    rate : float, optional
+        [Hz].
+    """
 
     def __init__(self, scope: Scope, run_dir: Path, rate: float = RATE) -> None:
         self.scope = scope
@@ -105,9 +172,11 @@ class TailFeed:
         self._thread = threading.Thread(target=self._run, name="rig-view-tail", daemon=True)
 
     def start(self) -> None:
+        """Follow from a thread of its own."""
         self._thread.start()
 
     def stop(self) -> None:
+        """Stop following."""
         self._stop.set()
         self._thread.join(2.0)
 

@@ -29,7 +29,24 @@ def meta_of(
     columns: Sequence[str], docs: Mapping[str, Mapping[str, str]], config: Mapping[str, Any], title: str
 ) -> dict[str, Any]:
     """The page's description of a run whose samples have ``columns`` (units in ``docs``), whose
-    resolved configuration is ``config`` (config.json), named ``title``."""
+    resolved configuration is ``config`` (config.json), named ``title``.
+
+    Parameters
+    ----------
+    columns : Sequence[str]
+        The samples' columns.
+    docs : Mapping[str, Mapping[str, str]]
+        Column -> its unit and meaning.
+    config : Mapping[str, Any]
+        The resolved configuration.
+    title : str
+        The run's name.
+
+    Returns
+    -------
+    dict[str, Any]
+        The description.
+    """
     axes_cfg = [a for a in config.get("axes", []) if isinstance(a, dict) and "name" in a]
     modes = {str(a["name"]): (str(a.get("mode")) or None) for a in axes_cfg}
     for column in columns:  # a profile's axis (a load) has columns but no [[axis]]
@@ -70,7 +87,20 @@ def meta_of(
 
 
 def read_meta(run_dir: Path, columns: Sequence[str] | None = None) -> dict[str, Any]:
-    """``meta_of`` a run directory (its columns from samples.csv's header unless given)."""
+    """``meta_of`` a run directory (its columns from samples.csv's header unless given).
+
+    Parameters
+    ----------
+    run_dir : Path
+        The run.
+    columns : Sequence[str] | None, optional
+        Its columns (None: samples.csv's header).
+
+    Returns
+    -------
+    dict[str, Any]
+        The description.
+    """
     if columns is None:
         with (run_dir / "samples.csv").open() as f:
             columns = f.readline().strip().split(",")

@@ -3,10 +3,9 @@
 The run's process keeps only the LiveView's thread (``rig.view.feed.RingFeed``), which sends
 each update, already decimated, over a pipe (``PipeSink``); the server, its event loop, the
 JSON for the browsers and every request (a hostile one too) are the other process's, which
-never holds the run's interpreter lock. A first measure with the server in the run's own
-process (``rig bench view``, 2 pairs of 5 s at 1 kHz under a load of 17) gave 10-22 % overruns
-and two stops of 2, against 0.2-0.3 % and none without the view: a thread of normal priority
-holding the lock while the machine's other processes run keeps the real-time loop waiting.
+never holds the run's interpreter lock: a server thread of normal priority in the run's own
+process, holding the lock while the machine's other processes run, kept the real-time loop
+waiting (its figures: docs/benchmarks.md, "The view").
 
 The child binds the address (a port in use: ConfigError in the run's process before anything
 moves), ignores Ctrl-C (the run's to handle: the page then gets the run's summary), serves from
@@ -35,7 +34,19 @@ log = logging.getLogger(__name__)
 
 def serve_child(conn: Any, folders: list[str], host: str, port: int, where: str) -> None:
     """The child: ("url", url) or ("error", text) on ``conn``, then serve what comes over it:
-    ("open", meta), ("rows", rows, states), ("stop",), ("finish", summary, grace)."""
+    ("open", meta), ("rows", rows, states), ("stop",), ("finish", summary, grace).
+
+    Parameters
+    ----------
+    conn : Any
+        The pipe to the parent.
+    folders : list[str]
+        The folders served.
+    host, port
+        The address.
+    where : str
+        The option, named in errors.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     from rig.view.scope import Scope
     from rig.view.server import ViewServer
@@ -69,7 +80,13 @@ def serve_child(conn: Any, folders: list[str], host: str, port: int, where: str)
 
 class PipeSink:
     """What ``RingFeed`` feeds, sent to the child: ``open``, ``push`` and ``stop`` as a Scope's.
-    A child that is gone is logged once; the run goes on."""
+    A child that is gone is logged once; the run goes on.
+
+    Parameters
+    ----------
+    conn : Any
+        The pipe to the child.
+    """
 
     def __init__(self, conn: Any) -> None:
         self._conn = conn
@@ -85,18 +102,52 @@ class PipeSink:
             log.warning("the view's process is gone (%s); the run goes on", exc)
 
     def open(self, meta: dict[str, Any]) -> None:
+        """Send ``open``.
+
+        Parameters
+        ----------
+        meta : dict[str, Any]
+            The run's description.
+        """
         self._send(("open", meta))
 
     def push(self, rows: np.ndarray, states: Mapping[str, Mapping[str, Any]] | None = None) -> None:
+        """Send ``rows``.
+
+        Parameters
+        ----------
+        rows : np.ndarray
+            The rows.
+        states : Mapping[str, Mapping[str, Any]] | None, optional
+            The axes' states.
+        """
         self._send(("rows", rows, None if states is None else {k: dict(v) for k, v in states.items()}))
 
     def stop(self) -> None:
+        """Send ``stop``."""
         self._send(("stop",))
 
 
 class ViewProcess:
     """The server over ``folders`` on ``host``:``port`` in a child process; ``url`` says where
-    (with the token where one is needed); ``sink`` feeds its live scope."""
+    (with the token where one is needed); ``sink`` feeds its live scope.
+
+    Parameters
+    ----------
+    folders : list[Path]
+        The folders served.
+    host, port
+        The address.
+    where : str
+        The option, named in errors.
+    timeout : float, optional
+        [s] for the child to start serving.
+
+    Raises
+    ------
+    ConfigError
+        If the server did not start, or ended before.
+    """
 
     def __init__(self, folders: list[Path], host: str, port: int, where: str, timeout: float = 120.0) -> None:
         ctx = multiprocessing.get_context("spawn")
@@ -127,7 +178,15 @@ class ViewProcess:
         self._lock = threading.Lock()
 
     def finish(self, summary: Mapping[str, Any], grace: float = 2.0) -> None:
-        """The run's ``summary`` to every browser (``grace`` s to take it), then the child ends."""
+        """The run's ``summary`` to every browser (``grace`` s to take it), then the child ends.
+
+        Parameters
+        ----------
+        summary : Mapping[str, Any]
+            The run's summary.
+        grace : float, optional
+            [s] for browsers to take it.
+        """
         if not self.sink.failed:
             try:
                 self._conn.send(("finish", dict(summary), grace))
@@ -139,6 +198,7 @@ class ViewProcess:
         self.close()
 
     def close(self) -> None:
+        """Close the pipe and wait for the child."""
         try:
             self._conn.close()
         except OSError:

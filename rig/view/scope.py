@@ -31,7 +31,20 @@ HISTORY = 4000  #: rows of that history sent at most
 
 def decimate(rows: np.ndarray, most: int = MOST) -> np.ndarray:
     """``rows`` (time first) as at most ``most`` rows: themselves, or the minimum and maximum of
-    each column over buckets of consecutive rows (``rig.host.readback.Envelope``)."""
+    each column over buckets of consecutive rows (``rig.host.readback.Envelope``).
+
+    Parameters
+    ----------
+    rows : np.ndarray
+        Time first.
+    most : int, optional
+        Rows at most.
+
+    Returns
+    -------
+    np.ndarray
+        The rows.
+    """
     if len(rows) <= most:
         return rows
     envelope = Envelope(len(rows), rows.shape[1], max(1, most // 2))
@@ -40,14 +53,31 @@ def decimate(rows: np.ndarray, most: int = MOST) -> np.ndarray:
 
 
 def rows_json(rows: np.ndarray) -> str:
-    """``rows`` as a JSON array of arrays, NaN and infinities as null."""
+    """``rows`` as a JSON array of arrays, NaN and infinities as null.
+
+    Parameters
+    ----------
+    rows : np.ndarray
+        The rows.
+
+    Returns
+    -------
+    str
+        JSON.
+    """
     clean = np.where(np.isfinite(rows), rows, np.nan)
     return json.dumps(clean.tolist()).replace("NaN", "null")
 
 
 class Scope:
     """See the module docstring. ``seq`` counts the updates; ``ended`` is the summary once the run
-    ended (``{}`` while it goes on)."""
+    ended (``{}`` while it goes on).
+
+    Parameters
+    ----------
+    keep : float, optional
+        [s] of history kept.
+    """
 
     def __init__(self, keep: float = KEEP) -> None:
         self.keep = keep
@@ -63,11 +93,26 @@ class Scope:
         self.watchers = 0  #: browsers connected (the server's event loop counts them)
 
     def open(self, meta: dict[str, Any]) -> None:
+        """A run begins: its description, the history cleared.
+
+        Parameters
+        ----------
+        meta : dict[str, Any]
+            The run's description.
+        """
         with self._lock:
             self.meta = meta
 
     def push(self, rows: np.ndarray, states: Mapping[str, Mapping[str, Any]] | None = None) -> None:
-        """An update: ``rows`` (already decimated) and the axes' ``states``."""
+        """An update: ``rows`` (already decimated) and the axes' ``states``.
+
+        Parameters
+        ----------
+        rows : np.ndarray
+            The rows, decimated.
+        states : Mapping[str, Mapping[str, Any]] | None, optional
+            Axis -> its state.
+        """
         text = rows_json(rows) if len(rows) else ""
         states_text = json.dumps(states) if states is not None else None
         with self._lock:
@@ -87,7 +132,13 @@ class Scope:
             self.stopped = True
 
     def finish(self, summary: Mapping[str, Any]) -> None:
-        """The run's summary (its stop reason, figures): sent to every browser, then it is done."""
+        """The run's summary (its stop reason, figures): sent to every browser, then it is done.
+
+        Parameters
+        ----------
+        summary : Mapping[str, Any]
+            The run's summary.
+        """
         clean = {
             k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()
         }
@@ -99,7 +150,20 @@ class Scope:
     def since(self, seq: int, meta: bool = False) -> tuple[int, str | None]:
         """(the latest update's number, one JSON message with the rows of the updates after
         ``seq`` and the states, and with ``meta`` the run's description, or None when there is
-        nothing new)."""
+        nothing new).
+
+        Parameters
+        ----------
+        seq : int
+            The last update a browser has.
+        meta : bool, optional
+            Include the run's description.
+
+        Returns
+        -------
+        tuple[int, str | None]
+            (the latest number, the message or None).
+        """
         with self._lock:
             if seq >= self.seq:
                 return self.seq, None
@@ -111,7 +175,13 @@ class Scope:
 
     def hello(self) -> tuple[int, str]:
         """(the latest update's number, the message a browser gets first: the run's description,
-        the kept history decimated to ``HISTORY`` rows, the states, and the summary if it ended)."""
+        the kept history decimated to ``HISTORY`` rows, the states, and the summary if it ended).
+
+        Returns
+        -------
+        tuple[int, str]
+            (the latest number, the message).
+        """
         with self._lock:
             chunks = [rows for _, _, rows, _ in self._updates if len(rows)]
             meta, seq, states = self.meta, self.seq, self.states
@@ -122,7 +192,13 @@ class Scope:
         return seq, f'{body},"rows":{rows_json(history) if len(history) else "[]"}}}'
 
     def end_message(self) -> str | None:
-        """The end's message once the summary is in (None before)."""
+        """The end's message once the summary is in (None before).
+
+        Returns
+        -------
+        str | None
+            The message, or None.
+        """
         with self._lock:
             if not self.ended:
                 return None

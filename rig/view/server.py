@@ -31,7 +31,18 @@ LIMIT_CONCURRENCY = 64  #: connections and tasks at once; more: 503
 
 
 def is_loopback(host: str) -> bool:
-    """``host`` names this machine's loopback only ("localhost", 127.0.0.0/8, ::1)."""
+    """``host`` names this machine's loopback only ("localhost", 127.0.0.0/8, ::1).
+
+    Parameters
+    ----------
+    host : str
+        A host name or address.
+
+    Returns
+    -------
+    bool
+        Loopback only.
+    """
     if host == "localhost":
         return True
     try:
@@ -41,7 +52,25 @@ def is_loopback(host: str) -> bool:
 
 
 def parse_address(text: str, where: str) -> tuple[str, int]:
-    """``[HOST:]PORT`` or ``HOST`` as (host, port); ConfigError naming ``where`` otherwise."""
+    """``[HOST:]PORT`` or ``HOST`` as (host, port); ConfigError naming ``where`` otherwise.
+
+    Parameters
+    ----------
+    text : str
+        ``[HOST:]PORT`` or ``HOST``.
+    where : str
+        The option, named in errors.
+
+    Returns
+    -------
+    tuple[str, int]
+        (host, port).
+
+    Raises
+    ------
+    ConfigError
+        If the port is not 0..65535.
+    """
     host, port_text = "127.0.0.1", str(DEFAULT_PORT)
     if text.isdigit():
         port_text = text
@@ -59,7 +88,19 @@ def parse_address(text: str, where: str) -> tuple[str, int]:
 
 class ViewServer:
     """The view over ``folders`` (and the live ``scope``, if any) on ``host``:``port`` (0: a free
-    port); ``url`` says where, with the token where one is needed."""
+    port); ``url`` says where, with the token where one is needed.
+
+    Parameters
+    ----------
+    folders : list[Path]
+        The folders served.
+    scope : Scope | None
+        The live run's (None: none).
+    host, port
+        The address (port 0: a free one).
+    where : str
+        The option, named in errors.
+    """
 
     def __init__(self, folders: list[Path], scope: Scope | None, host: str, port: int, where: str) -> None:
         import uvicorn
@@ -104,7 +145,15 @@ class ViewServer:
         self._thread.start()
 
     def finish(self, summary: Mapping[str, Any], grace: float = 2.0) -> None:
-        """The run's ``summary`` to every browser (they have ``grace`` s to take it), then stop."""
+        """The run's ``summary`` to every browser (they have ``grace`` s to take it), then stop.
+
+        Parameters
+        ----------
+        summary : Mapping[str, Any]
+            The run's summary.
+        grace : float, optional
+            [s] for browsers to take it.
+        """
         if self.scope is not None:
             self.scope.finish(summary)
             until = time.monotonic() + grace
@@ -113,6 +162,13 @@ class ViewServer:
         self.close(grace)
 
     def close(self, timeout: float = 2.0) -> None:
+        """Stop serving and close the socket.
+
+        Parameters
+        ----------
+        timeout : float, optional
+            [s] to wait for the thread.
+        """
         self.server.should_exit = True
         if self._thread is not None:
             self._thread.join(timeout)

@@ -40,7 +40,18 @@ def _statusword(axis: AxisDriver) -> int | None:
 
 
 def axis_state(axis: AxisDriver) -> dict[str, Any]:
-    """{"state": text, "fault": text or None, "statusword": int or None} of ``axis`` now."""
+    """{"state": text, "fault": text or None, "statusword": int or None} of ``axis`` now.
+
+    Parameters
+    ----------
+    axis : AxisDriver
+        The axis.
+
+    Returns
+    -------
+    dict[str, Any]
+        Its state.
+    """
     fault = axis.fault
     try:
         word = _statusword(axis)
@@ -54,6 +65,17 @@ def axis_state(axis: AxisDriver) -> dict[str, Any]:
 
 
 def state_probe(axes: Sequence[AxisDriver]) -> Callable[[], dict[str, dict[str, Any]]]:
-    """A function giving every axis's ``axis_state`` by name."""
+    """A function giving every axis's ``axis_state`` by name.
+
+    Parameters
+    ----------
+    axes : Sequence[AxisDriver]
+        The axes.
+
+    Returns
+    -------
+    Callable[[], dict[str, dict[str, Any]]]
+        () -> name -> state.
+    """
     held = list(axes)
     return lambda: {a.name: axis_state(a) for a in held}

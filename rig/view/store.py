@@ -34,7 +34,15 @@ MAX_JSON = 16 << 20  #: [B] a JSON file larger is not read
 
 
 class ViewError(Exception):
-    """A request the view cannot answer: its HTTP status and one line saying why."""
+    """A request the view cannot answer: its HTTP status and one line saying why.
+
+    Parameters
+    ----------
+    status : int
+        The HTTP status.
+    text : str
+        Why.
+    """
 
     def __init__(self, status: int, text: str) -> None:
         super().__init__(text)
@@ -83,7 +91,20 @@ _FUNCTIONS = (
 
 
 def frame_name(cob_id: int, extended: bool = False) -> str:
-    """What CiA 301's predefined connection set calls ``cob_id`` ("TPDO1 node 1"), "" if nothing."""
+    """What CiA 301's predefined connection set calls ``cob_id`` ("TPDO1 node 1"), "" if nothing.
+
+    Parameters
+    ----------
+    cob_id : int
+        The COB-ID.
+    extended : bool, optional
+        A 29-bit identifier.
+
+    Returns
+    -------
+    str
+        The name, or "".
+    """
     if extended:
         return ""
     for low, high, name in _FUNCTIONS:
@@ -98,7 +119,23 @@ _TERM = re.compile(r"^(?:0x)?([0-9a-f]{1,8})(?:-(?:0x)?([0-9a-f]{1,8}))?$")
 
 def cob_filter(text: str) -> list[tuple[int, int]]:
     """``text`` ("181, 201", "0x180-0x1FF": hexadecimal COB-IDs and ranges, commas or spaces
-    between) as ranges; ViewError 400 naming the term that is neither."""
+    between) as ranges; ViewError 400 naming the term that is neither.
+
+    Parameters
+    ----------
+    text : str
+        COB-IDs and ranges in hex.
+
+    Returns
+    -------
+    list[tuple[int, int]]
+        (low, high) ranges.
+
+    Raises
+    ------
+    ViewError
+        400, if a term is neither.
+    """
     terms = [t for t in re.split(r"[\s,]+", text.strip().lower()) if t]
     if len(terms) > MAX_IDS:
         raise ViewError(400, f"cob: {len(terms)} terms; at most {MAX_IDS}")
@@ -126,7 +163,13 @@ def _int(value: str | None, name: str, default: int, low: int, high: int) -> int
 
 
 class Store:
-    """The runs and studies under ``folders`` (each a folder of them, or one of them itself)."""
+    """The runs and studies under ``folders`` (each a folder of them, or one of them itself).
+
+    Parameters
+    ----------
+    folders : list[Path]
+        The folders.
+    """
 
     def __init__(self, folders: list[Path]) -> None:
         self.folders = [Path(f) for f in folders]
@@ -161,7 +204,13 @@ class Store:
 
     def runs(self) -> list[dict[str, Any]]:
         """Every run directory, newest first: its name, folder, start, whether it goes on, its
-        summary's main figures, and what it holds."""
+        summary's main figures, and what it holds.
+
+        Returns
+        -------
+        list[dict[str, Any]]
+            One dict a run.
+        """
         out = []
         for i, path in self._entries():
             if not _is_run(path):
@@ -191,7 +240,13 @@ class Store:
         return sorted(out, key=lambda r: -float(r["started"]))
 
     def studies(self) -> list[dict[str, Any]]:
-        """Every study (sweep.json), newest first: its name, status and counts."""
+        """Every study (sweep.json), newest first: its name, status and counts.
+
+        Returns
+        -------
+        list[dict[str, Any]]
+            One dict a study.
+        """
         out = []
         for i, path in self._entries():
             if not _is_study(path):
@@ -213,7 +268,20 @@ class Store:
 
     # --- a run ---------------------------------------------------------------------------------
     def run(self, root: str, name: str) -> dict[str, Any]:
-        """A run's summary, configuration, description of its columns and files."""
+        """A run's summary, configuration, description of its columns and files.
+
+        Parameters
+        ----------
+        root : str
+            The folder's index.
+        name : str
+            The run's.
+
+        Returns
+        -------
+        dict[str, Any]
+            Its summary, configuration, columns and files.
+        """
         path = self._find(root, name, "run")
         meta = read_meta(path) if (path / "samples.csv").exists() else None
         return {
@@ -231,7 +299,27 @@ class Store:
 
     def samples(self, root: str, name: str, points: str | None) -> tuple[list[str], Any]:
         """(the columns, the samples as at most ``points`` rows: an array of arrays, the buckets'
-        minima and maxima where the run has more)."""
+        minima and maxima where the run has more).
+
+        Parameters
+        ----------
+        root : str
+            The folder's index.
+        name : str
+            The run's.
+        points : str | None
+            Rows at most (None: the default).
+
+        Returns
+        -------
+        tuple[list[str], Any]
+            (the columns, the rows).
+
+        Raises
+        ------
+        ViewError
+            If ``points`` is not a whole number, or the run has no samples.
+        """
         path = self._find(root, name, "run")
         most = _int(points, "points", 4000, 10, MAX_POINTS)
         csv = path / "samples.csv"
@@ -253,7 +341,31 @@ class Store:
         self, root: str, name: str, cob: str | None, offset: str | None, limit: str | None
     ) -> dict[str, Any]:
         """A page of the run's CAN frames whose COB-ID is in ``cob`` (``cob_filter``; all without):
-        from the ``offset``-th match, ``limit`` of them, and how many match in all."""
+        from the ``offset``-th match, ``limit`` of them, and how many match in all.
+
+        Parameters
+        ----------
+        root : str
+            The folder's index.
+        name : str
+            The run's.
+        cob : str | None
+            COB-IDs (``cob_filter``; None: all).
+        offset : str | None
+            The first match.
+        limit : str | None
+            Matches at most.
+
+        Returns
+        -------
+        dict[str, Any]
+            The page.
+
+        Raises
+        ------
+        ViewError
+            If a filter, offset or limit is wrong.
+        """
         import can
 
         path = self._find(root, name, "run")
@@ -292,6 +404,25 @@ class Store:
         return {"file": file.name, "matched": matched, "offset": first, "frames": frames, "ids": ids}
 
     def identification(self, root: str, name: str) -> dict[str, Any]:
+        """A run's identification.json.
+
+        Parameters
+        ----------
+        root : str
+            The folder's index.
+        name : str
+            The run's.
+
+        Returns
+        -------
+        dict[str, Any]
+            The document.
+
+        Raises
+        ------
+        ViewError
+            If the run has none, or it cannot be read.
+        """
         path = self._find(root, name, "run")
         doc = _json(path / "identification.json")
         if not isinstance(doc, dict):
@@ -300,7 +431,20 @@ class Store:
 
     # --- a study -------------------------------------------------------------------------------
     def study(self, root: str, name: str) -> dict[str, Any]:
-        """sweep.json and the rows of results.parquet (its varied parameters, metrics, errors)."""
+        """sweep.json and the rows of results.parquet (its varied parameters, metrics, errors).
+
+        Parameters
+        ----------
+        root : str
+            The folder's index.
+        name : str
+            The study's.
+
+        Returns
+        -------
+        dict[str, Any]
+            sweep.json and the rows.
+        """
         path = self._find(root, name, "study")
         doc = _json(path / "sweep.json")
         doc = doc if isinstance(doc, dict) else {}
