@@ -33,7 +33,6 @@ DEBTS: dict[str, int] = {
     "plant_emulator/socketcand_server.py": 422,
     "plant_emulator/socketcand_server.py::SocketcandServer": 337,
     "rig/bench/socketcand.py": 434,
-    "rig/bench/stops.py::_figures": 74,
     "rig/cli/drive.py::add_parser": 90,
     "rig/cli/emulate.py::add_parser": 88,
     "rig/cli/identify.py": 435,
@@ -42,7 +41,6 @@ DEBTS: dict[str, int] = {
     "rig/cli/sweep.py::execute": 81,
     "rig/commission/drive.py::DriveTool": 305,
     "rig/commission/moves.py::move": 64,
-    "rig/doctor/verdict.py::advice": 92,
     "rig/emulator/serve.py::run_emulator": 88,
     "rig/host/loop.py": 423,
     "rig/host/loop.py::HostLoop": 339,
@@ -55,7 +53,6 @@ DEBTS: dict[str, int] = {
     "rig/identify/frequency.py::frequency_response": 73,
     "rig/identify/tune.py::tune": 64,
     "rig/papers/scenarios.py::cascade_run": 68,
-    "rig/view/app.py::make_app": 83,
 }
 
 

@@ -244,68 +244,67 @@ def _figures(
 ) -> list[Figure]:
     stops = [s["safe_stop_reason"] for s in summaries if s["safe_stop_reason"]]
     cycles = [max(1, s["cycles"] + s["overruns"]) for s in summaries]
-
-    def share(key: str) -> list[float]:
-        return [100.0 * s[key] / c for s, c in zip(summaries, cycles)]
-
-    def timing(key: str) -> list[float]:
-        return [float(s["timing"].get(key, float("nan"))) for s in summaries]
-
-    def spread(name: str, values: list[float], unit: str, digits: int = 1) -> list[Figure]:
-        if not values:  # no run gave the figure (every run stopped): NaN, never 0
-            return [{"name": f"{name}_{k}", "value": math.nan, "unit": unit} for k in ("median", "worst")]
-        return [
-            {"name": f"{name}_median", "value": round(statistics.median(values), digits), "unit": unit},
-            {"name": f"{name}_worst", "value": round(max(values), digits), "unit": unit},
-        ]
-
     rms = [float(s["rms_error"]) for s in summaries if math.isfinite(float(s.get("rms_error", math.nan)))]
-    host = summaries[0].get("realtime") or {}
-    stolen = [(s.get("realtime") or {}).get("cpu_stolen_s") for s in summaries]
-    latency = host.get("cpu_latency_us")
-    scheduling = (
-        f"{host.get('policy', '?')} {host.get('priority', 0)} (receive {host.get('receive_priority', 0)}), "
-        f"CPU {host.get('cpu')}, memory {'locked' if host.get('memory_locked') else 'not locked'}, "
-        f"{'CPU latency held at ' + str(latency) + ' us' if latency is not None else 'CPU may sleep'}, "
-        f"bus read by the {host.get('bus_read_by')}"
-    )
     return [
         {"name": "period", "value": period * 1e6, "unit": "us"},
         {"name": "load", "value": load, "unit": "busy processes"},
         {"name": "loadavg_before", "value": loadavg[0], "unit": "1/5/15 min"},
         {"name": "loadavg_after", "value": loadavg[1], "unit": "1/5/15 min"},
-        {"name": "host_scheduling", "value": scheduling, "unit": ""},
+        {"name": "host_scheduling", "value": _scheduling(summaries[0].get("realtime") or {}), "unit": ""},
         {"name": "emulator_scheduling", "value": emulator, "unit": ""},
         {"name": "runs", "value": len(summaries), "unit": f"runs of {seconds:g} s"},
         {"name": "false_stops", "value": len(stops), "unit": "runs"},
         *({"name": "false_stop", "value": reason, "unit": ""} for reason in stops),
         {"name": "cycles_median", "value": statistics.median(cycles), "unit": "cycles"},
-        *spread("overruns", share("overruns"), "% of cycles", 3),
-        *spread("late", share("late_cycles"), "% of cycles", 3),
-        *spread("period_error_p99", timing("period_error_p99_us"), "us"),
-        *spread("response_median", timing("response_median_us"), "us"),
-        *spread("response_p99", timing("response_p99_us"), "us"),
-        *spread("drive_answer_median", timing("drive_answer_median_us"), "us"),
-        *spread("drive_answer_p99", timing("drive_answer_p99_us"), "us"),
-        *spread("host_time_median", timing("host_time_median_us"), "us"),
-        *spread("host_time_p99", timing("host_time_p99_us"), "us"),
-        *spread("host_time_max", timing("host_time_max_us"), "us"),
-        *(
-            spread(
-                "cpu_stolen",
-                [1e3 * x for x in stolen if x is not None],
-                "ms per run (the hypervisor's; 10 ms steps)",
-                0,
-            )
-            if None not in stolen
-            else []
-        ),
+        *_spread("overruns", [100.0 * s["overruns"] / c for s, c in zip(summaries, cycles)], PERCENT, 3),
+        *_spread("late", [100.0 * s["late_cycles"] / c for s, c in zip(summaries, cycles)], PERCENT, 3),
+        *_timing_figures(summaries),
         # the runs' rms error [mrad], against lock-step's (NaN for a run that stopped: rig.report)
         {"name": "rms_lockstep", "value": round(1e3 * reference, 3), "unit": "mrad (lock-step, same plant)"},
-        *spread("rms_error", [1e3 * x for x in rms], "mrad (runs that completed)", 3),
-        *spread("rms_ratio", [x / reference for x in rms], "x lock-step's (runs that completed)", 3),
+        *_spread("rms_error", [1e3 * x for x in rms], "mrad (runs that completed)", 3),
+        *_spread("rms_ratio", [x / reference for x in rms], "x lock-step's (runs that completed)", 3),
         {"name": "response_bound", "value": period / 2 * 1e6, "unit": "us (half the period)"},
     ]
+
+
+PERCENT = "% of cycles"
+
+
+def _spread(name: str, values: list[float], unit: str, digits: int = 1) -> list[Figure]:
+    """``name``_median and ``name``_worst of ``values`` (NaN, never 0, when no run gave it)."""
+    if not values:
+        return [{"name": f"{name}_{k}", "value": math.nan, "unit": unit} for k in ("median", "worst")]
+    return [
+        {"name": f"{name}_median", "value": round(statistics.median(values), digits), "unit": unit},
+        {"name": f"{name}_worst", "value": round(max(values), digits), "unit": unit},
+    ]
+
+
+def _scheduling(host: dict[str, Any]) -> str:
+    """What the host's run was granted, in one line (its summary's ``realtime``)."""
+    latency = host.get("cpu_latency_us")
+    return (
+        f"{host.get('policy', '?')} {host.get('priority', 0)} (receive {host.get('receive_priority', 0)}), "
+        f"CPU {host.get('cpu')}, memory {'locked' if host.get('memory_locked') else 'not locked'}, "
+        f"{'CPU latency held at ' + str(latency) + ' us' if latency is not None else 'CPU may sleep'}, "
+        f"bus read by the {host.get('bus_read_by')}"
+    )
+
+
+def _timing_figures(summaries: list[dict[str, Any]]) -> list[Figure]:
+    """The runs' timing percentiles [us] and the hypervisor's steal [ms], median and worst."""
+
+    def timing(key: str) -> list[float]:
+        return [float(s["timing"].get(key, float("nan"))) for s in summaries]
+
+    names = ["period_error_p99", "response_median", "response_p99", "drive_answer_median", "drive_answer_p99"]
+    names += ["host_time_median", "host_time_p99", "host_time_max"]
+    found = [f for name in names for f in _spread(name, timing(f"{name}_us"), "us")]
+    stolen = [(s.get("realtime") or {}).get("cpu_stolen_s") for s in summaries]
+    if None not in stolen:
+        unit = "ms per run (the hypervisor's; 10 ms steps)"
+        found += _spread("cpu_stolen", [1e3 * x for x in stolen if x is not None], unit, 0)
+    return found
 
 
 def _floor_figures(floor: dict[str, Any], name: str = "floor") -> list[Figure]:

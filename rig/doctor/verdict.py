@@ -12,7 +12,7 @@ the floor does not keep, no run keeps.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 from rig.bench.floor import sleep_floor
@@ -97,6 +97,10 @@ def verdicts(measured: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+#: one piece of advice: (the setting, what it is now, what to change)
+Advice = tuple[str, str, str]
+
+
 def advice(facts: dict[str, Any], measured: Sequence[dict[str, Any]]) -> list[dict[str, str]]:
     """What to change, each naming the setting, from the probes and the floors.
 
@@ -112,93 +116,118 @@ def advice(facts: dict[str, Any], measured: Sequence[dict[str, Any]]) -> list[di
     list[dict[str, str]]
         What to change: ``setting`` and why.
     """
-    out: list[dict[str, str]] = []
+    found = [
+        *_kernel(facts["kernel"]),
+        *_cpuidle(facts["cpuidle"], facts["granted"]),
+        *_grants(facts["granted"]),
+        *_throttling(facts["throttling"]),
+        *_governor(facts["cpufreq"]),
+        *_isolation(facts["isolation"]),
+        *_hypervisor(facts["hypervisor"], measured),
+        *_socketcan(facts["can"]),
+    ]
+    return [{"setting": setting, "now": now, "change": change} for setting, now, change in found]
 
-    def say(setting: str, now: str, change: str) -> None:
-        out.append({"setting": setting, "now": now, "change": change})
 
-    k, idle, g = facts["kernel"], facts["cpuidle"], facts["granted"]
+def _kernel(k: dict[str, Any]) -> Iterator[Advice]:
     if k["preemption"] != "PREEMPT_RT":
         mode = f" ({k['mode']})" if k["mode"] else ""
-        say(
+        yield (
             "kernel preemption",
             f"{k['preemption']}{mode}",
             "a PREEMPT_RT kernel bounds the wake-up latency (Debian: linux-image-rt-amd64); with "
             "PREEMPT_DYNAMIC, boot with preempt=full at least",
         )
+
+
+def _cpuidle(idle: dict[str, Any], g: dict[str, Any]) -> Iterator[Advice]:
     slow = [s for s in idle["states"] if s["exit_latency_us"] > 0 and not s["disabled"]]
+    if not slow:
+        return
     poll = (idle.get("haltpoll") or {}).get("guest_halt_poll_ns")
-    if slow:
-        names = ", ".join(f"{s['name']} ({s['exit_latency_us']} us)" for s in slow)
-        halted = f"; haltpoll.guest_halt_poll_ns = {poll}" if poll is not None else ""
-        if idle["driver"] == "haltpoll" and poll == "0":
-            halted += " (an idle vCPU halts, and its wake-up is a VM exit)"
-        if g["pm_qos"]:
-            say(
-                "cpuidle",
-                f"{idle['driver']}: {names}{halted}",
-                "keep [run] rt_cpu_latency = 0 (and rig emulate --rt-cpu-latency 0, the default): the run "
-                f"holds {g['pm_qos_device']} and the CPUs stay out of these states",
-            )
-        else:
-            say(
-                "cpuidle",
-                f"{idle['driver']}: {names}{halted}; PM QoS refused: {g['pm_qos_refused']}",
-                f"give the run write access to {g['pm_qos_device']} (root), or boot with "
-                "idle=poll or haltpoll.guest_halt_poll_ns=200000",
-            )
+    names = ", ".join(f"{s['name']} ({s['exit_latency_us']} us)" for s in slow)
+    halted = f"; haltpoll.guest_halt_poll_ns = {poll}" if poll is not None else ""
+    if idle["driver"] == "haltpoll" and poll == "0":
+        halted += " (an idle vCPU halts, and its wake-up is a VM exit)"
+    if g["pm_qos"]:
+        yield (
+            "cpuidle",
+            f"{idle['driver']}: {names}{halted}",
+            "keep [run] rt_cpu_latency = 0 (and rig emulate --rt-cpu-latency 0, the default): the run "
+            f"holds {g['pm_qos_device']} and the CPUs stay out of these states",
+        )
+    else:
+        yield (
+            "cpuidle",
+            f"{idle['driver']}: {names}{halted}; PM QoS refused: {g['pm_qos_refused']}",
+            f"give the run write access to {g['pm_qos_device']} (root), or boot with "
+            "idle=poll or haltpoll.guest_halt_poll_ns=200000",
+        )
+
+
+def _grants(g: dict[str, Any]) -> Iterator[Advice]:
     if not g["sched_fifo"]:
-        say(
+        yield (
             "SCHED_FIFO",
             f"refused ({g['sched_fifo_refused']}; RLIMIT_RTPRIO {g['limits'].get('RLIMIT_RTPRIO')})",
             "run as root, or give CAP_SYS_NICE, or raise rtprio (ulimit -r 99; limits.conf rtprio 99)",
         )
     if not g["mlockall"]:
-        say(
+        yield (
             "mlockall",
             f"refused ({g['mlockall_refused']}; RLIMIT_MEMLOCK {g['limits'].get('RLIMIT_MEMLOCK')})",
             "run as root, or give CAP_IPC_LOCK, or raise memlock (ulimit -l unlimited)",
         )
-    t = facts["throttling"]
+
+
+def _throttling(t: dict[str, Any]) -> Iterator[Advice]:
     if t["runtime_us"] is not None and t["runtime_us"] >= 0 and t["period_us"]:
-        share = t["runtime_us"] / t["period_us"]
-        if share < 0.9:
-            say(
+        if t["runtime_us"] / t["period_us"] < 0.9:
+            yield (
                 "real-time throttling",
                 f"{t['runtime_us']} of {t['period_us']} us",
                 "real-time threads get at most that share of each period: raise "
                 "/proc/sys/kernel/sched_rt_runtime_us to 950000 (the kernel's default)",
             )
-    slowgov = {cpu: gov for cpu, gov in facts["cpufreq"]["governors"].items() if gov != "performance"}
+
+
+def _governor(cpufreq: dict[str, Any]) -> Iterator[Advice]:
+    slowgov = {cpu: gov for cpu, gov in cpufreq["governors"].items() if gov != "performance"}
     if slowgov:
-        say(
+        yield (
             "CPU frequency governor",
             ", ".join(f"{cpu} {gov}" for cpu, gov in slowgov.items()),
             "cpupower frequency-set -g performance (a governor that lowers the clock lengthens every cycle)",
         )
-    iso = facts["isolation"]
+
+
+def _isolation(iso: dict[str, Any]) -> Iterator[Advice]:
     if (iso["cpus"] or 1) >= 2 and not iso["isolated"]:
         last = (iso["cpus"] or 2) - 1
-        say(
+        yield (
             "isolated CPUs",
             "none",
             f"boot with isolcpus={last} nohz_full={last} rcu_nocbs={last}, and keep [run] rt_cpu = -1 (the "
             "last CPU): nothing else is then scheduled where the loop runs",
         )
+
+
+def _hypervisor(hypervisor: dict[str, Any], measured: Sequence[dict[str, Any]]) -> Iterator[Advice]:
     stolen = [m["with_pm_qos"].get("cpu_stolen_s") or 0.0 for m in measured]
-    if facts["hypervisor"]["virtual"] and any(x > 0 for x in stolen):
-        say(
+    if hypervisor["virtual"] and any(x > 0 for x in stolen):
+        yield (
             "hypervisor",
             f"took {1e3 * max(stolen):.0f} ms of CPU time during a floor measurement",
             "ask the virtual machine's host for dedicated (pinned) vCPUs, or run the rig on bare metal: "
             "no setting inside the machine prevents steal",
         )
-    c = facts["can"]
+
+
+def _socketcan(c: dict[str, Any]) -> Iterator[Advice]:
     if not c["socketcan"]:
-        say(
+        yield (
             "SocketCAN",
             f"not in this kernel ({c['socketcan_refused']})",
             "reach drives through socketcand (rig emulate serves it; a CAN adapter's server elsewhere), or "
             "use a kernel with CAN (can, can-raw, vcan) for SocketCAN and the vcan tier",
         )
-    return out

@@ -20,7 +20,7 @@ import asyncio
 import contextlib
 import hmac
 import urllib.parse
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
@@ -142,9 +142,43 @@ def make_app(
         The application.
     """
     reads = asyncio.Semaphore(MAX_READS)
-    live_clients = [0]
 
-    async def read(fn: Callable[..., Any], *args: Any) -> Response:
+    def api(fn: Callable[..., Any], query: tuple[str, ...] = ()) -> Callable[[Request], Awaitable[Response]]:
+        return _reader(reads, fn, query)
+
+    def samples(root: str, name: str, points: str | None) -> dict[str, Any]:
+        columns, rows = store.samples(root, name, points)
+        return {"columns": columns, "rows": rows}
+
+    async def api_info(request: Request) -> Response:
+        return JSONResponse({"read_only": True, "live": scope is not None, **(info or {})})
+
+    run = "/api/runs/{root}/{name}"
+    routes = [
+        Route("/", _index(token)),
+        Route("/api/info", api_info),
+        Route("/api/runs", api(store.runs)),
+        Route(run, api(store.run)),
+        Route(f"{run}/samples", api(samples, ("points",))),
+        Route(f"{run}/trace", api(store.trace, ("cob", "offset", "limit"))),
+        Route(f"{run}/identification", api(store.identification)),
+        Route("/api/studies", api(store.studies)),
+        Route("/api/studies/{root}/{name}", api(store.study)),
+        WebSocketRoute("/ws/live", _live(scope)),
+        Mount("/static", StaticFiles(directory=STATIC)),
+    ]
+    return Guard(Starlette(routes=routes), token)
+
+
+def _reader(
+    reads: asyncio.Semaphore, fn: Callable[..., Any], query: tuple[str, ...]
+) -> Callable[[Request], Awaitable[Response]]:
+    """An endpoint answering ``fn(*path parameters, *query parameters)`` as JSON, run in a thread
+    (at most ``MAX_READS`` at once); a ViewError is its status and message."""
+
+    async def endpoint(request: Request) -> Response:
+        q = request.query_params
+        args = [*request.path_params.values(), *(q.get(name) for name in query)]
         try:
             async with reads:
                 result = await run_in_threadpool(fn, *args)
@@ -152,46 +186,26 @@ def make_app(
             return JSONResponse({"error": str(exc)}, status_code=exc.status)
         return JSONResponse(result)
 
+    return endpoint
+
+
+def _index(token: str | None) -> Callable[[Request], Awaitable[Response]]:
+    """The page; with a token in its query, a redirect setting it as a cookie (for the page's
+    own requests)."""
+
     async def index(request: Request) -> Response:
-        if token is not None and "token" in request.query_params:  # kept for the page's requests
+        if token is not None and "token" in request.query_params:
             response: Response = RedirectResponse("/", status_code=303)
             response.set_cookie(COOKIE, token, httponly=True, samesite="strict")
             return response
         return FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
 
-    async def api_info(request: Request) -> Response:
-        return JSONResponse({"read_only": True, "live": scope is not None, **(info or {})})
+    return index
 
-    async def api_runs(request: Request) -> Response:
-        return await read(store.runs)
 
-    async def api_run(request: Request) -> Response:
-        p = request.path_params
-        return await read(store.run, p["root"], p["name"])
-
-    async def api_samples(request: Request) -> Response:
-        p, q = request.path_params, request.query_params
-        try:
-            async with reads:
-                columns, rows = await run_in_threadpool(store.samples, p["root"], p["name"], q.get("points"))
-        except ViewError as exc:
-            return JSONResponse({"error": str(exc)}, status_code=exc.status)
-        return JSONResponse({"columns": columns, "rows": rows})
-
-    async def api_trace(request: Request) -> Response:
-        p, q = request.path_params, request.query_params
-        return await read(store.trace, p["root"], p["name"], q.get("cob"), q.get("offset"), q.get("limit"))
-
-    async def api_identification(request: Request) -> Response:
-        p = request.path_params
-        return await read(store.identification, p["root"], p["name"])
-
-    async def api_studies(request: Request) -> Response:
-        return await read(store.studies)
-
-    async def api_study(request: Request) -> Response:
-        p = request.path_params
-        return await read(store.study, p["root"], p["name"])
+def _live(scope: Scope | None) -> Callable[[WebSocket], Awaitable[None]]:
+    """The live scope's websocket: at most ``MAX_LIVE`` watchers (the next refused with 403)."""
+    live_clients = [0]
 
     async def live(ws: WebSocket) -> None:
         if scope is None or live_clients[0] >= MAX_LIVE:
@@ -206,20 +220,7 @@ def make_app(
             live_clients[0] -= 1
             scope.watchers -= 1
 
-    routes = [
-        Route("/", index),
-        Route("/api/info", api_info),
-        Route("/api/runs", api_runs),
-        Route("/api/runs/{root}/{name}", api_run),
-        Route("/api/runs/{root}/{name}/samples", api_samples),
-        Route("/api/runs/{root}/{name}/trace", api_trace),
-        Route("/api/runs/{root}/{name}/identification", api_identification),
-        Route("/api/studies", api_studies),
-        Route("/api/studies/{root}/{name}", api_study),
-        WebSocketRoute("/ws/live", live),
-        Mount("/static", StaticFiles(directory=STATIC)),
-    ]
-    return Guard(Starlette(routes=routes), token)
+    return live
 
 
 async def _drain(ws: WebSocket) -> None:
