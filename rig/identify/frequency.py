@@ -407,27 +407,14 @@ def frequency_response(
     """
     import scipy.signal
 
-    u = np.asarray(u, dtype=float)
-    theta = np.asarray(theta, dtype=float)
+    u, theta = np.asarray(u, dtype=float), np.asarray(theta, dtype=float)
     lo, hi = _band(f_min, f_max, dt)
     n = period_samples(lo, dt)
-    if len(u) < 3 * n + 1:
-        raise IdentificationError(
-            f"{len(u)} samples ({len(u) * dt:g} s) for a frequency response from {lo:g} Hz: record at "
-            f"least three periods of 1/f_min ({3 * n * dt:g} s; the first is the start's transient)"
-        )
+    _enough(len(u), n, dt, lo)
     x = u if r is None else np.asarray(r, dtype=float)  # what the spectra are taken against
     periodic = _is_periodic(x, n)
-    # the start from rest; w_k = (theta_k - theta_k-1)/T pairs with u_k
-    drop = n * min(max(1, math.ceil(settle / (n * dt))), (len(u) - 1) // n - 2)
-    w = np.diff(theta[drop - 1 :]) / dt
-    uu, xx = u[drop:], x[drop:]
-    v = None if velocity is None else np.asarray(velocity, dtype=float)[drop:]
+    drop, (uu, xx, w, v) = _kept(u, x, theta, velocity, n=n, dt=dt, settle=settle, periodic=periodic)
     window, overlap = ("boxcar", 0) if periodic else ("hann", n // 2)
-    if periodic:  # whole periods only
-        keep = (len(uu) // n) * n
-        uu, xx, w = uu[:keep], xx[:keep], w[:keep]
-        v = None if v is None else v[:keep]
     kw = {"fs": 1.0 / dt, "window": window, "nperseg": n, "noverlap": overlap, "detrend": "constant"}
     f, g_xx = scipy.signal.welch(xx, **kw)
     _, g_xu = scipy.signal.csd(xx, uu, **kw)
@@ -445,13 +432,12 @@ def frequency_response(
     if gamma2_u is not None:  # a bin is as good as the worse of r -> u and r -> y
         gamma2 = np.minimum(gamma2, gamma2_u)
         gamma2_v = None if gamma2_v is None else np.minimum(gamma2_v, gamma2_u)
-    averages = 1 + (len(uu) - n) // (n - overlap)
     return FrequencyResponse(
         f=f[band],
         speed=g_xy[band] / g_in[band],
         coherence=gamma2[band],
         dt=dt,
-        averages=averages,
+        averages=1 + (len(uu) - n) // (n - overlap),
         dropped=drop * dt,
         window=window,
         f_min=lo,
@@ -461,6 +447,40 @@ def frequency_response(
         method="H1" if r is None else "indirect",
         input_coherence=None if gamma2_u is None else gamma2_u[band],
     )
+
+
+def _enough(samples: int, n: int, dt: float, f_min: float) -> None:
+    """IdentificationError unless ``samples`` cover three periods of ``n`` (the first dropped)."""
+    if samples < 3 * n + 1:
+        raise IdentificationError(
+            f"{samples} samples ({samples * dt:g} s) for a frequency response from {f_min:g} Hz: record at "
+            f"least three periods of 1/f_min ({3 * n * dt:g} s; the first is the start's transient)"
+        )
+
+
+def _kept(
+    u: np.ndarray,
+    x: np.ndarray,
+    theta: np.ndarray,
+    velocity: np.ndarray | None,
+    *,
+    n: int,
+    dt: float,
+    settle: float,
+    periodic: bool,
+) -> tuple[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]]:
+    """The samples dropped as the start's transient (whole periods of ``n`` covering ``settle``
+    [s], at least one, keeping two), and what is kept of u, x, the speed w_k = (theta_k -
+    theta_(k-1))/T (paired with u_k) and ``velocity``; whole periods only where ``periodic``."""
+    drop = n * min(max(1, math.ceil(settle / (n * dt))), (len(u) - 1) // n - 2)
+    w = np.diff(theta[drop - 1 :]) / dt
+    uu, xx = u[drop:], x[drop:]
+    v = None if velocity is None else np.asarray(velocity, dtype=float)[drop:]
+    if periodic:  # whole periods only
+        keep = (len(uu) // n) * n
+        uu, xx, w = uu[:keep], xx[:keep], w[:keep]
+        v = None if v is None else v[:keep]
+    return drop, (uu, xx, w, v)
 
 
 def _db(h: np.ndarray) -> list[float]:
