@@ -49,9 +49,6 @@ DEBTS: dict[str, int] = {
     "rig/host/session.py": 493,
     "rig/host/session.py::Session": 387,
     "rig/host/stopping.py::bring_to_rest": 77,
-    "rig/identify/closed_loop.py::fit_model": 68,
-    "rig/identify/tune.py::tune": 64,
-    "rig/papers/scenarios.py::cascade_run": 68,
 }
 
 

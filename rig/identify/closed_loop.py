@@ -24,6 +24,7 @@ they need not be right (a J off by half changes the loop, not the estimate).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -162,37 +163,14 @@ def fit_model(
     IdentificationError
         If too few bins are coherent to fit it.
     """
-    import scipy.optimize
-
-    from rig.identify.frequency import model_speed_response
-
     mask = fr.coherent
     if np.count_nonzero(mask) < 3:
         raise IdentificationError(
             f"{np.count_nonzero(mask)} bins of the closed-loop frequency response have a coherence >= "
             f"{COHERENCE_MIN:g}: too few to fit (3.5); raise --amplitude or measure longer"
         )
-    f, h, dt = fr.f[mask], fr.speed[mask], fr.dt
-    start = np.array([1.0 / (len(u) * dt), float(np.median(np.abs(h) * 2.0 * math.pi * f))])
-    best = None
-    for k in range(max_delay + 1):
-
-        def residual(p: np.ndarray, k: int = k) -> np.ndarray:
-            e = np.log(model_speed_response(p[0], p[1], dt, k, f) / h)
-            return np.concatenate([e.real, e.imag])
-
-        trial = scipy.optimize.least_squares(
-            residual, start, bounds=([0.0, 0.0], [np.inf, np.inf]), x_scale="jac"
-        )
-        if best is None or trial.cost < best[0].cost:
-            best = (trial, k)
-    assert best is not None
-    fit, k = best
-    s2 = 2.0 * float(fit.cost) / max(1, len(fit.fun) - 2)
-    try:
-        se = np.sqrt(np.maximum(np.diag(s2 * np.linalg.inv(fit.jac.T @ fit.jac)), 0.0))
-    except np.linalg.LinAlgError:
-        se = np.full(2, np.inf)
+    dt = fr.dt
+    fit, k, se = _log_ratio_fit(fr.f[mask], fr.speed[mask], dt, 1.0 / (len(u) * dt), max_delay)
     a, b = float(fit.x[0]), float(fit.x[1])
     d, fit_pct, resid, floor = _offset_and_fit(
         (a, b, k), u, theta, dt, first=round(fr.dropped / dt), holdout=holdout
@@ -213,6 +191,39 @@ def fit_model(
         residual_rms=resid,
         quantisation_rms=floor,
     )
+
+
+def _log_ratio_fit(
+    f: np.ndarray, h: np.ndarray, dt: float, a_start: float, max_delay: int
+) -> tuple[Any, int, np.ndarray]:
+    """The least-squares fit of (a_m, b_m) for each delay k of 0 .. ``max_delay`` to the speed
+    response ``h`` at ``f`` [Hz] (fit_model's criterion), the best of them: (scipy's result, k,
+    the standard errors of a_m and b_m from s^2 (J^T J)^-1, inf where J^T J is singular)."""
+    import scipy.optimize
+
+    from rig.identify.frequency import model_speed_response
+
+    start = np.array([a_start, float(np.median(np.abs(h) * 2.0 * math.pi * f))])
+    best = None
+    for k in range(max_delay + 1):
+
+        def residual(p: np.ndarray, k: int = k) -> np.ndarray:
+            e = np.log(model_speed_response(p[0], p[1], dt, k, f) / h)
+            return np.concatenate([e.real, e.imag])
+
+        trial = scipy.optimize.least_squares(
+            residual, start, bounds=([0.0, 0.0], [np.inf, np.inf]), x_scale="jac"
+        )
+        if best is None or trial.cost < best[0].cost:
+            best = (trial, k)
+    assert best is not None
+    fit, k = best
+    s2 = 2.0 * float(fit.cost) / max(1, len(fit.fun) - 2)
+    try:
+        se = np.sqrt(np.maximum(np.diag(s2 * np.linalg.inv(fit.jac.T @ fit.jac)), 0.0))
+    except np.linalg.LinAlgError:
+        se = np.full(2, np.inf)
+    return fit, k, se
 
 
 def _offset_and_fit(

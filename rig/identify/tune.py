@@ -191,6 +191,17 @@ def _boundary(name: str, m: Any) -> str:
     )
 
 
+def _cascade_warnings(req: TuneRequest) -> list[str]:
+    """A cascade whose speed loop is not ``CASCADE_RATIO`` times faster than its position loop."""
+    ws, wp = req.speed_bandwidth, req.position_bandwidth
+    if req.law == "cascade-position" and ws is not None and wp is not None and ws < CASCADE_RATIO * wp:
+        return [
+            f"the speed loop ({ws:g} Hz) is less than {CASCADE_RATIO:g} times the position loop ({wp:g} "
+            "Hz): the position loop sees more than the first-order speed loop it was designed on"
+        ]
+    return []
+
+
 def tune(source: str | Path, req: TuneRequest) -> dict[str, Any]:
     """The design document of ``req`` on the identification ``source`` (identification.json
     or its run directory): law, params, a_m, b_m, dt, input, margins (measured, model),
@@ -217,14 +228,7 @@ def tune(source: str | Path, req: TuneRequest) -> dict[str, Any]:
     delay = int(doc.get("delay_samples", 1))
     f_model, l_model = _model_loop(response, a, b, dt, delay)
     model = margins(f_model, l_model)
-    warnings: list[str] = []
-    ws, wp = req.speed_bandwidth, req.position_bandwidth
-    if req.law == "cascade-position" and ws is not None and wp is not None and ws < CASCADE_RATIO * wp:
-        warnings.append(
-            f"the speed loop ({req.speed_bandwidth:g} Hz) is less than {CASCADE_RATIO:g} times the "
-            f"position loop ({req.position_bandwidth:g} Hz): the position loop sees more than the "
-            "first-order speed loop it was designed on"
-        )
+    warnings = _cascade_warnings(req)
     fr = doc.get("frequency_response")
     measured, band, speed = None, None, None
     if not isinstance(fr, dict) or fr.get("coherent_band") is None:

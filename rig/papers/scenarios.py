@@ -287,6 +287,17 @@ def speed_loop_run(
     return Trajectory(t, np.full(n, speed_step), y, u_out, g, {"d": d})
 
 
+def _cascade(position: CascadeLoopParams, speed: CascadeLoopParams, current: CascadeLoopParams) -> Cascade:
+    """The three loops of section VII.D, the outer two run every speed.dt and position.dt."""
+    return Cascade(
+        CascadeLoop(position),
+        CascadeLoop(speed),
+        CascadeLoop(current),
+        speed_every=round(speed.dt / current.dt),
+        position_every=round(position.dt / current.dt),
+    )
+
+
 def cascade_run(
     *,
     position: CascadeLoopParams = TABLE_V_POSITION,
@@ -340,19 +351,11 @@ def cascade_run(
         The run.
     """
     dt = current.dt
-    motor = DCMotor(
-        DCMotorParams(r_r=-a_i / b_i, l_r=1.0 / b_i, k_e=0.0, k_t=b_w * j, j=j, b=-a_w * j), dt=dt
-    )
-    ctl = Cascade(
-        CascadeLoop(position),
-        CascadeLoop(speed),
-        CascadeLoop(current),
-        speed_every=round(speed.dt / dt),
-        position_every=round(position.dt / dt),
-    )
+    fo = DCMotorParams(r_r=-a_i / b_i, l_r=1.0 / b_i, k_e=0.0, k_t=b_w * j, j=j, b=-a_w * j)  # (4.9)
+    motor = DCMotor(fo, dt=dt)
+    ctl = _cascade(position, speed, current)
     encoder = Encoder(counts_per_rev, dt=speed.dt) if counts_per_rev else None
-    ref = smooth_move(distance, move_time, move_start)
-    load = load or (lambda t: 0.0)
+    ref, load = smooth_move(distance, move_time, move_start), load or (lambda t: 0.0)
     n = round(t_end / dt)
     t = np.arange(n) * dt
     names = ("ref", "y", "u", "g", "omega_ref", "omega", "i_ref", "i_q", "sign_law")
