@@ -32,7 +32,6 @@ DEBTS: dict[str, int] = {
     "plant_emulator/im_kernel.py::_foc_periods": 68,
     "plant_emulator/socketcand_server.py": 422,
     "plant_emulator/socketcand_server.py::SocketcandServer": 337,
-    "rig/bench/socketcand.py": 434,
     "rig/cli/drive.py::add_parser": 90,
     "rig/cli/emulate.py::add_parser": 88,
     "rig/cli/identify.py": 435,

@@ -18,13 +18,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from rig.bench.socketcand import (
-    client_process,
-    client_result,
-    flood_beside_reader,
-    flood_ceiling,
-    realtime_run,
-)
+from rig.bench.socketcand import flood_beside_reader, flood_ceiling, realtime_run
+from rig.bench.socketcand_clients import client_process, client_result
 from rig.emulator.spawn import spawn_emulator, stop_rig
 
 pytestmark = pytest.mark.timing

@@ -4,7 +4,7 @@ Processes of their own on 127.0.0.1, as issue 33 measured: ``rig emulate --prese
 (real time, socketcand), ``rig run`` of the section VII.B servo (examples/dc_servo_position.toml
 in real time at 1 kHz: 10 rad in 1 s, position window -1..12 rad), and, from this process once
 the run turns, 200 rawmode clients reading every frame and 2,000 connections one after another
-(``rig.bench.socketcand``'s ``hold`` and ``churn``). This test's own client records the
+(``rig.bench.socketcand_clients``' ``hold`` and ``churn``). This test's own client records the
 drive's TPDOs and reads it by SDO once the run has ended. Issue 33 measured the drive running on
 a stale command after a stop that lifted its deadline while it was enabled, -379 rad/s and
 -83.6 rad; before the server wrote each client once a round, the host's frames waited 30-130 ms
@@ -22,7 +22,7 @@ import canopen
 import pytest
 
 from drivers.maps import CIA402_EDS
-from rig.bench.socketcand import churn, hold
+from rig.bench.socketcand_clients import churn, hold
 from rig.faults.wire_probe import wait_for
 from tests.rig.test_host_death import KilledHost
 
