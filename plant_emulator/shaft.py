@@ -41,9 +41,10 @@ its receive thread needs is never held for a backlog. Lock-step (no clock) keeps
 its exact stepping per SYNC.
 
 Loads (``Axis.load``) run in seconds since the first attached drive last entered
-OPERATION ENABLED (``enabled``), not since the clock's epoch; until its first enable
-(and after ``rest``) their time stands at 0, so a load that steps in at 1.5 s steps
-in 1.5 s into the run, not onto a disabled motor 1.5 s after the emulator started.
+OPERATION ENABLED (``enabled``; in real time since the first SYNC after it, the run's
+first), not since the clock's epoch; until its first enable (and after ``rest``) their
+time stands at 0, so a load that steps in at 1.5 s steps in 1.5 s into the run, not onto
+a disabled motor 1.5 s after the emulator started.
 """
 
 from __future__ import annotations
@@ -137,6 +138,7 @@ class Shaft:
         self.skipped = 0  #: real time: periods skipped behind the clock
         #: [s] loads run in t - load_origin; None: their time stands at 0 (no enable yet)
         self.load_origin: float | None = None
+        self._origin_at_sync = False  #: real time: the next SYNC restarts the loads' time (``enabled``)
         self._synced_at: float | None = None  #: real time: [s] the clock at the latest SYNC
         self._drives: list[Coupled] = []
         self._seen: set[int] = set()
@@ -210,6 +212,9 @@ class Shaft:
             for drive in self._drives:
                 drive.on_period()
         self.sync_offset = 0.0
+        if self._origin_at_sync:  # the run's first SYNC since the enable (``enabled``)
+            self._origin_at_sync = False
+            self.load_origin = self.t - period
 
     def advance_to(self, t: float, *, ahead: float = 0.0) -> int:
         """Real time: advance whole periods up to ``t`` [s]; each ends with every drive's cycle.
@@ -233,9 +238,14 @@ class Shaft:
         return n
 
     def enabled(self, drive: Coupled) -> None:
-        """``drive`` entered OPERATION ENABLED: the first drive's enable restarts the loads' time."""
+        """``drive`` entered OPERATION ENABLED: the first drive's enable restarts the loads' time.
+        In real time it restarts again at the next SYNC, the run's first (a host sends none between
+        its enable and its first cycle, which a real-time host reaches tens of ms later), so the
+        loads' time there is one period, as at lock-step's first SYNC, which ends the world's
+        first period."""
         if self._drives and drive is self._drives[0]:
             self.load_origin = self.t
+            self._origin_at_sync = self.clock is not None
 
     def _advance(self, t: float, length: float | None = None) -> None:
         """The period from ``t`` [s] (of ``length`` [s], default the period)."""
