@@ -32,6 +32,10 @@ __all__ = ["Axis", "DcServoAxis", "GridAxis", "LoadProfile", "ServoLoops"]
 #: modes as module globals for the per-step comparisons (an enum member looked up on its class
 #: costs ~0.2 us in CPython 3.11)
 _VOLTAGE, _CST, _CSV, _PV = Mode.VOLTAGE, Mode.CST, Mode.CSV, Mode.PROFILE_VELOCITY
+#: a DC step in which the shaft stops is taken again in this many parts (``DcServoAxis._step``),
+#: and the part in which it stops again, until the parts are no longer than STOP_RESOLUTION
+REFINE = 4
+STOP_RESOLUTION = 1e-7  #: [s] the instant a shaft stops within a step, to within this
 
 LoadProfile = Callable[[float], float]
 
@@ -189,7 +193,13 @@ class DcServoAxis(Axis):
         """Exact ZOH step of (3.4) over h [s] with u [V] and T_L [N m] held, one precomputed step
         per distinct h, and the Coulomb friction of ``plant_emulator.friction`` held with T_L. A
         shaft stuck at the start that the torque at the step's end breaks loose slips from the
-        start (its breakaway is not a step late)."""
+        start (its breakaway is not a step late). A step in which the shaft stops (its speed ends
+        on the friction's other side) is taken again in REFINE parts, each choosing its friction,
+        the part in which it stops again so, down to parts of STOP_RESOLUTION: the friction turns
+        where the shaft stops (within 0.1 us), not at the step's end. Held over a whole
+        voltage-mode period it biased rig identify's Coulomb friction 1-3 % low; parts of 1.6 us
+        left 0.003-0.011 %, 1.4-7.7 standard errors. A step in which the shaft does not stop,
+        and every step without friction, is the one exact step as before."""
         step = self._zoh.get(h)
         if step is None:
             step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
@@ -197,18 +207,24 @@ class DcServoAxis(Axis):
         if not c:
             step(x, u, t_load)
             return
+        start = (x[0], x[1], x[2])
         k_t = self.motor.k_t
         friction, stuck = held(x[1], k_t * x[2] - t_load, c)
         if stuck:
-            theta, current = x[0], x[2]
             step(x, u, t_load + friction)
             drive = k_t * x[2] - t_load
             if -c <= drive <= c:
-                x[0], x[1] = theta, 0.0
+                x[0], x[1] = start[0], 0.0
                 return
-            x[0], x[1], x[2] = theta, 0.0, current
+            x[0], x[1], x[2] = start[0], 0.0, start[2]
             friction = c if drive > 0.0 else -c
         step(x, u, t_load + friction)
+        if x[1] * friction < 0.0 and h > STOP_RESOLUTION:
+            # it stopped within the step, where the friction turns: that instant to within h / REFINE
+            x[0], x[1], x[2] = start
+            for _ in range(REFINE):
+                self._step(u, t_load, h / REFINE)
+            return
         x[1] = settle(x[1], friction)
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:

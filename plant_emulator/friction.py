@@ -15,9 +15,11 @@ held over each step like a load torque, chosen at the step's start (``held``):
 
 Friction can stop the shaft, never drive it: a step that ends with w on the other side of zero
 from the friction's direction ended at rest (``settle``: w = 0; the angle keeps what the step
-made of it, at most |w| h off). The breakaway torque (static friction) equals the kinetic one
-T_c: a datasheet gives one figure (FAULHABER's "friction torque, static" C_o, which with the
-dynamic C_v n makes the no-load current, I_0 k_M = C_o + C_v n_0).
+made of it, at most |w| h off). The DC axis takes such a step again in parts, down to 0.1 us,
+so that the friction turns where the shaft stops (``plant_emulator.axes.DcServoAxis._step``).
+The breakaway torque (static friction) equals the kinetic one T_c: a datasheet gives one
+figure (FAULHABER's "friction torque, static" C_o, which with the dynamic C_v n makes the
+no-load current, I_0 k_M = C_o + C_v n_0).
 
 Plain float functions, compiled by numba inside the IM's kernel (``plant_emulator.im_kernel``)
 and called as Python by the DC axis (``plant_emulator.axes``).

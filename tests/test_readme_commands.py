@@ -979,7 +979,7 @@ def test_the_emulator_serves_two_nodes(tmp_path: pathlib.Path) -> None:
 def test_a_run_against_the_emulator_in_another_process(tmp_path: pathlib.Path) -> None:
     """ "The emulator": a copy of the servo example with `[run] period = 0.0004`, run with `rig run
     --config` beside `rig emulate --preset dc-servo --time lockstep --param load=pulse:0.0346:1.5:3`,
-    gives the in-process result (rms 1.983 mrad)."""
+    gives the in-process result (rms 1.977 mrad)."""
     rms = said(r"beside `rig run --config` of the copy: .*? the in-process result exactly \(rms (N) mrad")[1]
     example = (ROOT / "examples/dc_servo_position.toml").read_text()
     (tmp_path / "servo.toml").write_text(example.replace("[run]\n", "[run]\nperiod = 0.0004\n", 1))

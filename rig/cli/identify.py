@@ -350,16 +350,16 @@ def _print_friction(f: dict[str, Any]) -> None:
     if not f["separable"]:
         print(f"  friction: not separated: {f['reason']}")
         return
+    said = f"standard errors; speed reversed {f['reversals']} times"
     if f["input"] == "torque":
         print(
             f"  friction: J = {f['inertia']:.5g} kg m^2, viscous B = {f['viscous']:.4g} N m s/rad, "
-            f"Coulomb T_c = {f['coulomb']:.4g} N m (speed reversed {f['reversals']} times)"
+            f"Coulomb T_c = {f['coulomb']:.4g} +- {f['coulomb_stderr']:.2g} N m ({said})"
         )
     else:
-        print(
-            f"  friction: Coulomb {f['c']:.4g} rad/s^2 = {f['coulomb_voltage']:.4g} V (speed reversed "
-            f"{f['reversals']} times; with a voltage, J and B are not separable from the back EMF)"
-        )
+        volts = f"{f['coulomb_voltage']:.4g} +- {f['coulomb_voltage_stderr']:.2g} V"
+        print(f"  friction: Coulomb {f['c']:.4g} +- {f['c_stderr']:.2g} rad/s^2 = {volts} ({said}; ", end="")
+        print("with a voltage, J and B are not separable from the back EMF)")
 
 
 def _print_response(doc: dict[str, Any]) -> None:

@@ -92,7 +92,10 @@ class FrictionResult:
             The figures by name.
         """
         if self.input != "torque":
-            return {"coulomb_voltage": None if self.c is None else self.c / self.b}
+            if self.c is None or self.c_stderr is None:
+                return {"coulomb_voltage": None, "coulomb_voltage_stderr": None}
+            volts = self.c / self.b
+            return {"coulomb_voltage": volts, "coulomb_voltage_stderr": self._c_over_b_stderr()}
         j = 1.0 / self.b
         rel_b = self.b_stderr / self.b
         return {
@@ -101,11 +104,16 @@ class FrictionResult:
             "viscous": self.a * j,
             "viscous_stderr": self.a * j * math.hypot(self.a_stderr / self.a, rel_b) if self.a else math.nan,
             "coulomb": None if self.c is None else self.c * j,
-            "coulomb_stderr": None
-            if self.c is None or self.c_stderr is None
-            else abs(self.c) * j * math.hypot(self.c_stderr / self.c if self.c else math.inf, rel_b),
+            "coulomb_stderr": None if self.c is None or self.c_stderr is None else self._c_over_b_stderr(),
             "load": -self.d * j,
         }
+
+    def _c_over_b_stderr(self) -> float:
+        """The standard error of c/b (T_c = c J in a torque's terms, c/b_m [V] in a voltage's):
+        c's and b's relative errors in quadrature (first order)."""
+        assert self.c is not None and self.c_stderr is not None
+        rel_c = self.c_stderr / self.c if self.c else math.inf
+        return abs(self.c / self.b) * math.hypot(rel_c, self.b_stderr / self.b)
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready.
