@@ -47,7 +47,6 @@ DEBTS: dict[str, int] = {
     "rig/host/recorder.py": 427,
     "rig/host/session.py": 493,
     "rig/host/session.py::Session": 387,
-    "rig/host/stopping.py::bring_to_rest": 77,
 }
 
 

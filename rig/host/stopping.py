@@ -116,15 +116,9 @@ def bring_to_rest(
 ) -> StopResult:
     """See the module docstring; ``period`` [s] of the loop, ``realtime``: wait it between ticks
     where the host keeps the pace; ``heartbeat(k)``: the host's, beating on meanwhile."""
-    ok, problems = True, []
+    problems: list[str] = []
     faulted = {a: a.fault for a in axes}  # a fault the stop began with is its cause, not news
-    for a in commanded:
-        neutral = a.neutral_command()
-        if neutral is not None:
-            ok &= _retry(a, functools.partial(a.command, neutral), "zero command")
-    stopping = [a for a in axes if a.commandable]
-    for a in stopping:
-        ok &= _retry(a, a.quick_stop, "quick stop")
+    ok, stopping = _begin(axes, commanded)
     beat, pending = [heartbeat], list(stopping)
     soft = time.monotonic() + timeout  # wall time too (a dead bus makes each check slow); not in
     deadline = soft if realtime else soft + max(0.0, LOCKSTEP_HOLD_WALL - timeout)  # lock-step's ramp
@@ -150,6 +144,29 @@ def bring_to_rest(
             problems.append(f"{a.name}: its stop ramp did not end within {timeout:g} s")
     for a in stopping:
         ok &= _retry(a, a.disable, "disable")
+    turning = _watch_rest(axes, pacing, period, soft, realtime=realtime, beat=beat, keep=keep)
+    for name, speed in turning.items():
+        said = "no speed sample" if speed is None else f"{speed:.4g} rad/s"
+        problems.append(f"{name}: still turning after the disable ({said})")
+    problems += _ended(axes, stopping, faulted)
+    for text in problems:
+        log.error("stop not confirmed: %s", text)
+    return StopResult(ok and not problems, turning, problems)
+
+
+def _watch_rest(
+    axes: Sequence[AxisDriver],
+    pacing: Pacing,
+    period: float,
+    soft: float,
+    *,
+    realtime: bool,
+    beat: list[Callable[[int], None] | None],
+    keep: Callable[[], None],
+) -> dict[str, float | None]:
+    """After the disable, each shaft's speed watched until it holds at rest (``RestWatch``), up to
+    the stop's wall deadline ``soft`` (monotonic s) and at least three holds; the axes still
+    turning, by name, with their last speed [rad/s] (None: no sample)."""
     watches = {a: RestWatch.of(a, period) for a in axes if a.has_shaft}
     hold = max((w.samples for w in watches.values()), default=0) * period
     left = max(soft - time.monotonic(), 3.0 * hold)  # the hold gets its time after a slow ramp
@@ -164,23 +181,40 @@ def bring_to_rest(
     if watches:
         end = time.monotonic() + wall
         _cycles(pacing, period, left, end, realtime=realtime, beat=beat, keep=keep, done=resting)
-    turning = {a.name: w.speed for a, w in watches.items() if not w.done}
-    for name, speed in turning.items():
-        said = "no speed sample" if speed is None else f"{speed:.4g} rad/s"
-        problems.append(f"{name}: still turning after the disable ({said})")
+    return {a.name: w.speed for a, w in watches.items() if not w.done}
+
+
+def _begin(axes: Sequence[AxisDriver], commanded: Sequence[AxisDriver]) -> tuple[bool, list[AxisDriver]]:
+    """The stop's first steps: each commanded axis's neutral command, then every commandable
+    axis's quick stop; (all of them done, the axes stopping)."""
+    ok = True
+    for a in commanded:
+        neutral = a.neutral_command()
+        if neutral is not None:
+            ok &= _retry(a, functools.partial(a.command, neutral), "zero command")
+    stopping = [a for a in axes if a.commandable]
+    for a in stopping:
+        ok &= _retry(a, a.quick_stop, "quick stop")
+    return ok, stopping
+
+
+def _ended(
+    axes: Sequence[AxisDriver], stopping: Sequence[AxisDriver], faulted: dict[AxisDriver, Exception | None]
+) -> list[str]:
+    """What the stop's end found wrong: a fault new since the stop began (``faulted``), an axis
+    not disabled (its state asked up to three times: a frame lost on the way is asked again)."""
+    problems = []
     for a in axes:
         fault = a.fault
         if fault is not None and fault is not faulted[a]:
             problems.append(f"{a.name}: {fault} during the stop")
     for a in stopping:
         state = None
-        for _ in range(3):  # a frame lost on the way is asked again
+        for _ in range(3):
             state = state or _asked(a, a.read_state, "state")
         if state not in (AxisState.DISABLED, AxisState.FAULT):
             problems.append(f"{a.name}: not disabled ({getattr(state, 'value', 'no answer')})")
-    for text in problems:
-        log.error("stop not confirmed: %s", text)
-    return StopResult(ok and not problems, turning, problems)
+    return problems
 
 
 def _pending(pending: list[AxisDriver], rested: Callable[[AxisDriver], bool]) -> bool:
