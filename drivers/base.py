@@ -4,6 +4,7 @@ An axis is one device of a rig seen from the host: a CiA 402 drive, a Modbus
 inverter, a CiA 406 encoder. The host loop knows axes through this contract
 only, never their protocol::
 
+    axis.idle = f                 # what waiting for the device calls (a SYNC in lock-step)
     axis.setup()                  # identity, units, mode, process data; nothing moves
     axis.enable(timeout=1.0)      # the device follows commands from now on
     fb = axis.feedback()          # SI: rad, rad/s, N m, A
@@ -14,6 +15,7 @@ only, never their protocol::
     axis.at_rest(fb)              # says its stop ended,
     axis.disable()                # confirmed, and only then its watch lifted
     axis.close()                  # idempotent; leaves the device disabled
+    axis.abandon()                # or: leaves the device as it is, no I/O (another master's)
 
 Every library exception (canopen, pymodbus, python-can, OS) is translated into
 the toolkit's tree (``drivers.errors``) inside the driver, once, with
@@ -27,6 +29,7 @@ import enum
 import logging
 import math
 import operator
+import time
 import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -70,6 +73,11 @@ class Feedback:
     current: float = math.nan  #: [A] (|i| for a dq axis)
     stamp: float | None = None  #: changes with every new sample (receive time [s] or a count)
     i_dq: complex | None = None  #: dq current [A], dq axes only
+
+
+def _pause() -> None:
+    """The default ``AxisDriver.idle``: 1 ms of the wall clock."""
+    time.sleep(0.001)
 
 
 def feedback_fields(names: Iterable[str]) -> Callable[[Feedback], tuple[Any, ...]]:
@@ -126,6 +134,9 @@ class AxisDriver(abc.ABC):
         self.name = name  #: the configuration's axis name
         self.mode = mode  #: what ``command`` takes; None for a feedback-only axis
         self._closed = False
+        #: what the driver calls while it waits for the device (set-up, a disable's confirmation):
+        #: lets time pass; the host sets it where time is its SYNCs' (lock-step), else a short sleep
+        self.idle: Callable[[], None] = _pause
 
     @property
     def commandable(self) -> bool:
@@ -337,6 +348,13 @@ class AxisDriver(abc.ABC):
         except Exception as exc:  # the device may be gone: closing must not raise
             log.warning("%s: disabling on close failed: %s", self.where, exc)
         self._release()
+
+    def abandon(self) -> None:
+        """Leave the device as it is, with no I/O (no disable: another master's drive, or a tool
+        that leaves it as its command left it), and release connections; then as closed."""
+        if not self._closed:
+            self._closed = True
+            self._release()
 
     def __enter__(self) -> AxisDriver:
         return self

@@ -41,12 +41,7 @@ DEBTS: dict[str, int] = {
     "rig/commission/drive.py::DriveTool": 305,
     "rig/commission/moves.py::move": 64,
     "rig/emulator/serve.py::run_emulator": 88,
-    "rig/host/loop.py": 423,
-    "rig/host/loop.py::HostLoop": 339,
-    "rig/host/loop.py::HostLoop.__init__": 73,
     "rig/host/recorder.py": 427,
-    "rig/host/session.py": 493,
-    "rig/host/session.py::Session": 387,
 }
 
 

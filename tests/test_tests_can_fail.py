@@ -243,7 +243,7 @@ def test_the_checks_find_what_they_name() -> None:
         "def test_a(monkeypatch):\n"
         "    monkeypatch.setattr(drivers.bus, 'open_bus', None)\n"
         "    monkeypatch.setattr('drivers.bus.open_bus', None)\n"
-        "    for target in ('drivers.bus.open_bus', 'rig.host.session.open_bus'):\n"
+        "    for target in ('drivers.bus.open_bus', 'rig.host.transport.open_bus'):\n"
         "        monkeypatch.setattr(target, None)\n"
         "    with pytest.raises(OSError):\n"
         "        run()\n"
@@ -256,11 +256,11 @@ def test_the_checks_find_what_they_name() -> None:
         (3, "drivers.bus", "open_bus"),
         (4, "drivers.bus", "open_bus"),
         (6, "drivers.bus", "open_bus"),
-        (6, "rig.host.session", "open_bus"),
+        (6, "rig.host.transport", "open_bus"),
     ]
     elsewhere = bound_elsewhere(modules)
-    assert "rig.host.session" in elsewhere["drivers.bus", "open_bus"]
-    assert ("rig.host.session", "open_bus") not in elsewhere  # patched where it is called: seen
+    assert "rig.host.transport" in elsewhere["drivers.bus", "open_bus"]
+    assert ("rig.host.transport", "open_bus") not in elsewhere  # patched where it is called: seen
     assert list(wide_catches(written)) == [(7, "OSError"), (9, "SystemExit")]
     (test,) = _functions(written)
     assert not _checks_itself(test.body[2]) and _checks_itself(test.body[4])

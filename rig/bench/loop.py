@@ -217,7 +217,7 @@ def _realtime(out: str, seconds: float) -> list[Figure]:
         arrivals: list[float] = []
         with Session(rt, emulate=False, duration=seconds) as session:
             session.start()
-            session.network.subscribe(
+            session.transport.network.subscribe(
                 cia.COB_TPDO[1] + 1, lambda can_id, data, ts: arrivals.append(time.perf_counter())
             )
             summary = session.run()

@@ -188,7 +188,7 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     axis = Cia402Axis("drive", network, args.node, mode="csp", eds=eds, units=units, axis=args.axis)
 
     def done() -> None:
-        axis._forget()  # the tool leaves the drive as its command left it (enable: enabled)
+        axis.abandon()  # the tool leaves the drive as its command left it (enable: enabled)
         if watch is not None:
             watch.close()
         close()

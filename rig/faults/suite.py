@@ -56,8 +56,8 @@ def _canopen(
     with Session(cfg, emulate=True, duration=DURATION) as session:
         session.start()
         summary = session.run()
-        assert session.emulation is not None and session.emulation.bench is not None
-        bench = session.emulation.bench
+        assert session.transport.emulation is not None and session.transport.emulation.bench is not None
+        bench = session.transport.emulation.bench
         while bench.syncs * bench.period < AT + AFTER - 1e-9:  # the emulated world goes on to AT + 1 s
             bench.sync()
         emulated = bench.devices[0]
@@ -71,7 +71,7 @@ def _canopen(
                 break
             except RigError:
                 continue
-        period = session.period
+        period = session.timebase.period
     # the fault acts at the first SYNC at or after AT (SYNC k carries time (k + 1) T); frame loss acts
     # from the first cycle; a host fault and a limit act in the cycle they come in
     if faults and "frame_loss" in faults:

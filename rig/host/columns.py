@@ -4,11 +4,40 @@ beside samples.csv and for the ``columns`` of samples.mat."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from drivers.base import AxisDriver
 from rig.laws.base import Law
 
-__all__ = ["MODE_UNITS", "describe_columns"]
+if TYPE_CHECKING:
+    from rig.host.control import Wiring
+
+__all__ = ["FIELDS", "MODE_UNITS", "describe_columns", "loop_columns"]
+
+#: Feedback fields recorded per axis, in this order
+FIELDS = ("position", "velocity", "torque", "current")
+
+
+def loop_columns(axes: Sequence[AxisDriver], law: Law, wiring: Wiring, *, split: bool = False) -> list[str]:
+    """The host loop's columns: law level, the law's internals, per axis, timing [us] (with
+    ``split``, a real-time run on the host's SYNC: the response's two parts too)."""
+    per_axis = [f"{a.name}.{f}" for a in axes for f in FIELDS if f in a.measures]
+    commands = [f"{axes[i].name}.command" for i in wiring.commanded]
+    return [
+        "t",
+        "reference",
+        "measurement",
+        "command",
+        *law.internals,
+        *per_axis,
+        *commands,
+        "late",
+        "read_us",
+        "update_us",
+        "write_us",
+        *(("answer_us", "host_us") if split else ()),
+    ]
+
 
 #: the unit of an axis's command in each mode
 MODE_UNITS = {

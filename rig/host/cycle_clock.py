@@ -11,7 +11,14 @@ from rig.host.pacing import Pacing
 from rig.host.realtime import collect_young
 from rig.host.safety import AxisGuard
 
-__all__ = ["collect_in_slack", "prime", "sleep_until"]
+__all__ = ["collect_in_slack", "missed_periods", "prime", "sleep_until"]
+
+
+def missed_periods(gap: float, period: float) -> int:
+    """SYNC periods [s] skipped between two ticks ``gap`` [s] apart when the bus sets the pace
+    (kernel SYNC): the loop skips them and counts them as overruns, so its cycle index, and with it
+    the watchdog, keeps to the bus's time."""
+    return max(0, round(gap / period) - 1)
 
 
 def sleep_until(deadline: float, spin: float = 0.0) -> None:

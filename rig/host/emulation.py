@@ -7,22 +7,33 @@ injector of ``[faults]``. The host's canopen network is ``network``; Modbus axes
 are pointed at their inverters by ``endpoint``. Everything is built from what the configuration
 checked when it was loaded (``rig.config.emulator``: the built preset, the inverters' values);
 nothing is checked again.
+
+``EmulatedWorld`` is the transport of such a run (``rig.host.transport``): the host's frames go
+to the emulated devices in this process, a cycle is ``InProcessLockstep``'s (the SYNC delivered
+at once, the inverters stepped a period), and set-up's waits for a drive send a SYNC.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import canopen
 
+from drivers.base import AxisDriver
 from drivers.maps import modbus_map
 from plant_emulator.faults import FAULT_NAMES, FaultInjector, FaultPlan
 from plant_emulator.lockstep import LockstepBench
 from rig.config import AxisConfig, RigConfig
+from rig.host.pacing import InProcessLockstep, Pacing
+from rig.host.timebase import Timebase
+from rig.host.transport import Tap, Transport
 
-__all__ = ["Emulation"]
+__all__ = ["HANG_GUARD", "EmulatedWorld", "Emulation"]
+
+#: [s] the least wait for an emulated drive's state in lock-step (``EmulatedWorld.wait``): a hang guard
+HANG_GUARD = 30.0
 
 
 class Emulation:
@@ -37,7 +48,6 @@ class Emulation:
         self._links: list[Any] = []
         self._taps: list[Callable[[Any], None]] = []  #: see ``add_tap``
         self._endpoints: dict[str, dict[str, Any]] = {}
-        self.period = cfg.period
         if cfg.emulator.physics is not None:
             self.bench = self._bench(cfg)
         self.network: Any = self.bench.host if self.bench else canopen.Network()
@@ -130,3 +140,37 @@ class Emulation:
             self.injector = None
         if self.bench is not None:
             self.bench.close()
+
+
+class EmulatedWorld(Transport):
+    """The transport of an ``--emulate`` run: its ``Emulation`` (see the module docstring)."""
+
+    def __init__(self, cfg: RigConfig, timebase: Timebase) -> None:
+        super().__init__(cfg, timebase)
+        self.world = self.emulation = Emulation(cfg)
+        self.network = self.world.network
+
+    def endpoint(self, a: AxisConfig) -> AxisConfig:
+        return self.world.endpoint(a)
+
+    def wait(self, timeout: float) -> float:
+        """In lock-step at least ``HANG_GUARD``: the emulated drive answers as soon as this process
+        runs, so a timeout can only guard against a hang (1 s ran out on a machine loaded a dozen
+        deep: a deterministic test failed)."""
+        return max(timeout, HANG_GUARD) if self.timebase.lockstep else timeout
+
+    def idle(self) -> Callable[[], None] | None:
+        """A SYNC: emulated time passes by SYNCs."""
+        return self.world.sync
+
+    def add_tap(self, tap: Tap) -> None:
+        self.world.add_tap(tap)
+
+    def remove_tap(self, tap: Tap) -> None:
+        self.world.remove_tap(tap)
+
+    def pacing(self, axes: Sequence[AxisDriver]) -> Pacing:
+        return InProcessLockstep(self.timebase.period, self.world.sync, self.world.steppers)
+
+    def close(self) -> None:
+        self.world.close()

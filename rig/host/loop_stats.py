@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import collections
 import math
+import time
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -20,7 +21,7 @@ if TYPE_CHECKING:
     from rig.host.loop import Wiring
     from rig.laws.base import Law
 
-__all__ = ["RunMetrics", "StageTimes", "run_metrics"]
+__all__ = ["CycleTimes", "RunMetrics", "StageTimes", "run_metrics"]
 
 
 class _Window(collections.deque):  # type: ignore[type-arg]
@@ -57,6 +58,43 @@ class StageTimes:
                 out[f"{name}_p99_us"] = float(np.percentile(a, 99))
                 out[f"{name}_max_us"] = float(a.max())
         return out
+
+
+class CycleTimes:
+    """A cycle's stage times into ``times``, as the host loop measured them (perf_counter s: the
+    tick's start, feedback read, commands checked, written: ``at``); in real time
+    its response: ``split`` (the host's SYNC) in the drives' answer and the host's own time
+    (``Pacing.split``), or over a bus's SYNC (``wall``: the read axes' stamps are bus receive times
+    on the wall clock) from a read axis's newest TPDO to the RPDOs sent."""
+
+    def __init__(self, times: StageTimes, pacing: Any, *, split: bool, realtime: bool, wall: bool) -> None:
+        self.times, self.pacing = times, pacing
+        self.split, self.realtime, self.wall = split, realtime, wall
+
+    def cycle(
+        self, at: tuple[float, float, float, float], send: bool, reads: Sequence[Any]
+    ) -> tuple[float, ...]:
+        """Record the cycle (``send``: its commands were the law's new ones, ``reads`` its samples);
+        the row's timing [s]: read, update, write (and answer, host with ``split``)."""
+        times, (t0, t1, t2, t3) = self.times, at
+        timing: tuple[float, ...] = (t1 - t0, t2 - t1, t3 - t2)
+        if self.split:
+            answer, host = self.pacing.split(t3) if send else (math.nan, math.nan)
+            timing += (answer, host)
+            if send:
+                times.drive_answer.append(answer)
+                times.host_time.append(host)
+        if self.realtime and send:
+            if self.pacing.sends_sync:  # the host's SYNC to its RPDOs
+                times.response.append(t3 - t0)
+            elif self.wall:  # the bus's SYNC: a read axis's TPDO on the bus to the RPDOs
+                newest = max((fb.stamp for fb in reads if fb.stamp is not None), default=None)
+                if newest is not None:
+                    times.response.append(time.time() - newest)
+        times.read.append(t1 - t0)
+        times.update.append(t2 - t1)
+        times.write.append(t3 - t2)
+        return timing
 
 
 def run_metrics(

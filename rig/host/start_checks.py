@@ -8,12 +8,18 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from drivers.base import Feedback
-from drivers.errors import SafetyStop
+from drivers.base import AxisDriver, Feedback
+from drivers.errors import CommunicationError, SafetyStop
 from rig.host.safety import AxisGuard
 from rig.laws.base import Law, Reference
 
-__all__ = ["ReferenceSpan", "check_absolute_start", "check_reference_window", "reference_span"]
+__all__ = [
+    "ReferenceSpan",
+    "check_absolute_start",
+    "check_first_samples",
+    "check_reference_window",
+    "reference_span",
+]
 
 #: points of the run at which a reference is looked at (and its end)
 POINTS = 2000
@@ -85,3 +91,28 @@ def check_reference_window(span: ReferenceSpan, offset: float, guard: AxisGuard,
         f"{sample.position:.6g} rad); move the shaft back (rig emulate: kill -USR1) or widen "
         "[axis.limits]"
     )
+
+
+def check_first_samples(
+    law: Law,
+    axes: Sequence[AxisDriver],
+    guards: Sequence[AxisGuard],
+    reads: Sequence[int],
+    *,
+    span: ReferenceSpan | None,
+    samples: Sequence[Feedback],
+) -> None:
+    """Cycle 0 of the host loop: every axis has sent a sample (else CommunicationError naming the
+    silent ones, before any command); the law gets the first samples of the axes it ``reads``
+    (``Law.begin``: a position reference's origin), whose start and ``span`` are checked against
+    the first read axis's limits."""
+    silent = [axis.where for axis in axes if not axis.has_sample()]
+    if silent:
+        raise CommunicationError(f"no process data from {', '.join(silent)} after the first SYNC")
+    law.begin([samples[i] for i in reads])
+    inner = getattr(law, "inner", law)  # (a FaultyLaw's own law)
+    if inner.position_reference and reads:
+        i = reads[0]
+        check_absolute_start(inner, guards[i], samples[i])
+        if span is not None:
+            check_reference_window(span, inner.offset, guards[i], samples[i])

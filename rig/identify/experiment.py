@@ -152,7 +152,7 @@ def run_experiment(
     with Session(cfg, emulate=emulate, cycles=n) as session:
         session.start()
         summary = session.run(None if progress is None else lambda k: progress(k, n))
-        summary["period"] = session.period
+        summary["period"] = session.timebase.period
     return summary
 
 

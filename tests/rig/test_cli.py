@@ -11,7 +11,7 @@ import pytest
 
 import drivers.bus
 import rig.host.emulation
-import rig.host.session
+import rig.host.transport
 from rig.cli import main
 from tests.patching import forget, stand_in
 
@@ -319,7 +319,7 @@ def test_every_subcommand_s_help_ends_with_an_example_that_parses(capsys: pytest
 def nothing_opens(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
     """Each way a command opens a bus, serves, builds an emulated world or runs an experiment,
     refused wherever the command finds it (the defining module and each module that bound the
-    name at import: rig.host.session's open_bus, rig.host.emulation's LockstepBench): a bad
+    name at import: rig.host.transport's open_bus, rig.host.emulation's LockstepBench): a bad
     argument must be found before any of them."""
     seen: list[str] = []
 
@@ -352,11 +352,11 @@ def test_nothing_opens_sees_each_opener_where_the_commands_find_it(
     """The fixture's stand-ins are what the modules that bound the openers at import call: the
     session's bus and emulated world included (patching the defining modules alone left those
     calling the real ones, unseen). Both modules were imported with this one, before the patch."""
-    for module, name in ((rig.host.session, "open_bus"), (rig.host.emulation, "LockstepBench")):
+    for module, name in ((rig.host.transport, "open_bus"), (rig.host.emulation, "LockstepBench")):
         with pytest.raises(AssertionError, match="before the arguments were checked"):
             getattr(module, name)()
     assert nothing_opens == ["drivers.bus.open_bus", "plant_emulator.lockstep.LockstepBench"]
-    assert rig.host.session.open_bus is drivers.bus.open_bus
+    assert rig.host.transport.open_bus is drivers.bus.open_bus
 
 
 def _one_line(capsys: pytest.CaptureFixture[str], needles: tuple[str, ...]) -> None:

@@ -34,7 +34,7 @@ def test_the_inverter_reaches_its_speed_and_ends_stopped(line: str, clock: str, 
     with Session(cfg, emulate=True, duration=1.0) as session:
         session.start()
         summary = session.run()
-        model, _ = session.emulation.inverters["inverter"]  # type: ignore[union-attr]
+        model, _ = session.transport.emulation.inverters["inverter"]  # type: ignore[union-attr]
         assert not model.running  # the run ended with the inverter stopped
     # real time: a cycle the loaded machine skipped is counted under overruns, not run
     assert summary["safe_stop_reason"] is None and summary["cycles"] + summary["overruns"] == 100
@@ -80,6 +80,6 @@ def test_a_large_heap_does_not_trip_the_inverter_in_real_time(tmp_path: Path) ->
     with Session(cfg, emulate=True, duration=0.5) as session:
         session.start()
         summary = session.run()
-        model, _ = session.emulation.inverters["inverter"]  # type: ignore[union-attr]
+        model, _ = session.transport.emulation.inverters["inverter"]  # type: ignore[union-attr]
     assert summary["safe_stop_reason"] is None and model.fault == 0
     del heap

@@ -39,7 +39,7 @@ def test_two_axes_of_one_node_run_independently_by_their_own_objects(tmp_path: p
     cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path), duration=0.8))
     with Session(cfg, emulate=True) as session:
         session.start()
-        drive = session.emulation.devices[0]  # type: ignore[union-attr]
+        drive = session.transport.emulation.devices[0]  # type: ignore[union-attr]
         mapped = {
             f"{'R' if receive else 'T'}PDO{p.number + 1}": {_axis_of(index) for index, _, _ in p.mapping}
             for receive, pdos in ((True, drive._rpdos), (False, drive._tpdos))

@@ -64,7 +64,7 @@ def test_another_master_is_refused_before_anything_is_written(
     with Session(load_config(_config(tmp_path, drive)), emulate=False, cycles=20) as session:
         for _ in range(3):
             drive.send(cob, data)
-        watch = session.master_watch
+        watch = session.transport.master_watch
         assert watch is not None
         until(lambda: watch.heard.get(cob, [0])[0] == 3, "the three frames heard")
         with pytest.raises(OtherMaster, match=said) as err:

@@ -85,8 +85,8 @@ def test_a_frame_its_node_did_not_send_on_a_tpdo_is_a_safe_stop(
 
 def _third_bus(session: Session, on_frame: Callable[[Any, can.Message], None]) -> Any:
     """A third node on the in-process lock-step wire: ``on_frame(bus, msg)`` sees every frame."""
-    assert session.emulation is not None and session.emulation.bench is not None
-    other = session.emulation.bench.hub.bus(queue=False, channel="other")
+    assert session.transport.emulation is not None and session.transport.emulation.bench is not None
+    other = session.transport.emulation.bench.hub.bus(queue=False, channel="other")
     other.listeners.append(lambda msg: on_frame(other, msg))
     return other
 
@@ -104,7 +104,7 @@ def test_a_position_the_drive_s_speed_contradicts_is_another_producer(tmp_path: 
         session.start()
         axis = session.axes[0]
         slot, _ = axis.data.where(POSITION)  # type: ignore[attr-defined]
-        hub = session.emulation.bench.hub  # type: ignore[union-attr]
+        hub = session.transport.emulation.bench.hub  # type: ignore[union-attr]
         sent: list[bytes] = []
 
         def replay(bus: Any, msg: can.Message) -> None:
@@ -114,7 +114,7 @@ def test_a_position_the_drive_s_speed_contradicts_is_another_producer(tmp_path: 
 
         _third_bus(session, replay)
         summary = session.run()
-    assert sent and abs(summary["cycles"] - round(0.1 / session.period)) <= 1, summary["cycles"]
+    assert sent and abs(summary["cycles"] - round(0.1 / session.timebase.period)) <= 1, summary["cycles"]
     reason = summary["safe_stop_reason"]
     assert re.fullmatch(
         rf"node 1: another producer on COB-ID 0x{slot.cob_id:03X} \(a TPDO of node 1\): the position moved "
@@ -176,7 +176,7 @@ def test_an_rpdo_the_drive_refused_for_its_length_is_another_producer_not_a_faul
         session.start()
         axis = session.axes[0]
         rpdo = axis.data.rpdo.cob_id  # type: ignore[attr-defined]
-        hub = session.emulation.bench.hub  # type: ignore[union-attr]
+        hub = session.transport.emulation.bench.hub  # type: ignore[union-attr]
         quick_stop = bytes([0x2B, 0x40, 0x60, 0x00, 0x02, 0x00, 0x00, 0x00])
         sent: list[float] = []
 
@@ -202,7 +202,7 @@ def test_an_rpdo_the_drive_refused_for_its_length_is_another_producer_not_a_faul
             reason,
         ), reason
     else:
-        assert reason is None and summary["cycles"] == round(0.2 / session.period)
+        assert reason is None and summary["cycles"] == round(0.2 / session.timebase.period)
     assert summary["stop_confirmed"] is True, summary
 
 

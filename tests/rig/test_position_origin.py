@@ -37,8 +37,8 @@ def _run(tmp_path: pathlib.Path, example: str, origin: str, *, start: float = ST
         axes=(dataclasses.replace(axis, limits=dataclasses.replace(axis.limits, **limits)),),
     )
     with Session(cfg, emulate=True) as session:
-        assert session.emulation is not None and session.emulation.bench is not None
-        drive = session.emulation.bench.devices[0]
+        assert session.transport.emulation is not None and session.transport.emulation.bench is not None
+        drive = session.transport.emulation.bench.devices[0]
         drive.shaft.motion.x[0] = start  # type: ignore[attr-defined]
         session.start()
         summary = session.run()

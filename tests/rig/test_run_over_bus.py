@@ -119,7 +119,7 @@ def test_tpdo_watchdog(tmp_path: pathlib.Path) -> None:
 
 def test_emcy_from_the_drive_stops_the_loop(tmp_path: pathlib.Path) -> None:
     def mutate(session: Session) -> None:
-        session.emulation.devices[0].write(0x6080, 0, 30)  # type: ignore[union-attr]  # trips at 30 rpm
+        session.transport.emulation.devices[0].write(0x6080, 0, 30)  # type: ignore[union-attr]  # trips at 30 rpm
 
     summary, state = _run(_cfg(tmp_path), mutate)
     assert "EMCY 0x8400" in summary["safe_stop_reason"]
@@ -139,8 +139,8 @@ def test_a_drive_that_leaves_operation_enabled_stops_the_run(tmp_path: pathlib.P
     in the next TPDO says so, and the host stops instead of commanding a disabled drive."""
 
     def mutate(session: Session) -> None:
-        drive = session.emulation.devices[0]  # type: ignore[union-attr]
-        hub = session.emulation.bench.hub  # type: ignore[union-attr]
+        drive = session.transport.emulation.devices[0]  # type: ignore[union-attr]
+        hub = session.transport.emulation.bench.hub  # type: ignore[union-attr]
 
         def intruder(msg: Any) -> None:
             if msg.arbitration_id == 0x80 and abs(hub.clock - 0.1) < 1e-9:
@@ -184,14 +184,14 @@ def test_a_safe_stop_brakes_on_the_drive_s_ramp_and_does_not_coast(tmp_path: pat
     cfg = dataclasses.replace(cfg, faults=dataclasses.replace(cfg.faults, interrupt_at=0.5))
     with Session(cfg, emulate=True) as session:
         session.start()
-        drive = session.emulation.bench.devices[0]  # type: ignore[union-attr]
+        drive = session.transport.emulation.bench.devices[0]  # type: ignore[union-attr]
         summary = session.run()
         assert "Ctrl-C" in summary["safe_stop_reason"]
         assert summary["stop_confirmed"] is True
         assert abs(drive.axis.velocity) < 0.1  # type: ignore[attr-defined]
         assert session.axes[0].read_power_state().value == "SWITCH ON DISABLED"  # type: ignore[attr-defined]
         for _ in range(2500):  # one more second: nothing moves
-            session.emulation.bench.sync()  # type: ignore[union-attr]
+            session.transport.emulation.bench.sync()  # type: ignore[union-attr]
         assert abs(drive.axis.velocity) < 0.1  # type: ignore[attr-defined]
 
 
@@ -204,7 +204,7 @@ def test_a_stop_that_cannot_be_confirmed_is_reported(tmp_path: pathlib.Path) -> 
     cfg = replace_axis(cfg, "motor", stop_timeout=0.05, sdo_timeout=0.01)
     with Session(cfg, emulate=True, duration=0.4) as session:
         session.start()
-        hub = session.emulation.bench.hub  # type: ignore[union-attr]
+        hub = session.transport.emulation.bench.hub  # type: ignore[union-attr]
         law = session.loop.law  # type: ignore[union-attr]
         step = law.step
 

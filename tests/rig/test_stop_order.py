@@ -68,8 +68,8 @@ def _run(tmp_path: pathlib.Path, duration: float) -> tuple[dict, Record, list[in
     cfg = load_config(EXAMPLE)
     cfg = dataclasses.replace(cfg, run=dataclasses.replace(cfg.run, output=str(tmp_path), duration=duration))
     with Session(cfg, emulate=True) as session:
-        assert session.emulation is not None and session.emulation.bench is not None
-        drive = session.emulation.bench.devices[0]
+        assert session.transport.emulation is not None and session.transport.emulation.bench is not None
+        drive = session.transport.emulation.bench.devices[0]
         assert isinstance(drive, EmulatedDrive)
         record = Record(drive)
         emcy: list[int] = []
@@ -78,7 +78,7 @@ def _run(tmp_path: pathlib.Path, duration: float) -> tuple[dict, Record, list[in
             if msg.arbitration_id == 0x81 and len(msg.data) >= 2:
                 emcy.append(msg.data[0] | msg.data[1] << 8)
 
-        session.emulation.bench.hub.taps.append(tap)
+        session.transport.emulation.bench.hub.taps.append(tap)
         session.start()
         summary = session.run()
     return summary, record, emcy

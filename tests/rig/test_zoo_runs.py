@@ -36,7 +36,7 @@ def _run(device: str, out: pathlib.Path) -> tuple[dict[str, Any], np.ndarray, fl
         session.start()
         summary = session.run()
         quantum = 1.0 / session.axes[0].units.position  # type: ignore[attr-defined]  # [rad]
-        harmful = session.emulation.devices[0].harmful_writes  # type: ignore[union-attr]
+        harmful = session.transport.emulation.devices[0].harmful_writes  # type: ignore[union-attr]
     assert harmful == []
     data = np.genfromtxt(pathlib.Path(summary["run_dir"]) / "samples.csv", delimiter=",", names=True)
     return summary, data, quantum
