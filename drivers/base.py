@@ -127,6 +127,8 @@ class AxisDriver(abc.ABC):
     measures: frozenset[str] = frozenset()
     #: what a sample is called in messages ("no TPDO for 3 periods")
     sample_name: ClassVar[str] = "sample"
+    #: in real time, a sample's ``stamp`` is its receive time on the wall clock (``time.time()`` [s])
+    wall_stamps: ClassVar[bool] = False
 
     def __init__(self, name: str, mode: str | None) -> None:
         if mode is not None and mode not in AXIS_MODES:

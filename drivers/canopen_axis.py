@@ -140,7 +140,7 @@ class CanopenAxis(AxisDriver):
     communication objects; each has its own canopen ``RemoteNode`` on the network (the first on
     its node id holds ``network[node_id]``)."""
 
-    sample_name = "TPDO"
+    sample_name, wall_stamps = "TPDO", True  #: a TPDO's stamp: its frame's receive time
     #: how the user gives the device's own EDS (``rig drive`` says ``--eds FILE``)
     eds_hint = 'the axis\'s eds = "FILE"'
     device_id = Identity()  #: 0x1018 as read at set-up (``check_identity``)

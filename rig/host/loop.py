@@ -33,7 +33,6 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from drivers.base import AxisDriver, Feedback, feedback_fields
-from drivers.canopen_axis import CanopenAxis
 from drivers.errors import SafetyStop
 from rig.host.columns import FIELDS, loop_columns
 from rig.host.control import Wiring
@@ -77,13 +76,11 @@ class HostLoop:
         o = self.options = options or LoopOptions()
         self.axes, self.guards = list(axes), list(guards)
         self.law, self.wiring, self.recorder, self.pacing = law, wiring, recorder, pacing
-        self.timebase = timebase
-        self.period = timebase.period  #: [s] the timebase's (the hot path reads it here)
-        self.cycles = cycles
-        self.realtime = timebase.realtime
+        self.timebase, self.cycles = timebase, cycles
+        realtime = timebase.realtime
         #: real time on the host's SYNC: each cycle's response is split in the drives' answer and
         #: the host's own time (``HostSync.split``; the columns ``answer_us``, ``host_us``)
-        self.split = self.realtime and pacing.sends_sync
+        self.split = realtime and pacing.sends_sync
         self.times = StageTimes()
         self.overruns = 0
         self.safe_stop_reason: str | None = None
@@ -97,8 +94,8 @@ class HostLoop:
         self.granted: dict[str, Any] | None = None  #: real time: what the system granted (the summary's)
         self.steps = FreshSteps(law, self.axes, wiring.commands, o.missed_sample)  #: on new samples only
         #: the read axes' sample stamps are bus receive times on the wall clock (real time, CANopen)
-        wall = self.realtime and all(isinstance(axes[i], CanopenAxis) for i in wiring.reads)
-        self._timing = CycleTimes(self.times, pacing, split=self.split, realtime=self.realtime, wall=wall)
+        wall = realtime and all(axes[i].wall_stamps for i in wiring.reads)
+        self._timing = CycleTimes(self.times, pacing, split=self.split, realtime=realtime, wall=wall)
         self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
         self.still_turning: dict[str, float | None] = {}  #: axes not at rest after it [rad/s]
         self.done = 0
@@ -125,18 +122,18 @@ class HostLoop:
 
     def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
         """Run the cycles (``progress(k)`` every 1 % of them); returns the summary."""
-        frozen = False
-        if self.realtime:
+        frozen, tb = False, self.timebase
+        if tb.realtime:
             gc.collect()
             gc.freeze()
             gc.disable()
             frozen = True
         try:
-            self._span = reference_span(self.law, self.guards, self.wiring.reads, self.cycles, self.period)
+            self._span = reference_span(self.law, self.guards, self.wiring.reads, self.cycles, tb.period)
             self.recorder.mark_start()
             with self.pacing.owning():  # given back before any stop: its SDO needs the receive thread
-                if self.realtime and not self.pacing.paced_by_bus:  # the others' tick brings cycle 0's
-                    prime(self.pacing, self.axes, self.guards, self.period, self.heartbeat)
+                if tb.realtime and not self.pacing.paced_by_bus:  # the others' tick brings cycle 0's
+                    prime(self.pacing, self.axes, self.guards, tb.period, self.heartbeat)
                 self._cycles(progress)
         except Exception as exc:
             reason, suspect = cause_of(exc)
@@ -152,12 +149,13 @@ class HostLoop:
         return self.summary()
 
     def _cycles(self, progress: Callable[[int], None] | None) -> None:
-        self._stolen_at = cpu_stolen() if self.realtime else None
+        period, realtime = self.timebase.period, self.timebase.realtime
+        self._stolen_at = cpu_stolen() if realtime else None
         start = self._t_start = self._t_end = time.perf_counter()
         deadline = start
         every = max(1, self.cycles // 100)
         k = 0
-        pace = self.realtime and not self.pacing.paced_by_bus
+        pace = realtime and not self.pacing.paced_by_bus
         by_bus = self.pacing.paced_by_bus
         last_tick: float | None = None
         while k < self.cycles:
@@ -165,11 +163,11 @@ class HostLoop:
                 sleep_until(deadline, self.spin)
                 now = time.perf_counter()
                 self.times.period_error.append(now - deadline)
-                late = int((now - deadline) / self.period)
+                late = int((now - deadline) / period)
                 if late >= 1:  # skip the missed cycles
                     self.overruns += late
                     k += late
-                    deadline += late * self.period
+                    deadline += late * period
                     if k >= self.cycles:
                         break
             t0 = time.perf_counter()
@@ -177,29 +175,29 @@ class HostLoop:
             if by_bus:
                 now = time.perf_counter()
                 if last_tick is not None:
-                    missed = missed_periods(now - last_tick, self.period)
+                    missed = missed_periods(now - last_tick, period)
                     self.overruns += missed
-                    self.times.period_error.append(now - last_tick - (missed + 1) * self.period)
+                    self.times.period_error.append(now - last_tick - (missed + 1) * period)
                     k += missed
                 last_tick = now
                 if k >= self.cycles:
                     break
             late = self.pacing.late
-            self._cycle(k, t0, late=late)
+            self._cycle(k, k * period, t0, late=late)
             if late:
                 self._late(k)
             else:
                 self._late_run = 0
             k += 1
-            deadline += self.period
-            if self.realtime:
-                self._collect(deadline if pace else t0 + self.period)
+            deadline += period
+            if realtime:
+                self._collect(deadline if pace else t0 + period)
             if progress is not None and k % every == 0:
                 progress(k)
 
     def _collect(self, deadline: float) -> None:
         """Real time, the collector disabled (``run``): young garbage in the slack (``collect_in_slack``)."""
-        if collect_in_slack(deadline, self.period, self.gc_young):
+        if collect_in_slack(deadline, self.timebase.period, self.gc_young):
             self.collections += 1
 
     def _read(self, k: int) -> list[Feedback]:
@@ -224,10 +222,9 @@ class HostLoop:
                 f"[run] late_stop = {self.options.late_stop})"
             )
 
-    def _cycle(self, k: int, t0: float, *, late: bool = False) -> None:
-        """Cycle ``k``, whose tick started at ``t0`` (perf_counter s) and has returned (``late``:
-        its answers missed their budget)."""
-        t = k * self.period
+    def _cycle(self, k: int, t: float, t0: float, *, late: bool = False) -> None:
+        """Cycle ``k`` at time ``t`` [s] of the run, whose tick started at ``t0`` (perf_counter s) and
+        has returned (``late``: its answers missed their budget)."""
         samples = self._read(k)
         if not self._begun:  # cycle 0 (``check_first_samples``)
             check_first_samples(
@@ -286,9 +283,9 @@ class HostLoop:
             self.axes,
             [self.axes[i] for i in self.wiring.commanded],
             self.pacing,
-            period=self.period,
+            period=self.timebase.period,
             timeout=self.options.stop_timeout,
-            realtime=self.realtime,
+            realtime=self.timebase.realtime,
             heartbeat=self.heartbeat,
         )
         self.stop_confirmed, self.still_turning = stop.confirmed, stop.turning

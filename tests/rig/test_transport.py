@@ -49,6 +49,21 @@ def test_the_session_asks_no_transport_which_it_is() -> None:
     assert found == []
 
 
+def test_the_loop_reads_its_timebase_and_asks_no_axis_its_kind() -> None:
+    """The loop keeps no copy of the timebase's period or time mode (``self.period``,
+    ``self.realtime``), and knows whether an axis stamps on the wall clock from the driver contract
+    (``AxisDriver.wall_stamps``), not by an isinstance."""
+    found = []
+    for node in ast.walk(_tree("loop.py")):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "isinstance":
+            if len(node.args) > 1 and _KIND.search(ast.unparse(node.args[1])):
+                found.append(f"line {node.lineno}: {ast.unparse(node)}")
+        if isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            if ast.unparse(node) in ("self.period", "self.realtime"):
+                found.append(f"line {node.lineno}: {ast.unparse(node)} =")
+    assert found == []
+
+
 @pytest.mark.parametrize("name", ["session.py", "loop.py"])
 def test_session_and_loop_are_under_300_lines(name: str) -> None:
     lines = len((HOST / name).read_text().splitlines())
