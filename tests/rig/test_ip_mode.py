@@ -34,7 +34,7 @@ def _run(out: pathlib.Path, mode: str) -> tuple[dict[str, Any], np.ndarray, dict
     with Session(cfg, emulate=True) as session:
         session.start()
         arm = session.axes[0]
-        drive: Any = session.emulation.devices[0]  # type: ignore[union-attr]
+        drive: Any = session.transport.emulation.devices[0]  # type: ignore[union-attr]
         if mode == "ip":
             seen["0x60C2"] = arm.sdo_read(cia.INTERPOLATION_PERIOD, 1) * 10.0 ** arm.sdo_read(  # type: ignore[attr-defined]
                 cia.INTERPOLATION_PERIOD, 2
@@ -95,5 +95,5 @@ def test_a_drive_whose_ip_buffer_is_a_ring_it_cannot_leave_is_refused_before_the
     with Session(cfg, emulate=True) as session:
         with pytest.raises(ConfigError, match=r"0x60C4:03.*holds 1; the ip buffer a FIFO wanted 0.*csp"):
             session.start()
-        drive: Any = session.emulation.devices[0]  # type: ignore[union-attr]
+        drive: Any = session.transport.emulation.devices[0]  # type: ignore[union-attr]
         assert drive.sm.state is not PowerState.OPERATION_ENABLED
