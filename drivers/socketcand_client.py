@@ -318,7 +318,7 @@ class SocketcandBus(python_can_socketcand.SocketCanDaemonBus):
         """The frames that have come, ready for ``recv`` without a wait: those read and not yet
         taken, and those one read of the socket brings now (where it holds any). For the
         claiming thread: a drain of what has come takes this many, so a sender that never
-        pauses cannot hold it for ever (``rig.host.pacing.OwnedReceive``).
+        pauses cannot hold it for ever (``drivers.owned_receive.OwnedReceive``).
 
         Returns
         -------

@@ -16,8 +16,8 @@ the clock the frames' timestamps are on (heartbeat ages are measured on it).
   time (that TPDO to its RPDOs). During the loop's cycles
   (``owning``), on a bus that lets one thread claim its reading (``claim``/``release``:
   socketcand's), the loop thread reads the frames itself and hands each to the network's
-  listeners as the receive thread would (``OwnedReceive``): it wakes on the answer itself,
-  not after a receive thread has read it and woken it, two thread switches less per cycle.
+  listeners as the receive thread would (``drivers.owned_receive``): it wakes on the answer
+  itself, not after a receive thread has read it and woken it, two thread switches less per cycle.
 - ``WireLockstep``: lock-step over a real bus: the same, with a budget as long as the
   transport may need (``timeout``).
 - ``KernelSync``: real time on SocketCAN; the kernel's broadcast manager sends
@@ -39,6 +39,7 @@ from typing import Any
 
 from drivers.canopen_axis import CanopenAxis
 from drivers.maps.cia import PDO_SYNC_MAX
+from drivers.owned_receive import OwnedReceive
 
 __all__ = ["ExternalSync", "FreeRun", "HostSync", "InProcessLockstep", "KernelSync", "Pacing", "WireLockstep"]
 
@@ -204,63 +205,6 @@ def _cob_ids(axes: Sequence[CanopenAxis]) -> list[int]:
                 kind,
             )
     return [cob for a in axes for cob in a.tpdo_cob_ids()]
-
-
-class OwnedReceive:
-    """The calling thread reads ``network``'s bus itself (``claim``) and hands each frame to the
-    network's listeners, in order, as python-can's notifier thread would (which parks meanwhile);
-    ``release`` gives the reading back. A receive error raises in the reading thread (the loop's
-    safe stop names a lost bus)."""
-
-    def __init__(self, network: Any) -> None:
-        self.bus = network.bus
-        self.listeners = network.notifier.listeners
-
-    @staticmethod
-    def possible(network: Any) -> bool:
-        """``network``'s bus lets a thread claim its reading (socketcand's does)."""
-        bus = getattr(network, "bus", None)
-        return (
-            callable(getattr(bus, "claim", None))
-            and callable(getattr(bus, "fill", None))
-            and network.notifier is not None
-        )
-
-    def claim(self, others: bool) -> None:
-        self.bus.claim(others=others)
-
-    def release(self) -> None:
-        self.bus.release()
-
-    def arrived(self) -> None:
-        """Every frame that has come, handed on; none waited for."""
-        self.until(lambda: True, 0.0)
-
-    def until(self, done: Callable[[], bool], timeout: float) -> bool:
-        """Frames read and handed on until ``done()`` or ``timeout`` [s], then every frame that
-        has come by then (not waited for; the bus's ``fill``: one read of the socket, so a
-        flood cannot hold the loop here): after a stall, a node's burst of answers to the
-        SYNCs it owed is read at once, and the newest sample counts, as with a receive thread
-        (read only up to ``done()``, the rest of a burst stayed queued, and every later cycle
-        acted on a sample that many periods old). ``done()`` at the end."""
-        deadline = time.perf_counter() + timeout
-        recv, listeners = self.bus.recv, self.listeners
-        while not done():
-            left = deadline - time.perf_counter()
-            if left < 0.0:
-                return False
-            msg = recv(left)
-            if msg is not None:
-                for listener in listeners:
-                    listener(msg)
-        # what has come by now, and no more: a sender that never pauses (another client's flood)
-        # held a drain until nothing more came for ever (no SYNC, no RPDO: the drive's deadline)
-        for _ in range(self.bus.fill()):
-            msg = recv(0.0)
-            if msg is not None:
-                for listener in listeners:
-                    listener(msg)
-        return True
 
 
 class HostSync(Pacing):

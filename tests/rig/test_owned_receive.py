@@ -1,4 +1,4 @@
-"""The loop thread reading the bus itself (``rig.host.pacing.OwnedReceive`` on the socketcand
+"""The loop thread reading the bus itself (``drivers.owned_receive.OwnedReceive`` on the socketcand
 client's ``claim``/``release``), over a real TCP socket from a scripted socketcand server: while
 claimed, python-can's notifier thread reads nothing (it parks) and the claiming thread hands every
 frame to the network's listeners in order; a burst that came in one segment is handed on whole,
@@ -15,7 +15,7 @@ import canopen
 import pytest
 
 from drivers.bus import open_bus
-from rig.host.pacing import OwnedReceive
+from drivers.owned_receive import OwnedReceive
 from tests.drivers.scripted_socketcand import greet
 
 
