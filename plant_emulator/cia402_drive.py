@@ -364,9 +364,8 @@ class EmulatedDrive(DriveCycle, DriveSafety, EmulatedNode):
         self._pending.clear()
         self._mode_switch = None
         self.fault_code = 0
-        if hasattr(self, "image"):  # (not yet at the first power-on)
-            self.image.refresh()
-            self.sm.quick_stop_option = self._option(cia.QUICK_STOP_OPTION, self.profile.reactions.quick_stop)
+        self.image.refresh()
+        self.sm.quick_stop_option = self._option(cia.QUICK_STOP_OPTION, self.profile.reactions.quick_stop)
         self._latch_status()
 
     def sync_time(self, timestamp: float) -> float:

@@ -269,7 +269,7 @@ class MultiAxisDrive(EmulatedDrive):
 
     def on_reset(self, *, application: bool) -> None:
         super().on_reset(application=application)
-        for d in getattr(self, "others", ()):  # (not yet at the first power-on)
+        for d in self.others:
             d.on_reset(application=application)
 
     def on_abort_connection(self, what: str, code: int) -> None:
