@@ -40,6 +40,7 @@ import canopen
 from drivers.base import AxisState, Feedback
 from drivers.cia402_cycle import Cia402Cycle, power_state
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
+from drivers.cia402_mapping import CyclePlan
 from drivers.cia402_process import ProcessData
 from drivers.cia402_setup import SW, VELOCITY, Cia402Setup
 from drivers.cia402_units import DriveUnits
@@ -168,8 +169,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         self._moved: tuple[float | None, float, float] = (None, math.nan, 0.0)
         self._enabled_stamp: float | None = None
         self._rest_stamp: float | None = None  #: the statusword TPDO's stamp at the last ``at_rest``
-        #: called while waiting for the drive (set-up): lets time pass (a SYNC in lock-step)
-        self.idle: Callable[[], None] = lambda: time.sleep(0.001)
+        self._plan = CyclePlan(None, frozenset(), None)  #: none until set-up maps the process data
         self._sent = False  #: an SDO download or an NMT command went to the drive
         self._disabled = False  #: the statusword confirmed the last disable (``disable``)
 

@@ -3,7 +3,8 @@ command RPDO.
 
 ``Cia402Cycle`` is the part of ``drivers.cia402.Cia402Axis`` that runs every period, once set-up
 (``drivers.cia402_setup``) has found the mapping in force (``data``: ``drivers.cia402_process``):
-``feedback`` reads the last TPDOs in SI through a plan made once per mapping (``_CyclePlan``),
+``feedback`` reads the last TPDOs in SI through the plan set-up made for the mapping
+(``drivers.cia402_mapping.CyclePlan``),
 ``supervise`` checks the statusword and, where mapped, 0x6061 (a drive that leaves OPERATION
 ENABLED or changes its mode stops the run, named), ``command`` packs and sends the RPDO of the
 mode's target with the controlword.
@@ -13,13 +14,11 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
 
 from drivers.base import Feedback
 from drivers.canopen_axis import CanopenAxis, TpdoSlot, sample_interval
+from drivers.cia402_mapping import CW, DQ_RX, POSITION, VELOCITY, CyclePlan
 from drivers.cia402_process import ProcessData
-from drivers.cia402_setup import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY
 from drivers.cia402_units import DriveUnits
 from drivers.errors import CommunicationError, RigError, SafetyStop, brief
 from drivers.maps import cia
@@ -36,33 +35,6 @@ _RUN_WORD = {Mode.INTERPOLATED_POSITION: _ENABLE_OPERATION | cia.CW_ENABLE_IP}
 
 def _object(index: int, subindex: int) -> str:
     return f"0x{index:04X}" + (f":{subindex:02X}" if subindex else "")
-
-
-class _CyclePlan:
-    """What the cycle reads from the TPDOs of ``data`` and how it packs the RPDO, found once per
-    mapping (``data``) and ``measures``: the feedback's values (velocity where chosen; torque,
-    current: measured), the places of the statusword and of 0x6061 (None: not in a TPDO), the
-    RPDO of (controlword, target)."""
-
-    def __init__(
-        self, data: ProcessData | None, measures: frozenset[str], op_mode: Mode | None, velocity: bool = True
-    ) -> None:
-        self.data, self.measures = data, measures
-        self.velocity = velocity  #: 0x606C is read (else the position's backward difference)
-        self.position = "position" in measures  #: 0x6064 is read (a speed controller has none)
-        self.torque, self.current = "torque" in measures, "current" in measures
-        self.feedback: Callable[[], tuple[Any, ...]] = tuple
-        self.status: tuple[TpdoSlot, int] | None = None
-        self.mode: tuple[TpdoSlot, int] | None = None
-        self.rpdo: Callable[..., bytes] | None = None
-        if data is None:
-            return
-        keys = [POSITION] * self.position + [VELOCITY] * velocity + [TORQUE] * self.torque
-        keys += [CURRENT] * self.current
-        self.feedback = data.reader(keys)
-        self.status, self.mode = data.where(SW), data.where(MODE_SHOWN)
-        if data.rpdo is not None and op_mode in cia.TARGET_OF_MODE:
-            self.rpdo = data.packer((CW, cia.TARGET_OF_MODE[op_mode]))
 
 
 def power_state(statusword: int) -> PowerState:
@@ -90,13 +62,7 @@ class Cia402Cycle(CanopenAxis):
     _stop_word: int | None = None
     _target_raw: int | None = None  #: the target of the last command, in the drive's units
 
-    if TYPE_CHECKING:  # the mapping's (``drivers.cia402_mapping``)
-
-        @property
-        def reads_velocity(self) -> bool: ...
-
-    #: the cycle's reading and packing for the mapping in force, made on first use (per axis)
-    _plan = _CyclePlan(None, frozenset(), None)
+    _plan: CyclePlan  #: the cycle's reading and packing for the mapping in force (set-up)
 
     def feedback(self) -> Feedback:
         """The last TPDOs in SI (the frame angle unwrapped in mode -2)."""
@@ -106,8 +72,6 @@ class Cia402Cycle(CanopenAxis):
             return self._dq_feedback(data)
         stamp = self._motion.timestamp if self._motion is not None else time.monotonic()
         plan = self._plan
-        if plan.data is not data or plan.measures is not self.measures:
-            plan = self._plan = self._new_plan(data)
         values = plan.feedback()
         p, v = plan.position, plan.velocity
         position = values[0] / u.position if p else math.nan
@@ -118,9 +82,6 @@ class Cia402Cycle(CanopenAxis):
             values[p + v + plan.torque] / 1000.0 * u.rated_current if plan.current else math.nan,
             stamp,
         )
-
-    def _new_plan(self, data: ProcessData) -> _CyclePlan:
-        return _CyclePlan(data, self.measures, self.op_mode, velocity=self.reads_velocity)
 
     def _difference(self, position: float, stamp: float | None) -> float:
         """[rad/s] the backward difference of ``position`` (the sample stamped ``stamp``) from the
@@ -200,11 +161,8 @@ class Cia402Cycle(CanopenAxis):
     def supervise(self, now: float) -> None:
         """EMCY, NMT and heartbeat (``CanopenAxis``), the statusword and, where mapped, 0x6061."""
         super().supervise(now)
-        data = self.data
-        assert data is not None
+        assert self.data is not None
         plan = self._plan
-        if plan.data is not data or plan.measures is not self.measures:
-            plan = self._plan = self._new_plan(data)
         if plan.status is None:
             return
         slot, place = plan.status
@@ -266,8 +224,6 @@ class Cia402Cycle(CanopenAxis):
     def _pack(self, data: ProcessData, raw: int) -> bytes:
         """The RPDO's data: the controlword of the moment and the mode's target ``raw``."""
         plan = self._plan
-        if plan.data is not data or plan.measures is not self.measures:
-            plan = self._plan = self._new_plan(data)
         word = _RUN_WORD.get(self.op_mode, _ENABLE_OPERATION) if self._stop_word is None else self._stop_word
         if plan.rpdo is not None:
             return plan.rpdo(word, raw)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from drivers.cia402_pdo import Key, Pdo, disable, plan_rpdo, plan_tpdos, read_mapping, share, variable
@@ -47,6 +48,7 @@ __all__ = [
     "TORQUE",
     "VELOCITY",
     "Cia402Mapping",
+    "CyclePlan",
 ]
 
 log = logging.getLogger(__name__)
@@ -70,6 +72,33 @@ FEEDBACK = {
 }
 
 
+class CyclePlan:
+    """What the cycle (``drivers.cia402_cycle``) reads from the TPDOs of ``data`` and how it packs
+    the RPDO, made once at set-up for the mapping in force (``data``) and ``measures``: the
+    feedback's values (velocity where chosen; torque, current: measured), the places of the
+    statusword and of 0x6061 (None: not in a TPDO), the RPDO of (controlword, target)."""
+
+    def __init__(
+        self, data: ProcessData | None, measures: frozenset[str], op_mode: Mode | None, velocity: bool = True
+    ) -> None:
+        self.data, self.measures = data, measures
+        self.velocity = velocity  #: 0x606C is read (else the position's backward difference)
+        self.position = "position" in measures  #: 0x6064 is read (a speed controller has none)
+        self.torque, self.current = "torque" in measures, "current" in measures
+        self.feedback: Callable[[], tuple[Any, ...]] = tuple
+        self.status: tuple[TpdoSlot, int] | None = None
+        self.mode: tuple[TpdoSlot, int] | None = None
+        self.rpdo: Callable[..., bytes] | None = None
+        if data is None:
+            return
+        keys = [POSITION] * self.position + [VELOCITY] * velocity + [TORQUE] * self.torque
+        keys += [CURRENT] * self.current
+        self.feedback = data.reader(keys)
+        self.status, self.mode = data.where(SW), data.where(MODE_SHOWN)
+        if data.rpdo is not None and op_mode in cia.TARGET_OF_MODE:
+            self.rpdo = data.packer((CW, cia.TARGET_OF_MODE[op_mode]))
+
+
 class Cia402Mapping:
     """See the module docstring (a mixin of ``Cia402Setup``)."""
 
@@ -89,6 +118,7 @@ class Cia402Mapping:
     data: ProcessData | None
     measures: frozenset[str]
     _motion: TpdoSlot | None
+    _plan: CyclePlan
 
     if TYPE_CHECKING:  # the axis's own, used here
 
@@ -300,16 +330,19 @@ class Cia402Mapping:
         pdo.ttype, pdo.valid = ttype, True
 
     def _measures(self) -> None:
+        """What the feedback measures, the slot whose stamp is the sample's, and the cycle's plan
+        (``CyclePlan``), once for the mapping in force."""
         data = self.data
         assert data is not None
         if self.op_mode == Mode.DQ_VOLTAGE:
             self.measures = frozenset({"position", "velocity", "current"})
-            return
-        u = self.units
-        self.measures = frozenset(
-            {"velocity"}
-            | ({"position"} if self.has_position else set())
-            | ({"torque"} if math.isfinite(u.rated_torque) and data.mapped(TORQUE) else set())
-            | ({"current"} if math.isfinite(u.rated_current) and data.mapped(CURRENT) else set())
-        )
-        self._motion = data.slot_of(POSITION if self.has_position else VELOCITY)
+        else:
+            u = self.units
+            self.measures = frozenset(
+                {"velocity"}
+                | ({"position"} if self.has_position else set())
+                | ({"torque"} if math.isfinite(u.rated_torque) and data.mapped(TORQUE) else set())
+                | ({"current"} if math.isfinite(u.rated_current) and data.mapped(CURRENT) else set())
+            )
+            self._motion = data.slot_of(POSITION if self.has_position else VELOCITY)
+        self._plan = CyclePlan(data, self.measures, self.op_mode, velocity=self.reads_velocity)
