@@ -32,6 +32,7 @@ COVERED = [
     "plant_emulator.*",
     "rig",
     "rig.bench.*",
+    "rig.cli.*",
     "rig.commission.*",
     "rig.config.*",
     "rig.doctor.*",
@@ -47,7 +48,8 @@ COVERED = [
 ]
 
 #: modules below COVERED's packages still to document (this list only shrinks): the CiA 402
-#: driver being recomposed (issue 37 item 3) and the emulator's shaft, being changed meanwhile
+#: driver being recomposed (issue 37 item 3), the emulator's shaft, being changed meanwhile, and
+#: three commands whose add_parser is a size debt (tests/test_sizes.py) that a docstring would grow
 NOT_YET = [
     "drivers.canopen_axis",
     "drivers.cia402",
@@ -60,6 +62,9 @@ NOT_YET = [
     "drivers.cia402_setup",
     "drivers.cia402_units",
     "plant_emulator.shaft",
+    "rig.cli.drive",
+    "rig.cli.emulate",
+    "rig.cli.identify",
 ]
 
 

@@ -169,7 +169,18 @@ def _said(exc: Exception) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``rig`` command line; returns the process exit code."""
+    """Run the ``rig`` command line; returns the process exit code.
+
+    Parameters
+    ----------
+    argv : Sequence[str] | None, optional
+        The arguments (None: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
     restore = _answer_signals()
     try:
         return _main(argv)

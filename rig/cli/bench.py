@@ -12,6 +12,13 @@ __all__ = ["add_parser"]
 
 
 def add_parser(sub: Any) -> None:
+    """``rig bench``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     from rig.bench import BENCHMARKS
 
     bench = sub.add_parser(

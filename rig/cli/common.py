@@ -67,7 +67,18 @@ EXIT_CODES = {
 
 def exit_code(summary: dict[str, Any]) -> int:
     """A run's exit code: 0 done, 3 a safe stop, 6 a file of the run not written whole, 4 a stop
-    not confirmed (before all: never like a clean one)."""
+    not confirmed (before all: never like a clean one).
+
+    Parameters
+    ----------
+    summary : dict[str, Any]
+        The run's summary.
+
+    Returns
+    -------
+    int
+        0, 3, 4 or 6.
+    """
     if summary.get("stop_confirmed") is False:
         return EXIT_UNCONFIRMED
     if summary.get("files_not_written"):
@@ -77,7 +88,20 @@ def exit_code(summary: dict[str, Any]) -> int:
 
 def not_written(summary: dict[str, Any], who: str) -> str | None:
     """One line naming the run's files not written whole and the samples not on disk (None: all
-    written); where summary.json is among them, the summary printed is its only copy."""
+    written); where summary.json is among them, the summary printed is its only copy.
+
+    Parameters
+    ----------
+    summary : dict[str, Any]
+        The run's summary.
+    who : str
+        The command, named in the line.
+
+    Returns
+    -------
+    str | None
+        The line, or None.
+    """
     files = summary.get("files_not_written") or []
     if not files:
         return None
@@ -96,7 +120,13 @@ class UsageError(Exception):
 
 class Lazy:
     """A help text made when it is first read (``Parser.description``): a text that needs a heavy
-    module (numpy, a paper's study) costs nothing to a command that does not show it."""
+    module (numpy, a paper's study) costs nothing to a command that does not show it.
+
+    Parameters
+    ----------
+    make : Callable[[], str]
+        Makes the text.
+    """
 
     def __init__(self, make: Callable[[], str]) -> None:
         self.make = make
@@ -119,11 +149,39 @@ class Parser(argparse.ArgumentParser):
         self._text = text
 
     def error(self, message: str) -> NoReturn:
+        """Raise the usage error as one line (argparse would exit).
+
+        Parameters
+        ----------
+        message : str
+            argparse's words.
+
+        Raises
+        ------
+        UsageError
+            Always.
+        """
         raise UsageError(f"{self.prog}: {message}")
 
 
 def finite(text: str) -> float:
-    """An argparse type: a finite number."""
+    """An argparse type: a finite number.
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    float
+        The number.
+
+    Raises
+    ------
+    ArgumentTypeError
+        If it is not a finite number.
+    """
     try:
         value = float(text)
     except ValueError:
@@ -134,12 +192,34 @@ def finite(text: str) -> float:
 
 
 def tcp_port(text: str) -> int:
-    """An argparse type: a TCP port 1..65535."""
+    """An argparse type: a TCP port 1..65535.
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    int
+        The port.
+    """
     return _port(text, 1)
 
 
 def tcp_port_or_any(text: str) -> int:
-    """An argparse type: a TCP port to listen on, 0..65535 (0: any free port)."""
+    """An argparse type: a TCP port to listen on, 0..65535 (0: any free port).
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    int
+        The port.
+    """
     return _port(text, 0)
 
 
@@ -154,7 +234,23 @@ def _port(text: str, low: int) -> int:
 
 
 def out_file(text: str) -> str:
-    """An argparse type: a file to write (a plot): not a directory, in a folder that is there."""
+    """An argparse type: a file to write (a plot): not a directory, in a folder that is there.
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    str
+        ``text``.
+
+    Raises
+    ------
+    ArgumentTypeError
+        If it is a directory, or its folder is missing.
+    """
     path = pathlib.Path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text}: a directory, not a file")
@@ -164,7 +260,23 @@ def out_file(text: str) -> str:
 
 
 def out_dir(text: str) -> str:
-    """An argparse type: a folder to write into (made if missing): not a file."""
+    """An argparse type: a folder to write into (made if missing): not a file.
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    str
+        ``text``.
+
+    Raises
+    ------
+    ArgumentTypeError
+        If it is a file.
+    """
     path = pathlib.Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text}: a file, not a folder")
@@ -172,17 +284,58 @@ def out_dir(text: str) -> str:
 
 
 def add_json(parser: argparse.ArgumentParser, what: str = "print one JSON document") -> None:
+    """A ``--json`` flag.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    what : str, optional
+        Its help.
+    """
     parser.add_argument("--json", action="store_true", help=what)
 
 
 def add_params(parser: argparse.ArgumentParser, help: str, *, flag: str = "--param") -> None:
-    """A repeatable ``--param NAME=VALUE`` (or ``flag``) option."""
+    """A repeatable ``--param NAME=VALUE`` (or ``flag``) option.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    help : str
+        Its help.
+    flag : str, optional
+        The option's name.
+    """
     parser.add_argument(flag, action="append", default=[], metavar="NAME=VALUE", help=help)
 
 
 def params_of(items: Sequence[str], schema: type, source: str, **kw: Any) -> dict[str, Any]:
     """``--param`` items typed against ``schema`` (``rig.config.params.typed_values``); UsageError
-    when bad."""
+    when bad.
+
+    Parameters
+    ----------
+    items : Sequence[str]
+        The ``NAME=VALUE`` items.
+    schema : type
+        A dataclass.
+    source : str
+        The option, named in errors.
+    **kw : Any
+        ``typed_values``' keywords.
+
+    Returns
+    -------
+    dict[str, Any]
+        Field -> typed value.
+
+    Raises
+    ------
+    UsageError
+        If an item is malformed, unknown or of a wrong type.
+    """
     try:
         return typed_values(schema, parse_items(items, source), source, text=True, **kw)
     except ConfigError as exc:
@@ -190,7 +343,13 @@ def params_of(items: Sequence[str], schema: type, source: str, **kw: Any) -> dic
 
 
 def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options that open a CAN bus (python-can interface and channel, socketcand address)."""
+    """The options that open a CAN bus (python-can interface and channel, socketcand address).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    """
     group = parser.add_argument_group("CAN bus")
     group.add_argument("--interface", help="python-can interface (e.g. socketcan, socketcand, pcan)")
     group.add_argument("--channel", help="python-can channel (e.g. vcan0, can0)")
@@ -202,7 +361,25 @@ def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def open_network(args: argparse.Namespace, who: str) -> Any:
-    """A connected canopen network on the bus of ``add_bus_arguments``' options."""
+    """A connected canopen network on the bus of ``add_bus_arguments``' options.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+    who : str
+        The command, named in errors.
+
+    Returns
+    -------
+    Any
+        The canopen network, connected.
+
+    Raises
+    ------
+    UsageError
+        If the options name no bus, or a bit rate not > 0, or it cannot open.
+    """
     import canopen
 
     from drivers.bus import check_interface, open_bus
@@ -225,7 +402,18 @@ def open_network(args: argparse.Namespace, who: str) -> Any:
 
 
 def json_clean(value: Any) -> Any:
-    """``value`` with non-finite floats as null (JSON has no inf or NaN)."""
+    """``value`` with non-finite floats as null (JSON has no inf or NaN).
+
+    Parameters
+    ----------
+    value : Any
+        A JSON-ready value.
+
+    Returns
+    -------
+    Any
+        It with NaN and inf as None.
+    """
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, dict):
@@ -236,4 +424,11 @@ def json_clean(value: Any) -> Any:
 
 
 def print_json(value: Any) -> None:
+    """``value`` as one JSON document on stdout (``json_clean``).
+
+    Parameters
+    ----------
+    value : Any
+        A JSON-ready value.
+    """
     print(json.dumps(json_clean(value)))

@@ -11,6 +11,13 @@ __all__ = ["add_parser"]
 
 
 def add_parser(sub: Any) -> None:
+    """``rig demo``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     demo = sub.add_parser(
         "demo",
         help="design and simulate the DC position servo (section VII.B), then run it over the emulated bus",

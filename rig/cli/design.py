@@ -16,6 +16,13 @@ __all__ = ["add_parser"]
 
 
 def add_parser(sub: Any) -> None:
+    """``rig design``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     design = sub.add_parser("design", help="design a controller", description="Design a controller.")
     dsub = design.add_subparsers(dest="kind", required=True, parser_class=Parser)
     dtsm = dsub.add_parser(

@@ -15,6 +15,13 @@ PERIODS = (0.001, 0.0004)  #: [s] the periods judged by default: 1 ms and the pa
 
 
 def add_parser(sub: Any) -> None:
+    """``rig doctor``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     doctor = sub.add_parser(
         "doctor",
         help="tell whether this PC can run a real-time period, and what to change",

@@ -23,7 +23,13 @@ ACTIONS = ("dump", "store", "restore")  #: the actions of this module
 
 
 def add_actions(actions: Any) -> None:
-    """The actions on ``rig drive``'s sub-parsers ``actions``."""
+    """The actions on ``rig drive``'s sub-parsers ``actions``.
+
+    Parameters
+    ----------
+    actions : Any
+        ``rig drive``'s sub-parsers.
+    """
     dump = actions.add_parser(
         "dump",
         help="every object of the drive's dictionary with its value now, read by SDO (text, --json, --dcf)",
@@ -62,7 +68,18 @@ def add_actions(actions: Any) -> None:
 
 
 def check(args: argparse.Namespace) -> None:
-    """UsageError, before the bus opens, for a store or restore nobody can confirm."""
+    """UsageError, before the bus opens, for a store or restore nobody can confirm.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Raises
+    ------
+    UsageError
+        If a store or restore cannot be confirmed (``--json`` or no terminal, without ``--yes``).
+    """
     if args.action not in ("store", "restore") or args.yes:
         return
     if args.json:
@@ -86,7 +103,20 @@ def _confirm(args: argparse.Namespace) -> Any:
 
 
 def act(tool: Any, args: argparse.Namespace) -> dict[str, Any]:
-    """Run action ``args.action`` with ``tool`` (a ``rig.commission.drive.DriveTool``)."""
+    """Run action ``args.action`` with ``tool`` (a ``rig.commission.drive.DriveTool``).
+
+    Parameters
+    ----------
+    tool : Any
+        The drive.
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    dict[str, Any]
+        The action's result.
+    """
     if args.action == "dump":
         return _dump(tool, args)
     from rig.commission.store import store
@@ -142,7 +172,18 @@ def _dump(tool: Any, args: argparse.Namespace) -> dict[str, Any]:
 
 
 def result_lines(result: dict[str, Any]) -> list[str]:
-    """The text report of an action's ``result``."""
+    """The text report of an action's ``result``.
+
+    Parameters
+    ----------
+    result : dict[str, Any]
+        An action's result.
+
+    Returns
+    -------
+    list[str]
+        The lines.
+    """
     from rig.commission import store
     from rig.commission.dictionary import dump_lines
 

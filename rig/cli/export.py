@@ -11,6 +11,13 @@ FORMATS = ("mf4", "parquet", "mat", "csv")  #: rig.host.export.FORMATS, without 
 
 
 def add_parser(sub: Any) -> None:
+    """``rig export``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     export = sub.add_parser(
         "export",
         help="write a run's samples as MF4, Parquet, MAT or CSV",

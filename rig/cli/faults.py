@@ -22,6 +22,13 @@ def _description() -> str:
 
 
 def add_parser(sub: Any) -> None:
+    """``rig faults``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     faults = sub.add_parser(
         "faults",
         help="run every fault scenario over the whole chain and print the table",

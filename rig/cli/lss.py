@@ -13,6 +13,13 @@ _BOOT = 5.0  #: [s] a slave's boot-up with its new node-ID is awaited (a real bu
 
 
 def add_parser(sub: Any) -> None:
+    """``rig lss``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     lss = sub.add_parser(
         "lss",
         help="set a drive's node-ID and bit rate over the bus (CiA 305 LSS): scan, inquire, node-id, "

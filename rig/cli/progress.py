@@ -15,7 +15,23 @@ __all__ = ["Progress"]
 
 
 class Progress:
-    """``Progress(label, total, unit)``; ``update(done)`` with done of total; ``close()``."""
+    """``Progress(label, total, unit)``; ``update(done)`` with done of total; ``close()``.
+
+    Parameters
+    ----------
+    label : str
+        What is counted.
+    total : float
+        Of it.
+    unit : str
+        Its unit.
+    json : bool, optional
+        The output is ``--json``: nothing drawn.
+    stream : TextIO | None, optional
+        Where it writes (None: stderr).
+    rate : float, optional
+        [Hz] redraws at most.
+    """
 
     def __init__(
         self,
@@ -37,14 +53,30 @@ class Progress:
         self._drawn = False
 
     def cycles(self, k: int, total: int) -> None:
-        """``update`` for a run whose length is known once it is set up: ``k`` of ``total`` done."""
+        """``update`` for a run whose length is known once it is set up: ``k`` of ``total`` done.
+
+        Parameters
+        ----------
+        k : int
+            Cycles done.
+        total : int
+            Of the run.
+        """
         if self.total != total:
             self.total = total
             self.on = self._terminal and total > 0
         self.update(k)
 
     def update(self, done: float, note: str = "") -> None:
-        """``done`` of the total; ``note`` goes at the line's end (a rate, the failures)."""
+        """``done`` of the total; ``note`` goes at the line's end (a rate, the failures).
+
+        Parameters
+        ----------
+        done : float
+            Of the total.
+        note : str, optional
+            At the line's end.
+        """
         if not self.on:
             return
         now = time.monotonic()
@@ -63,6 +95,7 @@ class Progress:
         self._drawn = True
 
     def close(self) -> None:
+        """End the line drawn."""
         if self._drawn:
             self.stream.write("\n")
             self.stream.flush()

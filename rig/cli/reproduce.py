@@ -30,6 +30,13 @@ __all__ = ["add_parser"]
 
 
 def add_parser(sub: Any) -> None:
+    """``rig reproduce``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     reproduce = sub.add_parser(
         "reproduce", help="reproduce a paper's numerical study", description="Reproduce a paper's study."
     )

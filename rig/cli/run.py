@@ -28,6 +28,13 @@ LIVE_MODES = ("auto", "terminal", "window")  #: --live's choices (``rig.live.MOD
 
 
 def add_parser(sub: Any) -> None:
+    """``rig run``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     run = sub.add_parser(
         "run",
         help="run a configured control law over the wire (see examples/)",
@@ -85,12 +92,36 @@ def add_parser(sub: Any) -> None:
 
 
 def print_summary(summary: dict[str, Any]) -> None:
-    """The summary for a person (``rig.report.summary.summary_lines``)."""
+    """The summary for a person (``rig.report.summary.summary_lines``).
+
+    Parameters
+    ----------
+    summary : dict[str, Any]
+        The run's summary.
+    """
     print("\n".join(summary_lines(summary)))
 
 
 def open_view(mode: str | None, who: str) -> LiveView | None:
-    """The live view of ``--live`` (None without it); UsageError when it cannot be shown."""
+    """The live view of ``--live`` (None without it); UsageError when it cannot be shown.
+
+    Parameters
+    ----------
+    mode : str | None
+        ``--live`` (None: no live view).
+    who : str
+        The command, named in the error.
+
+    Returns
+    -------
+    LiveView | None
+        The live view, or None.
+
+    Raises
+    ------
+    UsageError
+        If it cannot be shown.
+    """
     if mode is None:
         return None
     from rig.live import LiveUnavailable, open_live

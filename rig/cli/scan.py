@@ -15,6 +15,13 @@ MAX_SDO_TIMEOUT = 60.0  #: [s]
 
 
 def add_parser(sub: Any) -> None:
+    """``rig scan``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     scan = sub.add_parser(
         "scan",
         help="list the CANopen nodes on a bus",

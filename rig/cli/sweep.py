@@ -24,6 +24,13 @@ def _workers(text: str) -> int:
 
 
 def add_parser(sub: Any) -> None:
+    """``rig sweep``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     sweep = sub.add_parser(
         "sweep",
         help="run a robustness study: many emulated runs over varied parameters, on Dask",

@@ -16,6 +16,13 @@ LAWS = ("position-servo", "pi-speed", "cascade-position")  #: rig.identify.tune.
 
 
 def add_parser(sub: Any) -> None:
+    """``rig tune``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     tune = sub.add_parser(
         "tune",
         help="design a law from rig identify's result and check its margins on the measured plant",

@@ -24,6 +24,13 @@ EXTRA = "pip install 'drive-rig[view]'"
 
 
 def add_parser(sub: Any) -> None:
+    """``rig view``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     view = sub.add_parser(
         "view",
         help="serve a read-only web page of runs, studies and a run in progress (a live scope)",
@@ -55,7 +62,18 @@ def _port(text: str) -> int:
 
 
 def require_view(who: str) -> None:
-    """UsageError naming the extra when Starlette or uvicorn is missing."""
+    """UsageError naming the extra when Starlette or uvicorn is missing.
+
+    Parameters
+    ----------
+    who : str
+        The command, named in the error.
+
+    Raises
+    ------
+    UsageError
+        If Starlette or uvicorn is missing.
+    """
     import importlib.util
 
     for name in ("starlette", "uvicorn", "websockets"):
@@ -119,7 +137,20 @@ def start_beside(
     """``rig run --view [ADDRESS]``: the server over the run's output folder, started in a process
     of its own (``rig.view.process``); the live view (a ``LiveView`` at ``RATE`` updates a second
     whose backend sends each update there); what gives it the axes once they are enabled (their
-    states and faults, ``rig.view.states``). Its address on stderr."""
+    states and faults, ``rig.view.states``). Its address on stderr.
+
+    Parameters
+    ----------
+    address : str
+        ``--view``'s address.
+    cfg : RigConfig
+        The run's configuration.
+
+    Returns
+    -------
+    tuple[LiveView, Callable[[list[AxisDriver]], None], ViewProcess]
+        (the live view, what gives it the axes, the server's process).
+    """
     require_view("rig run")
     from rig.live import LiveView
     from rig.view.feed import RATE, RingFeed
