@@ -41,7 +41,6 @@ DEBTS: dict[str, int] = {
     "rig/commission/drive.py::DriveTool": 305,
     "rig/commission/moves.py::move": 64,
     "rig/emulator/serve.py::run_emulator": 88,
-    "rig/host/recorder.py": 427,
 }
 
 

@@ -26,8 +26,8 @@ import numpy as np
 
 from drivers.errors import ConfigError
 from drivers.files import read_json
-from rig.host.recorder import write_atomic, write_mat
 from rig.host.rundir import read_samples
+from rig.host.storage import write_atomic, write_mat
 
 __all__ = ["FORMATS", "export_run"]
 

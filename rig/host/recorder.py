@@ -59,7 +59,7 @@ import numpy as np
 
 from drivers.errors import ConfigError, StorageError
 from rig.host.readback import Columns, Envelope, copy_text, read_rows
-from rig.host.storage import Reserve, RowFile, trim_to_line
+from rig.host.storage import Reserve, RowFile, trim_to_line, write_atomic, write_mat
 from rig.host.trace import AscTrace
 
 #: ``[run] trace`` -> the trace's file name and python-can writer (``"none"``: no trace)
@@ -68,28 +68,9 @@ TRACE_WRITERS: dict[str, tuple[str, Callable[[str], Any]]] = {
     "blf": ("trace.blf", can.BLFWriter),
 }
 
-__all__ = ["TRACE_WRITERS", "Recorder", "output_folder", "write_atomic", "write_mat"]
+__all__ = ["TRACE_WRITERS", "Recorder", "output_folder"]
 
 log = logging.getLogger(__name__)
-
-
-def write_atomic(
-    path: Path, write: Callable[[Any], None], *, binary: bool = False, sync: bool = True
-) -> None:
-    """``write(file)`` into a temporary file beside ``path``, then rename it to ``path``: the
-    file is there whole or not at all (OSError when it cannot be written); ``sync``: on the disk
-    (fsync) before the rename."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        with tmp.open("wb" if binary else "w") as f:
-            write(f)
-            f.flush()
-            if sync:
-                os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def _finite(value: Any) -> Any:
@@ -396,21 +377,6 @@ class Recorder:
             self.dir / "plot.png", lambda f: fig.savefig(f, format="png"), binary=True, sync=self.DURABLE
         )
         return fig
-
-
-def write_mat(
-    f: Any, names: Sequence[str], column: Callable[[int], np.ndarray], docs: dict[str, dict[str, str]]
-) -> None:
-    """samples.mat into ``f``: one variable per column (``column(i)``, named ``names[i]`` with dots
-    as underscores), then the structs column_unit and column_meaning (MATLAB: column_unit.t = 's'),
-    each appended in turn (one column in memory at a time)."""
-    import scipy.io
-
-    for i, name in enumerate(c.replace(".", "_") for c in names):
-        scipy.io.savemat(f, {name: column(i)})
-    for key in ("unit", "meaning"):
-        structs = {c.replace(".", "_"): d[key] for c, d in docs.items()}
-        scipy.io.savemat(f, {f"column_{key}": structs})
 
 
 @contextlib.contextmanager

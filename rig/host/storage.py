@@ -14,7 +14,8 @@ still takes the summary. Where the filesystem cannot allocate ahead, there is no
 and the close does what the disk allows.
 
 ``trim_to_line`` cuts a text file (``trace.asc``) that a failed write left with a torn last
-line back to its last whole line.
+line back to its last whole line. ``write_atomic`` writes a file whole or not at all (the JSON
+files, ``samples.mat``, ``plot.png``), ``write_mat`` MATLAB's samples one column at a time.
 """
 
 from __future__ import annotations
@@ -22,9 +23,13 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
-__all__ = ["RESERVE", "SUMMARY_ROOM", "Reserve", "RowFile", "trim_to_line"]
+import numpy as np
+
+__all__ = ["RESERVE", "SUMMARY_ROOM", "Reserve", "RowFile", "trim_to_line", "write_atomic", "write_mat"]
 
 log = logging.getLogger(__name__)
 
@@ -153,3 +158,37 @@ def trim_to_line(path: Path, block: int = 4096) -> None:
                 return
             pos = start
         f.truncate(0)
+
+
+def write_atomic(
+    path: Path, write: Callable[[Any], None], *, binary: bool = False, sync: bool = True
+) -> None:
+    """``write(file)`` into a temporary file beside ``path``, then rename it to ``path``: the
+    file is there whole or not at all (OSError when it cannot be written); ``sync``: on the disk
+    (fsync) before the rename."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        with tmp.open("wb" if binary else "w") as f:
+            write(f)
+            f.flush()
+            if sync:
+                os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def write_mat(
+    f: Any, names: Sequence[str], column: Callable[[int], np.ndarray], docs: dict[str, dict[str, str]]
+) -> None:
+    """samples.mat into ``f``: one variable per column (``column(i)``, named ``names[i]`` with dots
+    as underscores), then the structs column_unit and column_meaning (MATLAB: column_unit.t = 's'),
+    each appended in turn (one column in memory at a time)."""
+    import scipy.io
+
+    for i, name in enumerate(c.replace(".", "_") for c in names):
+        scipy.io.savemat(f, {name: column(i)})
+    for key in ("unit", "meaning"):
+        structs = {c.replace(".", "_"): d[key] for c, d in docs.items()}
+        scipy.io.savemat(f, {f"column_{key}": structs})

@@ -102,7 +102,7 @@ def write_identification(
     Path
         The file's path.
     """
-    from rig.host.recorder import write_atomic
+    from rig.host.storage import write_atomic
 
     doc: dict[str, Any] = {
         **result.as_dict(),

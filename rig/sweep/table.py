@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.errors import ConfigError
-from rig.host.recorder import write_atomic
+from rig.host.storage import write_atomic
 
 __all__ = ["RESULTS", "SWEEP", "Results", "clean", "read_rows", "read_sweep_json", "write_sweep_json"]
 

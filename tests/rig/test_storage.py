@@ -20,8 +20,8 @@ import sys
 import pytest
 
 from rig.config import load_config
-from rig.host.recorder import write_atomic
 from rig.host.session import Session
+from rig.host.storage import write_atomic
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "dc_servo_position.toml"
