@@ -79,6 +79,17 @@ def run_period(
     Commands at equal offsets are applied in the order given (a stable sort). The
     physics between two commands sees the earlier one held: ZOH, as a drive's
     modulator holds its reference.
+
+    Parameters
+    ----------
+    advance : Callable[[float, float], None]
+        Steps the physics by ``h`` [s] from time ``t_start`` [s].
+    timeline : list[Timed]
+        The commands of the period, each at its offset [s] into it.
+    t : float
+        [s] the period's start, as ``advance`` counts it.
+    period : float
+        [s] the period's length.
     """
     done = 0.0
     if timeline:
@@ -93,7 +104,18 @@ def run_period(
 
 def shafts_of(devices: Iterable[object]) -> list[Shaft]:
     """The shafts of ``devices``, each once: a drive's, each axis's of a drive of several
-    (``plant_emulator.multi_axis``), an encoder's."""
+    (``plant_emulator.multi_axis``), an encoder's.
+
+    Parameters
+    ----------
+    devices : Iterable[object]
+        Emulated nodes.
+
+    Returns
+    -------
+    list[Shaft]
+        Their shafts, in the order met.
+    """
     found: dict[int, Shaft] = {}
     for d in devices:
         for shaft in getattr(d, "shafts", None) or [getattr(d, "shaft", None)]:
@@ -111,10 +133,24 @@ class Coupled(Protocol):
 
 
 class Shaft:
-    """See the module docstring; ``period`` [s] is the SYNC period every period is advanced by.
+    """See the module docstring.
 
     ``sources`` are advanced before ``motion`` over each piece of a period, so the
     torque they apply over it is known when the motion integrates it.
+
+    Parameters
+    ----------
+    motion : Axis
+        The axis whose model integrates the motion.
+    sources : Sequence[Axis]
+        Torque sources coupled to it (a load machine).
+    period : float
+        [s] the SYNC period every period is advanced by.
+
+    Raises
+    ------
+    ValueError
+        If the period is not a finite number > 0.
     """
 
     def __init__(self, motion: Axis, *, sources: Sequence[Axis] = (), period: float) -> None:
@@ -155,7 +191,13 @@ class Shaft:
         self.load_origin = None
 
     def attach(self, drive: Coupled) -> None:
-        """Take ``drive``'s commands into every period from now on."""
+        """Take ``drive``'s commands into every period from now on.
+
+        Parameters
+        ----------
+        drive : Coupled
+            A drive on this shaft.
+        """
         self._drives.append(drive)
 
     @property
@@ -173,7 +215,19 @@ class Shaft:
 
         A SYNC is new when its timestamp differs from the latest one's, or when ``node``
         has handled the latest one already; a new SYNC advances the period ending at it
-        (none before the first). True when this call advanced the shaft.
+        (none before the first).
+
+        Parameters
+        ----------
+        node : object
+            The node handling it.
+        timestamp : float
+            [s] the SYNC's receive time.
+
+        Returns
+        -------
+        bool
+            True when this call advanced the shaft (lock-step).
         """
         key = id(node)
         if timestamp == self._stamp and key not in self._seen:
@@ -196,9 +250,7 @@ class Shaft:
         period boundary nearest the SYNC, then the periods' phase moves toward the SYNC: all the
         way on the first SYNC, or the first after ``RELOCK`` periods without one; by ``1/PLL`` of
         the SYNC's offset from its boundary otherwise, so the count of periods keeps to the
-        SYNCs' grid however they jitter (moved all the way at every SYNC, each SYNC's rounding
-        was kept: the world's period count walked off the host's by up to five periods in 10 s at
-        0.4 ms under load)."""
+        SYNCs' grid however they jitter (docs/emulator.md says what moving it all the way did)."""
         period = self.period
         relock = self._synced_at is None or now - self._synced_at > RELOCK * period
         self._synced_at = now
@@ -222,7 +274,20 @@ class Shaft:
         [s], a period that ends within ``ahead`` after ``t`` is advanced now too: the state at
         the next SYNC prepared before it comes (``WorldClock.prepare``). A period's commands are
         those due by its start (``take_timeline``), all known by then, so the state is the
-        one computed at the SYNC. The number of periods advanced."""
+        one computed at the SYNC.
+
+        Parameters
+        ----------
+        t : float
+            [s] the clock's time to advance to.
+        ahead : float
+            [s] how far past ``t`` a period may end and still be advanced now.
+
+        Returns
+        -------
+        int
+            The number of periods advanced.
+        """
         behind = int((t - self.t) / self.period + 1e-9)
         if behind > self.catch_up:
             skip = behind - self.catch_up
@@ -242,7 +307,13 @@ class Shaft:
         In real time it restarts again at the next SYNC, the run's first (a host sends none between
         its enable and its first cycle, which a real-time host reaches tens of ms later), so the
         loads' time there is one period, as at lock-step's first SYNC, which ends the world's
-        first period."""
+        first period.
+
+        Parameters
+        ----------
+        drive : Coupled
+            The drive that was enabled.
+        """
         if self._drives and drive is self._drives[0]:
             self.load_origin = self.t
             self._origin_at_sync = self.clock is not None

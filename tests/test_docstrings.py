@@ -61,7 +61,6 @@ NOT_YET = [
     "drivers.cia402_process",
     "drivers.cia402_setup",
     "drivers.cia402_units",
-    "plant_emulator.shaft",
     "rig.cli.drive",
     "rig.cli.emulate",
     "rig.cli.identify",
