@@ -122,6 +122,17 @@ class SpeedObserver:
             p[2][0] * xh[0] + p[2][1] * xh[1] + p[2][2] * xh[2] + gm[2] * applied,
         ]
 
+    def hold(self, u: float) -> None:
+        """The drive holds ``u`` from now on instead of the latest command (a host that sent it
+        without a step: ``coast`` predicts with it).
+
+        Parameters
+        ----------
+        u : float
+            The command the drive holds [unit of u].
+        """
+        self._u = u
+
     def coast(self, periods: int) -> None:
         """Predict over ``periods`` periods that brought no sample, the drive holding the latest
         command (a cycle the host skipped or whose sample came late): each an uncorrected

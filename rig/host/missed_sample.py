@@ -3,7 +3,8 @@
 A cycle in which a read axis has no new sample (a TPDO missed or late: its stamp unchanged, or
 none) does not step the law on stale feedback: ``[run] missed_sample = "hold"`` keeps the last
 commands (sent again, the same values: the drives hold them, and their deadlines see a host
-alive), ``"zero"`` sends the neutral ones (``AxisDriver.neutral_command``).
+alive), ``"zero"`` sends the neutral ones (``AxisDriver.neutral_command``) and tells the law
+(``Law.held``: an observer then predicts with what the drives hold).
 """
 
 from __future__ import annotations
@@ -45,4 +46,5 @@ class FreshSteps:
             return last, False
         neutral = [self.axes[i].neutral_command() for i in self.commands]
         commands = tuple(c if n is None else n for c, n in zip(last.commands, neutral))
+        self.law.held(commands)
         return LawStep(commands, last.reference, last.measurement, last.internals), True

@@ -107,6 +107,18 @@ class Law(abc.ABC):
                 reference = self.reference
                 self.reference = lambda t: _shifted(reference(t), offset)
 
+    def held(self, commands: Sequence[complex | float]) -> None:
+        """A cycle without a new sample sent ``commands`` instead of a step's (``[run]
+        missed_sample = "zero"``): the drives hold them until the law's next step. A law with a
+        model of the plant takes them as what was applied; the default does nothing.
+
+        Parameters
+        ----------
+        commands : Sequence[complex | float]
+            What each commanded axis was sent, in the law's order.
+        """
+        return
+
     def sensitivity(self) -> tuple[float, float]:
         """(|du/dtheta| [unit of u per rad], |du/domega| [unit of u per rad/s]): how far the first
         command moves per unit of the first read axis's position and speed, the gradient of the

@@ -122,6 +122,17 @@ class PositionServoLaw(Law):
         """
         return self._sensitivity
 
+    def held(self, commands: Sequence[complex | float]) -> None:
+        """The observer predicts the periods until the next step with the command sent.
+
+        Parameters
+        ----------
+        commands : Sequence[complex | float]
+            What the commanded axis was sent.
+        """
+        if self.observer is not None:
+            self.observer.hold(commands[0].real)
+
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
         theta_r, omega_r = self.reference(t)
         fb = feedback[0]

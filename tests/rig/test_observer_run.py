@@ -39,7 +39,7 @@ def test_a_wrong_speed_source_is_named(tmp_path: pathlib.Path, capsys: pytest.Ca
     assert needle in err and len(err.strip().splitlines()) == 1, err
 
 
-def _servo_speeds(skip: set[int]) -> list[float]:
+def _servo_speeds(skip: set[int], *, zero: bool = False, tell: bool = True) -> list[float]:
     """The law with ``speed = "observer"`` on the exact model of its design closing the loop on a
     moving reference; the cycles in ``skip`` bring no sample (the law is not stepped, the drive
     holds its command); the observer's speed error [rad/s] at each step."""
@@ -56,6 +56,10 @@ def _servo_speeds(skip: set[int]) -> list[float]:
         if k not in skip:
             u = law.step(k * period, [Feedback(position=float(x[0]), stamp=float(k))]).commands[0]
             errors.append(law.observer.omega - x[1])  # type: ignore[union-attr]
+        elif zero:  # missed_sample = "zero": the drive gets 0 V until the next step
+            u = 0.0
+            if tell:
+                law.held((u,))
         x = phi @ x + (gamma * u).reshape(2)
     return errors
 
@@ -70,3 +74,14 @@ def test_the_observer_runs_through_cycles_without_a_sample() -> None:
     holes = _servo_speeds({700, 1200, 1201})
     assert max(abs(e) for e in clean[200:]) < 1e-3
     assert max(abs(e) for e in holes[200:]) < 1e-3, max(abs(e) for e in holes[200:])
+
+
+def test_the_observer_knows_the_neutral_command_sent_without_a_step() -> None:
+    """With ``missed_sample = "zero"`` a cycle without a sample sends 0 V, which the drive holds
+    until the next step: ``Law.held`` tells the law, and its observer predicts with it; told
+    nothing, it predicted with the last command the law had computed."""
+    holes = {700, 1200, 1201}
+    told = _servo_speeds(holes, zero=True)
+    untold = _servo_speeds(holes, zero=True, tell=False)
+    assert max(abs(e) for e in told[200:]) < 1e-3, max(abs(e) for e in told[200:])
+    assert max(abs(e) for e in untold[200:]) > 1e-2
