@@ -29,6 +29,7 @@ from drivers.errors import (
     CommunicationTimeout,
     DeviceFault,
     DictionaryMismatch,
+    NotInDictionary,
     SafetyStop,
     SdoAbort,
     brief,
@@ -242,10 +243,9 @@ class CanopenAxis(AxisDriver):
                 f"node {self.node_id}: 0x{index:04X}:{subindex:02X}: {what}: {exc} (the device's answer does "
                 f"not fit its type in {self.eds}): the EDS/DCF is not this device's; give the device's own"
             ) from exc
-        except KeyError as exc:
-            code = cia.SdoAbortCode.NO_SUBINDEX
-            raise SdoAbort(
-                f"{what}: not in the EDS", code=code, node_id=self.node_id, index=index, subindex=subindex
+        except KeyError as exc:  # the dictionary in use lacks it: nothing was sent
+            raise NotInDictionary(
+                f"is not in {self.eds}: {what} not sent", node_id=self.node_id, index=index, subindex=subindex
             ) from exc
 
     def _entry(self, index: int, subindex: int) -> Any:

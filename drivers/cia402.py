@@ -178,7 +178,8 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         drive (``guard_manufacturer``: a ConfigError before anything is sent)."""
         self.guard_manufacturer(index, f"an SDO download to 0x{index:04X}:{subindex:02X}")
         self._sent = True
-        super().sdo_write(index, subindex, value)
+        if not self.standard_write(index, subindex, value):  # the device's, met without its EDS
+            super().sdo_write(index, subindex, value)
 
     def nmt(self, state: str) -> None:
         self._sent = True

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from drivers.cia402_pdo import variable
-from drivers.errors import ConfigError, SdoAbort
+from drivers.errors import ConfigError, NotInDictionary, SdoAbort
 from drivers.maps.sdo_aborts import abort_text
 
 __all__ = ["Setting", "interpolation_period", "period_text"]
@@ -68,9 +68,12 @@ class Setting:
         try:
             write(self.index, self.subindex, self.value)
         except SdoAbort as exc:
+            declared = f"the EDS declares it {access}" if var is not None else "the EDS in use lacks it"
             said = (
-                f"{where}: {obj} refused {self.value!r} ({self.why}): abort 0x{exc.code:08X}, "
-                f"{abort_text(exc.code)}; the EDS declares it {access}"
+                f"{exc} ({self.why})"
+                if isinstance(exc, NotInDictionary)  # nothing was sent
+                else f"{where}: {obj} refused {self.value!r} ({self.why}): abort 0x{exc.code:08X}, "
+                f"{abort_text(exc.code)}; {declared}"
             )
             if self.required:
                 raise ConfigError(said + self._then) from exc

@@ -18,7 +18,14 @@ from typing import TYPE_CHECKING, Any
 from drivers.cia402_pdo import variable
 from drivers.cia402_units import DriveUnits, discover_units
 from drivers.errors import CommunicationTimeout, ConfigError, NodeSilent, SdoAbort
-from drivers.identity import TOOLKIT_DRIVE, Identity, read_standard
+from drivers.identity import (
+    STANDARD,
+    STANDARD_WRITES,
+    TOOLKIT_DRIVE,
+    Identity,
+    encode_standard,
+    read_standard,
+)
 from drivers.maps import cia
 from drivers.maps.cia import CIA_MODE_BITS, MODE_BITS, SUPPORTED_MODE_BITS, Mode
 from drivers.maps.cia402_needs import OF_MODE, missing
@@ -43,6 +50,7 @@ class Cia402Discovery:
     device_id: Identity
     units_hint: str = "[axis.units] {key}"  #: how the user gives a unit the drive lacks
     eds_hint: str
+    eds_given: bool  #: the EDS in use is the device's own (else the toolkit's generic one)
     #: the drive has a position actual value 0x6064 (``discover``; a velocity-only drive has none)
     has_position: bool = True
     supported_modes: frozenset[int] | None
@@ -56,10 +64,15 @@ class Cia402Discovery:
         def sdo_read(self, index: int, subindex: int = 0) -> Any: ...
         def sdo_upload(self, index: int, subindex: int = 0) -> bytes: ...
         def check_identity(self, *, give: str) -> Identity: ...
+        def _sdo(self, what: str, index: int, subindex: int) -> Any: ...  # a context (canopen_axis)
 
     def _optional(self, index: int, subindex: int = 0) -> Any:
-        """An object the device may lack: its value, or None (absent from the EDS, or refused)."""
+        """An object the device may lack: its value, or None (absent from the EDS, or refused).
+        Without the device's own EDS, a ``STANDARD`` object the generic one lacks is read from
+        the device by its standard's type (``read_standard``): what the device has decides."""
         if variable(self.node.object_dictionary, (index, subindex)) is None:
+            if not self.eds_given and (index, subindex) in STANDARD:
+                return read_standard(self.sdo_upload, index, subindex)
             return None
         try:
             return self.sdo_read(index, subindex)
@@ -190,6 +203,21 @@ class Cia402Discovery:
         """The toolkit's own drive, positively identified (0x1018 vendor and product), whose
         manufacturer objects and modes the host knows."""
         return self.device_id.toolkit
+
+    def standard_write(self, index: int, subindex: int, value: Any) -> bool:
+        """Without the device's own EDS, an entry of ``STANDARD_WRITES`` the generic one does not
+        name is downloaded by its standard's type, and the device decides (an abort: SdoAbort):
+        True once written; False where the dictionary in use writes it (or, lacking it, refuses
+        to: ``NotInDictionary``)."""
+        key = (index, subindex)
+        if self.eds_given or key not in STANDARD_WRITES:
+            return False
+        if variable(self.node.object_dictionary, key) is not None:
+            return False
+        with self._sdo(f"SDO download of {value!r}", index, subindex):
+            wire = axis_object(index, self.axis_number)
+            self.node.sdo.download(wire, subindex, encode_standard(index, subindex, value))
+        return True
 
     def guard_manufacturer(self, index: int, what: str) -> None:
         """ConfigError before ``what`` would write manufacturer object ``index`` of a drive that is

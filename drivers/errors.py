@@ -13,6 +13,7 @@ It lives in the lowest layer that raises it (``drivers``), so that ``drivers``,
      |    +-- CommunicationTimeout (TimeoutError)
      |    |    +-- NodeSilent                no SDO answer at all: no such node on the bus?
      |    +-- SdoAbort                      SDO abort, ``.code`` (CiA 301)
+     |    |    +-- NotInDictionary           not written: the EDS/DCF in use lacks the object
      |    +-- ModbusExceptionResponse       ``.code`` (Modbus exception code)
      +-- DeviceFault                        the device reports a fault (EMCY, ...)
      +-- SafetyStop                         the host stopped the drive on purpose
@@ -33,6 +34,7 @@ __all__ = [
     "DictionaryMismatch",
     "ModbusExceptionResponse",
     "NodeSilent",
+    "NotInDictionary",
     "RigError",
     "SafetyStop",
     "SdoAbort",
@@ -87,6 +89,29 @@ class SdoAbort(CommunicationError):
     def __init__(self, message: str, *, code: int, node_id: int, index: int, subindex: int):
         super().__init__(f"{message} (node {node_id}, 0x{index:04X}:{subindex:02X}, abort code 0x{code:08X})")
         self.code = code
+        self.node_id = node_id
+        self.index = index
+        self.subindex = subindex
+
+
+class NotInDictionary(SdoAbort):
+    """A write not sent: the EDS/DCF in use does not name the object. Nothing reached the device;
+    ``.code`` is what the dictionary says of the object (CiA 301's 0x06090011, no such sub-index),
+    so a caller taking an abort as "the device lacks it" takes this so too.
+
+    Parameters
+    ----------
+    message : str
+        Why it was not sent (the file that lacks it, the write).
+    node_id : int
+        The node it was for.
+    index, subindex : int
+        The object.
+    """
+
+    def __init__(self, message: str, *, node_id: int, index: int, subindex: int):
+        CommunicationError.__init__(self, f"node {node_id}: 0x{index:04X}:{subindex:02X} {message}")
+        self.code = 0x06090011
         self.node_id = node_id
         self.index = index
         self.subindex = subindex

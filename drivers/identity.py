@@ -8,7 +8,9 @@ object dictionary in use, before the host writes anything but a read.
   modes the host knows.
 - ``STANDARD`` and ``read_standard``: the objects the host reads from every device by their
   standard's type (CiA 301, CiA 402), by SDO upload whatever the EDS in use names: identity,
-  units and modes are the device's, never the EDS's default values.
+  units and modes are the device's, never the EDS's default values. ``STANDARD_WRITES`` and
+  ``encode_standard``: the few of them a move writes, by their standard's type, to a device met
+  without its own dictionary.
 - ``declared_identity``: what an EDS/DCF says its device is: 0x1018's default values, else
   [DeviceInfo]'s VendorNumber, ProductNumber and RevisionNumber.
 - ``check_identity``: a device that is not the one its given dictionary describes (vendor or
@@ -32,10 +34,12 @@ from drivers.maps.vendors import vendor_of
 
 __all__ = [
     "STANDARD",
+    "STANDARD_WRITES",
     "TOOLKIT_DRIVE",
     "Identity",
     "check_identity",
     "declared_identity",
+    "encode_standard",
     "read_identity",
     "read_standard",
     "vendor_name",
@@ -88,6 +92,22 @@ STANDARD: Mapping[tuple[int, int], tuple[bool, int]] = {
     (cia.DIGITAL_INPUTS, 0): _U32,
     (cia.CURRENT_ACTUAL, 0): _I16,
 }
+
+#: the entries of ``STANDARD`` CiA 402 declares writable (rw) that a commissioning move writes (its
+#: profile's speed and ramps): where the dictionary in use is not the device's own and does not
+#: name one, it is written by its standard's type (``encode_standard``) and the device decides
+STANDARD_WRITES = frozenset(
+    {(cia.PROFILE_VELOCITY, 0), (cia.PROFILE_ACCELERATION, 0), (cia.PROFILE_DECELERATION, 0)}
+)
+
+
+def encode_standard(index: int, subindex: int, value: float) -> bytes:
+    """``value`` of (``index``, ``subindex``) of ``STANDARD`` in its standard's type, as sent;
+    ValueError or OverflowError where it is no integer of that type."""
+    signed, size = STANDARD[(index, subindex)]
+    if not float(value).is_integer():
+        raise ValueError(f"{value!r} is not an integer")
+    return int(value).to_bytes(size, "little", signed=signed)
 
 
 def read_standard(upload: Callable[[int, int], bytes], index: int, subindex: int = 0) -> int | None:

@@ -24,7 +24,7 @@ MODULE, FUNCTION, CLASS = 400, 60, 300  #: [lines]
 #: what is over its limit today -> its size [lines]; "path" a module, "path::Class.method" the rest
 DEBTS: dict[str, int] = {
     "drivers/canopen_axis.py": 443,
-    "drivers/canopen_axis.py::CanopenAxis": 310,
+    "drivers/canopen_axis.py::CanopenAxis": 309,
     "drivers/cia402.py::Cia402Axis.__init__": 76,
     "drivers/cia402_units.py::discover_units": 65,
     "plant_emulator/canopen_node.py::EmulatedNode": 322,
@@ -38,8 +38,7 @@ DEBTS: dict[str, int] = {
     "rig/cli/identify.py::_experiment": 66,
     "rig/cli/identify.py::add_parser": 75,
     "rig/cli/sweep.py::execute": 81,
-    "rig/commission/drive.py::DriveTool": 305,
-    "rig/commission/moves.py::move": 64,
+    "rig/commission/moves.py::move": 62,
     "rig/emulator/serve.py::run_emulator": 88,
 }
 

@@ -242,7 +242,11 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
             )
         a.discover(check_mode=False)  # the device the EDS describes, before the write
         try:  # what the operator names is the task: a manufacturer object too (not Cia402Axis's guard)
-            CanopenAxis.sdo_write(a, index, sub, _value(args.value))
+            if var is None and not a.standard_write(index, sub, _value(args.value)):  # by CiA 402's type
+                own = "" if a.eds_given else "; give the drive's own EDS (--eds FILE)"
+                raise UsageError(f"rig drive sdo write: {where} is not in {a.eds}: nothing was sent{own}")
+            if var is not None:
+                CanopenAxis.sdo_write(a, index, sub, _value(args.value))
         except (OverflowError, ValueError, TypeError, AttributeError) as exc:  # canopen's encoding
             if isinstance(exc, RigError):
                 raise

@@ -467,24 +467,6 @@ class DriveTool:
             return None, velocity
         return a.sdo_read(cia.POSITION_ACTUAL) / a.units.position, velocity
 
-    def profile_speed(self, index: int, subindex: int = 0) -> float:
-        """A speed the drive declares (0x6081, 0x6099) in rad/s; inf where it has none.
-
-        Parameters
-        ----------
-        index, subindex : int
-            The object (0x6081, 0x6099).
-
-        Returns
-        -------
-        float
-            [rad/s] (inf: none).
-        """
-        raw = self.axis._optional(index, subindex)
-        if raw is None or not raw or not math.isfinite(self.axis.units.velocity):
-            return math.inf
-        return abs(float(raw)) / self.axis.units.velocity
-
     def watch_actual(self, target: float, actual: int, factor: float) -> None:
         """From now on, with ``live``, each look reads ``actual`` (an object, / ``factor``: SI)
         against ``target`` [SI]; the move's time starts (``elapsed``).

@@ -46,7 +46,8 @@ def _profile(tool: DriveTool, speed: float | None, accel: float | None, max_spee
     if speed is not None:
         if not 0.0 < speed <= max_speed:
             raise ConfigError(f"--speed {speed:g} rad/s: must be in (0, --max-speed {max_speed:g}] rad/s")
-        Setting(cia.PROFILE_VELOCITY, 0, round(speed * a.units.velocity), "the move's speed", True).apply(
+        raw = round(speed * a.units.velocity)
+        Setting(cia.PROFILE_VELOCITY, 0, raw, "the move's speed", True, _then(a)).apply(
             a.node.object_dictionary, a.sdo_read, a.sdo_write, a.where
         )
         asked["speed_rad_s"] = speed
@@ -55,11 +56,35 @@ def _profile(tool: DriveTool, speed: float | None, accel: float | None, max_spee
             raise ConfigError(f"--accel {accel:g} rad/s^2: must be > 0")
         raw = round(accel * a.units.velocity)
         for index in (cia.PROFILE_ACCELERATION, cia.PROFILE_DECELERATION):
-            Setting(index, 0, raw, "the move's acceleration", True).apply(
+            Setting(index, 0, raw, "the move's acceleration", True, _then(a)).apply(
                 a.node.object_dictionary, a.sdo_read, a.sdo_write, a.where
             )
         asked["accel_rad_s2"] = accel
     return asked
+
+
+def _own_speed(tool: DriveTool, max_speed: float) -> float | None:
+    """A move's speed where none is asked: None (the drive's own profile velocity 0x6081, read
+    from it) where that is within ``max_speed`` [rad/s], else ``max_speed``. A drive whose 0x6081
+    cannot be read (absent or refused) is refused before anything is sent: its move's speed is
+    unknown."""
+    a = tool.axis
+    raw = a._optional(cia.PROFILE_VELOCITY)
+    if raw is None:
+        give = "--speed RAD_S" + ("" if a.eds_given else ", or the drive's own EDS (--eds FILE)")
+        raise ConfigError(
+            f"{a.where}: the drive's profile velocity 0x6081:00 (the move's speed) cannot be read from "
+            f"it (absent or refused): nothing was sent; give {give}"
+        )
+    own = abs(float(raw)) / a.units.velocity if raw else math.inf  # 0: no speed of its own
+    return None if own <= max_speed else max_speed
+
+
+def _then(a: Any) -> str:
+    """What to do where the drive refuses a value of its profile."""
+    if a.eds_given:
+        return "its EDS and manual say what it takes"
+    return "give the drive's own EDS (--eds FILE), which says what it takes"
 
 
 def _stop_words(result: dict[str, Any]) -> str:
@@ -178,21 +203,19 @@ def move(
     a = tool.axis
     a.discover(check_mode=False)
     tool.offers(Mode.PROFILE_POSITION, "move")
-    require(a.units, int(Mode.PROFILE_POSITION), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
+    for mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):  # its target and its speed (0x6081)
+        require(a.units, int(mode), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
     here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
     target = here + position if relative else position
     if not abs(target - here) <= max_travel:
         raise ConfigError(f"a move of {target - here:g} rad exceeds --max-travel {max_travel:g} rad")
-    if speed is None:  # the drive's own profile velocity, at most the speed limit
-        own = tool.profile_speed(cia.PROFILE_VELOCITY)
-        speed = None if own <= max_speed else max_speed
+    tool._alone()  # no other master: then the profile, written before the enable
+    asked = _profile(tool, _own_speed(tool, max_speed) if speed is None else speed, accel, max_speed)
     tool.watch_actual(target, cia.POSITION_ACTUAL, a.units.position)
     seen = [0]  #: the statusword at the last look before the stop (its bits 10, 11, 13)
-    asked: dict[str, Any] = {}
     arrived: list[float] = []
 
     def start() -> None:
-        asked.update(_profile(tool, speed, accel, max_speed))
         tool.watch_actual(target, cia.POSITION_ACTUAL, a.units.position)
         tool.motion = watch_move(tool, what="the move", speed_limit=max_speed, start=here, target=target)
         a.sdo_write(cia.TARGET_POSITION, 0, round(target * a.units.position))
