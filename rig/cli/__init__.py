@@ -1,4 +1,5 @@
-"""The ``rig`` command line: ``main(argv=None) -> int``; one module per subcommand.
+"""The ``rig`` command line: ``main(argv=None) -> int`` (``entry``: the process's); one module per
+subcommand.
 
 Each subcommand module has ``add_parser(sub)``, which adds its parser and sets
 its handler with ``set_defaults(handler=...)``. Only this module configures
@@ -13,6 +14,8 @@ subcommand.
 from __future__ import annotations
 
 import argparse
+import atexit
+import contextlib
 import logging
 import os
 import signal
@@ -43,7 +46,7 @@ from rig.cli import (
 from rig.cli.common import EXIT_CODES, EXIT_UNCONFIRMED, EXIT_USAGE, Parser, UsageError
 from rig.host.signals import SIGNALS, StopRequested, StopRequests, forget
 
-__all__ = ["main"]
+__all__ = ["entry", "main"]
 
 SUBCOMMANDS = (
     demo,
@@ -168,8 +171,34 @@ def _said(exc: Exception) -> str:
     return text if text.startswith("rig ") else f"rig: {text}"
 
 
+#: the exit codes of a command a stop signal ended (``stopped``)
+_SIGNALLED = frozenset({128 + int(s) for s in SIGNALS} | {EXIT_UNCONFIRMED})
+
+
+def entry() -> NoReturn:
+    """The console script ``rig`` and ``python -m rig.cli``: ``main``, then the process's end. A
+    command a stop signal ended is gone at once: its exit handlers run (``atexit``: logging's
+    flush, temporary folders) and its output is flushed, and the interpreter's teardown, which
+    frees every module and object one by one (1.2-2.5 s at a load of 23 after a run), is skipped:
+    the command ends within 2 s of the signal (docs/cli.md).
+
+    Raises
+    ------
+    SystemExit
+        With the exit code, where no stop signal ended the command.
+    """
+    code = main()
+    if code in _SIGNALLED:
+        atexit._run_exitfuncs()
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(OSError, ValueError):  # a closed or broken stream: nothing to say
+                stream.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``rig`` command line; returns the process exit code.
+    """Run the ``rig`` command line; returns the process exit code (``entry`` ends the process).
 
     Parameters
     ----------

@@ -423,14 +423,14 @@ class DriveTool:
                 has_position=a.has_position,
             )
         self._alone()
-        a.nmt("OPERATIONAL")
-        a.set_mode(mode)
-        a.enable(timeout=2.0, mode=int(mode))
         confirmed, result = False, "done"
         requests = StopRequests()  # a stop signal is this stop, which no later one cuts short
-        requests.install()
+        requests.install()  # from the enable on: a signal while it enables stops it too
         try:
             try:
+                a.nmt("OPERATIONAL")
+                a.set_mode(mode)
+                a.enable(timeout=2.0, mode=int(mode))
                 start()
                 self.until(done, seconds, what)
             except KeyboardInterrupt:

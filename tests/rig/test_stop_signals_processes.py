@@ -119,6 +119,7 @@ def _stopped(cmd: Command, sig: signal.Signals, who: str, *, moved: bool) -> str
     code, seconds, out, err = cmd.stop(sig)
     words = {signal.SIGINT: "Ctrl-C (SIGINT)", signal.SIGTERM: "SIGTERM (terminate)"}[sig]
     said = err.strip().splitlines()[-1]
+    print(f"{who}: {seconds:.2f} s from {sig.name} to its end, exit {code}")
     assert code == 128 + sig, err[-3000:]
     assert seconds < BUDGET, (seconds, err[-3000:])
     assert out == "", out  # no result, not even part of one
@@ -243,6 +244,7 @@ def test_rig_emulate_as_a_background_job_of_a_script(tmp_path: pathlib.Path) -> 
         sh.stdout.close()  # type: ignore[union-attr]
         if "pid" in locals() and os.path.exists(f"/proc/{pid}"):
             os.kill(pid, signal.SIGKILL)
+    print(f"rig emulate &: {seconds:.2f} s from SIGINT to its end")
     assert ended.strip() == "exit 0", (tmp_path / "err.txt").read_text()[-3000:]
     assert seconds < BUDGET, seconds
     assert (tmp_path / "out.txt").read_text().splitlines()[-1] == "rig emulate: stopped"
