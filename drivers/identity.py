@@ -102,8 +102,27 @@ STANDARD_WRITES = frozenset(
 
 
 def encode_standard(index: int, subindex: int, value: float) -> bytes:
-    """``value`` of (``index``, ``subindex``) of ``STANDARD`` in its standard's type, as sent;
-    ValueError or OverflowError where it is no integer of that type."""
+    """``value`` of (``index``, ``subindex``) of ``STANDARD`` in its standard's type, as sent.
+
+    Parameters
+    ----------
+    index, subindex : int
+        The object, an entry of ``STANDARD``.
+    value : float
+        Its value, a whole number.
+
+    Returns
+    -------
+    bytes
+        Little-endian, the type's size.
+
+    Raises
+    ------
+    ValueError
+        Not a whole number.
+    OverflowError
+        Outside the type's range.
+    """
     signed, size = STANDARD[(index, subindex)]
     if not float(value).is_integer():
         raise ValueError(f"{value!r} is not an integer")

@@ -194,7 +194,8 @@ def test_cangen_noise_at_the_running_chain(
                 _, err = noise.communicate(timeout=10)
     end = candump.mark()
     assert noise_ran, f"cangen stopped early: exit {noise.returncode}: {err}"
-    assert len(answers) == 20 and set(answers) == {0x00010196}, failures
+    run = f"the run: {summary['cycles']} cycles, stop: {summary['safe_stop_reason']}"
+    assert len(answers) == 20 and set(answers) == {0x00010196}, f"{len(answers)} answers, {failures}; {run}"
 
     bus = candump.snapshot()[start + 1 : end]
     sent = sent_by_cangen(printed.read_text())

@@ -51,6 +51,8 @@ def start_emulator() -> Iterator[Callable[..., subprocess.Popen[str]]]:
     yield start
     for proc in procs:
         _out, err = stop_rig(proc)
+        if err.strip():  # what it said while it served, for a test that failed on its answers
+            print(f"\nrig emulate's stderr (its last 4000 characters):\n{err[-4000:]}")
         assert proc.returncode == 0, err
 
 
