@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rig.cli.common import (
@@ -17,6 +19,7 @@ from rig.cli.common import (
     print_json,
 )
 from rig.cli.progress import Progress
+from rig.host.signals import StopRequested
 from rig.report.summary import summary_lines
 
 if TYPE_CHECKING:
@@ -176,6 +179,9 @@ def execute(args: argparse.Namespace) -> int:
         summary = run_config(
             cfg, emulate=args.emulate, duration=args.duration, progress=bar.cycles, live=live, started=started
         )
+    except StopRequested as exc:  # a stop signal: no result printed, but the view shows how it ended
+        summary = _kept_summary(exc.kept)
+        raise
     finally:
         bar.close()
         if live is not None:
@@ -189,3 +195,12 @@ def execute(args: argparse.Namespace) -> int:
     if line := not_written(summary, "rig run"):
         print(line, file=sys.stderr)
     return exit_code(summary)
+
+
+def _kept_summary(run_dir: str | None) -> dict[str, Any]:
+    """The summary.json a run stopped by a signal left in ``run_dir`` ({} where there is none)."""
+    try:
+        found = json.loads((Path(run_dir) / "summary.json").read_text()) if run_dir else {}
+    except (OSError, ValueError):
+        return {}
+    return found if isinstance(found, dict) else {}

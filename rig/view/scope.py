@@ -199,7 +199,7 @@ class Scope:
         str | None
             The message, or None.
         """
+        if not self.done.is_set():  # a run that ended without a summary still ends: {}
+            return None
         with self._lock:
-            if not self.ended:
-                return None
             return json.dumps({"type": "end", "summary": self.ended})
