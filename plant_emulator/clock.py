@@ -22,6 +22,12 @@ its devices fires for the stall (an RPDO deadline or a heartbeat consumer would 
 trip on frames that were waiting in its socket all along), so its heartbeats, timers and
 SDO answers go on from where they were. Each shaft also advances at most ``2 max_lag`` of
 periods at once (``Shaft.catch_up``).
+
+An emulator whose preparation is already late when it is done (a machine too slow for the
+periods: an emulated CPU, a loaded one) still sleeps a lead before it prepares again
+(``pause``): its loop runs at real-time priority, and a loop that never sleeps would leave its
+receive path (SDO answers, RPDOs, NMT) no CPU at all; the next SYNC is then answered from a state
+computed at the SYNC.
 """
 
 from __future__ import annotations
@@ -141,6 +147,25 @@ class WorldClock:
         """
         ends = [shaft.t + shaft.period for shaft in self.shafts]
         return min(ends) + self.stalled if ends else math.inf
+
+    def pause(self, tick: float) -> float:
+        """[s] how long the emulator's loop sleeps now: up to the next period's preparation, at
+        most ``tick``; one ``lead`` where that preparation is already due when ``prepare`` is
+        done (a machine too slow for the periods: the module docstring).
+
+        Parameters
+        ----------
+        tick : float
+            [s] the longest sleep (the loop's tick).
+
+        Returns
+        -------
+        float
+            [s] the sleep, more than 0 and at most ``tick``.
+        """
+        lead = self.lead()
+        wait = self.next_boundary() - lead - self._source()
+        return min(tick, wait if wait > 0.0 else lead)
 
     def prepare(self) -> float:
         """``advance`` with the state at each shaft's next period end computed now where that

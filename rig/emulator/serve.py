@@ -187,11 +187,11 @@ def run_emulator(
             if clock is not None:  # real time: the devices' own clock runs, SYNC or not
                 with lock:
                     clock.prepare()  # the next SYNC's state, once it is within the lead
-                    wake = clock.next_boundary() - clock.lead()
                 if collect is not None and server is None:  # no frames' thread of ours: here
                     collect()
-                # up to the next period's preparation (or the tick, where that is sooner)
-                stop.wait(min(_TICK, max(0.0, wake - clock.source())))
+                # up to the next period's preparation (or the tick), never less than a lead:
+                # the receive path must run however slow the machine is (WorldClock.pause)
+                stop.wait(clock.pause(_TICK))
             else:
                 stop.wait(0.1)
     except KeyboardInterrupt:

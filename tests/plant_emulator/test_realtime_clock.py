@@ -251,3 +251,19 @@ def test_a_lost_host_is_noticed_within_a_period_of_its_deadline_however_late_the
         assert drive.axis.position - at == pytest.approx(w_notice * w_notice / (2.0 * decel), rel=0.02)
     finally:
         w.close()
+
+
+def test_a_loop_too_slow_for_its_periods_still_sleeps(world: World) -> None:
+    """A machine on which preparing a period takes longer than the period (an emulated CPU, 10-25
+    times slower): the preparation is due again as soon as it is done, yet the loop sleeps a lead,
+    or its receive path (the SDO answers) would get no CPU beside a real-time loop; on time, it
+    sleeps up to the next preparation, at most the tick."""
+    clock = world.clock
+    lead = clock.lead()
+    assert lead == pytest.approx(0.5 * world.period)
+    clock.prepare()
+    on_time = clock.pause(0.002)
+    assert 0.0 < on_time <= min(0.002, world.period)
+    world.time += 3.0 * world.period  # the preparation took three periods
+    assert clock.pause(0.002) == pytest.approx(lead)
+    assert clock.pause(0.5 * lead) == pytest.approx(0.5 * lead)
