@@ -25,7 +25,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from rig.live.channels import Channel
-from rig.view.meta import _TIMING, meta_of, read_meta
+from rig.view.meta import _TIMING, _json, meta_of, read_meta
 from rig.view.scope import Scope, decimate
 
 __all__ = ["RATE", "TAIL_BYTES", "RingFeed", "Sink", "TailFeed", "parse_lines"]
@@ -33,6 +33,8 @@ __all__ = ["RATE", "TAIL_BYTES", "RingFeed", "Sink", "TailFeed", "parse_lines"]
 log = logging.getLogger(__name__)
 
 RATE = 30.0  #: [1/s] updates of the live scope (at least 20 under load)
+#: [s] a summary.json that does not parse for this long: the run ended without one
+TORN_WAIT = 2.0
 TAIL_BYTES = 4 << 20  #: of a run in progress's samples.csv read at the start (its last rows)
 
 
@@ -198,6 +200,7 @@ class TailFeed:
             self.scope.open(read_meta(self.run_dir, header.decode().strip().split(",")))
             offset = max(f.tell(), os.fstat(f.fileno()).st_size - TAIL_BYTES)
             tail, skip = b"", offset > f.tell()  # a start inside a row: up to its end is no row
+            torn = 0
             while True:
                 ended = (self.run_dir / "summary.json").exists()  # before the read: its rows are in
                 block = os.pread(f.fileno(), 1 << 22, offset)
@@ -209,15 +212,19 @@ class TailFeed:
                 if lines:
                     self.scope.push(decimate(parse_lines(lines, width)))
                 if ended and len(block) < 1 << 22:
-                    self.scope.finish(_json(self.run_dir / "summary.json"))
-                    return
+                    summary = _summary(self.run_dir / "summary.json")
+                    torn += 1  # a summary written in place, not atomically, may read half-written
+                    if summary is not None or torn * self.every > TORN_WAIT:
+                        self.scope.finish(summary or {})
+                        return
                 if self._stop.wait(self.every):
                     return
 
 
-def _json(path: Path) -> dict[str, Any]:
+def _summary(path: Path) -> dict[str, Any] | None:
+    """The run's summary; None while it does not parse (a file still being written)."""
     try:
         doc = json.loads(path.read_text())
     except (OSError, ValueError):
-        return {}
+        return None
     return doc if isinstance(doc, dict) else {}

@@ -12,6 +12,7 @@ import pathlib
 import signal
 import subprocess
 import sys
+import time
 import urllib.error
 import urllib.request
 from typing import Any
@@ -84,6 +85,28 @@ def test_a_late_browser_gets_the_history_decimated() -> None:
         scope.push(np.column_stack([t, t]))
     rows = json.loads(scope.hello()[1])["rows"]
     assert len(rows) <= HISTORY and 9.99 <= rows[-1][0] <= 9.999 and rows[0][0] >= 4.9
+
+
+def test_the_tail_waits_for_a_summary_still_being_written(tmp_path: pathlib.Path) -> None:
+    """A summary.json that is there but half-written (a writer that does not replace it
+    atomically) is read again until it parses: the scope ends with it, not with an empty one."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "samples.csv").write_text("t,reference\n0.0,1.0\n")
+    (run / "summary.json").write_text('{"cycles": 1, ')
+    scope = Scope()
+    tail = TailFeed(scope, run, rate=200.0)
+    tail.start()
+    try:
+        deadline = time.monotonic() + 30.0
+        while scope.seq == 0 and time.monotonic() < deadline:  # the rows read, the summary torn
+            time.sleep(0.001)
+        (run / "summary.tmp").write_text('{"cycles": 1, "safe_stop_reason": null}')
+        (run / "summary.tmp").replace(run / "summary.json")
+        assert scope.done.wait(30.0)
+    finally:
+        tail.stop()
+    assert json.loads(scope.hello()[1])["summary"] == {"cycles": 1, "safe_stop_reason": None}
 
 
 def test_the_tail_follows_a_run_directory(tmp_path: pathlib.Path) -> None:
