@@ -91,13 +91,24 @@ STANDARD: Mapping[tuple[int, int], tuple[bool, int]] = {
     (cia.POSITION_WINDOW, 0): _U32,
     (cia.DIGITAL_INPUTS, 0): _U32,
     (cia.CURRENT_ACTUAL, 0): _I16,
+    # homing (CiA 402: 0x6098 INTEGER8, 0x6099 ARRAY of UNSIGNED32, 0x609A UNSIGNED32)
+    (cia.HOMING_METHOD, 0): _I8,
+    (cia.HOMING_SPEEDS, 1): _U32,
+    (cia.HOMING_SPEEDS, 2): _U32,
+    (cia.HOMING_ACCELERATION, 0): _U32,
 }
 
 #: the entries of ``STANDARD`` CiA 402 declares writable (rw) that a commissioning move writes (its
-#: profile's speed and ramps): where the dictionary in use is not the device's own and does not
-#: name one, it is written by its standard's type (``encode_standard``) and the device decides
+#: profile's speed and ramps, a homing's method): where the dictionary in use is not the device's
+#: own and does not name one, it is written by its standard's type (``encode_standard``) and the
+#: device decides
 STANDARD_WRITES = frozenset(
-    {(cia.PROFILE_VELOCITY, 0), (cia.PROFILE_ACCELERATION, 0), (cia.PROFILE_DECELERATION, 0)}
+    {
+        (cia.PROFILE_VELOCITY, 0),
+        (cia.PROFILE_ACCELERATION, 0),
+        (cia.PROFILE_DECELERATION, 0),
+        (cia.HOMING_METHOD, 0),
+    }
 )
 
 

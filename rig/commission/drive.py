@@ -27,17 +27,17 @@ from drivers.cia402 import Cia402Axis, power_state
 from drivers.cia402_pdo import read_mapping, variable
 from drivers.cia402_units import require
 from drivers.errors import ConfigError, DeviceFault, RigError, SafetyStop
+from drivers.identity import STANDARD_WRITES
 from drivers.maps import cia
 from drivers.maps.cia import Mode, PowerState
 from drivers.maps.cia402_needs import needed
 from drivers.maps.cia402_needs import require as require_objects
 from drivers.maps.emcy import emcy_text
-from drivers.maps.logical import axis_object
 from drivers.maps.mode_names import mode_text
 from drivers.master_watch import MasterWatch
 from rig.commission.motion_watch import MotionWatch
+from rig.commission.objects import parse_object, read_object
 from rig.commission.picture import picture
-from rig.commission.quantities import quantity
 from rig.commission.status import UNITS_HINT, device_units
 from rig.host.signals import StopRequests
 from rig.host.stopping import RestWatch
@@ -47,56 +47,8 @@ __all__ = ["DriveTool", "parse_object"]
 log = logging.getLogger(__name__)
 
 
-#: CiA 301 data type codes by name (what ``sdo read`` says an object is)
-_TYPE_NAMES = {
-    0x01: "BOOLEAN", 0x02: "INTEGER8", 0x03: "INTEGER16", 0x04: "INTEGER32", 0x05: "UNSIGNED8",
-    0x06: "UNSIGNED16", 0x07: "UNSIGNED32", 0x08: "REAL32", 0x09: "VISIBLE_STRING", 0x0A: "OCTET_STRING",
-    0x0B: "UNICODE_STRING", 0x0F: "DOMAIN", 0x11: "REAL64", 0x15: "INTEGER64", 0x1B: "UNSIGNED64",
-}  # fmt: skip
-
 #: the ``rig drive`` action that runs the drive in each profile mode
 _VERB = {Mode.PROFILE_VELOCITY: "jog", Mode.PROFILE_POSITION: "move", Mode.HOMING: "home"}
-
-
-def parse_object(text: str, od: Any) -> tuple[int, int]:
-    """``0x6060``, ``0x1018:1``, ``6060sub0`` or an EDS name (``Modes of operation``,
-    ``Identity object.Vendor-ID``) -> (index, subindex); ConfigError naming ``text``.
-
-    Parameters
-    ----------
-    text : str
-        The object as given.
-    od : Any
-        The drive's EDS.
-
-    Returns
-    -------
-    tuple[int, int]
-        (index, subindex).
-
-    Raises
-    ------
-    ConfigError
-        If ``text`` names no object (it named).
-    """
-    t = text.strip()
-    index_text, _, sub_text = t.replace("sub", ":").partition(":")
-    try:
-        index = int(index_text, 16)
-        sub = int(sub_text, 0) if sub_text else 0
-    except ValueError:
-        name, _, sub_name = t.partition(".")
-        if name not in od:
-            raise ConfigError(f"object {text!r}: neither index[:sub] nor a name in the EDS") from None
-        obj = od[name]
-        if not sub_name:
-            return obj.index, 0
-        if not hasattr(obj, "names") or sub_name not in obj.names:
-            raise ConfigError(f"object {text!r}: {name!r} has no entry {sub_name!r}") from None
-        return obj.index, obj[sub_name].subindex
-    if not 0 <= index <= 0xFFFF or not 0 <= sub <= 0xFF:
-        raise ConfigError(f"object {text!r}: index 0..0xFFFF, sub-index 0..255")
-    return index, sub
 
 
 class DriveTool:
@@ -211,7 +163,7 @@ class DriveTool:
         }
 
     def read_object(self, index: int, subindex: int) -> dict[str, Any]:
-        """One object read by SDO, for a person (nothing written).
+        """One object read by SDO, for a person (nothing written): ``objects.read_object``.
 
         Parameters
         ----------
@@ -221,29 +173,9 @@ class DriveTool:
         Returns
         -------
         dict[str, Any]
-            Its name, type and access in the EDS, its value in decimal and hex, and where it holds
-            a quantity (``rig.commission.quantities``), that in SI and in the drive's units (the
-            units read from the drive).
+            What ``objects.read_object`` returns.
         """
-        a = self.axis
-        value = a.sdo_read(index, subindex)
-        var = variable(a.node.object_dictionary, (index, subindex))
-        kind = getattr(var, "data_type", None)
-        fmt = var.STRUCT_TYPES.get(kind) if var is not None and kind is not None else None
-        out: dict[str, Any] = {
-            "object": f"0x{axis_object(index, a.axis_number):04X}:{subindex:02X}",  # on the wire: axis N's
-            "name": str(var.name) if var is not None else "",
-            "type": _TYPE_NAMES.get(kind, "") if kind is not None else "",
-            "access": str(getattr(var, "access_type", "")),
-            "value": value if not isinstance(value, bytes) else value.hex(),
-        }
-        if isinstance(value, int) and not isinstance(value, bool):
-            bits = 8 * (fmt.size if fmt is not None else 4)
-            out["hex"] = f"0x{value & ((1 << bits) - 1):0{bits // 4}X}"
-            q = quantity(a.discover(check_mode=False), index, value)
-            if q is not None:
-                out["quantity"] = q.as_dict()
-        return out
+        return read_object(self.axis, index, subindex)
 
     def object_name(self, index: int, subindex: int) -> str:
         """An object's name in the drive's EDS, by its index on the wire ("" where it has none).
@@ -335,7 +267,8 @@ class DriveTool:
     # --- moves ----------------------------------------------------------------------------------
     def offers(self, mode: Mode, verb: str) -> None:
         """ConfigError, before anything is sent, where the drive's 0x6502 does not list ``mode``, or
-        its dictionary lacks what the mode needs (``drivers.maps.cia402_needs``).
+        its dictionary lacks what the mode needs (``drivers.maps.cia402_needs``; met without its
+        EDS, an object of ``drivers.identity.STANDARD_WRITES`` is the device's to refuse).
 
         Parameters
         ----------
@@ -357,6 +290,8 @@ class DriveTool:
                 "offers (rig run with mode = csp, csv or cst, where it lists them)"
             )
         needs = (*needed(mode), cia.VELOCITY_ACTUAL)  # the stop watches the speed to rest
+        if not a.eds_given:  # met without its EDS: a standard object is written by its type
+            needs = tuple(i for i in needs if (i, 0) not in STANDARD_WRITES)
         require_objects(a.node.object_dictionary, needs, source=a.eds, what=f"rig drive {verb}")
 
     def until(self, done: Callable[[], bool], seconds: float, what: str) -> None:

@@ -76,13 +76,30 @@ def test_sdo_write_without_an_eds_names_what_it_cannot_send(
     drive: ForeignDrive, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """``sdo write`` of 0x6081 goes to the device by CiA 402's type; an object the generic EDS lacks
-    that is none of a move's profile values (0x6098) is one line, exit 2, nothing sent (was: exit 1
+    that is none of a move's profile values (0x609A) is one line, exit 2, nothing sent (was: exit 1
     on an abort code no device sent)."""
     assert main(_rig(drive, "sdo", "write", "0x6081", "100")) == 0, capsys.readouterr().err
     assert _profile_writes(drive) == [(0x6081, 100, None)]
     drive.fake.downloads.clear()
-    assert main(_rig(drive, "sdo", "write", "0x6098", "1")) == 2
+    assert main(_rig(drive, "sdo", "write", "0x609A", "1")) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("rig drive sdo write: 0x6098:00 is not in ") and len(err.splitlines()) == 1
+    assert err.startswith("rig drive sdo write: 0x609A:00 is not in ") and len(err.splitlines()) == 1
     assert err.endswith("nothing was sent; give the drive's own EDS (--eds FILE)")
     assert drive.fake.downloads == []
+
+
+def test_home_without_an_eds_writes_its_method_by_the_standards_type(
+    drive: ForeignDrive, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The generic EDS has no homing method 0x6098 (the toolkit's own drive does not home): met
+    without its EDS, ``home --method`` writes it as CiA 402's INTEGER8 and the device decides;
+    ``sdo read 0x6098`` shows its value by that type, not raw bytes. Before: home refused with
+    '... lacks 0x6098 (Homing method), which rig drive home needs'."""
+    assert main(_rig(drive, "sdo", "read", "0x6098")) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "(INTEGER8 (CiA))" in lines[0]  # not in the EDS in use: by the standard's type
+    assert lines[1].split()[1:] == [str(drive.fake.od.entries[(0x6098, 0)].value), "(0x23)"]
+    assert main(_rig(drive, "home", "--method", "-3")) == 0, capsys.readouterr().err
+    writes = [(i, v, abort) for i, _, v, abort in drive.fake.downloads if i == 0x6098]
+    assert writes == [(0x6098, -3, None)]
+    assert "homing" in capsys.readouterr().out
