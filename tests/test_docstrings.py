@@ -38,6 +38,7 @@ COVERED = [
     "rig.doctor.*",
     "rig.emulator.*",
     "rig.faults.*",
+    "rig.host.*",
     "rig.identify.*",
     "rig.laws.*",
     "rig.live.*",
@@ -48,8 +49,8 @@ COVERED = [
 ]
 
 #: modules below COVERED's packages still to document (this list only shrinks): the CiA 402
-#: driver being recomposed (issue 37 item 3), the emulator's shaft, being changed meanwhile, and
-#: three commands whose add_parser is a size debt (tests/test_sizes.py) that a docstring would grow
+#: driver being recomposed (issue 37 item 3), three commands whose add_parser is a size debt
+#: (tests/test_sizes.py) that a docstring would grow, and the host's modules still to document
 NOT_YET = [
     "drivers.canopen_axis",
     "drivers.cia402",
@@ -64,6 +65,11 @@ NOT_YET = [
     "rig.cli.drive",
     "rig.cli.emulate",
     "rig.cli.identify",
+    "rig.host.emulation",
+    "rig.host.loop",
+    "rig.host.recorder",
+    "rig.host.session",
+    "rig.host.transport",
 ]
 
 

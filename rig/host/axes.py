@@ -111,8 +111,26 @@ def _deadline(a: AxisConfig, period: float, realtime: bool) -> float:
 def open_axis(
     a: AxisConfig, *, network: Any, period: float, bus: BusConfig | None = None, realtime: bool = False
 ) -> AxisDriver:
-    """The driver of axis ``a`` (nothing is sent yet); CANopen axes join ``network``; ``realtime``:
-    the run's time (a real-time floor of the drive's deadline)."""
+    """The driver of axis ``a`` (nothing is sent yet).
+
+    Parameters
+    ----------
+    a : AxisConfig
+        The axis's ``[[axis]]`` table.
+    network : Any
+        The CANopen network a CANopen axis joins (unused by Modbus axes).
+    period : float
+        The loop's period [s].
+    bus : BusConfig | None
+        ``[bus]`` (None: its defaults).
+    realtime : bool
+        The run is in real time (a real-time floor of the drive's deadline).
+
+    Returns
+    -------
+    AxisDriver
+        The axis's driver, its rest speed and time set from ``[axis.limits]``.
+    """
     module, name = AXIS_DRIVERS[a.kind]
     cls: Callable[..., AxisDriver] = getattr(importlib.import_module(module), name)
     args, kwargs = _arguments(a, network, period, bus or BusConfig(), realtime)

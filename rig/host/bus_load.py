@@ -25,9 +25,23 @@ log = logging.getLogger(__name__)
 
 
 def bus_load(axes: Sequence[CanopenAxis], period: float, bitrate: int) -> dict[str, Any]:
-    """The cycle's bus figures for ``axes`` at ``period`` [s] and ``bitrate`` [bit/s] (0: not
-    configured, 1 Mbit/s assumed): bits per cycle, the load (1 = the whole period) and the
-    frames, named."""
+    """The cycle's bus figures for ``axes``: bits per cycle, the load and the frames, named.
+
+    Parameters
+    ----------
+    axes : Sequence[CanopenAxis]
+        The run's CANopen axes, their mapping in force.
+    period : float
+        The loop's period [s].
+    bitrate : int
+        ``[bus] bitrate`` [bit/s] (0: not configured, 1 Mbit/s assumed).
+
+    Returns
+    -------
+    dict[str, Any]
+        ``load`` (1 = the whole period), ``bits_per_cycle``, ``bitrate`` [bit/s],
+        ``bitrate_assumed``, ``period_s`` [s] and ``frames`` (one text a frame).
+    """
     rate = bitrate or DEFAULT_BITRATE
     frames = [("SYNC 0x080", 0)] + [
         (f"node {a.node_id} {what}", n) for a in axes for what, n in a.cycle_frames()
@@ -44,7 +58,18 @@ def bus_load(axes: Sequence[CanopenAxis], period: float, bitrate: int) -> dict[s
 
 
 def warn_bus_load(figures: dict[str, Any]) -> bool:
-    """One warning when the cycle's frames take more than the period (True then)."""
+    """One warning when the cycle's frames take more than the period.
+
+    Parameters
+    ----------
+    figures : dict[str, Any]
+        What `bus_load` returned.
+
+    Returns
+    -------
+    bool
+        True where it warned (a load over 1).
+    """
     if figures["load"] <= 1.0:
         return False
     assumed = " (assumed: [bus] bitrate is not set)" if figures["bitrate_assumed"] else ""

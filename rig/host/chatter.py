@@ -24,9 +24,13 @@ __all__ = ["ChatterCounter", "RunChatter"]
 class ChatterCounter:
     """``rig.report.metrics.chattering_count`` and ``chattering_amplitude`` computed as the samples arrive.
 
-    Only the samples from index ``start`` on (the steady state) count; ``threshold`` (set up to
-    then) is ``rig.report.metrics.count_threshold`` for the law and the read axis, widened by
-    ``rig.report.metrics.beyond``.
+    Parameters
+    ----------
+    threshold : float
+        ``rig.report.metrics.count_threshold`` for the law and the read axis [unit of u], widened by
+        ``rig.report.metrics.beyond`` (set until ``start``).
+    start : int
+        The first sample that counts (the steady state's).
     """
 
     def __init__(self, threshold: float, *, start: int = 0) -> None:
@@ -45,6 +49,13 @@ class ChatterCounter:
         return math.sqrt(self._sq / self._increments) if self._increments else math.nan
 
     def add(self, u: float) -> None:
+        """One sample of the command.
+
+        Parameters
+        ----------
+        u : float
+            The command [its unit].
+        """
         n = self._n
         self._n = n + 1
         if n < self.start:
@@ -82,8 +93,26 @@ class _Steps:
 
 
 class RunChatter:
-    """The chattering figures of a run (module docstring): ``add`` every cycle, ``figures`` at the
-    summary."""
+    """The chattering figures of a run (module docstring): ``add`` every cycle, ``figures`` at the end.
+
+    Parameters
+    ----------
+    sensitivity : tuple[float, float]
+        The law's (|du/dtheta|, |du/domega|).
+    declared : tuple[float, float]
+        The read axis's quanta: one position count [rad], one speed unit [rad/s].
+    read : int | None
+        The read axis's index in a cycle's samples (None: the law reads none, the threshold is
+        rounding's).
+    measures : Collection[str]
+        The read axis's measured fields.
+    sign_column : int | None
+        The index of the law's ``SIGN_LAW`` internal (None: not a sliding-mode law).
+    steady_from : int
+        The cycle the steady state, and the count, begins.
+    command_range : float
+        The largest increment the first command can make (twice its limit) [command unit].
+    """
 
     def __init__(
         self,
@@ -96,12 +125,6 @@ class RunChatter:
         steady_from: int,
         command_range: float = math.inf,
     ) -> None:
-        """``sensitivity``: the law's (|du/dtheta|, |du/domega|); ``declared``: the read axis's
-        quanta (one position count [rad], one speed unit [rad/s]); ``read``: its index in a
-        cycle's samples (None: the law reads none, the threshold is rounding's); ``measures``: its
-        measured fields; ``sign_column``: the index of the law's ``SIGN_LAW`` internal (None: not
-        a sliding-mode law); counted from cycle ``steady_from``; ``command_range``: the largest
-        increment the first command can make (twice its limit) [command unit]."""
         self.sensitivity = sensitivity
         self.declared = declared
         self.read = read
@@ -120,7 +143,17 @@ class RunChatter:
         self._steady_cycles = 0
 
     def add(self, u: float, samples: Sequence[Any], internals: Sequence[float]) -> None:
-        """One cycle: its first command ``u``, every axis's feedback, the law's internals."""
+        """One cycle.
+
+        Parameters
+        ----------
+        u : float
+            Its first command [command unit].
+        samples : Sequence[Any]
+            Every axis's feedback.
+        internals : Sequence[float]
+            The law's internals.
+        """
         n = self._n
         self._n = n + 1
         if n < self.steady_from:
@@ -149,10 +182,15 @@ class RunChatter:
         self._fixed = True
 
     def figures(self) -> dict[str, Any]:
-        """The summary's chattering keys (docs/files.md): ``chattering_count`` (NaN, with
-        ``chattering_note`` saying why, where it cannot be measured), ``chattering_amplitude``,
-        ``chattering_threshold``, ``feedback_resolution`` and ``sign_law_share`` (NaN for a law
-        that is not a sliding-mode law, or before the steady state)."""
+        """The summary's chattering keys (docs/files.md).
+
+        Returns
+        -------
+        dict[str, Any]
+            ``chattering_count`` (NaN, with ``chattering_note`` saying why, where it cannot be
+            measured), ``chattering_amplitude``, ``chattering_threshold``, ``feedback_resolution`` and
+            ``sign_law_share`` (NaN for a law that is not a sliding-mode law, or before the steady state).
+        """
         if not self._fixed:
             self.fix()
         note = not_measurable(self.threshold, self.command_range)

@@ -19,8 +19,24 @@ FIELDS = ("position", "velocity", "torque", "current")
 
 
 def loop_columns(axes: Sequence[AxisDriver], law: Law, wiring: Wiring, *, split: bool = False) -> list[str]:
-    """The host loop's columns: law level, the law's internals, per axis, timing [us] (with
-    ``split``, a real-time run on the host's SYNC: the response's two parts too)."""
+    """The host loop's columns: law level, the law's internals, per axis, timing [us].
+
+    Parameters
+    ----------
+    axes : Sequence[AxisDriver]
+        The loop's axes.
+    law : Law
+        The run's law (its ``internals``).
+    wiring : Wiring
+        Which axes are commanded.
+    split : bool
+        A real-time run on the host's SYNC: the response's two parts (``answer_us``, ``host_us``) too.
+
+    Returns
+    -------
+    list[str]
+        The column names, in the samples' order.
+    """
     per_axis = [f"{a.name}.{f}" for a in axes for f in FIELDS if f in a.measures]
     commands = [f"{axes[i].name}.command" for i in wiring.commanded]
     return [
@@ -74,7 +90,22 @@ _FIELDS = {
 def describe_columns(
     columns: Sequence[str], axes: Sequence[AxisDriver], law: Law
 ) -> dict[str, dict[str, str]]:
-    """{column: {"unit", "meaning"}} for the recorder's ``columns`` (``HostLoop.columns``)."""
+    """Each recorded column's unit and meaning (``HostLoop.columns``).
+
+    Parameters
+    ----------
+    columns : Sequence[str]
+        The recorder's columns.
+    axes : Sequence[AxisDriver]
+        The loop's axes (their modes give the commands' units).
+    law : Law
+        The run's law (its ``error_unit``).
+
+    Returns
+    -------
+    dict[str, dict[str, str]]
+        column -> ``{"unit", "meaning"}``.
+    """
     by_name = {a.name: a for a in axes}
     first = next((a for a in axes if a.mode is not None), None)
     known = {

@@ -23,8 +23,11 @@ __all__ = ["Wiring", "build_law", "wiring_of"]
 class Wiring:
     """Which axes (indices into the loop's axes) the law reads and commands, and the profile axes."""
 
+    #: the axes the law reads
     reads: tuple[int, ...]
+    #: the axes the law commands
     commands: tuple[int, ...]
+    #: (axis, its time profile: t [s] -> command) of the axes following a profile
     profiles: tuple[tuple[int, Callable[[float], float]], ...] = ()
     #: the law's axes, then the profile axes: the order of a cycle's commands
     commanded: tuple[int, ...] = field(init=False)
@@ -34,7 +37,18 @@ class Wiring:
 
 
 def wiring_of(cfg: RigConfig) -> Wiring:
-    """The wiring of ``[controller] reads``, ``commands`` and the axes' ``profile``."""
+    """The wiring of ``[controller] reads``, ``commands`` and the axes' ``profile``.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration.
+
+    Returns
+    -------
+    Wiring
+        The axes' indices, in configuration order.
+    """
     names = [a.name for a in cfg.axes]
     return Wiring(
         tuple(names.index(n) for n in cfg.controller.reads),
@@ -44,7 +58,20 @@ def wiring_of(cfg: RigConfig) -> Wiring:
 
 
 def build_law(cfg: RigConfig, period: float) -> Law:
-    """The law of ``[controller]`` at ``period`` [s] (checked with its axes when ``cfg`` was loaded)."""
+    """The law of ``[controller]``, with its reference and ``[faults]``' injected faults.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration (the law checked with its axes when it was loaded).
+    period : float
+        The loop's period [s].
+
+    Returns
+    -------
+    Law
+        The law.
+    """
     c = cfg.controller
     law = make_law(
         c.kind, c.params, period=period, reference=reference_of(cfg.reference), origin=cfg.reference.origin

@@ -62,10 +62,29 @@ def _needs(module: str, fmt: str) -> Any:
 
 
 def export_run(run_dir: str | Path, fmt: str, output: str | Path | None = None) -> Path:
-    """Write the samples of ``run_dir`` in format ``fmt`` (a key of ``FORMATS``) to ``output``
-    (default: beside the run directory, its name with the format's extension; an existing file
-    is replaced whole, never the run's samples.csv); returns the file written. ConfigError
-    naming what is wrong."""
+    """Write the samples of ``run_dir`` in format ``fmt``.
+
+    Parameters
+    ----------
+    run_dir : str | Path
+        The run directory.
+    fmt : str
+        A key of ``FORMATS``.
+    output : str | Path | None
+        The file to write (None: beside the run directory, its name with the format's extension);
+        an existing file is replaced whole, never the run's samples.csv.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    ConfigError
+        Naming what is wrong: an unknown format, a package not installed, no samples, output the
+        run's samples.csv.
+    """
     d = Path(run_dir)
     if fmt not in FORMATS:
         raise ConfigError(f"rig export --format {fmt}: expected one of {', '.join(FORMATS)}")

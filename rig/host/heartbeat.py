@@ -19,7 +19,24 @@ log = logging.getLogger(__name__)
 
 
 class HostHeartbeat:
-    """See the module docstring; ``beat(k)`` in cycle ``k`` of ``loop_period`` [s]."""
+    """The host's heartbeat (module docstring); ``beat(k)`` in cycle ``k``.
+
+    Parameters
+    ----------
+    network : Any
+        The CANopen network it is sent on.
+    node_id : int
+        The host's node id (1..127).
+    period : float
+        The heartbeat's period [s] (rounded to a whole number of cycles).
+    loop_period : float
+        The loop's period [s].
+
+    Raises
+    ------
+    ValueError
+        If ``node_id`` is not 1..127.
+    """
 
     def __init__(self, network: Any, node_id: int, period: float, loop_period: float) -> None:
         if not 1 <= node_id <= 127:
@@ -31,9 +48,16 @@ class HostHeartbeat:
         self._slot: int | None = None  #: the ``k // every`` of the last beat
 
     def beat(self, k: int) -> None:
-        """Beat when ``k`` enters a new slot of ``every`` cycles: a real-time loop that skipped
-        cycles (``k`` jumped over a multiple) still beats, and a count that starts again (the
-        stop's cycles after the loop's) beats at once."""
+        """Beat when ``k`` enters a new slot of ``every`` cycles.
+
+        A real-time loop that skipped cycles (``k`` jumped over a multiple) still beats, and a count
+        that starts again (the stop's cycles after the loop's) beats at once.
+
+        Parameters
+        ----------
+        k : int
+            The cycle's index.
+        """
         slot = k // self.every
         if slot != self._slot:
             self._slot = slot

@@ -22,7 +22,15 @@ class InjectedFault(RuntimeError):
 
 
 class FaultyLaw(Law):
-    """``inner`` until the first fault time [s] of ``faults``, then that fault."""
+    """``inner`` until the first fault time of ``faults``, then that fault.
+
+    Parameters
+    ----------
+    inner : Law
+        The run's law.
+    faults : FaultsConfig
+        ``[faults]``: the times [s] of the law's NaN, exception and Ctrl-C.
+    """
 
     def __init__(self, inner: Law, faults: FaultsConfig) -> None:
         super().__init__(inner.params, period=inner.period, reference=inner.reference)
@@ -39,6 +47,27 @@ class FaultyLaw(Law):
         self.offset = self.inner.offset
 
     def step(self, t: float, feedback: Sequence[Feedback]) -> LawStep:
+        """``inner``'s step, or the fault due in the cycle nearest to its time.
+
+        Parameters
+        ----------
+        t : float
+            [s] the cycle's time.
+        feedback : Sequence[Feedback]
+            Each axis's sample.
+
+        Returns
+        -------
+        LawStep
+            ``inner``'s, its commands NaN once ``law_nan_at`` is due.
+
+        Raises
+        ------
+        KeyboardInterrupt
+            Once ``interrupt_at`` is due.
+        InjectedFault
+            Once ``law_error_at`` is due.
+        """
         f, t = self.faults, t + self._half  # a fault at time a acts in the cycle nearest to a
         if t >= f.interrupt_at:
             raise KeyboardInterrupt
@@ -53,7 +82,20 @@ class FaultyLaw(Law):
 
 
 def with_injected_faults(law: Law, faults: FaultsConfig) -> Law:
-    """``law``, or a ``FaultyLaw`` when ``faults`` names a host fault."""
+    """``law``, or a ``FaultyLaw`` when ``faults`` names a host fault.
+
+    Parameters
+    ----------
+    law : Law
+        The run's law.
+    faults : FaultsConfig
+        ``[faults]``.
+
+    Returns
+    -------
+    Law
+        The law the run uses.
+    """
     if math.isinf(min(faults.law_nan_at, faults.law_error_at, faults.interrupt_at)):
         return law
     return FaultyLaw(law, faults)

@@ -37,18 +37,26 @@ class _Window(collections.deque):  # type: ignore[type-arg]
 class StageTimes:
     """Per-stage durations [s] of the last 20,000 cycles (read, update, write) and period errors."""
 
-    read: _Window = field(default_factory=_Window)
-    update: _Window = field(default_factory=_Window)
-    write: _Window = field(default_factory=_Window)
+    read: _Window = field(default_factory=_Window)  #: reading every axis's feedback
+    update: _Window = field(default_factory=_Window)  #: the law's step and the commands' checks
+    write: _Window = field(default_factory=_Window)  #: sending the commands
+    #: real time: a tick's start against its deadline (or the bus's SYNC against its period)
     period_error: _Window = field(default_factory=_Window)
     #: real time: a read axis's newest TPDO on the bus to the RPDOs sent in answer
     response: _Window = field(default_factory=_Window)
     #: real time with the host's SYNC, the response's two parts: the drives' answer (the SYNC
     #: sent to their last awaited TPDO) and the host's own time (that TPDO to the RPDOs sent)
     drive_answer: _Window = field(default_factory=_Window)
-    host_time: _Window = field(default_factory=_Window)
+    host_time: _Window = field(default_factory=_Window)  #: (the second part: see ``drive_answer``)
 
     def stats(self) -> dict[str, float]:
+        """Each window's median, 99th percentile and maximum of the absolute values [us].
+
+        Returns
+        -------
+        dict[str, float]
+            ``{name}_median_us``, ``{name}_p99_us``, ``{name}_max_us`` of each window with a finite value.
+        """
         out: dict[str, float] = {}
         for name in ("read", "update", "write", "period_error", "response", "drive_answer", "host_time"):
             a = np.abs(np.array(getattr(self, name))) * 1e6
@@ -61,11 +69,25 @@ class StageTimes:
 
 
 class CycleTimes:
-    """A cycle's stage times into ``times``, as the host loop measured them (perf_counter s: the
-    tick's start, feedback read, commands checked, written: ``at``); in real time
-    its response: ``split`` (the host's SYNC) in the drives' answer and the host's own time
-    (``Pacing.split``), or over a bus's SYNC (``wall``: the read axes' stamps are bus receive times
-    on the wall clock) from a read axis's newest TPDO to the RPDOs sent."""
+    """A cycle's stage times into ``times``, as the host loop measured them.
+
+    In real time also its response: with ``split`` (the host's SYNC) in the drives' answer and the
+    host's own time (``Pacing.split``), or over a bus's SYNC (``wall``) from a read axis's newest
+    TPDO to the RPDOs sent.
+
+    Parameters
+    ----------
+    times : StageTimes
+        Where they go.
+    pacing : Any
+        The run's pacing (``Pacing``).
+    split : bool
+        Real time with the host's SYNC: the response in its two parts.
+    realtime : bool
+        A real-time run.
+    wall : bool
+        The read axes' stamps are bus receive times on the wall clock.
+    """
 
     def __init__(self, times: StageTimes, pacing: Any, *, split: bool, realtime: bool, wall: bool) -> None:
         self.times, self.pacing = times, pacing
@@ -74,8 +96,22 @@ class CycleTimes:
     def cycle(
         self, at: tuple[float, float, float, float], send: bool, reads: Sequence[Any]
     ) -> tuple[float, ...]:
-        """Record the cycle (``send``: its commands were the law's new ones, ``reads`` its samples);
-        the row's timing [s]: read, update, write (and answer, host with ``split``)."""
+        """Record a cycle.
+
+        Parameters
+        ----------
+        at : tuple[float, float, float, float]
+            ``time.perf_counter`` [s] at the tick's start, feedback read, commands checked, written.
+        send : bool
+            Its commands were the law's new ones.
+        reads : Sequence[Any]
+            Its samples.
+
+        Returns
+        -------
+        tuple[float, ...]
+            The row's timing [s]: read, update, write (and answer, host with ``split``).
+        """
         times, (t0, t1, t2, t3) = self.times, at
         timing: tuple[float, ...] = (t1 - t0, t2 - t1, t3 - t2)
         if self.split:
@@ -100,9 +136,29 @@ class CycleTimes:
 def run_metrics(
     axes: Sequence[AxisDriver], law: Law, wiring: Wiring, command_limit: float, cycles: int
 ) -> RunMetrics:
-    """The run's ``RunMetrics``: the chattering of the law's first command against the resolution of
-    its first read axis (``rig.host.chatter``), over the run's second half (its steady state,
-    docs/chattering.md); ``command_limit``: the first commanded axis's limit [command unit]."""
+    """The run's `RunMetrics`.
+
+    The chattering of the law's first command against the resolution of its first read axis
+    (``rig.host.chatter``), over the run's second half (its steady state, docs/chattering.md).
+
+    Parameters
+    ----------
+    axes : Sequence[AxisDriver]
+        The loop's axes.
+    law : Law
+        The run's law.
+    wiring : Wiring
+        Which axes it reads and commands.
+    command_limit : float
+        The first commanded axis's limit [command unit].
+    cycles : int
+        The run's cycles.
+
+    Returns
+    -------
+    RunMetrics
+        Empty, to ``add`` to.
+    """
     read = wiring.reads[0] if wiring.reads else None
     inner = getattr(law, "inner", law)  # (a FaultyLaw's own law)
     internals = inner.internals
@@ -119,8 +175,21 @@ def run_metrics(
 
 
 class RunMetrics:
-    """The run's tracking error, chattering and per-axis peaks, kept cycle by cycle (nothing
-    grows with the run's length): ``add`` each cycle, read at the summary."""
+    """The run's tracking error, chattering and per-axis peaks, kept cycle by cycle.
+
+    Nothing grows with the run's length: ``add`` each cycle, read at the summary.
+
+    Parameters
+    ----------
+    names : Sequence[str]
+        The axes' names.
+    measures : Sequence[Collection[str]]
+        The quantities each measures.
+    commanded : Sequence[int]
+        The axes (indices) of a cycle's commands, in order.
+    chatter : RunChatter
+        The chattering of the first command.
+    """
 
     def __init__(
         self,
@@ -129,8 +198,6 @@ class RunMetrics:
         commanded: Sequence[int],
         chatter: RunChatter,
     ) -> None:
-        """Axes by ``names`` with the quantities each ``measures``; ``commanded``: the axes (indices)
-        of a cycle's commands, in order; ``chatter``: the chattering of the first command."""
         self.sq_error = 0.0
         self.max_error = 0.0
         self.chatter = chatter
@@ -150,8 +217,19 @@ class RunMetrics:
         samples: Sequence[Any],
         internals: Sequence[float] = (),
     ) -> None:
-        """One cycle: reference and measurement, its commands (``values``), the axes' feedback, the
-        law's internals."""
+        """One cycle.
+
+        Parameters
+        ----------
+        ref, y : float
+            The reference and the measurement [the law's error unit].
+        values : Sequence[Any]
+            Its commands.
+        samples : Sequence[Any]
+            The axes' feedback.
+        internals : Sequence[float]
+            The law's internals.
+        """
         e = ref - y
         self.sq_error += e * e
         e = abs(e)
@@ -172,9 +250,26 @@ class RunMetrics:
                 peaks["command"] = value
 
     def rms_error(self, n: int) -> float:
-        """The RMS tracking error over ``n`` cycles (NaN for none)."""
+        """The RMS tracking error over ``n`` cycles.
+
+        Parameters
+        ----------
+        n : int
+            The cycles run.
+
+        Returns
+        -------
+        float
+            [the law's error unit]; NaN for none.
+        """
         return math.sqrt(self.sq_error / n) if n else math.nan
 
     def axis_peaks(self) -> dict[str, dict[str, float]]:
-        """Per axis, ``max_abs_velocity``, ``max_abs_current``, ``max_abs_command``."""
+        """Per axis, its peaks.
+
+        Returns
+        -------
+        dict[str, dict[str, float]]
+            name -> ``max_abs_velocity`` [rad/s], ``max_abs_current`` [A], ``max_abs_command``.
+        """
         return {name: {f"max_abs_{k}": v for k, v in p.items()} for name, p in self.peaks.items()}

@@ -19,8 +19,21 @@ MISSED_SHARE = 0.01  #: a real-time run whose skipped and late cycles exceed thi
 
 
 def loop_summary(loop: HostLoop) -> dict[str, Any]:
-    """``loop``'s summary as it stands (a safe stop's too: ``status`` "stopped", every performance
-    figure NaN, and what they were when it stopped under ``cut_short``)."""
+    """``loop``'s summary as it stands: summary.json's keys (docs/files.md).
+
+    A safe stop's too: ``status`` "stopped", every performance figure NaN, and what they were when
+    it stopped under ``cut_short``.
+
+    Parameters
+    ----------
+    loop : HostLoop
+        The loop, run or stopped.
+
+    Returns
+    -------
+    dict[str, Any]
+        The summary.
+    """
     n = loop.done
     m = loop.metrics
     units = {a.name: MODE_UNITS.get(a.mode, "") for a in loop.axes if a.mode is not None}
@@ -61,8 +74,21 @@ def loop_summary(loop: HostLoop) -> dict[str, Any]:
 
 
 def missed_period(summary: dict[str, Any], period: float) -> str | None:
-    """A real-time run that did not keep its period (skipped and late cycles over ``MISSED_SHARE``
-    of the cycles it was to run), in one line naming the figures and ``rig doctor``; else None."""
+    """Whether a real-time run did not keep its period: skipped and late cycles over ``MISSED_SHARE``.
+
+    Parameters
+    ----------
+    summary : dict[str, Any]
+        The run's summary (`loop_summary`).
+    period : float
+        The loop's period [s].
+
+    Returns
+    -------
+    str | None
+        One line naming the figures and ``rig doctor``; None where the period was kept or the run
+        was lock-step.
+    """
     if summary.get("realtime") is None:
         return None
     skipped, late = int(summary.get("overruns") or 0), int(summary.get("late_cycles") or 0)

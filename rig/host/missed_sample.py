@@ -18,8 +18,19 @@ __all__ = ["FreshSteps"]
 
 
 class FreshSteps:
-    """``step`` the ``law`` on each cycle's samples where they are new; ``commands`` are the
-    indices of the ``axes`` it commands; ``missed``: "hold" | "zero"."""
+    """``step`` the law on each cycle's samples where they are new (module docstring).
+
+    Parameters
+    ----------
+    law : Law
+        The run's law.
+    axes : Sequence[AxisDriver]
+        The loop's axes.
+    commands : Sequence[int]
+        The indices of the axes the law commands.
+    missed : str
+        ``[run] missed_sample``: "hold" | "zero".
+    """
 
     def __init__(self, law: Law, axes: Sequence[AxisDriver], commands: Sequence[int], missed: str) -> None:
         self.law, self.axes, self.commands, self.missed = law, axes, commands, missed
@@ -28,7 +39,21 @@ class FreshSteps:
         self._stamps: list[float | None] = []
 
     def step(self, t: float, reads: list[Feedback]) -> tuple[LawStep, bool]:
-        """The law's step at ``t`` [s] on ``reads``, and whether to send its commands."""
+        """The law's step on ``reads``, and whether to send its commands.
+
+        Parameters
+        ----------
+        t : float
+            [s] the cycle's time.
+        reads : list[Feedback]
+            The samples of the axes the law reads.
+
+        Returns
+        -------
+        tuple[LawStep, bool]
+            The step (the law's, the last one held, or the neutral commands), and False where the last
+            commands are held and need not be sent.
+        """
         stamps = [fb.stamp for fb in reads]
         last = self._last
         fresh = True

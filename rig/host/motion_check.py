@@ -27,8 +27,19 @@ _WINDOW = 0.05  #: [s] at least, and five periods at least
 
 
 class FollowCheck:
-    """See the module docstring; ``who`` names the axis, ``period`` [s], ``speed_limit`` [rad/s]
-    (inf: none) and ``quantum`` [rad/s] one speed unit of the axis."""
+    """A speed-commanded axis's speed against its command (module docstring).
+
+    Parameters
+    ----------
+    who : str
+        The axis, as the stop names it.
+    period : float
+        The loop's period [s].
+    speed_limit : float
+        The axis's speed limit [rad/s] (inf: none).
+    quantum : float
+        One speed unit of the axis [rad/s].
+    """
 
     def __init__(self, who: str, period: float, speed_limit: float, quantum: float) -> None:
         self.who = who
@@ -38,11 +49,29 @@ class FollowCheck:
         self.command: float | None = None  #: [rad/s] the last command sent
 
     def sent(self, command: float) -> None:
-        """The command [rad/s] of this cycle (the next samples answer it)."""
+        """The command of this cycle (the next samples answer it).
+
+        Parameters
+        ----------
+        command : float
+            [rad/s] the speed commanded.
+        """
         self.command = command
 
     def see(self, speed: float) -> None:
-        """A new sample's speed [rad/s]."""
+        """A new sample's speed.
+
+        Parameters
+        ----------
+        speed : float
+            [rad/s] the measured speed.
+
+        Raises
+        ------
+        SafetyStop
+            Naming both speeds, once the shaft has turned the other way or too fast for the whole
+            window without coming towards the command.
+        """
         cmd = self.command
         if cmd is None or not math.isfinite(speed):
             return

@@ -38,8 +38,8 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from drivers.canopen_axis import CanopenAxis
-from drivers.maps.cia import PDO_SYNC_MAX
 from drivers.owned_receive import OwnedReceive
+from rig.host.sync_answers import SyncAnswers, awaited_cob_ids
 
 __all__ = ["ExternalSync", "FreeRun", "HostSync", "InProcessLockstep", "KernelSync", "Pacing", "WireLockstep"]
 
@@ -60,7 +60,13 @@ class Pacing:
         """Start a cycle."""
 
     def now(self) -> float:
-        """The bus clock [s]."""
+        """The bus clock.
+
+        Returns
+        -------
+        float
+            [s] the clock the frames' timestamps are on.
+        """
         return time.time()
 
     def close(self) -> None:
@@ -68,20 +74,49 @@ class Pacing:
 
     @contextlib.contextmanager
     def owning(self) -> Iterator[None]:
-        """While the loop's cycles run (``HostSync``: the loop thread reads the bus itself)."""
+        """While the loop's cycles run (``HostSync``: the loop thread reads the bus itself).
+
+        Yields
+        ------
+        None
+            Inside the cycles.
+        """
         yield
 
     def split(self, done: float) -> tuple[float, float]:
-        """The last tick's response as (the drives' answer, the host's own time) [s] (``HostSync``);
-        NaN where the pacing does not send the SYNC."""
+        """The last tick's response as (the drives' answer, the host's own time) (``HostSync``).
+
+        Parameters
+        ----------
+        done : float
+            ``time.perf_counter`` [s] when the cycle's commands were sent.
+
+        Returns
+        -------
+        tuple[float, float]
+            [s]; NaN where the pacing does not send the SYNC, or the answer was late.
+        """
         return math.nan, math.nan
 
     def owes(self) -> bool:
-        """Answers to SYNCs already sent are still to come (``HostSync``)."""
+        """Answers to SYNCs already sent are still to come (``HostSync``).
+
+        Returns
+        -------
+        bool
+            True then.
+        """
         return False
 
     def forget_owed(self, why: str) -> None:
-        """No answer is owed any more (``HostSync``); ``why``: the reason, for the log."""
+        """No answer is owed any more (``HostSync``): where the host cannot know whether the node will
+        still send them.
+
+        Parameters
+        ----------
+        why : str
+            The reason, for the log.
+        """
 
 
 class FreeRun(Pacing):
@@ -89,7 +124,17 @@ class FreeRun(Pacing):
 
 
 class InProcessLockstep(Pacing):
-    """The in-process emulated world: ``sync()`` sends SYNC on the hub; ``steppers`` advance by a period."""
+    """The in-process emulated world: each tick steps the ``steppers`` a period, then sends the SYNC.
+
+    Parameters
+    ----------
+    period : float
+        [s] the loop's period.
+    sync : Callable[[], None] | None
+        Sends SYNC on the hub (None: no CANopen axis).
+    steppers : Sequence[Callable[[float], None]]
+        Advance a device by the time [s] given (the in-process Modbus inverters).
+    """
 
     def __init__(
         self,
@@ -110,112 +155,36 @@ class InProcessLockstep(Pacing):
             self._sync()
 
     def now(self) -> float:
+        """The emulated time.
+
+        Returns
+        -------
+        float
+            [s] the SYNCs sent times the period.
+        """
         return self.count * self.period
 
 
-class _Answers:
-    """Waits for one frame on each of ``cob_ids``: a subscriber per COB-ID on ``network``.
-
-    ``arm()`` before the SYNC (or the wait), ``wait(timeout)`` until every COB-ID has sent
-    a frame since, or ``timeout`` [s]. The receive thread wakes the waiter at once.
-
-    ``owed`` (the host's SYNC): a TPDO carries no SYNC number, but a node answers the SYNCs
-    in order, so an answer that missed its cycle (still awaited when the next SYNC is armed)
-    is owed: the next frame on that COB-ID is taken for it, the one after for the new SYNC.
-    Every answer owed is carried over: after a stall of n periods, a cycle is on time only
-    once the whole burst of n answers has come, so it acts on the answer to its own SYNC; a
-    cycle with part of the burst is late. (Carrying one at most, as a first version did, the
-    cycles after a stall of two periods or more acted on samples that many periods old and
-    were not counted late.) A frame the node never sends (lost) is taken for late ever after
-    and ends in the late-cycle stop, named as such; CAN does not lose frames it acknowledged,
-    nor TCP. Where the host cannot know whether the node will still answer (the prime's
-    SYNCs, unanswered at its end), ``forget`` clears the debt.
-    """
-
-    def __init__(self, network: Any, cob_ids: Sequence[int], *, owed: bool = False) -> None:
-        self.network = network
-        self.cob_ids = frozenset(cob_ids)
-        self.carry = owed
-        self._pending: dict[int, int] = {}  #: COB-ID -> frames still awaited
-        self._waiting = 0  #: COB-IDs with frames still awaited
-        #: [perf_counter s] when the last awaited frame was handed on (the answer complete)
-        self.completed_at = 0.0
-        self._done = threading.Condition()
-        for cob in self.cob_ids:
-            network.subscribe(cob, self._on_frame)
-
-    def arm(self) -> None:
-        with self._done:
-            if self.carry:
-                self._pending = {cob: self._pending.get(cob, 0) + 1 for cob in self.cob_ids}
-            else:
-                self._pending = dict.fromkeys(self.cob_ids, 1)
-            self._waiting = len(self._pending)
-
-    def _on_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        with self._done:
-            n = self._pending.get(can_id, 0)
-            if n:
-                self._pending[can_id] = n - 1
-                if n == 1:
-                    self._waiting -= 1
-                    if not self._waiting:
-                        self.completed_at = time.perf_counter()
-                        self._done.notify_all()
-
-    def complete(self) -> bool:
-        """Every awaited frame has come."""
-        return not self._waiting
-
-    def owed(self) -> bool:
-        """Frames are awaited (since the last ``arm``, or owed from before it)."""
-        return any(self._pending.values())
-
-    def forget(self) -> dict[int, int]:
-        """No frame is awaited any more; returns what was (COB-ID -> frames)."""
-        with self._done:
-            owed = {cob: n for cob, n in self._pending.items() if n}
-            self._pending = {}
-            self._waiting = 0
-            return owed
-
-    def wait(self, timeout: float) -> bool:
-        with self._done:
-            return self._done.wait_for(lambda: not self._waiting, timeout)
-
-    def close(self) -> None:
-        for cob in self.cob_ids:
-            if self._on_frame in self.network.subscribers.get(cob, ()):
-                self.network.unsubscribe(cob, self._on_frame)
-
-
-def _cob_ids(axes: Sequence[CanopenAxis]) -> list[int]:
-    """The COB-IDs awaited after each SYNC: the TPDOs that answer every SYNC. The others are not
-    awaited (logged): a node sends them on every n-th SYNC from a start the host does not know,
-    or on an event, so a cycle cannot know which SYNC they answer."""
-    for a in axes:
-        for cob, ttype in a.tpdos_not_awaited():
-            kind = f"every n-th SYNC, n = {ttype}" if 1 < ttype <= PDO_SYNC_MAX else "acyclic or event-driven"
-            log.warning(
-                "%s: TPDO 0x%03X has transmission type %d (%s): the cycles do not wait for it, and"
-                " its sample may be older than their SYNC (make it 1 to have it awaited)",
-                a.where,
-                cob,
-                ttype,
-                kind,
-            )
-    return [cob for a in axes for cob in a.tpdo_cob_ids()]
-
-
 class HostSync(Pacing):
-    """The host sends SYNC, then waits up to ``budget`` [s] for every CANopen axis's TPDOs
-    answering it; ``late`` when some did not come in time (see the module docstring)."""
+    """The host sends SYNC, then waits for every CANopen axis's TPDOs answering it (module docstring).
+
+    ``late`` when some did not come within ``budget``.
+
+    Parameters
+    ----------
+    network : Any
+        The canopen network.
+    axes : Sequence[CanopenAxis]
+        The CANopen axes.
+    budget : float
+        [s] the wait for the answers (``[run] answer_budget``).
+    """
 
     sends_sync = True
 
     def __init__(self, network: Any, axes: Sequence[CanopenAxis], budget: float) -> None:
         self.network = network
-        self.answers = _Answers(network, _cob_ids(axes), owed=True)
+        self.answers = SyncAnswers(network, awaited_cob_ids(axes), owed=True)
         self.budget = budget
         self.late = False  #: the last tick's answers missed the budget
         self.sent_at = 0.0  #: [perf_counter s] the last SYNC sent
@@ -235,24 +204,49 @@ class HostSync(Pacing):
             self.late = not self.answers.wait(self.budget)
 
     def split(self, done: float) -> tuple[float, float]:
-        """The last tick's response in two [s]: the drives' answer (the SYNC sent to the last
-        awaited TPDO handed on) and the host's own time (that TPDO to ``done``, the
-        perf_counter time its commands were sent); NaN for both where the answer was late."""
+        """The last tick's response in two: the drives' answer and the host's own time.
+
+        The drives' answer is the SYNC sent to the last awaited TPDO handed on, the host's own time
+        that TPDO to ``done``.
+
+        Parameters
+        ----------
+        done : float
+            ``time.perf_counter`` [s] when the cycle's commands were sent.
+
+        Returns
+        -------
+        tuple[float, float]
+            [s]; NaN for both where the answer was late.
+        """
         answered = self.answers.completed_at
         if self.late or answered < self.sent_at:
             return math.nan, math.nan
         return answered - self.sent_at, done - answered
 
     def owes(self) -> bool:
-        """Answers to SYNCs already sent are still to come (what has come is handed on first)."""
+        """Answers to SYNCs already sent are still to come (what has come is handed on first).
+
+        Returns
+        -------
+        bool
+            True then.
+        """
         if self._reader is not None:
             self._reader.arrived()
         return self.answers.owed()
 
     def forget_owed(self, why: str) -> None:
-        """The answers still owed are not awaited any more (logged with ``why``): where the host
-        cannot know whether the node will still send them. Should they come, the first cycles
-        take them for their own SYNCs' (acting on older samples, not counted late)."""
+        """The answers still owed are not awaited any more (logged with ``why``).
+
+        Should they come, the first cycles take them for their own SYNCs' (acting on older samples,
+        not counted late).
+
+        Parameters
+        ----------
+        why : str
+            The reason, for the log.
+        """
         owed = self.answers.forget()
         if owed:
             frames = ", ".join(f"{n} on 0x{cob:03X}" for cob, n in sorted(owed.items()))
@@ -260,8 +254,15 @@ class HostSync(Pacing):
 
     @contextlib.contextmanager
     def owning(self) -> Iterator[None]:
-        """The calling thread reads the bus itself while the block runs, where the bus allows
-        (``OwnedReceive``); the receive thread reads again after it."""
+        """The calling thread reads the bus itself while the block runs, where the bus allows.
+
+        ``drivers.owned_receive.OwnedReceive``; the receive thread reads again after it.
+
+        Yields
+        ------
+        None
+            Inside the cycles.
+        """
         if not OwnedReceive.possible(self.network):
             yield
             return
@@ -282,30 +283,49 @@ class HostSync(Pacing):
 
 #: [s] lock-step over a wire waits at least this long for a SYNC's answers: the emulator's time
 #: is the SYNCs', so waiting costs no plant time, while acting on a sample that came late would
-#: make the run's result depend on the PC's load (a 0.1 s wait under a load of 10 on 2 cores:
-#: rms 1.984 mrad, not the 1.983 of every quiet run); a dead emulator is still a stop after
-#: the watchdog's periods of this
+#: make the run's result depend on the PC's load (docs/emulator.md); a dead emulator is still a
+#: stop after the watchdog's periods of this
 LOCKSTEP_ANSWER_WAIT = 1.0
 
 
 class WireLockstep(HostSync):
-    """Lock-step over a real bus: ``HostSync`` with a budget of ``timeout`` [s] (the transport's,
-    not the emulated time's), at least ``LOCKSTEP_ANSWER_WAIT``."""
+    """Lock-step over a real bus: ``HostSync`` with the transport's budget, at least ``LOCKSTEP_ANSWER_WAIT``.
+
+    Parameters
+    ----------
+    network : Any
+        The canopen network.
+    axes : Sequence[CanopenAxis]
+        The CANopen axes.
+    budget : float
+        [s] the transport's time-out (not the emulated time's).
+    """
 
     def __init__(self, network: Any, axes: Sequence[CanopenAxis], budget: float) -> None:
         super().__init__(network, axes, max(budget, LOCKSTEP_ANSWER_WAIT))
 
 
 class ExternalSync(Pacing):
-    """Another device produces SYNC (``[bus] sync = "external"``): ``tick`` waits (up to
-    ``timeout`` [s]) until every CANopen axis has answered the next SYNC; the host sends none."""
+    """Another device produces SYNC (``[bus] sync = "external"``); the host sends none.
+
+    ``tick`` waits until every CANopen axis has answered the next SYNC.
+
+    Parameters
+    ----------
+    network : Any
+        The canopen network.
+    axes : Sequence[CanopenAxis]
+        The CANopen axes.
+    timeout : float
+        [s] the wait at most.
+    """
 
     paced_by_bus = True
 
     def __init__(self, network: Any, axes: Sequence[CanopenAxis], timeout: float) -> None:
         self.network = network
         self.bus_read_by = "receive thread"
-        self.answers = _Answers(network, _cob_ids(axes))
+        self.answers = SyncAnswers(network, awaited_cob_ids(axes))
         self.timeout = timeout
         self._running = True
 
@@ -320,8 +340,21 @@ class ExternalSync(Pacing):
 
 
 class KernelSync(ExternalSync):
-    """SYNC from the kernel's broadcast manager every ``period`` [s] (SocketCAN); ``tick`` waits
-    for the answers as ``ExternalSync`` does."""
+    """SYNC from the kernel's broadcast manager every ``period`` (SocketCAN).
+
+    ``tick`` waits for the answers as ``ExternalSync`` does.
+
+    Parameters
+    ----------
+    network : Any
+        The canopen network, on SocketCAN.
+    axes : Sequence[CanopenAxis]
+        The CANopen axes.
+    period : float
+        [s] the SYNC period.
+    timeout : float
+        [s] the wait at most.
+    """
 
     def __init__(self, network: Any, axes: Sequence[CanopenAxis], period: float, timeout: float) -> None:
         super().__init__(network, axes, timeout)

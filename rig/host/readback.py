@@ -43,8 +43,17 @@ def _blocks(fd: int) -> Iterator[bytes]:
 
 
 def copy_text(fd: int, write: Callable[[bytes], Any]) -> None:
-    """Every whole line of the file open as ``fd`` to ``write``, a block at a time (a row torn by
-    a full disk is left out)."""
+    """Every whole line of the file open as ``fd`` to ``write``, a block at a time.
+
+    A row torn by a full disk is left out.
+
+    Parameters
+    ----------
+    fd : int
+        The file's descriptor (read with ``os.pread``).
+    write : Callable[[bytes], Any]
+        Takes the lines, whole.
+    """
     tail = b""
     for block in _blocks(fd):
         text = tail + block
@@ -55,8 +64,26 @@ def copy_text(fd: int, write: Callable[[bytes], Any]) -> None:
 
 
 def read_rows(fd: int, columns: int, count: int, rows: int = 8192) -> Iterator[np.ndarray]:
-    """The first ``count`` rows under the header of the CSV file open as ``fd``, as arrays of
-    ``rows`` rows (the last one shorter) and ``columns`` columns; a torn last line is no row."""
+    """The first ``count`` rows under the header of the CSV file open as ``fd``, in arrays.
+
+    A torn last line is no row.
+
+    Parameters
+    ----------
+    fd : int
+        The file's descriptor (read with ``os.pread``).
+    columns : int
+        The columns of a row.
+    count : int
+        The rows read at most.
+    rows : int
+        The rows of an array (the last one shorter).
+
+    Yields
+    ------
+    np.ndarray
+        ``rows`` x ``columns``.
+    """
     pending: list[bytes] = []
     left, tail, header = count, b"", True
     for block in _blocks(fd):
@@ -82,9 +109,17 @@ def _parse(lines: list[bytes], columns: int) -> np.ndarray:
 
 
 class Envelope:
-    """The minimum and maximum of each column over buckets of ``ceil(count / points)`` rows:
-    ``rows()`` gives two rows per bucket (its minima, then its maxima; the first column, the time,
-    is the bucket's first), or the rows themselves where there are no more than ``points``."""
+    """The minimum and maximum of each column over buckets of ``ceil(count / points)`` rows.
+
+    Parameters
+    ----------
+    count : int
+        The rows to come.
+    columns : int
+        Their columns.
+    points : int
+        The buckets at most.
+    """
 
     def __init__(self, count: int, columns: int, points: int = POINTS) -> None:
         self.size = max(1, math.ceil(count / points))
@@ -92,6 +127,13 @@ class Envelope:
         self._carry = np.empty((0, columns))  #: the rows of a bucket a chunk ended in
 
     def add(self, chunk: np.ndarray) -> None:
+        """The next rows.
+
+        Parameters
+        ----------
+        chunk : np.ndarray
+            Rows x columns.
+        """
         rows = np.concatenate([self._carry, chunk]) if len(self._carry) else chunk
         whole = len(rows) - len(rows) % self.size
         self._carry = rows[whole:].copy()
@@ -99,6 +141,13 @@ class Envelope:
             self._parts.append(_reduce(rows[:whole], self.size))
 
     def rows(self) -> np.ndarray:
+        """Two rows per bucket, or the rows themselves where there are no more than ``points``.
+
+        Returns
+        -------
+        np.ndarray
+            Each bucket's minima, then its maxima (the first column, the time, is the bucket's first).
+        """
         parts = [*self._parts, _reduce(self._carry, len(self._carry))] if len(self._carry) else self._parts
         return np.concatenate(parts) if parts else self._carry
 
@@ -114,8 +163,17 @@ def _reduce(rows: np.ndarray, size: int) -> np.ndarray:
 
 
 class Columns:
-    """Rows stored column by column in an unnamed temporary file (at most ``count`` rows), then
-    read back one column at a time; ``close()`` (or a ``with``) removes it."""
+    """Rows stored column by column in an unnamed temporary file, then read back a column at a time.
+
+    ``close()`` (or a ``with``) removes it.
+
+    Parameters
+    ----------
+    count : int
+        The rows at most.
+    columns : int
+        Their columns.
+    """
 
     def __init__(self, count: int, columns: int) -> None:
         self.count, self.n = count, 0
@@ -123,16 +181,36 @@ class Columns:
         self.columns = columns
 
     def add(self, chunk: np.ndarray) -> None:
+        """The next rows (OSError where the file cannot take them).
+
+        Parameters
+        ----------
+        chunk : np.ndarray
+            Rows x columns.
+        """
         for c in range(self.columns):
             self._file.seek((c * self.count + self.n) * 8)
             self._file.write(np.ascontiguousarray(chunk[:, c], dtype="<f8").tobytes())
         self.n += len(chunk)
 
     def column(self, c: int) -> np.ndarray:
+        """Column ``c`` of the rows added.
+
+        Parameters
+        ----------
+        c : int
+            Its index.
+
+        Returns
+        -------
+        np.ndarray
+            Its samples.
+        """
         self._file.seek(c * self.count * 8)
         return np.frombuffer(self._file.read(self.n * 8), dtype="<f8")
 
     def close(self) -> None:
+        """Remove the file."""
         self._file.close()
 
     def __enter__(self) -> Columns:

@@ -55,14 +55,12 @@ _LAST, _UNPINNED = -1, -2
 
 @dataclass(frozen=True)
 class RealtimeRequest:
-    """What to ask for: ``priority`` (SCHED_FIFO 1-99; 0: the normal policy), ``cpu`` (-1: the
-    last CPU the process may use; -2: not pinned), ``lock_memory``, ``cpu_latency`` (the PM QoS
-    CPU latency [us] held for the run; -1: none asked)."""
+    """What to ask for (module docstring)."""
 
-    priority: int = 50
-    cpu: int = _LAST
-    lock_memory: bool = True
-    cpu_latency: int = 0
+    priority: int = 50  #: SCHED_FIFO 1-99 (0: the normal policy)
+    cpu: int = _LAST  #: the CPU to pin to (-1: the last the process may use; -2: not pinned)
+    lock_memory: bool = True  #: ``mlockall``
+    cpu_latency: int = 0  #: [us] the PM QoS CPU latency held for the run (-1: none asked)
 
 
 @functools.cache
@@ -94,26 +92,33 @@ class _Thread:
 class Grant:
     """What was granted; ``refused`` says what was not, each with the system's reason."""
 
-    asked: RealtimeRequest
+    asked: RealtimeRequest  #: what was asked for
     priority: int = 0  #: SCHED_FIFO priority of the loop thread (0: not granted)
     receive_priority: int = 0  #: of the receive threads (0: none, or not granted)
     receive_threads: int = 0  #: how many were raised
     cpu: int | None = None  #: pinned to (None: not)
-    memory_locked: bool = False
+    memory_locked: bool = False  #: ``mlockall`` in force
     #: [us] the PM QoS CPU latency held (None: none asked, or refused); and the one in force
     cpu_latency: int | None = None
-    cpu_latency_in_force: int | None = None
-    refused: list[str] = field(default_factory=list)
-    _saved: list[_Thread] = field(default_factory=list)
-    _locked_here: bool = False
+    cpu_latency_in_force: int | None = None  #: [us] (None: not read)
+    refused: list[str] = field(default_factory=list)  #: what was not, each with the system's reason
+    _saved: list[_Thread] = field(default_factory=list)  #: the threads changed, as they were
+    _locked_here: bool = False  #: ``release`` unlocks the memory
     _qos: int | None = None  #: the open /dev/cpu_dma_latency (the request lasts while it is open)
 
     @property
     def fifo(self) -> bool:
+        """The loop thread got SCHED_FIFO."""
         return self.priority > 0
 
     def record(self) -> dict[str, Any]:
-        """The summary's ``realtime``: policy, priorities, CPU, memory lock, what was refused."""
+        """The summary's ``realtime``: policy, priorities, CPU, memory lock, what was refused.
+
+        Returns
+        -------
+        dict[str, Any]
+            summary.json's keys (docs/files.md).
+        """
         return {
             "policy": "SCHED_FIFO" if self.fifo else "SCHED_OTHER",
             "priority": self.priority,
@@ -127,7 +132,13 @@ class Grant:
         }
 
     def describe(self) -> str:
-        """One line: what the run was granted."""
+        """One line: what the run was granted.
+
+        Returns
+        -------
+        str
+            Scheduling, CPU, memory and CPU latency, in words.
+        """
         policy = f"SCHED_FIFO {self.priority}" if self.fifo else "normal scheduling"
         if self.receive_priority:
             policy += f" (receive {self.receive_priority})"
@@ -230,8 +241,22 @@ def _keep_awake(grant: Grant, latency: int, path: str = CPU_DMA_LATENCY) -> None
 
 
 def request(ask: RealtimeRequest, receive: Sequence[threading.Thread] = ()) -> Grant:
-    """Ask for ``ask`` for the calling thread and, one priority above it, for the ``receive``
-    threads; one warning lists what was refused. Call ``release()`` on the result at the end."""
+    """Ask for ``ask`` for the calling thread and, one priority above it, for the ``receive`` threads.
+
+    One warning lists what was refused. Call ``release()`` on the result at the end.
+
+    Parameters
+    ----------
+    ask : RealtimeRequest
+        What to ask for.
+    receive : Sequence[threading.Thread]
+        The threads that carry the loop's frames (`receive_threads`).
+
+    Returns
+    -------
+    Grant
+        What was granted and refused.
+    """
     grant = Grant(ask, cpu=_cpu(ask.cpu))
     if not hasattr(os, "sched_setscheduler"):
         grant.refused.append(f"real-time scheduling: not available on {os.name}")
@@ -259,9 +284,21 @@ def request(ask: RealtimeRequest, receive: Sequence[threading.Thread] = ()) -> G
 
 
 def collect_young(threshold: int = YOUNG) -> bool:
-    """Where the collector is disabled for real time (the heap frozen before): the young
-    generations collected once ``threshold`` objects wait (the middle one too every tenth time),
-    called by a thread in its slack, so no collection runs in a cycle's work. True if one ran."""
+    """The young generations collected once ``threshold`` objects wait, the collector being disabled.
+
+    For real time the heap is frozen before and the collector disabled; a thread calls this in its
+    slack, so no collection runs in a cycle's work (the middle generation too every tenth time).
+
+    Parameters
+    ----------
+    threshold : int
+        Young objects before a collection.
+
+    Returns
+    -------
+    bool
+        True if one ran.
+    """
     young, middle, _ = gc.get_count()
     if young < threshold:
         return False
@@ -270,17 +307,40 @@ def collect_young(threshold: int = YOUNG) -> bool:
 
 
 def receive_threads(network: Any) -> list[threading.Thread]:
-    """The receive threads of a canopen ``network``'s python-can notifier (none in process)."""
+    """The receive threads of a canopen ``network``'s python-can notifier (none in process).
+
+    Parameters
+    ----------
+    network : Any
+        A canopen network.
+
+    Returns
+    -------
+    list[threading.Thread]
+        The live ones.
+    """
     notifier = getattr(network, "notifier", None)
     readers = getattr(notifier, "_readers", ())
     return [t for t in readers if isinstance(t, threading.Thread) and t.is_alive()]
 
 
 def cpu_stolen(stat: str = "/proc/stat") -> float | None:
-    """[s] of CPU time a hypervisor has taken from this machine's CPUs since boot (steal time,
-    summed over them: time a virtual CPU had work and its host ran something else, when no
-    priority inside the machine helps), from /proc/stat in the kernel's ticks (10 ms steps
-    where USER_HZ is 100); None where the system does not say (not Linux, a kernel before 2.6.11)."""
+    """CPU time a hypervisor has taken from this machine's CPUs since boot (steal time).
+
+    Summed over them: time a virtual CPU had work and its host ran something else, when no priority
+    inside the machine helps; from /proc/stat in the kernel's ticks (10 ms steps where USER_HZ is
+    100).
+
+    Parameters
+    ----------
+    stat : str
+        The file read.
+
+    Returns
+    -------
+    float | None
+        [s]; None where the system does not say (not Linux, a kernel before 2.6.11).
+    """
     try:
         with open(stat, encoding="ascii") as f:
             fields = f.readline().split()

@@ -10,7 +10,22 @@ __all__ = ["reference_of", "smooth_move"]
 
 
 def smooth_move(distance: float, duration: float, start: float = 0.0) -> Reference:
-    """A move by ``distance`` in ``duration`` [s] from ``start`` [s]: quintic (minimum-jerk) profile."""
+    """A move by ``distance`` in ``duration`` from ``start``: quintic (minimum-jerk) profile.
+
+    Parameters
+    ----------
+    distance : float
+        The move [unit of the controlled variable].
+    duration : float
+        [s] its time.
+    start : float
+        [s] when it begins.
+
+    Returns
+    -------
+    Reference
+        t [s] -> (value, rate).
+    """
 
     def ref(t: float) -> tuple[float, float]:
         s = min(max((t - start) / duration, 0.0), 1.0)
@@ -22,7 +37,18 @@ def smooth_move(distance: float, duration: float, start: float = 0.0) -> Referen
 
 
 def reference_of(cfg: ReferenceConfig) -> Reference:
-    """The ``[reference]`` of a configuration (checked when it was loaded)."""
+    """The ``[reference]`` of a configuration (checked when it was loaded).
+
+    Parameters
+    ----------
+    cfg : ReferenceConfig
+        ``[reference]``.
+
+    Returns
+    -------
+    Reference
+        t [s] -> (value, rate).
+    """
     if cfg.kind == "smooth-move":
         return smooth_move(cfg.distance, cfg.duration, cfg.start)
     if cfg.kind == "step":

@@ -16,8 +16,24 @@ __all__ = ["RunSamples", "on_period_grid", "read_run", "read_samples"]
 
 
 def read_samples(run_dir: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """(config.json, {column: samples}) of a run directory; ConfigError naming what is missing
-    or what is wrong with it (``drivers.files``: regular files, size limits, UTF-8, depth)."""
+    """config.json and the samples of a run directory.
+
+    Parameters
+    ----------
+    run_dir : str | Path
+        The run directory.
+
+    Returns
+    -------
+    tuple[dict[str, Any], dict[str, np.ndarray]]
+        (config.json, {column: samples}).
+
+    Raises
+    ------
+    ConfigError
+        Naming what is missing or what is wrong with it (``drivers.files``: regular files, size
+        limits, UTF-8, depth).
+    """
     d = Path(run_dir)
     if not (d / "config.json").exists() or not (d / "samples.csv").exists():
         raise ConfigError(f"{d}: not a run directory with config.json and samples.csv")
@@ -39,8 +55,8 @@ def read_samples(run_dir: str | Path) -> tuple[dict[str, Any], dict[str, np.ndar
 class RunSamples(NamedTuple):
     """A run's command and measurement, one per period from its first sample."""
 
-    command: np.ndarray
-    measurement: np.ndarray
+    command: np.ndarray  #: one per period
+    measurement: np.ndarray  #: one per period
     period: float  #: [s]
     filled: int  #: samples of skipped cycles put back (``on_period_grid``)
 
@@ -48,10 +64,32 @@ class RunSamples(NamedTuple):
 def on_period_grid(
     t: np.ndarray, u: np.ndarray, y: np.ndarray, period: float, where: str
 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """(u, y, filled): the rows at times ``t`` [s] on the grid of ``period``, a real-time run's
-    skipped cycles (overruns: no row, nothing sent) put back: u as the drive held it (the last
-    command sent), y interpolated linearly. ConfigError naming ``where`` when ``t`` does not
-    increase by whole periods."""
+    """The rows on the grid of ``period``, a real-time run's skipped cycles put back.
+
+    Skipped cycles (overruns: no row, nothing sent) come back with u as the drive held it (the last
+    command sent) and y interpolated linearly.
+
+    Parameters
+    ----------
+    t : np.ndarray
+        [s] the rows' times.
+    u, y : np.ndarray
+        The rows' command and measurement.
+    period : float
+        [s] the run's period.
+    where : str
+        The file, named in the error.
+
+    Returns
+    -------
+    tuple[np.ndarray, np.ndarray, int]
+        (u, y, the samples put back).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``where`` when ``t`` does not increase by whole periods.
+    """
     k = np.rint((t - t[0]) / period).astype(np.int64) if len(t) else np.zeros(0, np.int64)
     steps = np.diff(k)
     if len(steps) and steps.min() < 1:
@@ -66,7 +104,23 @@ def on_period_grid(
 
 
 def read_run(run_dir: str | Path) -> RunSamples:
-    """The command and measurement of a recorded run on its period's grid (``on_period_grid``)."""
+    """The command and measurement of a recorded run on its period's grid (`on_period_grid`).
+
+    Parameters
+    ----------
+    run_dir : str | Path
+        The run directory.
+
+    Returns
+    -------
+    RunSamples
+        Its command, measurement, period and the samples put back.
+
+    Raises
+    ------
+    ConfigError
+        Naming the file: no command or measurement column, no valid period.
+    """
     d = Path(run_dir)
     config, columns = read_samples(d)
     try:

@@ -29,7 +29,19 @@ __all__ = ["AxisGuard"]
 
 
 class AxisGuard:
-    """The configured limits of one axis, with its watchdog state; ``period`` [s] is the loop's."""
+    """The configured limits of one axis, with its watchdog state.
+
+    Parameters
+    ----------
+    axis : AxisDriver
+        The axis guarded.
+    limits : AxisLimits
+        Its ``[axis.limits]``.
+    period : float
+        [s] the loop's period.
+    realtime : bool
+        A real-time run: the watchdog waits at least ``limits.watchdog`` [s].
+    """
 
     def __init__(
         self, axis: AxisDriver, limits: AxisLimits, period: float, *, realtime: bool = False
@@ -74,9 +86,25 @@ class AxisGuard:
         return SafetyStop(f"{self.who}: {text}")
 
     def check_feedback(self, fb: Feedback, k: int, sample_k: int | None = None) -> None:
-        """Check the sample of cycle ``k`` (the loop's cycle index, missed cycles included),
-        taken at the SYNC of cycle ``sample_k`` (default ``k``; the position step is bounded
-        by the periods between the samples' SYNCs)."""
+        """Check the sample of cycle ``k``.
+
+        Parameters
+        ----------
+        fb : Feedback
+            The axis's sample.
+        k : int
+            The loop's cycle index, missed cycles included.
+        sample_k : int | None
+            The cycle whose SYNC the sample was taken at (None: ``k``); the position step is bounded by
+            the periods between the samples' SYNCs.
+
+        Raises
+        ------
+        SafetyStop
+            Naming the axis and the limit: watchdog, NaN, speed, position jump or window, current,
+            the speed against the command (``OtherProducer``: a sample the axis's own speed
+            contradicts).
+        """
         c = self.limits
         fresh = self._watchdog(fb.stamp, k)
         if self.measures is not self._measured[0]:  # (set once the axis knows what it measures)
@@ -120,7 +148,21 @@ class AxisGuard:
             )
 
     def check_command(self, command: float | complex, k: int) -> None:
-        """Check the command of cycle ``k`` (the loop's cycle index, missed cycles included)."""
+        """Check the command of cycle ``k`` before it is sent.
+
+        Parameters
+        ----------
+        command : float | complex
+            The command, in the axis's mode's unit.
+        k : int
+            The loop's cycle index, missed cycles included.
+
+        Raises
+        ------
+        SafetyStop
+            Naming the axis: not finite, over the limit, or a position command's travel, window or
+            step.
+        """
         size = abs(command)
         if not math.isfinite(size):
             raise SafetyStop(f"controller output is {command!r}")

@@ -45,7 +45,13 @@ def forget() -> None:
 
 
 def taken() -> StopRequested | None:
-    """The first stop signal this process took since ``forget()``, as a request (None: none)."""
+    """The first stop signal this process took since ``forget()``, as a request.
+
+    Returns
+    -------
+    StopRequested | None
+        The request (None: no signal taken).
+    """
     return StopRequested(_words(_TAKEN[0]), _TAKEN[0]) if _TAKEN else None
 
 
@@ -54,10 +60,20 @@ def _words(signum: int) -> str:
 
 
 class StopRequested(KeyboardInterrupt):
-    """A stop was asked for; ``reason`` names it, ``signum`` the signal (None: asked otherwise, a
-    sweep point's time-out). Passed on after a command's drives were brought to rest:
-    ``confirmed`` their stop (True: at rest and disabled; False: not confirmed, they may still
-    be moving; None: nothing was moving) and ``kept`` where the work done so far is."""
+    """A stop was asked for; passed on after a command's drives were brought to rest.
+
+    Parameters
+    ----------
+    reason : str
+        The words naming it.
+    signum : int | None
+        The signal (None: asked otherwise, a sweep point's time-out).
+    confirmed : bool | None
+        The drives' stop: True at rest and disabled; False not confirmed, they may still be moving;
+        None nothing was moving.
+    kept : str | None
+        Where the work done so far is.
+    """
 
     def __init__(
         self,
@@ -74,7 +90,20 @@ class StopRequested(KeyboardInterrupt):
         self.kept = kept
 
     def after(self, *, confirmed: bool | None, kept: str | None) -> StopRequested:
-        """This request, passed on once a stop it began has ended (``confirmed``, ``kept``)."""
+        """This request, passed on once a stop it began has ended.
+
+        Parameters
+        ----------
+        confirmed : bool | None
+            The drives' stop (as the class's).
+        kept : str | None
+            Where the work done so far is.
+
+        Returns
+        -------
+        StopRequested
+            A new request with the same reason and signal.
+        """
         return StopRequested(self.reason, self.signum, confirmed=confirmed, kept=kept)
 
 
@@ -84,10 +113,17 @@ def stop_reason(exc: KeyboardInterrupt) -> str:
 
 
 class StopRequests:
-    """``install()`` the handlers (a no-op outside the main thread), ``stopping()`` once the stop
-    has begun, ``restore()`` the previous handlers (idempotent), ``pass_on()`` the stop signal
-    ``taken`` (the first that came while installed). ``doing`` is logged with the first signal
-    (None: nothing)."""
+    """The session's signal handlers (module docstring).
+
+    ``install()`` the handlers (a no-op outside the main thread), ``stopping()`` once the stop has
+    begun, ``restore()`` the previous handlers (idempotent), ``pass_on()`` the stop signal
+    ``taken`` (the first that came while installed).
+
+    Parameters
+    ----------
+    doing : str | None
+        Logged with the first signal (None: nothing).
+    """
 
     def __init__(self, doing: str | None = "stopping the drives") -> None:
         self._previous: dict[int, Any] = {}
@@ -99,6 +135,7 @@ class StopRequests:
         self.held = _Held(self)  #: ``with requests.held:`` a signal inside raises at its end
 
     def install(self) -> None:
+        """Install the handlers, from the main thread; a signal ignored now stays ignored."""
         if threading.current_thread() is not threading.main_thread() or self._previous:
             return
         for sig in SIGNALS:
@@ -111,14 +148,27 @@ class StopRequests:
         self._armed = False
 
     def restore(self) -> None:
+        """The handlers as they were before ``install`` (idempotent)."""
         previous, self._previous = self._previous, {}
         for sig, handler in previous.items():
             signal.signal(sig, handler)
         self._armed = False
 
     def pass_on(self, confirmed: bool | None, kept: object = None) -> None:
-        """Raise the stop signal taken, if any, once the stop it began has ended (``confirmed``;
-        ``kept``: where the work done so far is)."""
+        """Raise the stop signal taken, if any, once the stop it began has ended.
+
+        Parameters
+        ----------
+        confirmed : bool | None
+            The drives' stop (``StopRequested``'s).
+        kept : object
+            Where the work done so far is (None: nowhere).
+
+        Raises
+        ------
+        StopRequested
+            The signal taken, with ``confirmed`` and ``kept``.
+        """
         if self.taken is not None:
             raise self.taken.after(confirmed=confirmed, kept=None if kept is None else str(kept))
 

@@ -27,8 +27,17 @@ POINTS = 2000
 
 @dataclass(frozen=True)
 class ReferenceSpan:
-    """The lowest and highest value of a reference over a run, and when [s]; taken before the
-    run (the reference is a function of time) so that cycle 0 only adds the origin."""
+    """The lowest and highest value of a reference over a run, and when.
+
+    Taken before the run (the reference is a function of time) so that cycle 0 only adds the origin.
+
+    Parameters
+    ----------
+    lo, hi : float
+        The lowest and highest value [rad].
+    t_lo, t_hi : float
+        [s] when the reference takes them.
+    """
 
     lo: float
     t_lo: float
@@ -37,7 +46,22 @@ class ReferenceSpan:
 
     @classmethod
     def of(cls, reference: Reference, cycles: int, period: float) -> ReferenceSpan:
-        """Over ``cycles`` periods of ``period`` [s], in at most ``POINTS`` points and the end."""
+        """The span of ``reference`` over a run, in at most ``POINTS`` points and the end.
+
+        Parameters
+        ----------
+        reference : Reference
+            t [s] -> (value, rate).
+        cycles : int
+            The run's cycles.
+        period : float
+            [s] the loop's period.
+
+        Returns
+        -------
+        ReferenceSpan
+            Its span.
+        """
         n = max(1, min(cycles, POINTS))
         end = max(cycles - 1, 0) * period
         values = [(reference(t)[0], t) for t in [end * j / n for j in range(n)] + [end]]
@@ -48,8 +72,26 @@ class ReferenceSpan:
 def reference_span(
     law: Law, guards: Sequence[AxisGuard], reads: Sequence[int], cycles: int, period: float
 ) -> ReferenceSpan | None:
-    """The span of ``law``'s position reference over the run when the read axis (``reads[0]``
-    of ``guards``) has a position window; None otherwise (nothing to check)."""
+    """The span of ``law``'s position reference over the run, where the read axis has a position window.
+
+    Parameters
+    ----------
+    law : Law
+        The run's law.
+    guards : Sequence[AxisGuard]
+        The axes' guards.
+    reads : Sequence[int]
+        The axes the law reads (the first is checked).
+    cycles : int
+        The run's cycles.
+    period : float
+        [s] the loop's period.
+
+    Returns
+    -------
+    ReferenceSpan | None
+        The span; None where there is nothing to check.
+    """
     law = getattr(law, "inner", law)  # (a FaultyLaw's own law)
     if not (law.position_reference and reads):
         return None
@@ -60,10 +102,26 @@ def reference_span(
 
 
 def check_absolute_start(law: Law, guard: AxisGuard, sample: Feedback) -> None:
-    """An absolute position reference (``origin = "zero"``) must start where the read axis
-    stands, within the step a motor at the speed limit makes in a period (the guard's): else
-    SafetyStop, before the first command would drive the shaft there at full force. (A CSP
-    axis's guard refuses such a first position command itself.)"""
+    """An absolute position reference (``origin = "zero"``) must start where the read axis stands.
+
+    Within the step a motor at the speed limit makes in a period (the guard's), before the first
+    command would drive the shaft there at full force (a CSP axis's guard refuses such a first
+    position command itself).
+
+    Parameters
+    ----------
+    law : Law
+        The law (its reference at 0 s).
+    guard : AxisGuard
+        The read axis's guard.
+    sample : Feedback
+        Its first sample.
+
+    Raises
+    ------
+    SafetyStop
+        Naming both positions and what to do.
+    """
     if law.origin != "zero" or guard.position_command:
         return
     start, at = law.reference(0.0)[0], sample.position
@@ -76,10 +134,27 @@ def check_absolute_start(law: Law, guard: AxisGuard, sample: Feedback) -> None:
 
 
 def check_reference_window(span: ReferenceSpan, offset: float, guard: AxisGuard, sample: Feedback) -> None:
-    """A position reference (``span``, moved by the law's origin ``offset`` [rad]) that leaves
-    the read axis's ``[position_min, position_max]`` within the run (a move from where a run
-    before left the shaft): SafetyStop before the first command, not a stop at the window
-    mid-move."""
+    """A position reference must stay within the read axis's ``[position_min, position_max]``.
+
+    A move from where a run before left the shaft is refused before the first command, not
+    stopped at the window mid-move.
+
+    Parameters
+    ----------
+    span : ReferenceSpan
+        The reference's span.
+    offset : float
+        [rad] the law's origin, added to it.
+    guard : AxisGuard
+        The read axis's guard.
+    sample : Feedback
+        Its first sample.
+
+    Raises
+    ------
+    SafetyStop
+        Naming where and when the reference leaves the window, and what to do.
+    """
     c = guard.limits
     below, above = c.position_min - (span.lo + offset), (span.hi + offset) - c.position_max
     if max(below, above) <= 0.0:
@@ -102,10 +177,33 @@ def check_first_samples(
     span: ReferenceSpan | None,
     samples: Sequence[Feedback],
 ) -> None:
-    """Cycle 0 of the host loop: every axis has sent a sample (else CommunicationError naming the
-    silent ones, before any command); the law gets the first samples of the axes it ``reads``
-    (``Law.begin``: a position reference's origin), whose start and ``span`` are checked against
-    the first read axis's limits."""
+    """Cycle 0 of the host loop: every axis has sent a sample; the law begins on its first samples.
+
+    The law gets the first samples of the axes it ``reads`` (``Law.begin``: a position
+    reference's origin), whose start and ``span`` are checked against the first read axis's limits.
+
+    Parameters
+    ----------
+    law : Law
+        The run's law.
+    axes : Sequence[AxisDriver]
+        The loop's axes.
+    guards : Sequence[AxisGuard]
+        Their guards.
+    reads : Sequence[int]
+        The axes the law reads.
+    span : ReferenceSpan | None
+        The reference's span (`reference_span`).
+    samples : Sequence[Feedback]
+        Each axis's first sample.
+
+    Raises
+    ------
+    CommunicationError
+        Naming the silent axes, before any command.
+    SafetyStop
+        From `check_absolute_start` and `check_reference_window`.
+    """
     silent = [axis.where for axis in axes if not axis.has_sample()]
     if silent:
         raise CommunicationError(f"no process data from {', '.join(silent)} after the first SYNC")

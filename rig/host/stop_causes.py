@@ -21,8 +21,19 @@ log = logging.getLogger(__name__)
 
 
 def cause_of(exc: Exception) -> tuple[str, bool]:
-    """(The safe stop's reason for ``exc``, whether a check of a sample raised it: another producer's
-    frame may be the cause, ``ProducerWatch.cause``). Call it in the ``except`` block."""
+    """The safe stop's reason for ``exc``; call it in the ``except`` block.
+
+    Parameters
+    ----------
+    exc : Exception
+        What the cycles raised.
+
+    Returns
+    -------
+    tuple[str, bool]
+        (the reason, whether a check of a sample raised it: another producer's frame may be the
+        cause, ``ProducerWatch.cause``).
+    """
     if isinstance(exc, SafetyStop):
         return str(exc), not isinstance(exc, (OtherMaster, OtherProducer))
     if isinstance(exc, DeviceFault):

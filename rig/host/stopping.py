@@ -47,18 +47,28 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class StopResult:
-    """How a stop ended: ``confirmed`` (every axis disabled, every shaft at rest for its hold),
-    ``turning`` {axis: the speed [rad/s] of its last sample, None if none came} for the axes
-    not at rest, and ``problems``, each in words."""
+    """How a stop ended."""
 
+    #: every axis disabled, every shaft at rest for its hold
     confirmed: bool
+    #: the axes not at rest: the speed [rad/s] of its last sample (None: none came)
     turning: dict[str, float | None] = field(default_factory=dict)
+    #: what went wrong, each in words
     problems: list[str] = field(default_factory=list)
 
 
 class RestWatch:
-    """One axis's rest after its disable: ``see`` each new speed sample [rad/s]; ``done`` once
-    ``samples`` in a row were within ``window`` [rad/s]."""
+    """One axis's rest after its disable: ``see`` each new speed sample; ``done`` once at rest long enough.
+
+    Parameters
+    ----------
+    window : float
+        [rad/s] the at-rest window.
+    hold : float
+        [s] how long the samples stay in it (``samples`` in a row).
+    period : float
+        [s] the loop's period.
+    """
 
     def __init__(self, window: float, hold: float, period: float) -> None:
         self.window = window
@@ -68,15 +78,40 @@ class RestWatch:
 
     @classmethod
     def of(cls, axis: AxisDriver, period: float) -> RestWatch:
-        """``axis``'s window (its ``rest_speed``, or one speed unit where coarser) and hold."""
+        """``axis``'s watch: its ``rest_speed`` (or one speed unit where coarser) and ``rest_time``.
+
+        Parameters
+        ----------
+        axis : AxisDriver
+            The axis.
+        period : float
+            [s] the loop's period.
+
+        Returns
+        -------
+        RestWatch
+            Its watch.
+        """
         return cls(max(axis.rest_speed, axis.quanta()[1]), axis.rest_time, period)
 
     @property
     def done(self) -> bool:
+        """The samples in a row within the window make the hold."""
         return self.run >= self.samples
 
     def see(self, speed: float | None) -> bool:
-        """A new sample (None: none this cycle, which counts neither way); ``done`` after it."""
+        """A new sample; None (none this cycle) counts neither way.
+
+        Parameters
+        ----------
+        speed : float | None
+            [rad/s] the shaft's speed.
+
+        Returns
+        -------
+        bool
+            ``done`` after it.
+        """
         if speed is not None:
             self.speed = speed
             self.run = self.run + 1 if abs(speed) <= self.window else 0  # NaN: not at rest
@@ -114,34 +149,37 @@ def bring_to_rest(
     realtime: bool,
     heartbeat: Callable[[int], None] | None = None,
 ) -> StopResult:
-    """See the module docstring; ``period`` [s] of the loop, ``realtime``: wait it between ticks
-    where the host keeps the pace; ``heartbeat(k)``: the host's, beating on meanwhile."""
-    problems: list[str] = []
+    """Bring ``axes`` to rest and disabled (module docstring).
+
+    Parameters
+    ----------
+    axes : Sequence[AxisDriver]
+        Every axis of the run.
+    commanded : Sequence[AxisDriver]
+        Those commanded, given their neutral command first.
+    pacing : Pacing
+        The run's pacing (its SYNCs).
+    period : float
+        [s] the loop's period.
+    timeout : float
+        [s] for the ramps (in lock-step at least ``LOCKSTEP_HOLD_WALL`` of wall time).
+    realtime : bool
+        Wait a period between ticks where the host keeps the pace.
+    heartbeat : Callable[[int], None] | None
+        The host's, beating on meanwhile (None: none).
+
+    Returns
+    -------
+    StopResult
+        Confirmed or not, the axes still turning and the problems.
+    """
     faulted = {a: a.fault for a in axes}  # a fault the stop began with is its cause, not news
     ok, stopping = _begin(axes, commanded)
-    beat, pending = [heartbeat], list(stopping)
+    beat = [heartbeat]
     soft = time.monotonic() + timeout  # wall time too (a dead bus makes each check slow); not in
     deadline = soft if realtime else soft + max(0.0, LOCKSTEP_HOLD_WALL - timeout)  # lock-step's ramp
-
-    def rested(a: AxisDriver) -> bool:
-        return bool(_asked(a, lambda: a.at_rest(a.feedback()), "state"))
-
-    def keep() -> None:
-        for a in stopping:
-            _asked(a, a.keep_stopping, "command while stopping")
-
-    if not _cycles(
-        pacing,
-        period,
-        timeout,
-        deadline,
-        realtime=realtime,
-        beat=beat,
-        keep=keep,
-        done=lambda: _pending(pending, rested),
-    ):
-        for a in pending:
-            problems.append(f"{a.name}: its stop ramp did not end within {timeout:g} s")
+    keep = functools.partial(_keep, stopping)
+    problems = _ramp(stopping, pacing, period, timeout, deadline, realtime=realtime, beat=beat, keep=keep)
     for a in stopping:
         ok &= _retry(a, a.disable, "disable")
     turning = _watch_rest(axes, pacing, period, soft, realtime=realtime, beat=beat, keep=keep)
@@ -152,6 +190,44 @@ def bring_to_rest(
     for text in problems:
         log.error("stop not confirmed: %s", text)
     return StopResult(ok and not problems, turning, problems)
+
+
+def _keep(stopping: Sequence[AxisDriver]) -> None:
+    """Each stopping axis keeps its device's watch of the host fed (``AxisDriver.keep_stopping``)."""
+    for a in stopping:
+        _asked(a, a.keep_stopping, "command while stopping")
+
+
+def _ramp(
+    stopping: Sequence[AxisDriver],
+    pacing: Pacing,
+    period: float,
+    timeout: float,
+    deadline: float,
+    *,
+    realtime: bool,
+    beat: list[Callable[[int], None] | None],
+    keep: Callable[[], None],
+) -> list[str]:
+    """SYNC cycles until every stopping axis reports its own stop ended (``AxisDriver.at_rest``),
+    at most ``timeout`` [s] of periods and the wall-clock ``deadline``; the axes whose ramp did not
+    end, in words."""
+    pending = list(stopping)
+
+    def rested(a: AxisDriver) -> bool:
+        return bool(_asked(a, lambda: a.at_rest(a.feedback()), "state"))
+
+    done = _cycles(
+        pacing,
+        period,
+        timeout,
+        deadline,
+        realtime=realtime,
+        beat=beat,
+        keep=keep,
+        done=lambda: _pending(pending, rested),
+    )
+    return [] if done else [f"{a.name}: its stop ramp did not end within {timeout:g} s" for a in pending]
 
 
 def _watch_rest(

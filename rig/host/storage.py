@@ -38,9 +38,16 @@ SUMMARY_ROOM = 64 * 1024  #: [bytes] of it kept back for summary.json (about 1-1
 
 
 class RowFile:
-    """``path`` opened for rows of text: ``write`` keeps a row (ending in a newline),
-    ``flush`` puts the rows kept on disk whole or raises OSError with the file cut back to its
-    last whole row. ``lines``: whole lines on disk. ``fileno()`` reads back with ``os.pread``."""
+    """``path`` opened for rows of text, whole rows on disk (module docstring).
+
+    ``write`` keeps a row (ending in a newline), ``flush`` puts the rows kept on disk whole or raises
+    OSError with the file cut back to its last whole row; ``fileno()`` reads back with ``os.pread``.
+
+    Parameters
+    ----------
+    path : Path
+        The file, created or truncated.
+    """
 
     def __init__(self, path: Path) -> None:
         self._fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
@@ -51,10 +58,23 @@ class RowFile:
         self.closed = False
 
     def write(self, text: str) -> None:
-        """Keep ``text`` (whole lines) for the next flush."""
+        """Keep ``text`` for the next flush.
+
+        Parameters
+        ----------
+        text : str
+            Whole lines.
+        """
         self._rows.append(text)
 
     def fileno(self) -> int:
+        """The file's descriptor (for ``os.pread``: its position is not used).
+
+        Returns
+        -------
+        int
+            The descriptor.
+        """
         return self._fd
 
     @property
@@ -100,7 +120,15 @@ class RowFile:
 
 
 class Reserve:
-    """``size`` bytes held on the filesystem of ``folder`` until ``shrink`` and ``release``."""
+    """``size`` bytes held on the filesystem of ``folder`` until ``shrink`` and ``release``.
+
+    Parameters
+    ----------
+    folder : Path
+        The run directory.
+    size : int
+        [bytes] held (none where the filesystem cannot allocate ahead).
+    """
 
     def __init__(self, folder: Path, size: int = RESERVE) -> None:
         self._fd: int | None = None
@@ -127,10 +155,23 @@ class Reserve:
 
     @property
     def held(self) -> bool:
+        """The space is held.
+
+        Returns
+        -------
+        bool
+            True where it was allocated and is not released.
+        """
         return self._fd is not None
 
     def shrink(self, keep: int = SUMMARY_ROOM) -> None:
-        """Give back all but ``keep`` bytes."""
+        """Give back all but ``keep`` bytes.
+
+        Parameters
+        ----------
+        keep : int
+            [bytes] still held.
+        """
         if self._fd is not None:
             with contextlib.suppress(OSError):
                 os.ftruncate(self._fd, keep)
@@ -143,7 +184,15 @@ class Reserve:
 
 
 def trim_to_line(path: Path, block: int = 4096) -> None:
-    """Cut ``path`` after its last newline (nothing when it ends in one); OSError if it cannot."""
+    """Cut ``path`` after its last newline (nothing when it ends in one); OSError if it cannot.
+
+    Parameters
+    ----------
+    path : Path
+        A text file.
+    block : int
+        [bytes] read at a time, backwards from the end.
+    """
     with path.open("rb+") as f:
         end = f.seek(0, os.SEEK_END)
         pos = end
@@ -163,9 +212,21 @@ def trim_to_line(path: Path, block: int = 4096) -> None:
 def write_atomic(
     path: Path, write: Callable[[Any], None], *, binary: bool = False, sync: bool = True
 ) -> None:
-    """``write(file)`` into a temporary file beside ``path``, then rename it to ``path``: the
-    file is there whole or not at all (OSError when it cannot be written); ``sync``: on the disk
-    (fsync) before the rename."""
+    """``write(file)`` into a temporary file beside ``path``, then rename it to ``path``.
+
+    The file is there whole or not at all (OSError when it cannot be written).
+
+    Parameters
+    ----------
+    path : Path
+        The file written.
+    write : Callable[[Any], None]
+        Writes the content into the open file it is given.
+    binary : bool
+        Open it in binary mode.
+    sync : bool
+        On the disk (fsync) before the rename.
+    """
     tmp = path.with_name(f".{path.name}.tmp")
     try:
         with tmp.open("wb" if binary else "w") as f:
@@ -182,9 +243,22 @@ def write_atomic(
 def write_mat(
     f: Any, names: Sequence[str], column: Callable[[int], np.ndarray], docs: dict[str, dict[str, str]]
 ) -> None:
-    """samples.mat into ``f``: one variable per column (``column(i)``, named ``names[i]`` with dots
-    as underscores), then the structs column_unit and column_meaning (MATLAB: column_unit.t = 's'),
-    each appended in turn (one column in memory at a time)."""
+    """samples.mat into ``f``, one column in memory at a time.
+
+    One variable per column, then the structs column_unit and column_meaning (MATLAB:
+    column_unit.t = 's'), each appended in turn.
+
+    Parameters
+    ----------
+    f : Any
+        The binary file, open.
+    names : Sequence[str]
+        The columns' names (dots written as underscores).
+    column : Callable[[int], np.ndarray]
+        Column ``i``'s samples.
+    docs : dict[str, dict[str, str]]
+        Each column's ``unit`` and ``meaning`` (``describe_columns``).
+    """
     import scipy.io
 
     for i, name in enumerate(c.replace(".", "_") for c in names):

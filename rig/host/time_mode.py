@@ -41,7 +41,15 @@ _BOOT_UP = 0
 
 
 class TimeModeProbe:
-    """See the module docstring; ``axes``: the CANopen axes (``node_id``, ``sdo_read``)."""
+    """A host and a device that disagree about time (module docstring).
+
+    Parameters
+    ----------
+    network : Any
+        The CANopen network (its heartbeats subscribed to).
+    axes : Sequence[Any]
+        The CANopen axes (``node_id``, ``sdo_read``, ``where``).
+    """
 
     def __init__(self, network: Any, axes: Sequence[Any]) -> None:
         self.network = network
@@ -69,7 +77,18 @@ class TimeModeProbe:
             self.last_sync = time.monotonic()
 
     def sending(self, sync: Callable[[], None]) -> Callable[[], None]:
-        """``sync`` (a SYNC of the set-up's), noted as it is sent."""
+        """``sync`` (a SYNC of the set-up's), noted as it is sent.
+
+        Parameters
+        ----------
+        sync : Callable[[], None]
+            Sends a SYNC.
+
+        Returns
+        -------
+        Callable[[], None]
+            Sends it and notes it (`synced`).
+        """
 
         def send() -> None:
             sync()
@@ -78,6 +97,7 @@ class TimeModeProbe:
         return send
 
     def close(self) -> None:
+        """Unsubscribe from the heartbeats (idempotent; `check` does it too)."""
         for cob, callback in self._subscribed:
             if callback in self.network.subscribers.get(cob, ()):
                 self.network.unsubscribe(cob, callback)
@@ -92,7 +112,18 @@ class TimeModeProbe:
             return 0.0
 
     def check(self, *, lockstep: bool) -> None:
-        """ConfigError where a node keeps time the other way than the host (module docstring)."""
+        """Judge each node with a producer heartbeat time against the host's time (module docstring).
+
+        Parameters
+        ----------
+        lockstep : bool
+            The host's time is the SYNCs' (else real time).
+
+        Raises
+        ------
+        ConfigError
+            Naming the node, the host's mode and the flag to change.
+        """
         try:
             for axis in self.axes:
                 producer = self._producer(axis)

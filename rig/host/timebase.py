@@ -17,15 +17,34 @@ __all__ = ["Timebase"]
 
 @dataclass(frozen=True, slots=True)
 class Timebase:
-    """``period`` [s] of a cycle; ``lockstep``: time passes by the cycles (the SYNCs), not by the
-    wall clock (``[run] time = "lockstep"``; else real time)."""
+    """The run's clock (module docstring).
+
+    Parameters
+    ----------
+    period : float
+        [s] of a cycle.
+    lockstep : bool
+        Time passes by the cycles (the SYNCs), not by the wall clock (``[run] time = "lockstep"``;
+        else real time).
+    """
 
     period: float
     lockstep: bool = True
 
     @classmethod
     def of(cls, cfg: RigConfig) -> Timebase:
-        """The timebase of ``cfg`` (checked when it was loaded)."""
+        """The timebase of ``cfg`` (checked when it was loaded).
+
+        Parameters
+        ----------
+        cfg : RigConfig
+            The loaded configuration.
+
+        Returns
+        -------
+        Timebase
+            Its period and time.
+        """
         return cls(cfg.period, cfg.run.time == "lockstep")
 
     @property
@@ -34,7 +53,23 @@ class Timebase:
         return not self.lockstep
 
     def cycles(self, duration: float) -> int:
-        """The cycles of ``duration`` [s] (finite, > 0; else ValueError)."""
+        """The cycles of ``duration``.
+
+        Parameters
+        ----------
+        duration : float
+            [s] finite, > 0.
+
+        Returns
+        -------
+        int
+            The number of cycles, rounded.
+
+        Raises
+        ------
+        ValueError
+            If ``duration`` is not finite and > 0.
+        """
         if not (math.isfinite(duration) and duration > 0.0):
             raise ValueError(f"duration = {duration!r}: must be a finite time > 0 s")
         return round(duration / self.period)

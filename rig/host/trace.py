@@ -14,8 +14,7 @@ for 620 ms), and ``TracedNetwork`` gives the trace the frames the host sends (a 
 delivers only what the others send): SYNC, RPDOs, SDO requests, NMT, heartbeat, each
 marked Tx; the frames received are Rx (``received``: python-can's socketcan marks a frame another
 socket of the same machine sent as Tx, as every frame of a vcan or of an emulator on the
-host's own can0 is; candump and the host's trace then disagreed on the direction of every
-frame the host received). SYNCs the kernel's broadcast manager sends
+host's own can0 is; docs/testing.md). SYNCs the kernel's broadcast manager sends
 (``[bus] interface = "socketcan"`` in real time) do not pass through the host and are
 not in the trace.
 """
@@ -37,7 +36,15 @@ __all__ = ["AscTrace", "TracedNetwork", "attach_received", "detach_received", "r
 
 
 class AscTrace(can.ASCWriter):
-    """``can.ASCWriter`` with a fast path for classic data frames (see the module docstring)."""
+    """``can.ASCWriter`` with a fast path for classic data frames (module docstring).
+
+    Parameters
+    ----------
+    file : Any
+        The trace's file or path (``can.ASCWriter``'s).
+    channel : int
+        The channel written where a frame has none.
+    """
 
     def __init__(self, file: Any, channel: int = 1) -> None:
         super().__init__(file, channel=channel)
@@ -58,6 +65,13 @@ class AscTrace(can.ASCWriter):
         return head
 
     def on_message_received(self, msg: can.Message) -> None:
+        """Write ``msg``'s line (python-can's writer for any frame but a classic 11-bit data frame).
+
+        Parameters
+        ----------
+        msg : can.Message
+            The frame.
+        """
         if (
             not self.header_written
             or msg.is_fd
@@ -81,13 +95,17 @@ class AscTrace(can.ASCWriter):
 
 
 class TracedNetwork(canopen.Network):
-    """canopen's ``Network`` whose every frame sent also goes to ``tx_tap`` as a Tx frame,
-    stamped with the wall clock [s] (the clock of the frames received).
+    """canopen's ``Network`` whose every frame sent also goes to ``tx_tap`` as a Tx frame.
 
-    A frame is sent and traced under ``trace_lock``, which the listener of the frames received
-    (``received``) takes too: an answer cannot be traced before the request it answers. (Traced
-    after the send without the lock, a drive's SDO answer was now and then written before the
-    request: the receive thread got it while the sender was between its send and its tap.)"""
+    Stamped with the wall clock [s] (the clock of the frames received). A frame is sent and traced
+    under ``trace_lock``, which the listener of the frames received (`received`) takes too: an
+    answer cannot be traced before the request it answers.
+
+    Parameters
+    ----------
+    *args, **kwargs : Any
+        ``canopen.Network``'s.
+    """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -95,6 +113,17 @@ class TracedNetwork(canopen.Network):
         self.trace_lock = threading.Lock()
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        """Send a frame (``canopen.Network.send_message``), and trace it.
+
+        Parameters
+        ----------
+        can_id : int
+            Its COB-ID.
+        data : bytes
+            Its data.
+        remote : bool
+            A remote frame.
+        """
         if self.tx_tap is None:
             super().send_message(can_id, data, remote)
             return
@@ -117,9 +146,24 @@ class TracedNetwork(canopen.Network):
 def received(
     tap: Callable[[can.Message], None], lock: threading.Lock | None = None
 ) -> Callable[[can.Message], None]:
-    """A bus listener that gives ``tap`` every frame it receives marked Rx: what the host's own
-    socket receives was sent by another node, whatever the kernel says about where it came from.
-    With ``lock`` (``TracedNetwork.trace_lock``), after any frame being sent has been traced."""
+    """A bus listener that gives ``tap`` every frame it receives, marked Rx.
+
+    What the host's own socket receives was sent by another node, whatever the kernel says about
+    where it came from.
+
+    Parameters
+    ----------
+    tap : Callable[[can.Message], None]
+        Where the frames go.
+    lock : threading.Lock | None
+        ``TracedNetwork.trace_lock``: taken, so a frame comes after any frame being sent has been
+        traced (None: no lock).
+
+    Returns
+    -------
+    Callable[[can.Message], None]
+        The listener.
+    """
 
     def on_received(msg: can.Message) -> None:
         if not msg.is_rx:
@@ -136,10 +180,23 @@ def received(
 def attach_received(
     network: TracedNetwork, tap: Callable[[can.Message], None]
 ) -> Callable[[can.Message], None]:
-    """Give ``tap`` every frame ``network`` receives (``received``), ahead of canopen's own
-    listener: canopen's wakes the SDO client, which may send its next request before a listener
-    after it has traced the answer. The list is replaced, not changed, under the receive thread's
-    loop. Returns the listener, for ``detach_received``."""
+    """Give ``tap`` every frame ``network`` receives (`received`), ahead of canopen's own listener.
+
+    canopen's wakes the SDO client, which may send its next request before a listener after it has
+    traced the answer. The list is replaced, not changed, under the receive thread's loop.
+
+    Parameters
+    ----------
+    network : TracedNetwork
+        The network, connected.
+    tap : Callable[[can.Message], None]
+        Where the frames go.
+
+    Returns
+    -------
+    Callable[[can.Message], None]
+        The listener, for `detach_received`.
+    """
     listener = received(tap, network.trace_lock)
     notifier = network.notifier
     if notifier is not None:
@@ -148,6 +205,15 @@ def attach_received(
 
 
 def detach_received(network: TracedNetwork, listener: Callable[[can.Message], None]) -> None:
+    """Take the listener `attach_received` returned off ``network``.
+
+    Parameters
+    ----------
+    network : TracedNetwork
+        The network.
+    listener : Callable[[can.Message], None]
+        The listener.
+    """
     notifier = network.notifier
     if notifier is not None:
         notifier.listeners = [x for x in notifier.listeners if x is not listener]

@@ -13,7 +13,22 @@ __all__ = ["open_transport"]
 
 
 def open_transport(cfg: RigConfig, timebase: Timebase, *, emulate: bool) -> Transport:
-    """The transport of ``cfg``'s run (``emulate``: the emulated world in this process)."""
+    """The transport of ``cfg``'s run.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration.
+    timebase : Timebase
+        The run's clock.
+    emulate : bool
+        The emulated world in this process.
+
+    Returns
+    -------
+    Transport
+        ``EmulatedWorld``, ``CanBus`` or ``ModbusOnly``.
+    """
     if emulate:
         from rig.host import emulation  # the emulator only where it runs
 

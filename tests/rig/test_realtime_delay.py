@@ -14,7 +14,7 @@ period more delay than in lock-step (and than the tests proved).
 
 What the load changes is only which cycles were late (their answers missed the budget; the row
 says so, and the cycle used what it had). The host carries every owed answer over
-(``rig.host.pacing._Answers``), so the check holds for every cycle not late, whatever the
+(``rig.host.sync_answers.SyncAnswers``), so the check holds for every cycle not late, whatever the
 machine's load, and after a stall of either process (SIGSTOP for ``STALL`` periods, three
 times: the emulator answers the SYNCs it missed in a burst, which a cycle that took part of it
 for its own answer, carrying one owed answer at most, acted on while not late). No latency, rms
