@@ -4,10 +4,8 @@
 SDO access that raises ``SdoAbort``/``CommunicationTimeout`` naming the node and
 object, NMT commands, the EMCY consumer (an EMCY with a non-zero code becomes
 the axis's ``fault``), and the per-cycle supervision of NMT state, heartbeat
-and EMCY. Process data are received by ``TpdoSlot``: a plain subscriber that
-keeps the last frame and its timestamp (canopen's ``PdoMap.on_message`` takes a
-lock and notifies waiters on every frame, which the cycle does not need) and
-decodes it with a struct built from the mapping in force.
+and EMCY. Process data are received by ``drivers.tpdo_slot.TpdoSlot`` (re-exported
+here with ``pdo_codec`` and ``sample_interval``).
 """
 
 from __future__ import annotations
@@ -15,34 +13,25 @@ from __future__ import annotations
 import contextlib
 import logging
 import struct
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import canopen
 from canopen.emcy import EmcyError
 from canopen.sdo.base import SdoVariable
-from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from drivers.base import AxisDriver
-from drivers.errors import (
-    CommunicationError,
-    CommunicationTimeout,
-    DeviceFault,
-    DictionaryMismatch,
-    NotInDictionary,
-    SafetyStop,
-    SdoAbort,
-    brief,
-)
+from drivers.errors import CommunicationError, DeviceFault, SafetyStop, brief
 from drivers.identity import Identity, check_identity, read_identity
 from drivers.maps import cia
 from drivers.maps.emcy import emcy_text
 from drivers.maps.logical import axis_dictionary, axis_object
 from drivers.maps.od import load_od
-from drivers.maps.sdo_aborts import abort_text
 from drivers.master_watch import MasterWatch, OtherMaster
 from drivers.producer_watch import OtherProducer, ProducerWatch
 from drivers.sdo_answer import sized
+from drivers.sdo_errors import sdo_errors
+from drivers.tpdo_slot import TpdoSlot, pdo_codec, sample_interval
 
 __all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec", "sample_interval"]
 
@@ -50,86 +39,6 @@ log = logging.getLogger(__name__)
 
 #: EMCY codes of a PDO not processed for its length (CiA 301: too short, too long)
 _PDO_LENGTH = frozenset({cia.EmcyCode.PDO_TOO_SHORT, cia.EmcyCode.PDO_TOO_LONG})
-
-
-class TpdoSlot:
-    """The last frame of one TPDO and its decoder (little-endian, per the mapping in force)."""
-
-    __slots__ = (
-        "_decoded",
-        "_decoded_of",
-        "cob_id",
-        "codec",
-        "data",
-        "frames",
-        "node_id",
-        "producers",
-        "since",
-        "timestamp",
-        "ttype",
-    )
-
-    def __init__(self, node_id: int, cob_id: int, codec: struct.Struct) -> None:
-        self.node_id = node_id
-        self.cob_id = cob_id
-        self.codec = codec
-        self.data: bytes | bytearray = bytes(codec.size)  #: zeros until the first frame (stamp None)
-        self.timestamp: float | None = None
-        #: its transmission type (CiA 301, 0x1800 sub 2): 1 answers every SYNC, 2-240 every n-th,
-        #: 0 acyclic, 254/255 event-driven; set where the mapping in force is known
-        self.ttype = 1
-        #: the values of the frame ``_decoded_of`` (a frame's data are not changed once received)
-        self._decoded: tuple[Any, ...] = ()
-        self._decoded_of: bytes | bytearray | None = None
-        #: the bus's watch for another producer on this COB-ID (``ProducerWatch.watch``: it counts
-        #: ``frames`` against the SYNCs since the count ``since``), or None
-        self.producers: ProducerWatch | None = None
-        self.frames = 0
-        self.since = 0
-
-    def on_frame(self, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
-        producers = self.producers
-        if producers is not None and not producers.take(self, data):
-            return  # not its node's (``ProducerWatch``): not taken
-        self.data = data
-        self.timestamp = timestamp
-
-    def values(self) -> tuple[Any, ...]:
-        """The mapped values of the last frame (decoded once); CommunicationError naming it when
-        its length is wrong."""
-        data = self.data
-        if data is self._decoded_of:
-            return self._decoded
-        if len(data) != self.codec.size:
-            raise CommunicationError(
-                f"node {self.node_id}: TPDO 0x{self.cob_id:03X} has {len(data)} bytes, "
-                f"its mapping {self.codec.size}"
-            )
-        self._decoded, self._decoded_of = self.codec.unpack(data), data
-        return self._decoded
-
-
-def sample_interval(last: float | None, stamp: float | None, period: float) -> float:
-    """[s] from the sample stamped ``last`` to the one stamped ``stamp``, for a speed by difference:
-    whole periods ``period`` [s] where the stamps are on the SYNC grid (lock-step), their difference
-    where not (real time: a cycle the host skipped, a late SYNC: dividing by one period there made
-    a sample after two skipped cycles three times too fast); a period where they cannot tell."""
-    if stamp is None or last is None or not stamp > last:
-        return period
-    dt = stamp - last
-    n = round(dt / period)
-    return n * period if n >= 1 and abs(dt - n * period) <= 1e-6 * period else dt
-
-
-def pdo_codec(pdo: Any) -> struct.Struct:
-    """A struct for the variables of canopen PDO map ``pdo`` (CANopen is little-endian)."""
-    formats = []
-    for var in pdo.map:
-        od_struct = var.od.STRUCT_TYPES.get(var.od.data_type)
-        if od_struct is None:
-            raise CommunicationError(f"0x{var.index:04X}:{var.subindex:02X} is not a numeric PDO entry")
-        formats.append(od_struct.format.lstrip("<"))
-    return struct.Struct("<" + "".join(formats))
 
 
 class CanopenAxis(AxisDriver):
@@ -222,31 +131,9 @@ class CanopenAxis(AxisDriver):
         return f"node {self.node_id}" + (f" axis {self.axis_number}" if axes > 1 else "")
 
     # --- SDO with the toolkit's errors ---------------------------------------------------
-    @contextlib.contextmanager
-    def _sdo(self, what: str, index: int, subindex: int) -> Iterator[None]:
-        """canopen's SDO errors (and an object the EDS lacks) as the toolkit's, naming node and object
-        (the object on the wire: axis 2's 0x6041 is 0x6841)."""
-        index = axis_object(index, self.axis_number)
-        try:
-            yield
-        except SdoAbortedError as exc:
-            words = f"{what}: {abort_text(exc.code)}"
-            raise SdoAbort(
-                words, code=exc.code, node_id=self.node_id, index=index, subindex=subindex
-            ) from exc
-        except SdoCommunicationError as exc:
-            raise CommunicationTimeout(
-                f"node {self.node_id}: no SDO answer ({what}, 0x{index:04X}:{subindex:02X})"
-            ) from exc
-        except canopen.ObjectDictionaryError as exc:  # canopen's decoding of an answer it read itself
-            raise DictionaryMismatch(
-                f"node {self.node_id}: 0x{index:04X}:{subindex:02X}: {what}: {exc} (the device's answer does "
-                f"not fit its type in {self.eds}): the EDS/DCF is not this device's; give the device's own"
-            ) from exc
-        except KeyError as exc:  # the dictionary in use lacks it: nothing was sent
-            raise NotInDictionary(
-                f"is not in {self.eds}: {what} not sent", node_id=self.node_id, index=index, subindex=subindex
-            ) from exc
+    def _sdo(self, what: str, index: int, subindex: int) -> contextlib.AbstractContextManager[None]:
+        """canopen's SDO errors as the toolkit's, naming node and object (``drivers.sdo_errors``)."""
+        return sdo_errors(what, index, subindex, node_id=self.node_id, axis=self.axis_number, eds=self.eds)
 
     def _entry(self, index: int, subindex: int) -> Any:
         """The SDO variable of (index, subindex); no I/O (``hasattr(obj, "raw")`` would read it:

@@ -43,6 +43,7 @@ from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
 from drivers.cia402_mapping import CyclePlan
 from drivers.cia402_process import ProcessData
 from drivers.cia402_setup import SW, VELOCITY, Cia402Setup
+from drivers.cia402_supervision import DriveSupervision
 from drivers.cia402_units import DriveUnits
 from drivers.errors import (
     CommunicationError,
@@ -52,7 +53,7 @@ from drivers.errors import (
     RigError,
 )
 from drivers.maps import CIA402_EDS, cia
-from drivers.maps.cia import Controlword, PowerState
+from drivers.maps.cia import Controlword, Mode, PowerState
 from drivers.maps.cia402_needs import needed, require
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_code
@@ -78,6 +79,21 @@ _AXIS_STATE = {
     PowerState.FAULT_REACTION_ACTIVE: AxisState.STOPPING,
     PowerState.FAULT: AxisState.FAULT,
 }
+
+
+def _checked(name: str, mode: str, pdo: str, feedback: Iterable[str]) -> Mode:
+    """The mode's code, once ``mode``, ``pdo`` and ``feedback`` are checked (ConfigError naming
+    the axis where one is not an axis's)."""
+    try:
+        op_mode = mode_code(mode)
+    except ValueError as exc:
+        raise ConfigError(f"axis {name!r}: {exc}") from None
+    if pdo not in ("remap", "device"):
+        raise ConfigError(f"axis {name!r}: pdo = {pdo!r}: remap or device")
+    problem = feedback_problem(feedback)
+    if problem:
+        raise ConfigError(f"axis {name!r}: {problem}")
+    return op_mode
 
 
 class Cia402Axis(Cia402Setup, Cia402Cycle):
@@ -121,15 +137,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         feedback: Iterable[str] = FEEDBACK_NAMES,
         axis: int = 1,
     ) -> None:
-        try:
-            self.op_mode = mode_code(mode)
-        except ValueError as exc:
-            raise ConfigError(f"axis {name!r}: {exc}") from None
-        if pdo not in ("remap", "device"):
-            raise ConfigError(f"axis {name!r}: pdo = {pdo!r}: remap or device")
-        problem = feedback_problem(feedback)
-        if problem:
-            raise ConfigError(f"axis {name!r}: {problem}")
+        self.op_mode = _checked(name, mode, pdo, feedback)
         self.maps = frozenset(feedback)
         super().__init__(
             name,
@@ -148,16 +156,12 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         self.latency = latency
         self.pdo = pdo
         self.mode_timeout = mode_timeout
-        self.host = host  #: (host node id, time [s]) the drive's heartbeat consumer watches
-        self.abort_connection = abort_connection  #: 0x6007 (None: the drive's own)
         self.period = period  #: [s] the SYNC period (0x60C2, 0x1006), 0: not told
-        #: [s] without the command RPDO before the toolkit's drive stops itself (0: none)
-        self.rpdo_deadline = rpdo_deadline
-        self._deadline_comm: int | None = None  #: the RPDO whose event timer is the deadline
+        #: the drive's watch of the host and of its commands (its part, ``drivers.cia402_supervision``)
+        self.supervision = DriveSupervision(self, host, abort_connection, rpdo_deadline)
         self._speed_misses = 0  #: calls of ``shaft_speed`` since the last new velocity TPDO
         self.reset_fault = reset_fault  #: a drive found in FAULT at enable is reset (else refused)
         self.emcy_texts = dict(emcy_texts or {})
-        self._consumer_sub: int | None = None
         self.units = DriveUnits(math.nan, math.nan, math.nan, math.nan, {})
         self.measures = frozenset()
         self.identity: dict[str, int] = {}
@@ -210,7 +214,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         self.nmt("PRE-OPERATIONAL")
         self.set_mode(self.op_mode)
         self.map_process_data()
-        self.configure_supervision()
+        self.supervision.configure()
         self.nmt("OPERATIONAL")
 
     # --- state machine ---------------------------------------------------------------------------
@@ -261,11 +265,8 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             self.fault_reset(timeout=timeout)
         self.clear_fault()
         self._stop_word, self._disabled = None, False
-        if self.host is not None and self._consumer_sub is None and self.data is not None:
-            if cia.CONSUMER_HEARTBEAT in self.node.object_dictionary:
-                self._consumer_sub = self._watch_host(*self.host)
         self._hold_still(self.op_mode if mode is None else int(mode))
-        self._watch_commands()
+        self.supervision.watch()
         self._drive_to(PowerState.OPERATION_ENABLED, _TOWARDS_ENABLED.get, timeout)
         slot = self.data.slot_of(SW) if self.data else None
         self._enabled_stamp = slot.timestamp if slot else None
@@ -344,16 +345,15 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
             state = self._confirm_disabled()
         except RigError as exc:
-            said = f"{self.where}: disable voltage not confirmed ({exc}); {self._kept()}"
+            said = f"{self.where}: disable voltage not confirmed ({exc}); {self.supervision.kept()}"
             raise CommunicationError(said) from exc
         if state not in DISABLED_STATES:
             raise CommunicationError(
                 f"{self.where}: disable voltage not confirmed: the statusword shows {state.value} "
-                f"{self.DISABLE_CONFIRM:g} s after it; {self._kept()}"
+                f"{self.DISABLE_CONFIRM:g} s after it; {self.supervision.kept()}"
             )
         self._disabled = True
-        self._unwatch_host()
-        self._unwatch_commands()
+        self.supervision.unwatch()
 
     def _confirm_disabled(self) -> PowerState:
         """The state the statusword shows, read until it shows the drive disabled or
@@ -365,14 +365,15 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
                 return state
             self.idle()
 
-    def _kept(self) -> str:
-        """What the drive still watches, in words, after a disable not confirmed."""
-        kept = [f"its heartbeat consumer 0x1016:{self._consumer_sub:02X}"] if self._consumer_sub else []
-        if self._deadline_comm is not None:
-            kept.append(f"its deadline on the commands 0x{self._deadline_comm:04X}:05")
-        if not kept:
-            return "the drive may still be enabled"
-        return f"{' and '.join(kept)} left in place: the drive stops itself when the host goes quiet"
+    def sibling_watches(self) -> list[DriveSupervision]:
+        """The supervision of the other CiA 402 axes on the node (``DriveSupervision.unwatch_host``).
+
+        Returns
+        -------
+        list of DriveSupervision
+            One for each other drive axis alive on the node.
+        """
+        return [a.supervision for a in self.siblings() if isinstance(a, Cia402Axis)]
 
     def _watched(self) -> bool:
-        return not self._disabled or self._deadline_comm is not None
+        return not self._disabled or self.supervision.deadline_comm is not None

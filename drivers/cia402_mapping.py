@@ -130,7 +130,7 @@ class Cia402Mapping:
         def sdo_write(self, index: int, subindex: int, value: Any) -> None: ...
         def receive_cob(self, cob_id: int, codec: Any) -> TpdoSlot: ...
         def _optional(self, index: int, subindex: int = 0) -> Any: ...
-        def _setting(
+        def setting(
             self, index: int, subindex: int, value: Any, why: str, *, required: bool = False, then: str = ""
         ) -> bool: ...
 
@@ -184,7 +184,7 @@ class Cia402Mapping:
                 log.warning("%s: 0x%04X:%02X is in no TPDO: read by SDO every cycle", self.where, *key)
         if self.toolkit_drive and cia.COMMAND_LATENCY in od:
             latency = 0 if self.sync_rpdo else round(self.latency * 1e6)
-            self._setting(cia.COMMAND_LATENCY, 0, latency, "the command latency [us]")
+            self.setting(cia.COMMAND_LATENCY, 0, latency, "the command latency [us]")
         self._measures()
 
     def _fixed_mapping(self, rx_keys: list[Key], tx_keys: list[Key]) -> str | None:

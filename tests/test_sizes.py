@@ -23,9 +23,7 @@ MODULE, FUNCTION, CLASS = 400, 60, 300  #: [lines]
 
 #: what is over its limit today -> its size [lines]; "path" a module, "path::Class.method" the rest
 DEBTS: dict[str, int] = {
-    "drivers/canopen_axis.py": 443,
-    "drivers/canopen_axis.py::CanopenAxis": 309,
-    "drivers/cia402.py::Cia402Axis.__init__": 76,
+    "drivers/cia402.py::Cia402Axis.__init__": 64,
     "drivers/cia402_units.py::discover_units": 65,
     "plant_emulator/canopen_node.py::EmulatedNode": 322,
     "plant_emulator/canopen_node.py::EmulatedNode.__init__": 61,
