@@ -109,6 +109,24 @@ def _one_worker_per_module_fixture(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.xdist_group(item.module.__name__ if item.module else item.nodeid))
 
 
+@pytest.hookimpl(trylast=True, specname="pytest_collection_modifyitems")  # after xdist's, which names groups
+def pytest_collection_modifyitems_names_groups(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """On an xdist worker under ``--dist loadgroup``: each grouped test's id ends in ``@GROUP``,
+    which is what the controller schedules by. pytest-xdist 3.8 writes that id to
+    ``item._nodeid``, which pytest 9.2 no longer reads (its id is ``item._id``: pytest-xdist
+    issue 1386), so every test was a group of its own: a module's fixture was made again on
+    each worker, and again each time another module's test came between two of its tests (the
+    drives study 2 times, 80 s each at load 15). Where xdist's own suffix took, nothing is done."""
+    if not (hasattr(config, "workerinput") and config.getvalue("loadgroup")):
+        return
+    from _pytest.nodeid import NodeId  # pytest's own id type (pytest >= 9.2)
+
+    for item in items:
+        names = sorted({str(m.args[0]) for m in item.iter_markers("xdist_group") if m.args})
+        if names and "@" not in item.nodeid and hasattr(item, "_id"):
+            item._id = NodeId.parse(f"{item.nodeid}@{'_'.join(names)}")
+
+
 @pytest.fixture(autouse=True)
 def _no_run_plots(monkeypatch: pytest.MonkeyPatch) -> None:
     """Runs in this process write no plot.png (matplotlib is in the test extras; a figure per
