@@ -1,5 +1,6 @@
 """Hostile input, generated: each gives a clear toolkit error (or is handled), never a traceback,
-and never moves the motor. 1,000 cases per kind."""
+and never moves the motor. 1,000 cases per kind in the slow tier (``-m slow``), 100 in the
+default run (each kind's 1,000 took 5-26 s of CPU, a fifth of the default run's)."""
 
 from __future__ import annotations
 
@@ -24,7 +25,11 @@ from plant_emulator.lockstep import LockstepBench
 from rig.config import load_config
 from rig.host.session import build_law
 
-CASES = settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+CASES = settings(deadline=None, suppress_health_check=list(HealthCheck))
+#: each test runs its kind's cases twice: a few in the default run, 1,000 in the slow tier
+TIERS = pytest.mark.parametrize(
+    "cases", [pytest.param(100, id="100"), pytest.param(1000, id="1000", marks=pytest.mark.slow)]
+)
 SECTIONS = ["run", "bus", "emulator", "axis", "controller", "reference", "faults", "plant", "Run"]
 KEYS = [
     "duration",
@@ -89,13 +94,17 @@ def _toml_value(v: Any) -> str:
     return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
 
 
-@CASES
-@given(
-    st.dictionaries(
-        st.sampled_from(SECTIONS), st.dictionaries(st.sampled_from(KEYS), values, max_size=6), max_size=6
-    )
+@TIERS
+def test_configuration_files(cases: int) -> None:
+    settings(CASES, max_examples=cases)(given(DOCS)(_configuration_file))()
+
+
+DOCS = st.dictionaries(
+    st.sampled_from(SECTIONS), st.dictionaries(st.sampled_from(KEYS), values, max_size=6), max_size=6
 )
-def test_configuration_files(doc: dict[str, dict[str, Any]]) -> None:
+
+
+def _configuration_file(doc: dict[str, dict[str, Any]]) -> None:
     text = "\n".join(
         ("[[axis]]" if section == "axis" else f"[{section}]")
         + "\n"
@@ -112,9 +121,12 @@ def test_configuration_files(doc: dict[str, dict[str, Any]]) -> None:
             assert str(path) in str(exc) or "[controller]" in str(exc) or "[reference]" in str(exc)
 
 
-@CASES
-@given(st.text(max_size=200))
-def test_configuration_text(text: str) -> None:
+@TIERS
+def test_configuration_text(cases: int) -> None:
+    settings(CASES, max_examples=cases)(given(st.text(max_size=200))(_configuration_text))()
+
+
+def _configuration_text(text: str) -> None:
     with tempfile.TemporaryDirectory() as d:
         path = pathlib.Path(d) / "rig.toml"
         path.write_bytes(text.encode("utf-8", "replace"))
@@ -127,13 +139,17 @@ def test_configuration_text(text: str) -> None:
 EDS_LINES = pathlib.Path(CIA402_EDS).read_text().splitlines()
 
 
-@CASES
-@given(
-    st.lists(st.integers(0, len(EDS_LINES) - 1), max_size=8),
-    st.lists(st.tuples(st.integers(0, len(EDS_LINES) - 1), st.text(max_size=30)), max_size=8),
-    st.sampled_from([".eds", ".dcf", ".txt"]),
-)
-def test_eds_files(deleted: list[int], replaced: list[tuple[int, str]], suffix: str) -> None:
+@TIERS
+def test_eds_files(cases: int) -> None:
+    mutations = (
+        st.lists(st.integers(0, len(EDS_LINES) - 1), max_size=8),
+        st.lists(st.tuples(st.integers(0, len(EDS_LINES) - 1), st.text(max_size=30)), max_size=8),
+        st.sampled_from([".eds", ".dcf", ".txt"]),
+    )
+    settings(CASES, max_examples=cases)(given(*mutations)(_eds_file))()
+
+
+def _eds_file(deleted: list[int], replaced: list[tuple[int, str]], suffix: str) -> None:
     lines = list(EDS_LINES)
     for i, text in replaced:
         key = lines[i].split("=", 1)[0] if "=" in lines[i] else ""
@@ -173,10 +189,19 @@ def bench() -> Any:
     b.close()
 
 
-@CASES
-@given(st.lists(frames, min_size=1, max_size=10))
-def test_can_frames_with_wrong_lengths_and_unknown_ids(bench: Any, batch: list[tuple[int, bytes]]) -> None:
+@TIERS
+def test_can_frames_with_wrong_lengths_and_unknown_ids(bench: Any, cases: int) -> None:
     b, drive, rogue = bench
+
+    @settings(CASES, max_examples=cases)
+    @given(st.lists(frames, min_size=1, max_size=10))
+    def send(batch: list[tuple[int, bytes]]) -> None:
+        _send_frames(b, drive, rogue, batch)
+
+    send()
+
+
+def _send_frames(b: Any, drive: Any, rogue: Any, batch: list[tuple[int, bytes]]) -> None:
     emulated = b.devices[0]
     for can_id, data in batch:
         rogue.send(can.Message(arbitration_id=can_id, data=data, is_extended_id=False))
@@ -210,9 +235,13 @@ answers = st.one_of(
 )
 
 
-@CASES
-@given(answers, st.sampled_from(["actual_speed", "current", "status_word", "fault_code"]))
-def test_modbus_answers(answer: Any, role: str) -> None:
+@TIERS
+def test_modbus_answers(cases: int) -> None:
+    roles = st.sampled_from(["actual_speed", "current", "status_word", "fault_code"])
+    settings(CASES, max_examples=cases)(given(answers, roles)(_modbus_answer))()
+
+
+def _modbus_answer(answer: Any, role: str) -> None:
     inverter = ModbusInverterAxis("inverter", "abb-drives-profile", host="127.0.0.1", port=1)
 
     class Client:
