@@ -7,7 +7,6 @@ from __future__ import annotations
 import pathlib
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -198,8 +197,7 @@ def test_rig_view_bad_arguments_are_one_line(folder: pathlib.Path) -> None:
     assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0 and "nowhere" in proc.stderr
     busy, line = _view(str(folder), "--port", "0")
     try:
-        port = line.split()[2].rsplit(":", 1)[1].strip("/")
-        time.sleep(0.1)
+        port = line.split()[2].rsplit(":", 1)[1].strip("/")  # listening: it says so once it does
         proc = subprocess.run(
             [sys.executable, "-m", "rig.cli", "view", str(folder), "--port", port],
             check=False,
