@@ -9,7 +9,7 @@ from __future__ import annotations
 import socket
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import canopen
 import pytest
@@ -21,6 +21,32 @@ from tests.drivers.scripted_socketcand import greet
 
 def _frame(cob: int, value: int) -> bytes:
     return f"< frame {cob:03X} 1.{value:06d} {value:02X} >".encode()
+
+
+def _within(condition: Callable[[], bool], timeout: float = 10.0) -> bool:
+    """Whether ``condition()`` comes true within ``timeout`` [s] (a guard against a hang only)."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.001)
+    return True
+
+
+def _notifier_reads(network: canopen.Network, me: str) -> list[object]:
+    """What each receive of a thread other than ``me`` (python-can's notifier) returned, as it
+    returns: a parked one returns None at the end of its cycle."""
+    bus, returned = network.bus, []
+    recv = bus.recv
+
+    def counted(timeout: float | None = None) -> object:
+        msg = recv(timeout)
+        if threading.current_thread().name != me:
+            returned.append(msg)
+        return msg
+
+    bus.recv = counted  # type: ignore[method-assign]  # looked up by the notifier on each call
+    return returned
 
 
 @pytest.fixture
@@ -38,6 +64,7 @@ def link() -> Iterator[tuple[canopen.Network, socket.socket]]:
         thread = threading.Thread(target=serve, daemon=True)
         thread.start()
         network = canopen.Network()
+        network.NOTIFIER_CYCLE = 0.05  # [s] a parked notifier returns after this (canopen: 1 s)
         network.bus = open_bus("socketcand", "can0", host="127.0.0.1", port=port)
         network.connect()
         thread.join(5.0)
@@ -93,21 +120,23 @@ def test_while_claimed_the_notifier_reads_nothing_and_after_release_it_reads_aga
         got.set()
 
     network.subscribe(0x181, on_frame)
+    me = threading.current_thread().name
+    returned = _notifier_reads(network, me)
     reader = OwnedReceive(network)
     reader.claim(others=True)
     try:
         end.sendall(_frame(0x181, 1))
-        time.sleep(0.1)  # the notifier had time to read it, were it not parked
+        # the notifier's receive returned twice since: the second began with the frame there, and
+        # read it, were the notifier not parked (a condition; parked, each takes its 50 ms cycle)
+        since = len(returned)
+        assert _within(lambda: len(returned) >= since + 2), "the notifier's receive never returned"
         assert seen == []
         assert reader.until(lambda: len(seen) >= 1, 2.0)
     finally:
         reader.release()
     end.sendall(_frame(0x181, 2))
     assert got.wait(2.0)
-    deadline = time.monotonic() + 2.0
-    while len(seen) < 2 and time.monotonic() < deadline:
-        time.sleep(0.01)
-    me = threading.current_thread().name
+    assert _within(lambda: len(seen) >= 2)
     assert seen[0] == (me, 1)
     assert seen[1][1] == 2 and seen[1][0] != me  # the notifier's thread again
 
