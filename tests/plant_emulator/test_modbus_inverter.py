@@ -11,6 +11,7 @@ import time
 
 import pytest
 from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
+from pymodbus.exceptions import ModbusException
 from pymodbus.framer import FramerType
 
 from drivers.maps import modbus_map
@@ -102,13 +103,22 @@ def test_rtu_over_a_pty_pair() -> None:
     async def run(link: PtyLink) -> None:
         model = default_model("delta-vfd-b")
         server = asyncio.create_task(serve_rtu(model, port=link.port_a, baudrate=19200, unit=3, dt=0.001))
-        await asyncio.sleep(0.1)
         client = AsyncModbusSerialClient(
             link.port_b, framer=FramerType.RTU, baudrate=19200, timeout=1, retries=1
         )
         assert await client.connect()
         reg = modbus_map("delta-vfd-b")
         f = reg["speed_reference"]
+        # a request before the server has opened its end is lost (pyserial's open empties the
+        # input): asked until answered (a condition; the deadline only guards against a hang)
+        deadline = asyncio.get_running_loop().time() + 30.0
+        while True:
+            try:
+                if not (await client.read_holding_registers(f.address, count=1, device_id=3)).isError():
+                    break
+            except ModbusException:
+                pass
+            assert asyncio.get_running_loop().time() < deadline, "serve_rtu never answered"
         assert not (await client.write_register(f.address, f.to_raw(2 * math.pi * 10), device_id=3)).isError()
         rr = await client.read_holding_registers(f.address, count=1, device_id=3)
         assert f.to_si(rr.registers[0]) == pytest.approx(2 * math.pi * 10, abs=0.04)
