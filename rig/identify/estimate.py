@@ -1,8 +1,7 @@
 """``rig identify``: a_m and b_m of dw/dt = -a_m w + b_m u (3.5) from an experiment on the drive.
 
-Experiment: u = u_0 + A prbs(t) (or steps), with u_0 keeping the speed of one
-sign so Coulomb friction is a constant offset, the PRBS clock a few times
-shorter than 1/a_m; the position (encoder counts) and u are recorded.
+Experiment (``rig.identify.excitations.excitation``): u = u_0 + A prbs(t) (or steps); the position
+(encoder counts) and u are recorded.
 
 Estimation, robust to encoder quantisation, Coulomb friction and a transport
 delay of k samples (model dw/dt = -a w + b u(t - k T) + d, d the offset):
@@ -18,16 +17,8 @@ delay of k samples (model dw/dt = -a w + b u(t - k T) + d, d the offset):
    Standard errors from cov = s^2 (J^T J)^-1 at the optimum; 95 % intervals
    +- 1.96 sigma.
 
-The fit percentage is on held-out data (the last ``holdout`` of the record,
-not used for the estimate): 100 (1 - ||y - y_hat|| / ||y - mean(y)||) with y the
-speed by central differences of the measured position and y_hat the model's
-(``held_out_fit``). The figure alone misleads where the speed varies little against the
-encoder's count: a chirp or multisine of small amplitude, a slow shaft. Central differences of
-positions quantised to q [rad] carry a noise of RMS q / (T sqrt(24)) (two independent errors
-uniform over q, variance q^2/12 each, over 2T: B. Widrow, I. Kollar, "Quantization Noise",
-Cambridge 2008, ch. 4), whatever the model; ``residual_rms`` and ``quantisation_rms`` are
-both given, and a low fit is only the model's fault where the residual is well above that
-floor (``rig.identify.model_file.checks``).
+The fit percentage is on held-out data, the last ``holdout`` of the record, not used for the
+estimate (``rig.identify.fit_quality.held_out_fit``).
 """
 
 from __future__ import annotations
@@ -36,6 +27,10 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
+
+from rig.identify.errors import IdentificationError
+from rig.identify.excitations import excitation
+from rig.identify.fit_quality import held_out_fit, quantum
 
 __all__ = [
     "INPUTS",
@@ -53,10 +48,6 @@ __all__ = [
 #: the inputs an experiment can replay: (unit of u, unit of b_m); with a torque, dw/dt =
 #: -a_m w + b_m T holds with b_m = 1/J (and a_m = B/J)
 INPUTS = {"voltage": ("V", "rad/(V s^2)"), "torque": ("N m", "1/(kg m^2)")}
-
-
-class IdentificationError(ValueError):
-    """The data cannot identify the model; the message says why."""
 
 
 @dataclass(frozen=True)
@@ -103,53 +94,6 @@ class IdentResult:
             The fields by name.
         """
         return {**asdict(self), "input_unit": self.input_unit, "b_m_unit": self.b_m_unit}
-
-
-def excitation(
-    kind: str, *, u0: float, amplitude: float, clock: float, dt: float, duration: float, seed: int = 0
-) -> np.ndarray:
-    """The input sequence u_k [V]: ``prbs`` (a maximum-length-like random binary signal held
-    for ``clock`` seconds per bit) or ``steps`` (alternating +-amplitude every 4 clocks).
-
-    Parameters
-    ----------
-    kind : str
-        "prbs" or "steps".
-    u0 : float
-        [V] the mean.
-    amplitude : float
-        [V] about it.
-    clock : float
-        [s] a bit's hold.
-    dt : float
-        [s] the period.
-    duration : float
-        [s].
-    seed : int, optional
-        Of the random bits.
-
-    Returns
-    -------
-    np.ndarray
-        u_k [V].
-
-    Raises
-    ------
-    ValueError
-        If ``kind`` is neither.
-    """
-    n = round(duration / dt)
-    per_bit = max(1, round(clock / dt))
-    bits = math.ceil(n / per_bit)
-    if kind == "prbs":
-        rng = np.random.default_rng(seed)
-        levels = rng.integers(0, 2, bits) * 2 - 1
-    elif kind == "steps":
-        levels = np.array([1 if (i // 4) % 2 == 0 else -1 for i in range(bits)])
-    else:
-        raise ValueError(f"excitation {kind!r}: expected prbs or steps")
-    out: np.ndarray = u0 + amplitude * np.repeat(levels.astype(float), per_bit)[:n]
-    return out
 
 
 def _shift(u: np.ndarray, k: int) -> np.ndarray:
@@ -201,7 +145,14 @@ def _regressors(theta: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray
     return np.column_stack([t, -int_theta, w, t * t / 2.0]), y
 
 
-def _check(u: np.ndarray, theta: np.ndarray, dt: float) -> None:
+def _checked(u: np.ndarray, theta: np.ndarray, dt: float, input: str) -> tuple[np.ndarray, np.ndarray]:
+    """(u, theta) as arrays of floats; IdentificationError where they cannot identify (3.5)."""
+    if input not in INPUTS:
+        raise IdentificationError(f"input {input!r}: voltage or torque")
+    u = np.asarray(u, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    if u.shape != theta.shape:
+        raise IdentificationError(f"u and theta differ in length: {u.shape} vs {theta.shape}")
     if len(u) < 50:
         raise IdentificationError(f"only {len(u)} samples: record at least 50")
     if float(np.std(u)) < 1e-9 * max(1.0, float(np.max(np.abs(u)))):
@@ -211,6 +162,7 @@ def _check(u: np.ndarray, theta: np.ndarray, dt: float) -> None:
     travel = float(np.max(theta) - np.min(theta))
     if travel < 1e-3 * len(u) * dt:
         raise IdentificationError(f"the motor did not move (position changed by {travel:.3g} rad): stalled?")
+    return u, theta
 
 
 def delay_scan(
@@ -280,6 +232,15 @@ def _output_error(
     return fit.x, np.sqrt(np.maximum(np.diag(cov), 0.0))
 
 
+def _three_steps(
+    u: np.ndarray, theta: np.ndarray, dt: float, max_delay: int
+) -> tuple[int, np.ndarray, np.ndarray]:
+    """(delay, p, standard errors) by the module doc's steps 1-3 on the record to fit."""
+    k, coef = _least_squares(u, theta, dt, max_delay)
+    p, se = _output_error(u, theta, dt, k, _instrumental(u, theta, dt, k, coef))
+    return k, p, se
+
+
 def estimate(
     u: np.ndarray,
     theta: np.ndarray,
@@ -317,17 +278,10 @@ def estimate(
     IdentificationError
         If the record is too short, the motor did not move, or the fit fails.
     """
-    if input not in INPUTS:
-        raise IdentificationError(f"input {input!r}: voltage or torque")
-    u = np.asarray(u, dtype=float)
-    theta = np.asarray(theta, dtype=float)
-    if u.shape != theta.shape:
-        raise IdentificationError(f"u and theta differ in length: {u.shape} vs {theta.shape}")
-    _check(u, theta, dt)
+    u, theta = _checked(u, theta, dt, input)
     n_fit = int(len(u) * (1.0 - holdout))
     uf, thf = u[:n_fit], theta[:n_fit]
-    k, coef = _least_squares(uf, thf, dt, max_delay)
-    p, se = _output_error(uf, thf, dt, k, _instrumental(uf, thf, dt, k, coef))
+    k, p, se = _three_steps(uf, thf, dt, max_delay)
     _, w_model = simulate_positions(p, u, dt, k)
     fit_pct, residual, floor = held_out_fit(theta, w_model, n_fit, dt)
     a_m, b_m = float(p[0]), float(p[1])
@@ -347,63 +301,6 @@ def estimate(
         residual_rms=residual,
         quantisation_rms=floor,
     )
-
-
-def quantum(theta: np.ndarray) -> float:
-    """The encoder's count [rad]: the greatest q of which every step of the position is a whole
-    multiple (a fast shaft may never move by one count in a period: steps of 2 and 3 counts give
-    one), the smallest step where they have no such common measure up to an eighth of it.
-
-    Parameters
-    ----------
-    theta : np.ndarray
-        The position [rad].
-
-    Returns
-    -------
-    float
-        [rad] one count.
-    """
-    steps = np.abs(np.diff(theta))
-    steps = steps[steps > 1e-12]
-    if not len(steps):
-        return 2.0 * math.pi / 4096
-    smallest = float(np.min(steps))
-    ratios = steps / smallest
-    for m in range(1, 9):
-        if np.all(np.abs(ratios * m - np.rint(ratios * m)) < 1e-6):
-            return smallest / m
-    return smallest
-
-
-def held_out_fit(theta: np.ndarray, w_model: np.ndarray, n_fit: int, dt: float) -> tuple[float, float, float]:
-    """(fit [%], residual RMS [rad/s], quantisation noise RMS [rad/s]) of the model's speed
-    ``w_model`` against the central differences of the measured positions ``theta`` [rad]
-    from sample ``n_fit`` on (module doc).
-
-    Parameters
-    ----------
-    theta : np.ndarray
-        The measured position [rad].
-    w_model : np.ndarray
-        [rad/s] the model's speed.
-    n_fit : int
-        The first held-out sample.
-    dt : float
-        [s] the period.
-
-    Returns
-    -------
-    tuple[float, float, float]
-        (fit [%], residual RMS [rad/s], quantisation RMS [rad/s]).
-    """
-    w_meas = np.gradient(theta, dt)
-    yv, yh = w_meas[n_fit + 1 : -1], w_model[n_fit + 1 : -1]
-    denom = float(np.linalg.norm(yv - yv.mean()))
-    residual = float(np.linalg.norm(yv - yh))
-    fit = 100.0 * (1.0 - residual / denom) if denom > 0 else math.nan
-    rms = residual / math.sqrt(len(yv)) if len(yv) else math.nan
-    return fit, rms, quantum(theta) / (dt * math.sqrt(24.0))
 
 
 def virtual_experiment(

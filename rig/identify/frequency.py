@@ -1,16 +1,5 @@
 """The frequency response from the command u to the speed and the position, and its model's.
 
-Excitation (``periodic_excitation``): u = u_0 + A x(t), x periodic with period N T,
-N = round(1 / (f_min T)), so every bin of a Welch segment of one period is a line of
-the excitation (no leakage with a rectangular window):
-
-- ``multisine``: equal lines at every bin from f_min to f_max with Schroeder's phases
-  phi_k = -pi k (k - 1) / K (M. R. Schroeder, "Synthesis of low-peak-factor signals and
-  binary sequences with low autocorrelation", IEEE Trans. Inf. Theory 16 (1970) 85-89),
-  synthesised by an inverse real FFT and scaled to a peak of 1;
-- ``chirp``: a logarithmic sweep from f_min to f_max over one period
-  (``scipy.signal.chirp``), repeated.
-
 Estimate (``frequency_response``): the speed is the backward difference of the measured
 position, w_k = (theta_k - theta_k-1) / T, the speed a host computes from an encoder. The
 first period (the start from rest) is dropped; the rest is split into Welch segments
@@ -39,14 +28,7 @@ Identification: A Frequency Domain Approach", 2nd ed., Wiley-IEEE 2012, ch. 2, F
 in feedback), with the same Welch segments; it needs neither C nor the loop's gains. A bin is
 coherent where both gamma^2 from r to u and from r to y are (``coherence`` is the lesser).
 
-Model (``model_speed_response``): (3.5) sampled with a zero-order hold, delayed by k
-samples, with the speed measured as above: from the ZOH solution used by
-``simulate_positions`` (w_n+1 = alpha w_n + g b u_n, theta_n+1 = theta_n + g w_n + h b u_n,
-alpha = e^(-a T), g = (1 - alpha)/a, h = (T - g)/a),
-
-    W(z)/U(z) = b (h + (g^2 - h alpha) z^-1) z^-(k+1) / (T (1 - alpha z^-1)),
-
-evaluated by ``scipy.signal.freqz``.
+The excitation is ``rig.identify.excitations``'s, the model's response ``rig.identify.model_response``'s.
 """
 
 from __future__ import annotations
@@ -57,6 +39,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.identify.estimate import IdentificationError
+from rig.identify.excitations import (
+    FREQUENCY_EXCITATIONS,
+    frequency_band,
+    period_samples,
+    periodic_excitation,
+)
+from rig.identify.model_response import model_speed_response, model_velocity_response, speed_to_position
 
 __all__ = [
     "COHERENCE_MIN",
@@ -71,192 +60,8 @@ __all__ = [
     "speed_to_position",
 ]
 
-FREQUENCY_EXCITATIONS = ("chirp", "multisine")
 #: [-] a bin is coherent (the response there is measured, not noise) at this coherence or above
 COHERENCE_MIN = 0.9
-#: the default upper frequency, a fraction of the sample rate
-F_MAX_FRACTION = 0.2
-
-
-def period_samples(f_min: float, dt: float) -> int:
-    """N = round(1 / (f_min T)): the excitation's period and the Welch segment [samples].
-
-    Parameters
-    ----------
-    f_min : float
-        [Hz] > 0.
-    dt : float
-        [s] the period T.
-
-    Returns
-    -------
-    int
-        N.
-
-    Raises
-    ------
-    IdentificationError
-        If ``f_min`` is not > 0 or gives too few samples.
-    """
-    if not (math.isfinite(f_min) and f_min > 0.0):
-        raise IdentificationError(f"f_min = {f_min!r} Hz: expected a frequency > 0")
-    return max(8, round(1.0 / (f_min * dt)))
-
-
-def _band(f_min: float, f_max: float | None, dt: float) -> tuple[float, float]:
-    fs = 1.0 / dt
-    hi = F_MAX_FRACTION * fs if f_max is None else f_max
-    if not (math.isfinite(hi) and f_min < hi <= fs / 2.0):
-        raise IdentificationError(
-            f"f_max = {hi!r} Hz: expected f_min ({f_min:g} Hz) < f_max <= fs/2 = {fs / 2.0:g} Hz"
-        )
-    return f_min, hi
-
-
-def periodic_excitation(
-    kind: str,
-    *,
-    u0: float,
-    amplitude: float,
-    dt: float,
-    duration: float,
-    f_min: float = 1.0,
-    f_max: float | None = None,
-) -> np.ndarray:
-    """u_k = u0 + amplitude x_k [unit of u], x a ``multisine`` or ``chirp`` of period
-    1/f_min (rounded to samples) between f_min and f_max [Hz] (default fs/5), peak 1.
-
-    Parameters
-    ----------
-    kind : str
-        "multisine" or "chirp".
-    u0 : float
-        The mean [unit of u].
-    amplitude : float
-        About it [unit of u].
-    dt : float
-        [s] the period T.
-    duration : float
-        [s].
-    f_min, f_max, optional
-        [Hz] the band (None: fs/5).
-
-    Returns
-    -------
-    np.ndarray
-        u_k.
-
-    Raises
-    ------
-    ValueError
-        If ``kind`` is neither.
-    IdentificationError
-        If the band holds no frequency line.
-    """
-    import scipy.signal
-
-    n_period = period_samples(f_min, dt)
-    lo, hi = _band(f_min, f_max, dt)
-    if kind == "multisine":
-        k = np.arange(n_period // 2 + 1)
-        f = k / (n_period * dt)
-        lines = k[(f >= lo) & (f <= hi)]
-        if len(lines) == 0:
-            raise IdentificationError(f"no frequency line between {lo:g} and {hi:g} Hz at T = {dt:g} s")
-        spectrum = np.zeros(len(k), dtype=complex)
-        j = np.arange(1, len(lines) + 1)
-        spectrum[lines] = np.exp(-1j * math.pi * j * (j - 1) / len(lines))  # Schroeder
-        x = np.fft.irfft(spectrum, n_period)
-    elif kind == "chirp":
-        t = np.arange(n_period) * dt
-        x = scipy.signal.chirp(t, f0=lo, t1=n_period * dt, f1=hi, method="logarithmic")
-    else:
-        raise ValueError(f"excitation {kind!r}: expected one of {', '.join(FREQUENCY_EXCITATIONS)}")
-    x = x / float(np.max(np.abs(x)))
-    n = round(duration / dt)
-    out: np.ndarray = u0 + amplitude * np.resize(x, n)
-    return out
-
-
-def model_speed_response(a: float, b: float, dt: float, delay: int, f: np.ndarray) -> np.ndarray:
-    """The exact discrete response of (3.5) (a [1/s], b) from u to the speed by backward
-    difference, with a delay of ``delay`` samples, at the frequencies ``f`` [Hz] (module doc).
-
-    Parameters
-    ----------
-    a, b : float
-        (3.5)'s a_m [1/s] and b_m.
-    dt : float
-        [s] the period.
-    delay : int
-        [samples].
-    f : np.ndarray
-        [Hz].
-
-    Returns
-    -------
-    np.ndarray
-        The complex response.
-    """
-    import scipy.signal
-
-    alpha = math.exp(-a * dt)
-    g = (1.0 - alpha) / a if a != 0.0 else dt
-    h = (dt - g) / a if a != 0.0 else dt * dt / 2.0
-    num = np.concatenate([np.zeros(delay + 1), [b * h / dt, b * (g * g - h * alpha) / dt]])
-    _, response = scipy.signal.freqz(num, [1.0, -alpha], worN=np.asarray(f, dtype=float), fs=1.0 / dt)
-    out: np.ndarray = response
-    return out
-
-
-def model_velocity_response(a: float, b: float, dt: float, delay: int, f: np.ndarray) -> np.ndarray:
-    """(3.5)'s response from u to the speed sampled at the instants of the position (a drive's
-    reported speed): b g z^-(k+1) / (1 - alpha z^-1) at ``f`` [Hz].
-
-    Parameters
-    ----------
-    a, b : float
-        (3.5)'s a_m [1/s] and b_m.
-    dt : float
-        [s] the period.
-    delay : int
-        [samples].
-    f : np.ndarray
-        [Hz].
-
-    Returns
-    -------
-    np.ndarray
-        The complex response.
-    """
-    import scipy.signal
-
-    alpha = math.exp(-a * dt)
-    g = (1.0 - alpha) / a if a != 0.0 else dt
-    num = np.concatenate([np.zeros(delay + 1), [b * g]])
-    _, response = scipy.signal.freqz(num, [1.0, -alpha], worN=np.asarray(f, dtype=float), fs=1.0 / dt)
-    out: np.ndarray = response
-    return out
-
-
-def speed_to_position(f: np.ndarray, dt: float) -> np.ndarray:
-    """T / (1 - z^-1) at ``f`` [Hz]: the position from the backward-difference speed.
-
-    Parameters
-    ----------
-    f : np.ndarray
-        [Hz].
-    dt : float
-        [s] the period T.
-
-    Returns
-    -------
-    np.ndarray
-        T / (1 - z^-1).
-    """
-    z_inv = np.exp(-2j * math.pi * np.asarray(f) * dt)
-    out: np.ndarray = dt / (1.0 - z_inv)
-    return out
 
 
 @dataclass(frozen=True)
@@ -408,7 +213,7 @@ def frequency_response(
     import scipy.signal
 
     u, theta = np.asarray(u, dtype=float), np.asarray(theta, dtype=float)
-    lo, hi = _band(f_min, f_max, dt)
+    lo, hi = frequency_band(f_min, f_max, dt)
     n = period_samples(lo, dt)
     _enough(len(u), n, dt, lo)
     x = u if r is None else np.asarray(r, dtype=float)  # what the spectra are taken against

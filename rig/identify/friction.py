@@ -17,7 +17,7 @@ Control 107 (1985) 100-103):
 1. least squares on theta_n - theta_0 = w_0 t_n - a int(theta - theta_0) + b int int u(t - kT)
    - c int int s + d t_n^2/2 for each delay k; the least residual wins;
 2. output error: ``scipy.optimize.least_squares`` fits (a, b, c, d, theta_0, w_0, delta) so
-   that the exact per-period solution with Karnopp's stick-slip (``_simulate``) matches the
+   that the exact per-period solution with Karnopp's stick-slip (``rig.identify.stick_slip``) matches the
    measured positions; standard errors from s^2 (J^T J)^-1.
 
 Separability: c and d are told apart only by the changes of s; with one sign of speed they
@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, replace
-from typing import Any
 
 import numpy as np
 
@@ -39,10 +38,16 @@ from rig.identify.estimate import (
     IdentificationError,
     IdentResult,
     _regressors,
-    _shift,
     delay_scan,
     held_out_fit,
     quantum,
+)
+from rig.identify.stick_slip import (
+    count_reversals,
+    reverses,
+    sign_changes,
+    speed_signs,
+    stick_slip_positions,
 )
 
 __all__ = [
@@ -162,103 +167,6 @@ def friction_excitation(
     return out
 
 
-def speed_signs(theta: np.ndarray, counts: float) -> np.ndarray:
-    """s_k: the sign of theta_k+1 - theta_k-1, 0 where that is under ``counts`` [rad] (one
-    encoder count) or at the ends.
-
-    Parameters
-    ----------
-    theta : np.ndarray
-        The position [rad].
-    counts : float
-        [rad] one encoder count.
-
-    Returns
-    -------
-    np.ndarray
-        s_k.
-    """
-    s = np.zeros(len(theta))
-    diff = theta[2:] - theta[:-2]
-    s[1:-1] = np.where(np.abs(diff) < counts, 0.0, np.sign(diff))
-    return s
-
-
-def _slip(w: float, v: float, a: float, t: float) -> tuple[float, float]:
-    """(angle gained, speed) after ``t`` [s] of dw/dt = -a w + v from ``w``."""
-    if a == 0.0:
-        return w * t + v * t * t / 2.0, w + v * t
-    w_inf = v / a
-    decay = math.exp(-a * t)
-    return w_inf * t + (w - w_inf) * (1.0 - decay) / a, w_inf + (w - w_inf) * decay
-
-
-def _positions(  # noqa: PLR0917 - numba compiles it: positional arguments
-    bu: np.ndarray, a: float, dt: float, c: float, theta0: float, w0: float
-) -> np.ndarray:
-    """The loop of ``_simulate`` in the subset of Python numba compiles (floats, arrays)."""
-    out = np.empty(len(bu))
-    theta, w = theta0, w0
-    for n in range(len(bu)):
-        out[n] = theta
-        drive, left = bu[n], dt
-        while left > 0.0:
-            if w == 0.0:
-                if -c <= drive <= c:
-                    break  # stuck: the friction balances the drive
-                f = c if drive > 0.0 else -c  # breaks away
-            else:
-                f = c if w > 0.0 else -c
-            v = drive - f
-            gained, w_end = _slip(w, v, a, left)
-            if w_end * f >= 0.0:  # still moving the same way (or just at rest) at the period's end
-                theta += gained
-                w = w_end
-                break
-            # w reaches 0 within the period, at t_stop: -a w + v < 0 there, so it stops
-            if a == 0.0:
-                t_stop = -w / v
-            else:
-                t_stop = math.log((w - v / a) / (-v / a)) / a
-            gained, _ = _slip(w, v, a, t_stop)
-            theta += gained
-            w = 0.0
-            left -= t_stop
-    return out
-
-
-_KERNEL: list[Any] = []
-
-
-def _kernel() -> Any:
-    """``_positions`` compiled by numba (a dependency: the emulator's kernel uses it), on first
-    use and cached on disk; the same Python without numba."""
-    if not _KERNEL:
-        try:
-            import numba
-        except ImportError:  # pragma: no cover - numba is a dependency
-            _KERNEL.append(_positions)
-        else:
-            global _slip  # noqa: PLW0603 - the kernel calls the compiled helper
-            _slip = numba.njit(cache=True)(_slip)
-            _KERNEL.append(numba.njit(cache=True)(_positions))
-    return _KERNEL[0]
-
-
-def _simulate(p: np.ndarray, u: np.ndarray, dt: float, k: int) -> np.ndarray:
-    """Positions of the model with p = (a, b, c, d, theta_0, w_0, delta): the exact solution
-    over each period with the drive b u + d held (ZOH) and Coulomb friction with stiction
-    (Karnopp's model, solved exactly in continuous time): -c sign(w) while moving; a speed that
-    reaches zero within a period stops there, and at rest the shaft stays stuck while the drive
-    is within +-c, else breaks away. u is delayed by k + delta samples:
-    (1 - delta) u_n-k + delta u_n-k-1 over period n (a drive's current loop takes part of a
-    period to follow a torque step)."""
-    a, b, c, d, theta0, w0, delta = (float(x) for x in p)
-    held = (1.0 - delta) * _shift(u, k) + delta * _shift(u, k + 1)
-    out: np.ndarray = _kernel()(b * held + d, a, dt, abs(c), theta0, w0)
-    return out
-
-
 def _start(
     u: np.ndarray, theta: np.ndarray, s: np.ndarray, dt: float, max_delay: int
 ) -> tuple[int, np.ndarray]:
@@ -274,7 +182,7 @@ def _fit(
     import scipy.optimize
 
     s = speed_signs(theta, quantum(theta))
-    reversals = _sign_changes(s)
+    reversals = sign_changes(s)
     k0, (w0, a, b, c, d) = _start(u, theta, s, dt, max_delay)
     if not a > 0.0:
         a = 1e-3 / (dt * len(u))  # no viscous term seen: start near zero, alpha < 1
@@ -282,7 +190,7 @@ def _fit(
     for k in range(k0, min(k0 + 1, max_delay) + 1):  # the delay k + delta, delta from 0 to 1
 
         def residual(p: np.ndarray, k: int = k) -> np.ndarray:
-            out: np.ndarray = _simulate(p, u, dt, k) - theta
+            out: np.ndarray = stick_slip_positions(p, u, dt, k) - theta
             return out
 
         trial = scipy.optimize.least_squares(
@@ -352,44 +260,6 @@ def estimate_friction(
         return one_sign_result(input)
     p, se, cov, k, reversals, _ = _fit(u, theta, dt, max_delay)
     return _result(p, se, cov, k, reversals=reversals, input=input)
-
-
-def _sign_changes(s: np.ndarray) -> int:
-    """How often the signs ``s`` change, their zeros (at rest) left out."""
-    moving = s[s != 0.0]
-    return int(np.count_nonzero(np.diff(moving))) if len(moving) else 0
-
-
-def count_reversals(theta: np.ndarray) -> int:
-    """How often the speed (from the position, ``speed_signs``) changes sign in the record.
-
-    Parameters
-    ----------
-    theta : np.ndarray
-        The position [rad].
-
-    Returns
-    -------
-    int
-        Sign changes.
-    """
-    return _sign_changes(speed_signs(theta, quantum(theta)))
-
-
-def reverses(theta: np.ndarray) -> bool:
-    """The speed (from the position, ``speed_signs``) changes sign in the record.
-
-    Parameters
-    ----------
-    theta : np.ndarray
-        The position [rad].
-
-    Returns
-    -------
-    bool
-        The speed changes sign.
-    """
-    return count_reversals(theta) > 0
 
 
 def one_sign_result(input: str) -> FrictionResult:
@@ -473,7 +343,9 @@ def identify_with_friction(
     p, se, cov, k, fitted_reversals, _ = _fit(u[:n_fit], theta[:n_fit], dt, max_delay)
     friction = _result(p, se, cov, k, reversals=fitted_reversals, input=input)
     friction = replace(friction, reversals=count_reversals(theta))  # the record's, not the fitted part's
-    fit_pct, residual, floor = held_out_fit(theta, np.gradient(_simulate(p, u, dt, k), dt), n_fit, dt)
+    fit_pct, residual, floor = held_out_fit(
+        theta, np.gradient(stick_slip_positions(p, u, dt, k), dt), n_fit, dt
+    )
     a_m, b_m = friction.a, friction.b
     result = IdentResult(
         a_m=a_m,
