@@ -18,7 +18,7 @@ import numpy as np
 
 from controllers.dismc import DISMC, DISMCParams, dismc_lqr_gain
 from controllers.model_following import solve_model_following
-from rig.report.metrics import rise_time, settling_time
+from rig.report.step_response import rise_time, settling_time
 
 __all__ = ["ALIASES", "FIXED", "PARAM_NAMES", "DismcExample", "DismcRun", "dismc_laws", "run_dismc"]
 

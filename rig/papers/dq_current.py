@@ -7,7 +7,7 @@ on the stationary-frame converter model (``plant=fine``), at omega_k/omega_s =
 minus first sample at 5 %) and settling time (5 % band, in samples: the first
 sample after which the response stays inside) come from the simulated response;
 gain margin, phase margin and bandwidth/f_s from the open loop R(z) G(z) of the
-implemented controller and (29) (``rig.report.metrics.loop_margins``).
+implemented controller and (29) (``rig.report.margins.loop_margins``).
 
 For s-PWM-middle the loop is gamma (z + beta_1)/(z^2 - z) (38) with the complex
 beta_1 = beta_0 e^{-j omega_k T_s/2}; Table III fits beta_1 = 1 (resistance and
@@ -39,7 +39,8 @@ from controllers.dq_current import (
     pi_gains_like,
 )
 from plant_emulator.rl_dq import ExactDqPlant, RLParams, StationaryRLConverter
-from rig.report.metrics import loop_margins, overshoot
+from rig.report.margins import loop_margins
+from rig.report.step_response import overshoot
 
 __all__ = [
     "CROSS_GAMMA",

@@ -1,4 +1,6 @@
-"""Metrics of a recorded response, with explicit definitions.
+"""Metrics of a recorded response, with explicit definitions: its size (``rms``, ``max_abs``) and
+its chattering (sign changes of the command's increments, against the measurements' resolution).
+A step's response is ``rig.report.step_response``'s, a loop's margins ``rig.report.margins``'.
 
 Every function takes plain sequences or numpy arrays of equal-spaced samples.
 """
@@ -6,29 +8,23 @@ Every function takes plain sequences or numpy arrays of equal-spaced samples.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 __all__ = [
     "ROUNDING",
-    "LoopMargins",
     "beyond",
     "chattering_amplitude",
     "chattering_count",
     "common_quantum",
     "count_threshold",
     "feedback_resolution",
-    "loop_margins",
     "max_abs",
     "measured_quantum",
     "not_measurable",
-    "overshoot",
-    "rise_time",
     "rms",
-    "settling_time",
     "sign_law_share",
     "steady_chattering",
 ]
@@ -322,145 +318,3 @@ def steady_chattering(
         "chattering_amplitude": chattering_amplitude(u),
         "sign_law_share": math.nan if sign_law is None else sign_law_share(sign_law),
     }
-
-
-def rise_time(e: Samples, *, dt: float, low: float = 0.05, high: float = 0.95) -> float:
-    """Rise time of an error transition e(0) -> 0 [s], counted in samples times dt.
-
-    The progress is p_k = 1 - e_k / e_0; the rise time is (k_high - k_low) dt with
-    k_low, k_high the first samples where p reaches ``low`` and ``high``
-    (5 % -> 95 % by default). NaN when e_0 = 0 or the transition never completes.
-
-    Parameters
-    ----------
-    e : Samples
-        The error.
-    dt : float
-        [s] the period.
-    low, high : float, optional
-        The progress's bounds.
-
-    Returns
-    -------
-    float
-        [s].
-    """
-    a = np.asarray(e, dtype=float)
-    if a.size == 0 or a[0] == 0.0:
-        return math.nan
-    p = 1.0 - a / a[0]
-    hit_low, hit_high = np.nonzero(p >= low)[0], np.nonzero(p >= high)[0]
-    if hit_low.size == 0 or hit_high.size == 0:
-        return math.nan
-    return float(hit_high[0] - hit_low[0]) * dt
-
-
-def settling_time(e: Samples, *, dt: float, band: float = 0.01) -> float:
-    """Time [s] after which |e_k| stays within ``band`` |e_0| (1 % by default).
-
-    It is (k + 1) dt for the last sample k outside the band; 0 when none is.
-    NaN when the last sample is still outside (not settled within the record).
-
-    Parameters
-    ----------
-    e : Samples
-        The error.
-    dt : float
-        [s] the period.
-    band : float, optional
-        Of |e_0|.
-
-    Returns
-    -------
-    float
-        [s].
-    """
-    a = np.abs(np.asarray(e, dtype=float))
-    if a.size == 0:
-        return math.nan
-    outside = np.nonzero(a > band * a[0])[0]
-    if outside.size == 0:
-        return 0.0
-    if outside[-1] == a.size - 1:
-        return math.nan
-    return float(outside[-1] + 1) * dt
-
-
-def overshoot(y: Samples, *, final: float, initial: float = 0.0) -> float:
-    """Overshoot [%] of a step response from ``initial`` to ``final``: the largest
-    excursion beyond ``final`` relative to the step size; 0 when none.
-
-    Parameters
-    ----------
-    y : Samples
-        The response.
-    final : float
-        Its final value.
-    initial : float, optional
-        Its initial value.
-
-    Returns
-    -------
-    float
-        [%].
-    """
-    a = np.asarray(y, dtype=float)
-    step = final - initial
-    if step == 0.0 or a.size == 0:
-        return math.nan
-    beyond = (a - final) / step
-    return float(max(0.0, np.max(beyond)) * 100.0)
-
-
-@dataclass(frozen=True)
-class LoopMargins:
-    """Stability margins of a discrete open loop and the closed loop's bandwidth."""
-
-    gain_margin_db: float  #: -20 log10 |L| where the phase is -180 deg (inf: never)
-    phase_margin_deg: float  #: 180 deg + phase of L where |L| = 1 (inf: never)
-    bandwidth_ratio: float  #: f / f_s where |L/(1+L)| first falls to 1/sqrt(2)
-
-
-def _crossing(x: np.ndarray, y: np.ndarray, level: float) -> list[float]:
-    """x where y crosses ``level`` (linear interpolation between grid points)."""
-    d = y - level
-    idx = np.nonzero(np.signbit(d[:-1]) != np.signbit(d[1:]))[0]
-    return [float(x[i] - d[i] * (x[i + 1] - x[i]) / (d[i + 1] - d[i])) for i in idx]
-
-
-def loop_margins(loop: Callable[[complex], complex], *, points: int = 20001) -> LoopMargins:
-    """Gain and phase margin of the open loop L(z) and the closed-loop bandwidth.
-
-    L is evaluated on z = e^{j Omega} for Omega in (0, pi] and, because a
-    complex-coefficient loop is not conjugate-symmetric, also in [-pi, 0); the
-    worse side is reported. The phase is unwrapped from Omega -> 0, so a
-    crossing of -180 deg (of +180 deg on the negative side) is a phase crossover.
-    The bandwidth is the first |Omega| where |L/(1+L)| = 1/sqrt(2), divided by 2 pi.
-
-    Parameters
-    ----------
-    loop : Callable[[complex], complex]
-        L(z).
-    points : int, optional
-        Omega's grid.
-
-    Returns
-    -------
-    LoopMargins
-        The margins and the bandwidth.
-    """
-    omega = np.linspace(1e-6, math.pi, points)
-    gm, pm, bw = math.inf, math.inf, math.inf
-    for sign in (1.0, -1.0):
-        lz = np.array([loop(complex(math.cos(w), sign * math.sin(w))) for w in omega])
-        mag = np.abs(lz)
-        phase = np.degrees(np.unwrap(np.angle(lz)))
-        for w in _crossing(omega, sign * phase, -180.0):
-            gm = min(gm, -20.0 * math.log10(abs(loop(complex(math.cos(w), sign * math.sin(w))))))
-        for w in _crossing(omega, mag, 1.0):
-            pm = min(pm, 180.0 + sign * float(np.interp(w, omega, phase)))
-        closed = np.abs(lz / (1.0 + lz))
-        below = _crossing(omega, closed, 1.0 / math.sqrt(2.0))
-        if below:
-            bw = min(bw, below[0] / (2.0 * math.pi))
-    return LoopMargins(gm, pm, bw)

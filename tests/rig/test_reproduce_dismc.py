@@ -11,7 +11,7 @@ import pytest
 from rig.cli import main
 from rig.config.params import parse_items, typed_values
 from rig.papers.dismc import ALIASES, FIXED, DismcExample, run_dismc
-from rig.report.metrics import overshoot, rise_time, settling_time
+from rig.report.step_response import overshoot, rise_time, settling_time
 
 TABLE_1 = {"DISMC-LMI": (1.82, 2.88, -60.6, 135.8), "DISMC-LQR": (0.44, 0.72, -32.7, 175.1)}
 
