@@ -50,13 +50,14 @@ import canopen
 from drivers.maps import cia, cia406
 from drivers.maps.cia import Mode, map_entry
 from drivers.profiles import profile_peak
-from plant_emulator.axes import Axis, DcServoAxis, GridAxis, ServoLoops
+from plant_emulator.axes import Axis, DcServoAxis, ServoLoops
 from plant_emulator.canopen_node import EmulatedNode
 from plant_emulator.cia402_drive import EmulatedDrive, Ratings
 from plant_emulator.cia406_encoder import EmulatedEncoder
 from plant_emulator.dc_motor import DCMotorParams
 from plant_emulator.device_profile import DeviceProfile
 from plant_emulator.dyno import build_dyno, motor_ratings
+from plant_emulator.grid_axis import GridAxis
 from plant_emulator.induction_motor import ImAxis, ImParams
 from plant_emulator.parameters import load_torque
 from plant_emulator.preset_params import (
