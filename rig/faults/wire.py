@@ -26,7 +26,6 @@ killed host, the time not on disk after the last row, in cycles).
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import json
 import os
 import signal
@@ -39,6 +38,13 @@ from pathlib import Path
 from typing import Any
 
 from rig.emulator.spawn import spawn_emulator
+from rig.faults.run_files import (
+    NO_WRITE_OVERRIDE,
+    SMALL_FILES,
+    last_row_time,
+    rows_on_disk,
+    without_write_override,
+)
 from rig.faults.wire_probe import LinkRelay, Watcher, wait_for
 
 __all__ = ["AFTER", "DEVICE", "PERIOD", "WIRE_SCENARIOS", "rows_on_disk", "without_write_override"]
@@ -124,9 +130,9 @@ class _World:
                 )
             )
             self.err = (out / "host.err").open("w")
-            python = [sys.executable] if limit is None else [sys.executable, "-c", _SMALL_FILES, str(limit)]
+            python = [sys.executable] if limit is None else [sys.executable, "-c", SMALL_FILES, str(limit)]
             if read_only:
-                python = [sys.executable, "-c", _NO_WRITE_OVERRIDE, sys.executable]
+                python = [sys.executable, "-c", NO_WRITE_OVERRIDE, sys.executable]
             self.host = subprocess.Popen(
                 [*python, "-m", "rig.cli", "run", "--config", str(config), "--json"],
                 stdout=subprocess.PIPE,
@@ -234,76 +240,6 @@ class _World:
             subprocess.run(["umount", "-l", str(self.out / "runs")], capture_output=True, check=False)
 
 
-#: ``python -c _SMALL_FILES LIMIT -m MODULE ARGS``: MODULE run with files limited to LIMIT bytes
-#: (a write past it fails with EFBIG, SIGXFSZ ignored)
-_SMALL_FILES = """
-import resource, runpy, signal, sys
-limit = int(sys.argv[1])
-signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-sys.argv = sys.argv[3:]
-runpy.run_module(sys.argv[0], run_name="__main__", alter_sys=True)
-"""
-
-
-_PR_CAPBSET_DROP = 24  #: prctl: drop a capability from the bounding set (linux/prctl.h)
-_WRITE_OVERRIDES = (1, 2, 3)  #: CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH, CAP_FOWNER (linux/capability.h)
-
-
-def without_write_override() -> None:
-    """Before an exec: root's right to write past permission bits dropped from what the exec'd
-    program gets, so a ``chmod 555`` stops it as it stops any user (nothing to drop for another
-    user).
-
-    Raises
-    ------
-    OSError
-        If the capability cannot be dropped.
-    """
-    if os.geteuid() != 0:
-        return
-    libc = ctypes.CDLL(None, use_errno=True)
-    for cap in _WRITE_OVERRIDES:
-        if libc.prctl(_PR_CAPBSET_DROP, cap, 0, 0, 0) != 0:
-            raise OSError(ctypes.get_errno(), "prctl(PR_CAPBSET_DROP)")
-
-
-#: ``python -c _NO_WRITE_OVERRIDE PROGRAM ARGS``: PROGRAM exec'd without root's write override
-_NO_WRITE_OVERRIDE = """
-import os, sys
-from rig.faults.wire import without_write_override
-without_write_override()
-os.execv(sys.argv[1], sys.argv[1:])
-"""
-
-
-def rows_on_disk(run_dir: Path) -> int:
-    """The rows of ``run_dir``'s samples.csv (0 where it cannot be read).
-
-    Parameters
-    ----------
-    run_dir : Path
-        A run's folder.
-
-    Returns
-    -------
-    int
-        Rows.
-    """
-    with contextlib.suppress(OSError), (run_dir / "samples.csv").open() as f:
-        return sum(1 for _ in f) - 1
-    return 0
-
-
-def _last_t(run_dir: Path) -> float:
-    """The time [s] of the last complete row of ``samples.csv`` (0 when there is none)."""
-    with contextlib.suppress(OSError), (run_dir / "samples.csv").open() as f:
-        for line in reversed(f.read().splitlines()[1:]):
-            with contextlib.suppress(ValueError):
-                return float(line.split(",", 1)[0])
-    return 0.0
-
-
 def _scenario(run: Callable[[_World], dict[str, Any]], **world: Any) -> Callable[[str], dict[str, Any]]:
     def scenario(out: str) -> dict[str, Any]:
         w = _World(Path(out), **world)
@@ -346,7 +282,7 @@ def _host_sigkill(w: _World) -> dict[str, Any]:
     start = w.started()
     lost = None
     if start is not None:  # the time not on disk: from the last row's t to the kill
-        lost = max(0, round((w.injected - start[0] - _last_t(start[1])) / PERIOD))
+        lost = max(0, round((w.injected - start[0] - last_row_time(start[1])) / PERIOD))
     row = w.row({}, samples_lost=lost)  # 1 s after the kill: the drive has had its say
     codes = ", ".join(f"0x{c:04X}" for c in w.watcher.emcy) or "none"
     row["message"] = f"host killed; the drive's EMCY: {codes}; {lost} samples not on disk"
