@@ -2,7 +2,8 @@
 
 A command is ASCII text ``< verb ... >``. ``CommandSplitter`` cuts a byte stream into
 commands in time linear in the input and refuses a command longer than ``MAX_COMMAND``
-bytes. ``parse_send`` accepts a frame only when every field is valid (as socketcand's
+bytes. ``checked_command`` checks the others (``open``, ``rawmode``, ``echo``) against the client's
+state. ``parse_send`` accepts a frame only when every field is valid (as socketcand's
 README has it): a standard id of 3 hex digits 000..7FF or an extended one of 8 hex digits
 00000000..1FFFFFFF, a DLC 0..8 equal to the number of data bytes, each byte one or two
 hex digits. ``format_frame`` writes ``< frame ID SEC.USEC HEXDATA >`` as socketcand does
@@ -17,10 +18,12 @@ from collections.abc import Iterator
 import can
 
 __all__ = [
+    "BUS_NAME",
     "MAX_COMMAND",
     "CommandSplitter",
     "CommandTooLong",
     "ProtocolError",
+    "checked_command",
     "checked_send",
     "command_words",
     "format_frame",
@@ -30,6 +33,7 @@ __all__ = [
 
 #: [bytes] the longest command, ``<`` to ``>``; a client that sends more without ``>`` is dropped
 MAX_COMMAND = 4096
+BUS_NAME = 16  #: the longest bus name socketcand takes
 
 _STANDARD_ID = re.compile(r"[0-9A-Fa-f]{3}")
 _EXTENDED_ID = re.compile(r"[0-9A-Fa-f]{8}")
@@ -145,6 +149,48 @@ def command_words(text: str) -> list[str]:
     if not words:
         raise ProtocolError("empty command '< >'")
     return words
+
+
+def checked_command(text: str, *, opened: bool, rawmode: bool) -> str:
+    """The verb of a command but ``send``, checked against the client's state: ``< open BUS >``
+    once, with one bus name of up to ``BUS_NAME`` characters; ``< rawmode >`` once, after it;
+    ``< echo >`` at any time.
+
+    Parameters
+    ----------
+    text : str
+        The command, ``<`` to ``>``.
+    opened : bool
+        The client has opened a bus.
+    rawmode : bool
+        The client is in rawmode.
+
+    Returns
+    -------
+    str
+        "open", "rawmode" or "echo".
+
+    Raises
+    ------
+    ProtocolError
+        If the command is unknown, malformed or out of turn.
+    """
+    words = command_words(text)
+    verb = words[0]
+    if verb == "open":
+        if opened:
+            raise ProtocolError("a bus is open already")
+        if len(words) != 2 or len(words[1]) > BUS_NAME:
+            name = " ".join(words[1:])
+            raise ProtocolError(f"open takes one bus name of up to {BUS_NAME} characters: {shown(name)}")
+    elif verb == "rawmode":
+        if not opened:
+            raise ProtocolError("rawmode before '< open BUS >'")
+        if rawmode:
+            raise ProtocolError("rawmode already")
+    elif verb != "echo":
+        raise ProtocolError(f"unknown command {shown(verb)}")
+    return verb
 
 
 def _parse_id(word: str) -> tuple[int, bool]:

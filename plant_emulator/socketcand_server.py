@@ -20,9 +20,9 @@ clients. Each client has its own bounded queue (``socketcand_link``): a client t
 read is dropped, and no socket write waits with the devices' lock held. A device's answer to a
 client's frame (the TPDOs answering its SYNC) goes to that client's kernel at once; every other
 client gets its lines in one write a round, so a round costs a write per client however many
-frames it carried (a write per frame and client fell behind a 1 kHz host with 200 readers, its
-frames waiting 30-130 ms in its socket). A client's frames reach the bus in the order it sent
-them: they wait in one queue, and only the first of them competes in arbitration.
+frames it carried (docs/emulator.md has what a write per frame and client cost). A client's
+frames reach the bus in the order it sent them: they wait in one queue, and only the first of
+them competes in arbitration.
 
 The bus has a bit rate (``bitrate``, 1 Mbit/s by default): every frame, the devices' and the
 clients', takes its time on it (``bus_time``: worst-case stuffing), and a client's frame waits
@@ -58,10 +58,9 @@ from plant_emulator.socketcand_protocol import (
     MAX_COMMAND,
     CommandTooLong,
     ProtocolError,
-    command_words,
+    checked_command,
     format_frame,
     parse_send,
-    shown,
 )
 
 __all__ = ["BACKLOG", "MAX_COMMAND", "SocketcandServer", "format_frame", "parse_send"]
@@ -69,7 +68,6 @@ __all__ = ["BACKLOG", "MAX_COMMAND", "SocketcandServer", "format_frame", "parse_
 log = logging.getLogger(__name__)
 
 _CHUNK = 65536  #: [bytes] read at a time
-_BUS_NAME = 16  #: the longest bus name socketcand takes
 BACKLOG = 1024  #: connections the kernel holds until they are accepted
 _LOOK = 0.25  #: [s] how often a client whose kernel buffer is full is looked at again
 
@@ -374,11 +372,20 @@ class SocketcandServer:
     # --- commands -----------------------------------------------------------------------------
 
     def _command(self, client: ClientLink, text: str) -> None:
-        """Do one command but ``send`` (``_advance``); a refused one is answered."""
+        """Do one command but ``send`` (``_advance``; checked by ``checked_command``); a refused one
+        is answered."""
         try:
-            self._dispatch(client, text)
+            verb = checked_command(text, opened=client.opened, rawmode=client.rawmode)
         except ProtocolError as exc:
             self._refuse(client, exc)
+            return
+        if verb == "open":  # any bus name will do (there is one bus)
+            self._reply(client, "< ok >")
+            client.opened = True
+        elif verb == "rawmode":
+            self._rawmode(client)
+        else:
+            self._reply(client, "< echo >")
 
     def _refuse(self, client: ClientLink, exc: ProtocolError) -> None:
         """``< error ... >`` to ``client`` (its first refusal logged)."""
@@ -387,34 +394,8 @@ class SocketcandServer:
         log.log(level, "socketcand: client %s: %s (%d refused so far)", client.name, exc, client.errors)
         self._reply(client, f"< error {exc} >")
 
-    def _dispatch(self, client: ClientLink, text: str) -> None:
-        words = command_words(text)
-        verb = words[0]
-        if verb == "open":
-            self._open(client, words)
-        elif verb == "rawmode":
-            self._rawmode(client)
-        elif verb == "echo":
-            self._reply(client, "< echo >")
-        else:
-            raise ProtocolError(f"unknown command {shown(verb)}")
-
-    def _open(self, client: ClientLink, words: list[str]) -> None:
-        """``< open BUS >``: any bus name will do (there is one bus), once per client."""
-        if client.opened:
-            raise ProtocolError("a bus is open already")
-        if len(words) != 2 or len(words[1]) > _BUS_NAME:
-            text = " ".join(words[1:])
-            raise ProtocolError(f"open takes one bus name of up to {_BUS_NAME} characters: {shown(text)}")
-        self._reply(client, "< ok >")
-        client.opened = True
-
     def _rawmode(self, client: ClientLink) -> None:
-        """``< rawmode >``: ``< ok >``, then every frame; once per client."""
-        if not client.opened:
-            raise ProtocolError("rawmode before '< open BUS >'")
-        if client.rawmode:
-            raise ProtocolError("rawmode already")
+        """``< rawmode >``: ``< ok >``, then every frame."""
         self._put(client, "< ok >")
         client.send(time.monotonic())  # alone, before any frame: python-can's client reads it alone
         with self.lock:  # frames are queued under it: from now on, after the ok
