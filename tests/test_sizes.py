@@ -37,7 +37,6 @@ DEBTS: dict[str, int] = {
     "rig/cli/identify.py::add_parser": 75,
     "rig/cli/sweep.py::execute": 81,
     "rig/commission/moves.py::move": 62,
-    "rig/emulator/serve.py::run_emulator": 88,
 }
 
 

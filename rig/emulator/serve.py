@@ -147,68 +147,119 @@ def run_emulator(
     )
     collect: Callable[[], bool] | None = None  #: real time: young garbage collected in the slack
     try:
-        with lock:
-            devices: list[EmulatedNode]
-            devices, period = world(network)
-            for d in devices:
-                if hasattr(d, "lockstep"):
-                    d.lockstep = lockstep
-                d.boot()
+        devices, period = _boot(world, network, lock, lockstep=lockstep)
         grant: Grant | None = None
         if not lockstep and realtime is not None:
-            gc.collect()
-            gc.freeze()  # the world built: its objects are not traversed by the collections to come
-            gc.disable()  # none in a SYNC's answer (one took 90 us median, 0.5 ms at p90, 15 a second)
-            collect = collect_young
+            collect = _collect_in_the_slack()
             grant = request(realtime)
         with lock:
             clock = None if lockstep else WorldClock(devices)  # its time starts now
         if server is not None:
             server.idle = collect  # the frames' thread, once a round's answers are out
             server.start()
-        rest = threading.Event()
-        if threading.current_thread() is threading.main_thread():  # before anyone is told we serve
-            signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
-            signal.signal(signal.SIGUSR1, lambda signum, frame: rest.set())
-        nodes = [d.node_id for d in devices]
-        log.info("emulating %s (nodes %s, period %g s) on %s", label, nodes, period, where)
-        granted = f" ({grant.describe()})" if grant is not None else ""
-        print(
-            f"rig emulate: {label} on {where}{granted}; Ctrl-C stops, SIGUSR1 puts the plant at rest",
-            flush=True,
-        )
+        rest = _signals(stop)  # before anyone is told we serve
+        _announce(label, devices, period, where, grant)
         if ready is not None:
             ready(server.port if server else 0)
-        while not stop.is_set():
-            if rest.is_set():
-                rest.clear()
-                with lock:
-                    rest_plants(devices)
-            if clock is not None:  # real time: the devices' own clock runs, SYNC or not
-                with lock:
-                    clock.prepare()  # the next SYNC's state, once it is within the lead
-                if collect is not None and server is None:  # no frames' thread of ours: here
-                    collect()
-                # up to the next period's preparation (or the tick), never less than a lead:
-                # the receive path must run however slow the machine is (WorldClock.pause)
-                stop.wait(clock.pause(_TICK))
-            else:
-                stop.wait(0.1)
+        frames_thread = server is not None
+        _serve(
+            stop, rest, lock=lock, devices=devices, clock=clock, collect=None if frames_thread else collect
+        )
     except KeyboardInterrupt:
         log.info("interrupted")
     finally:
         if collect is not None:
             gc.enable()
-        if server is not None:
-            server.stop()
-            if network.bus is not None:  # the emulator's own bus on the hub
-                network.bus.shutdown()
-        if bus is not None:
-            if network.notifier is not None:
-                network.notifier.stop()
-            bus.shutdown()
+        _close(server, bus, network)
         print("rig emulate: stopped", flush=True)
     return 0
+
+
+def _signals(stop: threading.Event) -> threading.Event:
+    """On the main thread, SIGTERM sets ``stop`` and SIGUSR1 the event returned (the plants to rest)."""
+    rest = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+        signal.signal(signal.SIGUSR1, lambda signum, frame: rest.set())
+    return rest
+
+
+def _announce(
+    label: str, devices: list[EmulatedNode], period: float, where: str, grant: Grant | None
+) -> None:
+    """What is served, where, and the real-time grant: logged, and the first line on stdout."""
+    nodes = [d.node_id for d in devices]
+    log.info("emulating %s (nodes %s, period %g s) on %s", label, nodes, period, where)
+    granted = f" ({grant.describe()})" if grant is not None else ""
+    print(
+        f"rig emulate: {label} on {where}{granted}; Ctrl-C stops, SIGUSR1 puts the plant at rest",
+        flush=True,
+    )
+
+
+def _boot(
+    world: World, network: canopen.Network, lock: threading.RLock, *, lockstep: bool
+) -> tuple[list[EmulatedNode], float]:
+    """The world's devices built on ``network`` and booted, each in lock-step where asked and it has
+    the choice; (devices, period [s])."""
+    with lock:
+        devices: list[EmulatedNode]
+        devices, period = world(network)
+        for d in devices:
+            if hasattr(d, "lockstep"):
+                d.lockstep = lockstep
+            d.boot()
+    return devices, period
+
+
+def _collect_in_the_slack() -> Callable[[], bool]:
+    """Real time: the collector off, the world's objects frozen out of its collections; the young
+    garbage then goes in the slack of a round (what is returned, ``collect_young``)."""
+    gc.collect()
+    gc.freeze()  # the world built: its objects are not traversed by the collections to come
+    gc.disable()  # none in a SYNC's answer (one took 90 us median, 0.5 ms at p90, 15 a second)
+    return collect_young
+
+
+def _serve(
+    stop: threading.Event,
+    rest: threading.Event,
+    *,
+    lock: threading.RLock,
+    devices: list[EmulatedNode],
+    clock: WorldClock | None,
+    collect: Callable[[], bool] | None,
+) -> None:
+    """Serve until ``stop``: the plants at rest when ``rest`` is set; in real time (``clock``) the
+    next SYNC's state prepared within the lead and the young garbage collected here (``collect``:
+    where no frames' thread of ours does)."""
+    while not stop.is_set():
+        if rest.is_set():
+            rest.clear()
+            with lock:
+                rest_plants(devices)
+        if clock is not None:  # real time: the devices' own clock runs, SYNC or not
+            with lock:
+                clock.prepare()  # the next SYNC's state, once it is within the lead
+            if collect is not None:
+                collect()
+            # up to the next period's preparation (or the tick), never less than a lead:
+            # the receive path must run however slow the machine is (WorldClock.pause)
+            stop.wait(clock.pause(_TICK))
+        else:
+            stop.wait(0.1)
+
+
+def _close(server: SocketcandServer | None, bus: Any, network: canopen.Network) -> None:
+    """The socketcand server and the emulator's bus on its hub, or the python-can bus, closed."""
+    if server is not None:
+        server.stop()
+        if network.bus is not None:  # the emulator's own bus on the hub
+            network.bus.shutdown()
+    if bus is not None:
+        if network.notifier is not None:
+            network.notifier.stop()
+        bus.shutdown()
 
 
 def rest_plants(devices: list[EmulatedNode]) -> bool:
