@@ -23,32 +23,68 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from drivers.cia402 import Cia402Axis, power_state
-from drivers.cia402_pdo import read_mapping, variable
-from drivers.cia402_units import require
-from drivers.errors import ConfigError, DeviceFault, RigError, SafetyStop
-from drivers.identity import STANDARD_WRITES
+from drivers.cia402 import Cia402Axis
+from drivers.errors import DeviceFault, SafetyStop
 from drivers.maps import cia
-from drivers.maps.cia import Mode, PowerState
-from drivers.maps.cia402_needs import needed
-from drivers.maps.cia402_needs import require as require_objects
-from drivers.maps.emcy import emcy_text
-from drivers.maps.mode_names import mode_text
+from drivers.maps.cia import Mode
 from drivers.master_watch import MasterWatch
+from rig.commission.drive_status import drive_status
+from rig.commission.drive_stop import stop_to_rest
 from rig.commission.motion_watch import MotionWatch
-from rig.commission.objects import parse_object, read_object
-from rig.commission.picture import picture
-from rig.commission.status import UNITS_HINT, device_units
+from rig.commission.objects import object_name, parse_object, read_object
+from rig.commission.offers import check_profile
+from rig.commission.status import UNITS_HINT
 from rig.host.signals import StopRequests
-from rig.host.stopping import RestWatch
 
-__all__ = ["DriveTool", "parse_object"]
+__all__ = ["DriveTool", "deadline", "parse_object"]
 
 log = logging.getLogger(__name__)
 
 
 #: the ``rig drive`` action that runs the drive in each profile mode
 _VERB = {Mode.PROFILE_VELOCITY: "jog", Mode.PROFILE_POSITION: "move", Mode.HOMING: "home"}
+
+
+def deadline(seconds: float, *, emulated: bool) -> Callable[[], bool]:
+    """A predicate, true once ``seconds`` [s] have passed.
+
+    Parameters
+    ----------
+    seconds : float
+        [s].
+    emulated : bool
+        In lock-step (``DriveTool.emulated``): never true, the callers count their idles.
+
+    Returns
+    -------
+    Callable[[], bool]
+        The predicate, on the wall clock on a real bus.
+    """
+    if emulated:
+        return lambda: False
+    end = time.monotonic() + seconds
+    return lambda: time.monotonic() >= end
+
+
+def _report(
+    result: str,
+    position: float | None,
+    velocity: float,
+    *,
+    confirmed: bool,
+    turning: dict[str, float | None],
+    state: str,
+) -> dict[str, Any]:
+    """``DriveTool.run_profile``'s report: how the move ended, the actual values [rad, rad/s]
+    after the stop, whether it was confirmed, what was still turning, the state reached."""
+    return {
+        "result": result,
+        **({"position_rad": position} if position is not None else {}),
+        "velocity_rad_s": velocity,
+        "stop_confirmed": confirmed,
+        "still_turning": turning,
+        "state": state,
+    }
 
 
 class DriveTool:
@@ -92,75 +128,16 @@ class DriveTool:
         self._looks = 0
         self._t0 = time.monotonic()
 
-    def deadline(self, seconds: float) -> Callable[[], bool]:
-        """A predicate, true once ``seconds`` [s] have passed.
-
-        Parameters
-        ----------
-        seconds : float
-            [s].
-
-        Returns
-        -------
-        Callable[[], bool]
-            The predicate: on the wall clock on a real bus; in lock-step never true (the callers
-            count their idles).
-        """
-        if self.emulated:
-            return lambda: False
-        end = time.monotonic() + seconds
-        return lambda: time.monotonic() >= end
-
     # --- what the drive is ----------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        """The drive's whole picture: identity, state with every statusword bit named, mode,
-        actual values, limits, profile and ramps, windows, errors, inputs (``picture``), units
-        and the PDO mapping in force. Moves nothing and needs no factor: where the drive gives
-        none, its own units stand.
+        """The drive's whole picture (``rig.commission.drive_status.drive_status``).
 
         Returns
         -------
         dict[str, Any]
             The picture.
         """
-        a = self.axis
-        units = a.discover(check_mode=False)
-        word = int(a.sdo_read(cia.STATUSWORD))
-        od = a.node.object_dictionary
-        mapping = {}
-        for receive in (True, False):
-            for pdo in read_mapping(a.sdo_read, od, receive=receive):
-                mapping[pdo.name] = {
-                    "valid": pdo.valid,
-                    "cob_id": f"0x{pdo.cob_id:03X}",
-                    "type": pdo.ttype,
-                    "entries": [
-                        f"0x{e.wire(a.axis_number):04X}:{e.subindex:02X}/{e.bits}" for e in pdo.entries
-                    ],
-                }
-        mode = a._optional(cia.MODES_DISPLAY)
-        bits = a._optional(cia.SUPPORTED_MODES)
-        seen = picture(a, units, word, None if mode is None else int(mode))
-        return {
-            "node": a.node_id,
-            "axis": a.axis_number,
-            "identity": {k: f"0x{v:08X}" for k, v in a.identity.items()},
-            "vendor_name": a.device_id.vendor_name,
-            "state": power_state(word).value,
-            "statusword": f"0x{word:04X}",
-            "statusword_bits": [b["name"] for b in seen["bits"] if b["set"]],
-            "mode": mode,
-            "mode_name": "not readable (0x6061)"
-            if mode is None
-            else mode_text(mode, toolkit=a.toolkit_drive),
-            "supported_modes": sorted(Mode(m).name for m in a.supported_modes or ()),
-            "modes_offered": a.offered(bits),
-            "error_code": a.fault_text(),
-            "last_emcy": a.emcy_log[-1] if a.emcy_log else self._last_error(),
-            "units": units.describe() | device_units(units),
-            "pdo_mapping": mapping,
-            **seen,
-        }
+        return drive_status(self.axis)
 
     def read_object(self, index: int, subindex: int) -> dict[str, Any]:
         """One object read by SDO, for a person (nothing written): ``objects.read_object``.
@@ -178,7 +155,7 @@ class DriveTool:
         return read_object(self.axis, index, subindex)
 
     def object_name(self, index: int, subindex: int) -> str:
-        """An object's name in the drive's EDS, by its index on the wire ("" where it has none).
+        """An object's name in the drive's EDS (``rig.commission.objects.object_name``).
 
         Parameters
         ----------
@@ -188,24 +165,9 @@ class DriveTool:
         Returns
         -------
         str
-            Its name.
+            Its name ("" where it has none).
         """
-        od = self.axis.node.object_dictionary
-        var = variable(getattr(od, "device", od), (index, subindex))
-        return str(var.name) if var is not None else ""
-
-    def _last_error(self) -> str | None:
-        """The newest entry of the drive's error history (0x1003:01) in words, where it keeps one."""
-        a = self.axis
-        count = a._optional(cia.ERROR_HISTORY, 0)
-        if not count:
-            return None
-        entry = a._optional(cia.ERROR_HISTORY, 1)
-        if entry is None:
-            return None
-        code = int(entry) & 0xFFFF
-        words = emcy_text(code, a.emcy_texts)
-        return f"EMCY 0x{code:04X} ({words}), the newest of 0x1003 (the drive's error history)"
+        return object_name(self.axis, index, subindex)
 
     # --- the state machine ----------------------------------------------------------------------
     def _alone(self) -> None:
@@ -265,35 +227,6 @@ class DriveTool:
         return f"{self.axis.read_power_state().value} (was: {was})"
 
     # --- moves ----------------------------------------------------------------------------------
-    def offers(self, mode: Mode, verb: str) -> None:
-        """ConfigError, before anything is sent, where the drive's 0x6502 does not list ``mode``, or
-        its dictionary lacks what the mode needs (``drivers.maps.cia402_needs``; met without its
-        EDS, an object of ``drivers.identity.STANDARD_WRITES`` is the device's to refuse).
-
-        Parameters
-        ----------
-        mode : Mode
-            The mode.
-        verb : str
-            The command, named in the error.
-
-        Raises
-        ------
-        ConfigError
-            If the drive lacks the mode or what it needs.
-        """
-        a = self.axis
-        if a.supported_modes is not None and int(mode) not in a.supported_modes:
-            raise ConfigError(
-                f"{a.where}: rig drive {verb} runs the drive in {mode_text(int(mode))}, which it does not "
-                f"offer ({a.offered(a._optional(cia.SUPPORTED_MODES))}); nothing was sent: use a mode it "
-                "offers (rig run with mode = csp, csv or cst, where it lists them)"
-            )
-        needs = (*needed(mode), cia.VELOCITY_ACTUAL)  # the stop watches the speed to rest
-        if not a.eds_given:  # met without its EDS: a standard object is written by its type
-            needs = tuple(i for i in needs if (i, 0) not in STANDARD_WRITES)
-        require_objects(a.node.object_dictionary, needs, source=a.eds, what=f"rig drive {verb}")
-
     def until(self, done: Callable[[], bool], seconds: float, what: str) -> None:
         """Look and idle until ``done()``; a SafetyStop naming ``what`` after ``seconds``.
 
@@ -311,7 +244,7 @@ class DriveTool:
         SafetyStop
             If it is not done in time.
         """
-        late = self.deadline(seconds)
+        late = deadline(seconds, emulated=self.emulated)
         for _ in range(max(1, math.ceil(seconds / self.period))):
             if done():
                 return
@@ -347,16 +280,7 @@ class DriveTool:
             The report.
         """
         a = self.axis
-        a.discover(check_mode=False)
-        self.offers(mode, _VERB[mode])
-        if mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):
-            require(
-                a.units,
-                int(mode),
-                where=f"{a.name!r} ({a.where})",
-                hint=UNITS_HINT,
-                has_position=a.has_position,
-            )
+        check_profile(a, mode, _VERB[mode])
         self._alone()
         confirmed, result = False, "done"
         requests = StopRequests()  # a stop signal is this stop, which no later one cuts short
@@ -379,14 +303,8 @@ class DriveTool:
             requests.restore()
         requests.pass_on(confirmed)  # a move a signal cut short has no result to report
         position, velocity = self.actual()
-        return {
-            "result": result,
-            **({"position_rad": position} if position is not None else {}),
-            "velocity_rad_s": velocity,
-            "stop_confirmed": confirmed,
-            "still_turning": turning,
-            "state": a.read_power_state().value,
-        }
+        state = a.read_power_state().value
+        return _report(result, position, velocity, confirmed=confirmed, turning=turning, state=state)
 
     def actual(self) -> tuple[float | None, float]:
         """(position [rad], None on a drive without 0x6064; speed [rad/s]) read by SDO.
@@ -454,8 +372,7 @@ class DriveTool:
         """The move's watch ends (``motion``); quick stop, the drive's ramp to rest (statusword
         and 0x606C by SDO), disable (confirmed by the statusword, ``Cia402Axis.disable``: not
         confirmed, the stop is not), then the shaft at rest for the axis's hold
-        (``rig.host.stopping.RestWatch``): (confirmed, {axis: its speed [rad/s]} where the shaft
-        was still turning).
+        (``rig.host.stopping.RestWatch``; ``rig.commission.drive_stop``).
 
         Parameters
         ----------
@@ -465,32 +382,7 @@ class DriveTool:
         Returns
         -------
         tuple[bool, dict[str, float | None]]
-            (confirmed, the actual values at rest).
+            (confirmed, {axis: its speed [rad/s]} where the shaft was still turning).
         """
-        a = self.axis
         self.motion = None
-        a.quick_stop()
-
-        def at_rest() -> bool:
-            state = a.read_power_state()
-            if state in (PowerState.SWITCH_ON_DISABLED, PowerState.FAULT):
-                return True
-            return bool(abs(a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity) < a.rest_speed)
-
-        try:
-            self.until(at_rest, seconds, "the drive's stop")
-            confirmed = True
-        except SafetyStop:
-            confirmed = False
-        try:
-            a.disable()  # the drive's own watch of the host is lifted only once it is confirmed
-        except RigError as exc:
-            log.error("%s: %s", a.where, exc)
-            return False, {}
-        watch = RestWatch.of(a, self.period)
-        try:
-            self.until(lambda: watch.see(a.shaft_speed()), max(seconds, 3.0 * a.rest_time), "the rest")
-        except SafetyStop:
-            log.error("%s: still turning after the disable (%s rad/s)", a.where, watch.speed)
-            return False, {a.name: watch.speed}
-        return confirmed, {}
+        return stop_to_rest(self.axis, self.until, self.period, seconds)

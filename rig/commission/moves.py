@@ -22,7 +22,9 @@ from drivers.errors import ConfigError, DeviceFault
 from drivers.identity import read_standard
 from drivers.maps import cia
 from drivers.maps.cia import Controlword, Mode
+from rig.commission.drive import deadline
 from rig.commission.motion_watch import MotionWatch, watch_move
+from rig.commission.offers import check_offered
 from rig.commission.status import UNITS_HINT
 
 if TYPE_CHECKING:
@@ -128,7 +130,7 @@ def jog(
     if not abs(speed) <= max_speed:
         raise ConfigError(f"jog speed {speed:g} rad/s exceeds --max-speed {max_speed:g} rad/s")
     a = tool.axis
-    late = [tool.deadline(seconds)]
+    late = [deadline(seconds, emulated=tool.emulated)]
     ticks = [0]
     watch: list[MotionWatch] = []
     asked: dict[str, Any] = {}
@@ -144,7 +146,7 @@ def jog(
         tool.motion = watch_move(tool, what="the jog", speed_limit=max_speed, asked_speed=speed, start=here)
         watch.append(tool.motion)
         a.sdo_write(cia.TARGET_VELOCITY, 0, round(speed * a.units.velocity))
-        late[0] = tool.deadline(seconds)  # the jog's time runs from its target, not the set-up
+        late[0] = deadline(seconds, emulated=tool.emulated)  # from its target, not the set-up
 
     result = tool.run_profile(Mode.PROFILE_VELOCITY, start, elapsed, seconds + 1.0, "the jog")
     reached = watch[0].reached() if watch else math.nan
@@ -202,7 +204,7 @@ def move(
     """
     a = tool.axis
     a.discover(check_mode=False)
-    tool.offers(Mode.PROFILE_POSITION, "move")
+    check_offered(a, Mode.PROFILE_POSITION, "move")
     for mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):  # its target and its speed (0x6081)
         require(a.units, int(mode), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
     here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position

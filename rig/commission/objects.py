@@ -1,5 +1,6 @@
 """One object of a drive for a person: how it is written on the command line (``parse_object``)
-and what an SDO read of it shows (``read_object``): ``rig drive sdo read/write``."""
+what an SDO read of it shows (``read_object``) and its name in the EDS (``object_name``): ``rig drive
+sdo read/write``."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from drivers.maps.eds_values import TYPE_NAMES
 from drivers.maps.logical import axis_object
 from rig.commission.quantities import quantity
 
-__all__ = ["parse_object", "read_object"]
+__all__ = ["object_name", "parse_object", "read_object"]
 
 
 def parse_object(text: str, od: Any) -> tuple[int, int]:
@@ -104,3 +105,23 @@ def read_object(axis: Cia402Axis, index: int, subindex: int) -> dict[str, Any]:
         if q is not None:
             out["quantity"] = q.as_dict()
     return out
+
+
+def object_name(a: Cia402Axis, index: int, subindex: int) -> str:
+    """An object's name in the drive's EDS, by its index on the wire ("" where it has none).
+
+    Parameters
+    ----------
+    a : Cia402Axis
+        The drive.
+    index, subindex : int
+        The object.
+
+    Returns
+    -------
+    str
+        Its name.
+    """
+    od = a.node.object_dictionary
+    var = variable(getattr(od, "device", od), (index, subindex))
+    return str(var.name) if var is not None else ""
