@@ -31,29 +31,25 @@ from __future__ import annotations
 
 import logging
 import math
-import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import canopen
 
 from drivers.base import AxisState, Feedback
-from drivers.cia402_cycle import Cia402Cycle, power_state
+from drivers.cia402_cycle import Cia402Cycle
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
-from drivers.cia402_mapping import CyclePlan
-from drivers.cia402_process import ProcessData
-from drivers.cia402_setup import SW, VELOCITY, Cia402Setup
+from drivers.cia402_setup import VELOCITY, Cia402Setup
+from drivers.cia402_states import DISABLED_STATES, PowerStates, power_state
 from drivers.cia402_supervision import DriveSupervision
 from drivers.cia402_units import DriveUnits
 from drivers.errors import (
-    CommunicationError,
-    CommunicationTimeout,
     ConfigError,
     DeviceFault,
     RigError,
 )
 from drivers.maps import CIA402_EDS, cia
-from drivers.maps.cia import Controlword, Mode, PowerState
+from drivers.maps.cia import Mode, PowerState
 from drivers.maps.cia402_needs import needed, require
 from drivers.maps.emcy import emcy_text
 from drivers.maps.mode_names import mode_code
@@ -62,23 +58,6 @@ from drivers.producer_watch import ACCELERATION_LIMITS, declared_acceleration
 __all__ = ["DISABLED_STATES", "Cia402Axis", "DriveUnits", "power_state"]
 
 log = logging.getLogger(__name__)
-
-#: the controlword that moves one step towards OPERATION ENABLED from each state
-_TOWARDS_ENABLED = {
-    PowerState.SWITCH_ON_DISABLED: Controlword.SHUTDOWN,
-    PowerState.READY_TO_SWITCH_ON: Controlword.SWITCH_ON,
-    PowerState.SWITCHED_ON: Controlword.ENABLE_OPERATION,
-    PowerState.QUICK_STOP_ACTIVE: Controlword.DISABLE_VOLTAGE,
-}
-#: the states a disable must reach before the drive's supervision is relaxed: the drive function
-#: off (CiA 402-2, 6.2), confirmed by the statusword
-DISABLED_STATES = frozenset({PowerState.SWITCH_ON_DISABLED, PowerState.READY_TO_SWITCH_ON, PowerState.FAULT})
-_AXIS_STATE = {
-    PowerState.OPERATION_ENABLED: AxisState.ENABLED,
-    PowerState.QUICK_STOP_ACTIVE: AxisState.STOPPING,
-    PowerState.FAULT_REACTION_ACTIVE: AxisState.STOPPING,
-    PowerState.FAULT: AxisState.FAULT,
-}
 
 
 def _checked(name: str, mode: str, pdo: str, feedback: Iterable[str]) -> Mode:
@@ -137,13 +116,15 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         feedback: Iterable[str] = FEEDBACK_NAMES,
         axis: int = 1,
     ) -> None:
-        self.op_mode = _checked(name, mode, pdo, feedback)
-        self.maps = frozenset(feedback)
         super().__init__(
             name,
             mode,
             network,
             node_id,
+            op_mode=_checked(name, mode, pdo, feedback),
+            maps=frozenset(feedback),
+            period=period,
+            states=PowerStates(self),
             eds=eds or CIA402_EDS,
             eds_given=eds is not None,
             heartbeat_timeout=heartbeat_timeout,
@@ -156,26 +137,14 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         self.latency = latency
         self.pdo = pdo
         self.mode_timeout = mode_timeout
-        self.period = period  #: [s] the SYNC period (0x60C2, 0x1006), 0: not told
         #: the drive's watch of the host and of its commands (its part, ``drivers.cia402_supervision``)
         self.supervision = DriveSupervision(self, host, abort_connection, rpdo_deadline)
         self._speed_misses = 0  #: calls of ``shaft_speed`` since the last new velocity TPDO
         self.reset_fault = reset_fault  #: a drive found in FAULT at enable is reset (else refused)
         self.emcy_texts = dict(emcy_texts or {})
-        self.units = DriveUnits(math.nan, math.nan, math.nan, math.nan, {})
-        self.measures = frozenset()
         self.identity: dict[str, int] = {}
         self.supported_modes: frozenset[int] | None = None
-        self.data: ProcessData | None = None
-        self._turns = 0
-        self._angle: float | None = None
-        #: the velocity by difference (no 0x606C mapped): the last sample's (stamp, position, velocity)
-        self._moved: tuple[float | None, float, float] = (None, math.nan, 0.0)
-        self._enabled_stamp: float | None = None
-        self._rest_stamp: float | None = None  #: the statusword TPDO's stamp at the last ``at_rest``
-        self._plan = CyclePlan(None, frozenset(), None)  #: none until set-up maps the process data
         self._sent = False  #: an SDO download or an NMT command went to the drive
-        self._disabled = False  #: the statusword confirmed the last disable (``disable``)
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """An SDO download, never to a manufacturer object (0x2000-0x5FFF) but on the toolkit's own
@@ -219,27 +188,17 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
 
     # --- state machine ---------------------------------------------------------------------------
     def read_power_state(self) -> PowerState:
-        """The CiA 402 state, read by SDO."""
-        return power_state(self.sdo_read(cia.STATUSWORD))
+        """The CiA 402 state, read by SDO (``PowerStates.read``).
+
+        Returns
+        -------
+        PowerState
+            What the statusword shows.
+        """
+        return self.states.read()
 
     def read_state(self) -> AxisState:
-        return _AXIS_STATE.get(self.read_power_state(), AxisState.DISABLED)
-
-    def _drive_to(self, target: PowerState, step: Callable[[PowerState], int | None], timeout: float) -> None:
-        deadline = time.monotonic() + timeout
-        while True:
-            state = self.read_power_state()
-            if state is target:
-                return
-            if state is PowerState.FAULT and target is not PowerState.SWITCH_ON_DISABLED:
-                raise DeviceFault(f"drive in FAULT while going to {target.value}", device=self.where)
-            cw = step(state)
-            if cw is not None:
-                self.sdo_write(cia.CONTROLWORD, 0, int(cw))
-            if time.monotonic() > deadline:
-                raise CommunicationTimeout(
-                    f"node {self.node_id}: still {state.value} after {timeout:g} s, wanted {target.value}"
-                )
+        return self.states.axis_state()
 
     def fault_text(self) -> str:
         """What the drive's 0x603F holds, in words (or that it has none)."""
@@ -264,30 +223,19 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             log.warning("%s: the drive was in FAULT (%s): resetting it", self.where, what)
             self.fault_reset(timeout=timeout)
         self.clear_fault()
-        self._stop_word, self._disabled = None, False
         self._hold_still(self.op_mode if mode is None else int(mode))
         self.supervision.watch()
-        self._drive_to(PowerState.OPERATION_ENABLED, _TOWARDS_ENABLED.get, timeout)
-        slot = self.data.slot_of(SW) if self.data else None
-        self._enabled_stamp = slot.timestamp if slot else None
+        self.states.enable(timeout)
 
     def fault_reset(self, *, timeout: float = 1.0) -> None:
         """Rising edge of controlword bit 7 (transition 15)."""
-        if self.read_power_state() is not PowerState.FAULT:
-            return
-        self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
-        self._drive_to(
-            PowerState.SWITCH_ON_DISABLED,
-            lambda s: Controlword.FAULT_RESET if s is PowerState.FAULT else None,
-            timeout,
-        )
+        self.states.fault_reset(timeout)
 
     def quick_stop(self) -> None:
         """Quick stop command (transition 11), by SDO so it acts now, and in the RPDO from now on
         (``keep_stopping``). The drive's watch of the host and of its commands stays: it is
         lifted only once the disable is confirmed (``disable``)."""
-        self._stop_word = int(Controlword.QUICK_STOP)
-        self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.QUICK_STOP))
+        self.states.quick_stop()
 
     def quanta(self) -> tuple[float, float]:
         """One position increment [rad] and one velocity unit [rad/s] of the drive (0x608F/0x60A8,
@@ -302,17 +250,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         """After a quick stop: the statusword shows the ramp ended (SWITCH ON DISABLED, FAULT), or
         QUICK STOP ACTIVE with the motor at rest (0x605A options 5-8). The statusword of the last
         TPDO, or read by SDO when no new TPDO came since the last call (TPDOs may have stopped)."""
-        data = self.data
-        slot = data.slot_of(SW) if data is not None else None
-        if slot is not None and slot.timestamp is not None and slot.timestamp != self._rest_stamp:
-            self._rest_stamp = slot.timestamp
-            word = data.value(SW)  # type: ignore[union-attr]
-        else:
-            word = self.sdo_read(cia.STATUSWORD)
-        state = power_state(word)
-        if state in (PowerState.SWITCH_ON_DISABLED, PowerState.FAULT, PowerState.NOT_READY_TO_SWITCH_ON):
-            return True
-        return state is PowerState.QUICK_STOP_ACTIVE and abs(fb.velocity) < self.rest_speed
+        return self.states.at_rest(fb)
 
     def shaft_speed(self) -> float | None:
         """0x606C [rad/s]: the TPDO's where a new one came since the last call, else read by SDO
@@ -340,30 +278,8 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         CommunicationError saying so. Nothing on a node whose 0x1000 says it is no CiA 402 drive."""
         if self.not_a_drive:
             return
-        self._stop_word = int(Controlword.DISABLE_VOLTAGE)
-        try:
-            self.sdo_write(cia.CONTROLWORD, 0, int(Controlword.DISABLE_VOLTAGE))
-            state = self._confirm_disabled()
-        except RigError as exc:
-            said = f"{self.where}: disable voltage not confirmed ({exc}); {self.supervision.kept()}"
-            raise CommunicationError(said) from exc
-        if state not in DISABLED_STATES:
-            raise CommunicationError(
-                f"{self.where}: disable voltage not confirmed: the statusword shows {state.value} "
-                f"{self.DISABLE_CONFIRM:g} s after it; {self.supervision.kept()}"
-            )
-        self._disabled = True
+        self.states.disable(self.supervision.kept)
         self.supervision.unwatch()
-
-    def _confirm_disabled(self) -> PowerState:
-        """The state the statusword shows, read until it shows the drive disabled or
-        ``DISABLE_CONFIRM`` [s] have passed (time passing by ``idle``)."""
-        deadline = time.monotonic() + self.DISABLE_CONFIRM
-        while True:
-            state = self.read_power_state()
-            if state in DISABLED_STATES or time.monotonic() > deadline:
-                return state
-            self.idle()
 
     def sibling_watches(self) -> list[DriveSupervision]:
         """The supervision of the other CiA 402 axes on the node (``DriveSupervision.unwatch_host``).
@@ -376,4 +292,4 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         return [a.supervision for a in self.siblings() if isinstance(a, Cia402Axis)]
 
     def _watched(self) -> bool:
-        return not self._disabled or self.supervision.deadline_comm is not None
+        return not self.states.disabled or self.supervision.deadline_comm is not None

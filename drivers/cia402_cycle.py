@@ -14,55 +14,83 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
+
+import canopen
 
 from drivers.base import Feedback
 from drivers.canopen_axis import CanopenAxis, TpdoSlot, sample_interval
 from drivers.cia402_mapping import CW, DQ_RX, POSITION, VELOCITY, CyclePlan
 from drivers.cia402_process import ProcessData
+from drivers.cia402_states import PowerStates, power_state
 from drivers.cia402_units import DriveUnits
 from drivers.errors import CommunicationError, RigError, SafetyStop, brief
 from drivers.maps import cia
-from drivers.maps.cia import Controlword, Mode, PowerState
+from drivers.maps.cia import Mode, PowerState
 from drivers.producer_watch import travel_band
 
-__all__ = ["Cia402Cycle", "power_state"]
+__all__ = ["Cia402Cycle", "power_state"]  # power_state: drivers.cia402_states's
 
 _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
-_ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
-#: the controlword of each cycle in a mode: enable operation (in ip with bit 4, enable ip mode)
-_RUN_WORD = {Mode.INTERPOLATED_POSITION: _ENABLE_OPERATION | cia.CW_ENABLE_IP}
 
 
 def _object(index: int, subindex: int) -> str:
     return f"0x{index:04X}" + (f":{subindex:02X}" if subindex else "")
 
 
-def power_state(statusword: int) -> PowerState:
-    """The state a statusword reports; DeviceFault-free: an undecodable word is NOT READY."""
-    return cia.decode_statusword(statusword) or PowerState.NOT_READY_TO_SWITCH_ON
-
-
 class Cia402Cycle(CanopenAxis):
-    """The cycle's methods of ``Cia402Axis`` (see the module docstring); set-up fills the state."""
+    """The cycle of ``Cia402Axis`` (see the module docstring) on its CANopen node: it owns what each
+    cycle reads and writes, which set-up fills (``data``, ``units``, ``measures``, the plan).
 
-    data: ProcessData | None
-    units: DriveUnits
-    op_mode: Mode
-    measures: frozenset[str]
-    maps: frozenset[str]
-    period: float
-    max_acceleration: float = math.inf  #: [rad/s^2] 0x60C5/0x60C6, read at set-up (inf: none said)
-    _turns: int
-    _angle: float | None
-    _moved: tuple[float | None, float, float]
-    _enabled_stamp: float | None
-    _motion: TpdoSlot | None  #: the position's TPDO slot (set-up)
-    #: the controlword the RPDO carries from a stop on (quick stop, disable voltage); None: enable
-    #: operation (``drivers.cia402``: set by quick_stop and disable, cleared by enable)
-    _stop_word: int | None = None
-    _target_raw: int | None = None  #: the target of the last command, in the drive's units
+    Parameters
+    ----------
+    name : str
+        The axis's name.
+    mode : str
+        Its mode's name.
+    network : canopen.Network
+        The network of its node.
+    node_id : int
+        Its node id.
+    op_mode : Mode
+        Its mode's code.
+    maps : frozenset of str
+        What the TPDOs carry (``drivers.cia402_feedback``).
+    period : float
+        [s] the SYNC period, 0: not told.
+    states : PowerStates
+        The drive's state machine (``drivers.cia402_states``), whose stop the RPDO carries.
+    **access : Any
+        ``CanopenAxis``'s keywords (the EDS, heartbeat, SDO time-out ...).
+    """
 
-    _plan: CyclePlan  #: the cycle's reading and packing for the mapping in force (set-up)
+    def __init__(
+        self,
+        name: str,
+        mode: str,
+        network: canopen.Network,
+        node_id: int,
+        *,
+        op_mode: Mode,
+        maps: frozenset[str],
+        period: float,
+        states: PowerStates,
+        **access: Any,
+    ) -> None:
+        super().__init__(name, mode, network, node_id, **access)
+        self.op_mode, self.maps, self.states = op_mode, maps, states
+        self.period = period  #: [s] the SYNC period (0x60C2, 0x1006), 0: not told
+        self.units = DriveUnits(math.nan, math.nan, math.nan, math.nan, {})  #: set-up's
+        self.data: ProcessData | None = None  #: the process data in force (set-up)
+        self.measures: frozenset[str] = frozenset()
+        self.max_acceleration = math.inf  #: [rad/s^2] 0x60C5/0x60C6, read at set-up (inf: none said)
+        self._plan = CyclePlan(None, frozenset(), None)  #: none until set-up maps the process data
+        self._motion: TpdoSlot | None = None  #: the slot whose stamp is the sample's (set-up)
+        self._turns = 0
+        self._angle: float | None = None
+        #: the velocity by difference (no 0x606C mapped): the last sample's (stamp, position, velocity)
+        self._moved: tuple[float | None, float, float] = (None, math.nan, 0.0)
+        self._target_raw: int | None = None  #: the target of the last command, in the drive's units
 
     def feedback(self) -> Feedback:
         """The last TPDOs in SI (the frame angle unwrapped in mode -2)."""
@@ -166,7 +194,7 @@ class Cia402Cycle(CanopenAxis):
         if plan.status is None:
             return
         slot, place = plan.status
-        if slot.timestamp is None or slot.timestamp == self._enabled_stamp:
+        if slot.timestamp is None or slot.timestamp == self.states.enabled_stamp:
             return
         word = slot.values()[place]
         if word & _ENABLED_MASK != _ENABLED_BITS:
@@ -203,7 +231,7 @@ class Cia402Cycle(CanopenAxis):
         meanwhile still has the drive stop itself; and a quick stop whose SDO was lost still
         reaches the drive, in the RPDO's controlword."""
         data = self.data
-        if self._stop_word is None or data is None or data.rpdo is None or not self._watched():
+        if self.states.stop_word is None or data is None or data.rpdo is None or not self._watched():
             return
         if self.op_mode == Mode.DQ_VOLTAGE:
             frame = data.frame({DQ_RX[0]: 0, DQ_RX[1]: 0})
@@ -224,7 +252,9 @@ class Cia402Cycle(CanopenAxis):
     def _pack(self, data: ProcessData, raw: int) -> bytes:
         """The RPDO's data: the controlword of the moment and the mode's target ``raw``."""
         plan = self._plan
-        word = _RUN_WORD.get(self.op_mode, _ENABLE_OPERATION) if self._stop_word is None else self._stop_word
+        word = self.states.stop_word
+        if word is None:
+            word = plan.run_word
         if plan.rpdo is not None:
             return plan.rpdo(word, raw)
         return data.frame({CW: word, cia.TARGET_OF_MODE[self.op_mode]: raw})

@@ -31,7 +31,7 @@ from drivers.cia402_units import DriveUnits
 from drivers.errors import ConfigError, SdoAbort
 from drivers.identity import Identity
 from drivers.maps import cia
-from drivers.maps.cia import Mode
+from drivers.maps.cia import Controlword, Mode
 
 if TYPE_CHECKING:
     from drivers.canopen_axis import TpdoSlot
@@ -62,6 +62,8 @@ CURRENT: Key = (cia.CURRENT_ACTUAL, 0)
 MODE_SHOWN: Key = (cia.MODES_DISPLAY, 0)
 DQ_RX = [(cia.DQ_VOLTAGE, 1), (cia.DQ_VOLTAGE, 2)]
 DQ_TX = [SW, (cia.FRAME_ANGLE, 0), (cia.FRAME_SPEED, 0), (cia.DQ_CURRENT, 1), (cia.DQ_CURRENT, 2)]
+_ENABLE_OPERATION = int(Controlword.ENABLE_OPERATION)
+_RUN_WORD = {Mode.INTERPOLATED_POSITION: _ENABLE_OPERATION | cia.CW_ENABLE_IP}
 #: the feedback a drive's TPDOs may carry, by name (``Cia402Mapping.maps``); the position always
 FEEDBACK = {
     "position": POSITION,
@@ -89,6 +91,10 @@ class CyclePlan:
         self.status: tuple[TpdoSlot, int] | None = None
         self.mode: tuple[TpdoSlot, int] | None = None
         self.rpdo: Callable[..., bytes] | None = None
+        #: the controlword of each cycle: enable operation (in ip with bit 4, enable ip mode)
+        self.run_word = (
+            _RUN_WORD.get(op_mode, _ENABLE_OPERATION) if op_mode is not None else _ENABLE_OPERATION
+        )
         if data is None:
             return
         keys = [POSITION] * self.position + [VELOCITY] * velocity + [TORQUE] * self.torque

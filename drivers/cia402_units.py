@@ -113,16 +113,7 @@ def discover_units(
         source["increments"] = "[axis.units] counts_per_rev"
     gear = _ratio(read, cia.GEAR_RATIO) or 1.0
     feed = _ratio(read, cia.FEED_CONSTANT)
-    pos_code = read(cia.SI_UNIT_POSITION, 0) or _dimension(read, where, hint, velocity=False)
-    pos_code = pos_code or int(given.get("position_unit", 0))
-    vel_code = read(cia.SI_UNIT_VELOCITY, 0) or _dimension(read, where, hint, velocity=True)
-    vel_code = vel_code or int(given.get("velocity_unit", 0))
-    for code, key in ((pos_code, "position_unit"), (vel_code, "velocity_unit")):
-        if code:
-            try:
-                SiUnit.decode(code)
-            except ValueError as exc:
-                raise ConfigError(f"axis {where}: {exc}; set {hint.format(key=key)}") from None
+    pos_code, vel_code = _unit_codes(read, given, where, hint)
     position = velocity = math.nan
     rotary = pos_code and SiUnit.decode(pos_code).unit != INCREMENTS
     if increments or rotary or feed:
@@ -144,16 +135,40 @@ def discover_units(
     elif vel_code and SiUnit.decode(vel_code).unit != INCREMENTS:  # rpm, rad/s: no increments needed
         velocity = velocity_per_revolution(math.nan, gear=gear, unit=vel_code) / _TWO_PI
         source["velocity"] = _code_source(read, vel_code, cia.SI_UNIT_VELOCITY, cia.VELOCITY_DIMENSION)
-    torque = read(cia.RATED_TORQUE, 0)
-    current = read(cia.RATED_CURRENT, 0)
-    rated_torque = torque / 1000.0 if torque else float(given.get("rated_torque", 0.0)) or math.nan
-    rated_current = current / 1000.0 if current else float(given.get("rated_current", 0.0)) or math.nan
-    source["rated_torque"] = "0x6076" if torque else ("[axis.units]" if given.get("rated_torque") else "")
-    source["rated_current"] = "0x6075" if current else ("[axis.units]" if given.get("rated_current") else "")
+    rated_torque = _rated(read, given, source, cia.RATED_TORQUE, "rated_torque")
+    rated_current = _rated(read, given, source, cia.RATED_CURRENT, "rated_current")
     units = DriveUnits(position, velocity, rated_torque, rated_current, source)
     if mode:
         require(units, mode, where=where, hint=hint, has_position=has_position)
     return units
+
+
+def _unit_codes(
+    read: Callable[[int, int], Any], given: Mapping[str, float], where: str, hint: str
+) -> tuple[int, int]:
+    """The position's and the velocity's unit codes (0x60A8, 0x60A9; the older notation and
+    dimension indices; else ``[axis.units]``; 0: none), each checked to be a unit."""
+    pos_code = read(cia.SI_UNIT_POSITION, 0) or _dimension(read, where, hint, velocity=False)
+    pos_code = pos_code or int(given.get("position_unit", 0))
+    vel_code = read(cia.SI_UNIT_VELOCITY, 0) or _dimension(read, where, hint, velocity=True)
+    vel_code = vel_code or int(given.get("velocity_unit", 0))
+    for code, key in ((pos_code, "position_unit"), (vel_code, "velocity_unit")):
+        if code:
+            try:
+                SiUnit.decode(code)
+            except ValueError as exc:
+                raise ConfigError(f"axis {where}: {exc}; set {hint.format(key=key)}") from None
+    return pos_code, vel_code
+
+
+def _rated(
+    read: Callable[[int, int], Any], given: Mapping[str, float], source: dict[str, str], index: int, key: str
+) -> float:
+    """The rated torque [N m] (0x6076) or current [A] (0x6075) in mN m or mA, else ``given[key]``,
+    else NaN; where it came from in ``source[key]``."""
+    value = read(index, 0)
+    source[key] = f"0x{index:04X}" if value else ("[axis.units]" if given.get(key) else "")
+    return value / 1000.0 if value else float(given.get(key, 0.0)) or math.nan
 
 
 def _dimension(read: Callable[[int, int], Any], where: str, hint: str, *, velocity: bool) -> int:
