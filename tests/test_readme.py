@@ -46,21 +46,35 @@ NOT_HERE = {
 
 def _demo(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
     """Quick start: errors and chattering of (7.30) with and without its integral, the sign law
-    and the cascade, and a run directory under runs/ (its plot.png: matplotlib is there)."""
+    and the cascade, then the run over the emulated CAN bus: ended without a stop, its rms error
+    with its unit, (7.30) over the 4096-count encoder within its linear region (no more than the
+    alternation or two the load step at the start of the second half makes, the sign law 0 % of
+    it), and its run directory under runs/ (samples, summary, plot.png: matplotlib is there).
+    The one run of ``rig demo`` in the default tests."""
+    out = proc.stdout
     for column in ("max|e|", "rms e", "e_ss", "chatter", "du rms"):
-        assert column in proc.stdout, column
+        assert column in out, column
     for law in ("dtsm-7.30 h=16", "dtsm-7.30 h=0", "sign law (6.8)", "cascade VII.D"):
-        assert law in proc.stdout, law
+        assert law in out, law
+    assert "Over the emulated CAN bus" in out and "stop            none: the run ended" in out
+    assert "rms error       " in out and " rad\n" in out  # with its unit
+    count = int(out.split("chattering      ")[-1].split()[0])
+    assert count <= 2 and "sign law        0 % of the second half" in out and "docs/chattering.md" in out
     (run,) = (folder / "runs").glob("demo-*")
-    assert (run / "plot.png").is_file()
+    assert folder / pathlib.Path(out.split("run directory")[1].split()[0]) in (run, run.resolve())
+    assert all((run / name).is_file() for name in ("plot.png", "samples.csv", "summary.json"))
 
 
 def _identify_then_design(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
-    """ "From identification to a run": it says where it wrote identification.json, and the
-    design's --json adds a_m, b_m, lam, dt, input (the Commands table)."""
+    """ "From identification to a run": it says where it wrote identification.json, the a_m and
+    b_m the page gives, and the design's --json adds a_m, b_m, lam, dt, input (the Commands
+    table). The one run of that identification in the default tests."""
+    from tests.test_readme_commands import _identify  # the a_m and b_m the page says it gives
+
     assert re.search(r"written to runs/identify-voltage-\d{8}-\d{6}/identification\.json", proc.stdout)
     design = json.loads((folder / "design.json").read_text())
     assert {"a_m", "b_m", "lam", "dt", "input", "c_delta"} <= set(design) and design["lam"] == -15
+    _identify(proc, folder)
 
 
 def _two_terminals(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:

@@ -122,20 +122,6 @@ def test_a_run_stopped_at_its_start_says_its_chattering_was_not_measured(
     assert all(summary[k] is None for k in ("rms_error", "max_error", "chattering_count", "sign_law_share"))
 
 
-def test_demo_runs_and_reports(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["demo"]) == 0
-    out = capsys.readouterr().out
-    assert "dtsm-7.30 h=16" in out and "sign law" in out and "cascade" in out
-    assert "Over the emulated CAN bus" in out and "stop            none: the run ended" in out
-    assert "rms error       " in out and " rad\n" in out  # with its unit
-    # (7.30) over the 4096-count encoder: within its linear region, no more than the alternation
-    # or two the load step at the start of the second half makes
-    count = int(out.split("chattering      ")[-1].split()[0])
-    assert count <= 2 and "sign law        0 % of the second half" in out and "docs/chattering.md" in out
-    run_dir = pathlib.Path(out.split("run directory")[1].split()[0])
-    assert (run_dir / "samples.csv").exists() and (run_dir / "summary.json").exists()
-
-
 def test_bench_physics_json_contract(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
