@@ -34,7 +34,6 @@ DEBTS: dict[str, int] = {
     "rig/cli/identify.py::_experiment": 66,
     "rig/cli/identify.py::add_parser": 75,
     "rig/cli/sweep.py::execute": 81,
-    "rig/commission/moves.py::move": 62,
 }
 
 

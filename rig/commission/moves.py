@@ -203,14 +203,7 @@ def move(
         If the speed, acceleration or travel is out of bounds.
     """
     a = tool.axis
-    a.discover(check_mode=False)
-    check_offered(a, Mode.PROFILE_POSITION, "move")
-    for mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):  # its target and its speed (0x6081)
-        require(a.units, int(mode), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
-    here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
-    target = here + position if relative else position
-    if not abs(target - here) <= max_travel:
-        raise ConfigError(f"a move of {target - here:g} rad exceeds --max-travel {max_travel:g} rad")
+    here, target = _target(tool, position, relative=relative, max_travel=max_travel)
     tool._alone()  # no other master: then the profile, written before the enable
     asked = _profile(tool, _own_speed(tool, max_speed) if speed is None else speed, accel, max_speed)
     tool.watch_actual(target, cia.POSITION_ACTUAL, a.units.position)
@@ -247,6 +240,22 @@ def move(
         "stop": _stop_words(result),
     }
     return report | result
+
+
+def _target(tool: DriveTool, position: float, *, relative: bool, max_travel: float) -> tuple[float, float]:
+    """Before a move, nothing sent: the drive offers profile position and has the factors of its
+    target and speed (0x6081); (where the shaft stands, the target) [rad], the travel within
+    ``max_travel`` [rad] (ConfigError otherwise)."""
+    a = tool.axis
+    a.discover(check_mode=False)
+    check_offered(a, Mode.PROFILE_POSITION, "move")
+    for mode in (Mode.PROFILE_POSITION, Mode.PROFILE_VELOCITY):  # its target and its speed (0x6081)
+        require(a.units, int(mode), where=f"{a.name!r} ({a.where})", hint=UNITS_HINT)
+    here = a.sdo_read(cia.POSITION_ACTUAL) / a.units.position
+    target = here + position if relative else position
+    if not abs(target - here) <= max_travel:
+        raise ConfigError(f"a move of {target - here:g} rad exceeds --max-travel {max_travel:g} rad")
+    return here, target
 
 
 def _error(tool: DriveTool, target: float, reached: float, word: int) -> dict[str, Any]:
