@@ -55,7 +55,7 @@ from plant_emulator.frame import Frame
 from plant_emulator.lss_slave import UNCONFIGURED, check_node_id, lss_slave
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.param_store import ParameterStore
-from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, mappable, pack, read_pdo
+from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, pack, read_pdos
 from plant_emulator.sdo_server import SdoServer
 from plant_emulator.supervision import Deadlines, HeartbeatConsumer, Supervision, check_consumer_entry
 
@@ -99,33 +99,10 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.node: Any = local
         self.od = ObjectStore(local)  #: typed, cached device-side access to the object dictionary
         self.network.add_node(self.node)
-        # SDO and NMT through our gates; heartbeat on our clock, not canopen's thread
-        self.network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
-        self.network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
-        # NMT through a gate as well: CiA 301 NMT frames are exactly 2 bytes
-        self.network.unsubscribe(COB_NMT, self.node.nmt.on_command)
-        self.network.subscribe(COB_NMT, self._on_nmt)
-        nmt: Any = self.node.nmt
-        nmt.start_heartbeat = lambda ms: None
-        nmt.stop_heartbeat = lambda: None
-        nmt.update_heartbeat = lambda: None
-        self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
-        self.node.add_write_callback(self._on_write)
-        cached = self.od.values  # what ObjectStore.forget drops, without its call per object stored
+        self._gate()
         self.params = ParameterStore(local.object_dictionary, self.od.raw, lambda: self._power_on)
         self.lss = lss_slave(self)  #: CiA 305, where its EDS says so or it has no node-ID yet
-
-        def stored(index: int, subindex: int) -> None:
-            cached.pop((index, subindex), None)
-            if self.params.handles(index):  # a signature is a command, not a value to keep
-                self.node.data_store.get(index, {}).pop(subindex, None)
-            if index == cia.CONSUMER_HEARTBEAT:  # the watch changes at once, not at the next SYNC
-                self._configure_consumer()
-            elif index in RPDO_COMMS and subindex == cia.PDO_COMM_EVENT_TIMER:  # so does a deadline
-                self._configure()
-            self.after_write(index)
-
-        self.node.on_stored = stored
+        self.node.on_stored = self._store_watch()
         self.fixed_mapping = False  #: the PDO mappings refuse every write (SDO abort 0x06010002)
         self.clock = 0.0  #: device time [s]
         #: real time: the emulator's monotonic clock [s]; None: time is the SYNCs' (lock-step)
@@ -151,6 +128,39 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.rx_time = 0.0  #: timestamp [s] of the RPDO being handled
         self.in_rpdo = False  #: an RPDO's data are being written (``on_write`` sees its objects)
         self._power_on: dict[int, dict[int, bytes]] | None = None
+
+    def _gate(self) -> None:
+        """canopen's LocalNode rewired: SDO and NMT through our gates, the heartbeat on our clock
+        (not canopen's thread), every write seen by ``_on_write``."""
+        # SDO and NMT through our gates; heartbeat on our clock, not canopen's thread
+        self.network.unsubscribe(self.node.sdo.rx_cobid, self.node.sdo.on_request)
+        self.network.subscribe(self.node.sdo.rx_cobid, self._on_sdo)
+        # NMT through a gate as well: CiA 301 NMT frames are exactly 2 bytes
+        self.network.unsubscribe(COB_NMT, self.node.nmt.on_command)
+        self.network.subscribe(COB_NMT, self._on_nmt)
+        nmt: Any = self.node.nmt
+        nmt.start_heartbeat = lambda ms: None
+        nmt.stop_heartbeat = lambda: None
+        nmt.update_heartbeat = lambda: None
+        self.node._write_callbacks.remove(nmt.on_write)  # it only (re)starts that heartbeat thread
+        self.node.add_write_callback(self._on_write)
+
+    def _store_watch(self) -> Callable[[int, int], None]:
+        """What the store calls for every object stored: the cached value dropped, a signature not
+        kept, the heartbeat watch and an RPDO's deadline changed at once, ``after_write``."""
+        cached = self.od.values  # what ObjectStore.forget drops, without its call per object stored
+
+        def stored(index: int, subindex: int) -> None:
+            cached.pop((index, subindex), None)
+            if self.params.handles(index):  # a signature is a command, not a value to keep
+                self.node.data_store.get(index, {}).pop(subindex, None)
+            if index == cia.CONSUMER_HEARTBEAT:  # the watch changes at once, not at the next SYNC
+                self._configure_consumer()
+            elif index in RPDO_COMMS and subindex == cia.PDO_COMM_EVENT_TIMER:  # so does a deadline
+                self._configure()
+            self.after_write(index)
+
+        return stored
 
     # --- NMT -----------------------------------------------------------
     @property
@@ -331,24 +341,9 @@ class EmulatedNode(Supervision, DeviceHooks):
         if not self._dirty:
             return
         self._dirty = False
-        od = self.node.object_dictionary
-        self._tpdos = [
-            read_pdo(self.od, cia.TPDO_COMM + n, cia.TPDO_MAP + n, n)
-            for n in range(PDO_BLOCK)
-            if cia.TPDO_COMM + n in od and cia.TPDO_MAP + n in od
-        ]
-        self._rpdos = [
-            read_pdo(self.od, cia.RPDO_COMM + n, cia.RPDO_MAP + n, n)
-            for n in range(PDO_BLOCK)
-            if cia.RPDO_COMM + n in od and cia.RPDO_MAP + n in od
-        ]
-        tpdos = [p for p in self._tpdos if p.valid and p.mapping]
-        self._sync_tpdos = [p for p in tpdos if 1 <= p.ttype <= PDO_SYNC_MAX]
-        self._event_tpdos = [p for p in tpdos if p.ttype > PDO_SYNC_MAX]
-        self._rpdo_of_cob = {}
-        for pdo in self._rpdos:
-            if pdo.valid and pdo.mapping and mappable(self.od, pdo):
-                self._rpdo_of_cob.setdefault(pdo.cob_id, pdo)
+        pdos = read_pdos(self.od, self.node.object_dictionary)
+        self._tpdos, self._rpdos, self._rpdo_of_cob = pdos.tpdos, pdos.rpdos, pdos.rpdo_of_cob
+        self._sync_tpdos, self._event_tpdos = pdos.sync_tpdos, pdos.event_tpdos
         for cob in self._rpdo_subscribed:
             self.network.unsubscribe(cob, self._on_rpdo_frame)
         self._rpdo_subscribed = list(self._rpdo_of_cob)

@@ -6,13 +6,14 @@ protocol on an SDO write (CANopenNode ``301/CO_PDO.c`` behaves the same):
 a mapping is written only while the PDO is invalid (COB-ID bit 31) and its
 sub 0 is 0, each mapped object must exist, be mappable and have the mapped
 length, and at most 8 objects of 64 bits in all are enabled. ``pack`` joins
-the stored bytes of a TPDO's objects.
+the stored bytes of a TPDO's objects; ``read_pdos`` reads every PDO of a node.
 """
 
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import Any, NamedTuple
 
 from canopen.sdo.exceptions import SdoAbortedError
 
@@ -22,12 +23,23 @@ from drivers.maps.cia import (
     PDO_INVALID,
     PDO_MAX_BITS,
     PDO_MAX_MAPPED,
+    PDO_SYNC_MAX,
     SdoAbortCode,
     split_map_entry,
 )
 from plant_emulator.od_store import ObjectStore
 
-__all__ = ["MAPPINGS", "PARAMETERS", "PdoConfig", "check_mapping_write", "mappable", "pack", "read_pdo"]
+__all__ = [
+    "MAPPINGS",
+    "PARAMETERS",
+    "PdoConfig",
+    "PdoTables",
+    "check_mapping_write",
+    "mappable",
+    "pack",
+    "read_pdo",
+    "read_pdos",
+]
 
 log = logging.getLogger(__name__)
 
@@ -183,3 +195,53 @@ def pack(od: ObjectStore, pdo: PdoConfig) -> bytes:
     except KeyError:  # an object never written: its default
         raw = od.raw
         return b"".join([raw(i, s)[: b - a] for i, s, a, b in pdo.slices])
+
+
+class PdoTables(NamedTuple):
+    """A node's PDOs as its object dictionary configures them now (``read_pdos``)."""
+
+    tpdos: list[PdoConfig]  #: every TPDO the dictionary has
+    rpdos: list[PdoConfig]  #: every RPDO the dictionary has
+    sync_tpdos: list[PdoConfig]  #: valid, mapped, types 1-240
+    event_tpdos: list[PdoConfig]  #: valid, mapped, types 254/255
+    rpdo_of_cob: dict[int, PdoConfig]  #: valid, mapped and mappable RPDOs by COB-ID (the first of each)
+
+
+def read_pdos(store: ObjectStore, od: Any) -> PdoTables:
+    """Every PDO whose communication and mapping parameters ``od`` has (``read_pdo``), sorted for
+    the node's use.
+
+    Parameters
+    ----------
+    store : ObjectStore
+        The node's object store.
+    od : Any
+        Its canopen object dictionary.
+
+    Returns
+    -------
+    PdoTables
+        The PDOs.
+    """
+    tpdos = [
+        read_pdo(store, cia.TPDO_COMM + n, cia.TPDO_MAP + n, n)
+        for n in range(PDO_BLOCK)
+        if cia.TPDO_COMM + n in od and cia.TPDO_MAP + n in od
+    ]
+    rpdos = [
+        read_pdo(store, cia.RPDO_COMM + n, cia.RPDO_MAP + n, n)
+        for n in range(PDO_BLOCK)
+        if cia.RPDO_COMM + n in od and cia.RPDO_MAP + n in od
+    ]
+    mapped = [p for p in tpdos if p.valid and p.mapping]
+    rpdo_of_cob: dict[int, PdoConfig] = {}
+    for pdo in rpdos:
+        if pdo.valid and pdo.mapping and mappable(store, pdo):
+            rpdo_of_cob.setdefault(pdo.cob_id, pdo)
+    return PdoTables(
+        tpdos,
+        rpdos,
+        [p for p in mapped if 1 <= p.ttype <= PDO_SYNC_MAX],
+        [p for p in mapped if p.ttype > PDO_SYNC_MAX],
+        rpdo_of_cob,
+    )

@@ -23,8 +23,7 @@ MODULE, FUNCTION, CLASS = 400, 60, 300  #: [lines]
 
 #: what is over its limit today -> its size [lines]; "path" a module, "path::Class.method" the rest
 DEBTS: dict[str, int] = {
-    "plant_emulator/canopen_node.py::EmulatedNode": 322,
-    "plant_emulator/canopen_node.py::EmulatedNode.__init__": 61,
+    "plant_emulator/canopen_node.py::EmulatedNode": 317,
     "plant_emulator/im_kernel.py::_foc_periods": 68,
     "plant_emulator/socketcand_server.py": 403,
     "plant_emulator/socketcand_server.py::SocketcandServer": 320,
