@@ -182,48 +182,51 @@ def im_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) ->
         rows.append(row)
         sig.name = name
         plots.setdefault("im_speed", []).append(sig)
-        if not study.bus:
-            continue
-        if law == "idtsm":
-            controller = {
-                "kind": "idtsm-speed",
-                "a": -drives.B_IM / drives.J_IM,
-                "b": 1.0 / drives.J_IM,
-                "lam": drives.LAMBDA_IDTSM,
-                "g_limit": IDTSM_G_LIMIT,
-                "u0": IM_TORQUE_LIMIT,
-            }
-        else:
-            controller = {
-                "kind": "pi-speed",
-                "kp": PI_KP,
-                "ki": PI_KI,
-                "u_max": IM_TORQUE_LIMIT,
-                "u_min": -IM_TORQUE_LIMIT,
-            }
-        doc = _dyno_doc(study, output, f"drives-im-{law}", controller)
-        doc["reference"] = {"kind": "step", "value": 100.0, "start": 0.3}
-        summary, c = bus_run(rig_config(doc, "rig reproduce drives"))
-        row = {"name": name, "law": law, "over_bus": True}
-        e = c["reference"] - c["measurement"]
-        threshold, limit = summary["chattering_threshold"], 2.0 * IM_DYNO_LIMIT
-        row |= _im_metrics(c["t"], e, c["command"], c.get("sign_law"), study.im_t_end, threshold, limit)
-        row["chattering_threshold"] = summary["chattering_threshold"]
-        row["safe_stop_reason"] = summary["safe_stop_reason"]
-        rows.append(row)
-        plots["im_speed"].append(
-            Signals(
-                f"{name} over the dyno",
-                c["t"],
-                {
-                    "omega_ref": c["reference"],
-                    "omega": c["measurement"],
-                    "torque": c["command"],
-                    "T_L": -c["load.command"],
-                },
-            )
-        )
+        if study.bus:
+            row, sig = _im_over_bus(study, output, name, law)
+            rows.append(row)
+            plots["im_speed"].append(sig)
     return rows
+
+
+def _im_controller(law: str) -> dict[str, Any]:
+    """The ``[controller]`` table of ``law`` ("idtsm" or "pi") on IM1 over the dyno."""
+    if law == "idtsm":
+        return {
+            "kind": "idtsm-speed",
+            "a": -drives.B_IM / drives.J_IM,
+            "b": 1.0 / drives.J_IM,
+            "lam": drives.LAMBDA_IDTSM,
+            "g_limit": IDTSM_G_LIMIT,
+            "u0": IM_TORQUE_LIMIT,
+        }
+    return {
+        "kind": "pi-speed",
+        "kp": PI_KP,
+        "ki": PI_KI,
+        "u_max": IM_TORQUE_LIMIT,
+        "u_min": -IM_TORQUE_LIMIT,
+    }
+
+
+def _im_over_bus(study: DrivesStudy, output: str, name: str, law: str) -> tuple[dict[str, Any], Signals]:
+    """``law``'s speed step on IM1 over the bus on the dyno: its row and its signals."""
+    doc = _dyno_doc(study, output, f"drives-im-{law}", _im_controller(law))
+    doc["reference"] = {"kind": "step", "value": 100.0, "start": 0.3}
+    summary, c = bus_run(rig_config(doc, "rig reproduce drives"))
+    row = {"name": name, "law": law, "over_bus": True}
+    e = c["reference"] - c["measurement"]
+    threshold, limit = summary["chattering_threshold"], 2.0 * IM_DYNO_LIMIT
+    row |= _im_metrics(c["t"], e, c["command"], c.get("sign_law"), study.im_t_end, threshold, limit)
+    row["chattering_threshold"] = summary["chattering_threshold"]
+    row["safe_stop_reason"] = summary["safe_stop_reason"]
+    signals = {
+        "omega_ref": c["reference"],
+        "omega": c["measurement"],
+        "torque": c["command"],
+        "T_L": -c["load.command"],
+    }
+    return row, Signals(f"{name} over the dyno", c["t"], signals)
 
 
 def cascade_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]]) -> list[dict[str, Any]]:
@@ -265,30 +268,31 @@ def cascade_part(study: DrivesStudy, output: str, plots: dict[str, list[Signals]
         )
     )
     if study.bus:
-        controller = {"kind": "cascade-position", "position_every": 2}
-        doc = _dyno_doc(study, output, "drives-cascade", controller)
-        doc["reference"] = {"kind": "smooth-move", "distance": 10.0, "duration": 1.0, "start": 0.3}
-        summary, c = bus_run(rig_config(doc, "rig reproduce drives"))
-        e = c["reference"] - c["measurement"]
-        k_t = drives.B_W * drives.J_IM
-        row = {"name": name, "law": "cascade", "over_bus": True}
-        threshold = summary["chattering_threshold"] / k_t
-        row |= _im_metrics(c["t"], e, c["i_q_ref"], c["sign_law"], study.im_t_end, threshold)
-        row["command_unit"] = "A (q-current reference)"
-        row["chattering_threshold"] = summary["chattering_threshold"] / k_t
-        row["safe_stop_reason"] = summary["safe_stop_reason"]
+        row, sig = _cascade_over_bus(study, output, name)
         rows.append(row)
-        plots["cascade"].append(
-            Signals(
-                f"{name} over the dyno",
-                c["t"],
-                {
-                    "theta_r": c["reference"],
-                    "theta": c["measurement"],
-                    "omega_ref": c["omega_ref"],
-                    "omega": c["motor.velocity"],
-                    "i_ref": c["i_q_ref"],
-                },
-            )
-        )
+        plots["cascade"].append(sig)
     return rows
+
+
+def _cascade_over_bus(study: DrivesStudy, output: str, name: str) -> tuple[dict[str, Any], Signals]:
+    """The cascade's move on IM1 over the bus on the dyno: its row and its signals."""
+    controller = {"kind": "cascade-position", "position_every": 2}
+    doc = _dyno_doc(study, output, "drives-cascade", controller)
+    doc["reference"] = {"kind": "smooth-move", "distance": 10.0, "duration": 1.0, "start": 0.3}
+    summary, c = bus_run(rig_config(doc, "rig reproduce drives"))
+    e = c["reference"] - c["measurement"]
+    k_t = drives.B_W * drives.J_IM
+    row: dict[str, Any] = {"name": name, "law": "cascade", "over_bus": True}
+    threshold = summary["chattering_threshold"] / k_t
+    row |= _im_metrics(c["t"], e, c["i_q_ref"], c["sign_law"], study.im_t_end, threshold)
+    row["command_unit"] = "A (q-current reference)"
+    row["chattering_threshold"] = summary["chattering_threshold"] / k_t
+    row["safe_stop_reason"] = summary["safe_stop_reason"]
+    signals = {
+        "theta_r": c["reference"],
+        "theta": c["measurement"],
+        "omega_ref": c["omega_ref"],
+        "omega": c["motor.velocity"],
+        "i_ref": c["i_q_ref"],
+    }
+    return row, Signals(f"{name} over the dyno", c["t"], signals)
