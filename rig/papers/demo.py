@@ -177,6 +177,20 @@ def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int]
     step = progress or (lambda k, n: None)
     s = demo_summary()
     step(1, 3)
+    _print_simulations(out, s)
+    wire = _over_the_bus(out, output, step)
+    if importlib.util.find_spec("matplotlib") is None:
+        out.write("  (no plot.png: it needs matplotlib, python -m pip install -e '.[plot]')\n")
+    simulated_ok = all(math.isfinite(float(r["steady_state_error_rad"])) for r in s.rows)
+    if not simulated_ok:
+        return 1
+    if wire["stop_confirmed"] is False:
+        return 4
+    return 0 if wire["safe_stop_reason"] is None else 3
+
+
+def _print_simulations(out: TextIO, s: DemoSummary) -> None:
+    """The simulations' part of the demo: the design, the move, and a row per controller."""
     d = s.design
     out.write("drive-rig demo: DC position servo, section VII.B\n")
     out.write(f"  design (7.31): c_delta = {list(d.c_delta)}, c_delta A_delta = {list(d.c_delta_A_delta)}\n")
@@ -200,6 +214,11 @@ def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int]
         "  See docs/chattering.md.\n"
         "  (6.36*) is a documented reconstruction; u is in V, except the cascade (V at the q axis).\n"
     )
+
+
+def _over_the_bus(out: TextIO, output: str, step: Callable[[int, int], None]) -> dict[str, Any]:
+    """The demo's part over the emulated bus: the model identified, (7.31) designed from it and run;
+    the run's summary."""
     out.write("\nOver the emulated CAN bus (CiA 402 drive, voltage mode, 4096-count encoder, lock-step):\n")
     cfg = demo_config(output)
     u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=drives.T_SERVO, duration=3.0, seed=1)
@@ -220,11 +239,4 @@ def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int]
         "  (one encoder count, one increment/s of 0x606C, measured in the samples) moves the command:\n"
         "  a one-count limit cycle is not counted; see docs/chattering.md)\n"
     )
-    if importlib.util.find_spec("matplotlib") is None:
-        out.write("  (no plot.png: it needs matplotlib, python -m pip install -e '.[plot]')\n")
-    simulated_ok = all(math.isfinite(float(r["steady_state_error_rad"])) for r in s.rows)
-    if not simulated_ok:
-        return 1
-    if wire["stop_confirmed"] is False:
-        return 4
-    return 0 if wire["safe_stop_reason"] is None else 3
+    return wire
