@@ -202,6 +202,53 @@ def _cascade_warnings(req: TuneRequest) -> list[str]:
     return []
 
 
+def _measured(
+    req: TuneRequest, response: Any, fr: Any, *, dt: float, dt_ident: float, model: Any
+) -> tuple[Any, tuple[float, float] | None, str | None, list[str]]:
+    """The loop's margins on the measured frequency response ``fr`` (None where the identification
+    has none, or measured it at a period other than ``dt`` [s]), its coherent band [Hz], the speed
+    it used, and the warnings (why only the model's, or a crossover outside the band)."""
+    from controllers.tuning import margins
+
+    if not isinstance(fr, dict) or fr.get("coherent_band") is None:
+        return (
+            None,
+            None,
+            None,
+            [
+                "margins on the model only: the identification has no coherent frequency response "
+                "(rig identify --excitation multisine measures one)"
+            ],
+        )
+    if abs(dt - dt_ident) > 1e-9 * dt:
+        return (
+            None,
+            None,
+            None,
+            [
+                f"margins on the model only: designed for T = {dt:g} s, the response was measured at "
+                f"T = {dt_ident:g} s"
+            ],
+        )
+    f, loop, speed, band = _measured_loop(response, fr, req.law != "pi-speed")
+    measured = margins(f, loop)
+    wc = model.crossover_hz if measured.crossover_hz is None else measured.crossover_hz
+    if band is None or wc is None or not band[0] <= wc <= band[1]:
+        band = band or (math.nan, math.nan)
+        where = "none" if wc is None else f"{wc:.3g} Hz"
+        return (
+            measured,
+            band,
+            speed,
+            [
+                f"the loop's crossover ({where}) leaves the coherent band {band[0]:g} .. {band[1]:g} Hz: "
+                "its measured margins are not known; lower the bandwidth or measure further "
+                "(--f-max, a larger --amplitude, a longer --duration)"
+            ],
+        )
+    return measured, band, speed, []
+
+
 def tune(source: str | Path, req: TuneRequest) -> dict[str, Any]:
     """The design document of ``req`` on the identification ``source`` (identification.json
     or its run directory): law, params, a_m, b_m, dt, input, margins (measured, model),
@@ -228,32 +275,9 @@ def tune(source: str | Path, req: TuneRequest) -> dict[str, Any]:
     delay = int(doc.get("delay_samples", 1))
     f_model, l_model = _model_loop(response, a, b, dt, delay)
     model = margins(f_model, l_model)
-    warnings = _cascade_warnings(req)
     fr = doc.get("frequency_response")
-    measured, band, speed = None, None, None
-    if not isinstance(fr, dict) or fr.get("coherent_band") is None:
-        warnings.append(
-            "margins on the model only: the identification has no coherent frequency response "
-            "(rig identify --excitation multisine measures one)"
-        )
-    elif abs(dt - dt_ident) > 1e-9 * dt:
-        warnings.append(
-            f"margins on the model only: designed for T = {dt:g} s, the response was measured at "
-            f"T = {dt_ident:g} s"
-        )
-    else:
-        f, loop, speed, band = _measured_loop(response, fr, req.law != "pi-speed")
-        measured = margins(f, loop)
-        wc = model.crossover_hz if measured.crossover_hz is None else measured.crossover_hz
-        if band is None or wc is None or not band[0] <= wc <= band[1]:
-            band = band or (math.nan, math.nan)
-            where = "none" if wc is None else f"{wc:.3g} Hz"
-            warnings.append(
-                f"the loop's crossover ({where}) leaves the coherent band {band[0]:g} .. {band[1]:g} Hz: "
-                "its measured margins are not known; lower the bandwidth or measure further "
-                "(--f-max, a larger --amplitude, a longer --duration)"
-            )
-    warnings += _margin_warnings(measured, model)
+    measured, band, speed, said = _measured(req, response, fr, dt=dt, dt_ident=dt_ident, model=model)
+    warnings = _cascade_warnings(req) + said + _margin_warnings(measured, model)
     return {
         "law": req.law,
         "params": params,
