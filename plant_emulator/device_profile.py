@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 from drivers.errors import ConfigError
 from drivers.files import read_toml
@@ -173,16 +174,7 @@ def load_profile(path: str | Path) -> DeviceProfile:
     eds_name = device.get("eds", str)
     if not eds_name:
         raise ConfigError(f"{p} [device] eds: the EDS/DCF file of the drive must be named")
-    physics = top.sub("physics")
-    params = dict(physics.get("params", dict, {}))
-    physics.done()
-    preset = device.get("physics", str, "dc-servo")
-    from plant_emulator.preset_params import preset_params
-
-    try:
-        preset_params(preset, params)
-    except ValueError as exc:
-        raise ConfigError(f"{p} [physics.params]: {exc}") from None
+    preset, params = _physics(top, device, p)
     modes, csp_enable = _modes(top.sub("modes"))
     homing = top.sub("homing")
     methods = tuple(homing.get("methods", list, [35, 37]))
@@ -214,6 +206,22 @@ def load_profile(path: str | Path) -> DeviceProfile:
     if not 1 <= profile.axes <= MAX_AXES:
         raise ConfigError(f"{p} [device] axes = {profile.axes}: must be 1..{MAX_AXES}")
     return profile
+
+
+def _physics(top: Table, device: Table, p: Path) -> tuple[str, dict[str, Any]]:
+    """``[device] physics`` (the preset whose motor is behind the drive) and ``[physics.params]``,
+    checked against the preset; ConfigError naming the file otherwise."""
+    physics = top.sub("physics")
+    params = dict(physics.get("params", dict, {}))
+    physics.done()
+    preset = device.get("physics", str, "dc-servo")
+    from plant_emulator.preset_params import preset_params
+
+    try:
+        preset_params(preset, params)
+    except ValueError as exc:
+        raise ConfigError(f"{p} [physics.params]: {exc}") from None
+    return preset, params
 
 
 def _finite(t: Table, key: str, default: float) -> float:
