@@ -332,27 +332,13 @@ def run_sweep(
     SweepRun
         What it did.
     """
-    from dask.distributed import as_completed
-
     base_doc = read_base(spec)
     points = make_points(spec)
     kept = resumable(spec, resume)
     todo = _pending(spec, points, kept)
     spec.directory.mkdir(parents=True, exist_ok=True)
     results = Results(spec.directory, kept, every=every)
-    record: dict[str, Any] = {
-        "spec": spec.as_dict(),
-        "base": base_doc,
-        "engine": engine,
-        "counts": {
-            "points": len(points),
-            "resumed": len(kept),
-            "done": results.done,
-            "failed": results.failed,
-        },
-        "started": datetime.datetime.now().isoformat(timespec="seconds"),
-        "status": "running",
-    }
+    record = _record(spec, base_doc, engine, points=len(points), resumed=len(kept), results=results)
     write_sweep_json(spec.directory, record)
     results.write()
     token = uuid.uuid4().hex[:8]
@@ -361,15 +347,7 @@ def run_sweep(
         client.submit(run_point, job_of(spec, base_doc, p), key=f"rig-sweep-{token}-{p.index}", pure=False): p
         for p in todo
     }
-    interrupted = False
-    try:
-        for future in as_completed(list(futures)):  # type: ignore[no-untyped-call]
-            results.add(_row(future, futures[future]))
-            if on_row is not None:
-                on_row(results, len(points))
-    except KeyboardInterrupt:
-        interrupted = True
-        client.cancel(list(futures))
+    interrupted = _collect(client, futures, results, on_row, len(points))
     seconds = time.perf_counter() - start
     results.write()
     record["counts"] |= {"done": results.done, "failed": results.failed}
@@ -378,6 +356,54 @@ def run_sweep(
     record["seconds"] = seconds
     write_sweep_json(spec.directory, record)
     return SweepRun(results, len(points), len(kept), seconds, record, interrupted)
+
+
+def _collect(
+    client: Any,
+    futures: dict[Any, Point],
+    results: Results,
+    on_row: Callable[[Results, int], None] | None,
+    total: int,
+) -> bool:
+    """Each point's row into ``results`` as its run ends (``on_row(results, total)`` after each);
+    True where Ctrl-C cut it short, the points not yet run cancelled."""
+    from dask.distributed import as_completed
+
+    try:
+        for future in as_completed(list(futures)):  # type: ignore[no-untyped-call]
+            results.add(_row(future, futures[future]))
+            if on_row is not None:
+                on_row(results, total)
+    except KeyboardInterrupt:
+        client.cancel(list(futures))
+        return True
+    return False
+
+
+def _record(
+    spec: SweepSpec,
+    base_doc: dict[str, Any] | None,
+    engine: dict[str, Any],
+    *,
+    points: int,
+    resumed: int,
+    results: Results,
+) -> dict[str, Any]:
+    """sweep.json as the study starts: the spec, the base configuration, the engine, the counts so
+    far, the start's time, status running."""
+    return {
+        "spec": spec.as_dict(),
+        "base": base_doc,
+        "engine": engine,
+        "counts": {
+            "points": points,
+            "resumed": resumed,
+            "done": results.done,
+            "failed": results.failed,
+        },
+        "started": datetime.datetime.now().isoformat(timespec="seconds"),
+        "status": "running",
+    }
 
 
 def _row(future: Any, point: Point) -> dict[str, Any]:
