@@ -208,20 +208,22 @@ def bench_view(
         *({"name": "browser", "value": c["client"], "unit": ""} for c in clients),
     ]
     for kind, summaries in (("plain", plain), ("view", viewed), ("remote", remote)):
-        figures += _spread(f"{kind}_overruns", [_share(s, "overruns") for s in summaries], "% of cycles", 3)
-        figures += _spread(f"{kind}_late", [_share(s, "late_cycles") for s in summaries], "% of cycles", 3)
-        for key in ("period_error_p99_us", "response_median_us", "response_p99_us"):
-            values = [float(s.get("timing", {}).get(key, float("nan"))) for s in summaries]
-            figures += _spread(f"{kind}_{key[:-3]}", values, "us", 1)
-        figures.append(
-            {
-                "name": f"{kind}_stops",
-                "value": sum(1 for s in summaries if s.get("safe_stop_reason")),
-                "unit": "runs",
-            }
-        )
+        figures += _kind_figures(kind, summaries)
     figures += _spread("view_updates_per_s", [c["updates_per_s"] for c in clients], "1/s", 1)
     figures += _spread("remote_updates_per_s", [c["updates_per_s"] for c in readers], "1/s", 1)
+    return figures
+
+
+def _kind_figures(kind: str, summaries: list[dict[str, Any]]) -> list[Figure]:
+    """The figures of one kind of run (``plain``, ``view``, ``remote``) from their summaries:
+    overruns and late cycles, the period error's p99 and the response's median and p99, stops."""
+    figures = _spread(f"{kind}_overruns", [_share(s, "overruns") for s in summaries], "% of cycles", 3)
+    figures += _spread(f"{kind}_late", [_share(s, "late_cycles") for s in summaries], "% of cycles", 3)
+    for key in ("period_error_p99_us", "response_median_us", "response_p99_us"):
+        values = [float(s.get("timing", {}).get(key, float("nan"))) for s in summaries]
+        figures += _spread(f"{kind}_{key[:-3]}", values, "us", 1)
+    stops = sum(1 for s in summaries if s.get("safe_stop_reason"))
+    figures.append({"name": f"{kind}_stops", "value": stops, "unit": "runs"})
     return figures
 
 
