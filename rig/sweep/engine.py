@@ -1,26 +1,18 @@
 """The engine of a study: Dask distributed, and the loop that streams its rows into the table.
 
-By default a ``LocalCluster`` with one worker process per core (one thread each: a point is
-Python, which a second thread in the same process would only slow down); with a scheduler's
-address, that cluster: one started by hand (``dask scheduler``, then ``dask worker ADDRESS
---nthreads 1`` on each machine), by dask-jobqueue (SLURMCluster, PBSCluster, ...) or on
-Kubernetes. Each worker imports the toolkit once (``Client.run``) and then runs many points.
-
-Every point is one task (``Client.submit``); rows come back as they finish
-(``distributed.as_completed``) and go into the table (``rig.sweep.table``). A worker lost
-mid-sweep costs only the points it held: the scheduler runs them again elsewhere, and the
-table keeps each point once (rows by point number). A task that fails outright (a worker that
-dies on it again and again: ``KilledWorker``) is a row with its error. Ctrl-C cancels what has
-not finished and keeps what has. No pool, queue or retry of our own: Dask's.
+The client it runs on is ``rig.sweep.cluster``'s (a local cluster, or a scheduler's). Every point is
+one task (``Client.submit``); rows come back as they finish (``distributed.as_completed``) and go
+into the table (``rig.sweep.table``). A worker lost mid-sweep costs only the points it held: the
+scheduler runs them again elsewhere, and the table keeps each point once (rows by point number). A
+task that fails outright (a worker that dies on it again and again: ``KilledWorker``) is a row with
+its error. Ctrl-C cancels what has not finished and keeps what has. No pool, queue or retry of our
+own: Dask's.
 """
 
 from __future__ import annotations
 
 import datetime
 import logging
-import os
-import signal
-import threading
 import time
 import uuid
 from collections.abc import Callable
@@ -29,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.errors import ConfigError
+from rig.sweep.cluster import close_client, cores, open_client
 from rig.sweep.point import job_of, read_base, run_point
 from rig.sweep.points import Point, make_points
 from rig.sweep.spec import SweepSpec
@@ -37,181 +30,6 @@ from rig.sweep.table import Results, read_rows, read_sweep_json, write_sweep_jso
 __all__ = ["SweepRun", "close_client", "cores", "open_client", "resumable", "run_sweep"]
 
 log = logging.getLogger(__name__)
-
-
-def cores() -> int:
-    """The cores this process may run on.
-
-    Returns
-    -------
-    int
-        Cores.
-    """
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
-
-
-def _warm() -> None:
-    """On each worker, once: what a point imports (the session, the emulator, the papers)."""
-    import rig.host.session
-    import rig.sweep.scenarios  # noqa: F401
-
-
-def _quiet_on_ctrl_c(start: Callable[[], Any]) -> Any:
-    """``start()`` with SIGINT ignored, so the worker processes it spawns inherit that (an ignored
-    signal stays ignored across exec, and Python keeps it so): Ctrl-C in the terminal reaches the
-    whole process group, and the client alone answers it (it cancels, keeps the rows and closes
-    the cluster) instead of each worker printing its KeyboardInterrupt."""
-    if threading.current_thread() is not threading.main_thread():
-        return start()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        return start()
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-#: [s] the wait for a connection to the scheduler at --scheduler (Dask's ``timeout``), and then
-#: for its handshake
-CONNECT_TIMEOUT = 10.0
-HANDSHAKE = 5.0
-
-
-def _scheduler_client(address: str, seconds: float) -> Any:
-    """A Client of the scheduler at ``address``; ConfigError, one line, within about ``seconds``
-    where nothing there speaks Dask as a scheduler (``seconds`` for the connection, ``HANDSHAKE``
-    more for the handshake). Dask's own connect timeout covers the TCP
-    connect, not the handshake after it (distributed pull request 7698): a port held by another
-    server (the dashboard's 8787, an HTTP or SSH server) would hang the Client or make it read
-    that server's bytes as a frame length; so Dask's ``connect`` is tried first, its handshake
-    bounded, and the Client then made (a worker's address is refused by it)."""
-    import asyncio
-
-    from dask.distributed import Client
-    from distributed.comm.core import connect
-    from distributed.security import Security
-
-    async def handshake() -> None:
-        args = Security().get_connection_args("client")  # type: ignore[no-untyped-call]
-        dialled = connect(address, timeout=seconds, **args)  # type: ignore[no-untyped-call]
-        comm = await asyncio.wait_for(dialled, seconds + HANDSHAKE)
-        await comm.close()
-
-    hint = (
-        "give the address 'dask scheduler' prints (tcp://HOST:8786 by default; 8787 is its dashboard), "
-        "or start one with 'dask scheduler' and workers with 'dask worker ADDRESS --nthreads 1'"
-    )
-    try:
-        asyncio.run(handshake())
-    except (TimeoutError, asyncio.TimeoutError):
-        raise ConfigError(
-            f"rig sweep: --scheduler {address}: something accepts connections there but does not answer "
-            f"as Dask does (no handshake in {HANDSHAKE:g} s); {hint}"
-        ) from None
-    except OSError as exc:
-        raise ConfigError(
-            f"rig sweep: --scheduler {address}: no Dask scheduler answers there ({exc}); {hint}"
-        ) from None
-    except Exception as exc:  # a malformed address, or a server that is not Dask's
-        raise ConfigError(
-            f"rig sweep: --scheduler {address}: not a Dask scheduler ({type(exc).__name__}: {exc}); {hint}"
-        ) from None
-    try:
-        return Client(address, timeout=f"{seconds}s")  # type: ignore[no-untyped-call]
-    except Exception as exc:  # Dask's, not its scheduler's: a worker's or a nanny's address
-        raise ConfigError(
-            f"rig sweep: --scheduler {address}: not a Dask scheduler ({type(exc).__name__}: {exc}); {hint}"
-        ) from None
-
-
-def open_client(
-    workers: int | None = None, scheduler: str | None = None, *, quiet: bool = True
-) -> tuple[Any, dict[str, Any]]:
-    """(a dask.distributed Client, the engine's description for sweep.json): a local cluster of
-    ``workers`` processes (default: one per core), or the cluster at ``scheduler``. ``quiet``:
-    distributed's own loggers (set to INFO when it is imported) say only warnings.
-
-    Parameters
-    ----------
-    workers : int | None, optional
-        Local worker processes (None: one per core).
-    scheduler : str | None, optional
-        A cluster's scheduler address (None: a local cluster).
-    quiet : bool, optional
-        distributed's loggers say only warnings.
-
-    Returns
-    -------
-    tuple[Any, dict[str, Any]]
-        (the client, the engine's description).
-    """
-    from dask.distributed import Client, LocalCluster
-
-    if quiet:
-        logging.getLogger("distributed").setLevel(logging.WARNING)
-
-    if scheduler:
-        client = _scheduler_client(scheduler, CONNECT_TIMEOUT)
-        engine: dict[str, Any] = {"kind": "scheduler", "address": scheduler}
-    else:
-        n = workers or cores()
-        cluster = _quiet_on_ctrl_c(
-            lambda: LocalCluster(  # type: ignore[no-untyped-call]
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address="127.0.0.1:0",  # its HTTP server: any free port (8787 may be taken)
-                silence_logs=logging.ERROR,
-            )
-        )
-        client = Client(cluster)  # type: ignore[no-untyped-call]
-        engine = {"kind": "local", "address": cluster.scheduler_address}
-    from importlib.metadata import version
-
-    client.run(_warm)
-    engine |= {"workers": len(client.scheduler_info()["workers"]), "dask": version("dask")}
-    return client, engine
-
-
-#: [s] a stopped sweep's wait for each local worker to end by itself before its nanny ends it
-#: (Dask's own is 5 s: a worker in a point's run holds it 4 s)
-QUICK_CLOSE = 0.5
-
-
-def close_client(client: Any, *, quick: bool = False) -> None:
-    """Close ``client`` and the local cluster it started (if any); a worker slow to exit is killed
-    by its nanny, which need not be said (at WARNING) after the sweep's rows are in. ``quick``
-    (a sweep a signal stopped): the local workers are given ``QUICK_CLOSE`` to end, then ended
-    (their points are emulated runs, cancelled).
-
-    Parameters
-    ----------
-    client : Any
-        The client.
-    quick : bool, optional
-        A signal stopped the sweep: the workers are given ``QUICK_CLOSE`` to end.
-    """
-    cluster = client.cluster
-    client.close()
-    if cluster is not None:
-        nanny = logging.getLogger("distributed.nanny")
-        level = nanny.level
-        nanny.setLevel(max(level, logging.ERROR))
-        try:
-            if quick:
-                cluster.sync(_close_workers, cluster, QUICK_CLOSE)
-            cluster.close()
-        finally:
-            nanny.setLevel(level)
-
-
-async def _close_workers(cluster: Any, timeout: float) -> None:
-    """Close each nanny of ``cluster`` and its worker within about ``timeout`` [s]."""
-    import asyncio
-
-    await asyncio.gather(*(w.close(timeout=timeout) for w in list(cluster.workers.values())))
 
 
 @dataclass

@@ -348,10 +348,10 @@ def test_a_scheduler_address_where_no_dask_scheduler_answers_is_one_line(
     import socket
     import threading
 
-    from rig.sweep import engine
+    from rig.sweep import cluster
 
-    monkeypatch.setattr(engine, "CONNECT_TIMEOUT", 1.0)
-    monkeypatch.setattr(engine, "HANDSHAKE", 1.0)
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", 1.0)
+    monkeypatch.setattr(cluster, "HANDSHAKE", 1.0)
     listener = socket.socket()
     listener.bind(("127.0.0.1", 0))
     port = listener.getsockname()[1]
