@@ -50,7 +50,8 @@ COVERED = [
 
 #: modules below COVERED's packages still to document (this list only shrinks): the CiA 402
 #: driver being recomposed (issue 37 item 3), three commands whose add_parser is a size debt
-#: (tests/test_sizes.py) that a docstring would grow, and the host's modules still to document
+#: (tests/test_sizes.py) that a docstring would grow, and the host's session and loop, whose
+#: docstrings would take them over the 300 lines tests/rig/test_transport.py holds them to
 NOT_YET = [
     "drivers.canopen_axis",
     "drivers.cia402",
@@ -65,11 +66,8 @@ NOT_YET = [
     "rig.cli.drive",
     "rig.cli.emulate",
     "rig.cli.identify",
-    "rig.host.emulation",
     "rig.host.loop",
-    "rig.host.recorder",
     "rig.host.session",
-    "rig.host.transport",
 ]
 
 

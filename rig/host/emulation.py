@@ -37,7 +37,13 @@ HANG_GUARD = 30.0
 
 
 class Emulation:
-    """See the module docstring; ``close`` stops everything it started."""
+    """The emulated devices of a ``--emulate`` run (module docstring); ``close`` stops everything it started.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration (its preset, inverters and faults as checked then).
+    """
 
     def __init__(self, cfg: RigConfig) -> None:
         #: lock-step: the inverters' physics is stepped by the host; real time: on the wall clock
@@ -94,11 +100,23 @@ class Emulation:
             self.injector = FaultInjector(plan, self.bench.hub, self.bench.devices[0])
 
     def endpoint(self, a: AxisConfig) -> AxisConfig:
-        """``a`` pointed at its emulated device."""
+        """``a`` pointed at its emulated device.
+
+        Parameters
+        ----------
+        a : AxisConfig
+            The axis's table.
+
+        Returns
+        -------
+        AxisConfig
+            The same, with the emulated device's host, port, serial device or EDS.
+        """
         return dataclasses.replace(a, **self._endpoints.get(a.name, {}))
 
     @property
     def sync(self) -> Callable[[], None] | None:
+        """The hub's SYNC (None: no CANopen device)."""
         return self.bench.sync if self.bench else None
 
     @property
@@ -110,16 +128,30 @@ class Emulation:
 
     @property
     def devices(self) -> list[Any]:
+        """The emulated CANopen devices (none without a preset or device)."""
         return self.bench.devices if self.bench else []
 
     def add_tap(self, tap: Callable[[Any], None]) -> None:
-        """``tap`` sees every frame on the hub; the host's marked Tx, the devices' Rx."""
+        """``tap`` sees every frame on the hub; the host's marked Tx, the devices' Rx.
+
+        Parameters
+        ----------
+        tap : Callable[[Any], None]
+            Takes a ``can.Message``.
+        """
         if self.bench is not None:
             self.bench.hub.tx_channel = "host"
             self.bench.hub.taps.append(tap)
             self._taps.append(tap)
 
     def remove_tap(self, tap: Callable[[Any], None]) -> None:
+        """``tap`` sees no more frames (idempotent).
+
+        Parameters
+        ----------
+        tap : Callable[[Any], None]
+            As given to `add_tap`.
+        """
         if tap in self._taps:
             self._taps.remove(tap)
         if self.bench is not None:
@@ -143,7 +175,15 @@ class Emulation:
 
 
 class EmulatedWorld(Transport):
-    """The transport of an ``--emulate`` run: its ``Emulation`` (see the module docstring)."""
+    """The transport of an ``--emulate`` run: its `Emulation` (module docstring).
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration.
+    timebase : Timebase
+        The run's clock.
+    """
 
     def __init__(self, cfg: RigConfig, timebase: Timebase) -> None:
         super().__init__(cfg, timebase)
@@ -154,13 +194,31 @@ class EmulatedWorld(Transport):
         return self.world.endpoint(a)
 
     def wait(self, timeout: float) -> float:
-        """In lock-step at least ``HANG_GUARD``: the emulated drive answers as soon as this process
-        runs, so a timeout can only guard against a hang (1 s ran out on a machine loaded a dozen
-        deep: a deterministic test failed)."""
+        """The wall-clock time to wait for a drive to reach a state: in lock-step at least ``HANG_GUARD``.
+
+        The emulated drive answers as soon as this process runs: the wait only guards against a hang
+        (docs/emulator.md).
+
+        Parameters
+        ----------
+        timeout : float
+            [s] configured.
+
+        Returns
+        -------
+        float
+            [s] to wait.
+        """
         return max(timeout, HANG_GUARD) if self.timebase.lockstep else timeout
 
     def idle(self) -> Callable[[], None] | None:
-        """A SYNC: emulated time passes by SYNCs."""
+        """A SYNC: emulated time passes by SYNCs.
+
+        Returns
+        -------
+        Callable[[], None] | None
+            The hub's SYNC (None: no CANopen device).
+        """
         return self.world.sync
 
     def add_tap(self, tap: Tap) -> None:

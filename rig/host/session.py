@@ -41,8 +41,8 @@ from rig.host.recorder import Recorder, output_folder
 from rig.host.safety import AxisGuard
 from rig.host.signals import StopRequests
 from rig.host.timebase import Timebase
-from rig.host.transport import Transport, check_transport
-from rig.host.transports import open_transport
+from rig.host.transport import Transport
+from rig.host.transports import check_transport, open_transport
 from rig.live.channels import channels_of
 from rig.live.view import LiveView
 

@@ -16,20 +16,34 @@ and the close does what the disk allows.
 ``trim_to_line`` cuts a text file (``trace.asc``) that a failed write left with a torn last
 line back to its last whole line. ``write_atomic`` writes a file whole or not at all (the JSON
 files, ``samples.mat``, ``plot.png``), ``write_mat`` MATLAB's samples one column at a time.
+``suppressed`` keeps the recorder's close going past what it cannot write, said in the summary.
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
+import math
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["RESERVE", "SUMMARY_ROOM", "Reserve", "RowFile", "trim_to_line", "write_atomic", "write_mat"]
+__all__ = [
+    "RESERVE",
+    "SUMMARY_ROOM",
+    "Reserve",
+    "RowFile",
+    "finite",
+    "json_writer",
+    "suppressed",
+    "trim_to_line",
+    "write_atomic",
+    "write_mat",
+]
 
 log = logging.getLogger(__name__)
 
@@ -266,3 +280,69 @@ def write_mat(
     for key in ("unit", "meaning"):
         structs = {c.replace(".", "_"): d[key] for c, d in docs.items()}
         scipy.io.savemat(f, {f"column_{key}": structs})
+
+
+def finite(value: Any) -> Any:
+    """``value`` with every non-finite float, nested ones too, as None (JSON has no NaN).
+
+    Parameters
+    ----------
+    value : Any
+        A float, or a dict, list or tuple of them (others are kept as they are).
+
+    Returns
+    -------
+    Any
+        The same, NaN and infinities as None.
+    """
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite(v) for v in value]
+    return value
+
+
+def json_writer(data: dict[str, Any]) -> Callable[[Any], None]:
+    """What writes ``data`` as indented JSON into a text file (for `write_atomic`).
+
+    Parameters
+    ----------
+    data : dict[str, Any]
+        The object.
+
+    Returns
+    -------
+    Callable[[Any], None]
+        Writes it into the open file it is given.
+    """
+    return lambda f: f.write(json.dumps(data, indent=2) + "\n")
+
+
+@contextlib.contextmanager
+def suppressed(what: str, summary: dict[str, Any] | None = None, file: str = "") -> Iterator[None]:
+    """An exception inside is logged and said in the summary; the close goes on.
+
+    Parameters
+    ----------
+    what : str
+        What failed, in words.
+    summary : dict[str, Any] | None
+        The run's summary: ``what`` and the exception go under its ``warnings`` (None: logged only).
+    file : str
+        A file not written, listed under its ``files_not_written`` ("": none).
+
+    Yields
+    ------
+    None
+        The block run.
+    """
+    try:
+        yield
+    except Exception as exc:
+        log.error("%s: %s", what, exc)
+        if summary is not None:
+            summary.setdefault("warnings", []).append(f"{what}: {exc}")
+            if file:
+                summary.setdefault("files_not_written", []).append(file)

@@ -22,7 +22,6 @@ from typing import Any
 from drivers.base import AxisDriver
 from drivers.bus import ReceiveWatch, open_bus, scan_command
 from drivers.canopen_axis import CanopenAxis
-from drivers.errors import ConfigError
 from drivers.master_watch import MasterWatch
 from drivers.producer_watch import ProducerWatch
 from rig.config import AxisConfig, RigConfig
@@ -34,7 +33,7 @@ from rig.host.time_mode import TimeModeProbe
 from rig.host.timebase import Timebase
 from rig.host.trace import TracedNetwork, attach_received, detach_received
 
-__all__ = ["CanBus", "ModbusOnly", "Transport", "canopen_axes", "check_transport"]
+__all__ = ["CanBus", "ModbusOnly", "Transport", "canopen_axes"]
 
 log = logging.getLogger(__name__)
 
@@ -42,28 +41,31 @@ Tap = Callable[[Any], None]
 
 
 def canopen_axes(axes: Sequence[AxisDriver]) -> list[CanopenAxis]:
-    """The axes on the CAN network (CiA 402 drives, CiA 406 encoders)."""
+    """The axes on the CAN network (CiA 402 drives, CiA 406 encoders).
+
+    Parameters
+    ----------
+    axes : Sequence[AxisDriver]
+        The run's axes.
+
+    Returns
+    -------
+    list[CanopenAxis]
+        Those that are CANopen axes, in order.
+    """
     return [a for a in axes if isinstance(a, CanopenAxis)]
 
 
-def check_transport(cfg: RigConfig, *, emulate: bool) -> None:
-    """What the run's mode needs of the file (ConfigError, before anything is opened): a real bus
-    a ``[run] period``, ``emulate`` a preset or device for the CANopen axes."""
-    if emulate:
-        on_bus = [a.name for a in cfg.axes if a.kind != "modbus"]
-        if on_bus and cfg.emulator.physics is None:
-            raise ConfigError(
-                f"{cfg.source}: --emulate needs [emulator] preset or device for the CANopen axes {on_bus}"
-            )
-    elif not cfg.run.period > 0.0:
-        raise ConfigError(
-            f"{cfg.source}: [run] period must be set (> 0 s) for a real bus; without hardware, run it "
-            "with --emulate (the emulator in this process) or against `rig emulate` in another"
-        )
-
-
 class Transport:
-    """Base: the defaults of a transport without a CAN bus of its own (see the module docstring)."""
+    """Base: the defaults of a transport without a CAN bus of its own (module docstring).
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration.
+    timebase : Timebase
+        The run's clock.
+    """
 
     network: Any
     producers: ProducerWatch | None = None  #: another producer on a TPDO's COB-ID (the loop's stop)
@@ -75,59 +77,169 @@ class Transport:
         self.timebase = timebase
 
     def endpoint(self, a: AxisConfig) -> AxisConfig:
-        """``a`` pointed at its device (the emulated world's: where it serves)."""
+        """``a`` pointed at its device (the emulated world's: where it serves).
+
+        Parameters
+        ----------
+        a : AxisConfig
+            The axis's table.
+
+        Returns
+        -------
+        AxisConfig
+            The table the axis's driver is opened with.
+        """
         return a
 
     def wait(self, timeout: float) -> float:
-        """The wall-clock time [s] to wait for a drive to reach a state, ``timeout`` configured."""
+        """The wall-clock time to wait for a drive to reach a state.
+
+        Parameters
+        ----------
+        timeout : float
+            [s] configured.
+
+        Returns
+        -------
+        float
+            [s] to wait.
+        """
         return timeout
 
     def attach(self, axis: AxisDriver) -> None:
-        """``axis`` joined the network (before its set-up)."""
+        """``axis`` joined the network (before its set-up).
+
+        Parameters
+        ----------
+        axis : AxisDriver
+            The axis.
+        """
 
     def idle(self) -> Callable[[], None] | None:
-        """What set-up calls while it waits for a drive (``AxisDriver.idle``); None: the drivers'
-        own short sleep."""
+        """What set-up calls while it waits for a drive (``AxisDriver.idle``).
+
+        Returns
+        -------
+        Callable[[], None] | None
+            ``CanBus`` in lock-step: the SYNC's send (time passes only by SYNCs there); None: the
+            drivers' own short sleep.
+        """
         return None
 
     def add_tap(self, tap: Tap) -> None:
-        """``tap`` sees every frame on the network (the trace)."""
+        """``tap`` sees every frame on the network (the trace).
+
+        Parameters
+        ----------
+        tap : Tap
+            Takes a ``can.Message``.
+        """
 
     def remove_tap(self, tap: Tap) -> None:
-        """``tap`` sees no more frames (idempotent)."""
+        """``tap`` sees no more frames (idempotent).
+
+        Parameters
+        ----------
+        tap : Tap
+            As given to `add_tap`.
+        """
 
     def before_setup(self) -> None:
         """Before any NMT command or SDO (``CanBus``: another master is refused)."""
 
     def time_probe(self, axes: Sequence[AxisDriver]) -> TimeModeProbe | None:
-        """The heartbeats that tell how each node keeps time (``rig.host.time_mode``), or None."""
+        """The heartbeats that tell how each node keeps time (``rig.host.time_mode``).
+
+        Parameters
+        ----------
+        axes : Sequence[AxisDriver]
+            The run's axes.
+
+        Returns
+        -------
+        TimeModeProbe | None
+            ``CanBus`` with the host's SYNC and a CANopen axis: the probe; else None.
+        """
         return None
 
     def after_setup(self, axes: Sequence[AxisDriver]) -> None:
-        """Every axis is set up (``CanBus``: another master's frames to them are watched)."""
+        """Every axis is set up.
+
+        ``CanBus``: every CANopen axis's supervision watches for another master's RPDOs to it (its own
+        RPDO's COB-ID too, where the mapping put it elsewhere) and NMT commands.
+
+        Parameters
+        ----------
+        axes : Sequence[AxisDriver]
+            The run's axes.
+        """
 
     def pacing(self, axes: Sequence[AxisDriver]) -> Pacing:
-        """How a cycle starts, after every axis is enabled (``rig.host.pacing``)."""
+        """How a cycle starts, after every axis is enabled (``rig.host.pacing``).
+
+        Parameters
+        ----------
+        axes : Sequence[AxisDriver]
+            The run's axes.
+
+        Returns
+        -------
+        Pacing
+            ``FreeRun`` here.
+        """
         return FreeRun()
 
     def bus_load(self, axes: Sequence[AxisDriver]) -> dict[str, Any]:
-        """The cycle's share of the bus (``rig.host.bus_load``), where it is a real one in real
-        time; {} elsewhere."""
+        """The cycle's share of the bus (``rig.host.bus_load``), warned above the whole period.
+
+        Parameters
+        ----------
+        axes : Sequence[AxisDriver]
+            The run's axes.
+
+        Returns
+        -------
+        dict[str, Any]
+            ``CanBus`` in real time with a CANopen axis: ``bus_load``'s figures; else {}.
+        """
         return {}
 
     def heartbeat(self, axes: Sequence[AxisDriver]) -> Callable[[int], None] | None:
-        """The host's heartbeat where a CANopen axis watches it (``[bus] heartbeat`` > 0)."""
+        """The host's heartbeat where a CANopen axis watches it (``[bus] heartbeat`` > 0).
+
+        Parameters
+        ----------
+        axes : Sequence[AxisDriver]
+            The run's axes.
+
+        Returns
+        -------
+        Callable[[int], None] | None
+            ``HostHeartbeat.beat``; None: no heartbeat.
+        """
         bus = self.cfg.bus
         if bus.heartbeat <= 0.0 or not canopen_axes(axes):
             return None
         return HostHeartbeat(self.network, bus.host_node, bus.heartbeat, self.timebase.period).beat
 
     def receive_threads(self) -> list[Any]:
-        """The threads that receive the network's frames (real time: given its priority)."""
+        """The threads that receive the network's frames (real time: given its priority).
+
+        Returns
+        -------
+        list[Any]
+            ``rig.host.realtime.receive_threads``'s.
+        """
         return receive_threads(self.network)
 
     def scan_hint(self) -> str:
-        """The ``rig scan`` line for this run's bus."""
+        """The ``rig scan`` line for this run's bus.
+
+        Returns
+        -------
+        str
+            The command.
+        """
         b = self.cfg.bus
         return scan_command(b.interface, b.channel, b.bitrate or None, b.host, b.port)
 
@@ -139,7 +251,15 @@ class Transport:
 
 
 class ModbusOnly(Transport):
-    """No CAN bus: every axis is a Modbus one and opens its own connection."""
+    """No CAN bus: every axis is a Modbus one and opens its own connection.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration.
+    timebase : Timebase
+        The run's clock.
+    """
 
     def __init__(self, cfg: RigConfig, timebase: Timebase) -> None:
         super().__init__(cfg, timebase)
@@ -147,7 +267,15 @@ class ModbusOnly(Transport):
 
 
 class CanBus(Transport):
-    """A CAN bus of ``[bus]``, opened here; the watches of other masters and producers on it."""
+    """A CAN bus of ``[bus]``, opened here; the watches of other masters and producers on it.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration.
+    timebase : Timebase
+        The run's clock.
+    """
 
     def __init__(self, cfg: RigConfig, timebase: Timebase) -> None:
         super().__init__(cfg, timebase)
@@ -174,7 +302,6 @@ class CanBus(Transport):
             axis.producer_watch = self.producers
 
     def idle(self) -> Callable[[], None] | None:
-        """In lock-step, a SYNC (time passes only by SYNCs there); in real time, None."""
         return self.network.sync.transmit if self.timebase.lockstep else None
 
     def add_tap(self, tap: Tap) -> None:
@@ -192,15 +319,12 @@ class CanBus(Transport):
         self.watch.check(max(2.0 * self.timebase.period, 0.1))
 
     def time_probe(self, axes: Sequence[AxisDriver]) -> TimeModeProbe | None:
-        """Over a bus with the host's SYNC."""
         on_bus = canopen_axes(axes)
         if not on_bus or self.cfg.bus.sync == "external":
             return None
         return TimeModeProbe(self.network, on_bus)
 
     def after_setup(self, axes: Sequence[AxisDriver]) -> None:
-        """Every CANopen axis's supervision watches for another master's RPDOs to it (its own
-        RPDO's COB-ID too, where the mapping put it elsewhere) and NMT commands."""
         watch = self.watch
         for axis in canopen_axes(axes):
             rpdo = getattr(getattr(axis, "data", None), "rpdo", None)
@@ -231,7 +355,6 @@ class CanBus(Transport):
         return HostSync(self.network, on_bus, cfg.run.answer_budget or period / 2.0)
 
     def bus_load(self, axes: Sequence[AxisDriver]) -> dict[str, Any]:
-        """Real time: the cycle's share of the bus, warned above the whole period."""
         on_bus = canopen_axes(axes)
         if self.timebase.lockstep or not on_bus:
             return {}
