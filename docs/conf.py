@@ -42,15 +42,15 @@ smartquotes = False
 
 #: the reproductions' figures (reproductions.md), drawn by the commands themselves at each build
 FIGURES = {
-    "dismc.png": ["reproduce", "dismc", "--plot"],
-    "dq_current.png": ["reproduce", "dq-current", "--plot"],
-    "drives": ["reproduce", "drives", "--plot"],
+    "dismc.png": ["reproduce", "dismc"],
+    "dq-current.png": ["reproduce", "dq-current"],
+    "drives": ["reproduce", "drives"],  # a folder of figures
 }
 
 
 def _figures(app: object) -> None:
-    """Run each reproduction with --plot into docs/_generated (kept out of git; a figure already
-    there is kept: remove the folder to draw them again; CI builds from a fresh clone)."""
+    """Run each reproduction with --plot docs/_generated (a folder: kept out of git; a figure
+    already there is kept: remove the folder to draw them again; CI builds from a fresh clone)."""
     import subprocess
 
     out = Path(__file__).parent / "_generated"
@@ -60,7 +60,7 @@ def _figures(app: object) -> None:
         if target.exists():
             continue
         subprocess.run(
-            [sys.executable, "-m", "rig.cli", *argv, str(target)],
+            [sys.executable, "-m", "rig.cli", *argv, "--plot", str(out if target.suffix else target)],
             check=True,
             stdout=subprocess.DEVNULL,
             env={**os.environ, "MPLBACKEND": "Agg"},

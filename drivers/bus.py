@@ -8,11 +8,14 @@ bounded by ``HANDSHAKE``, 3 s together, and a lean frame path). ``ReceiveWatch``
 python-can's receive thread from dying with a traceback when the bus goes away (a socketcand
 link reset, an interface down): the error is logged once and kept in the notifier's
 ``exception``, where the axes' supervision finds it. An interface python-can does not know is a
-``ConfigError`` naming the known ones (``check_interface``).
+``ConfigError`` naming the known ones (``check_interface``). A bus that does not open is a
+``CommunicationError`` saying the likely cause and the fix (``bus_fix``, ``SOCKETCAND_FIX``):
+start ``rig emulate``, set up vcan, give the server's --host and --port.
 """
 
 from __future__ import annotations
 
+import errno
 import logging
 import time
 from typing import Any
@@ -22,7 +25,7 @@ import can
 from drivers.errors import CommunicationError, ConfigError, brief
 from drivers.socketcand_client import SocketcandBus
 
-__all__ = ["ReceiveWatch", "check_interface", "open_bus", "scan_command"]
+__all__ = ["SOCKETCAND_FIX", "ReceiveWatch", "bus_fix", "check_interface", "open_bus", "scan_command"]
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +69,11 @@ class ReceiveWatch(can.Listener):
 
 SOCKETCAND_PORT = 29536  #: python-can's and socketcand's default port
 HANDSHAKE = 3.0  #: [s] a socketcand connection's connect, greeting, open and rawmode, all together
+#: the likely cause of a socketcand server not answering, and the fix
+SOCKETCAND_FIX = (
+    "is a socketcand server running there? Start one (rig emulate --device NAME, or --preset NAME, serves "
+    f"on 127.0.0.1:{SOCKETCAND_PORT}; socketcand -i can0 serves a real bus), or give its --host and --port"
+)
 
 
 def check_interface(interface: str, where: str) -> None:
@@ -118,15 +126,43 @@ def open_bus(
     kwargs = dict(options)
     if bitrate is not None:
         kwargs["bitrate"] = bitrate
-    try:
-        if interface == "socketcand":
-            host, port = str(kwargs.pop("host", "")), int(kwargs.pop("port", SOCKETCAND_PORT))
+    if interface == "socketcand":
+        host, port = str(kwargs.pop("host", "")), int(kwargs.pop("port", SOCKETCAND_PORT))
+        try:
             return SocketcandBus(str(channel), host, port, timeout=HANDSHAKE, **kwargs)
+        except CommunicationError as exc:
+            raise CommunicationError(f"{exc}: {SOCKETCAND_FIX}") from None
+    try:
         return can.Bus(interface=interface, channel=channel, ignore_config=True, **kwargs)
     except (can.CanError, OSError, ValueError, ImportError, NotImplementedError) as exc:
         raise CommunicationError(
-            f"cannot open CAN bus interface={interface!r} channel={channel!r}: {exc}"
+            f"cannot open CAN bus interface={interface!r} channel={channel!r}: {str(exc).rstrip('.')}: "
+            f"{bus_fix(interface, channel, exc)}"
         ) from exc
+
+
+def bus_fix(interface: str, channel: object, exc: BaseException) -> str:
+    """The likely cause of python-can not opening ``interface``/``channel`` (``exc``), and the fix."""
+    code = getattr(exc, "errno", None) or getattr(exc.__cause__, "errno", None)
+    if interface == "socketcan":
+        if code == errno.EAFNOSUPPORT:
+            return (
+                "this kernel offers no SocketCAN (not Linux, or the can module is not loaded: sudo modprobe "
+                "can): load it, or reach an emulator over --interface socketcand beside rig emulate"
+            )
+        if code == errno.ENODEV:
+            return (
+                f"there is no network interface {channel}: set it up (a virtual bus: sudo modprobe vcan; "
+                f"sudo ip link add dev {channel} type vcan; sudo ip link set up {channel}; an adapter: "
+                f"sudo ip link set {channel} up type can bitrate 500000), or use --interface socketcand "
+                "beside rig emulate"
+            )
+        if code == errno.ENETDOWN:
+            return f"the interface {channel} is down: sudo ip link set up {channel}"
+    return (
+        f"check that the adapter is plugged in and its driver for python-can's {interface!r} interface is "
+        "installed (python-can's interface pages), or use --interface socketcand beside rig emulate"
+    )
 
 
 def scan_command(

@@ -277,7 +277,11 @@ class ModbusInverterAxis(AxisDriver):
             why = ""
         self._reached = bool(connected)
         if not connected:
-            raise CommunicationError(f"Modbus inverter {self.where}: cannot connect{why}")
+            raise CommunicationError(
+                f"Modbus inverter {self.where}: cannot connect{why}: is the inverter on and serving "
+                "there? Check the address or serial device and its settings in the [[axis]] table, or, "
+                "for an emulated one, start rig emulate --modbus-map NAME (Modbus TCP on 127.0.0.1:5020)"
+            )
         self.read("status_word")
 
     def _state(self, status: int) -> AxisState:

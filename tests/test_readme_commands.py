@@ -85,7 +85,7 @@ PLACEHOLDER = re.compile(r"^[A-Z][A-Z_]*$")
 
 #: a span with `...` for what it leaves out: the whole command lines it stands for
 ELIDED = {
-    "rig ... | head": ["rig design dtsm --a-m 16 --b-m 680 --dt 0.4e-3 --lam -15"],
+    "rig ... | head": ["rig design dtsm --a-m 16 --b-m 680 --period 0.4e-3 --lam -15"],
     "rig run ... --fault NAME=VALUE": [
         "rig run --config examples/dc_servo_position.toml --emulate --fault frame_loss=0.01",
         "rig run --config examples/dc_servo_position.toml --fault law_nan_at=0.3",
@@ -405,7 +405,7 @@ def _live(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None:
 #: the whole commands run in the default pass (each a few seconds), with their claims' checks
 RUN: dict[str, Check] = {
     "rig --version": _version,
-    "rig design dtsm --a-m 16 --b-m 680 --dt 0.4e-3 --lam -15 --error-space --json": _design,
+    "rig design dtsm --a-m 16 --b-m 680 --period 0.4e-3 --lam -15 --error-space --json": _design,
     "rig emulate --list": _zoo,
     "rig reproduce dismc": _dismc,
     "rig reproduce dq-current": _dq,
@@ -532,7 +532,7 @@ def _drive(proc: subprocess.CompletedProcess[str], folder: pathlib.Path) -> None
 #: synopses (and an elided command) run in the default pass in a concrete form, with the claims
 #: next to them checked
 INSTANCES: dict[str, tuple[str, Check]] = {
-    "rig scan (--interface I --channel C [--bitrate B] | --emulate PRESET) [--sdo-timeout S] [--json]": (
+    "rig scan (--interface I --channel C [--bitrate B] | --emulate NAME) [--sdo-timeout S] [--json]": (
         "rig scan --emulate dc-servo",
         _scan,
     ),
@@ -544,14 +544,14 @@ INSTANCES: dict[str, tuple[str, Check]] = {
         "rig faults --json --scenario tpdo-stall",
         _json_keys(r"`--json` prints a list of `\{(.*?)\}`"),
     ),
-    "rig reproduce dq-current [--json] [--plot FILE] [--param NAME=VALUE ...]": (
+    "rig reproduce dq-current [--json] [--plot DIR] [--param NAME=VALUE ...]": (
         "rig reproduce dq-current --json",
         _json_keys(r"`--json` prints `\{(\"tables\": \[\.\.\.\], \"cross_coupling\": \[\.\.\.\])\}`"),
     ),
-    "rig identify (--config FILE | --emulate PRESET|DEVICE | --from-log RUN_DIR) [--param NAME=VALUE ...] "
+    "rig identify (--config FILE | --emulate NAME | --from-log RUN_DIR) [--param NAME=VALUE ...] "
     "[--input voltage|torque] [--excitation prbs|steps|chirp|multisine|friction] [--duration S] [--f-min HZ] "
     "[--f-max HZ] [--seed N] [--u0 U] [--amplitude U] [--clock S] [--loop-model FILE|RUN_DIR] "
-    "[--loop-bandwidth HZ] [--speed W] [--json] [--plot FILE]": (
+    "[--loop-bandwidth HZ] [--speed W] [--json] [--plot DIR]": (
         "rig identify --emulate dc-servo --json",
         _json_keys(r"`--json` prints (`a_m`, `b_m`, .*?`run_dir`)"),
     ),
@@ -815,7 +815,9 @@ MENTIONS = {
     "rig run --emulate",
     "rig run --reset-fault",
     "rig emulate --param",
-    "rig emulate --socketcand-port",
+    "rig emulate --port",
+    "rig drive --json status",  # docs/cli.md: an option before or after the action
+    "rig drive status --json",
     "rig emulate --rt-cpu 1",  # an experiment the benchmarks page reports (the emulator on the host's CPU)
     "rig drive sdo write",
     "rig emulate --device",
@@ -874,7 +876,7 @@ def test_rig_s_parser_accepts_every_command(
 
 def test_a_renamed_option_or_subcommand_is_refused(parser: argparse.ArgumentParser) -> None:
     """The checks above catch what they are for."""
-    assert refusal(parser, "rig design dtsm --a-m 16 --b-m 680 --dt 4e-4 --lam -15 --error") is not None
+    assert refusal(parser, "rig design dtsm --a-m 16 --b-m 680 --period 4e-4 --lam -15 --error") is not None
     assert refusal(parser, "rig reproduce dismcc") is not None
     assert forms("rig scan (--interface I | --emulate PRESET) [--json]") == [
         "rig scan --emulate dc-servo",

@@ -8,7 +8,8 @@ SIGINT and SIGTERM whatever the parent set, SIGHUP unless ignored): a command a 
 prints no result, one line on stderr, and exits 128 + the signal's number, or 4 where its
 drives' stop was not confirmed. The exit codes, the same for every command, are
 ``rig.cli.common.EXIT_CODES`` (``rig --help``, docs/cli.md). ``-v`` goes before or after the
-subcommand.
+subcommand, and a command's options before or after its action (``rig.cli.language``: one
+spelling per concept, the old ones kept a release as deprecated aliases).
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from rig.cli import (
     view,
 )
 from rig.cli.common import EXIT_CODES, EXIT_UNCONFIRMED, EXIT_USAGE, Parser, UsageError
+from rig.cli.language import inherit_options
 from rig.host.signals import SIGNALS, StopRequested, StopRequests, forget
 
 __all__ = ["entry", "main"]
@@ -111,7 +113,8 @@ def build_parser() -> Parser:
         epilog="Exit codes, the same for every command: "
         + "; ".join(f"{code} {words}" for code, words in EXIT_CODES.items())
         + ". SIGINT and SIGTERM stop every command, whatever the parent set; rig emulate serves "
-        "until one comes and then exits 0.",
+        "until one comes and then exits 0. Docs: docs/cli.md (one command language: the same option "
+        "for the same thing in every command), docs/commands.md (every command).",
     )
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages to stderr")
     parser.add_argument("--version", action=_Version)
@@ -122,15 +125,15 @@ def build_parser() -> Parser:
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for name, child in action.choices.items():
-                if name in EXAMPLES:
-                    child.epilog = f"Example: {EXAMPLES[name]}"
+                child.epilog = f"Example: {EXAMPLES[name]}. Docs: docs/{DOCS[name]}, docs/commands.md"
+                inherit_options(child, frozenset({"-h", "-v"}))  # before or after its action
     return parser
 
 
 #: the example each subcommand's --help ends with (commands the docs pages run too)
 EXAMPLES = {
     "demo": "rig demo",
-    "design": "rig design dtsm --a-m 16 --b-m 680 --dt 0.4e-3 --lam -15 --error-space --json",
+    "design": "rig design dtsm --a-m 16 --b-m 680 --period 0.4e-3 --lam -15 --error-space --json",
     "reproduce": "rig reproduce dismc --json",
     "run": "rig run --config examples/dc_servo_position.toml --emulate",
     "identify": "rig identify --emulate dc-servo --param plant.a_m=23.5 --param plant.b_m=412",
@@ -146,6 +149,26 @@ EXAMPLES = {
     "doctor": "rig doctor --period 0.0004",
     "export": "rig export runs/dc-servo-position-DATE-TIME --format mf4",
     "view": "rig view runs   (then open http://127.0.0.1:8050/ in a browser)",
+}
+
+
+#: the docs page each subcommand's --help points at (beside docs/commands.md), under docs/
+DOCS = {
+    "demo": "getting-started.md",
+    "design": "tutorial-servo.md",
+    "reproduce": "reproductions.md",
+    "run": "running-a-rig.md",
+    "identify": "identification.md",
+    "tune": "tutorial-identify.md",
+    "scan": "real-drives.md",
+    "drive": "tutorial-commissioning.md",
+    "emulate": "emulator.md",
+    "faults": "faults.md",
+    "sweep": "sweeps.md",
+    "bench": "benchmarks.md",
+    "doctor": "time.md",
+    "export": "files.md",
+    "view": "view.md",
 }
 
 

@@ -11,6 +11,7 @@ import argparse
 import json
 import math
 import pathlib
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any, NoReturn
 
@@ -29,14 +30,16 @@ __all__ = [
     "add_bus_arguments",
     "add_json",
     "add_params",
+    "add_plot",
+    "emulated",
     "exit_code",
     "finite",
     "json_clean",
     "not_written",
     "open_network",
-    "out_dir",
     "out_file",
     "params_of",
+    "plot_folder",
     "print_json",
     "tcp_port",
     "tcp_port_or_any",
@@ -134,9 +137,16 @@ class Lazy:
 
 class Parser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line, raised instead of exiting; its description may be
-    ``Lazy``, made when read."""
+    ``Lazy``, made when read; a repeatable option given before and after an action keeps both
+    (``rig.cli.language.MergingSubParsers``)."""
 
     _text: str | Lazy | None = None  #: the description as given: made on first read if Lazy
+
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        from rig.cli.language import MergingSubParsers
+
+        super().__init__(*args, **kw)
+        self.register("action", "parsers", MergingSubParsers)
 
     @property
     def description(self) -> str | None:
@@ -259,28 +269,69 @@ def out_file(text: str) -> str:
     return text
 
 
-def out_dir(text: str) -> str:
-    """An argparse type: a folder to write into (made if missing): not a file.
+#: a name with one of these is a figure's file, not a folder (``--plot``)
+IMAGE_SUFFIXES = frozenset({".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".ps", ".tif", ".tiff", ".webp"})
 
-    Parameters
-    ----------
-    text : str
-        The option's value.
 
-    Returns
-    -------
-    str
-        ``text``.
+def add_plot(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--plot DIR``: ``what`` written into the folder DIR (``plot_folder``)."""
+    parser.add_argument(
+        "--plot",
+        metavar="DIR",
+        help=f"write {what} into the folder DIR (made if missing, before anything runs; needs matplotlib)",
+    )
 
-    Raises
-    ------
-    ArgumentTypeError
-        If it is a file.
-    """
-    path = pathlib.Path(text)
-    if path.exists() and not path.is_dir():
-        raise argparse.ArgumentTypeError(f"{text}: a file, not a folder")
-    return text
+
+def plot_folder(args: argparse.Namespace, who: str, *, old_file: bool = False) -> pathlib.Path | None:
+    """The folder of ``--plot`` (None without it), made now and matplotlib checked: said before
+    anything runs. A name with an image suffix is refused, or, where ``old_file`` (the command
+    wrote one file before), taken as the old form for this release: a warning, and
+    ``args.plot_file`` is that file (None otherwise)."""
+    args.plot_file = None
+    if args.plot is None:
+        return None
+    path = pathlib.Path(args.plot)
+    folder = path
+    if path.suffix.lower() in IMAGE_SUFFIXES and not path.is_dir():
+        if not old_file:
+            raise UsageError(
+                f"{who}: --plot {args.plot}: give a folder (its figures go in it, each named for what it "
+                "shows), not a file name"
+            )
+        folder, args.plot_file = path.parent, str(path)
+        print(
+            f"{who}: --plot {args.plot}: a file is deprecated (kept for this release): give a folder, "
+            f"--plot {folder}",
+            file=sys.stderr,
+        )
+    from rig.report.plots import require_pyplot
+
+    try:
+        require_pyplot()
+        folder.mkdir(parents=True, exist_ok=True)
+    except ConfigError as exc:
+        raise UsageError(f"{who}: {exc}") from None
+    except OSError as exc:
+        raise UsageError(
+            f"{who}: --plot {args.plot}: cannot make the folder {folder}: {exc.strerror}"
+        ) from None
+    return folder
+
+
+def emulated(name: str, who: str) -> tuple[str, Any]:
+    """What ``--emulate NAME`` names: ("preset", NAME), or ("device", the twin's DeviceProfile) for
+    a zoo twin or a profile file (.toml); UsageError naming what there is otherwise."""
+    from plant_emulator.device_profile import device_profile, zoo
+    from plant_emulator.presets import PRESETS
+
+    if name in PRESETS:
+        return "preset", name
+    if name in zoo() or name.endswith(".toml"):
+        return "device", device_profile(name)
+    raise UsageError(
+        f"{who}: --emulate {name}: neither a preset ({', '.join(PRESETS)}) nor a zoo twin "
+        f"({', '.join(zoo())}) nor a profile file (.toml)"
+    )
 
 
 def add_json(parser: argparse.ArgumentParser, what: str = "print one JSON document") -> None:
@@ -385,7 +436,7 @@ def open_network(args: argparse.Namespace, who: str) -> Any:
     from drivers.bus import check_interface, open_bus
 
     if not (args.interface and (args.channel or args.interface == "socketcand")):
-        raise UsageError(f"{who}: give --interface and --channel, or --emulate")
+        raise UsageError(f"{who}: give --interface and --channel, or --emulate NAME")
     try:
         check_interface(args.interface, f"{who}: argument --interface")
     except ConfigError as exc:

@@ -7,6 +7,8 @@ import io
 import sys
 from typing import Any
 
+from rig.cli.common import add_json, print_json
+
 __all__ = ["add_parser"]
 
 
@@ -26,6 +28,7 @@ def add_parser(sub: Any) -> None:
         "and runs (7.30) over the emulated bus; writes a run directory under runs/. Prints its report "
         "once it is whole (a progress line on a terminal meanwhile).",
     )
+    add_json(demo, "print the same figures as one JSON object {design, simulations, identified, run}")
     demo.set_defaults(handler=run)
 
 
@@ -34,10 +37,14 @@ def run(args: argparse.Namespace) -> int:
     from rig.papers.demo import run_demo
 
     report = io.StringIO()  # printed whole: a demo a stop signal cuts short prints nothing
-    bar = Progress("rig demo", 3, "parts")
+    record: dict[str, Any] = {}
+    bar = Progress("rig demo", 3, "parts", json=args.json)
     try:
-        code = run_demo(report, progress=bar.cycles)
+        code = run_demo(report, progress=bar.cycles, record=record)
     finally:
         bar.close()
-    sys.stdout.write(report.getvalue())
+    if args.json:
+        print_json(record)
+    else:
+        sys.stdout.write(report.getvalue())
     return code

@@ -8,6 +8,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from rig.cli.common import Parser, UsageError, add_json, finite
+from rig.cli.language import deprecated
 
 if TYPE_CHECKING:
     from controllers.design import DTSMDesign
@@ -29,8 +30,9 @@ def add_parser(sub: Any) -> None:
         "dtsm",
         help="DTSM sliding vector, eqs. (6.9), (6.16)-(6.19)",
         description="Design the delta-domain DTSM for dw/dt = -a_m w + b_m u with position "
-        "(3.7), or the error-space model (7.28) with --error-space. --json prints the design with "
-        'a_m, b_m, lam, dt and input, a file [controller] design = "FILE" accepts. Example: '
+        "(3.7), or the error-space model (7.28) with --error-space, at the sample period T (--period). "
+        '--json prints the design with a_m, b_m, lam, dt (T) and input, a file [controller] design = "FILE" '
+        "accepts. Example: "
         "rig design dtsm --from-identify runs/identify-voltage-... --lam -15 --error-space --json",
     )
     dtsm.add_argument("--a-m", type=finite, help="a_m [1/s] (or --from-identify)")
@@ -38,9 +40,13 @@ def add_parser(sub: Any) -> None:
     dtsm.add_argument(
         "--from-identify",
         metavar="FILE|RUN_DIR",
-        help="take a_m, b_m (and dt unless --dt) from rig identify's identification.json or run directory",
+        help="take a_m, b_m (and the period unless --period) from rig identify's identification.json or "
+        "run directory",
     )
-    dtsm.add_argument("--dt", type=finite, help="sample period T [s], > 0 (default: --from-identify's)")
+    dtsm.add_argument(
+        "--period", type=finite, metavar="S", help="sample period T [s], > 0 (default: --from-identify's)"
+    )
+    deprecated(dtsm, "--dt", "--period", "period", type=finite, metavar="S")
     dtsm.add_argument("--lam", type=finite, required=True, help="sliding eigenvalue lambda [1/s], < 0")
     dtsm.add_argument(
         "--error-space", action="store_true", help="use (7.28): e = [theta_r - theta, de/dt], b = [0, -b_m]"
@@ -58,22 +64,24 @@ def _design(args: argparse.Namespace) -> DTSMDesign:
     if args.from_identify:
         model = read_model(args.from_identify, where="rig design dtsm: --from-identify")
         a_m, b_m, args.input = model.a_m, model.b_m, model.input
-        if args.dt is None:
-            args.dt = model.dt  # the experiment's sample period, unless given
+        if args.period is None:
+            args.period = model.dt  # the experiment's sample period, unless given
     if a_m is None or b_m is None:
         raise UsageError("rig design dtsm: give --a-m and --b-m, or --from-identify FILE|RUN_DIR")
-    if args.dt is None or math.isnan(args.dt):
-        raise UsageError("rig design dtsm: give --dt (the sample period T [s])")
-    if args.dt <= 0.0:
-        raise UsageError(f"rig design dtsm: argument --dt: must be > 0 s, got {args.dt:g}")
+    if args.period is None or math.isnan(args.period):
+        raise UsageError("rig design dtsm: give --period (the sample period T [s])")
+    if args.period <= 0.0:
+        raise UsageError(f"rig design dtsm: argument --period: must be > 0 s, got {args.period:g}")
     if args.lam >= 0.0:
         raise UsageError(f"rig design dtsm: argument --lam: must be < 0 1/s, got {args.lam:g}")
     args.a_m, args.b_m = a_m, b_m
     b = -b_m if args.error_space else b_m
     try:
-        return design_dtsm(A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, b], dt=args.dt, lam=args.lam)
+        return design_dtsm(A=[[0.0, 1.0], [0.0, -a_m]], b=[0.0, b], dt=args.period, lam=args.lam)
     except ValueError as exc:
-        raise UsageError(f"rig design dtsm: --a-m {a_m:g} --b-m {b_m:g} --dt {args.dt:g}: {exc}") from exc
+        raise UsageError(
+            f"rig design dtsm: --a-m {a_m:g} --b-m {b_m:g} --period {args.period:g}: {exc}"
+        ) from exc
 
 
 def run(args: argparse.Namespace) -> int:

@@ -49,7 +49,9 @@ def add_parser(sub: Any) -> None:
     )
     drive.add_argument("--eds", metavar="FILE", help="the drive's EDS/DCF (default: the toolkit's)")
     drive.add_argument(
-        "--emulate", metavar="DEVICE", help="a zoo twin in this process instead (rig emulate --list)"
+        "--emulate",
+        metavar="NAME",
+        help="a zoo twin (rig emulate --list), or a preset's drive, emulated in this process instead",
     )
     add_params(drive, "a unit the drive lacks, as [axis.units] (counts_per_rev=51200)", flag="--units")
     add_json(drive, "print one JSON document")
@@ -160,11 +162,12 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
     for key, value in units.items():
         if not value >= 0.0:
             raise UsageError(f"rig drive: --units {key} = {value:g}: must be >= 0 (0: the drive's own)")
-    profile = None
+    profile, preset = None, None
     if args.emulate:
-        from plant_emulator.device_profile import device_profile
+        from rig.cli.common import emulated
 
-        profile = device_profile(args.emulate)
+        kind, what = emulated(args.emulate, "rig drive")
+        profile, preset = (what, None) if kind == "device" else (None, what)
     eds = args.eds or (str(profile.eds) if profile else None)  # None: the device's own units, modes
     od = load_od(eds or CIA402_EDS, args.node)  # a bad EDS, an axis it lacks, an object it does not name
     od = axis_dictionary(od, args.axis, source=str(eds or CIA402_EDS), generic=eds is None)
@@ -175,10 +178,12 @@ def _tool(args: argparse.Namespace) -> tuple[Any, Any]:
         # offers the mode)
         needs = STATUS if args.action == "status" else CONTROL
         require(od, needs, source=str(eds), what=f"rig drive {args.action}")
-    if profile is not None:
+    if args.emulate:
         from plant_emulator.lockstep import LockstepBench
 
-        bench = LockstepBench(profile.physics, device=profile)
+        bench = (
+            LockstepBench(str(preset)) if profile is None else LockstepBench(profile.physics, device=profile)
+        )
         network, idle, period, close = bench.host, bench.sync, bench.period, bench.close
         watch = None
     else:

@@ -3,14 +3,27 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Callable
 from typing import Any
 
-from rig.cli.common import UsageError, add_params, tcp_port, tcp_port_or_any
+from rig.cli.common import (
+    UsageError,
+    add_json,
+    add_params,
+    finite,
+    print_json,
+    tcp_port,
+    tcp_port_or_any,
+)
+from rig.cli.language import deprecated
 from rig.config.params import parse_items
 
 __all__ = ["add_parser"]
 
 _CAN_BITRATE = 1_000_000  #: [bit/s] classic CAN's highest bit rate (ISO 11898-1)
+SOCKETCAND_PORT = 29536  #: socketcand's own default port
+MODBUS_PORT = 5020  #: the Modbus TCP port by default (502 needs root)
 
 
 def add_parser(sub: Any) -> None:
@@ -37,27 +50,34 @@ def add_parser(sub: Any) -> None:
         metavar="NAME",
         help="serve an emulated Modbus inverter of this map instead (abb-drives-profile, delta-vfd-b)",
     )
-    emulate.add_argument("--modbus-port", type=tcp_port, default=5020, help="Modbus TCP port (default 5020)")
     emulate.add_argument("--modbus-serial", metavar="DEVICE", help="serve Modbus RTU on this serial device")
     emulate.add_argument(
-        "--listen",
+        "--host",
         default="127.0.0.1",
         metavar="ADDRESS",
-        help="address the TCP servers (socketcand, Modbus TCP) bind: 127.0.0.1 unless you name another",
+        help="address the TCP server (socketcand, or Modbus TCP) binds: 127.0.0.1 unless you name another",
     )
+    deprecated(emulate, "--listen", "--host", "host", metavar="ADDRESS")
     emulate.add_argument(
-        "--node-id", type=int, help="the drive's node id (the preset's others: the next); 255: none, LSS only"
+        "--port",
+        type=tcp_port_or_any,
+        metavar="P",
+        help=f"the TCP port it serves on, on --host (default: socketcand {SOCKETCAND_PORT}, Modbus TCP "
+        f"{MODBUS_PORT}; 0: any free port)",
     )
+    deprecated(emulate, "--socketcand-port", "--port", "port", type=tcp_port_or_any, metavar="P")
+    deprecated(emulate, "--modbus-port", "--port", "port", type=tcp_port, metavar="P")
+    emulate.add_argument(
+        "--node",
+        type=int,
+        metavar="N",
+        help="node id of the drive (the other nodes of the preset take the next ones); 255: none, LSS only",
+    )
+    deprecated(emulate, "--node-id", "--node", "node", type=int, metavar="N")
     emulate.add_argument(
         "--interface", help="python-can interface, e.g. socketcan (default: serve socketcand)"
     )
     emulate.add_argument("--channel", help="python-can channel, e.g. vcan0")
-    emulate.add_argument(
-        "--socketcand-port",
-        type=tcp_port_or_any,
-        default=29536,
-        help="socketcand TCP port on --listen (0: any free port)",
-    )
     emulate.add_argument(
         "--bitrate",
         type=_bitrate,
@@ -99,7 +119,15 @@ def add_parser(sub: Any) -> None:
         help="real time: the PM QoS CPU latency [us] held while it serves (/dev/cpu_dma_latency; "
         "default 0: the CPUs stay awake; -1: none asked)",
     )
+    emulate.add_argument(
+        "--period",
+        type=finite,
+        metavar="S",
+        help="the emulated plant's sample period T [s] (its parameter period; default: the preset's or "
+        "twin's)",
+    )
     add_params(emulate, "override a preset (or inverter) parameter")
+    add_json(emulate, "with --list: print the list as one JSON document")
     emulate.set_defaults(handler=run)
 
 
@@ -119,7 +147,7 @@ def _node_ids(preset: str, node_id: int | None, params: dict[str, str]) -> dict[
         return params
     if not 1 <= node_id <= 125:
         raise UsageError(
-            f"rig emulate: --node-id {node_id}: must be 1..125 with --preset (its nodes are N, N+1, N+2)"
+            f"rig emulate: --node {node_id}: must be 1..125 with --preset (its nodes are N, N+1, N+2)"
         )
     from drivers.schema import keys
     from plant_emulator.presets import PRESETS
@@ -131,11 +159,44 @@ def _node_ids(preset: str, node_id: int | None, params: dict[str, str]) -> dict[
     return params
 
 
-def _list() -> int:
+def _period(args: argparse.Namespace, items: dict[str, str]) -> dict[str, str]:
+    """``items`` with ``--period``'s value as the parameter period; ``--param period=`` is the old
+    spelling, kept for this release with one line on stderr."""
+    if "period" in items:
+        if args.period is not None:
+            raise UsageError("rig emulate: --period and --param period= name one value: give --period")
+        print(
+            "rig emulate: --param period= is deprecated (kept for this release): use --period",
+            file=sys.stderr,
+        )
+    elif args.period is not None:
+        if not args.period > 0.0:
+            raise UsageError(f"rig emulate: argument --period: must be > 0 s, got {args.period:g}")
+        items["period"] = repr(args.period)
+    return items
+
+
+def _checked(args: argparse.Namespace, check: Callable[[], Any]) -> Any:
+    """``check()``, its refusal of the period named as --period where that gave it."""
+    from drivers.errors import ConfigError
+
+    try:
+        return check()
+    except ConfigError as exc:
+        if args.period is None:
+            raise
+        raise ConfigError(str(exc).replace("--param period = ", "--period ")) from None
+
+
+def _list(json: bool) -> int:
     from plant_emulator.device_profile import load_profile, zoo
 
-    for name, path in zoo().items():
-        print(f"{name:18} {load_profile(path).description}")
+    rows = [{"name": name, "description": load_profile(path).description} for name, path in zoo().items()]
+    if json:
+        print_json(rows)
+        return 0
+    for row in rows:
+        print(f"{row['name']:18} {row['description']}")
     return 0
 
 
@@ -156,8 +217,8 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
 
     if args.device and (args.profile or args.eds):
         raise UsageError("rig emulate: --device takes a zoo profile; for your own drive give --profile/--eds")
-    if args.node_id is not None and not (1 <= args.node_id <= 127 or args.node_id == UNCONFIGURED):
-        raise UsageError(f"rig emulate: --node-id {args.node_id}: must be 1..127 (or 255: none, LSS only)")
+    if args.node is not None and not (1 <= args.node <= 127 or args.node == UNCONFIGURED):
+        raise UsageError(f"rig emulate: --node {args.node}: must be 1..127 (or 255: none, LSS only)")
     if args.device:
         try:
             profile = device_profile(args.device)
@@ -170,22 +231,20 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
     else:
         profile = default_profile(pathlib.Path(args.eds))
     where = f"rig emulate: --device {profile.name} --param"
-    _, params = physics(profile.physics, items, where, text=True, base=profile.params)
-    od = load_od(profile.eds, args.node_id or profile.node_id)  # a bad EDS is refused before serving
-    if args.node_id == UNCONFIGURED and not speaks_lss(od, profile.node_id):
+    _, params = _checked(args, lambda: physics(profile.physics, items, where, text=True, base=profile.params))
+    od = load_od(profile.eds, args.node or profile.node_id)  # a bad EDS is refused before serving
+    if args.node == UNCONFIGURED and not speaks_lss(od, profile.node_id):
         raise UsageError(
-            f"rig emulate: --node-id 255 (no node-ID: LSS only): {profile.eds} says LSS_Supported=0, so that "
+            f"rig emulate: --node 255 (no node-ID: LSS only): {profile.eds} says LSS_Supported=0, so that "
             "drive could never be given one; give it a node id 1..127"
         )
     # and so is a profile that disagrees with its EDS: built once on a network of its own
-    build_twin(profile, canopen.Network(), params, node_id=args.node_id)
+    build_twin(profile, canopen.Network(), params, node_id=args.node)
 
     def world(network: Any) -> Any:
-        return build_twin(profile, network, params, node_id=args.node_id)
+        return build_twin(profile, network, params, node_id=args.node)
 
-    node = (
-        "no node-ID, LSS only" if args.node_id == UNCONFIGURED else f"node {args.node_id or profile.node_id}"
-    )
+    node = "no node-ID, LSS only" if args.node == UNCONFIGURED else f"node {args.node or profile.node_id}"
     return world, f"{profile.name} ({node})"
 
 
@@ -195,17 +254,24 @@ def run(args: argparse.Namespace) -> int:
     from rig.emulator.serve import run_emulator, run_modbus_emulator
 
     if args.list:
-        return _list()
+        return _list(args.json)
+    if args.json:
+        raise UsageError(
+            "rig emulate: --json goes with --list: a server prints where it serves (on stdout), not a result"
+        )
     if args.interface and not args.channel:
         raise UsageError("rig emulate: --interface needs --channel")
     if args.interface:
         from drivers.bus import check_interface
 
         check_interface(args.interface, "rig emulate: argument --interface")
-    items = parse_items(args.param, "rig emulate: --param")
+    items = _period(args, parse_items(args.param, "rig emulate: --param"))
     if args.modbus_map:
+        port = MODBUS_PORT if args.port is None else args.port
+        if port == 0:
+            raise UsageError("rig emulate: argument --port: Modbus TCP needs a port 1..65535, got 0")
         return run_modbus_emulator(
-            args.modbus_map, items, host=args.listen, port=args.modbus_port, serial=args.modbus_serial
+            args.modbus_map, items, host=args.host, port=port, serial=args.modbus_serial
         )
     if sum(bool(x) for x in (args.preset, args.device, args.profile or args.eds)) != 1:
         raise UsageError(
@@ -217,8 +283,9 @@ def run(args: argparse.Namespace) -> int:
         if args.preset not in PRESETS:
             known = ", ".join(PRESETS)
             raise UsageError(f"rig emulate: --preset {args.preset}: unknown preset; known: {known}")
-        items = _node_ids(args.preset, args.node_id, items)
-        _, params = physics(args.preset, items, f"rig emulate: --preset {args.preset} --param", text=True)
+        items = _node_ids(args.preset, args.node, items)
+        where = f"rig emulate: --preset {args.preset} --param"
+        _, params = _checked(args, lambda: physics(args.preset, items, where, text=True))
         preset = args.preset
 
         def world(network: Any) -> Any:
@@ -232,8 +299,8 @@ def run(args: argparse.Namespace) -> int:
         label,
         interface=args.interface,
         channel=args.channel,
-        host=args.listen,
-        port=args.socketcand_port,
+        host=args.host,
+        port=SOCKETCAND_PORT if args.port is None else args.port,
         lockstep=args.time == "lockstep",
         realtime=_realtime(args),
         **({} if args.bitrate is None else {"bitrate": args.bitrate}),

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from rig.cli.common import add_json, print_json
+
 __all__ = ["add_parser"]
 
 FORMATS = ("mf4", "parquet", "mat", "csv")  #: rig.host.export.FORMATS, without importing numpy here
@@ -30,6 +32,7 @@ def add_parser(sub: Any) -> None:
     export.add_argument(
         "--output", metavar="FILE", help="the file to write (default: RUN_DIR.<format>, beside RUN_DIR)"
     )
+    add_json(export, 'print one JSON object {"written": FILE, "format": FORMAT}')
     export.set_defaults(handler=run)
 
 
@@ -37,5 +40,8 @@ def run(args: argparse.Namespace) -> int:
     from rig.host.export import export_run
 
     written = export_run(args.run_dir, args.format, args.output)
-    print(f"written to {written}")
+    if args.json:
+        print_json({"written": str(written), "format": args.format})
+    else:
+        print(f"written to {written}")
     return 0

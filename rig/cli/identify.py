@@ -14,8 +14,9 @@ from rig.cli.common import (
     UsageError,
     add_json,
     add_params,
+    add_plot,
     finite,
-    out_file,
+    plot_folder,
     print_json,
 )
 from rig.config.params import parse_items
@@ -29,7 +30,7 @@ def add_parser(sub: Any) -> None:
         help="identify a_m, b_m of (3.5) from a PRBS experiment on the drive, or from a run log",
         description="Replays u = u0 + amplitude prbs(t) (or steps) in voltage mode on the axis the "
         "configuration's law commands, through the session like any rig run, and estimates (3.5) with "
-        "a delay and an offset (rig/identify/estimate.py). The result is written to identification.json "
+        "a delay and an offset (docs/identification.md). The result is written to identification.json "
         "in the run directory (rig design dtsm --from-identify and [controller] design take it). It "
         "warns when the data were taken in closed loop or the held-out fit is below 70 %; with --strict "
         "that exits 5. Example: rig identify --emulate dc-servo --param plant.a_m=23.5",
@@ -38,8 +39,9 @@ def add_parser(sub: Any) -> None:
     source.add_argument("--config", metavar="FILE", help="the rig configuration (bus, axis, limits)")
     source.add_argument(
         "--emulate",
-        metavar="PRESET|DEVICE",
-        help="run the experiment on an in-process preset, or on a zoo twin in CST (rig emulate --list)",
+        metavar="NAME",
+        help="run the experiment on a preset or a zoo twin (in CST; rig emulate --list), emulated in this "
+        "process",
     )
     source.add_argument("--from-log", metavar="RUN_DIR", help="estimate from a recorded run directory")
     add_params(ident, "a parameter of the --emulate preset (e.g. plant.a_m=23.5)")
@@ -93,7 +95,7 @@ def add_parser(sub: Any) -> None:
         "--clock", type=finite, help="PRBS bit time [s], a few times < 1/a_m (0.02; friction: 0.25)"
     )
     add_json(ident, "print one JSON object")
-    ident.add_argument("--plot", type=out_file, metavar="FILE", help="write measured and model speed to FILE")
+    add_plot(ident, "the measured and the model's speed (identify.png), or the Bode plot (bode.png)")
     ident.add_argument(
         "--strict", action="store_true", help="exit 5 when a warning says the result is not to be trusted"
     )
@@ -199,6 +201,7 @@ def _experiment(args: argparse.Namespace) -> str | int:
         seed=args.seed,
         loop=None if loop is None else _loop(args, loop, u[:repeat], period),
     )
+    args.plot_dir = plot_folder(args, "rig identify", old_file=True)  # said before the experiment
     bar = Progress("rig identify: experiment", 0, "cycles", json=args.json)
     try:
         summary = run_experiment(cfg, emulate=bool(args.emulate), progress=bar.cycles)
@@ -330,20 +333,20 @@ def _response(args: argparse.Namespace, run_dir: str, result: Any) -> dict[str, 
     return frequency_from_log(run_dir, result, args.excitation, f_min=args.f_min, f_max=args.f_max)
 
 
-def _bode(run_dir: str, response: dict[str, Any], plot: str | None) -> str | None:
-    """The Bode plot (``--plot FILE``, else bode.png in the run directory); None without matplotlib
-    (an error with --plot)."""
+def _bode(run_dir: str, response: dict[str, Any], path: str | None) -> str | None:
+    """The Bode plot to ``path`` (``--plot``'s), else bode.png in the run directory; None there
+    without matplotlib (``--plot`` checked it before the experiment)."""
     from drivers.errors import ConfigError
     from rig.identify.bode import plot_bode
 
-    path = plot or str(Path(run_dir) / "bode.png")
+    target = path or str(Path(run_dir) / "bode.png")
     try:
-        plot_bode(response, path)
+        plot_bode(response, target)
     except ConfigError:
-        if plot:
+        if path:
             raise
         return None
-    return path
+    return target
 
 
 def _print_friction(f: dict[str, Any]) -> None:
@@ -383,7 +386,10 @@ def run(args: argparse.Namespace) -> int:
     from rig.identify.model_file import FILE, FIT_MIN, checks, write_identification
 
     try:
-        run_dir = args.from_log or _experiment(args)
+        if args.from_log:
+            args.plot_dir = plot_folder(args, "rig identify", old_file=True)
+        run_dir = args.from_log or _experiment(args)  # the experiment makes args.plot_dir first
+        folder = args.plot_dir
         if isinstance(run_dir, int):
             return run_dir
         frequency = args.excitation is not None and _frequency(args)
@@ -395,17 +401,19 @@ def run(args: argparse.Namespace) -> int:
     extra: dict[str, Any] = {} if args.excitation is None else {"excitation": args.excitation}
     if response is not None:
         extra["frequency_response"] = response
-        extra["bode_plot"] = _bode(run_dir, response, args.plot)
+        extra["bode_plot"] = _bode(
+            run_dir, response, args.plot_file or (str(folder / "bode.png") if folder else None)
+        )
     try:
         path = write_identification(Path(run_dir), result, closed_loop, warnings, extra)
     except OSError as exc:
         raise UsageError(f"rig identify: {Path(run_dir) / FILE}: cannot be written: {exc}") from exc
     for warning in warnings:
         print(f"rig identify: warning: {warning}", file=sys.stderr)
-    if args.plot and response is None:
+    if folder is not None and response is None:
         from rig.identify.plots import plot_identify
 
-        plot_identify(run_dir, result, args.plot)
+        plot_identify(run_dir, result, args.plot_file or str(folder / "identify.png"))
     code = EXIT_UNTRUSTED if args.strict and warnings else 0
     if args.json:
         print_json(read_json(path, what="identification"))

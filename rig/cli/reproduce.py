@@ -15,10 +15,10 @@ from rig.cli.common import (
     UsageError,
     add_json,
     add_params,
+    add_plot,
     json_clean,
-    out_dir,
-    out_file,
     params_of,
+    plot_folder,
     print_json,
 )
 from rig.cli.progress import Progress
@@ -52,7 +52,7 @@ def add_parser(sub: Any) -> None:
         ),
     )
     add_json(dismc, "print a list of JSON objects")
-    dismc.add_argument("--plot", type=out_file, metavar="FILE", help="write Fig. 3-like plots to FILE")
+    add_plot(dismc, "Fig. 3-like plots (dismc.png)")
     add_params(dismc, "override an example parameter by the paper's symbol; vectors 1,2, matrices 1,0;0,1")
     dismc.set_defaults(handler=_dismc)
     dq = rsub.add_parser(
@@ -66,9 +66,7 @@ def add_parser(sub: Any) -> None:
         ),
     )
     add_json(dq, 'print one object {"tables": [...], "cross_coupling": [...]}')
-    dq.add_argument(
-        "--plot", type=out_file, metavar="FILE", help="write q-step responses in dq (Fig. 9(b)-like) to FILE"
-    )
+    add_plot(dq, "the q-step responses in dq, Fig. 9(b)-like (dq-current.png)")
     add_params(dq, "override: ratio (e.g. 1/27), L1 [H], R1 [Ohm], gamma, strategy, plant (exact|fine)")
     dq.set_defaults(handler=_dq)
     drives = rsub.add_parser(
@@ -87,9 +85,7 @@ def add_parser(sub: Any) -> None:
         drives,
         'print one object {"design", "table_v", "speed_loop", "position_servo", "im_speed", "cascade"}',
     )
-    drives.add_argument(
-        "--plot", type=out_dir, metavar="DIR", help="write one figure per experiment into DIR"
-    )
+    add_plot(drives, "one figure per experiment")
     add_params(drives, "override: horizons speed_t_end, servo_t_end, im_t_end [s], substeps, load [N m], bus")
     drives.set_defaults(handler=_drives)
 
@@ -110,13 +106,14 @@ def _dismc(args: argparse.Namespace) -> int:
 
     where = "rig reproduce dismc: --param"
     values = params_of(args.param, DismcExample, where, aliases=ALIASES, fixed=FIXED)
+    folder = plot_folder(args, "rig reproduce dismc", old_file=True)
     try:
         example = dataclasses.replace(DismcExample(), **values)
         runs = run_dismc(example)
     except (ValueError, np.linalg.LinAlgError) as exc:
         raise UsageError(f"{where}: {exc}") from exc
-    if args.plot:
-        plot_dismc(runs, args.plot, dt=example.Ts)
+    if folder is not None:
+        plot_dismc(runs, args.plot_file or str(folder / "dismc.png"), dt=example.Ts)
     rows = [{"controller": r.controller, **r.metrics} for r in runs]
     if args.json:
         print_json(rows)
@@ -143,6 +140,7 @@ def _dq(args: argparse.Namespace) -> int:
         study = dataclasses.replace(DqStudy(), **values)
     except ValueError as exc:
         raise UsageError(f"{where}: {exc}") from exc
+    folder = plot_folder(args, "rig reproduce dq-current", old_file=True)
     bar = Progress("rig reproduce dq-current", 2, "parts", json=args.json)
     try:
         rows, runs = dq_study(study, progress=bar.cycles)
@@ -150,8 +148,8 @@ def _dq(args: argparse.Namespace) -> int:
         raise UsageError(f"{where}: {exc}") from exc
     finally:
         bar.close()
-    if args.plot:
-        plot_dq_steps(runs, args.plot)
+    if folder is not None:
+        plot_dq_steps(runs, args.plot_file or str(folder / "dq-current.png"))
     cross = [
         {
             "strategy": r.strategy,
@@ -207,19 +205,16 @@ def _drives(args: argparse.Namespace) -> int:
         study = dataclasses.replace(DrivesStudy(), **values)
     except ValueError as exc:
         raise UsageError(f"{where}: {exc}") from exc
-    if args.plot:
-        from rig.report.plots import require_pyplot
-
-        require_pyplot()  # no matplotlib: say so before the runs
+    folder = plot_folder(args, "rig reproduce drives")  # made, and matplotlib checked, before the runs
     bar = Progress("rig reproduce drives", 6, "parts", json=args.json)
     try:
         doc, signals = drives_study(study, progress=bar.cycles)
     finally:
         bar.close()
-    if args.plot:
+    if folder is not None:
         from rig.papers.plots import plot_drives
 
-        plot_drives(signals, args.plot)
+        plot_drives(signals, str(folder))
     if args.json:
         print_json(doc)
         return 0

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 __all__ = ["LIVE_MODES", "add_parser", "open_view", "print_summary"]
 
 LIVE_MODES = ("auto", "terminal", "window")  #: --live's choices (``rig.live.MODES``)
+CONFIGURED = ""  #: ``--emulate`` without a name: the configuration's own [emulator]
 
 
 def add_parser(sub: Any) -> None:
@@ -41,14 +42,21 @@ def add_parser(sub: Any) -> None:
     run = sub.add_parser(
         "run",
         help="run a configured control law over the wire (see examples/)",
-        description="Run the rig of a configuration file (rig/config/schema.py documents every key): every "
+        description="Run the rig of a configuration file (docs/configuration.md documents every key): every "
         "axis set up and enabled, the law on one SYNC per period, limits, watchdog and supervision per "
         "axis, the one safe stop, and a run directory. Exit code 3 after a safe stop, 4 when a "
         "drive's stop could not be confirmed; Ctrl-C or SIGTERM is that stop too, then 130 or 143 and "
         "no summary printed (it is in the run directory's summary.json).",
     )
     run.add_argument("--config", required=True, metavar="FILE", help="the rig configuration (TOML)")
-    run.add_argument("--emulate", action="store_true", help="run the configured emulator in this process")
+    run.add_argument(
+        "--emulate",
+        nargs="?",
+        const=CONFIGURED,
+        metavar="NAME",
+        help="run the emulator in this process: the configuration's [emulator], or NAME in its place (a "
+        "preset or a zoo twin, rig emulate --list; [emulator.params] kept)",
+    )
     run.add_argument("--duration", type=finite, help="override [run] duration [s]")
     run.add_argument(
         "--reset-fault",
@@ -87,8 +95,8 @@ def add_parser(sub: Any) -> None:
     add_json(run, "print the summary as one JSON object")
     add_params(
         run,
-        "inject a fault (overrides [faults]); names as in [faults] (rig/config/schema.py); the bus faults "
-        "need --emulate",
+        "inject a fault (overrides [faults]); names as in [faults] (docs/configuration.md, docs/faults.md); "
+        "the bus faults need --emulate",
         flag="--fault",
     )
     run.set_defaults(handler=execute)
@@ -146,7 +154,7 @@ def _strip(live: LiveView | None) -> bool:
 
 def execute(args: argparse.Namespace) -> int:
     from plant_emulator.faults import FAULT_NAMES
-    from rig.config import Override, load_config
+    from rig.config import Override
     from rig.config.checks import require_limits
     from rig.config.params import parse_items
     from rig.host.session import run_config
@@ -155,12 +163,13 @@ def execute(args: argparse.Namespace) -> int:
         raise UsageError(f"rig run: argument --duration: must be > 0 s, got {args.duration:g}")
     faults = parse_items(args.fault, "rig run: --fault")
     bus_faults = sorted(set(faults) & set(FAULT_NAMES))
-    if bus_faults and not args.emulate:
+    if bus_faults and args.emulate is None:
         raise UsageError(
             f"rig run: --fault {', '.join(bus_faults)} needs --emulate (the emulator injects it)"
         )
     # the faults are checked with the file, in the same pass, named by the option
-    cfg = load_config(args.config, [Override("faults", faults, "rig run: --fault")] if faults else [])
+    overrides = [Override("faults", faults, "rig run: --fault")] if faults else []
+    cfg = _configured(args.config, args.emulate, overrides)
     if not args.no_limits:
         require_limits(cfg)
     if args.reset_fault:
@@ -177,7 +186,12 @@ def execute(args: argparse.Namespace) -> int:
     summary: dict[str, Any] = {}
     try:
         summary = run_config(
-            cfg, emulate=args.emulate, duration=args.duration, progress=bar.cycles, live=live, started=started
+            cfg,
+            emulate=args.emulate is not None,
+            duration=args.duration,
+            progress=bar.cycles,
+            live=live,
+            started=started,
         )
     except StopRequested as exc:  # a stop signal: no result printed, but the view shows how it ended
         summary = _kept_summary(exc.kept)
@@ -204,3 +218,23 @@ def _kept_summary(run_dir: str | None) -> dict[str, Any]:
     except (OSError, ValueError):
         return {}
     return found if isinstance(found, dict) else {}
+
+
+def _configured(path: str, name: str | None, overrides: list[Any]) -> Any:
+    """The configuration at ``path``, with ``--emulate NAME``'s preset or twin as its [emulator]
+    (None, ``CONFIGURED``: its own), checked as the file would be."""
+    from drivers.files import read_toml
+    from rig.cli.common import emulated
+    from rig.config import load_config
+    from rig.config.schema import rig_config
+
+    if name is None or name == CONFIGURED:
+        return load_config(path, overrides)
+    kind, _ = emulated(name, "rig run")
+    doc = read_toml(path, what="rig configuration")
+    given = doc.get("emulator")
+    table = {
+        k: v for k, v in (given if isinstance(given, dict) else {}).items() if k not in ("preset", "device")
+    }
+    doc["emulator"] = {kind: name, **table}
+    return rig_config(doc, f"{path} with --emulate {name}", overrides)

@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from rig.cli.common import UsageError, add_bus_arguments, add_json, finite, open_network
+from rig.cli.common import UsageError, add_bus_arguments, add_json, emulated, finite, open_network
 
 __all__ = ["add_parser"]
 
@@ -29,7 +29,11 @@ def add_parser(sub: Any) -> None:
         "node id, NMT state, device type, profile, vendor and product name.",
     )
     add_bus_arguments(scan)
-    scan.add_argument("--emulate", metavar="PRESET", help="scan an in-process emulator preset instead")
+    scan.add_argument(
+        "--emulate",
+        metavar="NAME",
+        help="scan a preset or a zoo twin emulated in this process instead (rig emulate --list)",
+    )
     scan.add_argument(
         "--listen",
         type=finite,
@@ -48,14 +52,15 @@ def add_parser(sub: Any) -> None:
     scan.set_defaults(handler=run)
 
 
-def _emulated(preset: str, seconds: float, sdo_timeout: float) -> list[dict[str, Any]]:
+def _emulated(name: str, seconds: float, sdo_timeout: float) -> list[dict[str, Any]]:
     from plant_emulator.lockstep import LockstepBench
     from rig.commission.scan import scan
 
+    kind, what = emulated(name, "rig scan")
     try:
-        bench = LockstepBench(preset)
+        bench = LockstepBench(name) if kind == "preset" else LockstepBench(what.physics, device=what)
     except ValueError as exc:
-        raise UsageError(f"rig scan: --emulate {preset}: {exc}") from exc
+        raise UsageError(f"rig scan: --emulate {name}: {exc}") from exc
 
     def listen() -> None:  # advance emulated time by ``seconds``
         for k in range(1, round(seconds / bench.period) + 1):

@@ -8,7 +8,7 @@ import sys
 import time
 from typing import Any
 
-from rig.cli.common import UsageError, add_json, out_dir, print_json
+from rig.cli.common import UsageError, add_json, add_plot, plot_folder, print_json
 
 __all__ = ["add_parser"]
 
@@ -34,7 +34,7 @@ def add_parser(sub: Any) -> None:
     sweep = sub.add_parser(
         "sweep",
         help="run a robustness study: many emulated runs over varied parameters, on Dask",
-        description="Run every point of SPEC.toml (rig/sweep/spec.py documents it: a rig run "
+        description="Run every point of SPEC.toml (docs/sweeps.md documents it: a rig run "
         "configuration run emulated in lock-step, or a paper's pure simulation, and the parameters "
         "to vary) on Dask: a local cluster of one worker process per core, or an existing cluster "
         "with --scheduler. Rows go to <output>/<name>/results.parquet as points finish, beside "
@@ -59,12 +59,7 @@ def add_parser(sub: Any) -> None:
         "--resume", action="store_true", help="go on with the sweep's table: skip the points in it"
     )
     add_json(sweep, "print one JSON object: the counts, the table's path, the rate, the engine")
-    sweep.add_argument(
-        "--plot",
-        type=out_dir,
-        metavar="DIR",
-        help="draw each metric over one or two varied parameters into DIR",
-    )
+    add_plot(sweep, "each metric over one or two varied parameters")
     sweep.set_defaults(handler=execute)
 
 
@@ -81,10 +76,7 @@ def execute(args: argparse.Namespace) -> int:
     from rig.sweep.load import load_spec
 
     spec = load_spec(args.spec)
-    if args.plot:
-        from rig.report.plots import require_pyplot
-
-        require_pyplot()  # no matplotlib: say so before the points
+    folder = plot_folder(args, "rig sweep")  # made, and matplotlib checked, before the points
     resumable(
         spec, args.resume
     )  # a folder with a sweep in it, or a changed spec: said before a cluster starts
@@ -116,10 +108,10 @@ def execute(args: argparse.Namespace) -> int:
         )
         raise stop.after(confirmed=None, kept=str(spec.directory / "results.parquet"))
     plots: list[str] = []
-    if args.plot:
+    if folder is not None:
         from rig.sweep.plot import plot_results
 
-        plots = [str(p) for p in plot_results(spec, list(done.results.rows.values()), args.plot)]
+        plots = [str(p) for p in plot_results(spec, list(done.results.rows.values()), str(folder))]
     run = done.total - done.resumed
     doc = {
         "sweep_dir": str(spec.directory),

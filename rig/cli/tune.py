@@ -9,6 +9,7 @@ import sys
 from typing import Any
 
 from rig.cli.common import EXIT_UNTRUSTED, UsageError, add_json, finite
+from rig.cli.language import deprecated
 
 __all__ = ["add_parser"]
 
@@ -51,14 +52,17 @@ def add_parser(sub: Any) -> None:
         default=100.0,
         help="cascade-position: the speed reference's limit [rad/s]",
     )
-    tune.add_argument("--dt", type=finite, help="sample period T [s] (default: the identification's)")
+    tune.add_argument(
+        "--period", type=finite, metavar="S", help="sample period T [s] (default: the identification's)"
+    )
+    deprecated(tune, "--dt", "--period", "period", type=finite, metavar="S")
     add_json(tune, "print the design as one JSON object")
     tune.add_argument("--strict", action="store_true", help="exit 5 when there is a warning")
     tune.set_defaults(handler=run)
 
 
 def _check(args: argparse.Namespace) -> None:
-    for name in ("bandwidth", "speed_bandwidth", "position_bandwidth", "u_max", "speed_max", "dt"):
+    for name in ("bandwidth", "speed_bandwidth", "position_bandwidth", "u_max", "speed_max", "period"):
         value = getattr(args, name)
         if value is not None and value <= 0.0:
             raise UsageError(f"rig tune: argument --{name.replace('_', '-')}: must be > 0, got {value:g}")
@@ -77,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         position_bandwidth=args.position_bandwidth,
         u_max=args.u_max,
         speed_max=args.speed_max,
-        dt=args.dt,
+        dt=args.period,
     )
     try:
         doc = tune(args.from_identify, req)

@@ -142,7 +142,7 @@ def _check_design(path: str, model: Model, commanded: list[AxisConfig], period: 
     if designed and period > 0.0 and abs(model.dt - period) > 1e-9 * period:
         raise ConfigError(
             f"{where}: designed for T = {model.dt:g} s, but [run] period = {period:g} s: design it again "
-            "with --dt"
+            "with --period"
         )
 
 

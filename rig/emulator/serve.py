@@ -2,7 +2,7 @@
 
 On a python-can bus (``--interface socketcan --channel vcan0``, or any other
 interface) the devices answer real frames; without kernel CAN, the emulator
-serves socketcand's rawmode on 127.0.0.1 (``--socketcand-port``), which
+serves socketcand's rawmode on 127.0.0.1 (``--port``), which
 python-can's ``socketcand`` interface speaks as a client. Time is real: the
 devices run on their own monotonic clock (``plant_emulator.clock``), their
 physics in whole periods of the preset whether SYNCs come or not, and a SYNC
@@ -85,7 +85,7 @@ def _transport(
         server = SocketcandServer(hub, lock, host=host, port=port, bitrate=bitrate)
     except OSError as exc:
         emulator_bus.shutdown()
-        raise ConfigError(f"--listen {host} --socketcand-port {port}: cannot listen: {exc}") from None
+        raise ConfigError(f"--host {host} --port {port}: cannot listen: {exc}") from None
     attach_network(network, emulator_bus)
     return None, server, f"socketcand://{host}:{server.port}"
 

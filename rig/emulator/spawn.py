@@ -106,7 +106,7 @@ def spawn_emulator_line(*args: str) -> tuple[subprocess.Popen[str], int, str]:
     RuntimeError
         If it did not start (its line and stderr said).
     """
-    proc, line = spawn_rig("emulate", *args, "--socketcand-port", "0", stderr=True)
+    proc, line = spawn_rig("emulate", *args, "--port", "0", stderr=True)
     match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
     if match is None:
         proc.kill()

@@ -155,7 +155,13 @@ def demo_doc(output: str = "runs", *, a_m: float = drives.A_M, b_m: float = driv
     return doc
 
 
-def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int], None] | None = None) -> int:
+def run_demo(
+    out: TextIO,
+    *,
+    output: str = "runs",
+    progress: Callable[[int, int], None] | None = None,
+    record: dict[str, Any] | None = None,
+) -> int:
     """Print the demo to ``out``; ``progress(parts done, 3)`` after the simulations, the
     identification and the run over the bus; returns the exit code: 1 a simulation not finite,
     else the run's (0 done, 3 a safe stop, 4 its stop not confirmed).
@@ -168,6 +174,9 @@ def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int]
         The runs' folder.
     progress : Callable[[int, int], None] | None, optional
         ``progress(parts done, 3)``.
+    record : dict[str, Any] | None, optional
+        Filled with the same figures (``rig demo --json``): design, simulations, identified,
+        run (its summary).
 
     Returns
     -------
@@ -175,6 +184,7 @@ def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int]
         0 done, 1 a simulation not finite, 3 a safe stop, 4 its stop not confirmed.
     """
     step = progress or (lambda k, n: None)
+    doc: dict[str, Any] = {} if record is None else record
     s = demo_summary()
     step(1, 3)
     _print_simulations(out, s)
@@ -192,6 +202,9 @@ def run_demo(out: TextIO, *, output: str = "runs", progress: Callable[[int, int]
 def _print_simulations(out: TextIO, s: DemoSummary) -> None:
     """The simulations' part of the demo: the design, the move, and a row per controller."""
     d = s.design
+    doc["design"] = {"c_delta": list(d.c_delta), "c_delta_A_delta": list(d.c_delta_A_delta)}
+    doc["load_error_theory_rad"] = s.load_error_theory_rad
+    doc["simulations"] = [dict(r) for r in s.rows]
     out.write("drive-rig demo: DC position servo, section VII.B\n")
     out.write(f"  design (7.31): c_delta = {list(d.c_delta)}, c_delta A_delta = {list(d.c_delta_A_delta)}\n")
     out.write("  move 0 -> 10 rad in 1 s, load step f = T_L/J = 1000 rad/s^2 at 1.5 s\n")
@@ -225,6 +238,15 @@ def _over_the_bus(out: TextIO, output: str, step: Callable[[int, int], None]) ->
     ident = run_experiment(experiment_config(cfg, u, params={}), emulate=True)
     model = identify_from_log(ident["run_dir"])
     step(2, 3)
+    doc["identified"] = {
+        "a_m": model.a_m,
+        "a_m_stderr": model.a_m_stderr,
+        "b_m": model.b_m,
+        "b_m_stderr": model.b_m_stderr,
+        "delay_samples": model.delay_samples,
+        "fit_percent": model.fit_percent,
+        "run_dir": str(ident["run_dir"]),
+    }
     out.write(
         f"  identify (PRBS 3 +- 2 V, 3 s): a_m = {model.a_m:.4f} +- {model.a_m_stderr:.1g} 1/s, "
         f"b_m = {model.b_m:.2f} +- {model.b_m_stderr:.1g}, delay {model.delay_samples}, "
@@ -233,6 +255,7 @@ def _over_the_bus(out: TextIO, output: str, step: Callable[[int, int], None]) ->
     out.write("  design (7.31) from the identified model, lambda = -15; run over the bus:\n")
     wire = run_config(demo_config(output, a_m=model.a_m, b_m=model.b_m), emulate=True)
     step(3, 3)
+    doc["run"] = wire
     out.write("".join(f"  {line}\n" for line in summary_lines(wire)))
     out.write(
         "  (chattering over the run's second half, beyond what one step of the feedback's resolution\n"

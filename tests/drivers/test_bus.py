@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import logging
 import threading
 import time
@@ -134,7 +135,27 @@ def test_nothing_listening_is_one_line_naming_host_and_port(caplog: pytest.LogCa
     with caplog.at_level(logging.WARNING), pytest.raises(CommunicationError) as err:
         open_bus("socketcand", "can0", host="127.0.0.1", port=port)
     assert f"cannot reach a socketcand server at 127.0.0.1:{port}" in str(err.value)
+    assert "is a socketcand server running there? Start one (rig emulate" in str(err.value)  # and the fix
     assert not caplog.records
+
+
+@pytest.mark.parametrize(
+    ("code", "fix"),
+    [
+        (errno.ENODEV, "sudo ip link add dev vcan7 type vcan; sudo ip link set up vcan7"),
+        (errno.ENETDOWN, "the interface vcan7 is down: sudo ip link set up vcan7"),
+        (errno.EAFNOSUPPORT, "this kernel offers no SocketCAN"),
+        (errno.EPERM, "or use --interface socketcand beside rig emulate"),
+    ],
+)
+def test_a_socketcan_interface_that_does_not_open_says_the_likely_cause_and_the_fix(
+    code: int, fix: str
+) -> None:
+    """The errno python-can's socketcan raised becomes the cause and the fix (set up vcan, bring
+    it up, load the module), not only the errno's words."""
+    from drivers.bus import bus_fix
+
+    assert fix in bus_fix("socketcan", "vcan7", OSError(code, "from the kernel"))
 
 
 GREETINGS = [(None, "sent no greeting '< hi >' within 3 s"), (b"SSH-2.0\r\n", "is not a socketcand server")]

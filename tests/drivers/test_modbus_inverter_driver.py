@@ -92,4 +92,6 @@ def test_a_unit_that_cannot_be_reached_is_one_line_and_not_disabled_on_close(
         finally:
             axis.close()
     assert f"127.0.0.1:{port}: cannot connect" in str(err.value)
+    assert "is the inverter on and serving there?" in str(err.value)  # the likely cause, and the fix
+    assert "rig emulate --modbus-map NAME" in str(err.value)
     assert not [r for r in caplog.records if r.name.startswith("drivers")]  # pymodbus's: rig silences

@@ -196,7 +196,7 @@ def test_oze_canopen_is_a_client_of_the_emulated_drive(
     # drive at node 3. In lock-step (no SYNC comes, so no physics runs): the same SDO server,
     # without a real-time physics loop taking turns with it for the VM's one CPU (its answers
     # came in 1-3 ms there, against up to 45 ms in real time)
-    start_emulator("--preset", "dc-servo", "--node-id", str(DRIVE), "--time", "lockstep")
+    start_emulator("--preset", "dc-servo", "--node", str(DRIVE), "--time", "lockstep")
     answer = sdo_answer_time(DRIVE)
     print(f"\nthe emulated drive answers an SDO upload in {1e3 * answer:.1f} ms (90th percentile of 20)")
     if answer > OZE_TIMEOUT:

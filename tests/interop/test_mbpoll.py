@@ -134,7 +134,7 @@ def inverter(request: pytest.FixtureRequest, tmp_path: pathlib.Path) -> Iterator
     params = ["--param", f"comm_loss_timeout={COMM_LOSS_TIMEOUT}"]
     if request.param == "tcp":
         port = _free_port()
-        args = ["--modbus-map", family, "--modbus-port", str(port), *params]
+        args = ["--modbus-map", family, "--port", str(port), *params]
         where = ["-m", "tcp", "-a", "1", "-p", str(port), "127.0.0.1"]
     else:
         emulator_end, mbpoll_end = request.getfixturevalue("socat_line")

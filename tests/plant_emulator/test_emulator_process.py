@@ -16,9 +16,7 @@ from rig.emulator.spawn import spawn_rig, stop_rig
 
 
 def test_emulator_in_a_separate_process() -> None:
-    proc, line = spawn_rig(
-        "emulate", "--preset", "dc-servo", "--node-id", "5", "--socketcand-port", "0", stderr=True
-    )
+    proc, line = spawn_rig("emulate", "--preset", "dc-servo", "--node", "5", "--port", "0", stderr=True)
     try:
         match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
         assert match, line
@@ -56,7 +54,7 @@ def test_modbus_inverter_process_binds_localhost_by_default() -> None:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    proc, line = spawn_rig("emulate", "--modbus-map", "delta-vfd-b", "--modbus-port", str(port), stderr=True)
+    proc, line = spawn_rig("emulate", "--modbus-map", "delta-vfd-b", "--port", str(port), stderr=True)
     try:
         assert f"TCP 127.0.0.1:{port}" in line, line
         inverter = ModbusInverterAxis("inverter", "delta-vfd-b", host="127.0.0.1", port=port)
@@ -80,13 +78,11 @@ def test_modbus_inverter_process_binds_localhost_by_default() -> None:
 
 @contextlib.contextmanager
 def _epos4_twin() -> Iterator[canopen.RemoteNode]:
-    """``rig emulate --device epos4 --node-id 3`` in its own process, and a plain canopen client's
+    """``rig emulate --device epos4 --node 3`` in its own process, and a plain canopen client's
     node 3 on it (its own EDS)."""
     from plant_emulator.device_profile import load_profile, zoo
 
-    proc, line = spawn_rig(
-        "emulate", "--device", "epos4", "--node-id", "3", "--socketcand-port", "0", stderr=True
-    )
+    proc, line = spawn_rig("emulate", "--device", "epos4", "--node", "3", "--port", "0", stderr=True)
     try:
         match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
         assert match and "epos4 (node 3)" in line, line

@@ -229,9 +229,7 @@ def test_the_issue_s_four_frames_leave_one_line_each_in_rig_emulate_s_log() -> N
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    proc, line = spawn_rig(
-        "emulate", "--modbus-map", "abb-drives-profile", "--modbus-port", str(port), stderr=True
-    )
+    proc, line = spawn_rig("emulate", "--modbus-map", "abb-drives-profile", "--port", str(port), stderr=True)
     try:
         assert f"TCP 127.0.0.1:{port}" in line, line
         end = time.monotonic() + 30.0  # it prints before it listens

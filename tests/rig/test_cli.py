@@ -25,7 +25,7 @@ def test_design_dtsm_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
             "16",
             "--b-m",
             "680",
-            "--dt",
+            "--period",
             "0.4e-3",
             "--lam",
             "-15",
@@ -57,16 +57,16 @@ def test_design_dtsm_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_design_dtsm_table(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["design", "dtsm", "--a-m", "16", "--b-m", "680", "--dt", "1e-3", "--lam", "-15"]) == 0
+    assert main(["design", "dtsm", "--a-m", "16", "--b-m", "680", "--period", "1e-3", "--lam", "-15"]) == 0
     assert "c_delta A_delta" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(
     ("argv", "needle"),
     [
-        (["--dt", "0"], "--dt"),
-        (["--dt", "-1e-3"], "--dt"),
-        (["--dt", "abc"], "--dt"),
+        (["--period", "0"], "--period"),
+        (["--period", "-1e-3"], "--period"),
+        (["--period", "abc"], "--period"),
         (["--a-m", "nan"], "--a-m"),
         (["--lam", "3"], "--lam"),
         (["--b-m", "0"], "not controllable"),
@@ -75,7 +75,7 @@ def test_design_dtsm_table(capsys: pytest.CaptureFixture[str]) -> None:
 def test_design_dtsm_bad_arguments_one_line_exit_2(
     argv: list[str], needle: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    base = {"--a-m": "16", "--b-m": "680", "--dt": "1e-3", "--lam": "-15"}
+    base = {"--a-m": "16", "--b-m": "680", "--period": "1e-3", "--lam": "-15"}
     base.update(dict(zip(argv[::2], argv[1::2])))
     args = ["design", "dtsm", *[x for kv in base.items() for x in kv], "--json"]
     assert main(args) == 2
@@ -262,7 +262,7 @@ def test_verbose_after_the_subcommand_and_quiet_libraries() -> None:
     assert parser.parse_args(["-v", "run", "--config", "x.toml"]).verbose is True
     assert parser.parse_args(["design", "dtsm", "-v", "--lam", "-1"]).verbose is True
     assert parser.parse_args(["run", "--config", "x.toml"]).verbose is False
-    assert main(["design", "dtsm", "--a-m", "16", "--b-m", "680", "--dt", "4e-4", "--lam", "-15"]) == 0
+    assert main(["design", "dtsm", "--a-m", "16", "--b-m", "680", "--period", "4e-4", "--lam", "-15"]) == 0
     assert logging.getLogger("pymodbus").level == logging.CRITICAL
 
 
@@ -274,7 +274,7 @@ def test_a_reader_that_leaves_is_no_traceback() -> None:
 
     cmd = [sys.executable, "-m", "rig.cli", "design", "dtsm", "--a-m", "16", "--b-m", "680"]
     shell = subprocess.run(
-        f'{" ".join(cmd)} --dt 4e-4 --lam -15 | true; echo " ${{PIPESTATUS[0]}}"',
+        f'{" ".join(cmd)} --period 4e-4 --lam -15 | true; echo " ${{PIPESTATUS[0]}}"',
         shell=True,
         executable="/bin/bash",
         capture_output=True,
@@ -364,15 +364,16 @@ HOSTILE_ARGUMENTS = [
     ("bench loop --load 2", ("--load", "only rig bench stops")),
     ("bench stops --period 0", ("--period", "got 0")),
     ("bench stops --load -1", ("--load", "got -1")),
-    ("emulate --preset dc-servo --socketcand-port 99999", ("--socketcand-port", "99999")),
-    ("emulate --preset dc-servo --socketcand-port -1", ("--socketcand-port", "-1")),
+    ("emulate --preset dc-servo --port 99999", ("--port", "99999")),
+    ("emulate --preset dc-servo --port -1", ("--port", "-1")),
     ("emulate --preset dc-servo --bitrate 0", ("--bitrate", "0 bit/s", "1 .. 1000000")),
     ("emulate --preset dc-servo --bitrate 2000000", ("--bitrate", "2000000 bit/s")),
     ("emulate --preset dc-servo --bitrate fast", ("--bitrate", "'fast'")),
-    ("emulate --modbus-map abb-drives-profile --modbus-port 0", ("--modbus-port", "got 0")),
+    ("emulate --modbus-map abb-drives-profile --port 0", ("--port", "got 0")),
     ("emulate --interface nosuch --channel x --preset dc-servo", ("--interface 'nosuch'", "known: ")),
     ("emulate --preset dc-servo --param a_m=inf", ("--param", "a_m", "inf")),
-    ("emulate --preset dc-servo --param period=1e-12", ("--param", "period = 1e-12")),
+    ("emulate --preset dc-servo --period 1e-12", ("--preset dc-servo --period 1e-12", "1e-05 .. 10 s")),
+    ("emulate --device epos4 --period 20", ("--period 20", "1e-05 .. 10 s")),
     ("emulate --preset grid-converter --param f_line=inf", ("--param", "f_line", "inf")),
     ("emulate --preset grid-converter --param f_line=1e9", ("--param", "ratio/f_line")),
     ("emulate --device epos4 --param a_m=-1", ("--device epos4 --param", "a_m", "-1")),
@@ -384,7 +385,7 @@ HOSTILE_ARGUMENTS = [
     ("design dtsm --a-m 16 --b-m 680 --lam -15 --dtt 1e-3", ("rig design dtsm: ", "--dtt 1e-3")),
     ("emulate --preset dc-serv", ("--preset dc-serv: unknown preset", "known: dc-servo")),
     ("emulate --device epos5", ("--device epos5", "unknown device profile", "epos4")),
-    ("emulate --preset dc-servo --node-id 126", ("--node-id 126", "1..125", "N+2")),
+    ("emulate --preset dc-servo --node 126", ("--node 126", "1..125", "N+2")),
     ("drive --interface nosuch --channel x status", ("--interface 'nosuch'", "known: ")),
     ("drive --interface socketcand --port 70000 status", ("--port", "70000")),
     ("drive --emulate epos4 --node 128 status", ("--node", "128")),
@@ -404,9 +405,12 @@ HOSTILE_ARGUMENTS = [
     ("identify --emulate dc-servo --seed -1", ("--seed", "got -1")),
     ("identify --emulate dc-servo --param plant.a_m=-5", ("--emulate dc-servo", "a_m", "-5")),
     ("identify --emulate dc-servo --param plant.period=inf", ("--emulate dc-servo", "period", "inf")),
-    ("identify --emulate dc-servo --plot /nonexistent/x.png", ("--plot", "no folder /nonexistent")),
-    ("reproduce dq-current --plot /", ("--plot", "/: a directory")),
-    ("reproduce drives --plot /dev/null", ("--plot", "/dev/null: a file, not a folder")),
+    (
+        "identify --emulate dc-servo --plot /dev/null/figs",
+        ("--plot", "cannot make the folder", "Not a directory"),
+    ),
+    ("reproduce dq-current --plot /dev/null", ("--plot /dev/null", "cannot make the folder")),
+    ("reproduce drives --plot x.png", ("--plot x.png", "give a folder", "not a file name")),
     ("reproduce dismc --param Ts=0", ("--param", "Ts", "0.0")),
     ("reproduce dismc --param x0=inf,0", ("--param", "x0", "inf")),
 ]
@@ -435,7 +439,7 @@ def test_a_hostile_argument_is_one_line_exit_2_before_anything_opens(
 MET_LATE = [
     ("drive --emulate epos4 sdo write 0x6060 99999999999", ("'99999999999'", "0x6060:00")),
     ("drive --emulate epos4 sdo write 0x1008 1", ("0x1008:00", "is const in the EDS: nothing was sent")),
-    ("emulate --preset dc-servo --listen 999.1.1.1", ("--listen 999.1.1.1", "cannot listen")),
+    ("emulate --preset dc-servo --host 999.1.1.1", ("--host 999.1.1.1", "cannot listen")),
     ("emulate --modbus-map abb-drives-profile --modbus-serial /nonexistent", ("/nonexistent", "no such")),
 ]
 

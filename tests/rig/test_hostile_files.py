@@ -208,7 +208,7 @@ def test_hostile_identify_result(
         path.write_text(json.dumps({"a_m": "16", "b_m": 680.0}))
     else:
         path = (_deep_json if kind == "deep" else HOSTILE[kind])(path)
-    argv = ["design", "dtsm", "--from-identify", str(path), "--dt", "1e-3", "--lam", "-15"]
+    argv = ["design", "dtsm", "--from-identify", str(path), "--period", "1e-3", "--lam", "-15"]
     assert main(argv) == 2
     line = _one_line_naming(capsys, path)
     if kind == "not-a-number":

@@ -86,7 +86,9 @@ def test_offline_from_a_run_directory_and_design_from_the_result(
     result = tmp_path / "model.json"
     result.write_text(json.dumps(offline))
     assert (
-        main(["design", "dtsm", "--from-identify", str(result), "--dt", "0.4e-3", "--lam", "-15", "--json"])
+        main(
+            ["design", "dtsm", "--from-identify", str(result), "--period", "0.4e-3", "--lam", "-15", "--json"]
+        )
         == 0
     )
     design = json.loads(capsys.readouterr().out)
@@ -117,7 +119,9 @@ def test_identify_in_cst_on_a_torque_input(
     result = tmp_path / "ident.json"
     result.write_text(json.dumps(r))
     assert (
-        main(["design", "dtsm", "--from-identify", str(result), "--dt", "0.4e-3", "--lam", "-15", "--json"])
+        main(
+            ["design", "dtsm", "--from-identify", str(result), "--period", "0.4e-3", "--lam", "-15", "--json"]
+        )
         == 0
     )
     assert json.loads(capsys.readouterr().out)["input"] == "torque"

@@ -47,7 +47,7 @@ def test_design_from_the_run_directory_takes_dt_from_it(
     assert design["dt"] == pytest.approx(0.4e-3) and design["lam"] == -15.0
     assert design["a_m"] == pytest.approx(23.5, rel=5e-3) and design["input"] == "voltage"
     assert design["A_delta"][1][1] == pytest.approx(-23.5, rel=0.01)
-    assert main([*argv, "--dt", "1e-3"]) == 0  # --dt given: it wins
+    assert main([*argv, "--period", "1e-3"]) == 0  # --period given: it wins
     assert json.loads(capsys.readouterr().out)["dt"] == 1e-3
 
 

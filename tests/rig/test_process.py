@@ -13,7 +13,7 @@ def test_a_rig_whose_parent_ignores_sigint_still_stops_on_it() -> None:
     """A script's background job (``rig bench stops > log &``) inherits SIGINT ignored; the
     emulator it starts must still end on ``stop_rig``'s SIGINT (it used to outlive it)."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "rig.cli", "emulate", "--preset", "dc-servo", "--socketcand-port", "0"],
+        [sys.executable, "-m", "rig.cli", "emulate", "--preset", "dc-servo", "--port", "0"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -82,7 +82,7 @@ def test_a_drive_met_with_a_dictionary_that_lies_is_refused_across_processes(
 
 def rig_emulate(*argv: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "rig.cli", "emulate", *argv, "--socketcand-port", "0"],
+        [sys.executable, "-m", "rig.cli", "emulate", *argv, "--port", "0"],
         capture_output=True,
         text=True,
         timeout=60,

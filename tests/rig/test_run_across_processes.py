@@ -32,7 +32,7 @@ def test_lockstep_over_socketcand_equals_the_in_process_run(tmp_path: pathlib.Pa
         "dc-servo",
         "--time",
         "lockstep",
-        "--socketcand-port",
+        "--port",
         "0",
         *params,
         stderr=True,

@@ -223,7 +223,7 @@ def test_rig_emulate_as_a_background_job_of_a_script(tmp_path: pathlib.Path) -> 
     """``rig emulate ... &`` in ``sh -c`` (SIGINT ignored, as the shell gives it), ``kill -INT``:
     it closes its server and exits 0 within 2 s (was: it ignored the signal)."""
     script = (
-        f'"{_entry(True)[0]}" emulate --preset dc-servo --socketcand-port 0 > out.txt 2> err.txt & '
+        f'"{_entry(True)[0]}" emulate --preset dc-servo --port 0 > out.txt 2> err.txt & '
         'echo $!; wait $!; echo "exit $?"'
     )
     sh = subprocess.Popen(["sh", "-c", script], stdout=subprocess.PIPE, text=True, cwd=tmp_path)

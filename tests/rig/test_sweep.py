@@ -316,7 +316,19 @@ def test_a_base_by_relative_path_is_found_by_a_worker_started_in_another_folder(
     runs the point (failed before: 'rel/design.json: no such identification or design')."""
     study = tmp_path / "rel"
     study.mkdir()
-    args = ["design", "dtsm", "--a-m", "16", "--b-m", "680", "--dt", "4e-4", "--lam", "-15", "--error-space"]
+    args = [
+        "design",
+        "dtsm",
+        "--a-m",
+        "16",
+        "--b-m",
+        "680",
+        "--period",
+        "4e-4",
+        "--lam",
+        "-15",
+        "--error-space",
+    ]
     assert main([*args, "--json"]) == 0
     (study / "design.json").write_text(capsys.readouterr().out)
     base = SERVO.read_text().replace("a_m = 16.0\nb_m = 680.0\nlam = -15.0\n", 'design = "design.json"\n')

@@ -148,7 +148,7 @@ def test_a_trace_over_a_real_bus_holds_the_host_s_frames_at_the_right_time(tmp_p
     from rig.emulator.spawn import spawn_rig, stop_rig
     from rig.host.session import Session
 
-    proc, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
+    proc, line = spawn_rig("emulate", "--device", "epos4", "--port", "0", stderr=True)
     try:
         port = int(re.search(r"socketcand://127\.0\.0\.1:(\d+)", line).group(1))  # type: ignore[union-attr]
         cfg = load_config(pathlib.Path(__file__).resolve().parents[2] / "examples" / "zoo_csp_position.toml")

@@ -73,7 +73,7 @@ def test_every_zoo_drive_in_real_time_in_another_process(device: str, tmp_path: 
     from rig.config import BusConfig
     from rig.emulator.spawn import spawn_rig, stop_rig
 
-    proc, line = spawn_rig("emulate", "--device", device, "--socketcand-port", "0", stderr=True)
+    proc, line = spawn_rig("emulate", "--device", device, "--port", "0", stderr=True)
     try:
         match = re.search(r"socketcand://127\.0\.0\.1:(\d+)", line)
         assert match, line
@@ -115,7 +115,7 @@ def test_sync_from_another_device(tmp_path: pathlib.Path) -> None:
     from rig.config import BusConfig
     from rig.emulator.spawn import spawn_rig, stop_rig
 
-    proc, line = spawn_rig("emulate", "--device", "epos4", "--socketcand-port", "0", stderr=True)
+    proc, line = spawn_rig("emulate", "--device", "epos4", "--port", "0", stderr=True)
     try:
         port = int(re.search(r"socketcand://127\.0\.0\.1:(\d+)", line).group(1))  # type: ignore[union-attr]
         producer = can.Bus(
