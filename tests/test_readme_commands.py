@@ -100,9 +100,9 @@ ELIDED = {
         "rig drive --emulate epos4 enable",
         "rig drive --emulate epos4 sdo read 0x1018:1",
         "rig drive --emulate epos4 sdo write 0x6060 3",
-        "rig drive --emulate epos4 jog 10 --for 1 --limit 20",
+        "rig drive --emulate epos4 jog 10 --for 1 --max-speed 20",
         "rig drive --emulate epos4 home --method 35",
-        "rig drive --emulate epos4 move 1 --limit 2",
+        "rig drive --emulate epos4 move 1 --max-travel 2",
         "rig drive --emulate epos4 reset",
         "rig drive --emulate epos4 disable",
     ],
@@ -774,7 +774,7 @@ NOT_RUN = {
     "`rig run` in another terminal: the timing tier runs the two as written "
     "(test_a_run_against_the_emulator_in_another_process)",
     "rig lss --interface socketcan --channel can0 scan": "a real CAN bus (can0)",
-    "rig emulate --device epos4 --node-id 255": "a server until Ctrl-C, for a client in another terminal "
+    "rig emulate --device epos4 --node 255": "a server until Ctrl-C, for a client in another terminal "
     "(tests/rig/test_lss_processes.py serves it so, with rig lss beside it)",
     "rig emulate --device epos4": "a server until Ctrl-C, for a client in another terminal "
     "(tests/rig/test_zoo_runs.py and the timing tier's cross-process fault scenarios serve it so)",

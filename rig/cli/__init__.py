@@ -162,6 +162,7 @@ DOCS = {
     "tune": "tutorial-identify.md",
     "scan": "real-drives.md",
     "drive": "tutorial-commissioning.md",
+    "lss": "real-drives.md",
     "emulate": "emulator.md",
     "faults": "faults.md",
     "sweep": "sweeps.md",

@@ -49,9 +49,7 @@ def add_parser(sub: Any) -> None:
     )
     drive.add_argument("--eds", metavar="FILE", help="the drive's EDS/DCF (default: the toolkit's)")
     drive.add_argument(
-        "--emulate",
-        metavar="NAME",
-        help="a zoo twin (rig emulate --list), or a preset's drive, emulated in this process instead",
+        "--emulate", metavar="NAME", help="a zoo twin (rig emulate --list) or a preset, in this process"
     )
     add_params(drive, "a unit the drive lacks, as [axis.units] (counts_per_rev=51200)", flag="--units")
     add_json(drive, "print one JSON document")

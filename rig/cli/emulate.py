@@ -90,6 +90,21 @@ def add_parser(sub: Any) -> None:
         default="realtime",
         help="lockstep: an event RPDO counts as received at its SYNC (for hosts that wait for each answer)",
     )
+    _add_realtime(emulate)
+    emulate.add_argument(
+        "--period",
+        type=finite,
+        metavar="S",
+        help="the emulated plant's sample period T [s] (its parameter period; default: the preset's or "
+        "twin's)",
+    )
+    add_params(emulate, "override a preset (or inverter) parameter")
+    add_json(emulate, "with --list: print the list as one JSON document")
+    emulate.set_defaults(handler=run)
+
+
+def _add_realtime(emulate: Any) -> None:
+    """The options of a real-time emulator's scheduling (``_realtime``)."""
     emulate.add_argument(
         "--rt-priority",
         type=int,
@@ -119,16 +134,6 @@ def add_parser(sub: Any) -> None:
         help="real time: the PM QoS CPU latency [us] held while it serves (/dev/cpu_dma_latency; "
         "default 0: the CPUs stay awake; -1: none asked)",
     )
-    emulate.add_argument(
-        "--period",
-        type=finite,
-        metavar="S",
-        help="the emulated plant's sample period T [s] (its parameter period; default: the preset's or "
-        "twin's)",
-    )
-    add_params(emulate, "override a preset (or inverter) parameter")
-    add_json(emulate, "with --list: print the list as one JSON document")
-    emulate.set_defaults(handler=run)
 
 
 def _bitrate(text: str) -> int:

@@ -40,8 +40,7 @@ def add_parser(sub: Any) -> None:
     source.add_argument(
         "--emulate",
         metavar="NAME",
-        help="run the experiment on a preset or a zoo twin (in CST; rig emulate --list), emulated in this "
-        "process",
+        help="a preset or a zoo twin (in CST; rig emulate --list) in this process",
     )
     source.add_argument("--from-log", metavar="RUN_DIR", help="estimate from a recorded run directory")
     add_params(ident, "a parameter of the --emulate preset (e.g. plant.a_m=23.5)")
@@ -157,8 +156,7 @@ def _experiment(args: argparse.Namespace) -> str | int:
 
     _check(args)
     torque = args.input == "torque"
-    if args.u0 is None:
-        args.u0 = 0.01 if torque else 3.0
+    args.u0 = (0.01 if torque else 3.0) if args.u0 is None else args.u0
     if args.amplitude is None:
         args.amplitude = 0.006 if torque else 2.0
     closed = _frequency(args) and (torque or args.loop_model is not None)
@@ -349,41 +347,12 @@ def _bode(run_dir: str, response: dict[str, Any], path: str | None) -> str | Non
     return target
 
 
-def _print_friction(f: dict[str, Any]) -> None:
-    if not f["separable"]:
-        print(f"  friction: not separated: {f['reason']}")
-        return
-    said = f"standard errors; speed reversed {f['reversals']} times"
-    if f["input"] == "torque":
-        print(
-            f"  friction: J = {f['inertia']:.5g} kg m^2, viscous B = {f['viscous']:.4g} N m s/rad, "
-            f"Coulomb T_c = {f['coulomb']:.4g} +- {f['coulomb_stderr']:.2g} N m ({said})"
-        )
-    else:
-        volts = f"{f['coulomb_voltage']:.4g} +- {f['coulomb_voltage_stderr']:.2g} V"
-        print(f"  friction: Coulomb {f['c']:.4g} +- {f['c_stderr']:.2g} rad/s^2 = {volts} ({said}; ", end="")
-        print("with a voltage, J and B are not separable from the back EMF)")
-
-
-def _print_response(doc: dict[str, Any]) -> None:
-    band = doc["coherent_band"]
-    where = "no bin" if band is None else f"{band[0]:g} .. {band[1]:g} Hz"
-    print(
-        f"  frequency response ({doc['excitation']}, {doc['f_min']:g} .. {doc['f_max']:g} Hz, "
-        f"{doc['averages']} averages): coherence >= {doc['coherence_min']:g} over {where}"
-    )
-    if doc["worst_db"] is not None:
-        print(
-            f"  model against the measured response where coherent: worst {doc['worst_db']:.2f} dB, "
-            f"{doc['worst_deg']:.1f} deg"
-        )
-
-
 def run(args: argparse.Namespace) -> int:
     from drivers.files import read_json
+    from rig.cli.identify_report import print_result
     from rig.identify.estimate import IdentificationError
     from rig.identify.experiment import identify_from_log, run_controller
-    from rig.identify.model_file import FILE, FIT_MIN, checks, write_identification
+    from rig.identify.model_file import FILE, checks, write_identification
 
     try:
         if args.from_log:
@@ -418,26 +387,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(read_json(path, what="identification"))
         return code
-    r = result
-    filled = f", {r.filled_samples} of skipped cycles filled in" if r.filled_samples else ""
-    print(f"identified (3.5) from {r.samples} samples{filled} at T = {r.dt:g} s ({run_dir}):")
-    print(f"  input u: {r.input} [{r.input_unit}]")
-    for name, unit in (("a_m", "1/s"), ("b_m", r.b_m_unit)):
-        value, err, (low, high) = getattr(r, name), getattr(r, f"{name}_stderr"), getattr(r, f"{name}_ci95")
-        print(f"  {name} = {value:.5g} {unit}, stderr {err:.2g}, 95 %: {low:.5g} .. {high:.5g}")
-    print(f"  delay {r.delay_samples} samples, offset {r.offset:.4g} rad/s^2")
-    floor = (
-        f" (residual {r.residual_rms:.3g} rad/s RMS, the encoder's quantisation noise "
-        f"{r.quantisation_rms:.3g})"
-        if r.fit_percent < FIT_MIN
-        else ""
-    )
-    print(f"  fit on held-out data {r.fit_percent:.1f} %{floor}")
-    if r.friction is not None:
-        _print_friction(r.friction)
-    if response is not None:
-        _print_response(response)
-        if extra["bode_plot"]:
-            print(f"  Bode plot: {extra['bode_plot']}")
-    print(f"  written to {path}")
+    print_result(result, run_dir, response, extra.get("bode_plot"), path)
     return code

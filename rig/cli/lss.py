@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from rig.cli.common import UsageError, add_bus_arguments, add_json, finite, open_network, print_json
+from rig.cli.common import UsageError, add_bus_arguments, add_json, emulated, finite, open_network, print_json
 
 __all__ = ["add_parser"]
 
@@ -34,7 +34,7 @@ def add_parser(sub: Any) -> None:
     add_bus_arguments(lss)
     lss.add_argument(
         "--emulate",
-        metavar="DEVICE",
+        metavar="NAME",
         help="a zoo twin fresh from the box (no node-ID: 255) in this process instead (rig emulate --list)",
     )
     how = lss.add_mutually_exclusive_group()
@@ -123,11 +123,15 @@ def _network(args: argparse.Namespace) -> tuple[Any, Any, float]:
     import dataclasses
 
     from drivers.maps.od import load_od
-    from plant_emulator.device_profile import device_profile
     from plant_emulator.lockstep import LockstepBench
     from plant_emulator.lss_slave import speaks_lss
 
-    profile = device_profile(args.emulate)
+    kind, profile = emulated(args.emulate, "rig lss")
+    if kind == "preset":
+        raise UsageError(
+            f"rig lss --emulate {args.emulate}: a preset's drives have their node-IDs; give a zoo twin "
+            "(rig emulate --list), served fresh from the box"
+        )
     if not speaks_lss(load_od(profile.eds, profile.node_id), profile.node_id):
         raise UsageError(
             f"rig lss --emulate {args.emulate}: its EDS says LSS_Supported=0: that drive has no LSS"

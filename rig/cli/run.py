@@ -42,11 +42,10 @@ def add_parser(sub: Any) -> None:
     run = sub.add_parser(
         "run",
         help="run a configured control law over the wire (see examples/)",
-        description="Run the rig of a configuration file (docs/configuration.md documents every key): every "
-        "axis set up and enabled, the law on one SYNC per period, limits, watchdog and supervision per "
-        "axis, the one safe stop, and a run directory. Exit code 3 after a safe stop, 4 when a "
-        "drive's stop could not be confirmed; Ctrl-C or SIGTERM is that stop too, then 130 or 143 and "
-        "no summary printed (it is in the run directory's summary.json).",
+        description="Run the rig of a configuration file (docs/configuration.md): every axis set up and "
+        "enabled, the law on one SYNC per period, limits, watchdog and supervision per axis, the one safe "
+        "stop, a run directory. Exit code 3 after a safe stop, 4 when a drive's stop is not confirmed; "
+        "Ctrl-C or SIGTERM: that stop, then 130 or 143, the summary only in the run's summary.json.",
     )
     run.add_argument("--config", required=True, metavar="FILE", help="the rig configuration (TOML)")
     run.add_argument(
@@ -95,8 +94,7 @@ def add_parser(sub: Any) -> None:
     add_json(run, "print the summary as one JSON object")
     add_params(
         run,
-        "inject a fault (overrides [faults]); names as in [faults] (docs/configuration.md, docs/faults.md); "
-        "the bus faults need --emulate",
+        "inject a fault (overrides [faults]; names as in docs/faults.md); bus faults need --emulate",
         flag="--fault",
     )
     run.set_defaults(handler=execute)
@@ -226,7 +224,7 @@ def _configured(path: str, name: str | None, overrides: list[Any]) -> Any:
     from drivers.files import read_toml
     from rig.cli.common import emulated
     from rig.config import load_config
-    from rig.config.schema import rig_config
+    from rig.config.load import rig_config
 
     if name is None or name == CONFIGURED:
         return load_config(path, overrides)
@@ -237,4 +235,4 @@ def _configured(path: str, name: str | None, overrides: list[Any]) -> Any:
         k: v for k, v in (given if isinstance(given, dict) else {}).items() if k not in ("preset", "device")
     }
     doc["emulator"] = {kind: name, **table}
-    return rig_config(doc, f"{path} with --emulate {name}", overrides)
+    return rig_config(doc, path, overrides)  # its folder: where its relative paths are

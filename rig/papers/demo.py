@@ -187,8 +187,8 @@ def run_demo(
     doc: dict[str, Any] = {} if record is None else record
     s = demo_summary()
     step(1, 3)
-    _print_simulations(out, s)
-    wire = _over_the_bus(out, output, step)
+    _print_simulations(out, s, doc)
+    wire = _over_the_bus(out, output, step, doc)
     if importlib.util.find_spec("matplotlib") is None:
         out.write("  (no plot.png: it needs matplotlib, python -m pip install -e '.[plot]')\n")
     simulated_ok = all(math.isfinite(float(r["steady_state_error_rad"])) for r in s.rows)
@@ -199,8 +199,9 @@ def run_demo(
     return 0 if wire["safe_stop_reason"] is None else 3
 
 
-def _print_simulations(out: TextIO, s: DemoSummary) -> None:
-    """The simulations' part of the demo: the design, the move, and a row per controller."""
+def _print_simulations(out: TextIO, s: DemoSummary, doc: dict[str, Any]) -> None:
+    """The simulations' part of the demo: the design, the move, and a row per controller (in
+    ``doc`` too, as ``rig demo --json`` prints them)."""
     d = s.design
     doc["design"] = {"c_delta": list(d.c_delta), "c_delta_A_delta": list(d.c_delta_A_delta)}
     doc["load_error_theory_rad"] = s.load_error_theory_rad
@@ -229,9 +230,11 @@ def _print_simulations(out: TextIO, s: DemoSummary) -> None:
     )
 
 
-def _over_the_bus(out: TextIO, output: str, step: Callable[[int, int], None]) -> dict[str, Any]:
-    """The demo's part over the emulated bus: the model identified, (7.31) designed from it and run;
-    the run's summary."""
+def _over_the_bus(
+    out: TextIO, output: str, step: Callable[[int, int], None], doc: dict[str, Any]
+) -> dict[str, Any]:
+    """The demo's part over the emulated bus: the model identified, (7.31) designed from it and run
+    (in ``doc`` too); the run's summary."""
     out.write("\nOver the emulated CAN bus (CiA 402 drive, voltage mode, 4096-count encoder, lock-step):\n")
     cfg = demo_config(output)
     u = excitation("prbs", u0=3.0, amplitude=2.0, clock=0.02, dt=drives.T_SERVO, duration=3.0, seed=1)

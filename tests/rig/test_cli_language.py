@@ -17,6 +17,7 @@ import pytest
 from drivers.errors import ConfigError
 from rig.cli import DOCS, build_parser, main
 from rig.cli.language import SPELLINGS, SYNONYMS, Deprecated
+from tests.patching import forget, stand_in
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -208,17 +209,19 @@ def test_plot_is_a_folder_made_before_the_experiment(
     """--plot new/figures is made before the experiment starts (it was a FileNotFoundError after a
     15 s experiment)."""
     folder = tmp_path / "new" / "figures"
-    module, name = experiment.rsplit(".", 1)
     made: list[bool] = []
 
     def experiment_starts(*args: Any, **kw: Any) -> Any:
         made.append(folder.is_dir())
         raise Ran
 
-    monkeypatch.setattr(f"{module}.{name}", experiment_starts)
+    stand_ins = [stand_in(monkeypatch, experiment, experiment_starts)]
     monkeypatch.chdir(ROOT)
-    with pytest.raises(Ran):
-        main([*argv.split(), "--plot", str(folder)])
+    try:
+        with pytest.raises(Ran):
+            main([*argv.split(), "--plot", str(folder)])
+    finally:
+        forget(stand_ins)
     assert made == [True]
 
 
@@ -231,7 +234,6 @@ def test_a_missing_matplotlib_is_said_before_the_experiment(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     """No matplotlib: one line, exit 2, and the experiment never started (its estimate was lost)."""
-    module, name = experiment.rsplit(".", 1)
 
     def experiment_starts(*args: Any, **kw: Any) -> Any:
         raise Ran
@@ -239,10 +241,13 @@ def test_a_missing_matplotlib_is_said_before_the_experiment(
     def no_pyplot() -> Any:
         raise ConfigError("plots need matplotlib: python -m pip install -e '.[plot]'")
 
-    monkeypatch.setattr(f"{module}.{name}", experiment_starts)
+    stand_ins = [stand_in(monkeypatch, experiment, experiment_starts)]
     monkeypatch.setattr("rig.report.plots.require_pyplot", no_pyplot)
     monkeypatch.chdir(ROOT)
-    assert main([*argv.split(), "--plot", str(tmp_path / "figures")]) == 2
+    try:
+        assert main([*argv.split(), "--plot", str(tmp_path / "figures")]) == 2
+    finally:
+        forget(stand_ins)
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "matplotlib" in err
 

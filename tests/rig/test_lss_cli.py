@@ -133,3 +133,20 @@ def test_bad_arguments_are_one_line_and_exit_2_before_the_bus_opens(
 def test_a_twin_without_lss_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["lss", "--emulate", "nanotec-c5e", "scan"]) == 2
     assert "its EDS says LSS_Supported=0: that drive has no LSS" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("name", "said"),
+    [
+        ("dc-servo", "a preset's drives have their node-IDs; give a zoo twin"),
+        ("epos5", "neither a preset (dc-servo, "),
+    ],
+)
+def test_emulate_names_a_zoo_twin_as_every_command_s_emulate_does(
+    name: str, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--emulate NAME`` (one spelling on every command): a preset is refused in one line, its
+    drives have node-IDs; a name that is neither is told what there is."""
+    assert main(["lss", "--emulate", name, "inquire"]) == 2
+    err = capsys.readouterr().err
+    assert said in err and len(err.strip().splitlines()) == 1, err

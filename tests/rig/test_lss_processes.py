@@ -1,5 +1,5 @@
 """A drive fresh from the box given its node-ID across real processes: ``rig emulate --device epos4
---node-id 255`` (no node-ID: it answers LSS only) behind its socketcand server, and ``rig scan``,
+--node 255`` (no node-ID: it answers LSS only) behind its socketcand server, and ``rig scan``,
 ``rig lss`` and ``rig drive`` as processes of their own over the socket, as on a bus: the scan finds
 no node, ``rig lss scan`` finds the drive's address, ``rig lss --select ... node-id 5 --store``
 hears it boot as node 5, and then node 5 is scanned, read and stored by ``rig drive``."""
@@ -39,7 +39,7 @@ def _json(port: int, *argv: str) -> object:
 
 def test_a_fresh_drive_gets_its_node_id_over_the_bus_and_is_commissioned_as_that_node() -> None:
     eds = str(device_profile("epos4").eds)
-    emulator, port = spawn_emulator("--device", "epos4", "--node-id", "255")
+    emulator, port = spawn_emulator("--device", "epos4", "--node", "255")
     try:
         assert _json(port, "scan", "--json") == []  # no node answers NMT or SDO
         found = _json(port, "lss", "--json", "scan")
