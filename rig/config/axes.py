@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Literal
 
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
@@ -186,7 +187,12 @@ class AxisConfig:
     reset_fault: bool = key(
         False, "", "a drive found in FAULT at enable is reset (else refused)", kinds=("cia402",)
     )
-    eds: str = key("", "", "the device's EDS/DCF (\"\": the toolkit's)", kinds=CANOPEN)
+    eds: str = key(
+        "",
+        "",
+        "the device's EDS/DCF, a path relative to this file's folder (\"\": the toolkit's)",
+        kinds=CANOPEN,
+    )
     speed_from_position: bool = key(
         False, "", "the speed as the backward difference of the position", kinds=("cia406",)
     )
@@ -252,6 +258,8 @@ def axis_config(path: str, n: int, table: Any) -> AxisConfig:
     units = typed_values(AxisUnits, _table(path, where, table.pop("units", {})), f"{where} units")
     limits = typed_values(AxisLimits, _table(path, where, table.pop("limits", {})), f"{where} limits")
     values = typed_values(AxisConfig, table, where)
+    if values.get("eds") and not Path(values["eds"]).is_absolute():  # as design and [emulator] device
+        values["eds"] = str(Path(path).parent / values["eds"])
     if "kind" not in values:
         raise ConfigError(f"{where} needs kind ({', '.join(AXIS_KINDS)})")
     _check_kind(where, values)

@@ -7,6 +7,7 @@ import json
 import math
 import pathlib
 import re
+import shutil
 
 import pytest
 
@@ -344,3 +345,21 @@ def test_the_lazy_package_exports_exactly_the_schema_s_names() -> None:
     homes = {name: module for module in (rig.config.schema, rig.config.load) for name in module.__all__}
     assert sorted(rig.config.__all__) == sorted(homes)
     assert all(getattr(rig.config, name) is homes[name].__dict__[name] for name in rig.config.__all__)
+
+
+def test_an_axis_s_eds_is_found_from_its_file_s_folder(
+    tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A relative ``eds`` is taken from the configuration's folder, as ``design`` and ``[emulator]
+    device`` are, wherever rig runs (examples/dual_axis_ip.toml names the twin's
+    ../plant_emulator/devices/dual-axis.eds): it was taken from the working folder."""
+    root = pathlib.Path(__file__).resolve().parents[2]
+    folder = tmp_path / "a" / "b"
+    folder.mkdir(parents=True)
+    shutil.copy(root / "plant_emulator" / "devices" / "dual-axis.eds", tmp_path / "a" / "twin.eds")
+    text = (root / "examples" / "dual_axis_ip.toml").read_text()
+    (folder / "rig.toml").write_text(text.replace("../plant_emulator/devices/dual-axis.eds", "../twin.eds"))
+    monkeypatch.chdir(tmp_path)
+    cfg = load_config(folder / "rig.toml")
+    for name in ("arm", "feeder"):
+        assert pathlib.Path(cfg.axis(name).eds).resolve() == tmp_path / "a" / "twin.eds"

@@ -89,6 +89,7 @@ def test_a_drive_whose_ip_buffer_is_a_ring_it_cannot_leave_is_refused_before_the
     profile = tmp_path / "dual-axis.toml"
     profile.write_text(TWIN_PROFILE.read_text())
     text = EXAMPLE.read_text().replace('device = "dual-axis"', f"device = {json.dumps(str(profile))}")
+    text = text.replace('"../plant_emulator/devices/dual-axis.eds"', json.dumps(str(eds)))  # the host's too
     config = tmp_path / "rig.toml"
     config.write_text(text.replace('output = "runs"', f"output = {json.dumps(str(tmp_path))}"))
     cfg = load_config(config)

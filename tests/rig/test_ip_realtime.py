@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -29,9 +30,11 @@ def test_ip_in_real_time_against_the_twin_in_another_process(tmp_path: pathlib.P
         # the example as a real bus gives it: the twin's EDS on each axis, the host's period, real time
         text = EXAMPLE.read_text().replace('output = "runs"', f'output = "{tmp_path}"')
         text = text.replace('[emulator]\ndevice = "dual-axis"\n', "")
-        text = text.replace("[run]\n", '[run]\ntime = "realtime"\nperiod = 0.002\n', 1)
-        text = text.replace('kind = "cia402"\n', f'kind = "cia402"\neds = {json.dumps(str(EDS))}\n')
-        text += f'\n[bus]\ninterface = "socketcand"\nchannel = "can0"\nport = {port}\n'
+        text = re.sub(r"\nperiod = .*\n", '\ntime = "realtime"\nperiod = 0.002\n', text, count=1)
+        text = text.replace(
+            'eds = "../plant_emulator/devices/dual-axis.eds"', f"eds = {json.dumps(str(EDS))}"
+        )
+        text = text.replace("\nport = 29536\n", f"\nport = {port}\n")  # the example's [bus]: socketcand
         config = tmp_path / "rig.toml"
         config.write_text(text)
         run = subprocess.run(
