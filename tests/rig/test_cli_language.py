@@ -241,8 +241,10 @@ def test_a_missing_matplotlib_is_said_before_the_experiment(
     def no_pyplot() -> Any:
         raise ConfigError("plots need matplotlib: python -m pip install -e '.[plot]'")
 
-    stand_ins = [stand_in(monkeypatch, experiment, experiment_starts)]
-    monkeypatch.setattr("rig.report.plots.require_pyplot", no_pyplot)
+    stand_ins = [
+        stand_in(monkeypatch, experiment, experiment_starts),
+        stand_in(monkeypatch, "rig.report.plots.require_pyplot", no_pyplot),
+    ]
     monkeypatch.chdir(ROOT)
     try:
         assert main([*argv.split(), "--plot", str(tmp_path / "figures")]) == 2
