@@ -142,7 +142,22 @@ def open_bus(
 
 
 def bus_fix(interface: str, channel: object, exc: BaseException) -> str:
-    """The likely cause of python-can not opening ``interface``/``channel`` (``exc``), and the fix."""
+    """The likely cause of python-can not opening a bus, and the fix.
+
+    Parameters
+    ----------
+    interface : str
+        python-can's interface.
+    channel : object
+        Its channel.
+    exc : BaseException
+        What python-can raised (its ``errno``, or its cause's, names the cause).
+
+    Returns
+    -------
+    str
+        The cause and the fix, in words (the vcan set-up commands, ``rig emulate``, ...).
+    """
     code = getattr(exc, "errno", None) or getattr(exc.__cause__, "errno", None)
     if interface == "socketcan":
         if code == errno.EAFNOSUPPORT:
