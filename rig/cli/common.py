@@ -138,7 +138,15 @@ class Lazy:
 class Parser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line, raised instead of exiting; its description may be
     ``Lazy``, made when read; a repeatable option given before and after an action keeps both
-    (``rig.cli.language.MergingSubParsers``)."""
+    (``rig.cli.language.MergingSubParsers``).
+
+    Parameters
+    ----------
+    *args : Any
+        ``argparse.ArgumentParser``'s.
+    **kw : Any
+        ``argparse.ArgumentParser``'s.
+    """
 
     _text: str | Lazy | None = None  #: the description as given: made on first read if Lazy
 
@@ -274,7 +282,15 @@ IMAGE_SUFFIXES = frozenset({".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps", ".p
 
 
 def add_plot(parser: argparse.ArgumentParser, what: str) -> None:
-    """``--plot DIR``: ``what`` written into the folder DIR (``plot_folder``)."""
+    """``--plot DIR``: ``what`` written into the folder DIR (``plot_folder``).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    what : str
+        The figures, named in the help.
+    """
     parser.add_argument(
         "--plot",
         metavar="DIR",
@@ -283,10 +299,32 @@ def add_plot(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def plot_folder(args: argparse.Namespace, who: str, *, old_file: bool = False) -> pathlib.Path | None:
-    """The folder of ``--plot`` (None without it), made now and matplotlib checked: said before
-    anything runs. A name with an image suffix is refused, or, where ``old_file`` (the command
-    wrote one file before), taken as the old form for this release: a warning, and
-    ``args.plot_file`` is that file (None otherwise)."""
+    """The folder of ``--plot``, made now and matplotlib checked: said before anything runs.
+
+    A name with an image suffix is refused, or, where ``old_file`` (the command wrote one file
+    before), taken as the old form for this release: a warning on stderr, and ``args.plot_file``
+    is that file (None otherwise).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options (``args.plot``); ``args.plot_file`` is set.
+    who : str
+        The command, named in errors.
+    old_file : bool, optional
+        Take a file name as the deprecated form (the command wrote one file before).
+
+    Returns
+    -------
+    pathlib.Path | None
+        The folder, made; None without ``--plot``.
+
+    Raises
+    ------
+    UsageError
+        If it names a file where a folder is asked for, matplotlib is missing, or the folder
+        cannot be made.
+    """
     args.plot_file = None
     if args.plot is None:
         return None
@@ -319,8 +357,25 @@ def plot_folder(args: argparse.Namespace, who: str, *, old_file: bool = False) -
 
 
 def emulated(name: str, who: str) -> tuple[str, Any]:
-    """What ``--emulate NAME`` names: ("preset", NAME), or ("device", the twin's DeviceProfile) for
-    a zoo twin or a profile file (.toml); UsageError naming what there is otherwise."""
+    """What ``--emulate NAME`` names: a preset, a zoo twin or a profile file (.toml).
+
+    Parameters
+    ----------
+    name : str
+        The option's value.
+    who : str
+        The command, named in errors.
+
+    Returns
+    -------
+    tuple[str, Any]
+        ("preset", ``name``), or ("device", the twin's ``DeviceProfile``).
+
+    Raises
+    ------
+    UsageError
+        If it is neither, naming what there is.
+    """
     from plant_emulator.device_profile import device_profile, zoo
     from plant_emulator.presets import PRESETS
 

@@ -12,8 +12,21 @@ __all__ = ["print_result"]
 def print_result(
     result: Any, run_dir: str, response: dict[str, Any] | None, bode: str | None, path: Any
 ) -> None:
-    """The identification ``result`` of ``run_dir`` as text, ``response`` (a chirp's or a
-    multisine's, or None) and its Bode plot ``bode``; ``path`` the identification.json written."""
+    """The identification as text on stdout.
+
+    Parameters
+    ----------
+    result : Any
+        The identification (``rig.identify.estimate.IdentResult``).
+    run_dir : str
+        The run it is of.
+    response : dict[str, Any] | None
+        The frequency response (a chirp's or a multisine's), or None.
+    bode : str | None
+        Its Bode plot's file, or None.
+    path : Any
+        The identification.json written.
+    """
     r = result
     filled = f", {r.filled_samples} of skipped cycles filled in" if r.filled_samples else ""
     print(f"identified (3.5) from {r.samples} samples{filled} at T = {r.dt:g} s ({run_dir}):")

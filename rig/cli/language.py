@@ -48,8 +48,21 @@ SYNONYMS = {
 
 class Deprecated(argparse.Action):
     """An old spelling kept for one release: it stores into the new spelling's ``dest`` and says
-    once, on stderr, ``<command>: --old is deprecated: use --new``. ``new`` names the new spelling;
-    ``const`` and ``nargs=0`` make a switch."""
+    once, on stderr, ``<command>: --old is deprecated: use --new``.
+
+    Parameters
+    ----------
+    option_strings : Sequence[str]
+        The old spelling(s).
+    dest : str
+        The new spelling's destination.
+    new : str
+        The new spelling, named in the warning.
+    nargs : Any, optional
+        argparse's; 0 (with ``const``) makes a switch.
+    **kw : Any
+        ``argparse.Action``'s other keywords.
+    """
 
     def __init__(
         self, option_strings: Sequence[str], dest: str, *, new: str, nargs: Any = None, **kw: Any
@@ -67,15 +80,30 @@ class Deprecated(argparse.Action):
 
 
 def deprecated(parser: Any, old: str, new: str, dest: str, **kw: Any) -> None:
-    """Add ``old`` to ``parser`` (or an argument group) as a deprecated alias of ``new``, whose
-    value is ``dest``: the same ``type``, ``nargs`` or ``metavar`` as ``kw`` give."""
+    """Add ``old`` to ``parser`` as a deprecated alias of ``new`` (``Deprecated``).
+
+    Parameters
+    ----------
+    parser : Any
+        The command's parser, or an argument group of it.
+    old : str
+        The old spelling.
+    new : str
+        The new spelling, named in the warning.
+    dest : str
+        The new spelling's destination.
+    **kw : Any
+        ``add_argument``'s keywords: the new option's ``type``, ``nargs``, ``metavar``.
+    """
     kw.setdefault("help", f"deprecated: use {new} (kept for this release)")
     parser.add_argument(old, dest=dest, action=Deprecated, new=new, default=argparse.SUPPRESS, **kw)
 
 
 class MergingSubParsers(argparse._SubParsersAction):  # type: ignore[type-arg]
     """argparse's subcommand action, but a repeatable option given both before and after the action
-    (``rig drive --units a=1 status --units b=2``) keeps the values of both."""
+    (``rig drive --units a=1 status --units b=2``) keeps the values of both. ``Parser`` registers
+    it; ``add_subparsers`` makes it, with argparse's own parameters.
+    """
 
     def __call__(
         self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any, option: Any = None
@@ -93,7 +121,15 @@ def inherit_options(parser: argparse.ArgumentParser, skip: frozenset[str] = froz
     its action too (``rig drive status --json`` as ``rig drive --json status``), at any depth: a
     copy on each action's parser whose default is argparse.SUPPRESS, so the value given before the
     action stands unless given again after it. The copies are hidden from the action's help,
-    whose epilog says so; an action's own option of the same name keeps its own meaning."""
+    whose epilog says so; an action's own option of the same name keeps its own meaning.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser, its actions added.
+    skip : frozenset[str], optional
+        Options not inherited.
+    """
     _inherit(parser, [], skip)
 
 

@@ -69,6 +69,18 @@ def add_parser(sub: Any) -> None:
         "speed, position or current limit (refused without this option); the watchdog and the "
         "drive's own limits still apply",
     )
+    _add_display(run)
+    add_json(run, "print the summary as one JSON object")
+    add_params(
+        run,
+        "inject a fault (overrides [faults]; names as in docs/faults.md); bus faults need --emulate",
+        flag="--fault",
+    )
+    run.set_defaults(handler=execute)
+
+
+def _add_display(run: Any) -> None:
+    """``--live`` and ``--view``: the run shown as it goes."""
     run.add_argument(
         "--live",
         nargs="?",
@@ -91,13 +103,6 @@ def add_parser(sub: Any) -> None:
         "runs of [run] output; 127.0.0.1:8050 unless given (another host prints a token every request "
         "needs). Read-only. Needs the view extra: pip install 'drive-rig[view]'",
     )
-    add_json(run, "print the summary as one JSON object")
-    add_params(
-        run,
-        "inject a fault (overrides [faults]; names as in docs/faults.md); bus faults need --emulate",
-        flag="--fault",
-    )
-    run.set_defaults(handler=execute)
 
 
 def print_summary(summary: dict[str, Any]) -> None:
