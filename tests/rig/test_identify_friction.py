@@ -165,7 +165,7 @@ def test_the_report_says_the_friction_with_its_standard_error(
 ) -> None:
     """rig identify's text says the Coulomb friction it found and its standard error (c/b: c's and
     b's relative errors in quadrature), in volts or N m, and how often the speed reversed."""
-    from rig.cli.identify import _print_friction
+    from rig.cli.identify_report import _print_friction
     from rig.identify.friction import FrictionResult
 
     f = FrictionResult(True, "", 16.0, 680.0, 68.0, 0.0, 0.1, 0.68, 0.068, 0.1, 1, input, 13)
