@@ -27,11 +27,6 @@ DEBTS: dict[str, int] = {
     "plant_emulator/im_kernel.py::_foc_periods": 68,
     "plant_emulator/socketcand_server.py": 403,
     "plant_emulator/socketcand_server.py::SocketcandServer": 320,
-    "rig/cli/drive.py::add_parser": 90,
-    "rig/cli/emulate.py::add_parser": 75,
-    "rig/cli/identify.py::_experiment": 66,
-    "rig/cli/identify.py::add_parser": 75,
-    "rig/cli/sweep.py::execute": 78,
 }
 
 

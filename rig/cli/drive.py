@@ -24,10 +24,17 @@ from rig.cli.common import (
 from rig.cli.run import LIVE_MODES, open_view
 from rig.commission.status import object_lines, status_lines
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "run"]
 
 
 def add_parser(sub: Any) -> None:
+    """``rig drive``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     drive = sub.add_parser(
         "drive",
         help="commission one CiA 402 drive: status, enable/disable/reset, SDO, jog, home, move",
@@ -38,6 +45,25 @@ def add_parser(sub: Any) -> None:
         "Exit code 3 when a move was stopped, 4 when the stop was not confirmed, 130 or 143 (and no result) "
         "after Ctrl-C or SIGTERM.",
     )
+    _add_drive(drive)
+    actions = drive.add_subparsers(dest="action", required=True, parser_class=type(drive))
+    actions.add_parser("status", help="what the drive is and how it is set up")
+    actions.add_parser("enable", help="operational and OPERATION ENABLED (no motion is commanded)")
+    actions.add_parser("disable", help="disable voltage")
+    actions.add_parser("reset", help="fault reset (rising edge of controlword bit 7)")
+    sdo = actions.add_parser("sdo", help="read or write one object")
+    ops = sdo.add_subparsers(dest="op", required=True, parser_class=type(drive))
+    ops.add_parser("read").add_argument("object", help="index[:sub] (0x6060, 0x1018:1) or EDS name")
+    write = ops.add_parser("write")
+    write.add_argument("object", help="index[:sub] or EDS name")
+    write.add_argument("value", help="an integer (0x.. allowed) or a number")
+    _add_moves(actions)
+    drive_dictionary.add_actions(actions)
+    drive.set_defaults(handler=run)
+
+
+def _add_drive(drive: Any) -> None:
+    """Which drive: its bus, node, axis, dictionary and units, or a twin in this process; --json."""
     add_bus_arguments(drive)
     drive.add_argument("--node", type=int, default=1, help="the drive's node id (default 1)")
     drive.add_argument(
@@ -53,22 +79,45 @@ def add_parser(sub: Any) -> None:
     )
     add_params(drive, "a unit the drive lacks, as [axis.units] (counts_per_rev=51200)", flag="--units")
     add_json(drive, "print one JSON document")
-    actions = drive.add_subparsers(dest="action", required=True, parser_class=type(drive))
-    actions.add_parser("status", help="what the drive is and how it is set up")
-    actions.add_parser("enable", help="operational and OPERATION ENABLED (no motion is commanded)")
-    actions.add_parser("disable", help="disable voltage")
-    actions.add_parser("reset", help="fault reset (rising edge of controlword bit 7)")
-    sdo = actions.add_parser("sdo", help="read or write one object")
-    ops = sdo.add_subparsers(dest="op", required=True, parser_class=type(drive))
-    ops.add_parser("read").add_argument("object", help="index[:sub] (0x6060, 0x1018:1) or EDS name")
-    write = ops.add_parser("write")
-    write.add_argument("object", help="index[:sub] or EDS name")
-    write.add_argument("value", help="an integer (0x.. allowed) or a number")
+
+
+def _add_moves(actions: Any) -> None:
+    """The actions that move the shaft: jog, home, move, and the options they share."""
     jog = actions.add_parser("jog", help="profile velocity for a while")
     jog.add_argument("speed", type=finite, help="[rad/s]")
     jog.add_argument("--for", dest="seconds", type=finite, required=True, help="[s]")
     home = actions.add_parser("home", help="homing")
     home.add_argument("--method", type=int, help="0x6098 homing method (default: the drive's)")
+    move = _add_move(actions)
+    for action in (jog, move):
+        action.add_argument(
+            "--accel", type=finite, metavar="RAD_S2", help="acceleration [rad/s^2] (0x6083/0x6084)"
+        )
+        action.add_argument(
+            "--limit", type=finite, help="deprecated: --max-speed on jog, --max-travel on move"
+        )
+    for action in (jog, home, move):
+        action.add_argument(
+            "--max-speed",
+            type=finite,
+            default=20.0,
+            metavar="RAD_S",
+            help="the fastest the shaft may turn [rad/s] (20): faster is a stop",
+        )
+        action.add_argument(
+            "--live",
+            nargs="?",
+            const="auto",
+            choices=LIVE_MODES,
+            metavar="{terminal,window}",
+            help="show the target, the actual value (read by SDO at each look) and the command (the "
+            "target the drive's own profile follows) as they arrive, in a window or as a strip on "
+            "stderr (as rig run --live); e.g. rig drive --emulate epos4 jog 10 --for 1 --live=terminal",
+        )
+
+
+def _add_move(actions: Any) -> Any:
+    """``rig drive move``'s parser: to a position, at a speed, holding it or not."""
     move = actions.add_parser("move", help="profile position to a position")
     move.add_argument("position", type=finite, help="[rad], absolute (or, with --relative, from here)")
     move.add_argument("--relative", action="store_true", help="the position is a travel from where it stands")
@@ -90,33 +139,7 @@ def add_parser(sub: Any) -> None:
         help="stay enabled holding the target that long [s] (no value: until Ctrl-C, at most an hour), "
         "then the stop",
     )
-    for action in (jog, move):
-        action.add_argument(
-            "--accel", type=finite, metavar="RAD_S2", help="acceleration [rad/s^2] (0x6083/0x6084)"
-        )
-        action.add_argument(
-            "--limit", type=finite, help="deprecated: --max-speed on jog, --max-travel on move"
-        )
-    drive_dictionary.add_actions(actions)
-    for action in (jog, home, move):
-        action.add_argument(
-            "--max-speed",
-            type=finite,
-            default=20.0,
-            metavar="RAD_S",
-            help="the fastest the shaft may turn [rad/s] (20): faster is a stop",
-        )
-        action.add_argument(
-            "--live",
-            nargs="?",
-            const="auto",
-            choices=LIVE_MODES,
-            metavar="{terminal,window}",
-            help="show the target, the actual value (read by SDO at each look) and the command (the "
-            "target the drive's own profile follows) as they arrive, in a window or as a strip on "
-            "stderr (as rig run --live); e.g. rig drive --emulate epos4 jog 10 --for 1 --live=terminal",
-        )
-    drive.set_defaults(handler=run)
+    return move
 
 
 def _check(args: argparse.Namespace) -> None:
@@ -287,6 +310,23 @@ def _watch(live: Any, args: argparse.Namespace, tool: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``rig drive ACTION`` on the drive and print its result.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    int
+        The exit code: 0; 3 when a move was stopped; 4 when the stop was not confirmed.
+
+    Raises
+    ------
+    NodeSilent
+        If the node does not answer (with the ``rig scan`` command that lists those that do).
+    """
     _check(args)
     live = open_view(getattr(args, "live", None), "rig drive")  # a window that cannot open: before the bus
     try:
@@ -304,6 +344,17 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if live is not None:
             live.stop()
+    _print(args, result, tool)
+    if isinstance(result, dict) and result.get("stop_confirmed") is False:
+        print("rig drive: the drive's stop was not confirmed", file=sys.stderr)
+        return EXIT_UNCONFIRMED
+    if isinstance(result, dict) and str(result.get("result", "done")) != "done":
+        return EXIT_STOPPED
+    return 0
+
+
+def _print(args: argparse.Namespace, result: Any, tool: Any) -> None:
+    """The action's result on stdout: one JSON document, or a report for a person."""
     if args.json:
         print_json(result)
     elif args.action == "status":
@@ -320,9 +371,3 @@ def run(args: argparse.Namespace) -> int:
     else:
         for key, value in result.items():
             print(f"{key:16s} {value}")
-    if isinstance(result, dict) and result.get("stop_confirmed") is False:
-        print("rig drive: the drive's stop was not confirmed", file=sys.stderr)
-        return EXIT_UNCONFIRMED
-    if isinstance(result, dict) and str(result.get("result", "done")) != "done":
-        return EXIT_STOPPED
-    return 0

@@ -19,7 +19,7 @@ from rig.cli.common import (
 from rig.cli.language import deprecated
 from rig.config.params import parse_items
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "run"]
 
 _CAN_BITRATE = 1_000_000  #: [bit/s] classic CAN's highest bit rate (ISO 11898-1)
 SOCKETCAND_PORT = 29536  #: socketcand's own default port
@@ -27,6 +27,13 @@ MODBUS_PORT = 5020  #: the Modbus TCP port by default (502 needs root)
 
 
 def add_parser(sub: Any) -> None:
+    """``rig emulate``'s parser, added to ``sub``.
+
+    Parameters
+    ----------
+    sub : Any
+        argparse's sub-parsers (``add_subparsers``).
+    """
     emulate = sub.add_parser(
         "emulate",
         help="run the plant emulator as its own process (a python-can bus, or socketcand on 127.0.0.1)",
@@ -34,6 +41,23 @@ def add_parser(sub: Any) -> None:
         "behind a socketcand rawmode server that python-can's socketcand interface reaches; or an "
         "emulated Modbus inverter (--modbus-map) on Modbus TCP or RTU. Ctrl-C or SIGTERM stops it.",
     )
+    _add_device(emulate)
+    _add_network(emulate)
+    _add_realtime(emulate)
+    emulate.add_argument(
+        "--period",
+        type=finite,
+        metavar="S",
+        help="the emulated plant's sample period T [s] (its parameter period; default: the preset's or "
+        "twin's)",
+    )
+    add_params(emulate, "override a preset (or inverter) parameter")
+    add_json(emulate, "with --list: print the list as one JSON document")
+    emulate.set_defaults(handler=run)
+
+
+def _add_device(emulate: Any) -> None:
+    """What is emulated: a preset, a zoo twin, your own profile, or a Modbus inverter."""
     emulate.add_argument("--preset", help="dc-servo, im-drive, grid-converter or dyno (CANopen)")
     emulate.add_argument(
         "--device",
@@ -51,6 +75,10 @@ def add_parser(sub: Any) -> None:
         help="serve an emulated Modbus inverter of this map instead (abb-drives-profile, delta-vfd-b)",
     )
     emulate.add_argument("--modbus-serial", metavar="DEVICE", help="serve Modbus RTU on this serial device")
+
+
+def _add_network(emulate: Any) -> None:
+    """Where it serves: the TCP server's address and port, or a python-can bus; its node id and time."""
     emulate.add_argument(
         "--host",
         default="127.0.0.1",
@@ -90,17 +118,6 @@ def add_parser(sub: Any) -> None:
         default="realtime",
         help="lockstep: an event RPDO counts as received at its SYNC (for hosts that wait for each answer)",
     )
-    _add_realtime(emulate)
-    emulate.add_argument(
-        "--period",
-        type=finite,
-        metavar="S",
-        help="the emulated plant's sample period T [s] (its parameter period; default: the preset's or "
-        "twin's)",
-    )
-    add_params(emulate, "override a preset (or inverter) parameter")
-    add_json(emulate, "with --list: print the list as one JSON document")
-    emulate.set_defaults(handler=run)
 
 
 def _add_realtime(emulate: Any) -> None:
@@ -254,22 +271,28 @@ def _twin(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from plant_emulator.presets import build_preset
-    from rig.config.emulator import physics
+    """Run ``rig emulate``: the list, or the emulator served until Ctrl-C or SIGTERM.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    int
+        The exit code.
+
+    Raises
+    ------
+    UsageError
+        If the options do not name one thing to serve, or one is out of range.
+    """
     from rig.emulator.serve import run_emulator, run_modbus_emulator
 
     if args.list:
         return _list(args.json)
-    if args.json:
-        raise UsageError(
-            "rig emulate: --json goes with --list: a server prints where it serves (on stdout), not a result"
-        )
-    if args.interface and not args.channel:
-        raise UsageError("rig emulate: --interface needs --channel")
-    if args.interface:
-        from drivers.bus import check_interface
-
-        check_interface(args.interface, "rig emulate: argument --interface")
+    _check_options(args)
     items = _period(args, parse_items(args.param, "rig emulate: --param"))
     if args.modbus_map:
         port = MODBUS_PORT if args.port is None else args.port
@@ -278,27 +301,7 @@ def run(args: argparse.Namespace) -> int:
         return run_modbus_emulator(
             args.modbus_map, items, host=args.host, port=port, serial=args.modbus_serial
         )
-    if sum(bool(x) for x in (args.preset, args.device, args.profile or args.eds)) != 1:
-        raise UsageError(
-            "rig emulate: give one of --preset, --device (or --profile/--eds) for CANopen, or --modbus-map"
-        )
-    if args.preset:
-        from plant_emulator.presets import PRESETS
-
-        if args.preset not in PRESETS:
-            known = ", ".join(PRESETS)
-            raise UsageError(f"rig emulate: --preset {args.preset}: unknown preset; known: {known}")
-        items = _node_ids(args.preset, args.node, items)
-        where = f"rig emulate: --preset {args.preset} --param"
-        _, params = _checked(args, lambda: physics(args.preset, items, where, text=True))
-        preset = args.preset
-
-        def world(network: Any) -> Any:
-            return build_preset(preset, network, params)
-
-        label = preset
-    else:
-        world, label = _twin(args, items)
+    world, label = _world(args, items)
     return run_emulator(
         world,
         label,
@@ -310,6 +313,45 @@ def run(args: argparse.Namespace) -> int:
         realtime=_realtime(args),
         **({} if args.bitrate is None else {"bitrate": args.bitrate}),
     )
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """--json only with --list; --interface with --channel, and one python-can knows."""
+    if args.json:
+        raise UsageError(
+            "rig emulate: --json goes with --list: a server prints where it serves (on stdout), not a result"
+        )
+    if args.interface and not args.channel:
+        raise UsageError("rig emulate: --interface needs --channel")
+    if args.interface:
+        from drivers.bus import check_interface
+
+        check_interface(args.interface, "rig emulate: argument --interface")
+
+
+def _world(args: argparse.Namespace, items: dict[str, str]) -> tuple[Any, str]:
+    """(the CANopen world to serve on a network, its label): a preset's, or a twin's (``_twin``)."""
+    from plant_emulator.presets import PRESETS, build_preset
+    from rig.config.emulator import physics
+
+    if sum(bool(x) for x in (args.preset, args.device, args.profile or args.eds)) != 1:
+        raise UsageError(
+            "rig emulate: give one of --preset, --device (or --profile/--eds) for CANopen, or --modbus-map"
+        )
+    if not args.preset:
+        return _twin(args, items)
+    if args.preset not in PRESETS:
+        known = ", ".join(PRESETS)
+        raise UsageError(f"rig emulate: --preset {args.preset}: unknown preset; known: {known}")
+    items = _node_ids(args.preset, args.node, items)
+    where = f"rig emulate: --preset {args.preset} --param"
+    _, params = _checked(args, lambda: physics(args.preset, items, where, text=True))
+    preset = args.preset
+
+    def world(network: Any) -> Any:
+        return build_preset(preset, network, params)
+
+    return world, preset
 
 
 def _realtime(args: argparse.Namespace) -> Any:

@@ -64,6 +64,23 @@ def add_parser(sub: Any) -> None:
 
 
 def execute(args: argparse.Namespace) -> int:
+    """Run ``rig sweep``: the study's points on a Dask cluster, its table, its plots, its report.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options.
+
+    Returns
+    -------
+    int
+        The exit code (0).
+
+    Raises
+    ------
+    UsageError
+        If Dask or pyarrow is missing.
+    """
     try:
         import dask.distributed  # noqa: F401
         import pyarrow  # noqa: F401
@@ -71,8 +88,7 @@ def execute(args: argparse.Namespace) -> int:
         raise UsageError(
             f"rig sweep needs Dask and pyarrow ({exc.name} is missing): pip install 'drive-rig[sweep]'"
         ) from None
-    from rig.cli.progress import Progress
-    from rig.sweep.engine import close_client, open_client, resumable, run_sweep
+    from rig.sweep.engine import resumable
     from rig.sweep.load import load_spec
 
     spec = load_spec(args.spec)
@@ -80,6 +96,26 @@ def execute(args: argparse.Namespace) -> int:
     resumable(
         spec, args.resume
     )  # a folder with a sweep in it, or a changed spec: said before a cluster starts
+    done, engine = _points(spec, args)
+    plots: list[str] = []
+    if folder is not None:
+        from rig.sweep.plot import plot_results
+
+        plots = [str(p) for p in plot_results(spec, list(done.results.rows.values()), str(folder))]
+    doc = _document(spec, done, engine, plots)
+    if args.json:
+        print_json(doc)
+    else:
+        _print_report(spec, done, doc)
+    return 0
+
+
+def _points(spec: Any, args: argparse.Namespace) -> tuple[Any, dict[str, Any]]:
+    """(the sweep done, the engine's description): its points run on a cluster, a progress line
+    as each finishes; a sweep cut short by a stop signal raises it, saying where its rows are."""
+    from rig.cli.progress import Progress
+    from rig.sweep.engine import close_client, open_client, run_sweep
+
     client, engine = open_client(args.workers, args.scheduler, quiet=not args.verbose)
     bar = Progress("rig sweep", 0, "points", json=args.json)
     t0, new = time.monotonic(), [0]
@@ -107,13 +143,12 @@ def execute(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         raise stop.after(confirmed=None, kept=str(spec.directory / "results.parquet"))
-    plots: list[str] = []
-    if folder is not None:
-        from rig.sweep.plot import plot_results
+    return done, engine
 
-        plots = [str(p) for p in plot_results(spec, list(done.results.rows.values()), str(folder))]
-    run = done.total - done.resumed
-    doc = {
+
+def _document(spec: Any, done: Any, engine: dict[str, Any], plots: list[str]) -> dict[str, Any]:
+    """The sweep's result as ``--json`` prints it."""
+    return {
         "sweep_dir": str(spec.directory),
         "results": str(spec.directory / "results.parquet"),
         "points": done.total,
@@ -126,18 +161,20 @@ def execute(args: argparse.Namespace) -> int:
         "status": done.record["status"],
         "plots": plots,
     }
-    if args.json:
-        print_json(doc)
-    else:
-        rate = f"{doc['points_per_s']:.2f} points/s" if doc["points_per_s"] else "-"
-        print(
-            f"sweep {spec.name}: {done.results.done} of {done.total} points ({run} to run, "
-            f"{done.resumed} resumed), "
-            f"{done.results.failed} failed, {done.seconds:.1f} s, {rate} on {engine['workers']} worker(s) "
-            f"({engine['kind']} {engine['address']})"
-        )
-        print(f"results  {doc['results']}")
-        print(f"record   {spec.directory / 'sweep.json'}")
-        for p in plots:
-            print(f"plot     {p}")
-    return 0
+
+
+def _print_report(spec: Any, done: Any, doc: dict[str, Any]) -> None:
+    """The sweep's result for a person: its counts, rate and engine, then its files."""
+    engine = doc["engine"]
+    run = done.total - done.resumed
+    rate = f"{doc['points_per_s']:.2f} points/s" if doc["points_per_s"] else "-"
+    print(
+        f"sweep {spec.name}: {done.results.done} of {done.total} points ({run} to run, "
+        f"{done.resumed} resumed), "
+        f"{done.results.failed} failed, {done.seconds:.1f} s, {rate} on {engine['workers']} worker(s) "
+        f"({engine['kind']} {engine['address']})"
+    )
+    print(f"results  {doc['results']}")
+    print(f"record   {spec.directory / 'sweep.json'}")
+    for p in doc["plots"]:
+        print(f"plot     {p}")
