@@ -78,15 +78,48 @@ def _checked(name: str, mode: str, pdo: str, feedback: Iterable[str]) -> Mode:
 class Cia402Axis(Cia402Setup, Cia402Cycle):
     """A CiA 402 drive at ``node_id`` in ``mode`` (``drivers.base.AXIS_MODES``); SI in and out.
 
-    ``units``: factors the device may lack (``counts_per_rev``, ``position_unit``,
-    ``velocity_unit``, ``rated_torque`` [N m], ``rated_current`` [A]). ``sync_rpdo``: the RPDO
-    acts at the next SYNC (one period of delay), else on receipt (``latency`` [s] later on the
-    toolkit's own drive). ``pdo``: "remap" or "device" (see the module docstring). ``axis``: which
-    axis of a drive of several (``drivers.maps.logical``; its objects 0x800 (axis - 1) higher).
-    ``mode_timeout`` [s]: how long 0x6061 may take to follow 0x6060. ``feedback``: what the
-    TPDOs carry (``drivers.cia402_feedback``; the position always): without "velocity"
-    the velocity is the position's backward difference over the time between the two samples
-    (``sample_interval``), 0 at the first.
+    Parameters
+    ----------
+    name, mode : str
+        The axis's name and mode.
+    network : canopen.Network
+        The network of its node.
+    node_id : int
+        Its node id (1-127).
+    eds : str or None
+        The device's own EDS/DCF (None: the toolkit's generic one).
+    units : mapping of str to float or None
+        Factors the device may lack (``counts_per_rev``, ``position_unit``, ``velocity_unit``,
+        ``rated_torque`` [N m], ``rated_current`` [A]).
+    sync_rpdo : bool
+        The RPDO acts at the next SYNC (one period of delay), else on receipt.
+    latency : float
+        [s] the toolkit's own drive acts on an RPDO this late, where not ``sync_rpdo``.
+    heartbeat_timeout : float
+        [s] the host's watch of the drive's heartbeat (0: none).
+    pdo : str
+        "remap" or "device" (see the module docstring).
+    mode_timeout : float
+        [s] how long 0x6061 may take to follow 0x6060.
+    sdo_timeout, sdo_retries : float or None, int or None
+        Of every SDO transfer (None: ``CanopenAxis``'s).
+    host : tuple of (int, float) or None
+        (host node id, time [s]) the drive's heartbeat consumer watches (``DriveSupervision``).
+    abort_connection : int or None
+        0x6007 (None: the drive's own).
+    period : float
+        [s] the SYNC period (0: not told).
+    rpdo_deadline : float
+        [s] without the command RPDO before the toolkit's drive stops itself (0: none).
+    reset_fault : bool
+        A drive found in FAULT at enable is reset (else refused).
+    emcy_texts : mapping of int to str or None
+        The device's own EMCY texts.
+    feedback : iterable of str
+        What the TPDOs carry (``drivers.cia402_feedback``; the position always): without
+        "velocity" the velocity is the position's backward difference, 0 at the first.
+    axis : int
+        Which axis of a drive of several (``drivers.maps.logical``).
     """
 
     DISABLE_CONFIRM = 0.1  #: [s] a disable has for the statusword to show it
@@ -148,13 +181,28 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """An SDO download, never to a manufacturer object (0x2000-0x5FFF) but on the toolkit's own
-        drive (``guard_manufacturer``: a ConfigError before anything is sent)."""
+        drive (``guard_manufacturer``: a ConfigError before anything is sent).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+        value : Any
+            What to write.
+        """
         self.guard_manufacturer(index, f"an SDO download to 0x{index:04X}:{subindex:02X}")
         self._sent = True
         if not self.standard_write(index, subindex, value):  # the device's, met without its EDS
             super().sdo_write(index, subindex, value)
 
     def nmt(self, state: str) -> None:
+        """Command the node's NMT state (and remember that something was sent).
+
+        Parameters
+        ----------
+        state : str
+            ``OPERATIONAL``, ``PRE-OPERATIONAL`` or ``STOPPED``.
+        """
         self._sent = True
         super().nmt(state)
 
@@ -201,7 +249,13 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         return self.states.axis_state()
 
     def fault_text(self) -> str:
-        """What the drive's 0x603F holds, in words (or that it has none)."""
+        """What the drive's 0x603F holds, in words.
+
+        Returns
+        -------
+        str
+            Its code and text, or that it has none.
+        """
         code = self._optional(cia.ERROR_CODE)
         if code is None:
             return "no 0x603F"
@@ -211,7 +265,20 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         """Shutdown, switch on, enable operation (transitions 2, 3, 4), within ``timeout`` [s]; a
         drive in FAULT is reset first with ``reset_fault``, else refused, saying what 0x603F holds.
         The target the drive acts on at once in ``mode`` (None: the axis's) is set first, so it
-        enables at rest where it stands, not at a target left from before (``_hold_still``)."""
+        enables at rest where it stands, not at a target left from before (``_hold_still``).
+
+        Parameters
+        ----------
+        timeout : float
+            [s] how long the enable may take.
+        mode : int or None
+            The mode whose target is held (None: the axis's).
+
+        Raises
+        ------
+        DeviceFault
+            The drive is in FAULT and ``reset_fault`` is not set.
+        """
         if self.read_power_state() is PowerState.FAULT:
             what = self.fault_text()
             if not self.reset_fault:
@@ -228,7 +295,13 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         self.states.enable(timeout)
 
     def fault_reset(self, *, timeout: float = 1.0) -> None:
-        """Rising edge of controlword bit 7 (transition 15)."""
+        """Rising edge of controlword bit 7 (transition 15).
+
+        Parameters
+        ----------
+        timeout : float
+            [s] how long the reset may take.
+        """
         self.states.fault_reset(timeout)
 
     def quick_stop(self) -> None:
@@ -239,7 +312,13 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
 
     def quanta(self) -> tuple[float, float]:
         """One position increment [rad] and one velocity unit [rad/s] of the drive (0x608F/0x60A8,
-        0x60A9 or ``[axis.units]``; 0 where not known)."""
+        0x60A9 or ``[axis.units]``; 0 where not known).
+
+        Returns
+        -------
+        tuple of (float, float)
+            [rad] and [rad/s].
+        """
         u = self.units
         return (
             1.0 / u.position if math.isfinite(u.position) and u.position else 0.0,
@@ -249,12 +328,29 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
     def at_rest(self, fb: Feedback) -> bool:
         """After a quick stop: the statusword shows the ramp ended (SWITCH ON DISABLED, FAULT), or
         QUICK STOP ACTIVE with the motor at rest (0x605A options 5-8). The statusword of the last
-        TPDO, or read by SDO when no new TPDO came since the last call (TPDOs may have stopped)."""
+        TPDO, or read by SDO when no new TPDO came since the last call (TPDOs may have stopped).
+
+        Parameters
+        ----------
+        fb : Feedback
+            The last feedback.
+
+        Returns
+        -------
+        bool
+            The drive is at rest.
+        """
         return self.states.at_rest(fb)
 
     def shaft_speed(self) -> float | None:
         """0x606C [rad/s]: the TPDO's where a new one came since the last call, else read by SDO
-        (a drive whose TPDOs stopped, as after an NMT reset); None where neither has it now."""
+        (a drive whose TPDOs stopped, as after an NMT reset).
+
+        Returns
+        -------
+        float or None
+            [rad/s]; None where neither has it now.
+        """
         slot = self.data.slot_of(VELOCITY) if self.data is not None else None
         if slot is not None and slot.timestamp is not None:
             if slot.timestamp != self._speed_stamp:

@@ -40,17 +40,39 @@ def _name(od: Any, index: int, subindex: int) -> str:
 class Setting:
     """A write the set-up wants: ``value`` into (``index``, ``subindex``) for ``why``."""
 
-    index: int
-    subindex: int
-    value: Any
-    why: str
-    required: bool = False
+    index: int  #: the entry's index
+    subindex: int  #: its sub-index
+    value: Any  #: what it should hold
+    why: str  #: what it is for, for messages
+    required: bool = False  #: a refusal is a ConfigError (else one warning)
     then: str = ""  #: what to do where a required one is refused
 
     def apply(
         self, od: Any, read: Callable[[int, int], Any], write: Callable[[int, int, Any], None], where: str
     ) -> bool:
-        """True when the drive holds ``value`` afterwards (see the module docstring)."""
+        """Write the setting where the EDS declares it writable, else read it (module docstring).
+
+        Parameters
+        ----------
+        od : canopen.ObjectDictionary
+            The dictionary in use.
+        read : callable
+            ``read(index, subindex)``: an SDO upload.
+        write : callable
+            ``write(index, subindex, value)``: an SDO download.
+        where : str
+            The drive, for messages.
+
+        Returns
+        -------
+        bool
+            The drive holds ``value`` afterwards.
+
+        Raises
+        ------
+        ConfigError
+            A required setting the drive cannot hold or refused.
+        """
         var = variable(od, (self.index, self.subindex))
         obj = f"0x{self.index:04X}:{self.subindex:02X}{_name(od, self.index, self.subindex)}"
         access = getattr(var, "access_type", "?") if var is not None else "absent"
@@ -92,7 +114,27 @@ def interpolation_period(
     """0x60C2 for a SYNC period of ``period`` [s]: (value, exponent to write or None, period in
     force [s]). The drive's own ``exponent`` (sub 2 as read; None: not readable) is kept where
     the period is a whole number 1-255 of it; else, where sub 2 is ``writable``, the first
-    exponent -6..2 that gives one; else the nearest value in the drive's exponent."""
+    exponent -6..2 that gives one; else the nearest value in the drive's exponent.
+
+    Parameters
+    ----------
+    period : float
+        [s] the SYNC period.
+    exponent : int or None
+        0x60C2:02 as read (None: not readable).
+    writable : bool
+        0x60C2:02 may be written.
+
+    Returns
+    -------
+    tuple of (int, int or None, float)
+        The value, the exponent to write (None: keep the drive's) and the period in force [s].
+
+    Raises
+    ------
+    ConfigError
+        No exponent is known and none gives the period.
+    """
     candidates = ([exponent] if exponent is not None else []) + (list(range(-6, 3)) if writable else [])
     for e in candidates:
         value = period / 10.0**e
@@ -107,7 +149,18 @@ def interpolation_period(
 
 
 def period_text(seconds: float) -> str:
-    """A period for a person: ``1 ms``, ``400 us``, ``0.01 s``."""
+    """A period for a person: ``1 ms``, ``400 us``, ``0.01 s``.
+
+    Parameters
+    ----------
+    seconds : float
+        [s] the period.
+
+    Returns
+    -------
+    str
+        It, in s, ms or us.
+    """
     if seconds >= 1.0 or not math.isfinite(seconds):
         return f"{seconds:g} s"
     if seconds >= 1e-3:

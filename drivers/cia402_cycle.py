@@ -93,7 +93,13 @@ class Cia402Cycle(CanopenAxis):
         self._target_raw: int | None = None  #: the target of the last command, in the drive's units
 
     def feedback(self) -> Feedback:
-        """The last TPDOs in SI (the frame angle unwrapped in mode -2)."""
+        """The last TPDOs in SI (the frame angle unwrapped in mode -2).
+
+        Returns
+        -------
+        Feedback
+            Position [rad], velocity [rad/s], torque [N m], current [A] and the sample's stamp.
+        """
         data, u = self.data, self.units
         assert data is not None
         if self.op_mode == Mode.DQ_VOLTAGE:
@@ -130,7 +136,18 @@ class Cia402Cycle(CanopenAxis):
         speed before). The elapsed time is the period where the stamps are on its grid (lock-step),
         else anything from 0 (a burst after a stall) to the stamps' difference or the period,
         whichever longer, and two periods more. Not checked without 0x606C mapped, nor in dq, nor
-        on a drive that declares no acceleration limit (``max_acceleration``)."""
+        on a drive that declares no acceleration limit (``max_acceleration``).
+
+        Parameters
+        ----------
+        before, after : Feedback
+            Two samples one SYNC apart.
+
+        Returns
+        -------
+        str or None
+            The other producer, named; None where the samples agree.
+        """
         data = self.data
         if data is None or self.op_mode == Mode.DQ_VOLTAGE or "velocity" not in self.maps:
             return None
@@ -161,7 +178,13 @@ class Cia402Cycle(CanopenAxis):
         )
 
     def cycle_frames(self) -> list[tuple[str, int]]:
-        """The TPDOs and the RPDO in force, each named with the objects it maps (see the base)."""
+        """The TPDOs and the RPDO in force, each named with the objects it maps.
+
+        Returns
+        -------
+        list of (str, int)
+            (what the frame is, its data bytes) for each frame of a cycle.
+        """
         data = self.data
         if data is None:
             return super().cycle_frames()
@@ -187,7 +210,18 @@ class Cia402Cycle(CanopenAxis):
         return Feedback(angle + 2.0 * math.pi * self._turns, speed, math.nan, abs(i_dq), stamp, i_dq)
 
     def supervise(self, now: float) -> None:
-        """EMCY, NMT and heartbeat (``CanopenAxis``), the statusword and, where mapped, 0x6061."""
+        """EMCY, NMT and heartbeat (``CanopenAxis``), the statusword and, where mapped, 0x6061.
+
+        Parameters
+        ----------
+        now : float
+            [s] the time of the cycle (the heartbeat's age is measured to it).
+
+        Raises
+        ------
+        SafetyStop
+            The drive left OPERATION ENABLED or changed its mode (and ``CanopenAxis.supervise``'s).
+        """
         super().supervise(now)
         assert self.data is not None
         plan = self._plan
@@ -208,7 +242,13 @@ class Cia402Cycle(CanopenAxis):
 
     def command(self, value: float | complex) -> None:
         """Send the SI command of the mode in the RPDO (applied per its transmission type), with the
-        controlword of the moment (``rpdo_word``: enable operation; from a stop on, its command)."""
+        controlword of the moment (enable operation; from a stop on, its command).
+
+        Parameters
+        ----------
+        value : float or complex
+            The mode's command in SI (complex: the dq voltage [V] in mode -2).
+        """
         data = self.data
         assert data is not None and data.rpdo is not None
         if self.op_mode == Mode.DQ_VOLTAGE:

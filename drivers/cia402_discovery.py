@@ -80,11 +80,27 @@ class Cia402Discovery:
             return None
 
     def discover(self, *, check_mode: bool = True) -> DriveUnits:
-        """Device type and identity (0x1000, 0x1018 read from the device and checked against the
-        EDS in use: ``check_identity``), supported modes (0x6502) against the mode (unless not
-        ``check_mode``: commissioning, which picks its modes itself), units, and whether the drive
-        has a position 0x6064. Identity, modes and units are read from the device by their
-        standard's types, whatever the EDS names (``drivers.identity.read_standard``)."""
+        """Device type, identity (checked against the EDS: ``check_identity``), modes, units and
+        whether the drive has a position 0x6064, read by their standard's types, whatever the EDS
+        names (``drivers.identity.read_standard``).
+
+        Parameters
+        ----------
+        check_mode : bool
+            Check the mode against 0x6502 and require its factors (not in commissioning).
+
+        Returns
+        -------
+        DriveUnits
+            The drive's units (also ``units``).
+
+        Raises
+        ------
+        NodeSilent
+            No SDO answer to 0x1000.
+        ConfigError
+            Not a CiA 402 drive (or axis), another device than the EDS's, a mode it lacks.
+        """
         try:
             device_type = self.sdo_read(cia.DEVICE_TYPE)
         except CommunicationTimeout as exc:
@@ -152,7 +168,18 @@ class Cia402Discovery:
 
     def offered(self, bits: int | None) -> str:
         """The modes the drive offers, as 0x6502 says: every mode CiA 402 gives a bit (vl and cstca
-        too, which the toolkit does not drive), and bits 16-31 only on the toolkit's own drive."""
+        too, which the toolkit does not drive), and bits 16-31 only on the toolkit's own drive.
+
+        Parameters
+        ----------
+        bits : int or None
+            0x6502 as read (None: the drive has none).
+
+        Returns
+        -------
+        str
+            The modes, named.
+        """
         if bits is None:
             return "no 0x6502 (the drive does not say which modes it has)"
         codes = [m for m, bit in SUPPORTED_MODE_BITS.items() if bits & bit]
@@ -180,7 +207,13 @@ class Cia402Discovery:
     def choose(self) -> str:
         """What to do about a mode the drive does not take: the other modes with a cyclic target
         that it offers (all, where it has no 0x6502) and whose objects its dictionary has (an ip
-        that 0x6502 lists without 0x60C1 is not one), or rig drive where it offers none."""
+        that 0x6502 lists without 0x60C1 is not one), or rig drive where it offers none.
+
+        Returns
+        -------
+        str
+            What to do, in words.
+        """
         offered, od = self.supported_modes, self.node.object_dictionary
         names = [
             name
@@ -208,7 +241,20 @@ class Cia402Discovery:
         """Without the device's own EDS, an entry of ``STANDARD_WRITES`` the generic one does not
         name is downloaded by its standard's type, and the device decides (an abort: SdoAbort):
         True once written; False where the dictionary in use writes it (or, lacking it, refuses
-        to: ``NotInDictionary``)."""
+        to: ``NotInDictionary``).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The entry.
+        value : Any
+            What to write.
+
+        Returns
+        -------
+        bool
+            The entry was written here.
+        """
         key = (index, subindex)
         if self.eds_given or key not in STANDARD_WRITES:
             return False
@@ -221,7 +267,20 @@ class Cia402Discovery:
 
     def guard_manufacturer(self, index: int, what: str) -> None:
         """ConfigError before ``what`` would write manufacturer object ``index`` of a drive that is
-        not the toolkit's own (its meaning is that vendor's)."""
+        not the toolkit's own (its meaning is that vendor's).
+
+        Parameters
+        ----------
+        index : int
+            The object to be written.
+        what : str
+            What would write it, for the message.
+
+        Raises
+        ------
+        ConfigError
+            ``index`` is a manufacturer object of another drive than the toolkit's.
+        """
         if index in cia.MANUFACTURER_AREA and not self.toolkit_drive:
             var = variable(self.node.object_dictionary, (index, 0))
             name = f" ({var.name})" if var is not None else ""

@@ -78,7 +78,19 @@ class CyclePlan:
     """What the cycle (``drivers.cia402_cycle``) reads from the TPDOs of ``data`` and how it packs
     the RPDO, made once at set-up for the mapping in force (``data``) and ``measures``: the
     feedback's values (velocity where chosen; torque, current: measured), the places of the
-    statusword and of 0x6061 (None: not in a TPDO), the RPDO of (controlword, target)."""
+    statusword and of 0x6061 (None: not in a TPDO), the RPDO of (controlword, target).
+
+    Parameters
+    ----------
+    data : ProcessData or None
+        The process data in force (None: before set-up, an empty plan).
+    measures : frozenset of str
+        What the feedback measures (position, velocity, torque, current).
+    op_mode : Mode or None
+        The axis's mode (its target; ip's controlword).
+    velocity : bool
+        0x606C is read (else the position's backward difference).
+    """
 
     def __init__(
         self, data: ProcessData | None, measures: frozenset[str], op_mode: Mode | None, velocity: bool = True
@@ -156,7 +168,13 @@ class Cia402Mapping:
         return [CW, cia.TARGET_OF_MODE[self.op_mode]], needed, optional
 
     def map_process_data(self) -> None:
-        """Set up the PDOs (``pdo``: remap, falling back to the device's own) and ``data``."""
+        """Set up the PDOs (``pdo``: remap, falling back to the device's own) and ``data``.
+
+        Raises
+        ------
+        ConfigError
+            A needed object is neither mapped nor readable, or the device's mapping cannot serve.
+        """
         od = self.node.object_dictionary
         rx_keys, needed, optional = self._wanted()
         rpdo: Pdo | None = None

@@ -50,10 +50,10 @@ class Entry:
     for the axis's own object or the node's, n for axis n's (another axis of the device; its
     index then as axis 1's)."""
 
-    index: int
-    subindex: int
-    bits: int
-    axis: int = 0
+    index: int  #: the object's index, as the axis names it
+    subindex: int  #: its sub-index
+    bits: int  #: its size [bits]
+    axis: int = 0  #: 0: the axis's own (or the node's); n: axis n's
 
     @property
     def key(self) -> Key:
@@ -65,7 +65,18 @@ class Entry:
         return not self.axis
 
     def wire(self, axis: int) -> int:
-        """The object's index on the wire, for the axis ``axis`` whose entry this is."""
+        """The object's index on the wire.
+
+        Parameters
+        ----------
+        axis : int
+            The axis whose entry this is.
+
+        Returns
+        -------
+        int
+            The index the device sees (0x6841 for axis 2's statusword).
+        """
         return axis_object(self.index, self.axis or axis)
 
 
@@ -73,12 +84,12 @@ class Entry:
 class Pdo:
     """One PDO: ``number`` 0-based, ``receive`` for an RPDO (host -> device), its mapping."""
 
-    number: int
-    receive: bool
-    entries: list[Entry] = field(default_factory=list)
-    cob_id: int = 0
-    ttype: int = 1
-    valid: bool = True
+    number: int  #: 0-based
+    receive: bool  #: an RPDO (host -> device)
+    entries: list[Entry] = field(default_factory=list)  #: its mapping, in order
+    cob_id: int = 0  #: its COB-ID (0: the default of its number)
+    ttype: int = 1  #: its transmission type (CiA 301)
+    valid: bool = True  #: its COB-ID's invalid bit is clear
 
     @property
     def bits(self) -> int:
@@ -98,7 +109,20 @@ class Pdo:
 
 
 def numbers(od: Any, *, receive: bool) -> list[int]:
-    """The 0-based numbers of the PDOs the EDS has (communication and mapping objects both)."""
+    """The 0-based numbers of the PDOs the EDS has (communication and mapping objects both).
+
+    Parameters
+    ----------
+    od : canopen.ObjectDictionary
+        The dictionary in use.
+    receive : bool
+        RPDOs (else TPDOs).
+
+    Returns
+    -------
+    list of int
+        Their numbers.
+    """
     comm, mapping = (cia.RPDO_COMM, cia.RPDO_MAP) if receive else (cia.TPDO_COMM, cia.TPDO_MAP)
     return [n for n in range(cia.PDO_BLOCK) if comm + n in od and mapping + n in od]
 
@@ -106,7 +130,20 @@ def numbers(od: Any, *, receive: bool) -> list[int]:
 def share(od: Any, *, receive: bool) -> list[int]:
     """The PDOs of ``numbers`` that are the axis's to map: on a drive of several axes (``od`` one
     axis's view: its ``axis`` of ``axes``) an equal block of them each, in order; all of them on a
-    drive of one axis."""
+    drive of one axis.
+
+    Parameters
+    ----------
+    od : canopen.ObjectDictionary
+        The dictionary in use (one axis's view).
+    receive : bool
+        RPDOs (else TPDOs).
+
+    Returns
+    -------
+    list of int
+        The axis's PDO numbers.
+    """
     pdos = numbers(od, receive=receive)
     axis, axes = getattr(od, "axis", 1), getattr(od, "axes", 1)
     per = len(pdos) // axes
@@ -126,7 +163,20 @@ def _none_left(od: Any, receive: bool) -> str:
 
 
 def variable(od: Any, key: Key) -> Any:
-    """The OD variable of ``key``, or None where the EDS lacks it."""
+    """The OD variable of ``key``.
+
+    Parameters
+    ----------
+    od : canopen.ObjectDictionary
+        The dictionary in use.
+    key : Key
+        (index, subindex).
+
+    Returns
+    -------
+    canopen.objectdictionary.ODVariable or None
+        It; None where the EDS lacks it.
+    """
     index, sub = key
     if index not in od:
         return None
@@ -143,7 +193,27 @@ def mappable(od: Any, key: Key) -> bool:
 
 def plan_rpdo(od: Any, keys: Sequence[Key], *, ttype: int) -> Pdo:
     """The host's objects (controlword and target) together in the device's first RPDO: an RPDO
-    is sent whole, so they go in one or the plan fails (ConfigError naming the object)."""
+    is sent whole, so they go in one or the plan fails.
+
+    Parameters
+    ----------
+    od : canopen.ObjectDictionary
+        The dictionary in use.
+    keys : sequence of Key
+        The objects, in order.
+    ttype : int
+        Its transmission type.
+
+    Returns
+    -------
+    Pdo
+        The RPDO planned.
+
+    Raises
+    ------
+    ConfigError
+        No RPDO is free, or an object is not mappable or does not fit (named).
+    """
     free = share(od, receive=True)
     if not free:
         raise ConfigError(_none_left(od, True))
@@ -160,7 +230,22 @@ def plan_rpdo(od: Any, keys: Sequence[Key], *, ttype: int) -> Pdo:
 
 def plan_tpdos(od: Any, keys: Sequence[Key], *, ttype: int) -> tuple[list[Pdo], list[Key]]:
     """Place ``keys`` (the needed ones first) in the device's TPDOs, first fit in order, 64 bits
-    and 8 objects each: (the PDOs, the keys left out: not mappable, or no room left)."""
+    and 8 objects each.
+
+    Parameters
+    ----------
+    od : canopen.ObjectDictionary
+        The dictionary in use.
+    keys : sequence of Key
+        The objects, the needed ones first.
+    ttype : int
+        Their transmission type.
+
+    Returns
+    -------
+    tuple of (list of Pdo, list of Key)
+        The PDOs, and the keys left out (not mappable, or no room left).
+    """
     free = share(od, receive=False)
     pdos: list[Pdo] = []
     left: list[Key] = []
@@ -185,7 +270,24 @@ def plan_tpdos(od: Any, keys: Sequence[Key], *, ttype: int) -> tuple[list[Pdo], 
 
 def write_mapping(write: Callable[[int, int, int], None], pdo: Pdo, *, node_id: int, od: Any) -> None:
     """Write ``pdo`` by the CiA 301 protocol: COB-ID with the invalid bit, transmission type,
-    sub 0 = 0, the entries, sub 0 = n, the COB-ID valid; SdoAbort when the device refuses."""
+    sub 0 = 0, the entries, sub 0 = n, the COB-ID valid.
+
+    Parameters
+    ----------
+    write : callable
+        ``write(index, subindex, value)``: an SDO download (SdoAbort when the device refuses).
+    pdo : Pdo
+        The mapping.
+    node_id : int
+        The node (the default COB-ID).
+    od : canopen.ObjectDictionary
+        The dictionary in use.
+
+    Raises
+    ------
+    ConfigError
+        The PDO has no COB-ID the host can give it.
+    """
     base = (cia.COB_RPDO if pdo.receive else cia.COB_TPDO)[pdo.number] + node_id if pdo.number < 4 else 0
     cob = pdo.cob_id or base
     if not cob:
@@ -203,7 +305,19 @@ def write_mapping(write: Callable[[int, int, int], None], pdo: Pdo, *, node_id: 
 
 
 def disable(write: Callable[[int, int, int], None], number: int, *, receive: bool, cob_id: int) -> None:
-    """Set the invalid bit of a PDO the host does not use."""
+    """Set the invalid bit of a PDO the host does not use.
+
+    Parameters
+    ----------
+    write : callable
+        ``write(index, subindex, value)``: an SDO download.
+    number : int
+        The PDO's 0-based number.
+    receive : bool
+        An RPDO (else a TPDO).
+    cob_id : int
+        Its COB-ID.
+    """
     comm = (cia.RPDO_COMM if receive else cia.TPDO_COMM) + number
     write(comm, cia.PDO_COMM_COB_ID, (cob_id & cia.COB_ID_MASK) | PDO_INVALID)
 
@@ -212,7 +326,22 @@ def read_mapping(read: Callable[[int, int], Any], od: Any, *, receive: bool) -> 
     """The device's PDOs as they are now (valid or not), read by SDO. A PDO the EDS names that
     the device has not (its COB-ID answered "object does not exist", as a device with fewer PDOs
     than the toolkit's generic EDS answers) is no PDO of the device. An entry is named as the
-    axis of ``od`` names it (``Entry``)."""
+    axis of ``od`` names it (``Entry``).
+
+    Parameters
+    ----------
+    read : callable
+        ``read(index, subindex)``: an SDO upload.
+    od : canopen.ObjectDictionary
+        The dictionary in use.
+    receive : bool
+        RPDOs (else TPDOs).
+
+    Returns
+    -------
+    list of Pdo
+        The mapping in force.
+    """
     own = getattr(od, "axis", 1)
     out = []
     for n in numbers(od, receive=receive):
@@ -236,8 +365,25 @@ def read_mapping(read: Callable[[int, int], Any], od: Any, *, receive: bool) -> 
 
 
 def codec(od: Any, pdo: Pdo) -> struct.Struct:
-    """A struct for ``pdo``'s entries (CANopen is little-endian); ConfigError for an entry that is
-    not a number of its mapped size."""
+    """A struct for ``pdo``'s entries (CANopen is little-endian).
+
+    Parameters
+    ----------
+    od : canopen.ObjectDictionary
+        The dictionary in use.
+    pdo : Pdo
+        The mapping in force.
+
+    Returns
+    -------
+    struct.Struct
+        Its decoder.
+
+    Raises
+    ------
+    ConfigError
+        An entry is not a number of its mapped size.
+    """
     formats = []
     for e in pdo.entries:
         var = variable(od, e.key)

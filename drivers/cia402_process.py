@@ -16,8 +16,8 @@ import struct
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-from drivers.canopen_axis import TpdoSlot
 from drivers.cia402_pdo import Key, Pdo, codec
+from drivers.tpdo_slot import TpdoSlot
 
 __all__ = ["ProcessData"]
 
@@ -25,7 +25,23 @@ log = logging.getLogger(__name__)
 
 
 class ProcessData:
-    """See the module docstring; ``read``/``write`` are the axis's SDO access for fallbacks."""
+    """The values of the mapping in force, and the RPDO's frame (see the module docstring).
+
+    Parameters
+    ----------
+    od : canopen.ObjectDictionary
+        The dictionary in use (each PDO's types).
+    tpdos : sequence of Pdo
+        The TPDOs in force.
+    rpdo : Pdo or None
+        The RPDO that carries the target (None: none).
+    receive : callable
+        ``receive(cob_id, codec)``: the axis's slot for a TPDO.
+    read : callable
+        ``read(index, subindex)``: the axis's SDO upload, for a value no TPDO carries.
+    held : mapping of Key to int
+        The values the RPDO's other objects held at set-up.
+    """
 
     def __init__(
         self,
@@ -54,14 +70,49 @@ class ProcessData:
         self._slots_of_rpdo = {e.key: i for i, e in enumerate(rpdo.entries)} if rpdo is not None else {}
 
     def mapped(self, key: Key) -> bool:
+        """Whether a TPDO carries ``key``.
+
+        Parameters
+        ----------
+        key : Key
+            (index, subindex).
+
+        Returns
+        -------
+        bool
+            A TPDO in force carries it.
+        """
         return key in self._where
 
     def slot_of(self, key: Key) -> TpdoSlot | None:
+        """The slot of the TPDO that carries ``key``.
+
+        Parameters
+        ----------
+        key : Key
+            (index, subindex).
+
+        Returns
+        -------
+        TpdoSlot or None
+            Its slot; None where no TPDO carries it.
+        """
         hit = self._where.get(key)
         return hit[0] if hit else None
 
     def value(self, key: Key) -> Any:
-        """The value of ``key`` in the last TPDO that carries it, or read now by SDO."""
+        """The value of ``key`` in the last TPDO that carries it, or read now by SDO.
+
+        Parameters
+        ----------
+        key : Key
+            (index, subindex).
+
+        Returns
+        -------
+        Any
+            Its raw value.
+        """
         hit = self._where.get(key)
         if hit is None:
             return self._read(*key)
@@ -69,12 +120,34 @@ class ProcessData:
         return slot.values()[pos]
 
     def where(self, key: Key) -> tuple[TpdoSlot, int] | None:
-        """The slot of the TPDO that carries ``key`` and its place among the slot's values, or None."""
+        """Where ``key`` is in the TPDOs.
+
+        Parameters
+        ----------
+        key : Key
+            (index, subindex).
+
+        Returns
+        -------
+        tuple of (TpdoSlot, int) or None
+            The slot of the TPDO that carries it and its place among the slot's values.
+        """
         return self._where.get(key)
 
     def reader(self, keys: Sequence[Key]) -> Callable[[], tuple[Any, ...]]:
         """A function giving the values of ``keys`` as ``value`` gives each: straight from the
-        TPDOs' values where TPDOs carry them all (picked in one call where one TPDO does)."""
+        TPDOs' values where TPDOs carry them all (picked in one call where one TPDO does).
+
+        Parameters
+        ----------
+        keys : sequence of Key
+            What to read.
+
+        Returns
+        -------
+        callable
+            ``reader()``: their values, in the order of ``keys``.
+        """
         hits = [self._where.get(k) for k in keys]
         if None in hits:
             return lambda: tuple([self.value(k) for k in keys])
@@ -87,7 +160,23 @@ class ProcessData:
 
     def packer(self, keys: Sequence[Key]) -> Callable[..., bytes]:
         """A function of the values of ``keys`` (in that order) giving the RPDO's data as ``frame``
-        does: the struct's own ``pack`` where the RPDO carries exactly those, in that order."""
+        does: the struct's own ``pack`` where the RPDO carries exactly those, in that order.
+
+        Parameters
+        ----------
+        keys : sequence of Key
+            What the function takes, in order.
+
+        Returns
+        -------
+        callable
+            ``packer(*values)``: the RPDO's data.
+
+        Raises
+        ------
+        RuntimeError
+            No RPDO carries the command.
+        """
         if self._codec is None:
             raise RuntimeError("no RPDO carries the command")
         places = [self._slots_of_rpdo.get(k) for k in keys]
@@ -105,7 +194,23 @@ class ProcessData:
         return packed
 
     def frame(self, values: Mapping[Key, int]) -> bytes:
-        """The RPDO's data with ``values`` in their places and the held values elsewhere."""
+        """The RPDO's data with ``values`` in their places and the held values elsewhere.
+
+        Parameters
+        ----------
+        values : mapping of Key to int
+            Raw values by object.
+
+        Returns
+        -------
+        bytes
+            The RPDO's data.
+
+        Raises
+        ------
+        RuntimeError
+            No RPDO carries the command.
+        """
         if self._codec is None:
             raise RuntimeError("no RPDO carries the command")
         data = list(self._template)
@@ -116,5 +221,16 @@ class ProcessData:
         return self._codec.pack(*data)
 
     def carries(self, key: Key) -> bool:
-        """The RPDO carries ``key``."""
+        """Whether the RPDO carries ``key``.
+
+        Parameters
+        ----------
+        key : Key
+            (index, subindex).
+
+        Returns
+        -------
+        bool
+            It does.
+        """
         return key in self._slots_of_rpdo

@@ -159,7 +159,20 @@ class Cia402Setup(Cia402Discovery, Cia402Mapping):
 
     def set_mode(self, mode: Mode) -> None:
         """Write 0x6060 (no read first) and wait for 0x6061 to show it, ``mode_timeout`` [s]; a
-        manufacturer mode only on the toolkit's own drive."""
+        manufacturer mode only on the toolkit's own drive.
+
+        Parameters
+        ----------
+        mode : Mode
+            The mode to set.
+
+        Raises
+        ------
+        ConfigError
+            A manufacturer mode on another drive than the toolkit's, or 0x6060 refused.
+        DeviceFault
+            0x6061 did not show the mode within ``mode_timeout``.
+        """
         if int(mode) < 0 and not self.toolkit_drive:
             raise ConfigError(
                 f"{self.where}: mode {int(mode)} is a manufacturer mode; not on {self.device_id.text()}"

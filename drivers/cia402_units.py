@@ -40,11 +40,11 @@ class DriveUnits:
     per rad/s, ``rated_torque`` [N m] and ``rated_current`` [A] (torque and current are per mille
     of them); ``source`` says where each came from."""
 
-    position: float
-    velocity: float
-    rated_torque: float
-    rated_current: float
-    source: Mapping[str, str]
+    position: float  #: position units per rad
+    velocity: float  #: velocity units per rad/s
+    rated_torque: float  #: [N m] 0x6076
+    rated_current: float  #: [A] 0x6075
+    source: Mapping[str, str]  #: where each factor came from (an object, ``[axis.units]``)
 
     @property
     def counts_per_rad(self) -> float:
@@ -52,7 +52,20 @@ class DriveUnits:
         return self.position
 
     def command_raw(self, mode: int, value: float) -> int:
-        """SI command of ``mode`` -> the raw target value."""
+        """The raw target value of an SI command.
+
+        Parameters
+        ----------
+        mode : int
+            The mode (its target's unit).
+        value : float
+            The command in SI ([V], [N m], [rad/s] or [rad]).
+
+        Returns
+        -------
+        int
+            The target in the drive's units.
+        """
         if mode == Mode.VOLTAGE:
             return round(value * 1000.0)  # V -> mV
         if mode == Mode.CST:
@@ -62,7 +75,13 @@ class DriveUnits:
         return round(value * self.position)  # rad -> position units
 
     def describe(self) -> dict[str, Any]:
-        """The units in force, for status reports."""
+        """The units in force, for status reports.
+
+        Returns
+        -------
+        dict
+            The four factors and where each came from.
+        """
         return {
             "position_units_per_rad": self.position,
             "velocity_units_per_rad_s": self.velocity,
@@ -98,12 +117,29 @@ def discover_units(
     hint: str = "[axis.units] {key}",
     has_position: bool = True,
 ) -> DriveUnits:
-    """The drive's units: ``read(index, sub)`` gives an object's value or None (the drive lacks it
-    or refused it); ``given`` the ``[axis.units]`` values (0 or absent: not given). ``mode`` 0
-    (a status, which moves nothing) needs no factor: the ones nobody gives are NaN, and the
-    drive's own units stand. ``hint`` says how the user gives a unit (``--units {key}=VALUE``
-    in ``rig drive``); ``has_position``: the drive has a position 0x6064 (else only the
-    position modes need its factor)."""
+    """The drive's units, from its objects, else from ``[axis.units]``.
+
+    Parameters
+    ----------
+    read : callable
+        ``read(index, sub)``: an object's value, or None (the drive lacks it or refused it).
+    given : mapping of str to float
+        The ``[axis.units]`` values (0 or absent: not given).
+    where : str
+        The axis, for messages.
+    mode : int
+        The mode whose factors are required (``require``); 0 (a status, which moves nothing):
+        none, the ones nobody gives are NaN and the drive's own units stand.
+    hint : str
+        How the user gives a unit (``--units {key}=VALUE`` in ``rig drive``).
+    has_position : bool
+        The drive has a position 0x6064 (else only the position modes need its factor).
+
+    Returns
+    -------
+    DriveUnits
+        The factors and where each came from.
+    """
     source: dict[str, str] = {}
     increments = _ratio(read, cia.POSITION_ENCODER_RESOLUTION)
     if increments:
@@ -113,7 +149,26 @@ def discover_units(
         source["increments"] = "[axis.units] counts_per_rev"
     gear = _ratio(read, cia.GEAR_RATIO) or 1.0
     feed = _ratio(read, cia.FEED_CONSTANT)
-    pos_code, vel_code = _unit_codes(read, given, where, hint)
+    codes = _unit_codes(read, given, where, hint)
+    position, velocity = _factors(read, (increments, gear, feed), codes, source)
+    rated_torque = _rated(read, given, source, cia.RATED_TORQUE, "rated_torque")
+    rated_current = _rated(read, given, source, cia.RATED_CURRENT, "rated_current")
+    units = DriveUnits(position, velocity, rated_torque, rated_current, source)
+    if mode:
+        require(units, mode, where=where, hint=hint, has_position=has_position)
+    return units
+
+
+def _factors(
+    read: Callable[[int, int], Any],
+    ratios: tuple[float | None, float, float | None],
+    codes: tuple[int, int],
+    source: dict[str, str],
+) -> tuple[float, float]:
+    """The position's and the velocity's factors [units/rad, units/(rad/s)] from the ``ratios``
+    (increments per revolution, gear 0x6091, feed 0x6092) and the unit ``codes``; NaN where they
+    give none; where each came from in ``source``."""
+    (increments, gear, feed), (pos_code, vel_code) = ratios, codes
     position = velocity = math.nan
     rotary = pos_code and SiUnit.decode(pos_code).unit != INCREMENTS
     if increments or rotary or feed:
@@ -135,12 +190,7 @@ def discover_units(
     elif vel_code and SiUnit.decode(vel_code).unit != INCREMENTS:  # rpm, rad/s: no increments needed
         velocity = velocity_per_revolution(math.nan, gear=gear, unit=vel_code) / _TWO_PI
         source["velocity"] = _code_source(read, vel_code, cia.SI_UNIT_VELOCITY, cia.VELOCITY_DIMENSION)
-    rated_torque = _rated(read, given, source, cia.RATED_TORQUE, "rated_torque")
-    rated_current = _rated(read, given, source, cia.RATED_CURRENT, "rated_current")
-    units = DriveUnits(position, velocity, rated_torque, rated_current, source)
-    if mode:
-        require(units, mode, where=where, hint=hint, has_position=has_position)
-    return units
+    return position, velocity
 
 
 def _unit_codes(
@@ -210,7 +260,26 @@ def require(
 ) -> None:
     """ConfigError naming the object and how to give it (``hint``) where ``mode`` needs a factor
     that ``units`` lacks: a mode's command its own; the position's every mode of a drive with a
-    position 0x6064 (``has_position``), and the position modes always."""
+    position 0x6064 (``has_position``), and the position modes always.
+
+    Parameters
+    ----------
+    units : DriveUnits
+        The factors found.
+    mode : int
+        The mode to run.
+    where : str
+        The axis, for messages.
+    hint : str
+        How the user gives a unit (``{key}`` replaced by its key).
+    has_position : bool
+        The drive has a position 0x6064.
+
+    Raises
+    ------
+    ConfigError
+        A factor the mode needs is missing, naming the object and how to give it.
+    """
     need = NEEDS.get(Mode(mode)) if mode in {int(m) for m in Mode} else None
     if need is not None and need[0] == "velocity" and not math.isfinite(units.velocity):
         raise ConfigError(
