@@ -88,7 +88,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         Its node id (1-127).
     eds : str or None
         The device's own EDS/DCF (None: the toolkit's generic one).
-    units : mapping of str to float or None
+    units : Mapping[str, float] | None
         Factors the device may lack (``counts_per_rev``, ``position_unit``, ``velocity_unit``,
         ``rated_torque`` [N m], ``rated_current`` [A]).
     sync_rpdo : bool
@@ -113,7 +113,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         [s] without the command RPDO before the toolkit's drive stops itself (0: none).
     reset_fault : bool
         A drive found in FAULT at enable is reset (else refused).
-    emcy_texts : mapping of int to str or None
+    emcy_texts : Mapping[int, str] | None
         The device's own EMCY texts.
     feedback : iterable of str
         What the TPDOs carry (``drivers.cia402_feedback``; the position always): without

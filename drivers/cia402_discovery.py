@@ -91,7 +91,7 @@ class Cia402Discovery:
 
         Returns
         -------
-        DriveUnits
+        drivers.cia402_units.DriveUnits
             The drive's units (also ``units``).
 
         Raises

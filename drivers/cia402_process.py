@@ -39,7 +39,7 @@ class ProcessData:
         ``receive(cob_id, codec)``: the axis's slot for a TPDO.
     read : callable
         ``read(index, subindex)``: the axis's SDO upload, for a value no TPDO carries.
-    held : mapping of Key to int
+    held : Mapping[Key, int]
         The values the RPDO's other objects held at set-up.
     """
 
@@ -94,7 +94,7 @@ class ProcessData:
 
         Returns
         -------
-        TpdoSlot or None
+        drivers.tpdo_slot.TpdoSlot or None
             Its slot; None where no TPDO carries it.
         """
         hit = self._where.get(key)
@@ -129,7 +129,7 @@ class ProcessData:
 
         Returns
         -------
-        tuple of (TpdoSlot, int) or None
+        tuple of (drivers.tpdo_slot.TpdoSlot, int) or None
             The slot of the TPDO that carries it and its place among the slot's values.
         """
         return self._where.get(key)
@@ -198,7 +198,7 @@ class ProcessData:
 
         Parameters
         ----------
-        values : mapping of Key to int
+        values : Mapping[Key, int]
             Raw values by object.
 
         Returns

@@ -123,7 +123,7 @@ def discover_units(
     ----------
     read : callable
         ``read(index, sub)``: an object's value, or None (the drive lacks it or refused it).
-    given : mapping of str to float
+    given : Mapping[str, float]
         The ``[axis.units]`` values (0 or absent: not given).
     where : str
         The axis, for messages.
@@ -137,7 +137,7 @@ def discover_units(
 
     Returns
     -------
-    DriveUnits
+    drivers.cia402_units.DriveUnits
         The factors and where each came from.
     """
     source: dict[str, str] = {}
@@ -264,7 +264,7 @@ def require(
 
     Parameters
     ----------
-    units : DriveUnits
+    units : drivers.cia402_units.DriveUnits
         The factors found.
     mode : int
         The mode to run.
