@@ -123,6 +123,7 @@ def test_rig_scan_lists_the_durand_node(encoder: DurandEncoder, capsys: pytest.C
             "device_type": f"0x{DEVICE_TYPE:08X}",
             "profile": "CiA 406 encoder",
             "vendor_id": f"0x{VENDOR:08X}",
+            "vendor_name": None,  # 0x00ABCDEF is not in CiA's list of vendor IDs
             "product_name": NAME.decode(),
             "errors": [],
         }
