@@ -4,10 +4,7 @@ or method over ``FUNCTION`` (its ``def`` line to its last, decorators aside), no
 sizes: one may shrink (write its new size, or take it out once under the limit), none may grow,
 and nothing new may join it.
 
-The numpydoc sections a docstring must have (``Parameters``, ``Returns``, ``Raises`` ...: item 5,
-tests/test_docstrings.py) are not counted, from the blank line before the first to the docstring's
-end: the summary and prose above them count as code does, so a docstring made numpydoc measures
-as it did before.
+Lines are physical lines, docstrings and comments included: what a reader scrolls through.
 """
 
 from __future__ import annotations
@@ -23,54 +20,48 @@ MODULE, FUNCTION, CLASS = 400, 60, 300  #: [lines]
 
 #: what is over its limit today -> its size [lines]; "path" a module, "path::Class.method" the rest
 DEBTS: dict[str, int] = {
-    "plant_emulator/canopen_node.py::EmulatedNode": 317,
+    "drivers/cia402.py::Cia402Axis": 314,
+    "drivers/maps/eds_writer.py": 435,
+    "drivers/maps/eds_writer.py::cia301_objects": 67,
+    "drivers/maps/eds_writer.py::eds_text": 61,
+    "drivers/modbus_inverter.py": 406,
+    "drivers/modbus_inverter.py::ModbusInverterAxis": 359,
+    "plant_emulator/canopen_node.py": 450,
+    "plant_emulator/canopen_node.py::EmulatedNode": 374,
     "plant_emulator/im_kernel.py::_foc_periods": 68,
-    "plant_emulator/socketcand_server.py": 403,
-    "plant_emulator/socketcand_server.py::SocketcandServer": 320,
+    "plant_emulator/socketcand_server.py": 421,
+    "plant_emulator/socketcand_server.py::SocketcandServer": 338,
+    "rig/bench/floor.py::sleep_floor": 62,
+    "rig/cli/common.py": 540,
+    "rig/commission/dcf.py::dcf_text": 70,
+    "rig/commission/dictionary.py::read_dictionary": 64,
+    "rig/commission/moves.py::move": 87,
+    "rig/config/emulator.py::emulator_config": 64,
+    "rig/emulator/serve.py::run_emulator": 79,
+    "rig/identify/closed_loop.py::fit_model": 71,
+    "rig/identify/excitations.py::periodic_excitation": 63,
+    "rig/identify/experiment.py::experiment_config": 88,
+    "rig/identify/frequency.py::frequency_response": 87,
+    "rig/papers/drives_study.py::speed_error_theory": 64,
+    "rig/papers/scenarios.py::cascade_run": 87,
+    "rig/papers/scenarios.py::position_servo_run": 97,
+    "rig/papers/scenarios.py::speed_loop_run": 93,
 }
-
-
-#: the numpydoc section titles whose lines are not counted
-SECTIONS = ("Parameters", "Attributes", "Returns", "Yields", "Raises", "Warns", "See Also")
-
-
-def section_lines(tree: ast.AST, lines: list[str]) -> set[int]:
-    """The line numbers (1-based) of the docstrings' numpydoc sections: from the blank line before
-    the first section's title to the docstring's last line."""
-    found: set[int] = set()
-    for node in ast.walk(tree):
-        if not isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
-            continue
-        first = node.body[0] if node.body else None
-        if not (isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant)):
-            continue
-        if not isinstance(first.value.value, str) or first.end_lineno is None:
-            continue
-        for number in range(first.lineno, first.end_lineno):
-            title, rule = lines[number - 1].strip(), lines[number].strip()
-            if title in SECTIONS and rule == "-" * len(title):
-                start = number - 1 if not lines[number - 2].strip() else number
-                found.update(range(start, first.end_lineno + 1))
-                break
-    return found
 
 
 def sizes(path: pathlib.Path, name: str) -> Iterator[tuple[str, int, int]]:
     """(name, lines, limit) of the module at ``path`` (called ``name``), then of each function and
-    class in it, nested ones by their dotted names; docstrings' numpydoc sections not counted."""
+    class in it, nested ones by their dotted names, in physical lines."""
     text = path.read_text()
     tree = ast.parse(text)
-    lines = text.splitlines()
-    skipped = section_lines(tree, lines)
-    yield name, len(lines) - len(skipped), MODULE
+    yield name, len(text.splitlines()), MODULE
 
     def inside(node: ast.AST, prefix: str) -> Iterator[tuple[str, int, int]]:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
                 limit = CLASS if isinstance(child, ast.ClassDef) else FUNCTION
                 assert child.end_lineno is not None
-                span = range(child.lineno, child.end_lineno + 1)
-                yield f"{prefix}{child.name}", len(span) - len(skipped.intersection(span)), limit
+                yield f"{prefix}{child.name}", child.end_lineno - child.lineno + 1, limit
                 yield from inside(child, f"{prefix}{child.name}.")
             else:
                 yield from inside(child, prefix)
@@ -125,16 +116,3 @@ def test_sizes_are_measured_from_def_to_last_line(tmp_path: pathlib.Path) -> Non
         ("m.py::A.f", 4, FUNCTION),
         ("m.py::A.f.g", 2, FUNCTION),
     ]
-
-
-def test_numpydoc_sections_are_not_counted(tmp_path: pathlib.Path) -> None:
-    """A one-line docstring made numpydoc measures as before: its summary counts, its sections not."""
-    plain = tmp_path / "plain.py"
-    plain.write_text('def f(x):\n    """Double x."""\n    return 2 * x\n')
-    sectioned = tmp_path / "sectioned.py"
-    sectioned.write_text(
-        'def f(x):\n    """Double x.\n\n    Parameters\n    ----------\n    x : float\n        The value.\n'
-        '\n    Returns\n    -------\n    float\n        2 x.\n    """\n    return 2 * x\n'
-    )
-    assert [size for _, size, _ in sizes(plain, "m")] == [3, 3]
-    assert [size for _, size, _ in sizes(sectioned, "m")] == [3, 3]
