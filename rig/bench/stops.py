@@ -15,7 +15,9 @@ virtual machine, stalls no priority inside it can prevent; the median and worst 
 average before and after; the scheduling the host and the emulator were granted
 (``rig.host.realtime``); and the machine's own floor, measured first under the same load for
 one run's length (``rig.bench.floor``: a loop that only sleeps to the same deadlines under the
-host's scheduling, as cyclictest does: the periods it missed, its lateness p99 and max). A run
+host's scheduling, as cyclictest does: the periods it missed, its lateness p99 and max), and
+its floor for a SYNC's answer across processes (``rig.bench.round_trip``: a frame's round trip
+to an echo process under the emulator's scheduling, the median, p99 and max). A run
 whose bus did not open (the socketcand handshake failed) is tried again and named under
 ``bus_not_opened``.
 """
@@ -40,6 +42,7 @@ from typing import Any
 from drivers.errors import CommunicationError
 from rig.bench.floor import sleep_floor
 from rig.bench.micro import Figure
+from rig.bench.round_trip import round_trip_floor
 from rig.config import BusConfig, load_config
 from rig.emulator.spawn import spawn_emulator_line, stop_rig
 from rig.host.realtime import RealtimeRequest
@@ -204,6 +207,7 @@ def _bench_load(
         # the machine's own, under the same load: with the runs' request, and without it
         floor = sleep_floor(period, seconds)
         asleep = sleep_floor(period, seconds, RealtimeRequest(cpu_latency=-1))
+        trip = round_trip_floor(period, seconds)
         for n in range(runs):
             for _ in range(3):  # a run whose bus did not open is no stop: said, and tried again
                 try:
@@ -228,7 +232,7 @@ def _bench_load(
         emulator=granted,
         reference=lockstep_rms(seconds, period),
     )
-    figures += _floor_figures(floor) + _floor_figures(asleep, "floor_asleep")
+    figures += _floor_figures(floor) + _floor_figures(asleep, "floor_asleep") + _trip_figures(trip)
     return figures + [{"name": "bus_not_opened", "value": reason, "unit": ""} for reason in unopened]
 
 
@@ -305,6 +309,14 @@ def _timing_figures(summaries: list[dict[str, Any]]) -> list[Figure]:
         unit = "ms per run (the hypervisor's; 10 ms steps)"
         found += _spread("cpu_stolen", [1e3 * x for x in stolen if x is not None], unit, 0)
     return found
+
+
+def _trip_figures(trip: dict[str, Any]) -> list[Figure]:
+    """The machine's floor for a SYNC's answer across processes (``rig.bench.round_trip``)."""
+    return [
+        {"name": f"floor_round_trip_{key}", "value": round(trip["round_trip_us"][key], 1), "unit": "us"}
+        for key in ("median", "p99", "max")
+    ]
 
 
 def _floor_figures(floor: dict[str, Any], name: str = "floor") -> list[Figure]:

@@ -115,3 +115,22 @@ def test_the_cli_takes_several_loads(monkeypatch: pytest.MonkeyPatch) -> None:
 
     assert main(["bench", "stops", "--load", "0", "--load", "2", "--runs", "1"]) == 0
     assert seen["loads"] == [0, 2] and seen["runs"] == 1
+
+
+def test_the_round_trip_floor_counts_every_period_and_gives_its_scheduling_back() -> None:
+    """``round_trip_floor`` (the machine's floor for a SYNC's answer across processes): a round
+    trip to a real echo process each period, ordered, the scheduling as before after it; what it
+    measures is the machine's, so no figure is checked."""
+    from rig.bench.round_trip import round_trip_floor
+    from rig.bench.stops import _trip_figures
+
+    before = (os.sched_getscheduler(0), os.sched_getaffinity(0))
+    trip = round_trip_floor(0.001, 0.05)
+    assert (os.sched_getscheduler(0), os.sched_getaffinity(0)) == before
+    assert trip["periods"] == 50 and trip["granted"]
+    rtt = trip["round_trip_us"]
+    assert 0.0 < rtt["median"] <= rtt["p99"] <= rtt["max"]
+    names = [f["name"] for f in _trip_figures(trip)]
+    assert names == ["floor_round_trip_median", "floor_round_trip_p99", "floor_round_trip_max"]
+    with pytest.raises(ValueError, match=r"period 0\.001 s, seconds 0\.0001 s"):
+        round_trip_floor(0.001, 0.0001)
