@@ -1,11 +1,13 @@
 """The live view's thread: the latest rows of the run, drawn a few times a second by a backend.
 
 The control loop's only part is the recorder's: ``Recorder.sample`` appends each row it has
-written to ``LiveView.rows``, a ``collections.deque`` with a ``maxlen`` (an O(1) append that
-takes no lock and never waits). The viewer thread copies the deque (one C call under the GIL:
-the loop is never held for longer than that copy), hands the copy to its backend at ``rate``
-[Hz], and at the stop draws the last rows once more and closes the backend. An exception in a
-backend is logged once and ends the viewer; the run goes on.
+written to ``LiveView.rows``, a ``Ring`` (a ``collections.deque`` with a ``maxlen``: an O(1)
+append that takes no lock and never waits). The viewer thread copies the deque (one C call under
+the GIL), hands the copy to its backend at ``rate`` [Hz], and at the stop draws the last rows
+once more and closes the backend. It draws in the loop's slack: after its pause it waits for the
+next row (``Ring.cue``), which the loop appends at the end of its cycle, just before it sleeps to
+the next period, so the viewer's work under the GIL falls where the loop does not need it. An
+exception in a backend is logged once and ends the viewer; the run goes on.
 
 ``open_live(mode)`` picks the backend for ``--live``: ``"window"`` (a matplotlib window in a
 process of its own, ``rig.live.window``), ``"terminal"`` (``rig.live.terminal``) or
@@ -25,11 +27,57 @@ from collections.abc import Sequence
 from rig.live.backend import Backend, LiveUnavailable
 from rig.live.channels import Channel
 
-__all__ = ["MODES", "Backend", "LiveUnavailable", "LiveView", "open_live", "window_problem"]
+__all__ = ["MODES", "Backend", "LiveUnavailable", "LiveView", "Ring", "open_live", "window_problem"]
 
 log = logging.getLogger(__name__)
 
 MODES = ("auto", "terminal", "window")
+
+
+class Ring(collections.deque[Sequence[float]]):
+    """The rows the recorder appends, the latest ``keep``; ``cue()`` arms it, and the next append
+    sets ``ready`` (the loop's cycle has just ended: its slack begins).
+
+    Parameters
+    ----------
+    keep : int
+        Rows kept.
+    """
+
+    def __init__(self, keep: int) -> None:
+        super().__init__(maxlen=keep)
+        self.ready = threading.Event()
+        self.armed = False
+
+    def append(self, row: Sequence[float]) -> None:
+        """Append ``row`` (the loop's, once a cycle); set ``ready`` if cued.
+
+        Parameters
+        ----------
+        row : Sequence[float]
+            The row.
+        """
+        super().append(row)
+        if self.armed:
+            self.armed = False
+            self.ready.set()
+
+    def cue(self, timeout: float) -> bool:
+        """Wait for the next row, at most ``timeout`` [s].
+
+        Parameters
+        ----------
+        timeout : float
+            [s] at most.
+
+        Returns
+        -------
+        bool
+            A row came.
+        """
+        self.ready.clear()
+        self.armed = True
+        return self.ready.wait(timeout)
 
 
 class LiveView:
@@ -50,7 +98,7 @@ class LiveView:
     def __init__(self, backend: Backend, *, rate: float = 4.0, keep: int = 4096, join_timeout: float = 2.0):
         self.backend = backend
         self.every = 1.0 / rate  #: [s] between two draws
-        self.rows: collections.deque[Sequence[float]] = collections.deque(maxlen=keep)
+        self.rows = Ring(keep)
         self.join_timeout = join_timeout  #: [s] the stop waits for the thread, then leaves it
         self.failed: str | None = None  #: why the viewer stopped early
         self._stop = threading.Event()
@@ -94,8 +142,8 @@ class LiveView:
             while not final:  # the first draw at once, the last one after the stop
                 final = self._stop.is_set()
                 self.backend.draw(self.snapshot(), final)
-                if not final:
-                    self._stop.wait(self.every)
+                if not final and not self._stop.wait(self.every):
+                    self.rows.cue(self.every)  # the next draw in the loop's slack
         except Exception as exc:  # never into the run: logged once, the viewer ends
             self.failed = f"{type(exc).__name__}: {exc}" if not isinstance(exc, LiveUnavailable) else str(exc)
             log.warning("live view stopped: %s (the run goes on)", self.failed)

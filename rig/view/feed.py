@@ -2,7 +2,8 @@
 
 - ``RingFeed``: a backend of ``rig.live.view.LiveView`` (``rig run --view``). The loop's only
   part is the recorder's O(1) append of each row to the LiveView's ring (a bounded deque, no
-  lock); the LiveView's own thread copies the ring ``RATE`` times a second and hands the copy
+  lock); the LiveView's own thread copies the ring ``RATE`` times a second, in the loop's slack
+  (``rig.live.view.Ring.cue``: just after the loop's cycle has appended its row), and hands the copy
   here, where the rows newer than the last update are decimated and sent on with the axes'
   states (``rig.view.states``) to the scope, which ``rig run --view`` keeps in the server's
   own process (``rig.view.process``). The recorder's files are not touched.

@@ -10,6 +10,7 @@ import logging
 import math
 import pathlib
 import threading
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -21,6 +22,7 @@ from rig.config import load_config
 from rig.host.session import run_config
 from rig.live import Channel, LiveView, channels_of
 from rig.live.terminal import ASCII, TerminalStrip, sparkline, strip_lines
+from rig.live.view import Ring
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
 DYNO = EXAMPLES / "dyno_speed_load.toml"
@@ -268,3 +270,58 @@ def test_the_help_says_how(capsys: pytest.CaptureFixture[str]) -> None:
     assert exited.value.code == 0  # the help, not a usage error
     text = " ".join(capsys.readouterr().out.split())
     assert "--live [{terminal,window}]" in text and "--emulate --live=terminal" in text
+
+
+def test_the_view_draws_in_the_loop_s_slack() -> None:
+    """Cued, the ring says when the next row comes (the loop appends it at its cycle's end, just
+    before it sleeps): the viewer draws then, not at an instant of its own; uncued, an append sets
+    nothing, and a cue with no row comes back after its timeout."""
+    ring = Ring(4)
+    ring.append([0.0])
+    assert not ring.ready.is_set()
+    got: list[bool] = []
+    waiter = threading.Thread(target=lambda: got.append(ring.cue(30.0)))
+    waiter.start()
+    while not ring.armed:  # the viewer has cued it
+        time.sleep(0.001)
+    ring.append([0.001])
+    waiter.join(30.0)
+    assert got == [True] and not ring.armed
+    assert list(ring) == [[0.0], [0.001]]
+    assert ring.cue(0.0) is False  # no row within the timeout: the viewer draws all the same
+    for k in range(10):
+        ring.append([float(k)])
+    assert len(ring) == 4  # the latest ``keep`` rows
+
+
+class Recording(Blocking):
+    """A backend that keeps each draw's rows."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.drawn: list[list[Sequence[float]]] = []
+
+    def draw(self, rows: Sequence[Sequence[float]], final: bool = False) -> None:
+        self.drawn.append(list(rows))
+        self.entered.set()
+
+
+def test_the_viewer_cues_the_ring_and_draws_the_row_that_ends_the_cycle() -> None:
+    """Between two draws the viewer arms its ring (the recorder's): the row the loop appends at its
+    cycle's end wakes it, and the next draw holds that row."""
+    backend = Recording()
+    live = LiveView(backend, rate=100.0, keep=8)
+    live.start(_channels(), "slack")
+    try:
+        assert backend.entered.wait(30.0)
+        until = time.monotonic() + 30.0
+        while not live.rows.armed and time.monotonic() < until:  # after its pause, it waits for a row
+            time.sleep(0.001)
+        assert live.rows.armed
+        row = _row(0.001, 1.0, 0.5, 2.0)
+        live.rows.append(row)
+        while not any(row in rows for rows in backend.drawn) and time.monotonic() < until:
+            time.sleep(0.001)
+        assert any(row in rows for rows in backend.drawn)
+    finally:
+        live.stop()
