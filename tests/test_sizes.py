@@ -42,10 +42,6 @@ DEBTS: dict[str, int] = {
     "rig/identify/excitations.py::periodic_excitation": 63,
     "rig/identify/experiment.py::experiment_config": 88,
     "rig/identify/frequency.py::frequency_response": 87,
-    "rig/papers/drives_study.py::speed_error_theory": 64,
-    "rig/papers/scenarios.py::cascade_run": 87,
-    "rig/papers/scenarios.py::position_servo_run": 97,
-    "rig/papers/scenarios.py::speed_loop_run": 93,
 }
 
 

@@ -135,22 +135,33 @@ def speed_error_theory(
     """
     design = design_dtsm(A=[[-a_m]], b=[b_m], dt=dt, lam=-1.0)
     b_delta = float(design.b_delta[0])
+    d_amp = _disturbance_amplitude(amplitude, omega, a_m=a_m, b_m=b_m, dt=dt, b_delta=b_delta)
+    h = _switching_transfer(compensator, alpha, cmath.exp(1j * omega * dt), dt)
+    return b_delta * abs(h) * d_amp
+
+
+def _disturbance_amplitude(
+    amplitude: float, omega: float, *, a_m: float, b_m: float, dt: float, b_delta: float
+) -> float:
+    """|d_k| of (6.22a) for f = ``amplitude`` sin(``omega`` t) [V]: F |int_0^T e^{-a_m tau} b_m
+    e^{-j omega tau} dtau| / (T b_delta)."""
     # int_0^T e^{-(a_m + j omega) tau} dtau, closed form
     s = a_m + 1j * omega
     integral = b_m * (1.0 - cmath.exp(-s * dt)) / s
-    d_amp = amplitude * abs(integral) / (dt * b_delta)
-    z = cmath.exp(1j * omega * dt)
+    return amplitude * abs(integral) / (dt * b_delta)
+
+
+def _switching_transfer(compensator: str, alpha: float | None, z: complex, dt: float) -> complex:
+    """H(z) of g(z) = H(z) d(z) at ``z`` for the law alone (6.23), with (6.30b) (6.34) or (6.35)."""
     if compensator == "none":
-        h = dt / z
-    elif compensator == "first":
+        return dt / z
+    if compensator == "first":
         if alpha is None:
             raise ValueError("the first-order compensator needs alpha")
-        h = dt * (z - 1.0) / (z * (z - (1.0 - alpha)))
-    elif compensator == "second":
-        h = dt * (z - 1.0) ** 2 / z**3
-    else:
-        raise ValueError(f"compensator must be none, first or second, got {compensator!r}")
-    return b_delta * abs(h) * d_amp
+        return dt * (z - 1.0) / (z * (z - (1.0 - alpha)))
+    if compensator == "second":
+        return dt * (z - 1.0) ** 2 / z**3
+    raise ValueError(f"compensator must be none, first or second, got {compensator!r}")
 
 
 def _design_part() -> dict[str, Any]:
