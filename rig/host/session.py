@@ -1,24 +1,19 @@
 """A run of a configured rig: the one public path from a configuration to a running host loop.
 
 ``Session(cfg, emulate=..., duration=... or cycles=...)`` composes a transport, the axes, a law and
-a recorder, and moves nothing yet (``cfg`` was checked at load: nothing is checked again). First
-what needs no bus: what the run's mode needs of the file, the timebase (``rig.host.timebase``:
-the period read once), the law and the profiles, the output folder as it is now; a refusal there
-opens nothing. Then the transport (``rig.host.transport``: a CAN bus, none for Modbus only, or
-with ``emulate`` the emulated world), the axis drivers on it, the recorder (the configuration,
-then every frame the transport taps). ``start()`` sets every axis up, enables it, takes the
-transport's pacing and makes the loop. ``run()`` runs the loop, then stops SYNC, the trace's
-frames, and closes the recorder with the summary. ``close()`` disables and releases every axis
-and closes the transport. The session never asks which transport it has. A session is a context
-manager which, where a stop signal came during it (``rig.host.signals``), raises it once closed:
-a study of many runs ends with the one the signal stopped. ``rig run``, ``rig identify``, the
-benchmarks and the fault suite all run through here.
+a recorder (``rig.host.session_parts``: first what needs no bus, so a refusal opens nothing), and
+moves nothing yet (``cfg`` was checked at load: nothing is checked again). ``start()`` sets every
+axis up, enables it, takes the transport's pacing and makes the loop. ``run()`` runs the loop, then
+stops SYNC, the trace's frames, and closes the recorder with the summary. ``close()`` disables and
+releases every axis and closes the transport. The session never asks which transport it has. A
+session is a context manager which, where a stop signal came during it (``rig.host.signals``),
+raises it once closed: a study of many runs ends with the one the signal stopped. ``rig run``,
+``rig identify``, the benchmarks and the fault suite all run through here.
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import gc
 import logging
 import shutil
@@ -30,20 +25,14 @@ from drivers.base import AxisDriver
 from drivers.errors import NodeSilent, RigError
 from drivers.master_watch import OtherMaster
 from rig.config import RigConfig
-from rig.host.axes import open_axis
-from rig.host.columns import describe_columns
-from rig.host.control import build_law, wiring_of
-from rig.host.loop import HostLoop, LoopOptions
+from rig.host.control import build_law
+from rig.host.loop import HostLoop
 from rig.host.loop_summary import missed_period
 from rig.host.pacing import Pacing
-from rig.host.realtime import RealtimeRequest, request
-from rig.host.recorder import Recorder, output_folder
-from rig.host.safety import AxisGuard
+from rig.host.session_parts import grant_realtime, host_loop, open_axes, open_recorder, plan_run, watch_live
 from rig.host.signals import StopRequests
-from rig.host.timebase import Timebase
 from rig.host.transport import Transport
-from rig.host.transports import check_transport, open_transport
-from rig.live.channels import channels_of
+from rig.host.transports import open_transport
 from rig.live.view import LiveView
 
 __all__ = ["Session", "build_law", "run_config"]
@@ -60,9 +49,28 @@ def run_config(
     live: LiveView | None = None,
     started: Callable[[list[AxisDriver]], None] | None = None,
 ) -> dict[str, Any]:
-    """Build, start and run ``cfg``; returns the summary (``cycles``, ``rms_error``, ..., ``run_dir``).
-    ``progress(k, cycles)`` every 1 % of the run; ``live`` shows the rows as they come;
-    ``started(axes)`` once every axis is set up and enabled, before the first cycle."""
+    """Build, start and run ``cfg``.
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration.
+    emulate : bool
+        The emulated world in this process (``--emulate``).
+    duration : float | None
+        [s] of the run (None: ``[run] duration``).
+    progress : Callable[[int, int], None] | None
+        ``progress(k, cycles)`` every 1 % of the run (None: not).
+    live : LiveView | None
+        Shows the rows as they come (None: no live view).
+    started : Callable[[list[AxisDriver]], None] | None
+        ``started(axes)`` once every axis is set up and enabled, before the first cycle.
+
+    Returns
+    -------
+    dict[str, Any]
+        The summary (``cycles``, ``rms_error``, ..., ``run_dir``).
+    """
     with Session(cfg, emulate=emulate, duration=duration) as session:
         session.start()
         if started is not None:
@@ -72,7 +80,19 @@ def run_config(
 
 
 class Session:
-    """See the module docstring."""
+    """A run of ``cfg`` (module docstring).
+
+    Parameters
+    ----------
+    cfg : RigConfig
+        The loaded configuration.
+    emulate : bool
+        The emulated world in this process (``--emulate``).
+    duration : float | None
+        [s] of the run (None: ``[run] duration``).
+    cycles : int | None
+        The cycles to run, instead of ``duration`` (None: from it).
+    """
 
     transport: Transport  #: where the axes are (``rig.host.transport``), from ``_build`` on
 
@@ -96,33 +116,26 @@ class Session:
 
     def _build(self, duration: float | None, cycles: int | None) -> None:
         cfg = self.cfg
-        # first what needs no bus: a bad value is one error and nothing was opened
-        check_transport(cfg, emulate=self.emulate)  # what the run's mode needs of the file
-        tb = self.timebase = Timebase.of(cfg)
-        if cycles is not None and cycles < 1:
-            raise ValueError(f"cycles = {cycles!r}: must be >= 1")
-        self.cycles = cycles or tb.cycles(cfg.run.duration if duration is None else duration)
-        self.law, self.wiring = build_law(cfg, tb.period), wiring_of(cfg)
-        output_folder(cfg.run.output, f"{cfg.source}: [run]")
+        # first what needs no bus (``plan_run``): a bad value is one error and nothing was opened
+        plan = self.plan = plan_run(cfg, emulate=self.emulate, duration=duration, cycles=cycles)
+        self.timebase, self.cycles = plan.timebase, plan.cycles
         # then the transport, the axes on it, the recorder
-        transport = self.transport = open_transport(cfg, tb, emulate=self.emulate)
-        for a in cfg.axes:
-            spec = dataclasses.replace(transport.endpoint(a), mode_timeout=transport.wait(a.mode_timeout))
-            axis = open_axis(
-                spec, network=transport.network, period=tb.period, bus=cfg.bus, realtime=tb.realtime
-            )
-            self.axes.append(axis)
-            transport.attach(axis)
+        transport = self.transport = open_transport(cfg, plan.timebase, emulate=self.emulate)
+        open_axes(cfg, transport, plan.timebase, self.axes)
         self._made_output = not Path(cfg.run.output).exists()  #: the recorder makes the folder
-        # flushed every 50 ms of run time: a killed host loses at most that
-        self.recorder = Recorder(cfg.run.output, cfg.run.name, flush_period=0.05, trace=cfg.run.trace)
-        self.recorder.write_config(cfg.as_dict() | {"resolved_period": tb.period, "emulate": self.emulate})
+        self.recorder = open_recorder(cfg, plan.timebase, emulate=self.emulate)
         self._tap = self.recorder.on_frame
         transport.add_tap(self._tap)  # the trace: every frame sent and received
 
     # --- running -------------------------------------------------------------------------------
     def start(self) -> None:
-        """Set every axis up and enable it (in configuration order); on failure, nothing stays enabled."""
+        """Set every axis up and enable it (in configuration order); on failure, nothing stays enabled.
+
+        Raises
+        ------
+        NodeSilent
+            A node that did not answer, with the ``rig scan`` line that lists those that do.
+        """
         transport, tb = self.transport, self.timebase
         reached = False  #: an axis was set up (its run directory tells what was done to it)
         probe = transport.time_probe(self.axes)
@@ -160,7 +173,15 @@ class Session:
                 probe.close()
             self._setup_failed(exc, reached)
             raise
-        self.loop = self._loop()
+        self.loop = host_loop(
+            self.cfg,
+            self.plan,
+            self.axes,
+            transport=transport,
+            pacing=self.pacing,
+            recorder=self.recorder,
+            signals=self.signals,
+        )
 
     def _setup_failed(self, exc: BaseException, reached: bool) -> None:
         """Nothing stays enabled; a run that reached no device leaves no run directory."""
@@ -179,55 +200,37 @@ class Session:
                 with contextlib.suppress(OSError):
                     Path(self.cfg.run.output).rmdir()  # only if empty
 
-    def _loop(self) -> HostLoop:
-        """The host loop over the set-up axes (what each measures is known now)."""
-        cfg, tb = self.cfg, self.timebase
-        guards = [
-            AxisGuard(axis, a.limits, tb.period, realtime=tb.realtime) for axis, a in zip(self.axes, cfg.axes)
-        ]
-        split = tb.realtime and self.pacing.sends_sync
-        columns = HostLoop.columns(self.axes, self.law, self.wiring, split=split)
-        self.recorder.begin(columns, describe_columns(columns, self.axes, self.law))
-        return HostLoop(
-            self.axes,
-            guards,
-            self.law,
-            self.wiring,
-            recorder=self.recorder,
-            pacing=self.pacing,
-            timebase=tb,
-            cycles=self.cycles,
-            options=LoopOptions(
-                stop_timeout=max(a.stop_timeout for a in cfg.axes),
-                heartbeat=self.transport.heartbeat(self.axes),
-                on_stop=self.signals.stopping,
-                held=self.signals.held,
-                missed_sample=cfg.run.missed_sample,
-                late_stop=cfg.run.late_stop,
-                producers=self.transport.producers,
-            ),
-        )
-
     def run(
         self, progress: Callable[[int], None] | None = None, live: LiveView | None = None
     ) -> dict[str, Any]:
-        """Run the loop (``start()`` first), with ``live`` fed each recorded row; stop the live view,
-        SYNC and the trace; close the recorder; the summary."""
+        """Run the loop (``start()`` first); stop the live view, SYNC and the trace; close the recorder.
+
+        Parameters
+        ----------
+        progress : Callable[[int], None] | None
+            ``progress(k)`` every 1 % of the cycles (None: not).
+        live : LiveView | None
+            Fed each recorded row (None: no live view).
+
+        Returns
+        -------
+        dict[str, Any]
+            The summary.
+
+        Raises
+        ------
+        RuntimeError
+            Before ``start()``.
+        """
         loop = self.loop
         if loop is None:
             raise RuntimeError("Session.run() before start()")
         summary: dict[str, Any] = {}
         if live is not None:
-            self._watch(live)
+            watch_live(live, self.recorder, self.cfg, self.axes)
         grant = None
         try:
-            if self.timebase.realtime:
-                run = self.cfg.run
-                ask = RealtimeRequest(run.rt_priority, run.rt_cpu, run.rt_lock_memory, run.rt_cpu_latency)
-                grant = request(ask, self.transport.receive_threads())
-                loop.granted = grant.record() | ({"bus_load": self.bus_figures} if self.bus_figures else {})
-                if grant.fifo:
-                    loop.spin = 0.0  # sleeps to each deadline: no spin at real-time priority
+            grant = grant_realtime(self.cfg, loop, self.transport, self.bus_figures)
             summary = loop.run(progress)
             said = missed_period(summary, self.timebase.period)
             if said:
@@ -247,13 +250,6 @@ class Session:
                 )
             self._finish(summary)
         return summary
-
-    def _watch(self, live: LiveView) -> None:
-        """Start ``live`` on each axis's reference, measurement and command (``rig.live.channels``)."""
-        rec = self.recorder
-        modes = {a.name: a.mode for a in self.axes}
-        live.start(channels_of(rec.columns, rec.docs, self.cfg.controller.reads, modes), rec.dir.name)
-        rec.live = live.rows
 
     def _finish(self, summary: dict[str, Any]) -> None:
         self.pacing.close()

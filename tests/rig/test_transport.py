@@ -30,11 +30,13 @@ def _tree(name: str) -> ast.Module:
     return ast.parse((HOST / name).read_text())
 
 
-def test_the_session_asks_no_transport_which_it_is() -> None:
-    """No isinstance of an axis or a transport, no hasattr in the session, no test of emulation or
-    time mode, no private attribute of another object (an axis's ``_forget``/``_release``)."""
+@pytest.mark.parametrize("name", sorted(p.name for p in HOST.glob("session*.py")))
+def test_the_session_asks_no_transport_which_it_is(name: str) -> None:
+    """No isinstance of an axis or a transport, no hasattr in the session (and the parts it builds,
+    ``session_parts.py``), no test of emulation or time mode, no private attribute of another object
+    (an axis's ``_forget``/``_release``)."""
     found = []
-    for node in ast.walk(_tree("session.py")):
+    for node in ast.walk(_tree(name)):
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
             kinds = ast.unparse(node.args[1]) if len(node.args) > 1 else ""
             if node.func.id == "hasattr" or (node.func.id == "isinstance" and _KIND.search(kinds)):
