@@ -32,7 +32,6 @@ DEBTS: dict[str, int] = {
     "plant_emulator/socketcand_server.py": 421,
     "plant_emulator/socketcand_server.py::SocketcandServer": 338,
     "rig/bench/floor.py::sleep_floor": 62,
-    "rig/cli/common.py": 540,
     "rig/commission/dcf.py::dcf_text": 70,
     "rig/commission/dictionary.py::read_dictionary": 64,
     "rig/commission/moves.py::move": 87,
