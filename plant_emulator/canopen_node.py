@@ -7,9 +7,9 @@ NMT state, a heartbeat producer driven by the device's clock (emulated time
 in lock-step, so traces repeat), a SYNC consumer, TPDOs packed from the object
 dictionary (synchronous every n-th SYNC, or event-driven on change and on the
 event timer), and RPDOs unpacked into the object dictionary (at the next SYNC
-for synchronous types 0-240, on receipt for 254/255). PDO communication and
-mapping parameters (0x1400-0x1BFF) are read from the object dictionary, so a
-remap written through SDO takes effect at the next use.
+for synchronous types 0-240, on receipt for 254/255: ``plant_emulator.pdo_exchange``).
+PDO communication and mapping parameters (0x1400-0x1BFF) are read from the object
+dictionary, so a remap written through SDO takes effect at the next use.
 
 NMT gating (CiA 301, 7.3.2): PRE-OPERATIONAL: SDO, SYNC, EMCY, heartbeat;
 OPERATIONAL: all; STOPPED: NMT and heartbeat only. In lock-step a SYNC is also
@@ -42,9 +42,7 @@ from drivers.maps.cia import (
     COB_NMT,
     COMMUNICATION_AREA,
     PDO_BLOCK,
-    PDO_SYNC_MAX,
     EmcyCode,
-    ErrorRegister,
     NmtCommand,
     NmtState,
     SdoAbortCode,
@@ -55,7 +53,8 @@ from plant_emulator.frame import Frame
 from plant_emulator.lss_slave import UNCONFIGURED, check_node_id, lss_slave
 from plant_emulator.od_store import ObjectStore, StoreNode
 from plant_emulator.param_store import ParameterStore
-from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write, pack, read_pdos
+from plant_emulator.pdo import MAPPINGS, PARAMETERS, PdoConfig, check_mapping_write
+from plant_emulator.pdo_exchange import PdoExchange
 from plant_emulator.sdo_server import SdoServer
 from plant_emulator.supervision import Deadlines, HeartbeatConsumer, Supervision, check_consumer_entry
 
@@ -110,17 +109,8 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.sdo_delay = 0.0  #: [s] real time: an SDO request is answered this long after it came
         self._deferred: list[tuple[float, int, bytes, float]] = []  #: (due [s], COB-ID, data, stamp)
         self._last_heartbeat = -1e9
-        self._sync_count = 0
-        self._tpdos: list[PdoConfig] = []
-        self._rpdos: list[PdoConfig] = []
-        self._sync_tpdos: list[PdoConfig] = []  #: valid, mapped, types 1-240
-        self._event_tpdos: list[PdoConfig] = []  #: valid, mapped, types 254/255
-        self._rpdo_of_cob: dict[int, PdoConfig] = {}  #: valid, mapped
-        self._rpdo_subscribed: list[int] = []
+        self.pdos = PdoExchange(self, self._send)  #: its TPDOs and RPDOs
         self._sync_cob: int | None = None
-        self._pending_sync_rpdo: dict[int, bytes] = {}
-        self._last_event: dict[int, bytes] = {}
-        self._last_event_time: dict[int, float] = {}
         self._dirty = True
         self.heartbeats = HeartbeatConsumer()  #: 0x1016
         self.rpdo_deadlines = Deadlines()  #: RPDO number -> event timer
@@ -257,8 +247,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         now : float
             [s] the device clock.
         """
-        for pdo in self._event_tpdos:
-            self._event_tpdo(pdo, now)
+        self.pdos.send_events(now)
 
     # --- SDO -------------------------------------------------------------
     def _on_sdo(self, can_id: int, data: bytes, timestamp: float) -> None:
@@ -326,9 +315,6 @@ class EmulatedNode(Supervision, DeviceHooks):
         self.after_write(index)
 
     # --- PDO -------------------------------------------------------------
-    def _pack(self, pdo: PdoConfig) -> bytes:
-        return pack(self.od, pdo)
-
     def _send(self, cob_id: int, data: bytes) -> None:
         """A frame from this node (on the bus directly: canopen's ``send_message`` adds a lock
         and a check that cost a third of the frame, and the devices are driven by one thread)."""
@@ -341,17 +327,7 @@ class EmulatedNode(Supervision, DeviceHooks):
         if not self._dirty:
             return
         self._dirty = False
-        pdos = read_pdos(self.od, self.node.object_dictionary)
-        self._tpdos, self._rpdos, self._rpdo_of_cob = pdos.tpdos, pdos.rpdos, pdos.rpdo_of_cob
-        self._sync_tpdos, self._event_tpdos = pdos.sync_tpdos, pdos.event_tpdos
-        for cob in self._rpdo_subscribed:
-            self.network.unsubscribe(cob, self._on_rpdo_frame)
-        self._rpdo_subscribed = list(self._rpdo_of_cob)
-        for cob in self._rpdo_subscribed:
-            self.network.subscribe(cob, self._on_rpdo_frame)
-        self.rpdo_deadlines.configure(
-            {p.number: p.event_timer_ms / 1000.0 for p in self._rpdo_of_cob.values()}  # ms -> s
-        )
+        self.pdos.configure()
         self._configure_consumer()
         sync_cob = self._u(cia.COB_ID_SYNC, 0) & COB_ID_MASK
         if sync_cob != self._sync_cob:
@@ -360,77 +336,14 @@ class EmulatedNode(Supervision, DeviceHooks):
             self.network.subscribe(sync_cob, self._on_sync)
             self._sync_cob = sync_cob
 
-    def _on_rpdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
-        if self.node.nmt._state != OPERATIONAL:
-            return
-        self.rx_time = timestamp
-        try:
-            pdo = self._rpdo_of_cob[can_id]
-        except KeyError:
-            return
-        if len(data) != pdo.size:  # CiA 301: not processed, EMCY 0x8210 (too short) / 0x8220 (too long)
-            log.warning(
-                "node %d: RPDO%d with %d bytes, mapped %d: ignored",
-                self.node_id,
-                pdo.number + 1,
-                len(data),
-                pdo.size,
-            )
-            code = EmcyCode.PDO_TOO_SHORT if len(data) < pdo.size else EmcyCode.PDO_TOO_LONG
-            self.emcy(code, ErrorRegister.GENERIC | ErrorRegister.COMMUNICATION)
-            return  # nor is it the master alive: the RPDO's deadline is not fed by it
-        if pdo.number in self.rpdo_deadlines.times:
-            self.rpdo_deadlines.heard(pdo.number, self.heard_now())
-        if pdo.ttype <= PDO_SYNC_MAX:
-            self._pending_sync_rpdo[pdo.number] = bytes(data)
-        else:
-            self._unpack(pdo, bytes(data))
-            self.on_rpdo(pdo.number, synchronous=False)
-
-    def _unpack(self, pdo: PdoConfig, data: bytes) -> None:
-        """Write an RPDO's data into the mapped objects, as an SDO write would (callbacks first)."""
-        if len(data) < pdo.size:
-            log.warning("node %d: RPDO%d shorter than its mapping", self.node_id, pdo.number + 1)
-            return
-        store, obj = self.node.store, self.od.obj
-        self.in_rpdo = True
-        try:
-            for index, sub, start, end in pdo.slices:
-                store(index, sub, obj(index, sub), data[start:end])
-        finally:
-            self.in_rpdo = False
-
-    def _event_tpdo(self, pdo: PdoConfig, now: float) -> None:
-        payload = self._pack(pdo)
-        last = self._last_event.get(pdo.number)
-        timer = pdo.event_timer_ms / 1000.0
-        due = timer > 0.0 and now - self._last_event_time.get(pdo.number, -1e9) >= timer - 1e-9
-        if payload != last or due:
-            self._last_event[pdo.number] = payload
-            self._last_event_time[pdo.number] = now
-            self._send(pdo.cob_id, payload)
-
     def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
         if self._dirty:
             self._configure()
         self.on_sync_latch(timestamp)  # the device's work: in every NMT state (lock-step's time step)
         now = self.sync_time(timestamp)
-        nmt = self.node.nmt  # its state read where it counts, as it may change meanwhile
-        if nmt._state not in _SDO_SYNC_STATES:
-            self.tick(now)
-            return
-        self._sync_count += 1
-        if nmt._state == OPERATIONAL:
-            send, od = self._send, self.od
-            for pdo in self._sync_tpdos:
-                if self._sync_count % pdo.ttype == 0:
-                    send(pdo.cob_id, pack(od, pdo))
-            if self._pending_sync_rpdo:
-                pending, self._pending_sync_rpdo = self._pending_sync_rpdo, {}
-                rpdos = {p.number: p for p in self._rpdos}
-                for number, payload in sorted(pending.items()):
-                    self._unpack(rpdos[number], payload)
-                    self.on_rpdo(number, synchronous=True)
+        state = self.node.nmt._state  # read where it counts, as it may change meanwhile
+        if state in _SDO_SYNC_STATES:
+            self.pdos.on_sync(operational=state == OPERATIONAL)
         self.tick(now)
 
     def emcy(self, code: int, register: int, data: bytes = b"") -> None:

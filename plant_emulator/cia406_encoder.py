@@ -22,6 +22,7 @@ from drivers.maps.cia406 import (
     ENCODER_SPEED,
 )
 from plant_emulator.canopen_node import EmulatedNode
+from plant_emulator.pdo import pack
 from plant_emulator.shaft import Shaft
 
 __all__ = ["EmulatedEncoder"]
@@ -136,7 +137,7 @@ class EmulatedEncoder(EmulatedNode):
         if timer and now - self._last_cyclic >= timer / 1000.0 - 1e-9:
             self._last_cyclic = now
             self.write(ENCODER_POSITION, 0, self.counts() % (self.od.read(ENCODER_RESOLUTION, 0) * _TURNS))
-            for pdo in self._event_tpdos:
-                self._send(pdo.cob_id, self._pack(pdo))
+            for pdo in self.pdos.tables.event_tpdos:
+                self._send(pdo.cob_id, pack(self.od, pdo))
 
     _last_cyclic = -1e9

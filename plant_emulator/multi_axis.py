@@ -254,7 +254,7 @@ class MultiAxisDrive(EmulatedDrive):
         synchronous : bool
             Applied at the next SYNC.
         """
-        pdo = next((p for p in self._rpdos if p.number == number), None)
+        pdo = next((p for p in self.pdos.tables.rpdos if p.number == number), None)
         axes = {object_axis(index)[0] for index, *_ in pdo.slices} if pdo is not None else {1}
         if axes & {0, 1}:
             super().on_rpdo(number, synchronous=synchronous)

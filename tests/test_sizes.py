@@ -26,8 +26,6 @@ DEBTS: dict[str, int] = {
     "drivers/maps/eds_writer.py::eds_text": 61,
     "drivers/modbus_inverter.py": 406,
     "drivers/modbus_inverter.py::ModbusInverterAxis": 359,
-    "plant_emulator/canopen_node.py": 450,
-    "plant_emulator/canopen_node.py::EmulatedNode": 374,
     "plant_emulator/im_kernel.py::_foc_periods": 68,
     "plant_emulator/socketcand_server.py": 421,
     "plant_emulator/socketcand_server.py::SocketcandServer": 338,

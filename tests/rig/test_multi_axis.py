@@ -42,7 +42,7 @@ def test_two_axes_of_one_node_run_independently_by_their_own_objects(tmp_path: p
         drive = session.transport.emulation.devices[0]  # type: ignore[union-attr]
         mapped = {
             f"{'R' if receive else 'T'}PDO{p.number + 1}": {_axis_of(index) for index, _, _ in p.mapping}
-            for receive, pdos in ((True, drive._rpdos), (False, drive._tpdos))
+            for receive, pdos in ((True, drive.pdos.tables.rpdos), (False, drive.pdos.tables.tpdos))
             for p in pdos
             if p.valid and p.mapping
         }
