@@ -53,15 +53,9 @@ import can
 
 from drivers.bus_time import DEFAULT_BITRATE, BusTime
 from plant_emulator.lockstep import SyncHub
+from plant_emulator.socketcand_commands import ClientCommands
 from plant_emulator.socketcand_link import ClientLink, check_limits
-from plant_emulator.socketcand_protocol import (
-    MAX_COMMAND,
-    CommandTooLong,
-    ProtocolError,
-    checked_command,
-    format_frame,
-    parse_send,
-)
+from plant_emulator.socketcand_protocol import MAX_COMMAND, CommandTooLong, format_frame, parse_send
 
 __all__ = ["BACKLOG", "MAX_COMMAND", "SocketcandServer", "format_frame", "parse_send"]
 
@@ -70,15 +64,6 @@ log = logging.getLogger(__name__)
 _CHUNK = 65536  #: [bytes] read at a time
 BACKLOG = 1024  #: connections the kernel holds until they are accepted
 _LOOK = 0.25  #: [s] how often a client whose kernel buffer is full is looked at again
-
-
-def _arbitration(msg: can.Message) -> int:
-    """The frame's rank in CAN arbitration (lower wins): the 11-bit base identifier first, then
-    a standard frame before an extended one of that base (its IDE bit is dominant), then the
-    18-bit extension (ISO 11898-1)."""
-    if msg.is_extended_id:
-        return ((msg.arbitration_id >> 18) << 19) | (1 << 18) | (msg.arbitration_id & 0x3FFFF)
-    return msg.arbitration_id << 19
 
 
 class SocketcandServer:
@@ -123,7 +108,7 @@ class SocketcandServer:
         self._links: set[ClientLink] = set()  #: every client connected (the I/O thread's)
         self._dirty: collections.deque[ClientLink] = collections.deque()  #: links with lines to send
         self._signalled = False  #: the I/O thread has been woken and not yet looked
-        self._tickets = 0  #: frames that came to wait for the bus so far (their order)
+        self.commands = ClientCommands(self._put, self._rawmode)  #: what the clients' commands do
         self._sender: ClientLink | None = None  #: the client whose frame the devices answer now
         self._stopping = threading.Event()
         self.accepted = 0  #: connections accepted so far
@@ -268,18 +253,18 @@ class SocketcandServer:
             client.commands.extend(client.splitter.feed(chunk))
         except CommandTooLong as exc:
             client.commands.clear()
-            self._reply(client, f"< error {exc} >")
+            self._put(client, f"< error {exc} >")
             client.send(time.monotonic())  # the error goes out if the kernel takes it now
             self._drop(client, str(exc))
 
     def _serve(self) -> None:
         """The clients' commands. What needs no bus is done at once; a frame waits until the bus
         has room, and of the frames waiting the one CAN arbitration lets through goes first
-        (``_arbitration``: the lowest identifier; equal ones in the order they came to wait),
-        each client's own in their order. A client whose queue is crowded or whose commands
-        wait is not read (TCP holds its sender)."""
+        (``socketcand_commands.arbitration``: the lowest identifier; equal ones in the order they
+        came to wait), each client's own in their order. A client whose queue is crowded or whose
+        commands wait is not read (TCP holds its sender)."""
         while True:
-            waiting = [c for c in self._links if self._advance(c)]
+            waiting = [c for c in self._links if self.commands.advance(c)]
             if not waiting or self.bus_time.wait(time.monotonic()) > 0.0:
                 break
             first = min(waiting, key=lambda c: c.head_key)
@@ -289,30 +274,6 @@ class SocketcandServer:
             self._relay(first, msg)
         for client in list(self._links):
             self._listen(client)
-
-    def _advance(self, client: ClientLink) -> bool:
-        """``client``'s commands that need no bus, up to its first frame; True when a frame of
-        it waits for the bus."""
-        while client.commands and not client.crowded and client.doomed is None:
-            if client.head is not None:
-                return True
-            text = client.commands[0]
-            if not text.lstrip("< \t\r\n").startswith("send"):
-                client.commands.popleft()
-                self._command(client, text)
-                continue
-            try:
-                msg = parse_send(text)  # checked before the bus is opened: the error names the field
-                if not client.opened:
-                    raise ProtocolError("send before '< open BUS >'")
-            except ProtocolError as exc:
-                client.commands.popleft()
-                self._refuse(client, exc)
-                continue
-            self._tickets += 1
-            client.head, client.head_key = msg, (_arbitration(msg), self._tickets)
-            return True
-        return False
 
     def _listen(self, client: ClientLink) -> None:
         """Register ``client`` for what it needs now: reading once its commands are done."""
@@ -366,33 +327,7 @@ class SocketcandServer:
         for sock in (self._listener, self._wake_in, self._wake_out):
             sock.close()
 
-    def _reply(self, client: ClientLink, line: str) -> None:
-        self._put(client, line)
-
     # --- commands -----------------------------------------------------------------------------
-
-    def _command(self, client: ClientLink, text: str) -> None:
-        """Do one command but ``send`` (``_advance``; checked by ``checked_command``); a refused one
-        is answered."""
-        try:
-            verb = checked_command(text, opened=client.opened, rawmode=client.rawmode)
-        except ProtocolError as exc:
-            self._refuse(client, exc)
-            return
-        if verb == "open":  # any bus name will do (there is one bus)
-            self._reply(client, "< ok >")
-            client.opened = True
-        elif verb == "rawmode":
-            self._rawmode(client)
-        else:
-            self._reply(client, "< echo >")
-
-    def _refuse(self, client: ClientLink, exc: ProtocolError) -> None:
-        """``< error ... >`` to ``client`` (its first refusal logged)."""
-        client.errors += 1
-        level = logging.WARNING if client.errors == 1 else logging.DEBUG
-        log.log(level, "socketcand: client %s: %s (%d refused so far)", client.name, exc, client.errors)
-        self._reply(client, f"< error {exc} >")
 
     def _rawmode(self, client: ClientLink) -> None:
         """``< rawmode >``: ``< ok >``, then every frame."""

@@ -24,8 +24,6 @@ DEBTS: dict[str, int] = {
     "drivers/modbus_inverter.py": 406,
     "drivers/modbus_inverter.py::ModbusInverterAxis": 359,
     "plant_emulator/im_kernel.py::_foc_periods": 68,
-    "plant_emulator/socketcand_server.py": 421,
-    "plant_emulator/socketcand_server.py::SocketcandServer": 338,
     "rig/bench/floor.py::sleep_floor": 62,
     "rig/commission/dcf.py::dcf_text": 70,
     "rig/commission/dictionary.py::read_dictionary": 64,
