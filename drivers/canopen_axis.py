@@ -53,7 +53,6 @@ class CanopenAxis(AxisDriver):
     sample_name, wall_stamps = "TPDO", True  #: a TPDO's stamp: its frame's receive time
     #: how the user gives the device's own EDS (``rig drive`` says ``--eds FILE``)
     eds_hint = 'the axis\'s eds = "FILE"'
-    device_id = Identity()  #: 0x1018 as read at set-up (``check_identity``)
     #: SDO response timeout [s] and retries; a test may override them
     SDO_TIMEOUT = 0.3
     SDO_RETRIES = 1
@@ -85,6 +84,7 @@ class CanopenAxis(AxisDriver):
         self.eds_given = eds_given
         self.heartbeat_timeout = heartbeat_timeout  #: [s]; 0: not supervised
         self.network = network
+        self.device_id = Identity()  #: 0x1018 as read at set-up (``check_identity``)
         try:
             od = axis_dictionary(load_od(eds, node_id), axis, source=str(eds), generic=not eds_given)
         except BaseException:
@@ -161,9 +161,10 @@ class CanopenAxis(AxisDriver):
 
     def check_identity(self, *, give: str) -> Identity:
         """0x1018 read from the device and checked against the EDS in use
-        (``drivers.identity.check_identity``; ``give``: how the user gives the device's own)."""
+        (``drivers.identity.check_identity``; ``give``: how the user gives the device's own), kept
+        as ``device_id``."""
         device = read_identity(self.sdo_upload)
-        return check_identity(
+        self.device_id = check_identity(
             device,
             self.node.object_dictionary,
             eds=self.eds,
@@ -171,6 +172,7 @@ class CanopenAxis(AxisDriver):
             where=f"axis {self.name!r} (node {self.node_id})",
             give=give,
         )
+        return self.device_id
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """Write an object by SDO; SdoAbort or CommunicationTimeout on failure."""

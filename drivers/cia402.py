@@ -6,15 +6,15 @@ state (#309), and a controlword mapped in a synchronous RPDO is only buffered un
 RPDO is transmitted. Here the controlword goes by SDO during state changes, and the host
 loop transmits the RPDO once per cycle.
 
-Set-up takes the drive as it is (``setup``):
+Set-up takes the drive as it is (``setup``), calling the axis's parts in turn:
 
 - its identity (0x1000 must be a CiA 402 device, 0x1018) and modes (0x6502 where it has
-  one: the configured mode must be there before 0x6060 is written);
-- its units (``drivers.cia402_units``: 0x608F/0x6091/0x6092/0x60A8/0x60A9, 0x6075/0x6076,
-  else ``[axis.units]``);
+  one: the configured mode must be there before 0x6060 is written) and its units
+  (``drivers.cia402_units``: 0x608F/0x6091/0x6092/0x60A8/0x60A9, 0x6075/0x6076, else
+  ``[axis.units]``): ``discovery``, ``drivers.cia402_discovery``;
 - the mode: 0x6060 written (never read first: it may be write-only), then 0x6061 awaited
-  for ``mode_timeout`` [s];
-- the process data (``drivers.cia402_pdo``): ``pdo="remap"`` writes a mapping that fits the
+  for ``mode_timeout`` [s]: ``settings``, ``drivers.cia402_setup``;
+- the process data (``mapping``, ``drivers.cia402_mapping``): ``pdo="remap"`` writes a mapping that fits the
   device (its PDOs, mappability, 64 bits) and falls back, with a warning, to
   ``pdo="device"`` when the device refuses; ``pdo="device"`` uses the mapping in force.
   Frames are decoded from the mapping in force (``drivers.cia402_process``).
@@ -30,7 +30,6 @@ OPERATION ENABLED or changes mode stops the run, named.
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -38,16 +37,14 @@ import canopen
 
 from drivers.base import AxisState, Feedback
 from drivers.cia402_cycle import Cia402Cycle
+from drivers.cia402_discovery import Cia402Discovery
 from drivers.cia402_feedback import FEEDBACK_NAMES, feedback_problem
-from drivers.cia402_setup import VELOCITY, Cia402Setup
+from drivers.cia402_mapping import Cia402Mapping
+from drivers.cia402_setup import Cia402Setup
 from drivers.cia402_states import DISABLED_STATES, PowerStates, power_state
 from drivers.cia402_supervision import DriveSupervision
 from drivers.cia402_units import DriveUnits
-from drivers.errors import (
-    ConfigError,
-    DeviceFault,
-    RigError,
-)
+from drivers.errors import ConfigError, DeviceFault
 from drivers.maps import CIA402_EDS, cia
 from drivers.maps.cia import Mode, PowerState
 from drivers.maps.cia402_needs import needed, require
@@ -75,7 +72,7 @@ def _checked(name: str, mode: str, pdo: str, feedback: Iterable[str]) -> Mode:
     return op_mode
 
 
-class Cia402Axis(Cia402Setup, Cia402Cycle):
+class Cia402Axis(Cia402Cycle):
     """A CiA 402 drive at ``node_id`` in ``mode`` (``drivers.base.AXIS_MODES``); SI in and out.
 
     Parameters
@@ -165,18 +162,14 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             sdo_retries=sdo_retries,
             axis=axis,
         )
-        self.given_units = dict(units or {})
-        self.sync_rpdo = sync_rpdo
-        self.latency = latency
-        self.pdo = pdo
-        self.mode_timeout = mode_timeout
+        #: set-up's parts: what the drive is, its process data, its settings and mode
+        self.discovery = Cia402Discovery(self, units)
+        self.mapping = Cia402Mapping(self, pdo, sync_rpdo=sync_rpdo, latency=latency)
+        self.settings = Cia402Setup(self, mode_timeout)
         #: the drive's watch of the host and of its commands (its part, ``drivers.cia402_supervision``)
         self.supervision = DriveSupervision(self, host, abort_connection, rpdo_deadline)
-        self._speed_misses = 0  #: calls of ``shaft_speed`` since the last new velocity TPDO
         self.reset_fault = reset_fault  #: a drive found in FAULT at enable is reset (else refused)
         self.emcy_texts = dict(emcy_texts or {})
-        self.identity: dict[str, int] = {}
-        self.supported_modes: frozenset[int] | None = None
         self._sent = False  #: an SDO download or an NMT command went to the drive
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
@@ -190,9 +183,9 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         value : Any
             What to write.
         """
-        self.guard_manufacturer(index, f"an SDO download to 0x{index:04X}:{subindex:02X}")
+        self.discovery.guard_manufacturer(index, f"an SDO download to 0x{index:04X}:{subindex:02X}")
         self._sent = True
-        if not self.standard_write(index, subindex, value):  # the device's, met without its EDS
+        if not self.discovery.standard_write(index, subindex, value):  # the device's, met without its EDS
             super().sdo_write(index, subindex, value)
 
     def nmt(self, state: str) -> None:
@@ -216,23 +209,44 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             return
         super().close()
 
-    # --- set-up ----------------------------------------------------------------------------------
+    # --- set-up: its parts called in turn -------------------------------------------------------
     def setup(self) -> None:
         """Identity, modes, units, the drive's own RPDO where its mapping is fixed (all read: a
         refusal sends nothing), PRE-OPERATIONAL, mode, process data, OPERATIONAL (still disabled).
         A dictionary that lacks what the mode needs (``drivers.maps.cia402_needs``) is refused
         once the drive is identified, before anything is written."""
         self.discover()
-        limits = [self._optional(index) for index in ACCELERATION_LIMITS]
+        limits = [self.discovery.optional(index) for index in ACCELERATION_LIMITS]
         self.max_acceleration = declared_acceleration(limits, self.units.velocity)
         what = f"axis {self.name!r} ({self.where}) in mode {self.mode}"
         require(self.node.object_dictionary, needed(self.op_mode), source=self.eds, what=what)
-        self.refuse_foreign_rpdo()
+        self.mapping.refuse_foreign_rpdo()
         self.nmt("PRE-OPERATIONAL")
-        self.set_mode(self.op_mode)
-        self.map_process_data()
+        self.settings.set_mode(self.op_mode)
+        self.data, self.measures, self._motion, self._plan = self.mapping.map_process_data()
         self.supervision.configure()
         self.nmt("OPERATIONAL")
+
+    def discover(self, *, check_mode: bool = True) -> DriveUnits:
+        """What the drive is (``Cia402Discovery.discover``), its units kept as ``units``.
+
+        Parameters
+        ----------
+        check_mode : bool
+            Check the mode against 0x6502 and require its factors (not in commissioning).
+
+        Returns
+        -------
+        drivers.cia402_units.DriveUnits
+            The drive's units.
+        """
+        self.units = self.discovery.discover(check_mode=check_mode)
+        return self.units
+
+    @property
+    def toolkit_drive(self) -> bool:
+        """The toolkit's own drive, positively identified by its 0x1018 (``Identity.toolkit``)."""
+        return self.device_id.toolkit
 
     # --- state machine ---------------------------------------------------------------------------
     def read_power_state(self) -> PowerState:
@@ -256,7 +270,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         str
             Its code and text, or that it has none.
         """
-        code = self._optional(cia.ERROR_CODE)
+        code = self.discovery.optional(cia.ERROR_CODE)
         if code is None:
             return "no 0x603F"
         return f"0x603F = 0x{int(code):04X}, {emcy_text(int(code), self.emcy_texts)}"
@@ -265,7 +279,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         """Shutdown, switch on, enable operation (transitions 2, 3, 4), within ``timeout`` [s]; a
         drive in FAULT is reset first with ``reset_fault``, else refused, saying what 0x603F holds.
         The target the drive acts on at once in ``mode`` (None: the axis's) is set first, so it
-        enables at rest where it stands, not at a target left from before (``_hold_still``).
+        enables at rest where it stands, not at a target left from before (``hold_still``).
 
         Parameters
         ----------
@@ -290,7 +304,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
             log.warning("%s: the drive was in FAULT (%s): resetting it", self.where, what)
             self.fault_reset(timeout=timeout)
         self.clear_fault()
-        self._hold_still(self.op_mode if mode is None else int(mode))
+        self.settings.hold_still(self.op_mode if mode is None else int(mode))
         self.supervision.watch()
         self.states.enable(timeout)
 
@@ -310,21 +324,6 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         lifted only once the disable is confirmed (``disable``)."""
         self.states.quick_stop()
 
-    def quanta(self) -> tuple[float, float]:
-        """One position increment [rad] and one velocity unit [rad/s] of the drive (0x608F/0x60A8,
-        0x60A9 or ``[axis.units]``; 0 where not known).
-
-        Returns
-        -------
-        tuple of (float, float)
-            [rad] and [rad/s].
-        """
-        u = self.units
-        return (
-            1.0 / u.position if math.isfinite(u.position) and u.position else 0.0,
-            1.0 / u.velocity if math.isfinite(u.velocity) and u.velocity else 0.0,
-        )
-
     def at_rest(self, fb: Feedback) -> bool:
         """After a quick stop: the statusword shows the ramp ended (SWITCH ON DISABLED, FAULT), or
         QUICK STOP ACTIVE with the motor at rest (0x605A options 5-8). The statusword of the last
@@ -342,29 +341,6 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         """
         return self.states.at_rest(fb)
 
-    def shaft_speed(self) -> float | None:
-        """0x606C [rad/s]: the TPDO's where a new one came since the last call, else read by SDO
-        (a drive whose TPDOs stopped, as after an NMT reset).
-
-        Returns
-        -------
-        float or None
-            [rad/s]; None where neither has it now.
-        """
-        slot = self.data.slot_of(VELOCITY) if self.data is not None else None
-        if slot is not None and slot.timestamp is not None:
-            if slot.timestamp != self._speed_stamp:
-                self._speed_stamp, self._speed_misses = slot.timestamp, 0
-                return float(self.data.value(VELOCITY)) / self.units.velocity  # type: ignore[union-attr]
-            self._speed_misses += 1
-            if self._speed_misses < 3:  # a TPDO late: the next one
-                return None
-        try:
-            return float(self.sdo_read(cia.VELOCITY_ACTUAL)) / self.units.velocity
-        except RigError as exc:
-            log.debug("%s: no speed: %s", self.where, exc)
-            return None
-
     def disable(self) -> None:
         """Disable voltage (transitions 7, 9, 10, 12), confirmed by the statusword (SWITCH ON
         DISABLED, READY TO SWITCH ON or FAULT, read by SDO within ``DISABLE_CONFIRM`` [s]), and
@@ -372,7 +348,7 @@ class Cia402Axis(Cia402Setup, Cia402Cycle):
         RPDO deadline) lifted. A disable not confirmed (the SDO lost, the drive still enabled)
         leaves both in place, so the drive stops itself once the host goes quiet, and raises
         CommunicationError saying so. Nothing on a node whose 0x1000 says it is no CiA 402 drive."""
-        if self.not_a_drive:
+        if self.discovery.not_a_drive:
             return
         self.states.disable(self.supervision.kept)
         self.supervision.unwatch()

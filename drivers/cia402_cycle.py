@@ -2,9 +2,9 @@
 command RPDO.
 
 ``Cia402Cycle`` is the part of ``drivers.cia402.Cia402Axis`` that runs every period, once set-up
-(``drivers.cia402_setup``) has found the mapping in force (``data``: ``drivers.cia402_process``):
-``feedback`` reads the last TPDOs in SI through the plan set-up made for the mapping
-(``drivers.cia402_mapping.CyclePlan``),
+(its part ``drivers.cia402_mapping``) has found the mapping in force (``data``:
+``drivers.cia402_process``): ``feedback`` reads the last TPDOs in SI through the plan made once
+for the mapping (``drivers.cia402_plan.CyclePlan``), ``shaft_speed`` the speed 0x606C,
 ``supervise`` checks the statusword and, where mapped, 0x6061 (a drive that leaves OPERATION
 ENABLED or changes its mode stops the run, named), ``command`` packs and sends the RPDO of the
 mode's target with the controlword.
@@ -12,6 +12,7 @@ mode's target with the controlword.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from typing import Any
@@ -20,7 +21,7 @@ import canopen
 
 from drivers.base import Feedback
 from drivers.canopen_axis import CanopenAxis, TpdoSlot, sample_interval
-from drivers.cia402_mapping import CW, DQ_RX, POSITION, VELOCITY, CyclePlan
+from drivers.cia402_plan import CW, DQ_RX, POSITION, VELOCITY, CyclePlan
 from drivers.cia402_process import ProcessData
 from drivers.cia402_states import PowerStates, power_state
 from drivers.cia402_units import DriveUnits
@@ -30,6 +31,8 @@ from drivers.maps.cia import Mode, PowerState
 from drivers.producer_watch import travel_band
 
 __all__ = ["Cia402Cycle", "power_state"]  # power_state: drivers.cia402_states's
+
+log = logging.getLogger(__name__)
 
 _ENABLED_MASK, _ENABLED_BITS = PowerState.OPERATION_ENABLED.mask, PowerState.OPERATION_ENABLED.bits
 
@@ -91,6 +94,7 @@ class Cia402Cycle(CanopenAxis):
         #: the velocity by difference (no 0x606C mapped): the last sample's (stamp, position, velocity)
         self._moved: tuple[float | None, float, float] = (None, math.nan, 0.0)
         self._target_raw: int | None = None  #: the target of the last command, in the drive's units
+        self._speed_misses = 0  #: calls of ``shaft_speed`` since the last new velocity TPDO
 
     def feedback(self) -> Feedback:
         """The last TPDOs in SI (the frame angle unwrapped in mode -2).
@@ -116,6 +120,32 @@ class Cia402Cycle(CanopenAxis):
             values[p + v + plan.torque] / 1000.0 * u.rated_current if plan.current else math.nan,
             stamp,
         )
+
+    def quanta(self) -> tuple[float, float]:
+        return self.units.quanta()  # 0x608F/0x60A8, 0x60A9 or [axis.units]
+
+    def shaft_speed(self) -> float | None:
+        """0x606C [rad/s]: the TPDO's where a new one came since the last call, else read by SDO
+        (a drive whose TPDOs stopped, as after an NMT reset).
+
+        Returns
+        -------
+        float or None
+            [rad/s]; None where neither has it now.
+        """
+        slot = self.data.slot_of(VELOCITY) if self.data is not None else None
+        if slot is not None and slot.timestamp is not None:
+            if slot.timestamp != self._speed_stamp:
+                self._speed_stamp, self._speed_misses = slot.timestamp, 0
+                return float(self.data.value(VELOCITY)) / self.units.velocity  # type: ignore[union-attr]
+            self._speed_misses += 1
+            if self._speed_misses < 3:  # a TPDO late: the next one
+                return None
+        try:
+            return float(self.sdo_read(cia.VELOCITY_ACTUAL)) / self.units.velocity
+        except RigError as exc:
+            log.debug("%s: no speed: %s", self.where, exc)
+            return None
 
     def _difference(self, position: float, stamp: float | None) -> float:
         """[rad/s] the backward difference of ``position`` (the sample stamped ``stamp``) from the

@@ -1,13 +1,13 @@
-"""How the host sets a CiA 402 drive up: discovery, the mode, the process data.
+"""How the host sets a CiA 402 drive up: the settings it writes, the mode, the target held still.
 
-``Cia402Setup`` is the set-up part of ``drivers.cia402.Cia402Axis`` (a mixin over its SDO
-access): ``discover`` (``drivers.cia402_discovery``: 0x1000 and the axis, 0x1018, 0x6502 against
-the mode, the units of ``drivers.cia402_units``), ``set_mode`` (0x6060 written, never read; 0x6061 awaited),
-``map_process_data`` (``drivers.cia402_mapping``), and before each enable the target the mode
-acts on as it stands (``_hold_still``); the drive's watch of the host is the axis's part
-``drivers.cia402_supervision.DriveSupervision``. It writes no manufacturer
-object and uses no manufacturer mode but on the toolkit's own drive (``toolkit_drive``, by
-0x1018), and only entries the EDS declares writable (``drivers.cia402_access.Setting``).
+``Cia402Setup`` is a part of ``drivers.cia402.Cia402Axis``, called from its set-up and before each
+enable: ``setting`` writes an entry only where the EDS declares it writable
+(``drivers.cia402_access.Setting``), ``set_mode`` writes 0x6060 (never read) and awaits 0x6061,
+``hold_still`` sets the target the mode acts on as it stands before an enable. The axis's other
+parts: what the drive is (``drivers.cia402_discovery``), its process data
+(``drivers.cia402_mapping``), its watch of the host (``drivers.cia402_supervision``). No
+manufacturer mode is used but on the toolkit's own drive (``toolkit_drive``, by 0x1018). The part
+owns its state; what it needs of its axis is ``SetAxis``.
 """
 
 from __future__ import annotations
@@ -15,32 +15,17 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from drivers.cia402_access import Setting
 from drivers.cia402_discovery import Cia402Discovery
-from drivers.cia402_mapping import (
-    CURRENT,
-    CW,
-    DQ_RX,
-    MODE_SHOWN,
-    POSITION,
-    SW,
-    TORQUE,
-    VELOCITY,
-    Cia402Mapping,
-)
 from drivers.cia402_pdo import variable
-from drivers.cia402_process import ProcessData
-from drivers.cia402_units import DriveUnits
+from drivers.cia402_plan import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY
 from drivers.errors import ConfigError, DeviceFault
 from drivers.identity import TOOLKIT_DRIVE, Identity
 from drivers.maps import cia
 from drivers.maps.cia import Mode
 from drivers.maps.mode_names import mode_text
-
-if TYPE_CHECKING:
-    from drivers.canopen_axis import TpdoSlot
 
 __all__ = [
     "CURRENT",
@@ -82,33 +67,44 @@ _IP_THEN = (
 )
 
 
-class Cia402Setup(Cia402Discovery, Cia402Mapping):
-    """See the module docstring."""
+class SetAxis(Protocol):
+    """What the set-up part needs of its axis (``drivers.cia402.Cia402Axis``): its dictionary, its
+    SDO access, what it is (``discovery``) and how to wait."""
 
     node: Any
-    node_id: int
-    name: str
-    mode: str | None
-    op_mode: Mode
-    units: DriveUnits
-    sync_rpdo: bool
-    latency: float
-    pdo: str
-    mode_timeout: float
-    data: ProcessData | None
-    measures: frozenset[str]
+    device_id: Identity
+    discovery: Cia402Discovery
     idle: Callable[[], None]
-    _motion: TpdoSlot | None
 
-    if TYPE_CHECKING:  # the axis's own, used here
+    @property
+    def where(self) -> str:
+        """``node 5`` (and the axis on a drive of several), for messages."""
 
-        @property
-        def where(self) -> str: ...
-        def sdo_read(self, index: int, subindex: int = 0) -> Any: ...
-        def sdo_write(self, index: int, subindex: int, value: Any) -> None: ...
-        def receive_cob(self, cob_id: int, codec: Any) -> TpdoSlot: ...
-        def sdo_upload(self, index: int, subindex: int = 0) -> bytes: ...
-        def check_identity(self, *, give: str) -> Identity: ...
+    @property
+    def toolkit_drive(self) -> bool:
+        """The toolkit's own drive, identified by its 0x1018."""
+
+    def sdo_read(self, index: int, subindex: int = 0) -> Any:
+        """An object's value, read by SDO."""
+
+    def sdo_write(self, index: int, subindex: int, value: Any) -> None:
+        """An SDO download."""
+
+
+class Cia402Setup:
+    """The settings, the mode and the held target of a CiA 402 drive (see the module docstring).
+
+    Parameters
+    ----------
+    axis : SetAxis
+        The axis it sets up.
+    mode_timeout : float
+        [s] how long 0x6061 may take to follow 0x6060.
+    """
+
+    def __init__(self, axis: SetAxis, mode_timeout: float = 1.0) -> None:
+        self.axis = axis
+        self.mode_timeout = mode_timeout  #: [s] how long 0x6061 may take to follow 0x6060
 
     def setting(
         self, index: int, subindex: int, value: Any, why: str, *, required: bool = False, then: str = ""
@@ -134,28 +130,36 @@ class Cia402Setup(Cia402Discovery, Cia402Mapping):
             The entry holds ``value``.
         """
         setting = Setting(index, subindex, value, why, required, then)
-        return setting.apply(self.node.object_dictionary, self.sdo_read, self.sdo_write, self.where)
+        return setting.apply(
+            self.axis.node.object_dictionary, self.axis.sdo_read, self.axis.sdo_write, self.axis.where
+        )
 
-    def _hold_still(self, mode: int) -> None:
+    def hold_still(self, mode: int) -> None:
         """Before an enable in ``mode``: CSP's 0x607A is absolute (set to 0x6064, where the drive
         stands); profile and cyclic velocity act on 0x60FF, profile and cyclic torque on 0x6071 as
         they stand (set to 0); profile position and homing start only on a new set-point
         (controlword bit 4, CiA 402-2), so nothing is written for them, nor for a mode the
         toolkit does not know. In ip, ``_IP_SETTINGS`` where the drive has them: no record left
-        from before is followed."""
+        from before is followed.
+
+        Parameters
+        ----------
+        mode : int
+            The mode the drive is about to be enabled in.
+        """
         if mode == Mode.CSP:  # 0x607A is absolute: enabled, the drive goes for it
-            self.sdo_write(cia.TARGET_POSITION, 0, int(self.sdo_read(cia.POSITION_ACTUAL)))
+            self.axis.sdo_write(cia.TARGET_POSITION, 0, int(self.axis.sdo_read(cia.POSITION_ACTUAL)))
             return
         if mode == Mode.INTERPOLATED_POSITION:
-            od = self.node.object_dictionary
+            od = self.axis.node.object_dictionary
             for index, sub, value, why, required in _IP_SETTINGS:
                 if variable(od, (index, sub)) is not None:
                     self.setting(index, sub, value, why, required=required, then=_IP_THEN)
             return
         target = _STILL_TARGET.get(mode, 0)
-        var = variable(self.node.object_dictionary, (target, 0)) if target else None
+        var = variable(self.axis.node.object_dictionary, (target, 0)) if target else None
         if var is not None and var.writable:
-            self.sdo_write(target, 0, 0)
+            self.axis.sdo_write(target, 0, 0)
 
     def set_mode(self, mode: Mode) -> None:
         """Write 0x6060 (no read first) and wait for 0x6061 to show it, ``mode_timeout`` [s]; a
@@ -173,20 +177,21 @@ class Cia402Setup(Cia402Discovery, Cia402Mapping):
         DeviceFault
             0x6061 did not show the mode within ``mode_timeout``.
         """
-        if int(mode) < 0 and not self.toolkit_drive:
-            raise ConfigError(
-                f"{self.where}: mode {int(mode)} is a manufacturer mode; not on {self.device_id.text()}"
-            )
+        if int(mode) < 0 and not self.axis.toolkit_drive:
+            who = self.axis.device_id.text()
+            raise ConfigError(f"{self.axis.where}: mode {int(mode)} is a manufacturer mode; not on {who}")
         why = f"mode {mode_text(int(mode))}"
-        self.setting(cia.MODES_OF_OPERATION, 0, int(mode), why, required=True, then=self.choose())
+        self.setting(
+            cia.MODES_OF_OPERATION, 0, int(mode), why, required=True, then=self.axis.discovery.choose()
+        )
         deadline = time.monotonic() + self.mode_timeout
         while True:
-            shown = self.sdo_read(cia.MODES_DISPLAY)
+            shown = self.axis.sdo_read(cia.MODES_DISPLAY)
             if shown == mode:
                 return
             if time.monotonic() > deadline:
                 raise DeviceFault(
                     f"mode {int(mode)} requested, 0x6061 still shows {shown} after {self.mode_timeout:g} s",
-                    device=self.where,
+                    device=self.axis.where,
                 )
-            self.idle()
+            self.axis.idle()

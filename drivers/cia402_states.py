@@ -15,7 +15,7 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from drivers.base import AxisState, Feedback
-from drivers.cia402_mapping import SW
+from drivers.cia402_plan import SW
 from drivers.cia402_process import ProcessData
 from drivers.errors import CommunicationError, CommunicationTimeout, DeviceFault, RigError
 from drivers.maps import cia

@@ -18,8 +18,10 @@ from typing import Any, Protocol
 
 from drivers.cia402_access import interpolation_period as interpolation_setting
 from drivers.cia402_access import period_text
+from drivers.cia402_discovery import Cia402Discovery
 from drivers.cia402_pdo import variable
 from drivers.cia402_process import ProcessData
+from drivers.cia402_setup import Cia402Setup
 from drivers.errors import RigError
 from drivers.maps import cia
 from drivers.maps.cia import Mode
@@ -41,6 +43,8 @@ class SupervisedAxis(Protocol):
     data: ProcessData | None
     heartbeat_timeout: float  #: [s] the host's watch of the drive's heartbeat (0: none)
     period: float  #: [s] the SYNC period (0x60C2, 0x1006); 0: not told
+    discovery: Cia402Discovery  #: what the drive is (``optional``: an object it may lack)
+    settings: Cia402Setup  #: its settings (``setting``: an entry written where writable)
 
     @property
     def where(self) -> str:
@@ -55,14 +59,6 @@ class SupervisedAxis(Protocol):
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """An SDO download."""
-
-    def _optional(self, index: int, subindex: int = 0) -> Any:
-        """An object the device may lack: its value, or None."""
-
-    def setting(
-        self, index: int, subindex: int, value: Any, why: str, *, required: bool = False, then: str = ""
-    ) -> bool:
-        """Write an entry where the EDS declares it writable; it holds ``value``."""
 
     def sibling_watches(self) -> list[DriveSupervision]:
         """The supervision of the other drive axes on the node."""
@@ -110,15 +106,19 @@ class DriveSupervision:
             )
         if self.abort_connection is not None and cia.ABORT_CONNECTION_OPTION in od:
             why = "the reaction to a lost host"
-            self.axis.setting(cia.ABORT_CONNECTION_OPTION, 0, self.abort_connection, why)
+            self.axis.settings.setting(cia.ABORT_CONNECTION_OPTION, 0, self.abort_connection, why)
         if axis.heartbeat_timeout > 0.0 and cia.PRODUCER_HEARTBEAT in od:
             beat = max(1, round(axis.heartbeat_timeout / 3 * 1000))  # ms
-            self.axis.setting(cia.PRODUCER_HEARTBEAT, 0, beat, "the drive's heartbeat the host watches")
+            self.axis.settings.setting(
+                cia.PRODUCER_HEARTBEAT, 0, beat, "the drive's heartbeat the host watches"
+            )
         if axis.period > 0.0 and axis.op_mode in _CYCLIC:
             if variable(od, (cia.INTERPOLATION_PERIOD, 1)) is not None:
                 self._interpolation_period()
             if cia.COMM_CYCLE_PERIOD in od:
-                axis.setting(cia.COMM_CYCLE_PERIOD, 0, round(axis.period * 1e6), "the SYNC period [us]")
+                axis.settings.setting(
+                    cia.COMM_CYCLE_PERIOD, 0, round(axis.period * 1e6), "the SYNC period [us]"
+                )
 
     def _interpolation_period(self) -> None:
         """0x60C2 = the SYNC period, in the drive's own exponent (sub 2) where it can be given in
@@ -126,15 +126,17 @@ class DriveSupervision:
         od = self.axis.node.object_dictionary
         sub2 = variable(od, (cia.INTERPOLATION_PERIOD, 2))
         readable = sub2 is not None and sub2.readable
-        exponent = self.axis._optional(cia.INTERPOLATION_PERIOD, 2) if readable else None
+        exponent = self.axis.discovery.optional(cia.INTERPOLATION_PERIOD, 2) if readable else None
         writable = sub2 is not None and sub2.writable
         value, new_exponent, in_force = interpolation_setting(
             self.axis.period, None if exponent is None else int(exponent), writable
         )
         why = f"the SYNC period {period_text(self.axis.period)}"
-        if new_exponent is not None and not self.axis.setting(cia.INTERPOLATION_PERIOD, 2, new_exponent, why):
+        if new_exponent is not None and not self.axis.settings.setting(
+            cia.INTERPOLATION_PERIOD, 2, new_exponent, why
+        ):
             return
-        if not self.axis.setting(cia.INTERPOLATION_PERIOD, 1, value, why):
+        if not self.axis.settings.setting(cia.INTERPOLATION_PERIOD, 1, value, why):
             return
         if abs(in_force - self.axis.period) > 1e-9 * self.axis.period:
             log.warning(
@@ -172,9 +174,9 @@ class DriveSupervision:
         if entries[sub] == entry:
             return sub
         why = "the drive's watch of the host's heartbeat"
-        if entries[sub] and not self.axis.setting(cia.CONSUMER_HEARTBEAT, sub, 0, why):
+        if entries[sub] and not self.axis.settings.setting(cia.CONSUMER_HEARTBEAT, sub, 0, why):
             return None
-        return sub if self.axis.setting(cia.CONSUMER_HEARTBEAT, sub, entry, why) else None
+        return sub if self.axis.settings.setting(cia.CONSUMER_HEARTBEAT, sub, entry, why) else None
 
     def watch(self) -> None:
         """At each enable: the host's watch again where a confirmed disable lifted it, and the
@@ -196,7 +198,9 @@ class DriveSupervision:
         if not (self.rpdo_deadline > 0.0 and rpdo is not None and self.axis.toolkit_drive):
             return
         ms = max(1, math.ceil(self.rpdo_deadline * 1000.0 - 1e-9))
-        if self.axis.setting(rpdo.comm, cia.PDO_COMM_EVENT_TIMER, ms, "the deadline of the commands [ms]"):
+        if self.axis.settings.setting(
+            rpdo.comm, cia.PDO_COMM_EVENT_TIMER, ms, "the deadline of the commands [ms]"
+        ):
             self.deadline_comm = rpdo.comm
 
     def unwatch(self) -> None:

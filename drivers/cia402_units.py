@@ -74,6 +74,17 @@ class DriveUnits:
             return round(value * self.velocity)
         return round(value * self.position)  # rad -> position units
 
+    def quanta(self) -> tuple[float, float]:
+        """One position unit [rad] and one velocity unit [rad/s] (0 where not known).
+
+        Returns
+        -------
+        tuple of (float, float)
+            [rad] and [rad/s].
+        """
+        p, v = self.position, self.velocity
+        return (1.0 / p if math.isfinite(p) and p else 0.0, 1.0 / v if math.isfinite(v) and v else 0.0)
+
     def describe(self) -> dict[str, Any]:
         """The units in force, for status reports.
 

@@ -268,7 +268,9 @@ def _act(tool: Any, args: argparse.Namespace) -> Any:
             )
         a.discover(check_mode=False)  # the device the EDS describes, before the write
         try:  # what the operator names is the task: a manufacturer object too (not Cia402Axis's guard)
-            if var is None and not a.standard_write(index, sub, _value(args.value)):  # by CiA 402's type
+            if var is None and not a.discovery.standard_write(
+                index, sub, _value(args.value)
+            ):  # by CiA 402's type
                 own = "" if a.eds_given else "; give the drive's own EDS (--eds FILE)"
                 raise UsageError(f"rig drive sdo write: {where} is not in {a.eds}: nothing was sent{own}")
             if var is not None:

@@ -118,7 +118,7 @@ class DriveTool:
         #: which a loaded machine would run ahead of the drive's
         self.emulated = idle is not None
         axis.idle = self.idle
-        axis.units_hint = UNITS_HINT  # a factor the drive lacks is given by --units here
+        axis.discovery.units_hint = UNITS_HINT  # a factor the drive lacks is given by --units here
         axis.eds_hint = "rig drive --eds FILE"  # the device's own dictionary
         #: the move under way, watched at every look (``rig.commission.motion_watch``)
         self.motion: MotionWatch | None = None
@@ -191,7 +191,7 @@ class DriveTool:
         """
         self.axis.discover(check_mode=False)  # the device is its EDS's, before any write
         self._alone()
-        shown = self.axis._optional(cia.MODES_DISPLAY)
+        shown = self.axis.discovery.optional(cia.MODES_DISPLAY)
         self.axis.nmt("OPERATIONAL")
         self.axis.enable(timeout=timeout, mode=int(Mode.CSP) if shown is None else int(shown))
         return self.axis.read_power_state().value
@@ -288,7 +288,7 @@ class DriveTool:
         try:
             try:
                 a.nmt("OPERATIONAL")
-                a.set_mode(mode)
+                a.settings.set_mode(mode)
                 a.enable(timeout=2.0, mode=int(mode))
                 start()
                 self.until(done, seconds, what)
@@ -316,7 +316,7 @@ class DriveTool:
         """
         a = self.axis
         velocity = a.sdo_read(cia.VELOCITY_ACTUAL) / a.units.velocity
-        if not a.has_position:
+        if not a.discovery.has_position:
             return None, velocity
         return a.sdo_read(cia.POSITION_ACTUAL) / a.units.position, velocity
 

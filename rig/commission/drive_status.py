@@ -46,21 +46,21 @@ def drive_status(a: Cia402Axis) -> dict[str, Any]:
                 "type": pdo.ttype,
                 "entries": [f"0x{e.wire(a.axis_number):04X}:{e.subindex:02X}/{e.bits}" for e in pdo.entries],
             }
-    mode = a._optional(cia.MODES_DISPLAY)
-    bits = a._optional(cia.SUPPORTED_MODES)
+    mode = a.discovery.optional(cia.MODES_DISPLAY)
+    bits = a.discovery.optional(cia.SUPPORTED_MODES)
     seen = picture(a, units, word, None if mode is None else int(mode))
     return {
         "node": a.node_id,
         "axis": a.axis_number,
-        "identity": {k: f"0x{v:08X}" for k, v in a.identity.items()},
+        "identity": {k: f"0x{v:08X}" for k, v in a.device_id.as_dict().items()},
         "vendor_name": a.device_id.vendor_name,
         "state": power_state(word).value,
         "statusword": f"0x{word:04X}",
         "statusword_bits": [b["name"] for b in seen["bits"] if b["set"]],
         "mode": mode,
         "mode_name": "not readable (0x6061)" if mode is None else mode_text(mode, toolkit=a.toolkit_drive),
-        "supported_modes": sorted(Mode(m).name for m in a.supported_modes or ()),
-        "modes_offered": a.offered(bits),
+        "supported_modes": sorted(Mode(m).name for m in a.discovery.supported_modes or ()),
+        "modes_offered": a.discovery.offered(bits),
         "error_code": a.fault_text(),
         "last_emcy": a.emcy_log[-1] if a.emcy_log else _last_error(a),
         "units": units.describe() | device_units(units),
@@ -71,10 +71,10 @@ def drive_status(a: Cia402Axis) -> dict[str, Any]:
 
 def _last_error(a: Cia402Axis) -> str | None:
     """The newest entry of the drive's error history (0x1003:01) in words, where it keeps one."""
-    count = a._optional(cia.ERROR_HISTORY, 0)
+    count = a.discovery.optional(cia.ERROR_HISTORY, 0)
     if not count:
         return None
-    entry = a._optional(cia.ERROR_HISTORY, 1)
+    entry = a.discovery.optional(cia.ERROR_HISTORY, 1)
     if entry is None:
         return None
     code = int(entry) & 0xFFFF

@@ -195,8 +195,10 @@ def watch_move(tool: Any, **kw: Any) -> MotionWatch:
     position_quantum, speed_quantum = a.quanta()
     source = a.units.source
     units = ", ".join(f"{k} {source[k]}" for k in ("position", "velocity") if source.get(k))
-    ramps = [a._optional(index) for index in (cia.PROFILE_ACCELERATION, cia.PROFILE_DECELERATION)]
-    accel = declared_acceleration([*ramps, a._optional(cia.QUICK_STOP_DECELERATION)], a.units.velocity)
+    ramps = [a.discovery.optional(index) for index in (cia.PROFILE_ACCELERATION, cia.PROFILE_DECELERATION)]
+    accel = declared_acceleration(
+        [*ramps, a.discovery.optional(cia.QUICK_STOP_DECELERATION)], a.units.velocity
+    )
     where = f"{a.where}: {kw.pop('what')}"
     watch = MotionWatch(where, speed_quantum=speed_quantum, position_quantum=position_quantum, **kw)
     watch.units, watch.accel = units, accel

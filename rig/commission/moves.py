@@ -71,7 +71,7 @@ def _own_speed(tool: DriveTool, max_speed: float) -> float | None:
     cannot be read (absent or refused) is refused before anything is sent: its move's speed is
     unknown."""
     a = tool.axis
-    raw = a._optional(cia.PROFILE_VELOCITY)
+    raw = a.discovery.optional(cia.PROFILE_VELOCITY)
     if raw is None:
         give = "--speed RAD_S" + ("" if a.eds_given else ", or the drive's own EDS (--eds FILE)")
         raise ConfigError(

@@ -37,10 +37,11 @@ def check_offered(a: Cia402Axis, mode: Mode, verb: str) -> None:
     ConfigError
         If the drive lacks the mode or what it needs.
     """
-    if a.supported_modes is not None and int(mode) not in a.supported_modes:
+    found = a.discovery
+    if found.supported_modes is not None and int(mode) not in found.supported_modes:
         raise ConfigError(
             f"{a.where}: rig drive {verb} runs the drive in {mode_text(int(mode))}, which it does not "
-            f"offer ({a.offered(a._optional(cia.SUPPORTED_MODES))}); nothing was sent: use a mode it "
+            f"offer ({found.offered(found.optional(cia.SUPPORTED_MODES))}); nothing was sent: use a mode it "
             "offers (rig run with mode = csp, csv or cst, where it lists them)"
         )
     needs = (*needed(mode), cia.VELOCITY_ACTUAL)  # the stop watches the speed to rest
@@ -70,5 +71,5 @@ def check_profile(a: Cia402Axis, mode: Mode, verb: str) -> None:
             int(mode),
             where=f"{a.name!r} ({a.where})",
             hint=UNITS_HINT,
-            has_position=a.has_position,
+            has_position=a.discovery.has_position,
         )

@@ -1,22 +1,29 @@
 """The CiA 402 driver composed of parts (issue 37 item 3): each part owns its state in its
 constructor, none is declared by a class-level annotation or a TYPE_CHECKING stub for another
 class to fill. ``MIXINS_LEFT`` lists the set-up's modules still written as mixins of the axis; the
-list only shrinks."""
+list only shrinks (it is empty: set-up's discovery, mapping and settings are parts too)."""
 
 from __future__ import annotations
 
+import abc
 import ast
 import pathlib
 
 import canopen
 
+from drivers.base import AxisDriver
+from drivers.canopen_axis import CanopenAxis
 from drivers.cia402 import Cia402Axis
+from drivers.cia402_cycle import Cia402Cycle
+from drivers.cia402_discovery import Cia402Discovery
+from drivers.cia402_mapping import Cia402Mapping
+from drivers.cia402_setup import Cia402Setup
 from drivers.cia402_states import PowerStates
 from drivers.cia402_supervision import DriveSupervision
 
 DRIVERS = pathlib.Path(__file__).resolve().parents[2] / "drivers"
 #: the CiA 402 driver's modules still written as mixins of the axis (this list only shrinks)
-MIXINS_LEFT = {"cia402_setup.py", "cia402_mapping.py", "cia402_discovery.py"}
+MIXINS_LEFT: set[str] = set()
 
 
 def declared_state(path: pathlib.Path) -> list[str]:
@@ -47,7 +54,19 @@ def test_no_part_declares_its_state_for_another_to_fill() -> None:
 
 def test_the_axis_composes_its_parts_and_each_owns_its_state() -> None:
     network = canopen.Network()
-    axis = Cia402Axis("motor", network, 1, mode="csp", host=(126, 0.3), rpdo_deadline=0.004)
+    axis = Cia402Axis(
+        "motor",
+        network,
+        1,
+        mode="csp",
+        host=(126, 0.3),
+        rpdo_deadline=0.004,
+        units={"counts_per_rev": 4096.0},
+        pdo="device",
+        sync_rpdo=False,
+        latency=0.001,
+        mode_timeout=2.0,
+    )
     try:
         assert isinstance(axis.states, PowerStates) and axis.states.axis is axis
         assert isinstance(axis.supervision, DriveSupervision) and axis.supervision.axis is axis
@@ -62,5 +81,19 @@ def test_the_axis_composes_its_parts_and_each_owns_its_state() -> None:
         assert watch["host"] == (126, 0.3) and watch["rpdo_deadline"] == 0.004
         assert watch["consumer_sub"] is None and watch["deadline_comm"] is None
         assert axis._plan.data is None and axis.data is None  # the cycle's, until set-up maps
+        assert Cia402Axis.__mro__[1:] == (Cia402Cycle, CanopenAxis, AxisDriver, abc.ABC, object)
+        assert isinstance(axis.discovery, Cia402Discovery) and axis.discovery.axis is axis
+        assert vars(axis.discovery) == {
+            "axis": axis,
+            "given_units": {"counts_per_rev": 4096.0},
+            "units_hint": "[axis.units] {key}",
+            "has_position": True,
+            "supported_modes": None,
+            "not_a_drive": False,
+        }
+        assert isinstance(axis.mapping, Cia402Mapping)
+        assert vars(axis.mapping) == {"axis": axis, "pdo": "device", "sync_rpdo": False, "latency": 0.001}
+        assert isinstance(axis.settings, Cia402Setup)
+        assert vars(axis.settings) == {"axis": axis, "mode_timeout": 2.0}
     finally:
         axis.close()

@@ -84,7 +84,7 @@ def test_setup_reads_identity_and_units(target: Target) -> None:
         assert units.rated_torque > 0
     if 0x6075 in od:
         assert units.rated_current > 0
-    assert drive.identity.get("vendor") is not None
+    assert drive.device_id.as_dict().get("vendor") is not None
     assert drive.read_state() is AxisState.DISABLED
 
 

@@ -75,7 +75,7 @@ def test_a_manufacturer_mode_is_refused_before_anything_is_written(drive: Foreig
 def test_manufacturer_bits_of_0x6502_mean_nothing_on_another_drive(drive: ForeignDrive) -> None:
     axis = drive.axis("csp", units={"counts_per_rev": 4096})
     axis.discover()
-    assert axis.supported_modes == frozenset({1, 3, 6, 7, 8, 9, 10})
+    assert axis.discovery.supported_modes == frozenset({1, 3, 6, 7, 8, 9, 10})
     assert not axis.toolkit_drive
 
 
@@ -85,7 +85,7 @@ def test_the_toolkit_s_own_drive_keeps_its_voltage_mode(drive: ForeignDrive) -> 
     the RPDO and its command latency 0x2001."""
     axis = drive.axis("voltage")
     axis.setup()
-    assert {-1, -2} <= (axis.supported_modes or set())
+    assert {-1, -2} <= (axis.discovery.supported_modes or set())
     axis.enable()
     axis.command(1.5)
     until(lambda: (0x2100, 0, 1500) in drive.fake.rpdo_writes, "the RPDO with 0x2100 = 1500 mV")
@@ -195,7 +195,7 @@ def test_a_write_only_6060_is_written_never_read(drive: ForeignDrive) -> None:
 def test_a_drive_without_0x6502_runs_its_cia_modes_and_refuses_the_toolkit_s(drive: ForeignDrive) -> None:
     axis = drive.axis("csp", period=0.001)
     axis.setup()
-    assert axis.supported_modes is None
+    assert axis.discovery.supported_modes is None
     with pytest.raises(
         ConfigError, match=r"it offers no 0x6502 \(the drive does not say which modes it has\)"
     ):
@@ -228,7 +228,7 @@ def test_the_modes_offered_name_every_bit_cia_402_defines(drive: ForeignDrive, n
     axis = drive.axis("csp")
     axis.discover(check_mode=False)
     bits = drive.dictionary.entries[(0x6502, 0)].value
-    assert named in axis.offered(bits)
+    assert named in axis.discovery.offered(bits)
     assert drive.fake.downloads == []
 
 

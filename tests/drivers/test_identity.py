@@ -41,9 +41,13 @@ def test_units_and_modes_come_from_the_device_whatever_the_eds(drive: ForeignDri
     own.discover(check_mode=False)
     generic = drive.axis("csp", eds=None)
     generic.discover(check_mode=False)
-    assert generic.identity == own.identity
-    assert generic.supported_modes == own.supported_modes
-    assert generic.has_position == own.has_position == ((0x6064, 0) in drive.dictionary.entries)
+    assert generic.device_id.as_dict() == own.device_id.as_dict()
+    assert generic.discovery.supported_modes == own.discovery.supported_modes
+    assert (
+        generic.discovery.has_position
+        == own.discovery.has_position
+        == ((0x6064, 0) in drive.dictionary.entries)
+    )
     for field in ("position", "velocity", "rated_torque", "rated_current"):
         assert _same(getattr(generic.units, field), getattr(own.units, field)), field
     assert drive.fake.downloads == [] and drive.fake.nmt_log == []
@@ -107,7 +111,7 @@ def test_another_revision_is_a_warning(drive: ForeignDrive, caplog: pytest.LogCa
     axis = drive.axis("csv")
     with caplog.at_level(logging.WARNING):
         axis.discover()
-    assert axis.identity["revision"] == 0x01800000
+    assert axis.device_id.as_dict()["revision"] == 0x01800000
     assert any(
         "revision 0x01800000" in r.getMessage() and "0x01700000" in r.getMessage() for r in caplog.records
     )

@@ -93,7 +93,7 @@ def test_a_fixed_mapping_falls_back_to_the_drive_s_own(caplog: pytest.LogCapture
         with r.axis("csv") as axis:
             with caplog.at_level(logging.WARNING):
                 axis.setup()
-            assert axis.pdo == "device"
+            assert axis.mapping.pdo == "device"
         assert "mapping is fixed (0x1600:00 is" in caplog.text and "using its own" in caplog.text
     finally:
         r.close()
