@@ -134,12 +134,15 @@ def _with_view(out: str, port: int, seconds: float, kind: str = "") -> tuple[dic
     """One run with the view beside it as ``rig run --view`` serves it, and a browser attached
     (``kind``: ``browser_process``'s): (its summary, the browser's)."""
     from rig.bench.socketcand import realtime_run
+    from rig.host.realtime import RealtimeRequest, loop_cpu
     from rig.live import LiveView
     from rig.view.feed import RATE, RingFeed
     from rig.view.process import ViewProcess
     from rig.view.states import state_probe
 
-    view = ViewProcess([Path(out)], "127.0.0.1", 0, "rig bench view")
+    view = ViewProcess(
+        [Path(out)], "127.0.0.1", 0, "rig bench view", loop_cpu=loop_cpu(RealtimeRequest().cpu)
+    )
     feed = RingFeed(view.sink, out)
     client = browser_process(view.url, seconds + 15.0, kind)
     time.sleep(5.0)  # the browser is up and connected before the cycles begin

@@ -135,9 +135,10 @@ def start_beside(
     address: str, cfg: RigConfig
 ) -> tuple[LiveView, Callable[[list[AxisDriver]], None], ViewProcess]:
     """``rig run --view [ADDRESS]``: the server over the run's output folder, started in a process
-    of its own (``rig.view.process``); the live view (a ``LiveView`` at ``RATE`` updates a second
-    whose backend sends each update there); what gives it the axes once they are enabled (their
-    states and faults, ``rig.view.states``). Its address on stderr.
+    of its own (``rig.view.process``: nice, and off the loop's CPU in real time); the live view (a
+    ``LiveView`` at ``RATE`` updates a second whose backend sends each update there); what gives it
+    the axes once they are enabled (their states and faults, ``rig.view.states``). Its address on
+    stderr.
 
     Parameters
     ----------
@@ -160,7 +161,10 @@ def start_beside(
     host, port = parse_address(address, "rig run: --view")
     out = Path(cfg.run.output)
     out.mkdir(parents=True, exist_ok=True)
-    view = ViewProcess([out], host, port, "rig run: --view")
+    from rig.host.realtime import loop_cpu
+
+    pinned = loop_cpu(cfg.run.rt_cpu) if cfg.run.time == "realtime" else None
+    view = ViewProcess([out], host, port, "rig run: --view", loop_cpu=pinned)
     feed = RingFeed(view.sink, cfg.run.output)
     print(f"rig run: view at {view.url}  (read-only)", file=sys.stderr, flush=True)
 

@@ -42,7 +42,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["YOUNG", "Grant", "RealtimeRequest", "collect_young", "cpu_stolen", "receive_threads", "request"]
+__all__ = [
+    "YOUNG",
+    "Grant",
+    "RealtimeRequest",
+    "collect_young",
+    "cpu_stolen",
+    "loop_cpu",
+    "receive_threads",
+    "request",
+]
 
 log = logging.getLogger(__name__)
 
@@ -70,8 +79,19 @@ def _libc() -> Any:
     return ctypes.CDLL(name, use_errno=True) if name else None
 
 
-def _cpu(wanted: int) -> int | None:
-    """The CPU to pin to, or None (not pinned, or no affinity on this system)."""
+def loop_cpu(wanted: int) -> int | None:
+    """The CPU ``request`` pins the loop to for ``RealtimeRequest.cpu`` = ``wanted``.
+
+    Parameters
+    ----------
+    wanted : int
+        A CPU, -1 (the last the process may use) or -2 (not pinned).
+
+    Returns
+    -------
+    int | None
+        The CPU; None: not pinned, or no affinity on this system.
+    """
     if wanted == _UNPINNED or not hasattr(os, "sched_getaffinity"):
         return None
     allowed = sorted(os.sched_getaffinity(0))
@@ -257,7 +277,7 @@ def request(ask: RealtimeRequest, receive: Sequence[threading.Thread] = ()) -> G
     Grant
         What was granted and refused.
     """
-    grant = Grant(ask, cpu=_cpu(ask.cpu))
+    grant = Grant(ask, cpu=loop_cpu(ask.cpu))
     if not hasattr(os, "sched_setscheduler"):
         grant.refused.append(f"real-time scheduling: not available on {os.name}")
         grant.cpu = None

@@ -7,6 +7,11 @@ never holds the run's interpreter lock: a server thread of normal priority in th
 process, holding the lock while the machine's other processes run, kept the real-time loop
 waiting (its figures: docs/benchmarks.md, "The view").
 
+The child steps aside first (``step_aside``): the normal policy at nice ``NICE``, on the CPUs
+the loop is not pinned to, for itself and every thread it starts (the server's, uvicorn's); a
+browser's requests then never take the loop's CPU, and any other work of the machine comes
+before them.
+
 The child binds the address (a port in use: ConfigError in the run's process before anything
 moves), ignores Ctrl-C (the run's to handle: the page then gets the run's summary), serves from
 a thread of its own, and ends when the run's process says so or its pipe closes.
@@ -16,6 +21,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 import signal
 import threading
 import time
@@ -27,12 +33,39 @@ import numpy as np
 
 from drivers.errors import ConfigError
 
-__all__ = ["PipeSink", "ViewProcess", "serve_child"]
+__all__ = ["NICE", "PipeSink", "ViewProcess", "serve_child", "step_aside"]
 
 log = logging.getLogger(__name__)
 
+NICE = 10  #: the view's process's niceness (at least)
 
-def serve_child(conn: Any, folders: list[str], host: str, port: int, where: str) -> None:
+
+def step_aside(loop_cpu: int | None) -> None:
+    """The calling thread, and the threads it starts after, at the normal policy, nice ``NICE``
+    (at least) and off ``loop_cpu`` (None: any CPU). A refusal leaves that measure out.
+
+    Parameters
+    ----------
+    loop_cpu : int | None
+        The CPU the run's loop is pinned to (``rig.host.realtime.loop_cpu``), or None.
+    """
+    if not hasattr(os, "sched_setscheduler"):
+        return
+    try:
+        if os.sched_getscheduler(0) != os.SCHED_OTHER:  # a parent at real-time priority: not ours
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+        if os.getpriority(os.PRIO_PROCESS, 0) < NICE:  # this thread's, on Linux
+            os.setpriority(os.PRIO_PROCESS, 0, NICE)
+        others = os.sched_getaffinity(0) - {loop_cpu}
+        if loop_cpu is not None and others:
+            os.sched_setaffinity(0, others)
+    except OSError as exc:
+        log.debug("the view's process did not step aside: %s", exc)
+
+
+def serve_child(
+    conn: Any, folders: list[str], host: str, port: int, where: str, *, loop_cpu: int | None = None
+) -> None:
     """The child: ("url", url) or ("error", text) on ``conn``, then serve what comes over it:
     ("open", meta), ("rows", rows, states), ("stop",), ("finish", summary, grace).
 
@@ -46,7 +79,10 @@ def serve_child(conn: Any, folders: list[str], host: str, port: int, where: str)
         The address.
     where : str
         The option, named in errors.
+    loop_cpu : int | None, optional
+        The CPU the run's loop is pinned to (``step_aside``).
     """
+    step_aside(loop_cpu)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     from rig.view.scope import Scope
     from rig.view.server import ViewServer
@@ -142,6 +178,8 @@ class ViewProcess:
         The option, named in errors.
     timeout : float, optional
         [s] for the child to start serving.
+    loop_cpu : int | None, optional
+        The CPU the run's loop is pinned to: the child keeps off it (``step_aside``).
 
     Raises
     ------
@@ -149,12 +187,22 @@ class ViewProcess:
         If the server did not start, or ended before.
     """
 
-    def __init__(self, folders: list[Path], host: str, port: int, where: str, timeout: float = 120.0) -> None:
+    def __init__(
+        self,
+        folders: list[Path],
+        host: str,
+        port: int,
+        where: str,
+        *,
+        timeout: float = 120.0,
+        loop_cpu: int | None = None,
+    ) -> None:
         ctx = multiprocessing.get_context("spawn")
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(
             target=serve_child,
             args=(child, [str(f) for f in folders], host, port, where),
+            kwargs={"loop_cpu": loop_cpu},
             name="rig-view",
             daemon=True,
         )

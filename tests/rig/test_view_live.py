@@ -12,6 +12,7 @@ import pathlib
 import signal
 import subprocess
 import sys
+import threading
 import time
 import urllib.error
 import urllib.request
@@ -256,3 +257,39 @@ def test_rig_run_view_across_processes_under_attack_ends_as_the_run_without(tmp_
     want = np.loadtxt(pathlib.Path(plain["run_dir"]) / "samples.csv", delimiter=",", skiprows=1)
     n = summary["cycles"] - 1  # the interrupted cycle's row may be the stop's
     np.testing.assert_array_equal(got[:n, :-3], want[:n, :-3])
+
+
+def _nice_and_cpus(tid: int) -> tuple[int, set[int]]:
+    """A thread's niceness and CPUs, as the kernel has them."""
+    stat = pathlib.Path(f"/proc/self/task/{tid}/stat").read_text()
+    return int(stat[stat.rindex(")") + 2 :].split()[16]), os.sched_getaffinity(tid)
+
+
+@pytest.mark.skipif(not pathlib.Path("/proc/self/task").is_dir(), reason="Linux's per-thread scheduling")
+def test_the_view_s_process_steps_aside_from_the_loop() -> None:
+    """The view's process (``serve_child``, and each thread it starts: the server's, uvicorn's)
+    runs at nice 10 and off the loop's CPU, so the browsers' requests never take that CPU and the
+    machine's other work comes first; without a pinned loop, on every CPU. Done in a thread here:
+    Linux schedules threads one by one, and a thread started after inherits."""
+    from rig.view.process import NICE, step_aside
+
+    cpus = os.sched_getaffinity(0)
+    before = _nice_and_cpus(threading.get_native_id())
+    loop = max(cpus)
+    seen: dict[str, tuple[int, set[int]]] = {}
+
+    def aside(pinned: int | None) -> None:
+        step_aside(pinned)
+        later = threading.Thread(
+            target=lambda: seen.update({str(pinned): _nice_and_cpus(threading.get_native_id())})
+        )
+        later.start()
+        later.join()
+
+    for pinned in (loop, None):
+        thread = threading.Thread(target=aside, args=(pinned,))
+        thread.start()
+        thread.join(30.0)
+    assert seen[str(loop)] == (NICE, cpus - {loop} or cpus)
+    assert seen["None"] == (NICE, cpus)
+    assert _nice_and_cpus(threading.get_native_id()) == before  # the caller's own: untouched
