@@ -1,6 +1,8 @@
 """Host-side Modbus inverter: an ``AxisDriver`` on a pymodbus client (TCP or RTU).
 
-The register map of the family comes from ``drivers/maps``.
+The register map of the family comes from ``drivers/maps``; the unit's registers are read and
+written by role in SI units through ``drivers.modbus_unit.ModbusUnit``, which translates the
+errors of its answers.
 
 Mode ``speed``: the command is the speed reference [rad/s]; the feedback is
 the actual speed [rad/s] and current [A]; the state comes from the status word
@@ -11,10 +13,7 @@ register, the unit and the code with its name; no answer becomes
 ``CommunicationTimeout``. The client is pymodbus' synchronous one.
 
 The unit is the configured one (default 1, what drives ship with as their
-address). On RTU it is 1..247: 0 is the broadcast address, which no server
-answers. On TCP it is 0..255: a device directly on TCP/IP is normally addressed
-as 0xFF (or 0), one behind a gateway by its serial address; many drives accept
-their own address only, so the default stays 1.
+address; ``drivers.modbus_unit.check_unit`` says which are valid on RTU and TCP).
 """
 
 from __future__ import annotations
@@ -23,26 +22,17 @@ import itertools
 import time
 from typing import Any
 
-from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ModbusException
-from pymodbus.framer import FramerType
 
 from drivers.base import AxisDriver, AxisState, Feedback
-from drivers.errors import (
-    CommunicationError,
-    CommunicationTimeout,
-    ConfigError,
-    DeviceFault,
-    ModbusExceptionResponse,
-    SafetyStop,
-)
-from drivers.maps import ModbusMap, Register, modbus_map
+from drivers.errors import CommunicationError, CommunicationTimeout, ConfigError, DeviceFault, SafetyStop
+from drivers.maps import ModbusMap, modbus_map
+from drivers.modbus_unit import ModbusUnit, check_unit, contiguous
 
 __all__ = ["ModbusInverterAxis"]
 
 #: what the host loop reads every cycle
 _FEEDBACK_ROLES = ("actual_speed", "current", "status_word")
-_READ, _WRITE = 3, 6  #: the function codes used: read holding registers, write single register
 
 
 class ModbusInverterAxis(AxisDriver):
@@ -96,109 +86,22 @@ class ModbusInverterAxis(AxisDriver):
             raise ConfigError(f"axis {name!r}: map {family!r} lacks the register roles {missing}")
         if not host and not serial:
             raise ConfigError(f"axis {name!r}: a Modbus axis needs host (TCP) or serial (RTU)")
-        self.unit = self._check_unit(name, unit, tcp=bool(host))
+        self.unit = check_unit(name, unit, tcp=bool(host))
         super().__init__(name, "speed")  # checked first: an axis that is not made needs no close
         self.map: ModbusMap = regmap
         self._reached = True  #: False after a setup that could not connect: nothing to disable
-        self.client: Any
-        if host:
-            self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=1)
-            self._where = f"unit {unit} at {host}:{port}"
-        else:
-            assert serial  # checked above
-            self.client = ModbusSerialClient(
-                serial, framer=FramerType.RTU, baudrate=baudrate, timeout=timeout, retries=1
-            )
-            self._where = f"unit {unit} on {serial}"
-        self._groups = self._contiguous([self.map[r] for r in _FEEDBACK_ROLES])
+        #: the unit: its registers by role, over pymodbus' client
+        self.modbus = ModbusUnit(
+            regmap, unit=unit, host=host, port=port, serial=serial, baudrate=baudrate, timeout=timeout
+        )
+        self.client: Any = self.modbus.client
+        self._groups = contiguous([self.map[r] for r in _FEEDBACK_ROLES])
         self._count = 0
         self._status: int | None = None  #: the status word of the last feedback
 
-    @staticmethod
-    def _check_unit(name: str, unit: int, *, tcp: bool) -> int:
-        """``unit``, or ConfigError: RTU 1..247 (0 is the broadcast address, which no server
-        answers); TCP 0..255 (0xFF or 0 address a server directly on TCP/IP, 1..247 one behind
-        a gateway or a device that wants its own address)."""
-        lo, hi = (0, 255) if tcp else (1, 247)
-        if not lo <= unit <= hi:
-            line = "TCP" if tcp else "RTU (0 is the broadcast address: no server answers it)"
-            raise ConfigError(f"axis {name!r}: Modbus unit {unit!r} is not {lo}..{hi} on {line}")
-        return unit
-
     @property
     def where(self) -> str:
-        return self._where
-
-    @staticmethod
-    def _contiguous(regs: list[Register]) -> list[list[Register]]:
-        """Registers grouped into runs of adjacent addresses (one request each)."""
-        regs = sorted(regs, key=lambda r: r.address)
-        groups: list[list[Register]] = []
-        for reg in regs:
-            if groups and reg.address == groups[-1][-1].address + 1:
-                groups[-1].append(reg)
-            else:
-                groups.append([reg])
-        return groups
-
-    # --- registers ---------------------------------------------------------------------------
-    def _exception(self, rr: Any, what: str, register: int) -> ModbusExceptionResponse:
-        """The toolkit error for the exception answer ``rr`` to ``what`` (``reading status_word``)."""
-        raw = getattr(rr, "exception_code", 0)
-        code = raw if isinstance(raw, int) else 0
-        return ModbusExceptionResponse(
-            f"{self.map.name} at {self.where}: exception answer {what}",
-            code=code,
-            unit=self.unit,
-            register=register,
-        )
-
-    def _undecoded(self, exc: Exception, what: str, register: int) -> CommunicationError:
-        """The toolkit error for an answer pymodbus failed on with ``exc`` (not its own kind)."""
-        return CommunicationError(
-            f"{self.map.name} at {self.where}: the answer {what} (register {register}) is not one "
-            f"pymodbus decodes ({type(exc).__name__}: {exc})"
-        )
-
-    def _check(self, rr: Any, what: str, register: int, count: int = 1, function: int = _READ) -> list[int]:
-        """The ``count`` registers of answer ``rr`` to a request of ``function`` (a read of
-        holding registers; a write's echo), or the toolkit's error naming what was asked: an
-        exception answer, an answer of another function, another number of registers."""
-        if rr is None:
-            raise CommunicationTimeout(f"{self.where}: no answer {what} (register {register})")
-        if rr.isError():
-            raise self._exception(rr, what, register)
-        code = getattr(rr, "function_code", function)
-        if code != function:
-            raise CommunicationError(
-                f"{self.map.name} at {self.where}: the answer {what} (register {register}) is one of "
-                f"function {code!r}, not {function}"
-            )
-        registers = getattr(rr, "registers", None)
-        if (
-            not isinstance(registers, list)
-            or len(registers) != count
-            or not all(isinstance(v, int) and 0 <= v <= 0xFFFF for v in registers)
-        ):
-            shown = repr(registers)[:60]
-            raise CommunicationError(
-                f"{self.map.name} at {self.where}: the answer {what} (register {register}) does not hold "
-                f"{count} 16-bit register value(s): {shown}"
-            )
-        return registers
-
-    def _read_group(self, group: list[Register]) -> dict[str, float]:
-        start = group[0].address
-        what = "reading " + ", ".join(r.role for r in group)
-        try:
-            rr = self.client.read_holding_registers(start, count=len(group), device_id=self.unit)
-        except ModbusException as exc:  # none, or none pymodbus could decode
-            span = f"register {start}" if len(group) == 1 else f"registers {start}-{group[-1].address}"
-            raise CommunicationTimeout(f"{self.where}: no answer {what} ({span})") from exc
-        except Exception as exc:  # pymodbus decodes an answer blindly: struct.error, IndexError ...
-            raise self._undecoded(exc, what, start) from exc
-        raw = self._check(rr, what, start, len(group))
-        return {reg.role: reg.to_si(v) for reg, v in zip(group, raw)}
+        return self.modbus.where
 
     def read(self, role: str) -> float:
         """The SI value of the register with ``role``.
@@ -213,13 +116,7 @@ class ModbusInverterAxis(AxisDriver):
         float
             Its value in SI units.
         """
-        return self._read_group([self._register(role)])[role]
-
-    def _register(self, role: str) -> Register:
-        try:
-            return self.map[role]
-        except KeyError as exc:
-            raise ConfigError(f"{self.where}: {exc.args[0]}") from None
+        return self.modbus.read_group([self.modbus.register(role)])[role]
 
     def write(self, role: str, value: float) -> None:
         """Write the SI ``value`` to the register with ``role``.
@@ -240,24 +137,7 @@ class ModbusInverterAxis(AxisDriver):
         CommunicationError
             If it answers with an exception or a frame that cannot be decoded.
         """
-        reg = self._register(role)
-        try:
-            raw = reg.to_raw(value)
-        except ValueError as exc:
-            raise ConfigError(f"{self.where}: {exc}") from None
-        what = f"writing {role}"
-        try:
-            rr = self.client.write_register(reg.address, raw, device_id=self.unit)
-        except ModbusException as exc:
-            raise CommunicationTimeout(f"{self.where}: no answer {what} (register {reg.address})") from exc
-        except Exception as exc:  # as in _read_group
-            raise self._undecoded(exc, what, reg.address) from exc
-        echo = self._check(rr, what, reg.address, function=_WRITE)
-        if echo != [raw] or getattr(rr, "address", reg.address) != reg.address:
-            raise CommunicationError(
-                f"{self.map.name} at {self.where}: the answer {what} (register {reg.address}) is not "
-                f"the echo of {raw} to register {reg.address}: {echo} to {getattr(rr, 'address', None)}"
-            )
+        self.modbus.write(role, value)
 
     # --- the axis contract ------------------------------------------------------------------------
     def setup(self) -> None:
@@ -374,7 +254,7 @@ class ModbusInverterAxis(AxisDriver):
         """
         values: dict[str, float] = {}
         for group in self._groups:
-            values.update(self._read_group(group))
+            values.update(self.modbus.read_group(group))
         self._status = int(values["status_word"])
         self._count += 1
         return Feedback(velocity=values["actual_speed"], current=values["current"], stamp=float(self._count))
