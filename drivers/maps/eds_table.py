@@ -8,6 +8,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from drivers.maps.pdo_entry import map_entry
+
 __all__ = [
     "BOOLEAN",
     "INT8",
@@ -122,4 +124,4 @@ def mapped(index: int, sub: int, bits: int) -> int:
     int
         The mapping entry.
     """
-    return (index << 16) | (sub << 8) | bits
+    return map_entry(index, sub, bits)
