@@ -27,10 +27,6 @@ DEBTS: dict[str, int] = {
     "rig/commission/moves.py::move": 87,
     "rig/config/emulator.py::emulator_config": 64,
     "rig/emulator/serve.py::run_emulator": 79,
-    "rig/identify/closed_loop.py::fit_model": 71,
-    "rig/identify/excitations.py::periodic_excitation": 63,
-    "rig/identify/experiment.py::experiment_config": 88,
-    "rig/identify/frequency.py::frequency_response": 87,
 }
 
 

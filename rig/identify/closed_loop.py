@@ -24,6 +24,7 @@ they need not be right (a J off by half changes the loop, not the estimate).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -163,30 +164,54 @@ def fit_model(
     IdentificationError
         If too few bins are coherent to fit it.
     """
+    m = _frequency_fit(fr, len(u), max_delay)
+    time_fit = _offset_and_fit(
+        (m.a, m.b, m.k), u, theta, fr.dt, first=round(fr.dropped / fr.dt), holdout=holdout
+    )
+    return _result(m, time_fit, dt=fr.dt, samples=len(u), input=input)
+
+
+@dataclass(frozen=True)
+class _ModelFit:
+    """(3.5) fitted to a frequency response: a_m, b_m, the delay and their standard errors."""
+
+    a: float  #: [1/s] a_m
+    b: float  #: b_m, per unit of the input
+    k: int  #: [samples] the delay
+    se: tuple[float, float]  #: the standard errors of a_m and b_m
+
+
+def _frequency_fit(fr: FrequencyResponse, samples: int, max_delay: int) -> _ModelFit:
+    """``fit_model``'s model fitted to ``fr``'s coherent bins (a record of ``samples``)."""
     mask = fr.coherent
     if np.count_nonzero(mask) < 3:
         raise IdentificationError(
             f"{np.count_nonzero(mask)} bins of the closed-loop frequency response have a coherence >= "
             f"{COHERENCE_MIN:g}: too few to fit (3.5); raise --amplitude or measure longer"
         )
-    dt = fr.dt
-    fit, k, se = _log_ratio_fit(fr.f[mask], fr.speed[mask], dt, 1.0 / (len(u) * dt), max_delay)
-    a, b = float(fit.x[0]), float(fit.x[1])
-    d, fit_pct, resid, floor = _offset_and_fit(
-        (a, b, k), u, theta, dt, first=round(fr.dropped / dt), holdout=holdout
-    )
+    fit, k, se = _log_ratio_fit(fr.f[mask], fr.speed[mask], fr.dt, 1.0 / (samples * fr.dt), max_delay)
+    return _ModelFit(float(fit.x[0]), float(fit.x[1]), k, (float(se[0]), float(se[1])))
+
+
+def _result(
+    m: _ModelFit, time_fit: tuple[float, float, float, float], *, dt: float, samples: int, input: str
+) -> IdentResult:
+    """The identified model of ``m`` and the time-domain fit's (offset, fit [%], residual and
+    quantisation RMS [rad/s])."""
+    d, fit_pct, resid, floor = time_fit
+    (a, b), (se_a, se_b) = (m.a, m.b), m.se
     return IdentResult(
         a_m=a,
         b_m=b,
-        a_m_stderr=float(se[0]),
-        b_m_stderr=float(se[1]),
-        a_m_ci95=(a - 1.96 * float(se[0]), a + 1.96 * float(se[0])),
-        b_m_ci95=(b - 1.96 * float(se[1]), b + 1.96 * float(se[1])),
-        delay_samples=k,
+        a_m_stderr=se_a,
+        b_m_stderr=se_b,
+        a_m_ci95=(a - 1.96 * se_a, a + 1.96 * se_a),
+        b_m_ci95=(b - 1.96 * se_b, b + 1.96 * se_b),
+        delay_samples=m.k,
         offset=d,
         fit_percent=fit_pct,
         dt=dt,
-        samples=len(u),
+        samples=samples,
         input=input,
         residual_rms=resid,
         quantisation_rms=floor,

@@ -140,15 +140,7 @@ def periodic_excitation(
     n_period = period_samples(f_min, dt)
     lo, hi = frequency_band(f_min, f_max, dt)
     if kind == "multisine":
-        k = np.arange(n_period // 2 + 1)
-        f = k / (n_period * dt)
-        lines = k[(f >= lo) & (f <= hi)]
-        if len(lines) == 0:
-            raise IdentificationError(f"no frequency line between {lo:g} and {hi:g} Hz at T = {dt:g} s")
-        spectrum = np.zeros(len(k), dtype=complex)
-        j = np.arange(1, len(lines) + 1)
-        spectrum[lines] = np.exp(-1j * math.pi * j * (j - 1) / len(lines))  # Schroeder
-        x = np.fft.irfft(spectrum, n_period)
+        x = _multisine(n_period, dt, lo, hi)
     elif kind == "chirp":
         t = np.arange(n_period) * dt
         x = scipy.signal.chirp(t, f0=lo, t1=n_period * dt, f1=hi, method="logarithmic")
@@ -158,6 +150,21 @@ def periodic_excitation(
     n = round(duration / dt)
     out: np.ndarray = u0 + amplitude * np.resize(x, n)
     return out
+
+
+def _multisine(n_period: int, dt: float, lo: float, hi: float) -> np.ndarray:
+    """One period (``n_period`` samples of ``dt`` [s]) of equal lines from ``lo`` to ``hi`` [Hz],
+    Schroeder's phases."""
+    k = np.arange(n_period // 2 + 1)
+    f = k / (n_period * dt)
+    lines = k[(f >= lo) & (f <= hi)]
+    if len(lines) == 0:
+        raise IdentificationError(f"no frequency line between {lo:g} and {hi:g} Hz at T = {dt:g} s")
+    spectrum = np.zeros(len(k), dtype=complex)
+    j = np.arange(1, len(lines) + 1)
+    spectrum[lines] = np.exp(-1j * math.pi * j * (j - 1) / len(lines))  # Schroeder
+    x: np.ndarray = np.fft.irfft(spectrum, n_period)
+    return x
 
 
 def excitation(

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from drivers.files import read_json
-from rig.config import RigConfig
+from rig.config import AxisConfig, ControllerConfig, RigConfig
 from rig.host.rundir import read_run
 from rig.host.session import Session
 from rig.identify.estimate import IdentificationError, IdentResult, estimate
@@ -25,6 +25,7 @@ from rig.identify.frequency import FrequencyResponse
 
 __all__ = [
     "SPEED_LIMIT",
+    "Experiment",
     "experiment_config",
     "frequency_from_log",
     "identify_from_log",
@@ -38,29 +39,34 @@ __all__ = [
 SPEED_LIMIT = 1000.0
 
 
-def experiment_config(
-    cfg: RigConfig,
-    u: np.ndarray,
-    *,
-    preset: str | None = None,
-    params: dict[str, Any] | None = None,
-    input: str = "voltage",
-    one_sign: bool = True,
-    repeat: int = 0,
-    dither: float = 0.0,
-    seed: int = 0,
-    loop: dict[str, float] | None = None,
-) -> RigConfig:
-    """``cfg`` made into an identification run of ``u`` (one value per period, [V] or, with
-    ``input="torque"``, [N m]): name ``identify``; the law ``replay`` on the axis ``cfg``'s law
-    commands, in voltage mode (or CST for a torque: a commercial drive's) with a synchronous
-    RPDO (the delay is estimated), no position window, a speed limit of 1000 rad/s;
-    ``preset``/``params`` replace the emulator's; ``one_sign``: a change of the speed's sign
-    stops it (false for the friction experiment). ``repeat`` > 0: ``u`` repeats with that
-    period [samples], and the law holds one period (config.json stays small); ``dither`` > 0:
-    the law adds white noise of that standard deviation, seeded by ``seed``. ``loop``
-    ({"speed", "kp", "ki"}): the closed-loop experiment instead, the law ``excited-speed``
-    (``rig.identify.closed_loop``) with ``u`` the excitation added to its command.
+@dataclasses.dataclass(frozen=True)
+class Experiment:
+    """How ``experiment_config`` makes a rig's configuration into an identification run of ``u``
+    (one value per period, [V] or, with ``input="torque"``, [N m]).
+
+    Name ``identify``; the law ``replay`` on the axis the configuration's law commands, in voltage
+    mode (or CST for a torque: a commercial drive's) with a synchronous RPDO (the delay is
+    estimated), no position window, a speed limit of 1000 rad/s; ``preset``/``params`` replace the
+    emulator's; ``one_sign``: a change of the speed's sign stops it (false for the friction
+    experiment). ``repeat`` > 0: ``u`` repeats with that period [samples], and the law holds one
+    period (config.json stays small); ``dither`` > 0: the law adds white noise of that standard
+    deviation, seeded by ``seed``. ``loop`` ({"speed", "kp", "ki"}): the closed-loop experiment
+    instead, the law ``excited-speed`` (``rig.identify.closed_loop``) with ``u`` the excitation
+    added to its command.
+    """
+
+    preset: str | None = None  #: the emulator's preset (None: the file's)
+    params: dict[str, Any] | None = None  #: its parameters (None: the file's)
+    input: str = "voltage"  #: "voltage" or "torque"
+    one_sign: bool = True  #: the experiment keeps the speed of one sign (no friction identified)
+    repeat: int = 0  #: periods of ``u`` repeated (0: ``u`` once)
+    dither: float = 0.0  #: white dither's standard deviation [unit of u]
+    seed: int = 0  #: of the dither
+    loop: dict[str, float] | None = None  #: a closed speed loop's gains (``excited-speed``; None: open)
+
+
+def experiment_config(cfg: RigConfig, u: np.ndarray, **options: Any) -> RigConfig:
+    """``cfg`` made into an identification run of ``u`` as ``Experiment`` says.
 
     Parameters
     ----------
@@ -68,30 +74,33 @@ def experiment_config(
         The rig.
     u : np.ndarray
         The input per period [V, or N m].
-    preset : str | None, optional
-        The emulator's preset (None: the file's).
-    params : dict[str, Any] | None, optional
-        Its parameters.
-    input : str, optional
-        "voltage" or "torque".
-    one_sign : bool, optional
-        The experiment keeps the speed of one sign (no friction identified).
-    repeat : int, optional
-        Periods of ``u`` repeated (0: ``u`` once).
-    dither : float, optional
-        White dither's standard deviation [unit of u].
-    seed : int, optional
-        Of the dither.
-    loop : dict[str, float] | None, optional
-        A closed speed loop's gains (``excited-speed``; None: open loop).
+    **options
+        ``Experiment``'s fields by name (not given: its defaults).
 
     Returns
     -------
     RigConfig
         The experiment's configuration.
     """
+    e = Experiment(**options)
     target = cfg.controller.commands[0]
-    axes = tuple(
+    return dataclasses.replace(
+        cfg,
+        run=dataclasses.replace(cfg.run, name=f"identify-{e.input}"),
+        emulator=dataclasses.replace(
+            cfg.emulator,
+            preset=e.preset or cfg.emulator.preset,
+            params=cfg.emulator.params if e.params is None else e.params,
+        ),
+        axes=_experiment_axes(cfg, target, e.input),
+        controller=_experiment_law(cfg, u, target, e),
+    )
+
+
+def _experiment_axes(cfg: RigConfig, target: str, input: str) -> tuple[AxisConfig, ...]:
+    """``cfg``'s axes, ``target`` in voltage (or CST) mode with a synchronous RPDO, unbounded in
+    position and limited to ``SPEED_LIMIT``."""
+    return tuple(
         dataclasses.replace(
             a,
             mode="cst" if input == "torque" else "voltage",
@@ -104,27 +113,21 @@ def experiment_config(
         else a
         for a in cfg.axes
     )
+
+
+def _experiment_law(cfg: RigConfig, u: np.ndarray, target: str, e: Experiment) -> ControllerConfig:
+    """The law replaying ``u`` on ``target`` (or, ``e.loop`` given, the excited speed loop)."""
     return dataclasses.replace(
-        cfg,
-        run=dataclasses.replace(cfg.run, name=f"identify-{input}"),
-        emulator=dataclasses.replace(
-            cfg.emulator,
-            preset=preset or cfg.emulator.preset,
-            params=cfg.emulator.params if params is None else params,
-        ),
-        axes=axes,
-        controller=dataclasses.replace(
-            cfg.controller,
-            kind="replay" if loop is None else "excited-speed",
-            reads=(target,),
-            commands=(target,),
-            params={
-                "u": [float(v) for v in (u[:repeat] if repeat else u)],
-                **({"one_sign": one_sign} if loop is None else dict(loop)),
-                **({"cycles": len(u)} if repeat else {}),
-                **({"dither": dither, "seed": seed} if dither else {}),
-            },
-        ),
+        cfg.controller,
+        kind="replay" if e.loop is None else "excited-speed",
+        reads=(target,),
+        commands=(target,),
+        params={
+            "u": [float(v) for v in (u[: e.repeat] if e.repeat else u)],
+            **({"one_sign": e.one_sign} if e.loop is None else dict(e.loop)),
+            **({"cycles": len(u)} if e.repeat else {}),
+            **({"dither": e.dither, "seed": e.seed} if e.dither else {}),
+        },
     )
 
 
@@ -287,7 +290,7 @@ def frequency_from_log(
     dict[str, Any]
         The document.
     """
-    from rig.identify.frequency import response_document
+    from rig.identify.frequency_document import response_document
 
     fr = measure_response(run_dir, a_m=result.a_m, f_min=f_min, f_max=f_max)
     return response_document(fr, excitation, result.a_m, result.b_m, result.delay_samples)

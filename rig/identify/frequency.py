@@ -210,8 +210,37 @@ def frequency_response(
     IdentificationError
         If the record is shorter than a period, or the input has no power in the band.
     """
-    import scipy.signal
+    rec = _record(u, theta, dt, f_min=f_min, f_max=f_max, settle=settle, velocity=velocity, r=r)
+    return _response(rec, _spectra(rec, dt, indirect=r is not None), dt)
 
+
+@dataclass(frozen=True)
+class _Record:
+    """What the spectra are taken of: the band, the segments and the samples kept."""
+
+    lo: float  #: [Hz] the band's low end
+    hi: float  #: [Hz] its high end
+    n: int  #: samples in a segment (one period of ``lo``)
+    periodic: bool  #: x repeats every n samples (rectangular segments without overlap)
+    drop: int  #: samples dropped as the start's transient
+    u: np.ndarray  #: the command kept
+    x: np.ndarray  #: what the spectra are taken against, kept (u, or r in closed loop)
+    w: np.ndarray  #: [rad/s] the speed from the positions, kept
+    v: np.ndarray | None  #: [rad/s] the speed the drive reported, kept (None: none)
+
+
+def _record(
+    u: np.ndarray,
+    theta: np.ndarray,
+    dt: float,
+    *,
+    f_min: float,
+    f_max: float | None,
+    settle: float,
+    velocity: np.ndarray | None,
+    r: np.ndarray | None,
+) -> _Record:
+    """``frequency_response``'s record: the band, checked long enough, the transient dropped."""
     u, theta = np.asarray(u, dtype=float), np.asarray(theta, dtype=float)
     lo, hi = frequency_band(f_min, f_max, dt)
     n = period_samples(lo, dt)
@@ -219,38 +248,69 @@ def frequency_response(
     x = u if r is None else np.asarray(r, dtype=float)  # what the spectra are taken against
     periodic = _is_periodic(x, n)
     drop, (uu, xx, w, v) = _kept(u, x, theta, velocity, n=n, dt=dt, settle=settle, periodic=periodic)
-    window, overlap = ("boxcar", 0) if periodic else ("hann", n // 2)
-    kw = {"fs": 1.0 / dt, "window": window, "nperseg": n, "noverlap": overlap, "detrend": "constant"}
-    f, g_xx = scipy.signal.welch(xx, **kw)
-    _, g_xu = scipy.signal.csd(xx, uu, **kw)
-    _, g_xy = scipy.signal.csd(xx, w, **kw)
-    g_v = None if v is None else scipy.signal.csd(xx, v, **kw)[1]
+    return _Record(lo, hi, n, periodic, drop, uu, xx, w, v)
+
+
+@dataclass(frozen=True)
+class _Spectra:
+    """A record's Welch estimates against x, per frequency bin."""
+
+    f: np.ndarray  #: [Hz] the bins
+    g_xx: np.ndarray  #: x's auto spectrum
+    g_xu: np.ndarray  #: the cross spectrum x -> u
+    g_xy: np.ndarray  #: the cross spectrum x -> w
+    g_v: np.ndarray | None  #: the cross spectrum x -> v (None: no v)
+    gamma2: np.ndarray  #: the coherence x -> w
+    gamma2_v: np.ndarray | None  #: the coherence x -> v (None: no v)
+    gamma2_u: np.ndarray | None  #: the coherence x -> u (None: open loop, x is u)
+    window: str  #: the segments' window
+    overlap: int  #: samples the segments overlap
+
+
+def _spectra(rec: _Record, dt: float, *, indirect: bool) -> _Spectra:
+    """``rec``'s spectra and coherences against x; ``indirect``: x is the closed loop's r."""
+    import scipy.signal
+
+    window, overlap = ("boxcar", 0) if rec.periodic else ("hann", rec.n // 2)
+    kw = {"fs": 1.0 / dt, "window": window, "nperseg": rec.n, "noverlap": overlap, "detrend": "constant"}
+    f, g_xx = scipy.signal.welch(rec.x, **kw)
+    _, g_xu = scipy.signal.csd(rec.x, rec.u, **kw)
+    _, g_xy = scipy.signal.csd(rec.x, rec.w, **kw)
+    g_v = None if rec.v is None else scipy.signal.csd(rec.x, rec.v, **kw)[1]
     with np.errstate(divide="ignore", invalid="ignore"):  # bins without power: nan, not kept
-        gamma2 = scipy.signal.coherence(xx, w, **kw)[1]
-        gamma2_v = None if v is None else scipy.signal.coherence(xx, v, **kw)[1]
-        gamma2_u = None if r is None else scipy.signal.coherence(xx, uu, **kw)[1]
+        gamma2 = scipy.signal.coherence(rec.x, rec.w, **kw)[1]
+        gamma2_v = None if rec.v is None else scipy.signal.coherence(rec.x, rec.v, **kw)[1]
+        gamma2_u = scipy.signal.coherence(rec.x, rec.u, **kw)[1] if indirect else None
+    return _Spectra(f, g_xx, g_xu, g_xy, g_v, gamma2, gamma2_v, gamma2_u, window, overlap)
+
+
+def _response(rec: _Record, sp: _Spectra, dt: float) -> FrequencyResponse:
+    """The response in ``rec``'s band from ``sp``: H1, or the indirect estimate where ``sp`` has
+    the coherence x -> u (x is r)."""
+    indirect = sp.gamma2_u is not None
     # H1 divides by the input's auto spectrum G_uu, the indirect estimate by G_ru
-    g_in = g_xx if r is None else g_xu
-    band = (f >= lo - 1e-9) & (f <= hi + 1e-9) & (g_xx > 0.0)
+    g_in = sp.g_xu if indirect else sp.g_xx
+    band = (sp.f >= rec.lo - 1e-9) & (sp.f <= rec.hi + 1e-9) & (sp.g_xx > 0.0)
     if not band.any():
-        raise IdentificationError(f"the input has no power between {lo:g} and {hi:g} Hz")
-    if gamma2_u is not None:  # a bin is as good as the worse of r -> u and r -> y
-        gamma2 = np.minimum(gamma2, gamma2_u)
-        gamma2_v = None if gamma2_v is None else np.minimum(gamma2_v, gamma2_u)
+        raise IdentificationError(f"the input has no power between {rec.lo:g} and {rec.hi:g} Hz")
+    gamma2, gamma2_v = sp.gamma2, sp.gamma2_v
+    if sp.gamma2_u is not None:  # a bin is as good as the worse of r -> u and r -> y
+        gamma2 = np.minimum(gamma2, sp.gamma2_u)
+        gamma2_v = None if gamma2_v is None else np.minimum(gamma2_v, sp.gamma2_u)
     return FrequencyResponse(
-        f=f[band],
-        speed=g_xy[band] / g_in[band],
+        f=sp.f[band],
+        speed=sp.g_xy[band] / g_in[band],
         coherence=gamma2[band],
         dt=dt,
-        averages=1 + (len(uu) - n) // (n - overlap),
-        dropped=drop * dt,
-        window=window,
-        f_min=lo,
-        f_max=hi,
-        velocity=None if g_v is None else g_v[band] / g_in[band],
+        averages=1 + (len(rec.u) - rec.n) // (rec.n - sp.overlap),
+        dropped=rec.drop * dt,
+        window=sp.window,
+        f_min=rec.lo,
+        f_max=rec.hi,
+        velocity=None if sp.g_v is None else sp.g_v[band] / g_in[band],
         velocity_coherence=None if gamma2_v is None else gamma2_v[band],
-        method="H1" if r is None else "indirect",
-        input_coherence=None if gamma2_u is None else gamma2_u[band],
+        method="indirect" if indirect else "H1",
+        input_coherence=None if sp.gamma2_u is None else sp.gamma2_u[band],
     )
 
 
@@ -288,55 +348,5 @@ def _kept(
     return drop, (uu, xx, w, v)
 
 
-def _db(h: np.ndarray) -> list[float]:
-    return [float(v) for v in 20.0 * np.log10(np.abs(h))]
-
-
-def _deg(h: np.ndarray) -> list[float]:
-    return [float(v) for v in np.degrees(np.unwrap(np.angle(h)))]
-
-
 #: [time constants 1/a_m] the start's transient dropped from a frequency response (e^-7 < 0.1 %)
 SETTLE = 7.0
-
-
-def response_document(
-    fr: FrequencyResponse, excitation: str, a_m: float, b_m: float, delay: int
-) -> dict[str, object]:
-    """The ``frequency_response`` object of identification.json: the measured speed and
-    position responses, the coherence, the fitted model's speed response (a_m, b_m, the
-    delay), the coherent band and the fit's worst deviation within it."""
-    model = model_speed_response(a_m, b_m, fr.dt, delay, fr.f)
-    worst_db, worst_deg = fr.deviation(model)
-    band = fr.coherent_band()
-    return {
-        "excitation": excitation,
-        "method": fr.method,
-        "f_min": fr.f_min,
-        "f_max": fr.f_max,
-        "averages": fr.averages,
-        "dropped": fr.dropped,
-        "window": fr.window,
-        "coherence_min": COHERENCE_MIN,
-        "frequency": [float(v) for v in fr.f],
-        "magnitude_db": _db(fr.speed),
-        "phase_deg": _deg(fr.speed),
-        "position_magnitude_db": _db(fr.position),
-        "position_phase_deg": _deg(fr.position),
-        "coherence": [float(v) for v in fr.coherence],
-        **({} if fr.input_coherence is None else {"input_coherence": [float(v) for v in fr.input_coherence]}),
-        **(
-            {}
-            if fr.velocity is None or fr.velocity_coherence is None
-            else {
-                "velocity_magnitude_db": _db(fr.velocity),
-                "velocity_phase_deg": _deg(fr.velocity),
-                "velocity_coherence": [float(v) for v in fr.velocity_coherence],
-            }
-        ),
-        "model_magnitude_db": _db(model),
-        "model_phase_deg": _deg(model),
-        "coherent_band": None if band is None else list(band),
-        "worst_db": None if math.isnan(worst_db) else worst_db,
-        "worst_deg": None if math.isnan(worst_deg) else worst_deg,
-    }
