@@ -22,9 +22,6 @@ MODULE, FUNCTION, CLASS = 400, 60, 300  #: [lines]
 DEBTS: dict[str, int] = {
     "plant_emulator/im_kernel.py::_foc_periods": 68,
     "rig/bench/floor.py::sleep_floor": 62,
-    "rig/commission/dcf.py::dcf_text": 70,
-    "rig/commission/dictionary.py::read_dictionary": 64,
-    "rig/commission/moves.py::move": 87,
     "rig/config/emulator.py::emulator_config": 64,
     "rig/emulator/serve.py::run_emulator": 79,
 }

@@ -364,7 +364,7 @@ def _print(args: argparse.Namespace, result: Any, tool: Any) -> None:
     elif args.action in drive_dictionary.ACTIONS:
         print("\n".join(drive_dictionary.result_lines(result)))
     elif args.action in ("jog", "move", "home"):
-        from rig.commission.moves import report_lines
+        from rig.commission.move_report import report_lines
 
         units = tool.axis.units
         print("\n".join(report_lines(args.action, result, units.position, units.velocity)))

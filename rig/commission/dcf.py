@@ -125,17 +125,31 @@ def dcf_text(
     str
         The DCF text.
     """
+    out = _with_values(eds, _values(entries), eds_path=eds_path, dcf_path=dcf_path)
+    return "\n".join(out + _commissioning(node_id, node_name, bitrate, serial)) + "\n"
+
+
+def _values(entries: Iterable[Entry]) -> dict[tuple[int, int | None], str]:
+    """The values read, as a DCF writes them: (index, subindex; None for a whole object) -> text."""
     values: dict[tuple[int, int | None], str] = {}
     for e in entries:
         if e.refused is None and e.value is not None:
             values[(e.index, None if e.whole else e.subindex)] = _text(e)
+    return values
+
+
+def _with_values(
+    eds: str, values: dict[tuple[int, int | None], str], *, eds_path: str, dcf_path: str
+) -> list[str]:
+    """The lines of ``eds`` with each object's ParameterValue of ``values``, its FileInfo naming the
+    DCF and the EDS, without its [DeviceComissioning] or trailing blank lines."""
     out: list[str] = []
     for name, body in _sections(eds.splitlines()):
         if name is None:
             out += body
             continue
         if name.lower() == "devicecomissioning":
-            continue  # written anew below
+            continue  # written anew (_commissioning)
         lines = body
         if name.lower() == "fileinfo":
             lines = _set(_set(lines, "FileName", Path(dcf_path).name), "LastEDS", Path(eds_path).name)
@@ -145,7 +159,12 @@ def dcf_text(
         out += lines
     while out and not out[-1].strip():
         out.pop()
-    commissioning = [
+    return out
+
+
+def _commissioning(node_id: int, node_name: str, bitrate: int | None, serial: int | None) -> list[str]:
+    """The [DeviceComissioning] section of the node ``node_id`` (its lines, a blank one first)."""
+    return [
         "",
         "[DeviceComissioning]",
         f"NodeID={node_id}",
@@ -156,4 +175,3 @@ def dcf_text(
         "CANopenManager=0",
         *([f"LSS_SerialNumber={serial}"] if serial is not None else []),
     ]
-    return "\n".join(out + commissioning) + "\n"

@@ -142,15 +142,7 @@ def read_dictionary(axis: Cia402Axis, *, standard_only: bool) -> list[Entry]:
             entry.refused = f"DOMAIN: not read (rig drive sdo read {entry.key} reads it)"
             continue
         try:
-            data = _upload(axis, var)
-        except SdoAbort as exc:
-            entry.refused = f"SDO abort 0x{exc.code:08X}: {abort_text(exc.code)}"
-            silent = 0
-            continue
-        except DictionaryMismatch as exc:
-            entry.refused = "the answer is not its type's size: " + str(exc).split("but the device ")[-1]
-            silent = 0
-            continue
+            data = _answer(axis, var, entry)
         except CommunicationTimeout as exc:
             silent += 1
             if silent >= _SILENT:
@@ -160,13 +152,31 @@ def read_dictionary(axis: Cia402Axis, *, standard_only: bool) -> list[Entry]:
             entry.refused = "no SDO answer"
             continue
         silent = 0
-        entry.value = var.decode_raw(data)
-        entry.hex = _hex(var, entry.value, data)
-        numeric = isinstance(entry.value, (int, float)) and not isinstance(entry.value, bool)
-        if numeric and units is not None and (entry.whole or var.subindex):  # a record's sub 0: a count
-            held = quantity(units, var.index, entry.value)
-            entry.quantity = held.as_dict() if held is not None else None
+        if data is not None:
+            _fill(entry, var, data, units)
     return entries
+
+
+def _answer(axis: Cia402Axis, var: Any, entry: Entry) -> bytes | None:
+    """The drive's answer for ``var`` (None: refused, why in ``entry.refused``); a
+    CommunicationTimeout where it gave none."""
+    try:
+        return _upload(axis, var)
+    except SdoAbort as exc:
+        entry.refused = f"SDO abort 0x{exc.code:08X}: {abort_text(exc.code)}"
+    except DictionaryMismatch as exc:
+        entry.refused = "the answer is not its type's size: " + str(exc).split("but the device ")[-1]
+    return None
+
+
+def _fill(entry: Entry, var: Any, data: bytes, units: Any) -> None:
+    """``entry``'s value, its hex and (``units`` known, a number) its quantity, of the answer ``data``."""
+    entry.value = var.decode_raw(data)
+    entry.hex = _hex(var, entry.value, data)
+    numeric = isinstance(entry.value, (int, float)) and not isinstance(entry.value, bool)
+    if numeric and units is not None and (entry.whole or var.subindex):  # a record's sub 0: a count
+        held = quantity(units, var.index, entry.value)
+        entry.quantity = held.as_dict() if held is not None else None
 
 
 def _shown(row: dict[str, Any]) -> str:

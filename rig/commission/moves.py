@@ -14,6 +14,7 @@ drive's units), the error, the time, and how it stopped, in words.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from drivers.cia402_access import Setting
@@ -30,7 +31,7 @@ from rig.commission.status import UNITS_HINT
 if TYPE_CHECKING:
     from rig.commission.drive import DriveTool
 
-__all__ = ["MAX_HOLD", "home", "jog", "move", "report_lines"]
+__all__ = ["MAX_HOLD", "home", "jog", "move"]
 
 _NEW_SETPOINT = 0x10  #: controlword bit 4: new set-point (profile position, homing)
 _RELATIVE = 0x40  #: controlword bit 6: the target is relative (profile position)
@@ -202,44 +203,63 @@ def move(
     ConfigError
         If the speed, acceleration or travel is out of bounds.
     """
-    a = tool.axis
     here, target = _target(tool, position, relative=relative, max_travel=max_travel)
     tool._alone()  # no other master: then the profile, written before the enable
     asked = _profile(tool, _own_speed(tool, max_speed) if speed is None else speed, accel, max_speed)
-    tool.watch_actual(target, cia.POSITION_ACTUAL, a.units.position)
-    seen = [0]  #: the statusword at the last look before the stop (its bits 10, 11, 13)
-    arrived: list[float] = []
+    tool.watch_actual(target, cia.POSITION_ACTUAL, tool.axis.units.position)
+    under_way = _Move(tool, here, target, max_speed, hold)
+    wait = seconds + (min(hold, MAX_HOLD) if hold is not None else 0.0)
+    result = tool.run_profile(Mode.PROFILE_POSITION, under_way.start, under_way.done, wait, "the target")
+    return under_way.report(relative, asked, result)
 
-    def start() -> None:
+
+@dataclass
+class _Move:
+    """A profile-position move under way: what its start, its end and its report share."""
+
+    tool: DriveTool
+    here: float  #: [rad] where the shaft stood
+    target: float  #: [rad] where it is to go
+    max_speed: float  #: [rad/s] the fastest it may turn
+    hold: float | None  #: [s] to stay enabled at the target (None: no hold)
+    seen: int = 0  #: the statusword at the last look before the stop (its bits 10, 11, 13)
+    arrived: float | None = None  #: [s] when the target was first reached (None: not yet)
+
+    def start(self) -> None:
+        """Watch the move, write the target and hand it over as a new set-point, acknowledged."""
+        tool, a, target = self.tool, self.tool.axis, self.target
         tool.watch_actual(target, cia.POSITION_ACTUAL, a.units.position)
-        tool.motion = watch_move(tool, what="the move", speed_limit=max_speed, start=here, target=target)
+        tool.motion = watch_move(
+            tool, what="the move", speed_limit=self.max_speed, start=self.here, target=target
+        )
         a.sdo_write(cia.TARGET_POSITION, 0, round(target * a.units.position))
         a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION) | _NEW_SETPOINT)
         tool.until(lambda: bool(a.sdo_read(cia.STATUSWORD) & _BIT12), 1.0, "the set-point acknowledge")
         a.sdo_write(cia.CONTROLWORD, 0, int(Controlword.ENABLE_OPERATION))
 
-    def done() -> bool:
-        seen[0] = int(a.sdo_read(cia.STATUSWORD))
-        if not seen[0] & _TARGET_REACHED:
+    def done(self) -> bool:
+        """Whether the target is reached (and held for ``hold``, at most ``MAX_HOLD``)."""
+        self.seen = int(self.tool.axis.sdo_read(cia.STATUSWORD))
+        if not self.seen & _TARGET_REACHED:
             return False
-        if not arrived:
-            arrived.append(tool.elapsed())
-        return hold is None or tool.elapsed() - arrived[0] >= min(hold, MAX_HOLD)
+        if self.arrived is None:
+            self.arrived = self.tool.elapsed()
+        return self.hold is None or self.tool.elapsed() - self.arrived >= min(self.hold, MAX_HOLD)
 
-    wait = seconds + (min(hold, MAX_HOLD) if hold is not None else 0.0)
-    result = tool.run_profile(Mode.PROFILE_POSITION, start, done, wait, "the target")
-    reached = result["position_rad"]
-    report = {
-        "target_rad": target,
-        "relative": relative,
-        **asked,
-        "reached_rad": reached,
-        "time_s": arrived[0] if arrived else tool.elapsed(),
-        "held_s": tool.elapsed() - arrived[0] if arrived and hold is not None else 0.0,
-        **_error(tool, target, reached, seen[0]),
-        "stop": _stop_words(result),
-    }
-    return report | result
+    def report(self, relative: bool, asked: dict[str, Any], result: dict[str, Any]) -> dict[str, Any]:
+        """``move``'s report of the move ended in ``result`` (``asked``: its speed and acceleration)."""
+        tool, arrived, reached = self.tool, self.arrived, result["position_rad"]
+        report = {
+            "target_rad": self.target,
+            "relative": relative,
+            **asked,
+            "reached_rad": reached,
+            "time_s": arrived if arrived is not None else tool.elapsed(),
+            "held_s": tool.elapsed() - arrived if arrived is not None and self.hold is not None else 0.0,
+            **_error(tool, self.target, reached, self.seen),
+            "stop": _stop_words(result),
+        }
+        return report | result
 
 
 def _target(tool: DriveTool, position: float, *, relative: bool, max_travel: float) -> tuple[float, float]:
@@ -326,63 +346,3 @@ def home(
 
     result = tool.run_profile(Mode.HOMING, start, done, seconds, "homing")
     return {"method": method, "time_s": tool.elapsed(), "stop": _stop_words(result)} | result
-
-
-def _si(value: float | None, unit: str, factor: float) -> str:
-    """``value`` [unit] and its drive units (``factor`` per unit)."""
-    if value is None or not math.isfinite(value):
-        return "-"
-    units = f" ({value * factor:.0f} drive units)" if math.isfinite(factor) and factor else ""
-    return f"{value:.6g} {unit}{units}"
-
-
-def report_lines(action: str, r: dict[str, Any], position_factor: float, velocity_factor: float) -> list[str]:
-    """A move's report for a person: asked, reached, error, time, the stop in words (``action``:
-    jog, move, home); the factors: the drive's units per rad and per rad/s.
-
-    Parameters
-    ----------
-    action : str
-        jog, move or home.
-    r : dict[str, Any]
-        The report.
-    position_factor : float
-        Device units per rad.
-    velocity_factor : float
-        Per rad/s.
-
-    Returns
-    -------
-    list[str]
-        The lines.
-    """
-    rows: list[tuple[str, str]] = []
-    if action == "jog":
-        rows.append(("asked", f"{r['asked_rad_s']:g} rad/s" + _also(r)))
-        rows.append(("reached", _si(r.get("reached_rad_s"), "rad/s", velocity_factor)))
-    elif action == "move":
-        how = "relative" if r.get("relative") else "absolute"
-        rows.append(("target", f"{r['target_rad']:.6g} rad ({how})" + _also(r)))
-        rows.append(("reached", _si(r.get("reached_rad"), "rad", position_factor)))
-        rows.append(
-            ("error", f"{r['error_rad']:.4g} rad ({r['error_units']} drive units): {r['error_said']}")
-        )
-        rows.append(
-            ("time", f"{r['time_s']:.3g} s" + (f", held {r['held_s']:.3g} s" if r.get("held_s") else ""))
-        )
-    else:
-        method = r.get("method")
-        rows.append(("homing", f"method {method}" if method is not None else "the drive's own method"))
-        rows.append(("time", f"{r['time_s']:.3g} s"))
-    rows.append(("result", str(r["result"])))
-    if "position_rad" in r:
-        rows.append(("position", _si(r["position_rad"], "rad", position_factor)))
-    rows.append(("velocity", _si(r["velocity_rad_s"], "rad/s", velocity_factor)))
-    rows.append(("stop", r["stop"]))
-    return [f"{key:15s} {text}" for key, text in rows]
-
-
-def _also(r: dict[str, Any]) -> str:
-    parts = [f"at {r['speed_rad_s']:g} rad/s"] if "speed_rad_s" in r else []
-    parts += [f"{r['accel_rad_s2']:g} rad/s^2"] if "accel_rad_s2" in r else []
-    return (", " + ", ".join(parts)) if parts else ""
