@@ -57,17 +57,7 @@ def sleep_floor(period: float, seconds: float, ask: RealtimeRequest | None = Non
     gc.disable()
     try:
         stolen = cpu_stolen()
-        k = woken = missed = 0
-        deadline = time.perf_counter() + period
-        while k < n:
-            sleep_until(deadline)
-            lateness = time.perf_counter() - deadline
-            late[woken] = lateness
-            woken += 1
-            skipped = int(lateness / period)  # a wake-up that many periods late: those are missed
-            missed += min(skipped, n - k - 1)
-            k += skipped + 1
-            deadline += (skipped + 1) * period
+        woken, missed = _sleep(period, late)
         after = cpu_stolen()
     finally:
         if enabled:
@@ -77,11 +67,34 @@ def sleep_floor(period: float, seconds: float, ask: RealtimeRequest | None = Non
     return {
         "periods": n,
         "missed": missed,
-        "lateness_us": {
-            "median": xs[len(xs) // 2] * 1e6,
-            "p99": xs[int(0.99 * (len(xs) - 1))] * 1e6,
-            "max": xs[-1] * 1e6,
-        },
+        "lateness_us": _lateness_us(xs),
         "cpu_stolen_s": None if stolen is None or after is None else after - stolen,
         "granted": grant.describe(),
+    }
+
+
+def _sleep(period: float, late: list[float]) -> tuple[int, int]:
+    """Sleep to ``len(late)`` deadlines ``period`` [s] apart, each wake-up's lateness [s] written to
+    ``late`` in turn; (wake-ups, periods missed: those a late wake-up slept through)."""
+    n = len(late)
+    k = woken = missed = 0
+    deadline = time.perf_counter() + period
+    while k < n:
+        sleep_until(deadline)
+        lateness = time.perf_counter() - deadline
+        late[woken] = lateness
+        woken += 1
+        skipped = int(lateness / period)  # a wake-up that many periods late: those are missed
+        missed += min(skipped, n - k - 1)
+        k += skipped + 1
+        deadline += (skipped + 1) * period
+    return woken, missed
+
+
+def _lateness_us(xs: list[float]) -> dict[str, float]:
+    """The median, p99 and max [us] of the sorted latenesses ``xs`` [s]."""
+    return {
+        "median": xs[len(xs) // 2] * 1e6,
+        "p99": xs[int(0.99 * (len(xs) - 1))] * 1e6,
+        "max": xs[-1] * 1e6,
     }

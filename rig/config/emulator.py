@@ -13,11 +13,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from drivers.errors import ConfigError
 from drivers.schema import Refused, keys
 from rig.config.params import typed_values
+
+if TYPE_CHECKING:
+    from plant_emulator.device_profile import DeviceProfile
 
 __all__ = ["emulator_config", "inverter_values", "physics", "preset_params"]
 
@@ -156,6 +159,34 @@ def emulator_config(path: str, table: dict[str, Any]) -> Any:
     """
     from rig.config.schema import EmulatorConfig
 
+    preset, device = _preset_or_device(path, table)
+    params = _table(path, "[emulator.params]", table.get("params", {}))
+    inverter = inverter_values(
+        _table(path, "[emulator.inverter]", table.get("inverter", {})), f"{path}: [emulator.inverter]"
+    )
+    if not (preset or device):
+        if params:
+            raise ConfigError(
+                f"{path}: [emulator.params] {', '.join(params)}: name the [emulator] preset or device"
+            )
+        return EmulatorConfig("", "", {}, inverter)
+    profile = _device_profile(path, device) if device else None
+    from plant_emulator.presets import PRESETS
+
+    name = profile.physics if profile else preset
+    if name not in PRESETS:
+        raise ConfigError(f"{path}: [emulator] preset = {name!r}: unknown; known: {', '.join(PRESETS)}")
+    what = f"device {device}" if device else f"preset {name}"
+    base = profile.params if profile else None
+    typed, built = physics(name, params, f"{path}: [emulator.params] of {what}", base=base)
+    emulator = EmulatorConfig(preset, device, typed, inverter)
+    emulator.__dict__.update(profile=profile, physics=built)  # its cached properties: read and built here
+    return emulator
+
+
+def _preset_or_device(path: str, table: dict[str, Any]) -> tuple[str, str]:
+    """``[emulator]``'s keys checked, and its (preset, device), one of them or neither given; a
+    relative device file is taken from ``path``'s folder."""
     unknown = set(table) - set(_KNOWN)
     if unknown:
         raise ConfigError(
@@ -169,32 +200,14 @@ def emulator_config(path: str, table: dict[str, Any]) -> Any:
         raise ConfigError(f"{path}: [emulator] has both preset and device: give one")
     if device.endswith(".toml") and not Path(device).is_absolute():
         device = str(Path(path).parent / device)
-    params = _table(path, "[emulator.params]", table.get("params", {}))
-    inverter = inverter_values(
-        _table(path, "[emulator.inverter]", table.get("inverter", {})), f"{path}: [emulator.inverter]"
-    )
-    if not (preset or device):
-        if params:
-            raise ConfigError(
-                f"{path}: [emulator.params] {', '.join(params)}: name the [emulator] preset or device"
-            )
-        return EmulatorConfig("", "", {}, inverter)
-    profile = None
-    if device:
-        from plant_emulator.device_profile import device_profile
+    return preset, device
 
-        try:
-            profile = device_profile(device)
-        except ConfigError as exc:
-            raise ConfigError(f"{path}: [emulator] device = {device!r}: {exc}") from None
-    from plant_emulator.presets import PRESETS
 
-    name = profile.physics if profile else preset
-    if name not in PRESETS:
-        raise ConfigError(f"{path}: [emulator] preset = {name!r}: unknown; known: {', '.join(PRESETS)}")
-    what = f"device {device}" if device else f"preset {name}"
-    base = profile.params if profile else None
-    typed, built = physics(name, params, f"{path}: [emulator.params] of {what}", base=base)
-    emulator = EmulatorConfig(preset, device, typed, inverter)
-    emulator.__dict__.update(profile=profile, physics=built)  # its cached properties: read and built here
-    return emulator
+def _device_profile(path: str, device: str) -> DeviceProfile:
+    """The device profile ``device`` names (a zoo twin or a file), its errors prefixed with where."""
+    from plant_emulator.device_profile import device_profile
+
+    try:
+        return device_profile(device)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: [emulator] device = {device!r}: {exc}") from None

@@ -22,6 +22,7 @@ import pathlib
 import signal
 import threading
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import can
@@ -139,40 +140,67 @@ def run_emulator(
     int
         The exit status.
     """
-    stop = stop or threading.Event()
     lock = threading.RLock()
     network = canopen.Network()
     bus, server, where = _transport(
         network, lock, interface=interface, channel=channel, host=host, port=port, bitrate=bitrate
     )
-    collect: Callable[[], bool] | None = None  #: real time: young garbage collected in the slack
+    emulation = _Emulation(network, lock, bus, server, where)
     try:
-        devices, period = _boot(world, network, lock, lockstep=lockstep)
-        grant: Grant | None = None
-        if not lockstep and realtime is not None:
-            collect = _collect_in_the_slack()
-            grant = request(realtime)
-        with lock:
-            clock = None if lockstep else WorldClock(devices)  # its time starts now
-        if server is not None:
-            server.idle = collect  # the frames' thread, once a round's answers are out
-            server.start()
-        rest = _signals(stop)  # before anyone is told we serve
-        _announce(label, devices, period, where, grant)
-        if ready is not None:
-            ready(server.port if server else 0)
-        frames_thread = server is not None
-        _serve(
-            stop, rest, lock=lock, devices=devices, clock=clock, collect=None if frames_thread else collect
-        )
+        emulation.serve(world, label, stop or threading.Event(), ready, lockstep=lockstep, realtime=realtime)
     except KeyboardInterrupt:
         log.info("interrupted")
     finally:
-        if collect is not None:
-            gc.enable()
-        _close(server, bus, network)
-        print("rig emulate: stopped", flush=True)
+        emulation.close()
     return 0
+
+
+@dataclass
+class _Emulation:
+    """The emulator's network and transport, joined: what serving and closing them share."""
+
+    network: canopen.Network
+    lock: threading.RLock  #: held by whoever touches the devices
+    bus: Any  #: the python-can bus served on (None: socketcand)
+    server: SocketcandServer | None  #: the socketcand server (None: a python-can bus)
+    where: str  #: where it serves, in words
+    collect: Callable[[], bool] | None = None  #: real time: young garbage collected in the slack
+
+    def serve(
+        self,
+        world: World,
+        label: str,
+        stop: threading.Event,
+        ready: Any,
+        *,
+        lockstep: bool,
+        realtime: RealtimeRequest | None,
+    ) -> None:
+        """Boot the world, start serving, say so (``ready(port)``) and serve until ``stop``."""
+        devices, period = _boot(world, self.network, self.lock, lockstep=lockstep)
+        grant: Grant | None = None
+        if not lockstep and realtime is not None:
+            self.collect = _collect_in_the_slack()
+            grant = request(realtime)
+        with self.lock:
+            clock = None if lockstep else WorldClock(devices)  # its time starts now
+        server = self.server
+        if server is not None:
+            server.idle = self.collect  # the frames' thread, once a round's answers are out
+            server.start()
+        rest = _signals(stop)  # before anyone is told we serve
+        _announce(label, devices, period, self.where, grant)
+        if ready is not None:
+            ready(server.port if server else 0)
+        collect = None if server is not None else self.collect  # where no frames' thread does
+        _serve(stop, rest, lock=self.lock, devices=devices, clock=clock, collect=collect)
+
+    def close(self) -> None:
+        """The collector back on, the transport closed, and the last line on stdout."""
+        if self.collect is not None:
+            gc.enable()
+        _close(self.server, self.bus, self.network)
+        print("rig emulate: stopped", flush=True)
 
 
 def _signals(stop: threading.Event) -> threading.Event:
