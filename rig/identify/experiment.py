@@ -74,7 +74,7 @@ def experiment_config(cfg: RigConfig, u: np.ndarray, **options: Any) -> RigConfi
         The rig.
     u : np.ndarray
         The input per period [V, or N m].
-    **options
+    **options : Any
         ``Experiment``'s fields by name (not given: its defaults).
 
     Returns

@@ -104,7 +104,7 @@ def cascade_run(**options: Any) -> Trajectory:
 
     Parameters
     ----------
-    **options
+    **options : Any
         ``CascadeScenario``'s fields by name (not given: Table V's and Table II's values).
 
     Returns

@@ -108,7 +108,7 @@ def position_servo_run(**options: Any) -> Trajectory:
 
     Parameters
     ----------
-    **options
+    **options : Any
         ``ServoScenario``'s fields by name (not given: the paper's values).
 
     Returns

@@ -83,7 +83,7 @@ def speed_loop_run(**options: Any) -> Trajectory:
 
     Parameters
     ----------
-    **options
+    **options : Any
         ``SpeedScenario``'s fields by name (not given: its defaults).
 
     Returns
