@@ -169,6 +169,18 @@ class Grant:
         )
         return f"{policy}, {where}, {memory}, {awake}"
 
+    def keep(self, tid: int) -> None:
+        """Thread ``tid``'s scheduling and CPUs as they are now, restored by ``release``.
+
+        Parameters
+        ----------
+        tid : int
+            A thread of this process (its native id).
+        """
+        self._saved.append(
+            _Thread(tid, os.sched_getscheduler(tid), os.sched_getparam(tid), os.sched_getaffinity(tid))
+        )
+
     def release(self) -> None:
         """Every thread back to its scheduling and CPUs; memory unlocked if locked here."""
         for saved in reversed(self._saved):

@@ -33,6 +33,7 @@ from rig.host.session_parts import grant_realtime, host_loop, open_axes, open_re
 from rig.host.signals import StopRequests
 from rig.host.transport import Transport
 from rig.host.transports import open_transport
+from rig.host.viewer_priority import raise_viewer
 from rig.live.view import LiveView
 
 __all__ = ["Session", "build_law", "run_config"]
@@ -231,6 +232,8 @@ class Session:
         grant = None
         try:
             grant = grant_realtime(self.cfg, loop, self.transport, self.bus_figures)
+            if grant is not None and live is not None and live.thread is not None:  # shares the GIL
+                raise_viewer(grant, live.thread)
             summary = loop.run(progress)
             said = missed_period(summary, self.timebase.period)
             if said:

@@ -120,6 +120,11 @@ class LiveView:
         )
         self._thread.start()
 
+    @property
+    def thread(self) -> threading.Thread | None:
+        """The drawing thread (None before ``start``)."""
+        return self._thread
+
     def snapshot(self) -> list[Sequence[float]]:
         """The latest rows, oldest first (a copy the loop may append past).
 
