@@ -1,30 +1,24 @@
 """The SYNC-driven host loop of docs/architecture.md: every axis of the rig, one law, one safe-stop path.
 
-Each cycle: ``pacing.tick()`` (the SYNC and, where the host sends it, the wait for the
-TPDOs answering it: the law acts on the sample of the same SYNC in both time modes;
-answers later than the budget make a late cycle, counted in its row and the summary,
-and ``late_stop`` late cycles in a row are a safe stop), then for every axis its feedback in
-SI, its own supervision (EMCY, NMT, heartbeat, statusword, ...) and its guard
-(watchdog, NaN, limits); then the law runs once on the axes it reads; every
-command (the law's, and the time profiles of profile axes) is checked against
-its axis's limits and only then all are written; the sample is recorded. Two
-time modes, same code path: lock-step (as fast as possible, deterministic) and
-real time (absolute deadlines on the monotonic clock, slept to; with ``spin`` [s], where
-the loop thread has no real-time priority, yielding spins over the last part; garbage
-collection frozen and young generations collected in a cycle's slack; missed cycles
+Each cycle: ``pacing.tick()`` (the SYNC and, where the host sends it, the wait for the TPDOs
+answering it: the law acts on the sample of the same SYNC in both time modes; answers later than
+the budget make a late cycle, counted in its row and the summary, and ``late_stop`` late cycles in
+a row are a safe stop), then the cycle's step (``rig.host.cycle_step``: read every axis, update the
+law, check and write every command, record). Two time modes, same code path: lock-step (as fast as
+possible, deterministic) and real time (absolute deadlines on the monotonic clock, slept to; with
+``spin`` [s], where the loop thread has no real-time priority, yielding spins over the last part;
+garbage collection frozen and young generations collected in a cycle's slack; missed cycles
 skipped and counted: ``rig.host.cycle_clock``). The summary is ``rig.host.loop_summary``'s.
 
-Every way out (a limit, the watchdog, a lost heartbeat, an EMCY, a NaN or an
-exception from the law, Ctrl-C) goes through ``safe_stop``, and the end of a
-run through the same stop: a neutral command (none in CSP), quick stop, the drives' own ramps to
-rest (SYNC goes on meanwhile), disable, on every axis (``rig.host.stopping``).
-The loop does not close the recorder: the session does, after it has stopped
-the frames that feed the trace.
+Every way out (a limit, the watchdog, a lost heartbeat, an EMCY, a NaN or an exception from the
+law, Ctrl-C) goes through ``safe_stop``, and the end of a run through the same stop: a neutral
+command (none in CSP), quick stop, the drives' own ramps to rest (SYNC goes on meanwhile),
+disable, on every axis (``rig.host.stopping``). The loop does not close the recorder: the session
+does, after it has stopped the frames that feed the trace.
 """
 
 from __future__ import annotations
 
-import contextlib
 import gc
 import logging
 import math
@@ -32,21 +26,21 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from drivers.base import AxisDriver, Feedback, feedback_fields
+from drivers.base import AxisDriver
 from drivers.errors import SafetyStop
-from rig.host.columns import FIELDS, loop_columns
+from rig.host.columns import loop_columns
 from rig.host.control import Wiring
 from rig.host.cycle_clock import collect_in_slack, missed_periods, prime, sleep_until
+from rig.host.cycle_step import CycleStep
 from rig.host.loop_options import LoopOptions
 from rig.host.loop_stats import CycleTimes, StageTimes, run_metrics
 from rig.host.loop_summary import loop_summary
-from rig.host.missed_sample import FreshSteps
 from rig.host.pacing import Pacing
 from rig.host.realtime import YOUNG, cpu_stolen
 from rig.host.recorder import Recorder
 from rig.host.safety import AxisGuard
 from rig.host.signals import stop_reason
-from rig.host.start_checks import ReferenceSpan, check_first_samples, reference_span
+from rig.host.start_checks import reference_span
 from rig.host.stop_causes import cause_of
 from rig.host.stopping import bring_to_rest
 from rig.host.timebase import Timebase
@@ -58,7 +52,29 @@ log = logging.getLogger(__name__)
 
 
 class HostLoop:
-    """Run ``law`` on ``axes`` (wired by ``wiring``) for ``cycles`` periods of ``timebase``."""
+    """Run ``law`` on ``axes`` (wired by ``wiring``) for ``cycles`` periods of ``timebase``.
+
+    Parameters
+    ----------
+    axes : Sequence[AxisDriver]
+        Every axis of the run, set up.
+    guards : Sequence[AxisGuard]
+        Their guards, in the same order.
+    law : Law
+        The run's law.
+    wiring : Wiring
+        Which axes it reads and commands, and the profile axes.
+    recorder : Recorder
+        Where the rows go (the session closes it).
+    pacing : Pacing
+        How a cycle starts.
+    timebase : Timebase
+        The period, and lock-step or real time.
+    cycles : int
+        The cycles to run.
+    options : LoopOptions | None
+        The rest (None: a lock-step run's defaults).
+    """
 
     def __init__(
         self,
@@ -85,43 +101,54 @@ class HostLoop:
         self.overruns = 0
         self.safe_stop_reason: str | None = None
         self.heartbeat = o.heartbeat
-        self.uncut = o.held if o.held is not None else contextlib.nullcontext()
         self.late = 0  #: cycles whose answers missed the pacing's budget (``Pacing.late``)
         self._late_run = 0
         self.spin = o.spin  #: (``LoopOptions.spin``; 0 at real-time priority)
         self.gc_young = YOUNG  #: young objects before a collection in the slack (``_collect``)
         self.collections = 0  #: collections run in the slack
         self.granted: dict[str, Any] | None = None  #: real time: what the system granted (the summary's)
-        self.steps = FreshSteps(law, self.axes, wiring.commands, o.missed_sample)  #: on new samples only
         #: the read axes' sample stamps are bus receive times on the wall clock (real time, CANopen)
         wall = realtime and all(axes[i].wall_stamps for i in wiring.reads)
-        self._timing = CycleTimes(self.times, pacing, split=self.split, realtime=realtime, wall=wall)
+        timing = CycleTimes(self.times, pacing, split=self.split, realtime=realtime, wall=wall)
+        limit = guards[wiring.commands[0]].limits.command if wiring.commands else math.inf
+        metrics = self.metrics = run_metrics(self.axes, law, wiring, limit, cycles)
+        #: each cycle once its tick has returned (``rig.host.cycle_step``)
+        self.step = CycleStep(
+            axes, guards, law, wiring, recorder, pacing=pacing, timing=timing, metrics=metrics, options=o
+        )
         self.stop_confirmed: bool | None = None  #: every axis came to rest by its own stop
         self.still_turning: dict[str, float | None] = {}  #: axes not at rest after it [rad/s]
-        self.done = 0
-        self._begun = False
-        self._span: ReferenceSpan | None = None  #: of a position reference (``run``)
         self.elapsed = 0.0  #: wall time of the cycles [s], without setup and the recorder's close
-        self._t_start = self._t_end = 0.0  #: perf_counter [s] of the first cycle, the last one's end
+        self._t_start = 0.0  #: perf_counter [s] of the first cycle
         #: [s] of CPU time the hypervisor took during the cycles (``cpu_stolen``), and its count then
         self.stolen: float | None = None
         self._stolen_at: float | None = None
-        limit = guards[wiring.commands[0]].limits.command if wiring.commands else math.inf
-        self.metrics = run_metrics(self.axes, law, wiring, limit, cycles)
-        #: per axis, its recorded feedback fields as a tuple (one attrgetter call per axis and cycle)
-        self._recorded = [
-            (i, feedback_fields([f for f in FIELDS if f in a.measures])) for i, a in enumerate(self.axes)
-        ]
 
     columns = staticmethod(loop_columns)  #: the recorder's columns (``rig.host.columns``)
 
     @property
     def held(self) -> int:
         """Cycles in which a read axis had no new sample (``rig.host.missed_sample``)."""
-        return self.steps.held
+        return self.step.steps.held
+
+    @property
+    def done(self) -> int:
+        """Cycles run (skipped ones are under ``overruns``)."""
+        return self.step.done
 
     def run(self, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
-        """Run the cycles (``progress(k)`` every 1 % of them); returns the summary."""
+        """Run the cycles, then bring every axis to rest and disabled, whatever ended them.
+
+        Parameters
+        ----------
+        progress : Callable[[int], None] | None
+            Called with the cycle's index every 1 % of them (None: not).
+
+        Returns
+        -------
+        dict[str, Any]
+            The summary (`summary`).
+        """
         frozen, tb = False, self.timebase
         if tb.realtime:
             gc.collect()
@@ -129,7 +156,7 @@ class HostLoop:
             gc.disable()
             frozen = True
         try:
-            self._span = reference_span(self.law, self.guards, self.wiring.reads, self.cycles, tb.period)
+            self.step.span = reference_span(self.law, self.guards, self.wiring.reads, self.cycles, tb.period)
             self.recorder.mark_start()
             with self.pacing.owning():  # given back before any stop: its SDO needs the receive thread
                 if tb.realtime and not self.pacing.paced_by_bus:  # the others' tick brings cycle 0's
@@ -151,13 +178,14 @@ class HostLoop:
     def _cycles(self, progress: Callable[[int], None] | None) -> None:
         period, realtime = self.timebase.period, self.timebase.realtime
         self._stolen_at = cpu_stolen() if realtime else None
-        start = self._t_start = self._t_end = time.perf_counter()
+        start = self._t_start = self.step.t_end = time.perf_counter()
         deadline = start
         every = max(1, self.cycles // 100)
         k = 0
         pace = realtime and not self.pacing.paced_by_bus
         by_bus = self.pacing.paced_by_bus
         last_tick: float | None = None
+        step = self.step.cycle
         while k < self.cycles:
             if pace:
                 sleep_until(deadline, self.spin)
@@ -183,7 +211,7 @@ class HostLoop:
                 if k >= self.cycles:
                     break
             late = self.pacing.late
-            self._cycle(k, k * period, t0, late=late)
+            step(k, k * period, t0, late)
             if late:
                 self._late(k)
             else:
@@ -200,16 +228,6 @@ class HostLoop:
         if collect_in_slack(deadline, self.timebase.period, self.gc_young):
             self.collections += 1
 
-    def _read(self, k: int) -> list[Feedback]:
-        now = self.pacing.now()
-        samples = []
-        for axis, guard in zip(self.axes, self.guards):
-            fb = axis.feedback()
-            axis.supervise(now)
-            guard.check_feedback(fb, k)
-            samples.append(fb)
-        return samples
-
     def _late(self, k: int) -> None:
         """Cycle ``k`` was late: counted; ``late_stop`` of them in a row are a safe stop."""
         self.late += 1
@@ -222,48 +240,16 @@ class HostLoop:
                 f"[run] late_stop = {self.options.late_stop})"
             )
 
-    def _cycle(self, k: int, t: float, t0: float, *, late: bool = False) -> None:
-        """Cycle ``k`` at time ``t`` [s] of the run, whose tick started at ``t0`` (perf_counter s) and
-        has returned (``late``: its answers missed their budget)."""
-        samples = self._read(k)
-        if not self._begun:  # cycle 0 (``check_first_samples``)
-            check_first_samples(
-                self.law, self.axes, self.guards, self.wiring.reads, span=self._span, samples=samples
-            )
-            self._begun = True
-        t1 = time.perf_counter()
-        wiring = self.wiring
-        reads = [samples[i] for i in wiring.reads]
-        out, send = self.steps.step(t, reads)
-        values = [*out.commands, *(profile(t) for _, profile in wiring.profiles)]
-        # held too: the last commands go again, so the drives' deadlines on them (the toolkit's
-        # RPDO deadline) watch the host's cycle, not its samples
-        targets = wiring.commanded
-        guards, axes = self.guards, self.axes
-        for i, value in zip(targets, values):
-            guards[i].check_command(value, k)
-        t2 = time.perf_counter()
-        for i, value in zip(targets, values):
-            axes[i].command(value)
-        t3 = time.perf_counter()
-        if self.heartbeat is not None:  # after the commands: not between a SYNC and its RPDOs
-            self.heartbeat(k)
-        timing = self._timing.cycle((t0, t1, t2, t3), send, reads)
-        scalars = [abs(v) if isinstance(v, complex) else v for v in values]  # a dq command as its magnitude
-        self.metrics.add(out.reference, out.measurement, values, samples, out.internals)
-        self._t_end = t3
-        row = [t, out.reference, out.measurement, scalars[0] if scalars else 0.0, *out.internals]
-        for i, fields in self._recorded:
-            row += fields(samples[i])
-        row += scalars
-        row.append(1.0 if late else 0.0)
-        with self.uncut:  # a stop signal waits: the row on disk and the count agree
-            self.recorder.sample(row, timing)
-            self.done += 1  #: cycles run (skipped ones are under ``overruns``)
-
     def safe_stop(self, reason: str, *, suspect: bool = False) -> None:
         """The one way out: a neutral command, quick stop, the drives' ramps to rest, disable.
-        ``suspect``: a check of a sample stopped it (``ProducerWatch.cause`` may name another producer)."""
+
+        Parameters
+        ----------
+        reason : str
+            Why, for the summary.
+        suspect : bool
+            A check of a sample stopped it (``ProducerWatch.cause`` may name another producer).
+        """
         self.safe_stop_reason = reason
         log.warning("safe stop: %s", reason)
         producers = self.options.producers
@@ -276,7 +262,7 @@ class HostLoop:
         """Bring every axis to rest by its own ramp, then disable it (``rig.host.stopping``)."""
         if self.options.on_stop is not None:
             self.options.on_stop()
-        self.elapsed = self._t_end - self._t_start  # a safe stop's too
+        self.elapsed = self.step.t_end - self._t_start  # a safe stop's too
         if self._stolen_at is not None and (now := cpu_stolen()) is not None:
             self.stolen = now - self._stolen_at
         stop = bring_to_rest(
@@ -291,5 +277,11 @@ class HostLoop:
         self.stop_confirmed, self.still_turning = stop.confirmed, stop.turning
 
     def summary(self) -> dict[str, Any]:
-        """The run's summary as it stands (``rig.host.loop_summary``)."""
+        """The run's summary as it stands.
+
+        Returns
+        -------
+        dict[str, Any]
+            ``rig.host.loop_summary.loop_summary``'s.
+        """
         return loop_summary(self)

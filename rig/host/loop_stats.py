@@ -18,7 +18,7 @@ from rig.laws.base import SIGN_LAW
 
 if TYPE_CHECKING:
     from drivers.base import AxisDriver
-    from rig.host.loop import Wiring
+    from rig.host.control import Wiring
     from rig.laws.base import Law
 
 __all__ = ["CycleTimes", "RunMetrics", "StageTimes", "run_metrics"]

@@ -56,7 +56,7 @@ def test_the_loop_reads_its_timebase_and_asks_no_axis_its_kind() -> None:
     ``self.realtime``), and knows whether an axis stamps on the wall clock from the driver contract
     (``AxisDriver.wall_stamps``), not by an isinstance."""
     found = []
-    for node in ast.walk(_tree("loop.py")):
+    for node in [*ast.walk(_tree("loop.py")), *ast.walk(_tree("cycle_step.py"))]:
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "isinstance":
             if len(node.args) > 1 and _KIND.search(ast.unparse(node.args[1])):
                 found.append(f"line {node.lineno}: {ast.unparse(node)}")
