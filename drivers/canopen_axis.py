@@ -1,54 +1,72 @@
 """What every CANopen axis shares: one node on a canopen ``RemoteNode``, with the toolkit's errors.
 
-``CanopenAxis`` gives its subclasses (the CiA 402 drive, the CiA 406 encoder)
-SDO access that raises ``SdoAbort``/``CommunicationTimeout`` naming the node and
-object, NMT commands, the EMCY consumer (an EMCY with a non-zero code becomes
-the axis's ``fault``), and the per-cycle supervision of NMT state, heartbeat
-and EMCY. Process data are received by ``drivers.tpdo_slot.TpdoSlot`` (re-exported
-here with ``pdo_codec`` and ``sample_interval``).
+``CanopenAxis`` gives its subclasses (the CiA 402 drive, the CiA 406 encoder) SDO access that
+raises ``SdoAbort``/``CommunicationTimeout`` naming the node and object, and NMT commands; it
+composes two parts that own their state: the node's watch (``drivers.node_watch.NodeWatch``: the
+EMCY consumer, an EMCY with a non-zero code becoming the axis's ``fault``, and the per-cycle
+supervision of NMT state, heartbeat and other masters or producers) and the TPDOs it receives
+(``drivers.tpdo_receiver.TpdoReceiver``, into ``drivers.tpdo_slot.TpdoSlot``, re-exported here with
+``pdo_codec`` and ``sample_interval``).
 """
 
 from __future__ import annotations
 
 import contextlib
-import logging
-import struct
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import canopen
-from canopen.emcy import EmcyError
 from canopen.sdo.base import SdoVariable
 
 from drivers.base import AxisDriver
-from drivers.errors import CommunicationError, DeviceFault, SafetyStop, brief
+from drivers.errors import DeviceFault
 from drivers.identity import Identity, check_identity, read_identity
-from drivers.maps import cia
-from drivers.maps.emcy import emcy_text
 from drivers.maps.logical import axis_dictionary, axis_object
 from drivers.maps.od import load_od
-from drivers.master_watch import MasterWatch, OtherMaster
-from drivers.producer_watch import OtherProducer, ProducerWatch
+from drivers.master_watch import MasterWatch
+from drivers.node_watch import NodeWatch
+from drivers.producer_watch import ProducerWatch
 from drivers.sdo_answer import sized
 from drivers.sdo_errors import sdo_errors
+from drivers.tpdo_receiver import TpdoReceiver
 from drivers.tpdo_slot import TpdoSlot, pdo_codec, sample_interval
 
 __all__ = ["CanopenAxis", "TpdoSlot", "pdo_codec", "sample_interval"]
 
-log = logging.getLogger(__name__)
-
-#: EMCY codes of a PDO not processed for its length (CiA 301: too short, too long)
-_PDO_LENGTH = frozenset({cia.EmcyCode.PDO_TOO_SHORT, cia.EmcyCode.PDO_TOO_LONG})
-
 
 class CanopenAxis(AxisDriver):
-    """An axis on CANopen node ``node_id`` of ``network``, described by the EDS/DCF ``eds``
-    (``eds_given``: the device's own, given by the user; else the toolkit's, used as a generic
-    dictionary of the profile's standard objects); ``axis``: which of the device's logical
-    devices (``drivers.maps.logical``: its objects 0x800 (axis - 1) above axis 1's, which are
-    the indices this class and its subclasses name). Axes of one node share the node's
-    communication objects; each has its own canopen ``RemoteNode`` on the network (the first on
-    its node id holds ``network[node_id]``)."""
+    """An axis on a CANopen node. Axes of one node (the logical devices of a drive of several)
+    share the node's communication objects; each has its own canopen ``RemoteNode`` on the
+    network (the first on its node id holds ``network[node_id]``).
+
+    Parameters
+    ----------
+    name : str
+        The axis's name, in messages.
+    mode : str or None
+        One of ``drivers.base.AXIS_MODES`` (None: an axis that takes no commands).
+    network : canopen.Network
+        The network of its node.
+    node_id : int
+        Its node id (1-127).
+    eds : str
+        The EDS/DCF that describes the device.
+    eds_given : bool
+        ``eds`` is the device's own, given by the user; else the toolkit's, used as a generic
+        dictionary of the profile's standard objects.
+    heartbeat_timeout : float
+        [s] the host's watch of the node's heartbeat (0: none).
+    sdo_timeout, sdo_retries : float or None, int or None
+        Of every SDO transfer (None: ``SDO_TIMEOUT``, ``SDO_RETRIES``).
+    axis : int
+        Which of the device's logical devices (``drivers.maps.logical``: its objects 0x800
+        (axis - 1) above axis 1's, which are the indices this class and its subclasses name).
+
+    Raises
+    ------
+    ValueError
+        ``node_id`` is not 1-127.
+    """
 
     sample_name, wall_stamps = "TPDO", True  #: a TPDO's stamp: its frame's receive time
     #: how the user gives the device's own EDS (``rig drive`` says ``--eds FILE``)
@@ -73,7 +91,6 @@ class CanopenAxis(AxisDriver):
         sdo_retries: int | None = None,
         axis: int = 1,
     ) -> None:
-        """``sdo_timeout`` [s] and ``sdo_retries``: of every SDO transfer (None: the class's)."""
         super().__init__(name, mode)
         if not 1 <= node_id <= 127:
             self._forget()
@@ -103,25 +120,23 @@ class CanopenAxis(AxisDriver):
         else:
             self.node.associate_network(network)
         self._ON_NODE.setdefault((id(network), node_id), []).append(self)
-        self._fault: DeviceFault | None = None
-        self.emcy_log: list[str] = []
         self.emcy_texts: dict[int, str] = {}  #: the device's own EMCY texts (its profile's)
-        self.node.emcy.add_callback(self._on_emcy)
-        self._slots: list[TpdoSlot] = []
-        #: heartbeats since the host's last NMT command, and whether one of them was a boot-up
-        self._heartbeats = 0
-        self._booted = False
-        self.node.nmt.add_heartbeat_callback(self._on_heartbeat)
         #: the bus's watch for another master (``drivers.master_watch``), set by the session
         self.master_watch: MasterWatch | None = None
         #: the bus's watch for another producer on the node's TPDOs (``drivers.producer_watch``),
         #: set by the session before ``setup`` (each slot is counted from its making)
         self.producer_watch: ProducerWatch | None = None
-        #: an RPDO of another length than its mapping reached the node (its EMCY 0x8210/0x8220)
-        self._foreign_rpdo: str | None = None
+        self.watch = NodeWatch(self)  #: the node's EMCY, heartbeat and NMT state (its part)
+        self.tpdos = TpdoReceiver(self)  #: the TPDOs it receives (its part)
 
     def siblings(self) -> list[CanopenAxis]:
-        """The other axes alive on this axis's node (the other axes of a drive of several)."""
+        """The other axes alive on this axis's node (the other axes of a drive of several).
+
+        Returns
+        -------
+        list of CanopenAxis
+            Each other axis on the node, not yet closed.
+        """
         return [a for a in self._ON_NODE.get((id(self.network), self.node_id), []) if a is not self]
 
     @property
@@ -142,8 +157,19 @@ class CanopenAxis(AxisDriver):
         return obj if isinstance(obj, SdoVariable) else obj[subindex]
 
     def sdo_read(self, index: int, subindex: int = 0) -> Any:
-        """Read an object by SDO (raw bytes if the EDS lacks it); SdoAbort or CommunicationTimeout,
-        DictionaryMismatch where the answer's size is not the type's (``drivers.sdo_answer``)."""
+        """Read an object by SDO, decoded by the EDS's type (``drivers.sdo_answer``: an answer of
+        another size than the type's is a DictionaryMismatch); raw bytes where the EDS lacks it.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object (axis 1's index: ``drivers.maps.logical``).
+
+        Returns
+        -------
+        Any
+            Its value.
+        """
         with self._sdo("SDO upload", index, subindex):
             if index not in self.node.object_dictionary:
                 return self.node.sdo.upload(axis_object(index, self.axis_number), subindex)
@@ -154,15 +180,35 @@ class CanopenAxis(AxisDriver):
 
     def sdo_upload(self, index: int, subindex: int = 0) -> bytes:
         """An object's raw bytes as the device answers, whatever the EDS names (the device's own
-        identity, units and modes: ``drivers.identity.read_standard``); SdoAbort or
-        CommunicationTimeout."""
+        identity, units and modes: ``drivers.identity.read_standard``).
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object (axis 1's index).
+
+        Returns
+        -------
+        bytes
+            The answer.
+        """
         with self._sdo("SDO upload", index, subindex):
             return bytes(self.node.sdo.upload(axis_object(index, self.axis_number), subindex))
 
     def check_identity(self, *, give: str) -> Identity:
-        """0x1018 read from the device and checked against the EDS in use
-        (``drivers.identity.check_identity``; ``give``: how the user gives the device's own), kept
-        as ``device_id``."""
+        """0x1018 read from the device, checked against the EDS in use and kept as ``device_id``
+        (``drivers.identity.check_identity``).
+
+        Parameters
+        ----------
+        give : str
+            How the user gives the device's own EDS, for the message.
+
+        Returns
+        -------
+        drivers.identity.Identity
+            The device's 0x1018.
+        """
         device = read_identity(self.sdo_upload)
         self.device_id = check_identity(
             device,
@@ -175,26 +221,42 @@ class CanopenAxis(AxisDriver):
         return self.device_id
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
-        """Write an object by SDO; SdoAbort or CommunicationTimeout on failure."""
+        """Write an object by SDO, encoded by the EDS's type.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object (axis 1's index).
+        value : Any
+            What to write.
+        """
         with self._sdo(f"SDO download of {value!r}", index, subindex):
             self._entry(index, subindex).raw = value
 
     def save_pdos(self, maps: Any, first_index: int) -> None:
-        """``maps.save()`` (canopen PdoMaps) with SDO errors translated."""
+        """``maps.save()`` with the SDO errors translated.
+
+        Parameters
+        ----------
+        maps : canopen.pdo.PdoBase
+            The node's RPDOs or TPDOs.
+        first_index : int
+            Their first communication parameter (0x1400, 0x1800), for messages.
+        """
         with self._sdo("PDO mapping", first_index, 0):
             maps.save()
 
-    # --- NMT, EMCY, heartbeat ----------------------------------------------------------------
+    # --- NMT, EMCY, heartbeat: the node's watch (``drivers.node_watch``) ----------------------
     def nmt(self, state: str) -> None:
-        """Command the node's NMT state (``OPERATIONAL``, ``PRE-OPERATIONAL``, ``STOPPED``)."""
-        self._heartbeats, self._booted = 0, False
-        self.node.nmt.state = state
+        """Command the node's NMT state.
 
-    def _on_heartbeat(self, state: int) -> None:
-        """canopen's heartbeat callback (receive thread), before it updates the state."""
-        self._heartbeats += 1
-        if state == cia.BOOT_UP:
-            self._booted = True
+        Parameters
+        ----------
+        state : str
+            ``OPERATIONAL``, ``PRE-OPERATIONAL`` or ``STOPPED``.
+        """
+        self.watch.commanded()
+        self.node.nmt.state = state
 
     @property
     def nmt_state(self) -> str:
@@ -207,120 +269,61 @@ class CanopenAxis(AxisDriver):
         ts = self.node.nmt.timestamp
         return float(ts) if ts is not None else None
 
-    def _on_emcy(self, err: EmcyError) -> None:
-        words = emcy_text(err.code, self.emcy_texts)
-        text = f"EMCY 0x{err.code:04X} ({words}), error register 0x{err.register:02X}"
-        self.emcy_log.append(text)
-        if err.code in _PDO_LENGTH and self._foreign_rpdo is None:
-            # CiA 301: the node did not process a PDO whose length is not its mapping's; it tells,
-            # and goes on (no state change: a drive's "info" reaction). The host's RPDOs have their
-            # mapping's length: another producer sent on the node's RPDO COB-ID. A stop, named so;
-            # not a fault of the drive (a stop it comes in stays confirmable by state and rest)
-            self._foreign_rpdo = (
-                f"node {self.node_id}: another producer on an RPDO COB-ID of node {self.node_id}: the node "
-                f"refused a PDO of another length than its mapping ({text}), which this host did not send"
-            )
-            log.warning("%s", self._foreign_rpdo)
-            return
-        if err.code and err.code not in _PDO_LENGTH:
-            log.warning("node %d: %s", self.node_id, text)
-            self._fault = DeviceFault(text, device=f"node {self.node_id}", code=err.code)
-
     @property
     def fault(self) -> DeviceFault | None:
-        return self._fault
+        """The last EMCY with a non-zero code, as a fault (``NodeWatch``), or None."""
+        return self.watch.fault
 
     def clear_fault(self) -> None:
-        self._fault = None
+        """Forget the last EMCY fault (before an enable or a fault reset)."""
+        self.watch.fault = None
 
     def supervise(self, now: float) -> None:
-        """EMCY fault, another master's RPDO or NMT command to the node, NMT state (must be
-        OPERATIONAL) and heartbeat age (``heartbeat_timeout``).
+        """The node's watch, once a cycle (``drivers.node_watch.NodeWatch.check``).
 
-        A heartbeat the node sent before it processed the host's NMT command can arrive after
-        the command: the first heartbeat after a command is not taken as the node's state
-        unless it is a boot-up; the next one is (one heartbeat period later).
+        Parameters
+        ----------
+        now : float
+            [s] the bus clock (the heartbeat's age is measured to it).
         """
-        if self._fault is not None:
-            raise self._fault
-        watch = self.master_watch
-        if watch is not None and watch.alarm:
-            said = watch.intruder(self.node_id)
-            if said is not None:
-                raise OtherMaster(said)
-        producers = self.producer_watch
-        if producers is not None and producers.alarm:
-            said = producers.intruder(self.node_id)
-            if said is not None:
-                raise OtherProducer(said)
-        if self._foreign_rpdo is not None:
-            raise OtherProducer(self._foreign_rpdo)
-        lost = getattr(self.network.notifier, "exception", None)  # python-can's receive thread
-        if lost is not None:
-            raise CommunicationError(f"node {self.node_id}: the bus is lost: {brief(lost)}")
-        state = self.node.nmt.state
-        if state != "OPERATIONAL" and (self._booted or self._heartbeats > 1):
-            raise SafetyStop(f"node {self.node_id}: NMT state {state} (the node reset or was stopped)")
-        timeout = self.heartbeat_timeout
-        if timeout > 0.0:
-            last = self.node.nmt.timestamp
-            if last is not None and now - last > timeout:
-                age = now - last
-                raise SafetyStop(
-                    f"node {self.node_id}: heartbeat lost: none for {age:.3g} s (timeout {timeout:g} s)"
-                )
+        self.watch.check(now)
 
-    # --- process data ---------------------------------------------------------------------------
-    def receive(self, pdo: Any) -> TpdoSlot:
-        """Receive TPDO ``pdo`` (a saved canopen PdoMap) into a slot, instead of canopen's handler."""
-        slot = self._new_slot(pdo.cob_id, pdo_codec(pdo))
-        if pdo.trans_type is not None:
-            slot.ttype = int(pdo.trans_type)
-        if pdo.on_message in self.network.subscribers.get(pdo.cob_id, ()):
-            self.network.unsubscribe(pdo.cob_id, pdo.on_message)
-        self.network.subscribe(pdo.cob_id, slot.on_frame)
-        self._slots.append(slot)
-        return slot
-
-    def receive_cob(self, cob_id: int, codec: struct.Struct) -> TpdoSlot:
-        """Receive the TPDO on ``cob_id`` into a slot decoded by ``codec`` (its mapping in force)."""
-        slot = self._new_slot(cob_id, codec)
-        self.network.subscribe(cob_id, slot.on_frame)
-        self._slots.append(slot)
-        return slot
-
-    def _new_slot(self, cob_id: int, codec: struct.Struct) -> TpdoSlot:
-        """A slot for the TPDO on ``cob_id``, counted by the producer watch from now on."""
-        slot = TpdoSlot(self.node_id, cob_id, codec)
-        if self.producer_watch is not None:
-            self.producer_watch.watch(slot)
-        return slot
-
+    # --- process data: the TPDOs it receives (``drivers.tpdo_receiver``) ----------------------
     def has_sample(self) -> bool:
-        """Every TPDO the axis receives has arrived at least once."""
-        return all(slot.timestamp is not None for slot in self._slots)
+        return self.tpdos.has_sample()
 
     def cycle_frames(self) -> list[tuple[str, int]]:
-        """The axis's frames of each cycle on the bus, as (what it is, its data bytes): the TPDOs
-        it receives (a drive adds its RPDO)."""
-        return [(f"TPDO 0x{s.cob_id:03X}", s.codec.size) for s in self._slots]
+        """The axis's frames of each cycle on the bus: the TPDOs it receives (a drive adds its RPDO).
+
+        Returns
+        -------
+        list of (str, int)
+            (what the frame is, its data bytes) for each.
+        """
+        return self.tpdos.frames()
 
     def tpdo_cob_ids(self) -> Sequence[int]:
-        """The COB-IDs of the TPDOs the axis receives that answer every SYNC (transmission type 1):
-        a pacing waits for them after each SYNC (``tpdos_not_awaited``: the others)."""
-        return [s.cob_id for s in self._slots if s.ttype == 1]
+        """The COB-IDs of the TPDOs the axis receives that answer every SYNC (transmission type 1).
+
+        Returns
+        -------
+        Sequence of int
+            What a pacing waits for after each SYNC (``tpdos_not_awaited``: the others).
+        """
+        return self.tpdos.cob_ids()
 
     def tpdos_not_awaited(self) -> list[tuple[int, int]]:
-        """(COB-ID, transmission type) of the TPDOs the axis receives that do not answer every
-        SYNC (CiA 301: 2-240 every n-th, counted from a start the host does not know; 0, 254, 255
-        only on an event): a pacing cannot wait for them without counting as owed an answer the
-        node will not send."""
-        return [(s.cob_id, s.ttype) for s in self._slots if s.ttype != 1]
+        """(COB-ID, transmission type) of the TPDOs the axis receives that do not answer every SYNC.
+
+        Returns
+        -------
+        list of (int, int)
+            What a pacing cannot wait for (``TpdoReceiver.not_awaited``).
+        """
+        return self.tpdos.not_awaited()
 
     def _release(self) -> None:
-        for slot in self._slots:
-            self.network.unsubscribe(slot.cob_id, slot.on_frame)
-        self._slots.clear()
+        self.tpdos.release()
         on_node = self._ON_NODE.get((id(self.network), self.node_id), [])
         if self in on_node:
             on_node.remove(self)

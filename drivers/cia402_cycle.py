@@ -240,7 +240,8 @@ class Cia402Cycle(CanopenAxis):
         return Feedback(angle + 2.0 * math.pi * self._turns, speed, math.nan, abs(i_dq), stamp, i_dq)
 
     def supervise(self, now: float) -> None:
-        """EMCY, NMT and heartbeat (``CanopenAxis``), the statusword and, where mapped, 0x6061.
+        """The node's watch (``drivers.node_watch.NodeWatch.check``: EMCY, NMT, heartbeat, other
+        masters and producers), the statusword and, where mapped, 0x6061.
 
         Parameters
         ----------
@@ -250,9 +251,9 @@ class Cia402Cycle(CanopenAxis):
         Raises
         ------
         SafetyStop
-            The drive left OPERATION ENABLED or changed its mode (and ``CanopenAxis.supervise``'s).
+            The drive left OPERATION ENABLED or changed its mode (and ``NodeWatch.check``'s).
         """
-        super().supervise(now)
+        self.watch.check(now)  # CanopenAxis.supervise's, one call less each cycle
         assert self.data is not None
         plan = self._plan
         if plan.status is None:

@@ -46,6 +46,7 @@ from drivers.errors import ConfigError, SdoAbort
 from drivers.identity import Identity
 from drivers.maps import cia
 from drivers.maps.cia import Mode
+from drivers.tpdo_receiver import TpdoReceiver
 from drivers.tpdo_slot import TpdoSlot
 
 if TYPE_CHECKING:
@@ -82,7 +83,7 @@ class Mapped(NamedTuple):
 
 class MappedAxis(Protocol):
     """What the mapping needs of its axis (``drivers.cia402.Cia402Axis``): its node, mode and
-    units, what it is (``discovery``), its SDO access and its settings."""
+    units, what it is (``discovery``), its SDO access, its settings and its TPDOs."""
 
     node: Any
     node_id: int
@@ -95,6 +96,7 @@ class MappedAxis(Protocol):
     maps: frozenset[str]  #: what the TPDOs carry (``drivers.cia402_feedback``)
     discovery: Cia402Discovery
     settings: Cia402Setup
+    tpdos: TpdoReceiver  #: the TPDOs it receives (``receive_cob``)
 
     @property
     def where(self) -> str:
@@ -109,9 +111,6 @@ class MappedAxis(Protocol):
 
     def sdo_write(self, index: int, subindex: int, value: Any) -> None:
         """An SDO download."""
-
-    def receive_cob(self, cob_id: int, codec: Any) -> TpdoSlot:
-        """Receive the TPDO on ``cob_id`` into a slot."""
 
 
 class Cia402Mapping:
@@ -187,7 +186,9 @@ class Cia402Mapping:
         if self.pdo == "device":
             rpdo, tpdos = self._device_mapping(rx_keys, needed + optional)
         held = {e.key: self._held(e.key) for e in (rpdo.entries if rpdo else []) if e.key not in rx_keys}
-        data = ProcessData(od, tpdos, rpdo, receive=self.axis.receive_cob, read=self.axis.sdo_read, held=held)
+        data = ProcessData(
+            od, tpdos, rpdo, receive=self.axis.tpdos.receive_cob, read=self.axis.sdo_read, held=held
+        )
         for key in needed:
             if not data.mapped(key):
                 if variable(od, key) is None or not variable(od, key).readable:

@@ -113,7 +113,7 @@ class Cia406Axis(CanopenAxis):
                 and 1 <= (pdo.trans_type or 0) <= cia.PDO_SYNC_MAX
                 and ((cia406.ENCODER_POSITION, 0) in entries)
             ):
-                self._slot: TpdoSlot = self.receive(pdo)
+                self._slot: TpdoSlot = self.tpdos.receive(pdo)
                 self._position_at = entries.index((cia406.ENCODER_POSITION, 0))
                 speed = (cia406.ENCODER_SPEED, 1)
                 self._speed_at = entries.index(speed) if speed in entries else None

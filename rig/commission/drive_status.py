@@ -62,7 +62,7 @@ def drive_status(a: Cia402Axis) -> dict[str, Any]:
         "supported_modes": sorted(Mode(m).name for m in a.discovery.supported_modes or ()),
         "modes_offered": a.discovery.offered(bits),
         "error_code": a.fault_text(),
-        "last_emcy": a.emcy_log[-1] if a.emcy_log else _last_error(a),
+        "last_emcy": a.watch.emcy_log[-1] if a.watch.emcy_log else _last_error(a),
         "units": units.describe() | device_units(units),
         "pdo_mapping": mapping,
         **seen,

@@ -143,7 +143,7 @@ def store(tool: Any, *, restore: bool, confirm: Callable[[str], bool], reset: bo
     }
     if restore and reset:
         a.nmt("RESET")
-        tool.until(lambda: a._booted, 5.0, "the boot-up after the reset")
+        tool.until(lambda: a.watch.booted, 5.0, "the boot-up after the reset")
         result["reset"] = True
     return result
 

@@ -20,6 +20,8 @@ from drivers.cia402_mapping import Cia402Mapping
 from drivers.cia402_setup import Cia402Setup
 from drivers.cia402_states import PowerStates
 from drivers.cia402_supervision import DriveSupervision
+from drivers.node_watch import NodeWatch
+from drivers.tpdo_receiver import TpdoReceiver
 
 DRIVERS = pathlib.Path(__file__).resolve().parents[2] / "drivers"
 #: the CiA 402 driver's modules still written as mixins of the axis (this list only shrinks)
@@ -46,7 +48,8 @@ def declared_state(path: pathlib.Path) -> list[str]:
 
 
 def test_no_part_declares_its_state_for_another_to_fill() -> None:
-    modules = [DRIVERS / "canopen_axis.py", *sorted(DRIVERS.glob("cia402*.py"))]
+    node = ["canopen_axis.py", "node_watch.py", "tpdo_receiver.py"]  # the CANopen node and its parts
+    modules = [*(DRIVERS / name for name in node), *sorted(DRIVERS.glob("cia402*.py"))]
     found = [line for path in modules if path.name not in MIXINS_LEFT for line in declared_state(path)]
     assert found == []
     assert all(declared_state(DRIVERS / name) for name in MIXINS_LEFT)  # a module done leaves the list
@@ -95,5 +98,16 @@ def test_the_axis_composes_its_parts_and_each_owns_its_state() -> None:
         assert vars(axis.mapping) == {"axis": axis, "pdo": "device", "sync_rpdo": False, "latency": 0.001}
         assert isinstance(axis.settings, Cia402Setup)
         assert vars(axis.settings) == {"axis": axis, "mode_timeout": 2.0}
+        # the CANopen node's parts (issue 37 item 5's split): its watch and the TPDOs it receives
+        assert isinstance(axis.watch, NodeWatch) and isinstance(axis.tpdos, TpdoReceiver)
+        assert vars(axis.watch) == {
+            "axis": axis,
+            "fault": None,
+            "emcy_log": [],
+            "heartbeats": 0,
+            "booted": False,
+            "foreign_rpdo": None,
+        }
+        assert vars(axis.tpdos) == {"axis": axis, "slots": []}
     finally:
         axis.close()

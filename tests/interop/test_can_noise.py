@@ -63,7 +63,7 @@ class Rig:
 
     @classmethod
     def of(cls, session: Session) -> Rig:
-        tpdos = {s.cob_id: (s.node_id, s.codec.size) for a in session.axes for s in a._slots}  # type: ignore[attr-defined]
+        tpdos = {s.cob_id: (s.node_id, s.codec.size) for a in session.axes for s in a.tpdos.slots}  # type: ignore[attr-defined]
         rpdos = {base + node: node for node in NODES for base in COB_RPDO}
         pdo = session.axes[0].data.rpdo  # type: ignore[attr-defined]
         rpdos[pdo.cob_id] = 1

@@ -165,7 +165,7 @@ def test_drive_rig_sdo_and_pdo_code_read_and_write_the_durand_node(encoder: Dura
             axis.save_pdos(axis.node.tpdo, 0x1800)
             assert encoder.node.object_dictionary.read(0x1A00, 0) == 2
             assert encoder.node.object_dictionary.read(0x1A00, 2) == 0x60300110
-            slot = axis.receive(pdo)
+            slot = axis.tpdos.receive(pdo)
             axis.nmt("OPERATIONAL")
             encoder.position(777)
 

@@ -192,7 +192,7 @@ def test_an_rpdo_the_drive_refused_for_its_length_is_another_producer_not_a_faul
 
         _third_bus(session, inject)
         summary = session.run()
-    assert sent and "EMCY 0x8210" in " ".join(axis.emcy_log)  # type: ignore[attr-defined]
+    assert sent and "EMCY 0x8210" in " ".join(axis.watch.emcy_log)  # type: ignore[attr-defined]
     reason = summary["safe_stop_reason"]
     if when == "running":
         assert re.fullmatch(
