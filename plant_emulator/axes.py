@@ -87,6 +87,16 @@ class Axis:
     def latch(self) -> None:
         """A SYNC: the feedback of this instant is being sampled."""
 
+    def warm(self, period: float) -> None:
+        """Compute now what stepping whole periods of ``period`` [s] may need later (real time:
+        not under the devices' lock, in a SYNC's answer); nothing here.
+
+        Parameters
+        ----------
+        period : float
+            [s] the period the shaft advances by.
+        """
+
     def advance(self, h: float, t: float) -> None:
         """Integrate the physics over ``h`` [s] from time ``t`` [s] with the command held.
 
@@ -222,6 +232,27 @@ class DcServoAxis(Axis):
                 self._step(u, t_load, h / REFINE)
             return
         x[1] = settle(x[1], friction)
+
+    def warm(self, period: float) -> None:
+        """The exact steps of a whole ``period`` [s] (voltage mode) and of the inner loops' part of
+        it, each with its refinements down to STOP_RESOLUTION (a step in which the shaft stops):
+        each is a matrix exponential (8-13 ms here), and the first stop of a real-time run computed
+        five of them in one SYNC's preparation, 40-60 ms under the devices' lock, which held off
+        the SYNCs' answers (100 late cycles in a row: a false stop).
+
+        Parameters
+        ----------
+        period : float
+            [s] the period the shaft advances by.
+        """
+        for whole in (period, period / max(1, math.ceil(period / self.inner_dt - 1e-9))):
+            h = whole
+            while True:  # the same divisions as _step's, so the same keys
+                if h not in self._zoh:
+                    self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
+                if not h > STOP_RESOLUTION:
+                    break
+                h = h / REFINE
 
     def set_command(self, mode: int, value: complex | float, *, computed_one_sync_ago: bool = False) -> None:
         if mode not in self.modes:

@@ -13,6 +13,10 @@ the periods being locked to the SYNCs) and computes that period then (``prepare`
 finds its state ready and its TPDOs are a latch and a send, not a computation, as a drive's
 firmware answers from the process image it computed ahead.
 
+Before its time starts, the clock has each axis compute what its periods will need
+(``Axis.warm``: the DC servo's exact steps, each a matrix exponential), so that no period
+computes one under the devices' lock while a SYNC waits for its answer.
+
 An emulator that falls behind (a machine too loaded to run it: its clock read nowhere for
 longer than ``max_lag`` [s], where its loop reads it every few ms) does not catch up: the
 time it did not run is not its world's time, as a device that was not running sees none
@@ -72,6 +76,9 @@ class WorldClock:
         *,
         max_lag: float = 0.01,
     ) -> None:
+        for shaft in shafts_of(devices):  # what the periods need, computed before time starts
+            for axis in shaft.axes:
+                axis.warm(shaft.period)
         if source is None:
             start = time.monotonic()
 

@@ -267,3 +267,35 @@ def test_a_loop_too_slow_for_its_periods_still_sleeps(world: World) -> None:
     world.time += 3.0 * world.period  # the preparation took three periods
     assert clock.pause(0.002) == pytest.approx(lead)
     assert clock.pause(0.5 * lead) == pytest.approx(0.5 * lead)
+
+
+def test_the_steps_a_period_needs_are_computed_before_time_starts(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The first stop of the shaft within a period takes the step again in parts down to 0.1 us
+    (``DcServoAxis._step``), each part length a matrix exponential; the real-time clock has them
+    computed before its time starts, so no SYNC's preparation computes one under the devices'
+    lock (five of them took 40-60 ms there: 100 late cycles in a row, a false stop)."""
+    from plant_emulator import axes
+
+    built: list[float] = []
+    real = axes.LinearZOH
+
+    def counted(A: object, B: object, dt: float) -> object:
+        built.append(dt)
+        return real(A, B, dt)
+
+    monkeypatch.setattr(axes, "LinearZOH", counted)
+    world = World()
+    try:
+        axis = world.drive.axis
+        assert isinstance(axis, axes.DcServoAxis) and axis.coulomb > 0.0
+        warmed = len(built)
+        assert warmed >= 2
+        quarter = world.period / max(1, math.ceil(world.period / axis.inner_dt - 1e-9))
+        for h in (world.period, quarter):
+            slow = 0.5 * axis.coulomb / axis.motor.j * h  # the friction stops it within h
+            axis.x = [0.0, slow, 0.0]
+            axis._step(0.0, 0.0, h)
+            assert axis.x[1] == 0.0  # it stopped (and the step was refined)
+        assert len(built) == warmed  # nothing computed in the period
+    finally:
+        world.close()
