@@ -30,6 +30,7 @@ from drivers.maps.cia import MANUFACTURER_AREA
 from drivers.maps.eds_values import TYPE_NAMES, variables
 from drivers.maps.sdo_aborts import abort_text
 from drivers.sdo_answer import sized
+from drivers.sdo_errors import sdo_errors
 from rig.commission.quantities import quantity
 
 __all__ = ["Entry", "dump_lines", "read_dictionary"]
@@ -95,8 +96,9 @@ def _entry(var: Any, od: Any) -> Entry:
 
 def _upload(axis: Cia402Axis, var: Any) -> bytes:
     """The object's bytes as the drive answers, cut to its type (``drivers.sdo_answer``)."""
+    node, number, eds = axis.node_id, axis.axis_number, axis.eds
     with (
-        axis._sdo("SDO upload", var.index, var.subindex),
+        sdo_errors("SDO upload", var.index, var.subindex, node_id=node, axis=number, eds=eds),
         axis.node.sdo.open(var.index, var.subindex, buffering=0) as fp,
     ):
         data, indicated = fp.read(), fp.size

@@ -23,6 +23,7 @@ from drivers.errors import ConfigError, RigError, SdoAbort
 from drivers.maps import cia
 from drivers.maps.cia import PowerState, SdoAbortCode
 from drivers.maps.sdo_aborts import abort_text
+from drivers.sdo_errors import sdo_errors
 
 __all__ = ["STORE_TIMEOUT", "question", "store"]
 
@@ -130,7 +131,9 @@ def store(tool: Any, *, restore: bool, confirm: Callable[[str], bool], reset: bo
     sdo = a.node.sdo
     timeout, sdo.RESPONSE_TIMEOUT = sdo.RESPONSE_TIMEOUT, max(sdo.RESPONSE_TIMEOUT, STORE_TIMEOUT)
     try:
-        with a._sdo(f"SDO download of {text!r}", index, 1):
+        with sdo_errors(
+            f"SDO download of {text!r}", index, 1, node_id=a.node_id, axis=a.axis_number, eds=a.eds
+        ):
             sdo.download(index, 1, signature.to_bytes(4, "little"))
     finally:
         sdo.RESPONSE_TIMEOUT = timeout

@@ -5,20 +5,57 @@ counts, the stop, the timing and what real time was granted; summary.json's keys
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from rig.host.columns import MODE_UNITS
 from rig.report.summary import failed_figures
 
 if TYPE_CHECKING:
-    from rig.host.loop import HostLoop
+    from drivers.base import AxisDriver
+    from rig.host.control import Wiring
+    from rig.host.loop_stats import RunMetrics, StageTimes
+    from rig.host.pacing import Pacing
+    from rig.host.recorder import Recorder
+    from rig.laws.base import Law
 
-__all__ = ["MISSED_SHARE", "loop_summary", "missed_period"]
+__all__ = ["MISSED_SHARE", "RunState", "loop_summary", "missed_period"]
 
 MISSED_SHARE = 0.01  #: a real-time run whose skipped and late cycles exceed this share missed its period
 
 
-def loop_summary(loop: HostLoop) -> dict[str, Any]:
+class RunState(Protocol):
+    """What a summary reads of a run: ``rig.host.loop.HostLoop``'s (its attributes say what each
+    holds), named here so this module need not import the loop that imports it."""
+
+    axes: list[AxisDriver]
+    law: Law
+    wiring: Wiring
+    recorder: Recorder
+    pacing: Pacing
+    metrics: RunMetrics
+    times: StageTimes
+    overruns: int
+    late: int
+    elapsed: float
+    safe_stop_reason: str | None
+    stop_confirmed: bool | None
+    still_turning: dict[str, float | None]
+    granted: dict[str, Any] | None
+    collections: int
+    stolen: float | None
+
+    @property
+    def done(self) -> int:
+        """Cycles run."""
+        ...
+
+    @property
+    def held(self) -> int:
+        """Cycles in which a read axis had no new sample."""
+        ...
+
+
+def loop_summary(loop: RunState) -> dict[str, Any]:
     """``loop``'s summary as it stands: summary.json's keys (docs/files.md).
 
     A safe stop's too: ``status`` "stopped", every performance figure NaN, and what they were when
@@ -26,8 +63,8 @@ def loop_summary(loop: HostLoop) -> dict[str, Any]:
 
     Parameters
     ----------
-    loop : HostLoop
-        The loop, run or stopped.
+    loop : RunState
+        The loop (``rig.host.loop.HostLoop``), run or stopped.
 
     Returns
     -------
