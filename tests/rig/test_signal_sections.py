@@ -15,10 +15,15 @@ from rig.host.signals import StopRequested, StopRequests, forget
 @pytest.fixture
 def requests():  # type: ignore[no-untyped-def]
     forget()  # each test's signal is the process's first
+    # handlers not ignored, whatever started the tests (under nohup SIGHUP is ignored, and a
+    # session leaves an ignored signal ignored: tests/rig/test_stop_signals.py)
+    before = {sig: signal.signal(sig, signal.SIG_DFL) for sig in (signal.SIGHUP, signal.SIGTERM)}
     r = StopRequests()
     r.install()
     yield r
     r.restore()
+    for sig, handler in before.items():
+        signal.signal(sig, handler)
 
 
 def test_a_signal_in_the_section_raises_at_its_end(requests: StopRequests) -> None:
