@@ -62,6 +62,31 @@ _held, _ = _jit(friction.held)
 _settle, _ = _jit(friction.settle)
 
 
+def _current_loops_py(  # noqa: PLR0917 - numba compiles positional parameters only
+    i_s: complex, w: float, theta_e: float, int_d: float, int_q: float, i_q: float, k: np.ndarray
+) -> tuple[complex, float, float, float]:
+    """One FOC step's PI current loops (Table III, conditional integration, |u| <= U_DC/sqrt(3))
+    and slip (4.5): (the stationary-frame voltage [V], the next FOC angle [rad], the integrals [V])."""
+    i_dq = i_s * cmath.exp(complex(0.0, -theta_e))
+    e_d, e_q = k[I_DS] - i_dq.real, i_q - i_dq.imag
+    u_d = k[KP] * e_d + int_d + k[KI] * e_d
+    u_q = k[KP] * e_q + int_q + k[KI] * e_q
+    mag = math.hypot(u_d, u_q)
+    if mag <= k[U_MAX]:  # conditional integration (anti-windup)
+        int_d += k[KI] * e_d
+        int_q += k[KI] * e_q
+    else:
+        u_d, u_q = u_d * k[U_MAX] / mag, u_q * k[U_MAX] / mag
+    omega_e = k[PP] * w + k[SLIP] * i_q  # (4.5) with psi_r = L_m i_ds* (4.7)
+    u = complex(u_d, u_q) * cmath.exp(complex(0.0, theta_e))
+    theta_e += omega_e * k[FOC_DT]
+    theta_e -= 2.0 * math.pi * round(theta_e / (2.0 * math.pi))  # into [-pi, pi] (remainder)
+    return u, theta_e, int_d, int_q
+
+
+_current_loops, _ = _jit(_current_loops_py)
+
+
 def _foc_periods(  # noqa: PLR0917 - numba compiles positional parameters only
     x: np.ndarray, k: np.ndarray, i_q_ref: float, enabled: bool, hs: float, loads: np.ndarray
 ) -> None:
@@ -77,20 +102,7 @@ def _foc_periods(  # noqa: PLR0917 - numba compiles positional parameters only
         t_load = loads[n]
         u = 0j
         if enabled:
-            i_dq = i_s * cmath.exp(complex(0.0, -theta_e))
-            e_d, e_q = k[I_DS] - i_dq.real, i_q - i_dq.imag
-            u_d = k[KP] * e_d + int_d + k[KI] * e_d
-            u_q = k[KP] * e_q + int_q + k[KI] * e_q
-            mag = math.hypot(u_d, u_q)
-            if mag <= k[U_MAX]:  # conditional integration (anti-windup)
-                int_d += k[KI] * e_d
-                int_q += k[KI] * e_q
-            else:
-                u_d, u_q = u_d * k[U_MAX] / mag, u_q * k[U_MAX] / mag
-            omega_e = k[PP] * w + k[SLIP] * i_q  # (4.5) with psi_r = L_m i_ds* (4.7)
-            u = complex(u_d, u_q) * cmath.exp(complex(0.0, theta_e))
-            theta_e += omega_e * k[FOC_DT]
-            theta_e -= 2.0 * math.pi * round(theta_e / (2.0 * math.pi))  # into [-pi, pi] (remainder)
+            u, theta_e, int_d, int_q = _current_loops(i_s, w, theta_e, int_d, int_q, i_q, k)
         else:
             i_s = 0j  # inverter off: no stator current
         coulomb = k[COULOMB]
