@@ -115,6 +115,22 @@ def _alive_in_group(pgid: int) -> list[int]:
     return alive
 
 
+def _group_ended(pgid: int, within: float = 10.0) -> list[str]:
+    """The command lines of group ``pgid``'s processes still running ``within`` [s] after its
+    leader ended (a helper process that ends on its parent's exit, as multiprocessing's resource
+    tracker does when its pipe closes, may take a moment: a guard, not a figure)."""
+    deadline = time.monotonic() + within
+    while (left := _alive_in_group(pgid)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    lines = []
+    for pid in left:
+        try:
+            lines.append(pathlib.Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode())
+        except OSError:
+            continue  # ended meanwhile
+    return lines
+
+
 def _stopped(cmd: Command, sig: signal.Signals, who: str, *, moved: bool) -> str:
     code, seconds, out, err = cmd.stop(sig)
     words = {signal.SIGINT: "Ctrl-C (SIGINT)", signal.SIGTERM: "SIGTERM (terminate)"}[sig]
@@ -191,7 +207,7 @@ def test_rig_sweep_to_its_client_alone(tmp_path: pathlib.Path) -> None:
     cmd.under_way(lambda: table.is_file() and pq.read_table(table).num_rows > 0, "the table's first row")
     said = _stopped(cmd, signal.SIGINT, "rig sweep", moved=False)
     assert said.endswith("what was done is in sweeps/cut/results.parquet")
-    assert _alive_in_group(cmd.proc.pid) == []  # its workers and nannies: gone with it
+    assert _group_ended(cmd.proc.pid) == []  # its workers and nannies: gone with it
 
 
 def test_rig_bench_loop(tmp_path: pathlib.Path) -> None:
