@@ -202,10 +202,9 @@ class DcServoAxis(Axis):
         start (its breakaway is not a step late). A step in which the shaft stops (its speed ends
         on the friction's other side) is taken again in REFINE parts, each choosing its friction,
         the part in which it stops again so, down to parts of STOP_RESOLUTION: the friction turns
-        where the shaft stops (within 0.1 us), not at the step's end. Held over a whole
-        voltage-mode period it biased rig identify's Coulomb friction 1-3 % low; parts of 1.6 us
-        left 0.003-0.011 %, 1.4-7.7 standard errors. A step in which the shaft does not stop,
-        and every step without friction, is the one exact step as before."""
+        where the shaft stops (within 0.1 us), not at the step's end (docs/emulator.md says what
+        holding it to the step's end did). A step in which the shaft does not stop, and every
+        step without friction, is the one exact step."""
         step = self._zoh.get(h)
         if step is None:
             step = self._zoh[h] = unrolled_step3(LinearZOH(self._A, self._B, h))
@@ -236,9 +235,8 @@ class DcServoAxis(Axis):
     def warm(self, period: float) -> None:
         """The exact steps of a whole ``period`` [s] (voltage mode) and of the inner loops' part of
         it, each with its refinements down to STOP_RESOLUTION (a step in which the shaft stops):
-        each is a matrix exponential (8-13 ms here), and the first stop of a real-time run computed
-        five of them in one SYNC's preparation, 40-60 ms under the devices' lock, which held off
-        the SYNCs' answers (100 late cycles in a row: a false stop).
+        each is a matrix exponential, too slow to compute in a SYNC's preparation under the
+        devices' lock (docs/emulator.md).
 
         Parameters
         ----------
