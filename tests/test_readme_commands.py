@@ -837,6 +837,7 @@ MENTIONS = {
     "rig run --view",
     "rig bench view",
     "rig bench view --runs 2 --seconds 5",  # the benchmarks page's figures: minutes of real-time runs
+    "rig bench view --runs 5 --seconds 10",  # the same, the quiet set the page and docs/view.md give
 }
 
 
