@@ -11,6 +11,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from drivers.canopen_axis import CanopenAxis
 from rig.cli import main
 from tests.drivers.foreign import ForeignDrive
 
@@ -18,7 +19,10 @@ RPM_PER_RAD_S = 30.0 / 3.141592653589793
 
 
 @pytest.fixture
-def drive(tmp_path: pathlib.Path) -> Iterator[ForeignDrive]:
+def drive(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[ForeignDrive]:
+    # rig drive's own axis: a thread answers its SDO, so generous under load, never waited out
+    # (0.3 s was waited out once in CI's default run: 'no SDO answer (SDO upload, 0x1018:03)')
+    monkeypatch.setattr(CanopenAxis, "SDO_TIMEOUT", 2.0)
     d = ForeignDrive("nanotec-c5e", tmp_path)
     yield d
     d.close()
