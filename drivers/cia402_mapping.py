@@ -39,6 +39,7 @@ from drivers.cia402_plan import (
     TORQUE,
     VELOCITY,
     CyclePlan,
+    SdoAxis,
 )
 from drivers.cia402_process import ProcessData
 from drivers.cia402_units import DriveUnits
@@ -81,7 +82,7 @@ class Mapped(NamedTuple):
     plan: CyclePlan  #: what each cycle reads and packs
 
 
-class MappedAxis(Protocol):
+class MappedAxis(SdoAxis, Protocol):
     """What the mapping needs of its axis (``drivers.cia402.Cia402Axis``): its node, mode and
     units, what it is (``discovery``), its SDO access, its settings and its TPDOs."""
 
@@ -97,20 +98,6 @@ class MappedAxis(Protocol):
     discovery: Cia402Discovery
     settings: Cia402Setup
     tpdos: TpdoReceiver  #: the TPDOs it receives (``receive_cob``)
-
-    @property
-    def where(self) -> str:
-        """``node 5`` (and the axis on a drive of several), for messages."""
-
-    @property
-    def toolkit_drive(self) -> bool:
-        """The toolkit's own drive, identified by its 0x1018."""
-
-    def sdo_read(self, index: int, subindex: int = 0) -> Any:
-        """An object's value, read by SDO."""
-
-    def sdo_write(self, index: int, subindex: int, value: Any) -> None:
-        """An SDO download."""
 
 
 class Cia402Mapping:

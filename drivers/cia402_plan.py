@@ -9,7 +9,7 @@ mapping in force (``drivers.cia402_mapping``), read as it is by every cycle
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 from drivers.cia402_pdo import Key
 from drivers.cia402_process import ProcessData
@@ -29,6 +29,7 @@ __all__ = [
     "TORQUE",
     "VELOCITY",
     "CyclePlan",
+    "SdoAxis",
 ]
 
 SW: Key = (cia.STATUSWORD, 0)
@@ -93,3 +94,41 @@ class CyclePlan:
         self.status, self.mode = data.where(SW), data.where(MODE_SHOWN)
         if data.rpdo is not None and op_mode in cia.TARGET_OF_MODE:
             self.rpdo = data.packer((CW, cia.TARGET_OF_MODE[op_mode]))
+
+
+class SdoAxis(Protocol):
+    """What set-up's parts need of any axis they set up (``drivers.cia402.Cia402Axis``): its name
+    in messages, whether it is the toolkit's own drive, and its SDO access."""
+
+    @property
+    def where(self) -> str:
+        """``node 5`` (and the axis on a drive of several), for messages."""
+
+    @property
+    def toolkit_drive(self) -> bool:
+        """The toolkit's own drive, identified by its 0x1018."""
+
+    def sdo_read(self, index: int, subindex: int = 0) -> Any:
+        """An object's value, read by SDO.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+
+        Returns
+        -------
+        Any
+            Its value.
+        """
+
+    def sdo_write(self, index: int, subindex: int, value: Any) -> None:
+        """An SDO download.
+
+        Parameters
+        ----------
+        index, subindex : int
+            The object.
+        value : Any
+            What is written.
+        """

@@ -20,7 +20,7 @@ from typing import Any, Protocol
 from drivers.cia402_access import Setting
 from drivers.cia402_discovery import Cia402Discovery
 from drivers.cia402_pdo import variable
-from drivers.cia402_plan import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY
+from drivers.cia402_plan import CURRENT, CW, DQ_RX, MODE_SHOWN, POSITION, SW, TORQUE, VELOCITY, SdoAxis
 from drivers.errors import ConfigError, DeviceFault
 from drivers.identity import TOOLKIT_DRIVE, Identity
 from drivers.maps import cia
@@ -67,7 +67,7 @@ _IP_THEN = (
 )
 
 
-class SetAxis(Protocol):
+class SetAxis(SdoAxis, Protocol):
     """What the set-up part needs of its axis (``drivers.cia402.Cia402Axis``): its dictionary, its
     SDO access, what it is (``discovery``) and how to wait."""
 
@@ -75,20 +75,6 @@ class SetAxis(Protocol):
     device_id: Identity
     discovery: Cia402Discovery
     idle: Callable[[], None]
-
-    @property
-    def where(self) -> str:
-        """``node 5`` (and the axis on a drive of several), for messages."""
-
-    @property
-    def toolkit_drive(self) -> bool:
-        """The toolkit's own drive, identified by its 0x1018."""
-
-    def sdo_read(self, index: int, subindex: int = 0) -> Any:
-        """An object's value, read by SDO."""
-
-    def sdo_write(self, index: int, subindex: int, value: Any) -> None:
-        """An SDO download."""
 
 
 class Cia402Setup:
