@@ -17,7 +17,9 @@ average before and after; the scheduling the host and the emulator were granted
 one run's length (``rig.bench.floor``: a loop that only sleeps to the same deadlines under the
 host's scheduling, as cyclictest does: the periods it missed, its lateness p99 and max), and
 its floor for a SYNC's answer across processes (``rig.bench.round_trip``: a frame's round trip
-to an echo process under the emulator's scheduling, the median, p99 and max). A run
+to an echo process under the emulator's scheduling, the median, p99 and max), and the steadiness
+of its CPU's speed (``rig.bench.steadiness``: the same small work once a period, its median and
+p99, the share of periods it took 1.5 times its median or more, and the longest run of them). A run
 whose bus did not open (the socketcand handshake failed) is tried again and named under
 ``bus_not_opened``.
 """
@@ -43,6 +45,7 @@ from drivers.errors import CommunicationError
 from rig.bench.floor import sleep_floor
 from rig.bench.micro import Figure
 from rig.bench.round_trip import round_trip_floor
+from rig.bench.steadiness import cpu_steadiness
 from rig.config import BusConfig, load_config
 from rig.emulator.spawn import spawn_emulator_line, stop_rig
 from rig.host.realtime import RealtimeRequest
@@ -208,6 +211,7 @@ def _bench_load(
         floor = sleep_floor(period, seconds)
         asleep = sleep_floor(period, seconds, RealtimeRequest(cpu_latency=-1))
         trip = round_trip_floor(period, seconds)
+        steady = cpu_steadiness(period, seconds)
         for n in range(runs):
             for _ in range(3):  # a run whose bus did not open is no stop: said, and tried again
                 try:
@@ -233,6 +237,7 @@ def _bench_load(
         reference=lockstep_rms(seconds, period),
     )
     figures += _floor_figures(floor) + _floor_figures(asleep, "floor_asleep") + _trip_figures(trip)
+    figures += _steady_figures(steady)
     return figures + [{"name": "bus_not_opened", "value": reason, "unit": ""} for reason in unopened]
 
 
@@ -316,6 +321,17 @@ def _trip_figures(trip: dict[str, Any]) -> list[Figure]:
     return [
         {"name": f"floor_round_trip_{key}", "value": round(trip["round_trip_us"][key], 1), "unit": "us"}
         for key in ("median", "p99", "max")
+    ]
+
+
+def _steady_figures(steady: dict[str, Any]) -> list[Figure]:
+    """The steadiness of the machine's CPU speed (``rig.bench.steadiness``) as ``floor_cpu_`` figures."""
+    work = steady["work_us"]
+    return [
+        {"name": "floor_cpu_work_median", "value": round(work["median"], 1), "unit": "us"},
+        {"name": "floor_cpu_work_p99", "value": round(work["p99"], 1), "unit": "us"},
+        {"name": "floor_cpu_slow", "value": round(100.0 * steady["slow_share"], 2), "unit": "% of periods"},
+        {"name": "floor_cpu_longest_slow", "value": round(steady["longest_slow_ms"], 1), "unit": "ms"},
     ]
 
 

@@ -48,15 +48,24 @@ def add_parser(sub: Any) -> None:
 
 def report(periods: list[float], seconds: float) -> dict[str, Any]:
     """The probes, the floors, the verdicts and the advice, as one document."""
+    from rig.bench.steadiness import cpu_steadiness
     from rig.doctor.probes import probe_all
     from rig.doctor.verdict import advice, floors, verdicts
 
     facts = probe_all()
     measured = floors(periods, seconds)
-    return facts | {"floor": measured, "verdicts": verdicts(measured), "advice": advice(facts, measured)}
+    steady = cpu_steadiness(min(periods), seconds)
+    return facts | {
+        "floor": measured,
+        "cpu_steadiness": steady,
+        "verdicts": verdicts(measured),
+        "advice": advice(facts, measured, steady),
+    }
 
 
 def _lines(doc: dict[str, Any]) -> list[str]:
+    from rig.bench.steadiness import described
+
     k, idle, g = doc["kernel"], doc["cpuidle"], doc["granted"]
     states = ", ".join(
         f"{s['name']} {s['exit_latency_us']} us{' (disabled)' if s['disabled'] else ''}"
@@ -89,6 +98,7 @@ def _lines(doc: dict[str, Any]) -> list[str]:
         ),
     ]
     lines = [f"{key:15s} {text}" for key, text in rows]
+    lines.append(f"{'CPU speed':15s} {described(doc['cpu_steadiness'])}")
     for v in doc["verdicts"]:
         lines.append(
             f"{'period ' + format(v['period_s'] * 1e6, 'g') + ' us':15s} {v['verdict'].upper()}: {v['why']}"

@@ -16,12 +16,16 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 from rig.bench.floor import sleep_floor
+from rig.bench.steadiness import described
 from rig.host.realtime import RealtimeRequest
 
-__all__ = ["KEPT", "MARGINAL", "advice", "floors", "verdicts"]
+__all__ = ["KEPT", "MARGINAL", "UNSTEADY", "advice", "floors", "verdicts"]
 
 KEPT = (0.001, 0.25)  #: (share of periods missed, lateness p99 in periods) the floor may have: kept
 MARGINAL = (0.01, 0.5)  #: ... marginal
+#: share of periods whose fixed work took 1.5 times its median or more beyond which the CPU's speed is
+#: unsteady (``rig.bench.steadiness``; a PC of its own: well under 1 %)
+UNSTEADY = 0.01
 
 
 def floors(periods: Sequence[float], seconds: float) -> list[dict[str, Any]]:
@@ -101,8 +105,10 @@ def verdicts(measured: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
 Advice = tuple[str, str, str]
 
 
-def advice(facts: dict[str, Any], measured: Sequence[dict[str, Any]]) -> list[dict[str, str]]:
-    """What to change, each naming the setting, from the probes and the floors.
+def advice(
+    facts: dict[str, Any], measured: Sequence[dict[str, Any]], steady: dict[str, Any] | None = None
+) -> list[dict[str, str]]:
+    """What to change, each naming the setting, from the probes, the floors and the CPU's speed.
 
     Parameters
     ----------
@@ -110,6 +116,8 @@ def advice(facts: dict[str, Any], measured: Sequence[dict[str, Any]]) -> list[di
         ``probe_all``'s result.
     measured : Sequence[dict[str, Any]]
         ``floors``'s result.
+    steady : dict[str, Any] | None, optional
+        ``rig.bench.steadiness.cpu_steadiness``'s result (None: not measured).
 
     Returns
     -------
@@ -124,6 +132,7 @@ def advice(facts: dict[str, Any], measured: Sequence[dict[str, Any]]) -> list[di
         *_governor(facts["cpufreq"]),
         *_isolation(facts["isolation"]),
         *_hypervisor(facts["hypervisor"], measured),
+        *_speed(facts["hypervisor"], steady),
         *_socketcan(facts["can"]),
     ]
     return [{"setting": setting, "now": now, "change": change} for setting, now, change in found]
@@ -221,6 +230,25 @@ def _hypervisor(hypervisor: dict[str, Any], measured: Sequence[dict[str, Any]]) 
             "ask the virtual machine's host for dedicated (pinned) vCPUs, or run the rig on bare metal: "
             "no setting inside the machine prevents steal",
         )
+
+
+def _speed(hypervisor: dict[str, Any], steady: dict[str, Any] | None) -> Iterator[Advice]:
+    if steady is None or not steady["slow_share"] > UNSTEADY:
+        return
+    now = described(steady)
+    if hypervisor["virtual"]:
+        change = (
+            "ask the virtual machine's host for dedicated physical cores (no SMT sibling shared with another "
+            "machine, a fixed frequency), or run the rig on bare metal: nothing inside the machine shows or "
+            "changes it, and a cycle that falls in such a run takes 1.5 times as long or more whatever the "
+            "loop does"
+        )
+    else:
+        change = (
+            "fix the CPU's frequency (governor performance, no turbo) and keep the loop's CPU's SMT sibling "
+            "idle (nosmt, or isolate both): a cycle that falls in such a run takes 1.5 times as long or more"
+        )
+    yield "CPU speed", now, change
 
 
 def _socketcan(c: dict[str, Any]) -> Iterator[Advice]:

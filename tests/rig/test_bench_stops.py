@@ -134,3 +134,23 @@ def test_the_round_trip_floor_counts_every_period_and_gives_its_scheduling_back(
     assert names == ["floor_round_trip_median", "floor_round_trip_p99", "floor_round_trip_max"]
     with pytest.raises(ValueError, match=r"period 0\.001 s, seconds 0\.0001 s"):
         round_trip_floor(0.001, 0.0001)
+
+
+def test_the_cpu_steadiness_times_the_work_once_a_period_and_gives_its_scheduling_back() -> None:
+    """``cpu_steadiness`` (how steady the machine's CPU speed is): one timed call of the fixed work
+    per period, the scheduling as before after it, as ``floor_cpu_`` figures in ``rig bench stops``;
+    what it measures is the machine's, so no figure is checked."""
+    from rig.bench.steadiness import cpu_steadiness
+    from rig.bench.stops import _steady_figures
+
+    before = (os.sched_getscheduler(0), os.sched_getaffinity(0))
+    steady = cpu_steadiness(0.001, 0.05)
+    assert (os.sched_getscheduler(0), os.sched_getaffinity(0)) == before
+    assert steady["calls"] == 50 and steady["granted"]
+    assert 0.0 < steady["work_us"]["median"] <= steady["work_us"]["p99"] <= steady["work_us"]["max"]
+    names = [f["name"] for f in _steady_figures(steady)]
+    assert names == [
+        "floor_cpu_work_median", "floor_cpu_work_p99", "floor_cpu_slow", "floor_cpu_longest_slow",
+    ]  # fmt: skip
+    with pytest.raises(ValueError, match=r"period 0\.001 s, seconds 0\.0001 s"):
+        cpu_steadiness(0.001, 0.0001)

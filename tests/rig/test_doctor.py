@@ -9,8 +9,9 @@ from typing import Any
 
 import pytest
 
+from rig.bench.steadiness import SLOW, slow_episodes
 from rig.cli import main
-from rig.doctor.verdict import advice, verdicts
+from rig.doctor.verdict import UNSTEADY, advice, verdicts
 
 
 def _floor(missed: int, p99_us: float, periods: int = 10_000) -> dict[str, Any]:
@@ -78,8 +79,9 @@ def test_rig_doctor_json(capsys: pytest.CaptureFixture[str]) -> None:
     doc = json.loads(capsys.readouterr().out)
     assert set(doc) >= {
         "kernel", "cpuidle", "granted", "throttling", "cpufreq", "isolation", "hypervisor", "can",
-        "floor", "verdicts", "advice",
+        "floor", "cpu_steadiness", "verdicts", "advice",
     }  # fmt: skip
+    assert doc["cpu_steadiness"]["calls"] == 5 and doc["cpu_steadiness"]["work_us"]["median"] > 0
     (floor,) = doc["floor"]
     assert floor["period_s"] == 0.01 and floor["with_pm_qos"]["periods"] == 5
     assert doc["verdicts"][0]["verdict"] in ("kept", "marginal", "not kept")
@@ -88,3 +90,31 @@ def test_rig_doctor_json(capsys: pytest.CaptureFixture[str]) -> None:
 def test_rig_doctor_refuses_a_bad_period(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["doctor", "--period", "0"]) == 2
     assert "--period: must be in (0, 1] s, got 0" in capsys.readouterr().err
+
+
+def test_slow_episodes_counts_the_runs_of_slow_periods() -> None:
+    """Periods whose work took SLOW times the median or more: their share, how often one follows
+    another, and the longest run in periods' time; a run at exactly SLOW times counts."""
+    durations = [10e-6] * 90 + [SLOW * 10e-6] * 6 + [10e-6] * 2 + [30e-6] * 2
+    s = slow_episodes(durations, 0.0004)
+    assert s["calls"] == 100 and s["work_us"]["median"] == pytest.approx(10.0)
+    assert s["slow_share"] == pytest.approx(0.08) and s["longest_slow_ms"] == pytest.approx(6 * 0.4)
+    assert s["slow_after_slow"] == pytest.approx(6 / 7)  # 7 slow calls with a successor, 6 of them slow
+    steady = slow_episodes([10e-6] * 50, 0.001)
+    assert steady["slow_share"] == 0 and steady["longest_slow_ms"] == 0
+    empty = slow_episodes([], 0.001)  # no period measured: NaN, not 0
+    assert empty["calls"] == 0 and empty["slow_share"] != empty["slow_share"]
+
+
+def test_an_unsteady_cpu_gets_a_line_naming_it() -> None:
+    """Beyond UNSTEADY slow periods the advice names the CPU's speed (a virtual machine's: its host's
+    dedicated cores); at UNSTEADY, nothing."""
+    measured = [{"period_s": 0.001, "with_pm_qos": _floor(0, 50.0), "without_pm_qos": _floor(0, 50.0)}]
+    calm = slow_episodes([10e-6] * 1000, 0.0004)
+    unsteady = calm | {"slow_share": UNSTEADY + 1e-3, "longest_slow_ms": 90.0}
+    assert "CPU speed" not in {a["setting"] for a in advice(FACTS, measured, calm | {"slow_share": UNSTEADY})}
+    said = {a["setting"]: a for a in advice(FACTS, measured, unsteady)}
+    assert "1.1 % of 1000 periods (p99 10 us), in runs of up to 90 ms" in said["CPU speed"]["now"]
+    assert "dedicated physical cores" in said["CPU speed"]["change"]
+    bare = json.loads(json.dumps(FACTS)) | {"hypervisor": {"virtual": False}}
+    assert "nosmt" in {a["setting"]: a for a in advice(bare, measured, unsteady)}["CPU speed"]["change"]
