@@ -170,7 +170,7 @@ class DriveTool:
         return object_name(self.axis, index, subindex)
 
     # --- the state machine ----------------------------------------------------------------------
-    def _alone(self) -> None:
+    def alone(self) -> None:
         """Before an enable or a move: no other master on the bus (``drivers.master_watch``)."""
         if self.watch is not None:
             self.watch.check(max(2.0 * self.period, 0.1), who="rig drive: ", share=False)
@@ -190,7 +190,7 @@ class DriveTool:
             The state reached.
         """
         self.axis.discover(check_mode=False)  # the device is its EDS's, before any write
-        self._alone()
+        self.alone()
         shown = self.axis.discovery.optional(cia.MODES_DISPLAY)
         self.axis.nmt("OPERATIONAL")
         self.axis.enable(timeout=timeout, mode=int(Mode.CSP) if shown is None else int(shown))
@@ -281,7 +281,7 @@ class DriveTool:
         """
         a = self.axis
         check_profile(a, mode, _VERB[mode])
-        self._alone()
+        self.alone()
         confirmed, result = False, "done"
         requests = StopRequests()  # a stop signal is this stop, which no later one cuts short
         requests.install()  # from the enable on: a signal while it enables stops it too

@@ -204,7 +204,7 @@ def move(
         If the speed, acceleration or travel is out of bounds.
     """
     here, target = _target(tool, position, relative=relative, max_travel=max_travel)
-    tool._alone()  # no other master: then the profile, written before the enable
+    tool.alone()  # no other master: then the profile, written before the enable
     asked = _profile(tool, _own_speed(tool, max_speed) if speed is None else speed, accel, max_speed)
     tool.watch_actual(target, cia.POSITION_ACTUAL, tool.axis.units.position)
     under_way = _Move(tool, here, target, max_speed, hold)

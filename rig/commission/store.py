@@ -161,7 +161,7 @@ def _may_reset(tool: Any) -> None:
             f"rig drive restore --reset: node {a.node_id} is {state.value}: a reset node drops its torque; "
             "disable it first (rig drive disable); nothing was written"
         )
-    tool._alone()
+    tool.alone()
 
 
 def result_lines(result: dict[str, Any]) -> list[str]:

@@ -49,4 +49,7 @@ def test_a_run_imports_neither_dask_nor_unused_scipy(tmp_path: pathlib.Path) -> 
     assert "rig.host.session" in modules  # it ran
     unused = {"scipy.signal", "scipy.stats", "scipy.optimize", "rig.identify.estimate"}
     assert not unused & modules, sorted(unused & modules)
-    assert not _tops(modules) & {"dask", "distributed", "pyarrow", "numba"}, sorted(_tops(modules))
+    ours = {"dask", "distributed", "pyarrow", "numba"}
+    if "asammdf" in modules:  # the export extra: python-can's can.io.mf4 imports asammdf, pandas, pyarrow
+        ours.discard("pyarrow")  # with `import can` (0.4 s of its 0.5 s here), whatever the toolkit does
+    assert not _tops(modules) & ours, sorted(_tops(modules))
