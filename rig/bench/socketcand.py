@@ -46,7 +46,7 @@ from rig.bench.socketcand_clients import client_process, client_result
 
 if TYPE_CHECKING:
     from drivers.base import AxisDriver
-    from rig.live import LiveView
+    from rig.live.backend import Live
 
 __all__ = [
     "BURST",
@@ -71,7 +71,7 @@ def realtime_run(
     out: str,
     port: int,
     seconds: float,
-    live: LiveView | None = None,
+    live: Live | None = None,
     started: Callable[[list[AxisDriver]], None] | None = None,
 ) -> dict[str, Any]:
     """A real-time 1 kHz run of the servo held at 0 rad against the emulator on ``port`` (``live``
@@ -85,7 +85,7 @@ def realtime_run(
         The emulator's socketcand port.
     seconds : float
         [s] of the run.
-    live : LiveView | None, optional
+    live : Live | None, optional
         A live view (``run_config``'s).
     started : Callable[[list[AxisDriver]], None] | None, optional
         Called with the axes once set up (``run_config``'s).

@@ -2,19 +2,19 @@
 
 ``runs`` rounds of three runs, alternated in the same minutes: a real-time 1 kHz run of the
 section VII.B servo held at 0 rad (``rig.bench.socketcand.realtime_run``, against ``rig emulate
---preset dc-servo`` at 1 kHz in another process over socketcand) without a view (``plain_``);
-the same run with the view served beside it as ``rig run --view`` serves it (``rig.view``: the
-LiveView's thread feeding the view's own process) and a browser on this machine: headless
-Chromium (Playwright, ``/usr/bin/chromium``) showing the live scope, or where there is none a
-websocket client (``view_``); and the view served with its reader elsewhere, as a laptop's
-browser is: a websocket client in a process of its own that reads and parses every update as the
-page does, drawing nothing (``remote_``). Each run ``seconds`` long. Figures, each the median and
-the range over the runs of its kind: overruns and late cycles (% of cycles), the period error's
-p99, the response's median and p99 (the host's SYNC to its RPDOs, ``rig.host.loop_stats``) and
-the p99 of its two parts: the emulated drive's answer (the SYNC to its TPDO: on a real rig a
-drive's, which no browser on the rig PC slows) and the host's own time (that TPDO to the RPDOs:
-the toolkit's); with the view, the updates a second the reader received; the load average before
-and after.
+--preset dc-servo`` at 1 kHz in another process over socketcand) without a view (``plain_``); the
+same run with the view served beside it as ``rig run --view`` serves it (``rig.view``: the
+recorder writes a ring shared with the view's own process, which reads it, ``rig.view.beside``)
+and a browser on this machine: headless Chromium (Playwright, ``/usr/bin/chromium``) showing the
+live scope, or where there is none a websocket client (``view_``); and the view served with its
+reader elsewhere, as a laptop's browser is: a websocket client in a process of its own that reads
+and parses every update as the page does, drawing nothing (``remote_``). Each run ``seconds``
+long. Figures, each the median and the range over the runs of its kind: overruns and late cycles
+(% of cycles), the period error's p99, the response's median and p99 (the host's SYNC to its
+RPDOs, ``rig.host.loop_stats``) and the p99 of its two parts: the emulated drive's answer (the
+SYNC to its TPDO: on a real rig a drive's, which no browser on the rig PC slows) and the host's
+own time (that TPDO to the RPDOs: the toolkit's); with the view, the updates a second the reader
+received; the load average before and after.
 """
 
 from __future__ import annotations
@@ -137,15 +137,13 @@ def _with_view(out: str, port: int, seconds: float, kind: str = "") -> tuple[dic
     (``kind``: ``browser_process``'s): (its summary, the browser's)."""
     from rig.bench.socketcand import realtime_run
     from rig.host.realtime import RealtimeRequest, loop_cpu
-    from rig.live import LiveView
-    from rig.view.feed import RATE, RingFeed
+    from rig.view.beside import SharedView
     from rig.view.process import ViewProcess
-    from rig.view.states import state_probe
 
     view = ViewProcess(
         [Path(out)], "127.0.0.1", 0, "rig bench view", loop_cpu=loop_cpu(RealtimeRequest().cpu)
     )
-    feed = RingFeed(view.sink, out)
+    live = SharedView(view.sink, out)
     client = browser_process(view.url, seconds + 15.0, kind)
     time.sleep(5.0)  # the browser is up and connected before the cycles begin
     summary: dict[str, Any] = {}
@@ -154,8 +152,8 @@ def _with_view(out: str, port: int, seconds: float, kind: str = "") -> tuple[dic
             out,
             port,
             seconds,
-            live=LiveView(feed, rate=RATE),
-            started=lambda axes: setattr(feed, "states", state_probe(axes)),
+            live=live,
+            started=live.watch,
         )
     finally:
         view.finish(summary)

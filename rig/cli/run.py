@@ -24,6 +24,7 @@ from rig.report.summary import summary_lines
 
 if TYPE_CHECKING:
     from rig.live import LiveView
+    from rig.live.backend import Live
 
 __all__ = ["LIVE_MODES", "add_parser", "open_view", "print_summary"]
 
@@ -146,13 +147,12 @@ def open_view(mode: str | None, who: str) -> LiveView | None:
         raise UsageError(f"{who}: --live={mode}: {exc}") from None
 
 
-def _strip(live: LiveView | None) -> bool:
+def _strip(live: Live | None) -> bool:
     """True when ``live`` draws the terminal strip (on stderr, as the progress line would)."""
-    if live is None:
-        return False
+    from rig.live import LiveView
     from rig.live.terminal import TerminalStrip
 
-    return isinstance(live.backend, TerminalStrip)
+    return isinstance(live, LiveView) and isinstance(live.backend, TerminalStrip)
 
 
 def execute(args: argparse.Namespace) -> int:
@@ -180,7 +180,8 @@ def execute(args: argparse.Namespace) -> int:
         cfg = dataclasses.replace(cfg, axes=axes)
     if args.live is not None and args.view is not None:
         raise UsageError("rig run: --live and --view: give one (the view's page shows what --live shows)")
-    live, started, view = open_view(args.live, "rig run"), None, None
+    live: Live | None = open_view(args.live, "rig run")
+    started, view = None, None
     if args.view is not None:
         from rig.cli.view import start_beside
 

@@ -1,6 +1,7 @@
 """``rig view [FOLDER|RUN_DIR ...]``: the read-only web view of runs, studies and identifications
 (``rig.view``), and the live scope of a run in progress named by its run directory. ``rig run
---view`` serves the same page beside a run, fed from the run's own rows (``start_beside``)."""
+--view`` serves the same page beside a run, fed from a ring of the run's rows in shared memory
+(``start_beside``)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from rig.cli.common import UsageError
 if TYPE_CHECKING:
     from drivers.base import AxisDriver
     from rig.config import RigConfig
-    from rig.live import LiveView
+    from rig.view.beside import SharedView
     from rig.view.process import ViewProcess
 
 __all__ = ["add_parser", "require_view", "start_beside"]
@@ -133,12 +134,12 @@ def execute(args: argparse.Namespace) -> int:
 
 def start_beside(
     address: str, cfg: RigConfig
-) -> tuple[LiveView, Callable[[list[AxisDriver]], None], ViewProcess]:
+) -> tuple[SharedView, Callable[[list[AxisDriver]], None], ViewProcess]:
     """``rig run --view [ADDRESS]``: the server over the run's output folder, started in a process
     of its own (``rig.view.process``: nice, and off the loop's CPU in real time); the live view (a
-    ``LiveView`` at ``RATE`` updates a second whose backend sends each update there); what gives it
-    the axes once they are enabled (their states and faults, ``rig.view.states``). Its address on
-    stderr.
+    ``rig.view.beside.SharedView``: a ring in memory shared with that process, which the recorder
+    writes and the process reads ``RATE`` times a second); what gives it the axes once they are
+    enabled (their states and faults go into the ring's rows). Its address on stderr.
 
     Parameters
     ----------
@@ -149,12 +150,11 @@ def start_beside(
 
     Returns
     -------
-    tuple[LiveView, Callable[[list[AxisDriver]], None], ViewProcess]
+    tuple[SharedView, Callable[[list[AxisDriver]], None], ViewProcess]
         (the live view, what gives it the axes, the server's process).
     """
     require_view("rig run")
-    from rig.live import LiveView
-    from rig.view.feed import RATE, RingFeed
+    from rig.view.beside import SharedView
     from rig.view.process import ViewProcess
     from rig.view.server import parse_address
 
@@ -165,12 +165,6 @@ def start_beside(
 
     pinned = loop_cpu(cfg.run.rt_cpu) if cfg.run.time == "realtime" else None
     view = ViewProcess([out], host, port, "rig run: --view", loop_cpu=pinned)
-    feed = RingFeed(view.sink, cfg.run.output)
+    live = SharedView(view.sink, cfg.run.output)
     print(f"rig run: view at {view.url}  (read-only)", file=sys.stderr, flush=True)
-
-    def started(axes: list[AxisDriver]) -> None:
-        from rig.view.states import state_probe
-
-        feed.states = state_probe(axes)
-
-    return LiveView(feed, rate=RATE), started, view
+    return live, live.watch, view

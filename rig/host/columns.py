@@ -12,10 +12,13 @@ from rig.laws.base import Law
 if TYPE_CHECKING:
     from rig.host.control import Wiring
 
-__all__ = ["FIELDS", "MODE_UNITS", "describe_columns", "loop_columns"]
+__all__ = ["FIELDS", "MODE_UNITS", "TIMING", "describe_columns", "loop_columns"]
 
 #: Feedback fields recorded per axis, in this order
 FIELDS = ("position", "velocity", "torque", "current")
+#: the columns after the row (``Recorder.sample``'s ``timing``): the stage times, then a real-time
+#: run's response parts on the host's SYNC
+TIMING = ("read_us", "update_us", "write_us", "answer_us", "host_us")
 
 
 def loop_columns(axes: Sequence[AxisDriver], law: Law, wiring: Wiring, *, split: bool = False) -> list[str]:
@@ -48,10 +51,7 @@ def loop_columns(axes: Sequence[AxisDriver], law: Law, wiring: Wiring, *, split:
         *per_axis,
         *commands,
         "late",
-        "read_us",
-        "update_us",
-        "write_us",
-        *(("answer_us", "host_us") if split else ()),
+        *(TIMING if split else TIMING[:3]),
     ]
 
 

@@ -23,7 +23,6 @@ that cannot be written is stopped, and the next ``sample`` raises its error.
 
 from __future__ import annotations
 
-import collections
 import datetime
 import functools
 import logging
@@ -49,6 +48,7 @@ from rig.host.storage import (
     write_atomic,
     write_mat,
 )
+from rig.live.backend import RowSink
 
 __all__ = ["Recorder", "output_folder"]
 
@@ -139,8 +139,9 @@ class Recorder:
         kind = ("asc" if trace else "none") if isinstance(trace, bool) else trace
         self.error: StorageError | None = None  #: a write that failed (raised by the next ``sample``)
         self._trace = RunTrace(path, kind, self._keep_error)
-        #: the live view's rows (``rig.live.view.LiveView.rows``): each written row is appended
-        self.live: collections.deque[Sequence[float]] | None = None
+        #: the live view's rows (``rig.live.backend.Live.rows``: ``rig.live.view.Ring``, or the
+        #: shared ring of ``rig run --view``, ``rig.live.shared_ring``): each written row is appended
+        self.live: RowSink | None = None
 
     #: write plot.png on close when matplotlib is installed (the class's default; a run's own may
     #: differ: a sweep's point turns both off on its recorder)
@@ -252,7 +253,7 @@ class Recorder:
                 self._file.flush()
             except OSError as exc:  # raised by the next sample, as a trace's error
                 self.error = self.error or self._failed("samples.csv", exc)
-        if self.live is not None:  # an O(1) append, no lock: the live view copies it at a few Hz
+        if self.live is not None:  # an O(1) append, no lock: the live view reads it elsewhere
             self.live.append(row)
 
     @staticmethod

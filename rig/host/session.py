@@ -34,7 +34,7 @@ from rig.host.signals import StopRequests
 from rig.host.transport import Transport
 from rig.host.transports import open_transport
 from rig.host.viewer_priority import raise_viewer
-from rig.live.view import LiveView
+from rig.live.backend import Live
 
 __all__ = ["Session", "build_law", "run_config"]
 
@@ -47,7 +47,7 @@ def run_config(
     emulate: bool,
     duration: float | None = None,
     progress: Callable[[int, int], None] | None = None,
-    live: LiveView | None = None,
+    live: Live | None = None,
     started: Callable[[list[AxisDriver]], None] | None = None,
 ) -> dict[str, Any]:
     """Build, start and run ``cfg``.
@@ -62,7 +62,7 @@ def run_config(
         [s] of the run (None: ``[run] duration``).
     progress : Callable[[int, int], None] | None
         ``progress(k, cycles)`` every 1 % of the run (None: not).
-    live : LiveView | None
+    live : Live | None
         Shows the rows as they come (None: no live view).
     started : Callable[[list[AxisDriver]], None] | None
         ``started(axes)`` once every axis is set up and enabled, before the first cycle.
@@ -201,16 +201,14 @@ class Session:
                 with contextlib.suppress(OSError):
                     Path(self.cfg.run.output).rmdir()  # only if empty
 
-    def run(
-        self, progress: Callable[[int], None] | None = None, live: LiveView | None = None
-    ) -> dict[str, Any]:
+    def run(self, progress: Callable[[int], None] | None = None, live: Live | None = None) -> dict[str, Any]:
         """Run the loop (``start()`` first); stop the live view, SYNC and the trace; close the recorder.
 
         Parameters
         ----------
         progress : Callable[[int], None] | None
             ``progress(k)`` every 1 % of the cycles (None: not).
-        live : LiveView | None
+        live : Live | None
             Fed each recorded row (None: no live view).
 
         Returns

@@ -27,8 +27,8 @@ from rig.host.timebase import Timebase
 from rig.host.transport import Transport
 from rig.host.transports import check_transport
 from rig.laws.base import Law
+from rig.live.backend import Live
 from rig.live.channels import channels_of
-from rig.live.view import LiveView
 
 __all__ = ["RunPlan", "grant_realtime", "host_loop", "open_axes", "open_recorder", "plan_run", "watch_live"]
 
@@ -185,13 +185,13 @@ def host_loop(
     )
 
 
-def watch_live(live: LiveView, recorder: Recorder, cfg: RigConfig, axes: list[AxisDriver]) -> None:
+def watch_live(live: Live, recorder: Recorder, cfg: RigConfig, axes: list[AxisDriver]) -> None:
     """Start ``live`` on each axis's reference, measurement and command (``rig.live.channels``) and
     feed it the recorder's rows.
 
     Parameters
     ----------
-    live : LiveView
+    live : Live
         The live view.
     recorder : Recorder
         The run's, its columns begun.

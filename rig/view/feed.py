@@ -1,12 +1,8 @@
-"""What feeds the live scope (``rig.view.scope.Scope``), never the control thread itself.
+"""What feeds the live scope (``rig.view.scope.Scope``) beside a run, never the control thread itself.
 
-- ``RingFeed``: a backend of ``rig.live.view.LiveView`` (``rig run --view``). The loop's only
-  part is the recorder's O(1) append of each row to the LiveView's ring (a bounded deque, no
-  lock); the LiveView's own thread copies the ring ``RATE`` times a second, in the loop's slack
-  (``rig.live.view.Ring.cue``: just after the loop's cycle has appended its row), and hands the copy
-  here, where the rows newer than the last update are decimated and sent on with the axes'
-  states (``rig.view.states``) to the scope, which ``rig run --view`` keeps in the server's
-  own process (``rig.view.process``). The recorder's files are not touched.
+- ``rig run --view``: the recorder writes each row into a ring in memory shared with the view's
+  process, which reads it there ``RATE`` times a second (``rig.view.beside``, ``rig.view.ring_pump``);
+  ``live_meta`` describes the run to the scope from the files the recorder wrote at its start.
 - ``TailFeed``: a thread that follows a run directory's ``samples.csv`` as the recorder flushes
   it (every 50 ms of run time), for ``rig view RUN_DIR`` beside a run in another process; the run
   has ended when its ``summary.json`` is there. It reads the files only.
@@ -14,22 +10,21 @@
 
 from __future__ import annotations
 
-import bisect
 import json
 import logging
 import os
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
-from rig.live.channels import Channel
-from rig.view.meta import _TIMING, _json, meta_of, read_meta
+from rig.host.columns import TIMING
+from rig.view.meta import _json, meta_of, read_meta
 from rig.view.scope import Scope, decimate
 
-__all__ = ["RATE", "TAIL_BYTES", "RingFeed", "Sink", "TailFeed", "parse_lines"]
+__all__ = ["RATE", "TAIL_BYTES", "TailFeed", "live_meta", "parse_lines"]
 
 log = logging.getLogger(__name__)
 
@@ -39,91 +34,27 @@ TORN_WAIT = 2.0
 TAIL_BYTES = 4 << 20  #: of a run in progress's samples.csv read at the start (its last rows)
 
 
-class Sink(Protocol):
-    """Where the updates go: a ``Scope`` (in this process) or ``rig.view.process.PipeSink``."""
-
-    def open(self, meta: dict[str, Any]) -> None:
-        """A run begins: its description.
-
-        Parameters
-        ----------
-        meta : dict[str, Any]
-            The run's description.
-        """
-
-    def push(self, rows: np.ndarray, states: Mapping[str, Mapping[str, Any]] | None = None) -> None:
-        """New rows and the axes' states.
-
-        Parameters
-        ----------
-        rows : np.ndarray
-            The rows, decimated.
-        states : Mapping[str, Mapping[str, Any]] | None, optional
-            Axis -> its state (None: unchanged).
-        """
-
-    def stop(self) -> None:
-        """The run has ended."""
-
-
-class RingFeed:
-    """A LiveView backend feeding ``scope`` (a ``Sink``); the run's directory is ``output``/title
-    (the recorder's), its description read from the files the recorder wrote at its start;
-    ``states()`` gives the axes' states (``rig.view.states.state_probe``), once known.
+def live_meta(run_dir: Path, title: str) -> dict[str, Any]:
+    """The description of the run in ``run_dir`` for the live scope, from the files the recorder
+    wrote at its start; its columns are those of the rows the recorder hands a live view.
 
     Parameters
     ----------
-    scope : Sink
-        What it feeds.
-    output : str | Path
-        The runs' folder.
+    run_dir : Path
+        The run's directory.
+    title : str
+        The run's name.
+
+    Returns
+    -------
+    dict[str, Any]
+        The run's description (``rig.view.meta.meta_of``).
     """
-
-    def __init__(self, scope: Sink, output: str | Path) -> None:
-        self.scope = scope
-        self.output = Path(output)
-        self.states: Callable[[], dict[str, dict[str, Any]]] | None = None
-        self._after = -np.inf  #: [s] the time of the last row sent
-
-    def open(self, channels: Sequence[Channel], title: str) -> None:
-        """The run begins: its description to the scope.
-
-        Parameters
-        ----------
-        channels : Sequence[Channel]
-            The axes shown.
-        title : str
-            The run's name.
-        """
-        run_dir = self.output / title
-        docs = _json(run_dir / "columns.json")
-        columns = list(docs)
-        while columns and columns[-1] in _TIMING:  # the stage durations are not in the ring's rows
-            columns.pop()
-        self.scope.open(meta_of(columns, docs, _json(run_dir / "config.json"), title))
-
-    def draw(self, rows: Sequence[Sequence[float]], final: bool = False) -> None:
-        """The new rows to the scope.
-
-        Parameters
-        ----------
-        rows : Sequence[Sequence[float]]
-            The latest rows.
-        final : bool, optional
-            The run has ended.
-        """
-        start = bisect.bisect_right(rows, self._after, key=lambda r: r[0])
-        new = np.array(rows[start:], dtype=float)
-        if len(new):
-            self._after = float(new[-1, 0])
-        states = self.states() if self.states is not None else None
-        self.scope.push(decimate(new) if len(new) else new, states)
-        if final:
-            self.scope.stop()
-
-    def close(self) -> None:
-        """Tell the scope the run has ended."""
-        self.scope.stop()
+    docs = _json(run_dir / "columns.json")
+    columns = list(docs)
+    while columns and columns[-1] in TIMING:  # the stage times are not in the rows a live view gets
+        columns.pop()
+    return meta_of(columns, docs, _json(run_dir / "config.json"), title)
 
 
 def parse_lines(lines: Sequence[bytes], width: int) -> np.ndarray:

@@ -1,11 +1,12 @@
 """The view's server in a process of its own beside a run (``rig run --view``, ``rig bench view``).
 
-The run's process keeps only the LiveView's thread (``rig.view.feed.RingFeed``), which sends
-each update, already decimated, over a pipe (``PipeSink``); the server, its event loop, the
-JSON for the browsers and every request (a hostile one too) are the other process's, which
-never holds the run's interpreter lock: a server thread of normal priority in the run's own
-process, holding the lock while the machine's other processes run, kept the real-time loop
-waiting (its figures: docs/benchmarks.md, "The view").
+The run's process keeps only the shared ring its recorder writes (``rig.view.beside``); over a
+pipe (``PipeSink``) it sends the run's description, the ring (its file descriptor) and the stop,
+nothing per update. The reading of the ring ``RATE`` times a second, its decimation, the axes'
+states (``rig.view.ring_pump``), the server, its event loop, the JSON for the browsers and every
+request (a hostile one too) are the other process's, which never holds the run's interpreter
+lock: work of the view in the run's own process, holding the lock while the machine's other
+processes ran, kept the real-time loop waiting (its figures: docs/benchmarks.md, "The view").
 
 The child steps aside first (``step_aside``): the normal policy at nice ``NICE``, on the CPUs
 the loop is not pinned to, for itself and every thread it starts (the server's, uvicorn's); a
@@ -26,10 +27,9 @@ import signal
 import threading
 import time
 from collections.abc import Mapping
+from multiprocessing import reduction
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from drivers.errors import ConfigError
 
@@ -67,7 +67,8 @@ def serve_child(
     conn: Any, folders: list[str], host: str, port: int, where: str, *, loop_cpu: int | None = None
 ) -> None:
     """The child: ("url", url) or ("error", text) on ``conn``, then serve what comes over it:
-    ("open", meta), ("rows", rows, states), ("stop",), ("finish", summary, grace).
+    ("open", meta), ("ring", layout, names) and the ring's descriptor (``PipeSink.ring``: a thread
+    here then reads it, ``rig.view.ring_pump``), ("stop",), ("finish", summary, grace).
 
     Parameters
     ----------
@@ -88,6 +89,7 @@ def serve_child(
     from rig.view.server import ViewServer
 
     scope = Scope()
+    pump: Any = None
     try:
         server = ViewServer([Path(f) for f in folders], scope, host, port, where)
     except ConfigError as exc:
@@ -98,25 +100,42 @@ def serve_child(
     try:
         while True:
             msg = conn.recv()
-            if msg[0] == "rows":
-                scope.push(msg[1], msg[2])
-            elif msg[0] == "open":
+            if msg[0] == "open":
                 scope.open(msg[1])
+            elif msg[0] == "ring":  # the run's shared ring: its descriptor follows
+                pump = _pump(scope, reduction.recv_handle(conn), msg[1], msg[2])
             elif msg[0] == "stop":
-                scope.stop()
+                pump, stopping = None, pump
+                if stopping is not None:
+                    stopping.stop()  # the last rows, then the scope stops
+                else:
+                    scope.stop()
             elif msg[0] == "finish":
                 server.finish(msg[1], msg[2])
                 conn.send(("done",))
                 return
     except (EOFError, OSError):  # the run's process is gone
+        if pump is not None:
+            pump.stop()
         scope.stop()
     finally:
         server.close()
 
 
+def _pump(scope: Any, fd: int, layout: tuple[int, int, int], names: list[str]) -> Any:
+    """A ``rig.view.ring_pump.RingPump`` started on the ring ``fd`` of ``layout`` into ``scope``."""
+    from rig.live.shared_ring import Layout, RingReader
+    from rig.view.feed import RATE
+    from rig.view.ring_pump import RingPump
+
+    pump = RingPump(scope, RingReader(fd, Layout(*layout)), names, RATE)
+    pump.start()
+    return pump
+
+
 class PipeSink:
-    """What ``RingFeed`` feeds, sent to the child: ``open``, ``push`` and ``stop`` as a Scope's.
-    A child that is gone is logged once; the run goes on.
+    """What the run's process sends the child (``rig.view.beside.SharedView``): ``open``, ``ring``
+    and ``stop``, nothing per update. A child that is gone is logged once; the run goes on.
 
     Parameters
     ----------
@@ -147,17 +166,26 @@ class PipeSink:
         """
         self._send(("open", meta))
 
-    def push(self, rows: np.ndarray, states: Mapping[str, Mapping[str, Any]] | None = None) -> None:
-        """Send ``rows``.
+    def ring(self, fd: int, layout: tuple[int, int, int], names: list[str]) -> None:
+        """Send the run's shared ring: its layout and axes, then its descriptor (``SCM_RIGHTS``).
 
         Parameters
         ----------
-        rows : np.ndarray
-            The rows.
-        states : Mapping[str, Mapping[str, Any]] | None, optional
-            The axes' states.
+        fd : int
+            The ring's file descriptor (the caller's, still open after).
+        layout : tuple[int, int, int]
+            ``rig.live.shared_ring.Layout.args()``.
+        names : list[str]
+            The axes whose state columns follow each row.
         """
-        self._send(("rows", rows, None if states is None else {k: dict(v) for k, v in states.items()}))
+        self._send(("ring", layout, names))
+        if self.failed:
+            return
+        try:
+            reduction.send_handle(self._conn, fd, 0)  # the pid is Windows's only
+        except OSError as exc:
+            self.failed = True
+            log.warning("the view's process is gone (%s); the run goes on", exc)
 
     def stop(self) -> None:
         """Send ``stop``."""

@@ -1,7 +1,7 @@
-"""The live scope (issue 38 items 1-3): fed from the recorder's ring off the control thread, decimated
-for the screen, the run's summary at its end; ``rig run --view`` across processes, with a thousand
-idle websockets and hostile requests beside it, ends as the same run without a view; and ``rig
-run`` without ``--view`` imports no web framework."""
+"""The live scope (issue 38 items 1-3): fed from the recorder's ring off the control thread (read in
+the view's own process), decimated for the screen, the run's summary at its end; ``rig run
+--view`` across processes, with a thousand idle websockets and hostile requests beside it, ends as
+the same run without a view; and ``rig run`` without ``--view`` imports no web framework."""
 
 from __future__ import annotations
 
@@ -26,8 +26,10 @@ pytest.importorskip("websockets")
 
 from rig.config import load_config
 from rig.host.session import run_config
+from rig.live.shared_ring import RingReader, SharedRing
 from rig.view.app import MAX_LIVE
-from rig.view.feed import RingFeed, TailFeed
+from rig.view.feed import TailFeed, live_meta
+from rig.view.ring_pump import RingPump
 from rig.view.scope import HISTORY, MOST, Scope, decimate
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
@@ -44,30 +46,33 @@ def test_decimation_keeps_each_column_s_extremes() -> None:
     assert decimate(rows[:10]) is not None and len(decimate(rows[:10])) == 10
 
 
-def test_the_ring_feed_sends_only_new_rows_and_the_states(tmp_path: pathlib.Path) -> None:
+def test_the_ring_pump_sends_only_new_rows_and_the_states(tmp_path: pathlib.Path) -> None:
+    """The view's process's reader of the run's shared ring: the run's description from its files
+    (the stage times, a real-time run's response parts too, are not in the ring's rows), each
+    update's new rows and the axes' states, the summary at the end."""
     run = tmp_path / "r"
     run.mkdir()
-    (run / "columns.json").write_text(
-        json.dumps({c: {"unit": "s" if c == "t" else "V"} for c in ("t", "u", "read_us")})
-    )
+    columns = ("t", "u", "late", "read_us", "update_us", "write_us", "answer_us", "host_us")
+    (run / "columns.json").write_text(json.dumps({c: {"unit": "s" if c == "t" else "V"} for c in columns}))
     scope = Scope()
-    feed = RingFeed(scope, tmp_path)
-    feed.states = lambda: {"motor": {"state": "OPERATION ENABLED", "fault": None}}
-    feed.open([], "r")
-    assert [c["name"] for c in scope.meta["columns"]] == ["t", "u"]  # type: ignore[index]
-    ring = [(k * 1e-3, float(k)) for k in range(10)]
-    feed.draw(ring)
+    scope.open(live_meta(run, "r"))
+    assert [c["name"] for c in scope.meta["columns"]] == ["t", "u", "late"]  # type: ignore[index]
+    ring = SharedRing(64, 3)
+    assert ring.fd is not None
+    pump = RingPump(scope, RingReader(os.dup(ring.fd), ring.layout), [], 30.0)
+    first = [(k * 1e-3, float(k), 0.0) for k in range(10)]
+    for row in first:
+        ring.append(row)
+    assert pump.pump() == 10
     seq, message = scope.since(0)
-    assert message is not None and json.loads(message)["rows"] == [list(r) for r in ring]
-    feed.draw([*ring, (0.010, 10.0), (0.011, float("nan"))])
+    assert message is not None and json.loads(message)["rows"] == [list(r) for r in first]
+    ring.append((0.010, 10.0, 0.0))
+    ring.append((0.011, float("nan"), 1.0))
+    pump.pump()
     seq, message = scope.since(seq)
-    doc = json.loads(message or "")
-    assert (
-        doc["rows"] == [[0.010, 10.0], [0.011, None]]
-        and doc["states"]["motor"]["state"] == "OPERATION ENABLED"
-    )
+    assert json.loads(message or "")["rows"] == [[0.010, 10.0, 0.0], [0.011, None, 1.0]]
     assert scope.since(seq)[1] is None  # nothing new
-    feed.draw(ring, final=True)
+    pump.stop()
     assert scope.stopped and not scope.done.is_set()
     scope.finish({"cycles": 12, "rms_error": float("inf")})
     assert json.loads(scope.end_message() or "") == {
