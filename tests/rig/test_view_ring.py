@@ -141,8 +141,9 @@ def test_rig_run_view_has_no_view_thread_in_the_run_s_process_and_sends_nothing_
     tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """``start_beside``'s live view, the view's process replaced by a pipe that keeps what it is
-    sent: during the run no thread is started, the pipe gets "open", "ring" and "stop" only, and
-    the ring holds every row of samples.csv with the motor's CiA 402 state."""
+    sent: during the run no thread is started, the pipe gets "open", "ring" and "stop" only, no
+    shared memory is left with a name, and the ring holds every row of samples.csv with the
+    motor's CiA 402 state."""
     pytest.importorskip("starlette")
     import rig.view.process
     from rig.cli.view import start_beside
@@ -154,6 +155,8 @@ def test_rig_run_view_has_no_view_thread_in_the_run_s_process_and_sends_nothing_
     monkeypatch.setattr(rig.view.process, "ViewProcess", fake)
     cfg = _dyno(tmp_path)
     live, started, _ = start_beside("127.0.0.1:0", cfg)
+    shm = pathlib.Path("/dev/shm")
+    named = set(shm.iterdir()) if shm.is_dir() else set()
     before = set(threading.enumerate())
     during: list[set[threading.Thread]] = []
     summary = run_config(
@@ -165,7 +168,8 @@ def test_rig_run_view_has_no_view_thread_in_the_run_s_process_and_sends_nothing_
         started=started,
     )
     assert live.thread is None and during and not set().union(*during)
-    assert sink.sent == ["open", "ring", "stop"]
+    assert sink.sent == ["open", "ring", "stop"] and live.rows is None  # let go of at the stop
+    assert (set(shm.iterdir()) if shm.is_dir() else set()) == named  # no name: nothing to unlink
     assert sink.reader is not None and sink.names == ["motor", "encoder", "load"]
     want = np.loadtxt(pathlib.Path(summary["run_dir"]) / "samples.csv", delimiter=",", skiprows=1)
     width = len(sink.meta["columns"])
