@@ -21,6 +21,7 @@ from rig.host.recorder import Recorder
 from rig.host.session import run_config
 from rig.live.ring_states import StateColumns, state_words
 from rig.live.shared_ring import RingReader, SharedRing
+from tests.patching import stand_in
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[2] / "examples"
 DYNO = EXAMPLES / "dyno_speed_load.toml"
@@ -145,14 +146,13 @@ def test_rig_run_view_has_no_view_thread_in_the_run_s_process_and_sends_nothing_
     shared memory is left with a name, and the ring holds every row of samples.csv with the
     motor's CiA 402 state."""
     pytest.importorskip("starlette")
-    import rig.view.process
     from rig.cli.view import start_beside
     from rig.view.ring_pump import RingPump
     from rig.view.scope import Scope
 
     sink = _Sink()
     fake = type("Fake", (), {"__init__": lambda self, *a, **k: None, "url": "http://x/", "sink": sink})
-    monkeypatch.setattr(rig.view.process, "ViewProcess", fake)
+    stand_in(monkeypatch, "rig.view.process.ViewProcess", fake)
     cfg = _dyno(tmp_path)
     live, started, _ = start_beside("127.0.0.1:0", cfg)
     shm = pathlib.Path("/dev/shm")
