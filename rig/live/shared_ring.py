@@ -15,19 +15,21 @@ columns per axis, written by the loop from what it has: the statusword of the ax
 
 The single writer's ``append`` writes the row into slot ``n % keep``, then publishes ``n + 1``
 in the header: an O(1) row write (``struct.pack_into`` straight into the mapping) and one store,
-no lock, no system call. A reader
-(``RingReader.read``) reads the count, copies the rows since its last read, reads the count
-again and drops each copied row whose slot the writer may have reached meanwhile (row ``j`` is
-overwritten by row ``j + keep``, which the writer may be writing once ``j + keep`` rows are
-published minus one): a seqlock whose writer never retries and whose reader never waits; the
-reader counts what it lost. Correct because (1) CPython executes the row's copy into the
-mapping before the count's store, and the reader's first count before its copy and its second
-after (program order, nothing cached between: each is a fresh load of the mapped memory), and
-(2) x86-64 (total store order) makes one core's stores visible to another in the order they
-were made and does not reorder loads with loads. On a weakly ordered CPU (ARM64) Python has no
-fence to give, and a reader may rarely see a row's slot before its values: each row carries its
-own number (column 0) for the reader to check, which catches a slot seen stale but not a row
-half-updated.
+no lock, no system call. A reader (``RingReader.read``) reads the count, copies the rows since its
+last read, reads the count again (``after``) and keeps only the rows from ``after - keep + 1`` on:
+the writer's next row, ``after``, goes into the slot of row ``after - keep``, and it may already
+be writing it. A seqlock whose writer never retries and whose reader never waits; the reader
+counts what it lost.
+
+Why it holds: (1) CPython executes the row's bytes into the mapping before the count's store,
+and the reader's first count before its copy and its second after (program order; each is a
+fresh load of the mapped memory, nothing cached); (2) the count is one aligned 8-byte store and
+load (a numpy int64 item), which x86-64 and ARM64 make whole, never half old and half new; (3)
+x86-64 (total store order) makes one core's stores visible to another in the order they were
+made and does not reorder loads with loads, so a reader that sees the count ``n`` sees row
+``n - 1`` whole. On a weakly ordered CPU (ARM64) Python has no fence to give, and a reader may
+rarely see a slot before its new values: each row carries its own number (column 0), which the
+reader checks, so a slot seen stale is dropped; a row seen half-updated there is not caught.
 """
 
 from __future__ import annotations
@@ -200,7 +202,6 @@ class SharedRing:
         #: a row's bytes straight into the mapping (twice as fast as numpy's from a sequence)
         self._pack = struct.Struct(f"<{self.layout.columns}d").pack_into
         self._stride = 8 * self.layout.columns
-        self._count = struct.Struct("<q").pack_into
         self.failed: str | None = None  #: why it stopped taking rows (a row of another width)
 
     def append(self, row: Sequence[float]) -> None:
@@ -224,7 +225,7 @@ class SharedRing:
             log.warning("the live view's ring takes no more rows: %s (the run goes on)", self.failed)
             return
         self._n = n = n + 1
-        self._count(self._buf, 0, n)  # after the row: a reader that sees n sees row n - 1 whole
+        self._header[0] = n  # after the row: a reader that sees n sees row n - 1 whole
 
     @property
     def published(self) -> int:
