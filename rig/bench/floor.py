@@ -13,14 +13,69 @@ than the toolkit's loop.
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import time
+from collections.abc import Iterator
 from typing import Any
 
 from rig.host.cycle_clock import sleep_until
 from rig.host.realtime import RealtimeRequest, cpu_stolen, request
 
-__all__ = ["sleep_floor"]
+__all__ = ["periods_in", "sleep_floor", "under_the_loops_scheduling"]
+
+
+def periods_in(period: float, seconds: float) -> int:
+    """The periods of ``period`` [s] in ``seconds`` [s]; ValueError unless 0 < period <= seconds.
+
+    Parameters
+    ----------
+    period : float
+        [s], > 0.
+    seconds : float
+        [s], >= ``period``.
+
+    Returns
+    -------
+    int
+        The whole periods in ``seconds``.
+
+    Raises
+    ------
+    ValueError
+        If not 0 < ``period`` <= ``seconds``.
+    """
+    if not period > 0.0 or not seconds >= period:
+        raise ValueError(f"period {period} s, seconds {seconds} s: need 0 < period <= seconds")
+    return int(seconds / period)
+
+
+@contextlib.contextmanager
+def under_the_loops_scheduling(ask: RealtimeRequest | None = None) -> Iterator[Any]:
+    """Within it: this thread under ``ask`` (the host loop's default request: SCHED_FIFO, pinned,
+    memory locked, the PM QoS request) with the collector disabled, as the loop runs; the grant
+    (``rig.host.realtime``) is given back and the collector restored after.
+
+    Parameters
+    ----------
+    ask : RealtimeRequest | None, optional
+        The request (None: the host loop's default).
+
+    Yields
+    ------
+    Any
+        The grant (its ``describe()`` says what was granted).
+    """
+    grant = request(ask or RealtimeRequest())
+    enabled = gc.isenabled()
+    gc.collect()
+    gc.disable()
+    try:
+        yield grant
+    finally:
+        if enabled:
+            gc.enable()
+        grant.release()
 
 
 def sleep_floor(period: float, seconds: float, ask: RealtimeRequest | None = None) -> dict[str, Any]:
@@ -47,22 +102,12 @@ def sleep_floor(period: float, seconds: float, ask: RealtimeRequest | None = Non
     ValueError
         If not 0 < ``period`` <= ``seconds``.
     """
-    if not period > 0.0 or not seconds >= period:
-        raise ValueError(f"period {period} s, seconds {seconds} s: need 0 < period <= seconds")
-    n = int(seconds / period)
+    n = periods_in(period, seconds)
     late = [0.0] * n
-    grant = request(ask or RealtimeRequest())
-    enabled = gc.isenabled()
-    gc.collect()
-    gc.disable()
-    try:
+    with under_the_loops_scheduling(ask) as grant:
         stolen = cpu_stolen()
         woken, missed = _sleep(period, late)
         after = cpu_stolen()
-    finally:
-        if enabled:
-            gc.enable()
-        grant.release()
     xs = sorted(late[:woken])
     return {
         "periods": n,

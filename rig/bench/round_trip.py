@@ -16,15 +16,15 @@ response.
 
 from __future__ import annotations
 
-import gc
 import socket
 import subprocess
 import sys
 import time
 from typing import Any
 
+from rig.bench.floor import periods_in, under_the_loops_scheduling
 from rig.host.cycle_clock import sleep_until
-from rig.host.realtime import RealtimeRequest, request
+from rig.host.realtime import RealtimeRequest
 
 __all__ = ["round_trip_floor"]
 
@@ -58,9 +58,7 @@ def round_trip_floor(period: float, seconds: float) -> dict[str, Any]:
     RuntimeError
         If the echo process did not start.
     """
-    if not period > 0.0 or not seconds >= period:
-        raise ValueError(f"period {period} s, seconds {seconds} s: need 0 < period <= seconds")
-    n = int(seconds / period)
+    n = periods_in(period, seconds)
     with socket.create_server(("127.0.0.1", 0)) as listener:
         echo = subprocess.Popen(
             [sys.executable, "-m", "rig.bench.round_trip", str(listener.getsockname()[1])],
@@ -96,11 +94,7 @@ def _trips(link: socket.socket, period: float, n: int) -> tuple[list[float], str
     """``n`` round trips on ``link`` at deadlines ``period`` [s] apart under the host's request:
     each [s], and what was granted."""
     trips = [0.0] * n
-    grant = request(RealtimeRequest())
-    enabled = gc.isenabled()
-    gc.collect()
-    gc.disable()
-    try:
+    with under_the_loops_scheduling() as grant:
         deadline = time.perf_counter() + period
         for k in range(n):
             sleep_until(deadline)
@@ -114,26 +108,20 @@ def _trips(link: socket.socket, period: float, n: int) -> tuple[list[float], str
                 got += len(chunk)
             trips[k] = time.perf_counter() - sent
             deadline = max(deadline + period, time.perf_counter())
-    finally:
-        if enabled:
-            gc.enable()
-        grant.release()
     return trips, grant.describe()
 
 
 def _echo(port: int) -> None:
     """The echo process: connect to ``port`` on 127.0.0.1 under ``ECHO`` and send back what comes
     until the other end hangs up."""
-    grant = request(ECHO)
-    gc.disable()
-    try:
-        with socket.create_connection(("127.0.0.1", port), timeout=30.0) as link:
-            link.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            link.settimeout(None)
-            while chunk := link.recv(4096):
-                link.sendall(chunk)
-    finally:
-        grant.release()
+    with (
+        under_the_loops_scheduling(ECHO),
+        socket.create_connection(("127.0.0.1", port), timeout=30.0) as link,
+    ):
+        link.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        link.settimeout(None)
+        while chunk := link.recv(4096):
+            link.sendall(chunk)
 
 
 if __name__ == "__main__":

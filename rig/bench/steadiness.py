@@ -18,14 +18,14 @@ dict, a few microseconds: the kind of work a cycle does); ``slow_episodes`` says
 
 from __future__ import annotations
 
-import gc
 import itertools
 import time
 from collections.abc import Sequence
 from typing import Any
 
+from rig.bench.floor import periods_in, under_the_loops_scheduling
 from rig.host.cycle_clock import sleep_until
-from rig.host.realtime import RealtimeRequest, request
+from rig.host.realtime import RealtimeRequest
 
 __all__ = ["SLOW", "cpu_steadiness", "described", "slow_episodes"]
 
@@ -106,14 +106,8 @@ def cpu_steadiness(period: float, seconds: float, ask: RealtimeRequest | None = 
     ValueError
         If not 0 < ``period`` <= ``seconds``.
     """
-    if not period > 0.0 or not seconds >= period:
-        raise ValueError(f"period {period} s, seconds {seconds} s: need 0 < period <= seconds")
-    durations = [0.0] * int(seconds / period)
-    grant = request(ask or RealtimeRequest())
-    enabled = gc.isenabled()
-    gc.collect()
-    gc.disable()
-    try:
+    durations = [0.0] * periods_in(period, seconds)
+    with under_the_loops_scheduling(ask) as grant:
         clock = time.perf_counter
         deadline = clock() + period
         for k in range(len(durations)):
@@ -122,10 +116,6 @@ def cpu_steadiness(period: float, seconds: float, ask: RealtimeRequest | None = 
             _work()
             durations[k] = clock() - start
             deadline = max(deadline + period, clock())  # a late wake-up does not crowd the next calls
-    finally:
-        if enabled:
-            gc.enable()
-        grant.release()
     return slow_episodes(durations, period) | {"granted": grant.describe()}
 
 
