@@ -8,13 +8,16 @@ recorder writes a ring shared with the view's own process, which reads it, ``rig
 and a browser on this machine: headless Chromium (Playwright, ``/usr/bin/chromium``) showing the
 live scope, or where there is none a websocket client (``view_``); and the view served with its
 reader elsewhere, as a laptop's browser is: a websocket client in a process of its own that reads
-and parses every update as the page does, drawing nothing (``remote_``). Each run ``seconds``
-long. Figures, each the median and the range over the runs of its kind: overruns and late cycles
-(% of cycles), the period error's p99, the response's median and p99 (the host's SYNC to its
-RPDOs, ``rig.host.loop_stats``) and the p99 of its two parts: the emulated drive's answer (the
-SYNC to its TPDO: on a real rig a drive's, which no browser on the rig PC slows) and the host's
-own time (that TPDO to the RPDOs: the toolkit's); with the view, the updates a second the reader
-received; the load average before and after.
+and parses every update as the page does, drawing nothing, at SCHED_IDLE (``remote_``): a reader
+on another machine takes none of the rig PC's CPU time, and this stand-in takes only what nothing
+else on it wants, so what is measured is what the view itself (its server, the network) costs the
+rig PC; its own CPU time a second is given (``remote_reader_cpu``). Each run ``seconds`` long.
+Figures, each the median and the range over the runs of its kind: overruns and late cycles (% of
+cycles), the period error's p99, the response's median and p99 (the host's SYNC to its RPDOs,
+``rig.host.loop_stats``) and the p99 of its two parts: the emulated drive's answer (the SYNC to its
+TPDO: on a real rig a drive's, which no browser on the rig PC slows) and the host's own time (that
+TPDO to the RPDOs: the toolkit's); with the view, the updates a second the reader received; the
+load average before and after.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from typing import Any
 
 from rig.bench.micro import Figure
 
-__all__ = ["bench_view", "browser_process", "main"]
+__all__ = ["as_if_elsewhere", "bench_view", "browser_process", "main"]
 
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run"]
@@ -72,6 +75,18 @@ def browser_process(url: str, seconds: float, kind: str = "") -> subprocess.Pope
         stderr=tempfile.TemporaryFile(mode="w+"),  # read back when it fails (``_client_result``)
         text=True,
     )
+
+
+def as_if_elsewhere(pid: int) -> None:
+    """Process ``pid`` (a reader standing in for one on another machine) at SCHED_IDLE: it gets the
+    CPU time nothing else on this machine wants, as a laptop's browser takes none of the rig PC's.
+
+    Parameters
+    ----------
+    pid : int
+        The process.
+    """
+    os.sched_setscheduler(pid, os.SCHED_IDLE, os.sched_param(0))
 
 
 def _client_result(client: subprocess.Popen[str]) -> dict[str, Any]:
@@ -127,14 +142,21 @@ def _websocket(url: str, seconds: float) -> dict[str, Any]:
                 if msg["type"] == "end":
                     break
         span = times[-1] - times[0] if len(times) > 1 else 0.0
-        return {"client": "websocket", "updates_per_s": (len(times) - 1) / span if span else 0.0}
+        return {
+            "client": "websocket",
+            "updates_per_s": (len(times) - 1) / span if span else 0.0,
+            "cpu_per_s": time.process_time() / seconds,  # [s/s] its own, start-up included
+        }
 
     return asyncio.run(read())
 
 
-def _with_view(out: str, port: int, seconds: float, kind: str = "") -> tuple[dict[str, Any], dict[str, Any]]:
+def _with_view(
+    out: str, port: int, seconds: float, kind: str = "", *, elsewhere: bool = False
+) -> tuple[dict[str, Any], dict[str, Any]]:
     """One run with the view beside it as ``rig run --view`` serves it, and a browser attached
-    (``kind``: ``browser_process``'s): (its summary, the browser's)."""
+    (``kind``: ``browser_process``'s; ``elsewhere``: at SCHED_IDLE, the module docstring): (its
+    summary, the browser's)."""
     from rig.bench.socketcand import realtime_run
     from rig.host.realtime import RealtimeRequest, loop_cpu
     from rig.view.beside import SharedView
@@ -145,6 +167,8 @@ def _with_view(out: str, port: int, seconds: float, kind: str = "") -> tuple[dic
     )
     live = SharedView(view.sink, out)
     client = browser_process(view.url, seconds + 15.0, kind)
+    if elsewhere:
+        as_if_elsewhere(client.pid)
     time.sleep(5.0)  # the browser is up and connected before the cycles begin
     summary: dict[str, Any] = {}
     try:
@@ -196,7 +220,7 @@ def bench_view(
                 summary, client = _with_view(out, port, seconds)
                 viewed.append(summary)
                 clients.append(client)
-                summary, client = _with_view(out, port, seconds, "websocket")
+                summary, client = _with_view(out, port, seconds, "websocket", elsewhere=True)
                 remote.append(summary)
                 readers.append(client)
                 if progress is not None:
@@ -214,6 +238,8 @@ def bench_view(
         figures += _kind_figures(kind, summaries)
     figures += _spread("view_updates_per_s", [c["updates_per_s"] for c in clients], "1/s", 1)
     figures += _spread("remote_updates_per_s", [c["updates_per_s"] for c in readers], "1/s", 1)
+    cpu = [1e3 * c["cpu_per_s"] for c in readers if "cpu_per_s" in c]
+    figures += _spread("remote_reader_cpu", cpu, "ms per s (its own, at SCHED_IDLE)", 1)
     return figures
 
 

@@ -27,3 +27,20 @@ def test_each_kind_gives_the_response_and_its_two_parts() -> None:
     assert got["remote_drive_answer_p99_range"] == "150.0 .. 210.0"
     assert got["remote_response_p99_median"] == 280.0 and got["remote_stops"] == 1
     assert got["remote_overruns_median"] == 0.1  # 10 of 10,000 cycles
+
+
+def test_the_remote_reader_stands_in_at_sched_idle() -> None:
+    """The remote reader's process takes only the CPU time nothing else wants (SCHED_IDLE, as a
+    reader on another machine takes none of the rig PC's), its children with it."""
+    import os
+    import subprocess
+    import sys
+
+    from rig.bench.view import as_if_elsewhere
+
+    code = "import os, sys, time; sys.stdin.readline(); print(os.sched_getscheduler(0))"
+    pipe = subprocess.PIPE
+    reader = subprocess.Popen([sys.executable, "-c", code], stdin=pipe, stdout=pipe, text=True)
+    as_if_elsewhere(reader.pid)
+    out, _ = reader.communicate("go\n", timeout=30)
+    assert int(out) == os.SCHED_IDLE
