@@ -233,14 +233,11 @@ class SharedRing:
         return self._n
 
     def close_fd(self) -> None:
-        """Close the descriptor (the reader has its own; the mapping stays until ``close``)."""
+        """Close the descriptor (the reader has its own; the mapping goes when nothing refers to it,
+        numpy's views included)."""
         fd, self.fd = self.fd, None
         if fd is not None:
             os.close(fd)
-
-    def close(self) -> None:
-        """Close the descriptor; the mapping goes when nothing refers to it (numpy's views)."""
-        self.close_fd()
 
 
 class RingReader:

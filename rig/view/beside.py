@@ -89,6 +89,5 @@ class SharedView:
         """The run has ended: the view's process reads the last rows and stops its scope. Safe
         to call twice or unstarted."""
         rows, self.rows = self.rows, None
-        if rows is not None:
+        if rows is not None:  # its descriptor closed at the start: the mapping goes with ``rows``
             self.sink.stop()
-            rows.close()

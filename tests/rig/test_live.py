@@ -282,8 +282,10 @@ def test_the_view_draws_in_the_loop_s_slack() -> None:
     got: list[bool] = []
     waiter = threading.Thread(target=lambda: got.append(ring.cue(30.0)))
     waiter.start()
-    while not ring.armed:  # the viewer has cued it
+    until = time.monotonic() + 30.0
+    while not ring.armed and time.monotonic() < until:  # the viewer has cued it (polled, not timed)
         time.sleep(0.001)
+    assert ring.armed
     ring.append([0.001])
     waiter.join(30.0)
     assert got == [True] and not ring.armed
