@@ -150,8 +150,6 @@ class MasterWatch:
             return  # the host's own frame, given back by its adapter
         if can_id == cia.COB_NMT and (len(data) < 2 or data[1] not in self.nodes | {0}):
             return  # an NMT command to other nodes: not this host's business
-        if can_id != cia.COB_SYNC or self.sync_watched:
-            self.alarm = True
         with self._lock:
             seen = self.heard.get(can_id)
             if seen is None:
@@ -160,6 +158,8 @@ class MasterWatch:
                 seen[0] += 1
                 seen[2] = timestamp
                 seen[3] = bytes(data)
+        if can_id != cia.COB_SYNC or self.sync_watched:  # after: a raised alarm finds what was heard
+            self.alarm = True
 
     # --- what was heard, in words ---------------------------------------------------------------
     def _what(self, cob: int) -> str:

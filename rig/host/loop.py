@@ -162,6 +162,7 @@ class HostLoop:
                 if tb.realtime and not self.pacing.paced_by_bus:  # the others' tick brings cycle 0's
                     prime(self.pacing, self.axes, self.guards, tb.period, self.heartbeat)
                 self._cycles(progress)
+                self._last_look()
         except Exception as exc:
             reason, suspect = cause_of(exc)
             self.safe_stop(reason, suspect=suspect)
@@ -222,6 +223,16 @@ class HostLoop:
                 self._collect(deadline if pace else t0 + period)
             if progress is not None and k % every == 0:
                 progress(k)
+
+    def _last_look(self) -> None:
+        """After the last cycle, before the stop: its answers still owed come in (``Pacing.settle``),
+        and every axis is supervised once more. A frame the last cycle's supervision could not see
+        yet (another master's RPDO, an EMCY, one the late answers were behind) is a safe stop named
+        as such, not a clean end."""
+        self.pacing.settle()
+        now = self.pacing.now()
+        for axis in self.axes:
+            axis.supervise(now)
 
     def _collect(self, deadline: float) -> None:
         """Real time, the collector disabled (``run``): young garbage in the slack (``collect_in_slack``)."""

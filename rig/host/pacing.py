@@ -108,6 +108,9 @@ class Pacing:
         """
         return False
 
+    def settle(self) -> None:
+        """After the last cycle: the answers owed to the host's SYNCs come in (``HostSync``)."""
+
     def forget_owed(self, why: str) -> None:
         """No answer is owed any more (``HostSync``): where the host cannot know whether the node will
         still send them.
@@ -198,10 +201,20 @@ class HostSync(Pacing):
         self.answers.arm()
         self.sent_at = time.perf_counter()  # as the SYNC is handed to the bus: an answer may beat
         self.network.sync.transmit()  # the return of the send (a bus that delivers at once)
+        self.late = not self._answered()
+
+    def _answered(self) -> bool:
+        """Wait up to the budget for the answers awaited; True where they all came."""
+        reader = self._reader
         if reader is not None:
-            self.late = not reader.until(self.answers.complete, self.budget)
-        else:
-            self.late = not self.answers.wait(self.budget)
+            return reader.until(self.answers.complete, self.budget)
+        return self.answers.wait(self.budget)
+
+    def settle(self) -> None:
+        """After the last cycle: the answers still owed to its SYNCs, up to the budget (a late last
+        cycle's come after every frame the bus carried before them)."""
+        if self.owes():
+            self._answered()
 
     def split(self, done: float) -> tuple[float, float]:
         """The last tick's response in two: the drives' answer and the host's own time.

@@ -105,6 +105,31 @@ def test_a_foreign_rpdo_or_sync_while_running_is_a_safe_stop(
     assert summary["stop_confirmed"] is True and drive.fake.state == "SWITCH ON DISABLED"
 
 
+def test_a_foreign_rpdo_heard_after_the_last_cycle_s_check_is_named(
+    drive: ForeignDrive, tmp_path: pathlib.Path
+) -> None:
+    """An RPDO of another master that reaches the host after its last cycle's supervision, before
+    the stop: the run's last look (``HostLoop.run``) names it; the run is not reported as clean."""
+    cycles = 20
+
+    def last(k: int) -> None:  # after the last cycle's commands (every cycle's progress, at 20)
+        if k == cycles:
+            drive.send(0x201, bytes(6))
+            until(lambda: 0x201 in watch.heard, "the frame heard")
+
+    with Session(load_config(_config(tmp_path, drive)), emulate=False, cycles=cycles) as session:
+        watch = session.transport.master_watch
+        session.start()
+        summary = session.run(progress=last)
+    assert summary["cycles"] == cycles
+    reason = summary["safe_stop_reason"]
+    assert reason is not None and re.search(
+        r"node 1: another master on the bus: RPDO to node 1 0x201 \(1 frame\), which this host did not send",
+        reason,
+    ), reason
+    assert summary["stop_confirmed"] is True and drive.fake.state == "SWITCH ON DISABLED"
+
+
 def test_rig_drive_checks_before_it_enables(drive: ForeignDrive) -> None:
     from rig.commission.drive import DriveTool
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import dataclasses
 import pathlib
+import threading
+import time
 import types
 from collections.abc import Iterator
 
@@ -29,10 +31,19 @@ EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "dc_servo_p
 COBS = (0x181, 0x281)
 
 
+NodeBus = tuple[HostSync, list[dict[int, int]], canopen.Network]
+
+
 @pytest.fixture
-def bus() -> Iterator[tuple[HostSync, list[dict[int, int]]]]:
-    """A ``HostSync`` (budget 0 s) and the script of the node: per SYNC, {COB-ID: frames to send}
-    (a COB-ID left out is not answered; missing SYNCs: one frame each)."""
+def bus(node_bus: NodeBus) -> tuple[HostSync, list[dict[int, int]]]:
+    """``node_bus`` without its node."""
+    return node_bus[0], node_bus[1]
+
+
+@pytest.fixture
+def node_bus() -> Iterator[NodeBus]:
+    """A ``HostSync`` (budget 0 s), the script of the node: per SYNC, {COB-ID: frames to send}
+    (a COB-ID left out is not answered; missing SYNCs: one frame each), and the node's network."""
     hub = SyncHub()
     host, node = SyncNetwork(), canopen.Network()
     attach_network(host, hub.bus(queue=False, channel="host"))
@@ -50,7 +61,7 @@ def bus() -> Iterator[tuple[HostSync, list[dict[int, int]]]]:
     node.subscribe(0x80, on_sync)
     axis = types.SimpleNamespace(tpdo_cob_ids=lambda: list(COBS), tpdos_not_awaited=list)
     pacing = HostSync(host, [axis], 0.0)  # type: ignore[list-item]
-    yield pacing, script
+    yield pacing, script, node
     pacing.close()
     host.bus.shutdown()
     node.bus.shutdown()
@@ -106,6 +117,33 @@ def test_a_cycle_with_part_of_a_stalls_burst_is_late(
         pacing.tick()
         late.append(pacing.late)
     assert late == [True] * 5 + [True, False, False]
+
+
+def test_the_last_cycle_s_owed_answers_are_awaited_before_the_stop(node_bus: NodeBus) -> None:
+    """``settle`` (the loop's last look, ``HostLoop._last_look``): after a late last cycle it waits,
+    up to the budget, for the answer still owed, so every frame the bus carried before it has been
+    handed on to the watches; with nothing owed it returns at once, whatever the budget."""
+    pacing, script, node = node_bus
+    script += [{0x181: 1}]  # 0x281 misses the last SYNC: late, its answer owed
+    pacing.tick()
+    assert pacing.late and pacing.owes()
+    heard: list[int] = []
+    pacing.network.subscribe(0x201, lambda cob, data, ts: heard.append(cob))
+    pacing.budget = 60.0  # a bound: the answer comes within ms
+
+    def later() -> None:  # another master's RPDO, then the owed answer, after the tick
+        time.sleep(0.05)
+        node.send_message(0x201, bytes(6))
+        node.send_message(0x281, bytes(8))
+
+    sender = threading.Thread(target=later)
+    began = time.monotonic()
+    sender.start()
+    pacing.settle()
+    sender.join()
+    assert not pacing.owes() and heard == [0x201]
+    pacing.settle()  # nothing owed: at once, not after the 60 s budget
+    assert time.monotonic() - began < 30.0
 
 
 class LateAt(Pacing):
