@@ -4,12 +4,20 @@ boundary, each naming the node and the object on the wire (axis 2's 0x6041 is 0x
 from __future__ import annotations
 
 import contextlib
+import struct
 from collections.abc import Iterator
 
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
-from drivers.errors import CommunicationTimeout, DictionaryMismatch, NotInDictionary, SdoAbort
+from drivers.errors import (
+    CommunicationError,
+    CommunicationTimeout,
+    DictionaryMismatch,
+    NotInDictionary,
+    SdoAbort,
+)
+from drivers.maps import cia
 from drivers.maps.logical import axis_object
 from drivers.maps.sdo_aborts import abort_text
 
@@ -44,6 +52,8 @@ def sdo_errors(what: str, index: int, subindex: int, *, node_id: int, axis: int,
         The device aborted the transfer.
     CommunicationTimeout
         No SDO answer.
+    CommunicationError
+        An answer too short to read (``struct.error`` in canopen's client).
     DictionaryMismatch
         The device's answer does not fit its type in ``eds``.
     NotInDictionary
@@ -58,6 +68,13 @@ def sdo_errors(what: str, index: int, subindex: int, *, node_id: int, axis: int,
     except SdoCommunicationError as exc:
         raise CommunicationTimeout(
             f"node {node_id}: no SDO answer ({what}, 0x{index:04X}:{subindex:02X})"
+        ) from exc
+    except struct.error as exc:  # canopen reads an answer by the layout its first byte announces
+        raise CommunicationError(
+            f"node {node_id}: an SDO answer too short to read ({what} 0x{index:04X}:{subindex:02X}: "
+            f"canopen: {exc}): CiA 301 gives an SDO frame 8 data bytes; look on the bus (candump) for "
+            f"another node sending on COB-ID 0x{cia.COB_SDO_TX + node_id:03X}, else the device cuts "
+            "its frames"
         ) from exc
     except canopen.ObjectDictionaryError as exc:  # canopen's decoding of an answer it read itself
         raise DictionaryMismatch(
