@@ -62,6 +62,12 @@ class ForeignDrive:
             net.disconnect()
         self.fake.close()
 
+    def __enter__(self) -> ForeignDrive:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
 
 def until(done: Callable[[], bool], what: str, timeout: float = 5.0) -> None:
     """Wait for the fake's thread to have done ``done`` (a bound on a frame's way, not a timing)."""

@@ -8,19 +8,11 @@ from __future__ import annotations
 
 import pathlib
 import struct
-from collections.abc import Iterator
 
 import pytest
 
 from drivers.errors import CommunicationError
 from tests.drivers.foreign import ForeignDrive
-
-
-@pytest.fixture
-def drive(tmp_path: pathlib.Path) -> Iterator[ForeignDrive]:
-    d = ForeignDrive("maxon-epos4", tmp_path)
-    yield d
-    d.close()
 
 
 @pytest.mark.parametrize(
@@ -33,16 +25,17 @@ def drive(tmp_path: pathlib.Path) -> Iterator[ForeignDrive]:
         b"\x41\x41\x60\x00\x02",  # a segmented upload's size cut short
     ],
 )
-def test_an_sdo_answer_too_short_to_read_is_named(drive: ForeignDrive, answer: bytes) -> None:
-    axis = drive.axis("csv")
-    fake = drive.fake
-    served = fake._sdo
-    fake._sdo = lambda req: fake._send(0x581, answer)  # type: ignore[method-assign]
-    with pytest.raises(CommunicationError) as err:
-        axis.sdo_upload(0x6041)
-    said = str(err.value)
-    assert said.startswith("node 1: an SDO answer too short to read (SDO upload 0x6041:00"), said
-    assert "COB-ID 0x581" in said and "8 data bytes" in said and "\n" not in said
-    assert isinstance(err.value.__cause__, struct.error)
-    fake._sdo = served  # type: ignore[method-assign]
-    assert int.from_bytes(axis.sdo_upload(0x6041), "little") == fake.od.entries[(0x6041, 0)].value
+def test_an_sdo_answer_too_short_to_read_is_named(tmp_path: pathlib.Path, answer: bytes) -> None:
+    with ForeignDrive("maxon-epos4", tmp_path) as drive:
+        axis = drive.axis("csv")
+        fake = drive.fake
+        served = fake._sdo
+        fake._sdo = lambda req: fake._send(0x581, answer)  # type: ignore[method-assign]
+        with pytest.raises(CommunicationError) as err:
+            axis.sdo_upload(0x6041)
+        said = str(err.value)
+        assert said.startswith("node 1: an SDO answer too short to read (SDO upload 0x6041:00"), said
+        assert "COB-ID 0x581" in said and "8 data bytes" in said and "\n" not in said
+        assert isinstance(err.value.__cause__, struct.error)
+        fake._sdo = served  # type: ignore[method-assign]
+        assert int.from_bytes(axis.sdo_upload(0x6041), "little") == fake.od.entries[(0x6041, 0)].value
