@@ -43,6 +43,47 @@ def _warm() -> None:
     import rig.sweep.scenarios  # noqa: F401
 
 
+class ClosingCommNoise(logging.Filter):
+    """Drops what a closing worker logs about the connections its own close cuts.
+
+    A worker's close ends its connection pool while a heartbeat to the scheduler may be in
+    flight; distributed then logs "Failed to communicate with scheduler during heartbeat" at
+    ERROR with a CommClosedError traceback (distributed 2026.8, ``Worker.heartbeat``). At the end
+    of a sweep, or after Ctrl-C, the rows are in and that traceback says nothing. Records carrying
+    an OSError are dropped while ``closing()`` is true; everything else is kept.
+
+    Parameters
+    ----------
+    closing : Callable[[], bool]
+        True once this process's worker has begun to close.
+    """
+
+    def __init__(self, closing: Callable[[], bool]) -> None:
+        super().__init__("rig.sweep.closing")
+        self._closing = closing
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        """False for a record with an OSError while the worker closes."""
+        error = record.exc_info[1] if record.exc_info else None
+        return not (isinstance(error, OSError) and self._closing())
+
+
+def _worker_closing() -> bool:
+    """True where a worker of this process has begun to close (or has closed)."""
+    from distributed.core import Status
+    from distributed.worker import Worker
+
+    ending = (Status.closing, Status.closing_gracefully, Status.closed, Status.failed)
+    return any(w.status in ending for w in list(Worker._instances))
+
+
+def _hush_closing_comms() -> None:
+    """On each local worker, once: ``ClosingCommNoise`` on distributed's stderr handlers."""
+    for handler in logging.getLogger("distributed").handlers:
+        if not any(isinstance(f, ClosingCommNoise) for f in handler.filters):
+            handler.addFilter(ClosingCommNoise(_worker_closing))
+
+
 def _quiet_on_ctrl_c(start: Callable[[], Any]) -> Any:
     """``start()`` with SIGINT ignored, so the worker processes it spawns inherit that (an ignored
     signal stays ignored across exec, and Python keeps it so): Ctrl-C in the terminal reaches the
@@ -151,6 +192,7 @@ def open_client(
             )
         )
         client = Client(cluster)  # type: ignore[no-untyped-call]
+        client.run(_hush_closing_comms)
         engine = {"kind": "local", "address": cluster.scheduler_address}
     from importlib.metadata import version
 
@@ -162,13 +204,17 @@ def open_client(
 #: [s] a stopped sweep's wait for each local worker to end by itself before its nanny ends it
 #: (Dask's own is 5 s: a worker in a point's run holds it 4 s)
 QUICK_CLOSE = 0.5
+#: [s] the same wait at a sweep's end (Dask's default)
+CLOSE = 5.0
 
 
 def close_client(client: Any, *, quick: bool = False) -> None:
-    """Close ``client`` and the local cluster it started (if any); a worker slow to exit is killed
-    by its nanny, which need not be said (at WARNING) after the sweep's rows are in. ``quick``
-    (a sweep a signal stopped): the local workers are given ``QUICK_CLOSE`` to end, then ended
-    (their points are emulated runs, cancelled).
+    """Close ``client`` and the local cluster it started (if any): the workers first, while their
+    scheduler still answers (so a worker's heartbeat meets its own close, which
+    ``ClosingCommNoise`` keeps off stderr, never a scheduler gone before it), then the scheduler.
+    A worker slow to exit is killed by its nanny, which need not be said (at WARNING) after the
+    sweep's rows are in. ``quick`` (a sweep a signal stopped): the local workers are given
+    ``QUICK_CLOSE`` to end, then ended (their points are emulated runs, cancelled); else ``CLOSE``.
 
     Parameters
     ----------
@@ -184,8 +230,7 @@ def close_client(client: Any, *, quick: bool = False) -> None:
         level = nanny.level
         nanny.setLevel(max(level, logging.ERROR))
         try:
-            if quick:
-                cluster.sync(_close_workers, cluster, QUICK_CLOSE)
+            cluster.sync(_close_workers, cluster, QUICK_CLOSE if quick else CLOSE)
             cluster.close()
         finally:
             nanny.setLevel(level)
