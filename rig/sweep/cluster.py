@@ -55,7 +55,7 @@ class ClosingCommNoise(logging.Filter):
     Parameters
     ----------
     closing : Callable[[], bool]
-        True once this process's worker has begun to close.
+        True once the worker of this process has begun to close.
     """
 
     def __init__(self, closing: Callable[[], bool]) -> None:
@@ -68,20 +68,14 @@ class ClosingCommNoise(logging.Filter):
         return not (isinstance(error, OSError) and self._closing())
 
 
-def _worker_closing() -> bool:
-    """True where a worker of this process has begun to close (or has closed)."""
+def _hush_closing_comms(dask_worker: Any) -> None:
+    """On each local worker as it starts (one its nanny restarts too): ``ClosingCommNoise`` on
+    distributed's stderr handlers, closing once ``dask_worker`` has begun to close."""
     from distributed.core import Status
-    from distributed.worker import Worker
 
     ending = (Status.closing, Status.closing_gracefully, Status.closed, Status.failed)
-    return any(w.status in ending for w in list(Worker._instances))
-
-
-def _hush_closing_comms() -> None:
-    """On each local worker, once: ``ClosingCommNoise`` on distributed's stderr handlers."""
     for handler in logging.getLogger("distributed").handlers:
-        if not any(isinstance(f, ClosingCommNoise) for f in handler.filters):
-            handler.addFilter(ClosingCommNoise(_worker_closing))
+        handler.addFilter(ClosingCommNoise(lambda: dask_worker.status in ending))
 
 
 def _quiet_on_ctrl_c(start: Callable[[], Any]) -> Any:
@@ -192,7 +186,7 @@ def open_client(
             )
         )
         client = Client(cluster)  # type: ignore[no-untyped-call]
-        client.run(_hush_closing_comms)
+        client.register_worker_callbacks(setup=_hush_closing_comms)  # type: ignore[no-untyped-call]
         engine = {"kind": "local", "address": cluster.scheduler_address}
     from importlib.metadata import version
 
